@@ -1,0 +1,70 @@
+"""The ``torchrom`` command.
+
+Each sub-command lives in its own module under :mod:`torchrom.commands` and exposes
+``NAME`` (the sub-command), ``HELP`` (one line), ``add_arguments(parser)`` and ``run(args)``.
+Modules are discovered automatically, so adding a command never touches this file.
+
+Bad input raises :class:`torchrom.errors.TorchromError`; it is printed as one line
+(``torchrom <cmd>: error: ...``) and the exit status is 2.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import pkgutil
+import sys
+
+from . import __version__
+from .errors import TorchromError
+
+
+def _command_modules():
+    from . import commands
+
+    mods = []
+    for info in pkgutil.iter_modules(commands.__path__):
+        if info.name.startswith("_"):
+            continue
+        mods.append(importlib.import_module(f"{commands.__name__}.{info.name}"))
+    order = getattr(commands, "ORDER", [])
+    mods.sort(key=lambda m: (order.index(m.NAME) if m.NAME in order else len(order), m.NAME))
+    return mods
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="torchrom",
+        description=(
+            "Nonlinear reduced-order models with Kelvin-Voigt damping, flutter and batched "
+            "post-flutter LCO studies."
+        ),
+    )
+    parser.add_argument("--version", action="version", version=f"torchrom {__version__}")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND")
+    for mod in _command_modules():
+        p = sub.add_parser(mod.NAME, help=mod.HELP, description=mod.HELP)
+        mod.add_arguments(p)
+        p.set_defaults(_run=mod.run, _name=mod.NAME)
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    if not getattr(args, "command", None):
+        parser.print_help()
+        return 0
+    try:
+        rc = args._run(args)
+    except TorchromError as exc:
+        print(f"torchrom {args._name}: error: {exc}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print(f"torchrom {args._name}: interrupted; finished results were kept", file=sys.stderr)
+        return 130
+    return int(rc or 0)
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

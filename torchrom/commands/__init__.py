@@ -1,0 +1,7 @@
+"""Sub-commands of the ``torchrom`` CLI, one module each (see :mod:`torchrom.cli`)."""
+
+# Order in ``torchrom --help``; commands not listed come after, alphabetically.
+ORDER = [
+    "paper", "goland", "modes", "identify", "aero", "flutter", "sweep", "plot",
+    "calibrate", "bifurcation",
+]
