@@ -114,6 +114,16 @@ class TrussWing(FEBackend):
     def _stiffness(self):
         return self._material_tangent(np.zeros(self.n_dof))
 
+    def dofmap(self):
+        """Nastran g-set map: grids 1..n_nodes, free DOFs = T1..T3 of the non-root grids."""
+        from torchrom.identify.nastran import DofMap
+
+        grid_ids = np.arange(1, self.n_nodes + 1)
+        free = np.array([(g + 1, c) for g in self.free_nodes for c in (1, 2, 3)])
+        T = np.zeros((6 * self.n_nodes, self.n_dof))
+        T[6 * (free[:, 0] - 1) + free[:, 1] - 1, np.arange(self.n_dof)] = 1.0
+        return DofMap(grid_ids, free, T)
+
     # ------------------------------------------------------------------------------------------
     def intrusive_rom(self, Phi: np.ndarray) -> NonlinearROM:
         """The exact projection, from the energy form of the bars (independent of any fit)."""

@@ -13,7 +13,8 @@ orthogonal decomposition (POD, in the mass inner product); the dominant POD vect
 orthonormalised against the linear modes, are the dual modes. Each snapshot is normalised to unit
 mass norm before the POD, so small and large amplitudes weigh alike (the small ones carry the
 quadratic, the large ones the cubic, membrane response). The paper's nine combinations (1-based)
-are the default.
+are the default. A load the FE cannot carry (no converged static solution) is recorded as
+"failed" and the larger loads of that combination and sign are skipped; the POD uses the rest.
 
 Hand-written; the static solves are the backend's, the eigen-solvers scipy's.
 """
@@ -27,7 +28,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import scipy.linalg
 
-from ..errors import InputError
+from ..errors import ConvergenceError, InputError
 
 #: the paper's combinations (j, l), 1-based mode numbers (DIGEST Sec. 6)
 PAPER_COMBINATIONS: tuple[tuple[int, int], ...] = (
@@ -111,11 +112,20 @@ def _amplitude_table(backend, U: np.ndarray, opts: DualModeOptions) -> np.ndarra
     return alphas * backend.reference_length / peak
 
 
-def dual_basis(backend, linear: Basis, n_dual: int, options: DualModeOptions | None = None,
-               progress: Callable[[int, int], None] | None = None) -> Basis:
-    """Linear modes + n_dual dual modes (DIGEST Sec. 6, Eqs. 47–48)."""
+@dataclass
+class DualLoad:
+    """One static load of the dual-mode generation: F = α Σ K U^(j) (Eqs. 47–48)."""
+
+    combination: tuple[int, int]
+    alpha: float
+    load: np.ndarray
+    tip_linear_pct_span: float
+
+
+def dual_loads(backend, linear: Basis, options: DualModeOptions | None = None) -> list[DualLoad]:
+    """The dual-mode loads in solution order: per combination and sign, increasing |α| (so each
+    solve can start from the previous one — and so a Nastran SOL 106 run can continue)."""
     opts = options or DualModeOptions()
-    t0 = time.perf_counter()
     Phi_L = linear.Phi
     nL = Phi_L.shape[1]
     for (j, l) in opts.combinations:
@@ -125,48 +135,80 @@ def dual_basis(backend, linear: Basis, n_dual: int, options: DualModeOptions | N
     if opts.n_amplitudes < 1 or not (0 < opts.tip_range[0] <= opts.tip_range[1]):
         raise InputError(f"dual modes: need n_amplitudes >= 1 and 0 < tip_range[0] <= "
                          f"tip_range[1], got {opts.n_amplitudes}, {opts.tip_range}")
-    M, K = backend.mass_matrix(), backend.stiffness_matrix()
-    KU = np.asarray(K @ Phi_L)
-    total = len(opts.combinations) * opts.n_amplitudes
-    snaps, records = [], []
-    done = 0
-    span = backend.reference_length
+    KU = np.asarray(backend.stiffness_matrix() @ Phi_L)
+    out = []
     for (j, l) in opts.combinations:
         cols = [j - 1] if j == l else [j - 1, l - 1]
         U = Phi_L[:, cols].sum(axis=1)
         F = KU[:, cols].sum(axis=1)
         alphas = _amplitude_table(backend, U, opts)
         tip_lin = np.abs(U[backend.transverse_dofs]).max()
-        # continuation: solve each sign in order of increasing |α| from the previous solution
         for sign in (1.0, -1.0):
-            prev_u, prev_a = None, None
             for a in sorted(alphas[np.sign(alphas) == sign], key=abs):
-                u0 = None if prev_u is None else prev_u * (a / prev_a)
-                sol = backend.static_solve(a * F, u0=u0)
-                prev_u, prev_a = sol.u, a
-                r = _m_project_out(sol.u[:, None], Phi_L, M)[:, 0]
-                norm = float(np.sqrt(r @ np.asarray(M @ r)))
-                snaps.append(r / norm if (opts.normalize_snapshots and norm > 0) else r)
-                records.append({
-                    "combination": [int(j), int(l)], "alpha": float(a),
-                    "tip_linear_pct_span": float(100 * abs(a) * tip_lin / span),
-                    "tip_pct_span": float(100 * np.abs(sol.u[backend.transverse_dofs]).max()
-                                          / span),
-                    "residual_mass_norm": norm, "iterations": int(sol.iterations),
-                })
-                done += 1
-                if progress is not None:
-                    progress(done, total)
-    S = np.stack(snaps, axis=1)
-    W, spectrum = pod(S, M, n_dual)
+                out.append(DualLoad((int(j), int(l)), float(a), a * F,
+                                    float(100 * abs(a) * tip_lin / backend.reference_length)))
+    return out
+
+
+def dual_modes_from_responses(linear: Basis, M, responses: np.ndarray, n_dual: int,
+                              normalize: bool = True) -> tuple[Basis, np.ndarray]:
+    """Dual modes from nonlinear static responses (rows of ``responses``): residuals outside the
+    linear modes, mass-weighted POD, mass-orthonormalised. Returns (basis, residual mass norms)."""
+    Phi_L = linear.Phi
+    R = _m_project_out(np.atleast_2d(responses).T, Phi_L, M)
+    norms = np.sqrt(np.einsum("ij,ij->j", R, np.asarray(M @ R)))
+    if normalize:
+        R = R / np.where(norms > 0, norms, 1.0)
+    W, spectrum = pod(R, M, n_dual)
     W = _m_project_out(W, Phi_L, M)
-    # mass-orthonormalise the dual vectors among themselves (symmetric, order-preserving)
+    # mass-orthonormalise the dual vectors among themselves (Cholesky: order-preserving)
     G = W.T @ np.asarray(M @ W)
     L = np.linalg.cholesky(0.5 * (G + G.T))
     W = scipy.linalg.solve_triangular(L, W.T, lower=True).T
     sign = np.sign(W[np.abs(W).argmax(axis=0), np.arange(n_dual)])
     W = W * np.where(sign == 0, 1.0, sign)
-    Phi = np.concatenate([Phi_L, W], axis=1)
-    return Basis(Phi, linear.kinds + ["dual"] * n_dual,
-                 np.concatenate([linear.frequencies_hz, np.full(n_dual, np.nan)]),
-                 spectrum, records, linear.seconds + time.perf_counter() - t0)
+    basis = Basis(np.concatenate([Phi_L, W], axis=1), linear.kinds + ["dual"] * n_dual,
+                  np.concatenate([linear.frequencies_hz, np.full(n_dual, np.nan)]), spectrum)
+    return basis, norms
+
+
+def dual_basis(backend, linear: Basis, n_dual: int, options: DualModeOptions | None = None,
+               progress: Callable[[int, int], None] | None = None) -> Basis:
+    """Linear modes + n_dual dual modes (DIGEST Sec. 6, Eqs. 47–48), solved by the backend."""
+    opts = options or DualModeOptions()
+    t0 = time.perf_counter()
+    loads = dual_loads(backend, linear, opts)
+    responses, records = [], []
+    prev = None          # (combination, sign, u, alpha) of the last converged solve
+    failed = set()
+    span = backend.reference_length
+    for k, ld in enumerate(loads, start=1):
+        if progress is not None:
+            progress(k, len(loads))
+        key = (ld.combination, np.sign(ld.alpha))
+        rec = {"combination": list(ld.combination), "alpha": ld.alpha,
+               "tip_linear_pct_span": ld.tip_linear_pct_span}
+        if key in failed:
+            # past a load the FE could not carry, the larger ones are skipped too
+            records.append({**rec, "status": "skipped"})
+            continue
+        u0 = prev[2] * (ld.alpha / prev[3]) if prev is not None and prev[:2] == key else None
+        try:
+            sol = backend.static_solve(ld.load, u0=u0)
+        except ConvergenceError as exc:
+            failed.add(key)
+            records.append({**rec, "status": "failed", "message": str(exc)})
+            continue
+        prev = (*key, sol.u, ld.alpha)
+        responses.append(sol.u)
+        records.append({**rec, "status": "ok", "iterations": int(sol.iterations),
+                        "tip_pct_span": float(100 * np.abs(sol.u[backend.transverse_dofs]).max()
+                                              / span)})
+    basis, norms = dual_modes_from_responses(linear, backend.mass_matrix(), np.array(responses),
+                                             n_dual, opts.normalize_snapshots)
+    ok = [r for r in records if r["status"] == "ok"]
+    for r, nrm in zip(ok, norms):
+        r["residual_mass_norm"] = float(nrm)
+    basis.snapshots = records
+    basis.seconds = linear.seconds + time.perf_counter() - t0
+    return basis

@@ -40,6 +40,7 @@ Hand-written (no library implements this); the eigen-solvers are torch's.
 
 from __future__ import annotations
 
+import contextlib
 import itertools
 import math
 from dataclasses import dataclass, field
@@ -237,7 +238,7 @@ class DecompositionOptions:
     tau: tuple[float, float] = (0.05, 5e-4)
     penalty: float = 1e-6
     margin: float = 1e-9
-    max_newton: int = 25
+    max_newton: int = 4
 
 
 @dataclass
@@ -377,6 +378,8 @@ class _ConstraintOperator:
         self.n_groups = n_k1 + st.n_groups
         self.N = n + n * (n + 1) // 2
         self.n_k1 = n_k1
+        self.flat_rc = self.rows * self.N + self.cols
+        self.flat_cr = self.cols * self.N + self.rows
 
     def __call__(self, X: torch.Tensor) -> torch.Tensor:
         vals = self.a * X[self.rows, self.cols]
@@ -384,8 +387,10 @@ class _ConstraintOperator:
 
     def adjoint(self, y: torch.Tensor) -> torch.Tensor:
         vals = self.a * y[self.group] / self.omega
-        X = y.new_zeros(self.N, self.N)
-        return X.index_put((self.rows, self.cols), vals).index_put((self.cols, self.rows), vals)
+        X = y.new_zeros(self.N * self.N)
+        X[self.flat_rc] = vals
+        X[self.flat_cr] = vals
+        return X.view(self.N, self.N)
 
 
 def _nearest_psd_constrained(A: _ConstraintOperator, X0: torch.Tensor, b: torch.Tensor,
@@ -439,7 +444,7 @@ def _nearest_psd_constrained(A: _ConstraintOperator, X0: torch.Tensor, b: torch.
         p = r.clone()
         rr = float(r @ r)
         cg_tol = min(0.1, res) ** 1.5 * float(g.norm())
-        for _ in range(200):
+        for _ in range(60):
             Vp = V(p)
             alpha = rr / max(float(p @ Vp), 1e-300)
             d += alpha * p
@@ -515,8 +520,27 @@ def _enforce_psd(st: _Structure, K1hat: torch.Tensor, m: torch.Tensor, alpha_hat
     return m_new, info
 
 
+@contextlib.contextmanager
+def _one_thread():
+    """Small batched eigen-problems: torch's thread pool costs more than it gives (10× on a loaded
+    2-core machine), so the decomposition runs on one intra-op thread."""
+    before = torch.get_num_threads()
+    torch.set_num_threads(1)
+    try:
+        yield
+    finally:
+        torch.set_num_threads(before)
+
+
 def optimum_decomposition(K1: np.ndarray, K2: np.ndarray, K3: np.ndarray,
                           options: DecompositionOptions | None = None) -> DampingIdentification:
+    """``decomposition`` (see :func:`_optimum_decomposition`), on one intra-op thread."""
+    with _one_thread():
+        return _optimum_decomposition(K1, K2, K3, options)
+
+
+def _optimum_decomposition(K1: np.ndarray, K2: np.ndarray, K3: np.ndarray,
+                           options: DecompositionOptions | None = None) -> DampingIdentification:
     """``decomposition``: Kelvin–Voigt damping (D = γC, γ = 1) from identified stiffness tensors.
 
     Args:
