@@ -238,7 +238,7 @@ class DecompositionOptions:
     tau: tuple[float, float] = (0.05, 5e-4)
     penalty: float = 1e-6
     margin: float = 1e-9
-    max_newton: int = 4
+    max_newton: int = 40
 
 
 @dataclass
@@ -421,9 +421,13 @@ def _nearest_psd_constrained(A: _ConstraintOperator, X0: torch.Tensor, b: torch.
 
     theta, g, (w, Q, P) = evaluate(y)
     iterations = 0
+    history = []
     for _ in range(max_newton):
         res = float(g.abs().max()) / bscale
-        if res < tol:
+        history.append(res)
+        # stop at convergence, or when the residual stagnates (a feasible set too thin to reach:
+        # the caller falls back to the Schur-complement clipping)
+        if res < tol or (len(history) > 4 and res > 0.5 * history[-5]):
             break
         iterations += 1
         pos = w > 0
@@ -506,9 +510,11 @@ def _enforce_psd(st: _Structure, K1hat: torch.Tensor, m: torch.Tensor, alpha_hat
         return m, info
     A = _ConstraintOperator(st, alpha_hat)
     bfull = torch.cat([K1hat[tuple(torch.triu_indices(st.n, st.n))], torch.as_tensor(b)])
-    X, more = _nearest_psd_constrained(A, X0, bfull, floor, max_newton=max_newton)
+    # aim 1e-7 (scaled units: the diagonal is ~1) above the floor, so that re-imposing the
+    # coefficients after a Newton solve converged to ~1e-9 cannot push λ_min below it
+    X, more = _nearest_psd_constrained(A, X0, bfull, floor + 1e-7, max_newton=max_newton)
     info.update(more)
-    if more["constraint_residual"] < 1e-11:
+    if more["constraint_residual"] < 1e-8:
         info["method"] = "constrained_projection"
         # re-impose the identified coefficients exactly (the Newton residual is ~1e-13)
         m_new = _affine_projector(st, alpha_hat, b)(X[torch.as_tensor(st.rows),
