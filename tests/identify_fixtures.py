@@ -61,6 +61,8 @@ class TrussWing(FEBackend):
         # point A: the tip leading-edge top corner
         a = 3 * (self.n_nodes - 1 - 4)
         self._outputs = {"A_Tx": a, "A_Ty": a + 1, "A_Tz": a + 2}
+        self._load_shapes = {"uniform": self.pressure_like_load(1.0),
+                             "step": self.pressure_like_load(1.0, step=True)}
         # scatter index of each bar end into the free DOFs (-1: clamped)
         full = -np.ones((self.n_nodes, 3), int)
         full[4:] = np.arange(self.n_dof).reshape(-1, 3)

@@ -208,6 +208,50 @@ class FEBackend:
                              f"{self.n_dof}")
         return u
 
+    def load_shapes(self) -> dict[str, np.ndarray]:
+        """Named unit load vectors for the validation (e.g. "uniform", "step"); none by default."""
+        return dict(getattr(self, "_load_shapes", {}))
+
+    def free_decay(self, u0: np.ndarray, *, t_end: float, dt: float, gamma: float,
+                   record) -> tuple[np.ndarray, np.ndarray]:
+        """Nonlinear free vibration from rest at u0 with Kelvin–Voigt damping γ K_mat(u) u̇:
+        Newmark average acceleration, Newton on K_T + (½/(¼ dt)) γ K_mat + M/(¼ dt²) (the
+        derivative of K_mat(u) u̇ in u is left out of the iteration matrix: modified Newton).
+        Returns (t (k,), u[:, record] (k, len(record)))."""
+        M = self.mass_matrix()
+        n, steps = self.n_dof, int(round(t_end / dt))
+        rec = np.asarray(record, dtype=int)
+        u, v = np.array(u0, float), np.zeros(self.n_dof)
+
+        def damp(u, v):
+            return gamma * np.asarray(self.material_tangent(u) @ v) if gamma else np.zeros(n)
+
+        a = solve_linear(M, -(self.internal_force(u) + damp(u, v)))
+        out = np.zeros((steps + 1, len(rec)))
+        out[0] = u[rec]
+        b, g = 0.25, 0.5
+        for k in range(1, steps + 1):
+            up = u + dt * v + dt**2 * (0.5 - b) * a
+            vp = v + dt * (1 - g) * a
+            un = up.copy()
+            for it in range(40):
+                an = (un - up) / (b * dt**2)
+                vn = vp + g * dt * an
+                R = M @ an + self.internal_force(un) + damp(un, vn)
+                if it > 0 and np.linalg.norm(R) <= 1e-9 * max(np.linalg.norm(M @ an), 1e-300):
+                    break
+                J = M / (b * dt**2) + self.tangent_stiffness(un)
+                if gamma:
+                    J = J + (g / (b * dt)) * gamma * self.material_tangent(un)
+                un = un - solve_linear(J, R)
+            else:
+                raise ConvergenceError(f"{self.name}: transient Newton failed at step {k}")
+            a = (un - up) / (b * dt**2)
+            v = vp + g * dt * a
+            u = un
+            out[k] = u[rec]
+        return np.arange(steps + 1) * dt, out
+
     def modes(self, n: int) -> tuple[np.ndarray, np.ndarray]:
         """The n lowest linear modes: (frequencies_hz (n,), mass-normalised shapes (n_dof, n))."""
         return generalized_modes(self.stiffness_matrix(), self.mass_matrix(), n, name=self.name)

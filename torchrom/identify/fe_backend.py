@@ -75,6 +75,19 @@ class BuiltinFEBackend(FEBackend):
                                    f"({getattr(res, 'message', '')})")
         return StaticSolution(res.u, True, int(res.iterations), float(res.load_factor))
 
+    def load_shapes(self) -> dict[str, np.ndarray]:
+        """Uniform pressure (1 per unit area) and the "step uniform" pressure (+1 ahead of the
+        mid-chord line of the grid, −1 behind) on the FE's default pressure skin."""
+        xyz = np.asarray(self.fe.grid_xyz, float)
+        x_mid = 0.5 * (xyz[:, 0].min() + xyz[:, 0].max())
+        return {"uniform": self.fe.pressure_load(1.0),
+                "step": self.fe.pressure_load(lambda x, y: np.where(x < x_mid, 1.0, -1.0))}
+
+    def free_decay(self, u0, *, t_end, dt, gamma, record):
+        """The FE's own nonlinear transient (Newmark + Newton, Kelvin–Voigt γ K_mat(u) u̇)."""
+        res = self.fe.transient(t_end=t_end, dt=dt, u0=u0, gamma=gamma, record=list(record))
+        return np.asarray(res.t), np.asarray(res.u)
+
     def modes(self, n: int):
         m = self.fe.modes(n)
         return np.asarray(m.frequencies_hz, float), np.asarray(m.shapes, float)
