@@ -257,8 +257,10 @@ def compare_damping(rom_a, rom_b, Q: np.ndarray, V: np.ndarray) -> dict:
     for name in ("D1", "D2", "D3"):
         A, B = getattr(rom_a, name), getattr(rom_b, name)
         out[f"{name}_rel_diff"] = float((A - B).abs().max() / max(float(B.abs().max()), 1e-300))
-    Pa = rom_a.dissipated_power(torch.as_tensor(Q), torch.as_tensor(V)).numpy()
-    Pb = rom_b.dissipated_power(torch.as_tensor(Q), torch.as_tensor(V)).numpy()
+    Q = torch.as_tensor(np.ascontiguousarray(Q, dtype=float))
+    V = torch.as_tensor(np.ascontiguousarray(V, dtype=float))
+    Pa = rom_a.dissipated_power(Q, V).numpy()
+    Pb = rom_b.dissipated_power(Q, V).numpy()
     scale = max(np.abs(Pb).max(), 1e-300)
     out["power_max_rel_diff"] = float(np.abs(Pa - Pb).max() / scale)
     out["power_mean_rel_diff"] = float(np.abs(Pa - Pb).mean() / np.abs(Pb).mean())
