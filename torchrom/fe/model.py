@@ -160,6 +160,9 @@ class FEModel:
         for key, (gid, comp) in self.output_points.items():
             self.dof_index(gid, comp, what=f"output point {key}")
         self._torch: dict[tuple, _TorchState] = {}
+        # Built eagerly: a state first built inside a torch.func transform would cache tensors
+        # tied to that transform's level (call prepare_torch for other dtypes/devices).
+        self.prepare_torch()
 
     # -- assembly helpers ------------------------------------------------------------------------
     def _linear_all(self, kernels: list[GreenKernel]) -> sp.csr_matrix:
@@ -186,6 +189,7 @@ class FEModel:
         return assemble(parts, self.n_all)
 
     def _state(self, dtype=torch.float64, device=None) -> _TorchState:
+        device = torch.device(device if device is not None else "cpu")
         key = (dtype, str(device))
         st = self._torch.get(key)
         if st is None:
@@ -204,6 +208,12 @@ class FEModel:
             )
             self._torch[key] = st
         return st
+
+    def prepare_torch(self, dtype=torch.float64, device=None) -> None:
+        """Build the torch kernels for ``dtype``/``device`` now (float64 CPU is built at
+        construction); do this before using another dtype/device inside ``torch.func``
+        transforms."""
+        self._state(dtype, device)
 
     def _warn_linear(self) -> None:
         if len(self.mesh.bars) and not self._warned_linear:
@@ -272,6 +282,8 @@ class FEModel:
         return out.index_add(-1, st.T_cols, f_all.index_select(-1, st.T_rows) * st.T_vals)
 
     def _const_torch(self, u: torch.Tensor, st: _TorchState) -> torch.Tensor:
+        if not len(st.K_rows):
+            return torch.zeros_like(u)
         out = torch.zeros_like(u)
         return out.index_add(-1, st.K_rows, u.index_select(-1, st.K_cols) * st.K_vals)
 

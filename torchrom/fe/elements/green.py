@@ -17,7 +17,8 @@ With undeformed and deformed tangent vectors g0_a = Σ_n X_n dN_na and g_a = Σ_
 the Green strain is E_ab = ½ (g_a · g_b − g0_a · g0_b) (g0_a · g0_b = δ_ab for a flat element; the
 reference metric is kept so that a slightly warped quad is strain-free when undeformed). It is
 quadratic in the nodal displacements, the second Piola–Kirchhoff stress S = C E is quadratic,
-and the nodal force f_n = Σ_ab S_ab dN_na g_b is exactly cubic. A rigid motion leaves every g_a · g_b unchanged, so it produces no force.
+and the nodal force f_n = Σ_ab S_ab dN_na g_b is exactly cubic.
+A rigid motion leaves every g_a · g_b unchanged, so it produces no force.
 
 Tangents (analytic, per point, for sparse assembly; computed with numpy because these small
 batched products are faster without torch's thread pool):
