@@ -72,7 +72,8 @@ def plate_strip(n_long: int, n_wide: int, L: float, b: float, t: float, E: float
 
 def flange_web_beam(n: int, L: float, h: float, A: float, t: float, E: float, nu: float,
                     rho: float) -> BDF:
-    """Planar cantilever in the x-z plane: rod flanges at z = ±h/2 and a CSHEAR web."""
+    """Planar cantilever in the x-z plane: rod flanges at z = ±h/2, a CSHEAR web and vertical
+    posts (the shear panel has no direct stiffness)."""
     m = new_deck()
     for i in range(n + 1):
         m.add_grid(100 + i, [L * i / n, 0.0, h / 2])
@@ -80,10 +81,12 @@ def flange_web_beam(n: int, L: float, h: float, A: float, t: float, E: float, nu
     m.add_mat1(1, E, None, nu, rho=rho)
     m.add_prod(1, 1, A)
     m.add_pshear(2, 1, t)
+    m.add_prod(3, 1, A / 100)
     for i in range(n):
         m.add_crod(1 + i, 1, [100 + i, 101 + i])
         m.add_crod(101 + i, 1, [200 + i, 201 + i])
         m.add_cshear(201 + i, 2, [100 + i, 101 + i, 201 + i, 200 + i])
+        m.add_crod(301 + i, 3, [101 + i, 201 + i])
     m.add_spc1(1, "123456", [100, 200])
     return m
 

@@ -30,7 +30,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import InputError
-from .elements.quad4 import GAUSS_2x2, jacobian, quad_frames, shape
+from .elements.quad4 import quad_frames, shape
 from .mesh import (
     BarSet,
     InterpRBE3,
@@ -57,6 +57,7 @@ PASSIVE_CARDS = frozenset(
     "GUST NLPARM TSTEP DMI".split()
 )
 GOLAND_TITLE = "torchrom heavy Goland wing"
+CORNERS = ((-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0))
 
 
 class UnsupportedCardWarning(UserWarning):
@@ -87,7 +88,7 @@ def _pynastran_error(fname: str, exc: Exception) -> InputError:
     f = _FIELD_MSG.match(first)
     if f:
         name, value, num, rest = f.groups()
-        what = rest.rstrip(".").replace("must be", "expected").replace("(not a", "(got a")
+        what = re.sub(r"\s*\(not an? [^)]*\)", "", rest.rstrip(".")).replace("must be", "expected")
         return InputError(f"{fname}: {card}: field #{num} ({name}): {what}, got {value}")
     where = f"{card}: " if card else ""
     return InputError(f"{fname}: {where}{first}")
@@ -149,14 +150,22 @@ def read_bdf(
     )
 
 
-def _title(model) -> str:
+def _case_value(model, key: str):
+    """First value of a case-control entry (global subcase first), or None."""
     cc = model.case_control_deck
     if cc is None:
-        return ""
-    for sub in cc.subcases.values():
-        if sub.has_parameter("TITLE"):
-            return str(sub.get_parameter("TITLE")[0]).strip()
-    return ""
+        return None
+    for isub in sorted(cc.subcases):
+        try:
+            return cc.subcases[isub].get_parameter(key)[0]
+        except KeyError:
+            continue
+    return None
+
+
+def _title(model) -> str:
+    value = _case_value(model, "TITLE")
+    return "" if value is None else str(value).strip()
 
 
 def from_pynastran(
@@ -214,7 +223,7 @@ def _check_cards(model, fname: str, unsupported: str) -> None:
         raise InputError(
             f"{fname}: unsupported cards: {listing}; the FE reader supports "
             f"{', '.join(sorted(STRUCTURAL_CARDS - {'ENDDATA', 'PARAM', 'GRDSET'}))} "
-            "(pass unsupported='warn' to ignore them)"
+            "(unsupported='warn' or --unsupported warn ignores them)"
         )
     warnings.warn(f"{fname}: ignoring unsupported cards: {listing}", UnsupportedCardWarning,
                   stacklevel=3)
@@ -399,8 +408,11 @@ class _Reader:
             raise self.err(f"{card} {e.eid}: repeated grid in {e.nodes}")
         X = self.xyz[nodes][None]
         _, xy = quad_frames(X)
-        dets = [jacobian(xy, shape(xi, eta)[1])[1][0] for xi, eta in GAUSS_2x2]
-        if not np.all(np.isfinite(dets)) or min(dets) <= 0.0:
+        # Jacobian at the corners: positive at all four iff the quad is convex (no interior
+        # angle of 180° or more); relative to the mean, so a sliver is also rejected.
+        dets = np.array([np.linalg.det(np.einsum("ra,ai->ri", shape(xi, eta)[1], xy[0]))
+                         for xi, eta in CORNERS])
+        if not np.all(np.isfinite(dets)) or dets.min() <= 1e-8 * abs(dets.mean()):
             raise self.err(f"{card} {e.eid}: zero-area, degenerate or concave element "
                            f"(grids {e.nodes})")
         return nodes
@@ -545,14 +557,7 @@ class _Reader:
 
     # -- constraints ---------------------------------------------------------------------------
     def _case_value(self, key: str):
-        cc = self.m.case_control_deck
-        if cc is None:
-            return None
-        for isub in sorted(cc.subcases):
-            sub = cc.subcases[isub]
-            if sub.has_parameter(key):
-                return sub.get_parameter(key)[0]
-        return None
+        return _case_value(self.m, key)
 
     def _spcs(self, mesh: Mesh, spc_id: int | None) -> None:
         for nid, node in self.m.nodes.items():
