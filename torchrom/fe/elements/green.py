@@ -13,9 +13,10 @@ carries
 - ``C (nv, nv)``: the constitutive matrix in Voigt form, multiplied by the integration weight
   (nv = 1: E11; nv = 3: [E11, E22, 2 E12]).
 
-With undeformed and deformed tangent vectors g0_a = Σ_n X_n dN_na and g_a = Σ_n (X_n + u_n) dN_na
-the Green strain is E_ab = ½ (g_a · g_b − g0_a · g0_b) (g0_a · g0_b = δ_ab for a flat element; the
-reference metric is kept so that a slightly warped quad is strain-free when undeformed). It is
+With undeformed tangent vectors g0_a = Σ_n X_n dN_na, displacement gradients h_a = Σ_n u_n dN_na
+and deformed tangent vectors g_a = g0_a + h_a, the Green strain is
+E_ab = ½ (g_a · g_b − g0_a · g0_b) = ½ (g0_a · h_b + h_a · g0_b + h_a · h_b), evaluated in the
+second form (no cancellation at small strains; exact also for a slightly warped quad). It is
 quadratic in the nodal displacements, the second Piola–Kirchhoff stress S = C E is quadratic,
 and the nodal force f_n = Σ_ab S_ab dN_na g_b is exactly cubic.
 A rigid motion leaves every g_a · g_b unchanged, so it produces no force.
@@ -114,7 +115,6 @@ class GreenKernel:
         self.C = torch.as_tensor(pts.C, **opts)
         X = torch.as_tensor(xyz[pts.conn], **opts)  # (P, nn, 3)
         self.g0 = torch.einsum("pni,pna->pia", X, self.dN)  # (P, 3, nd)
-        self.metric = torch.einsum("pia,pib->pab", self.g0, self.g0)
         self.dof = torch.as_tensor(pts.dof_index().reshape(-1), device=device)
         self.dof_np = pts.dof_index()
 
@@ -135,8 +135,9 @@ class GreenKernel:
     # -- strains and stresses ----------------------------------------------------------------
     def strain(self, u_all: torch.Tensor) -> torch.Tensor:
         """Green strain in Voigt form (..., P, nv)."""
-        g = self.tangents(u_all)
-        E = 0.5 * (torch.einsum("...pia,...pib->...pab", g, g) - self.metric)
+        h = self._grad(u_all)
+        gh = torch.einsum("pia,...pib->...pab", self.g0, h)
+        E = 0.5 * (gh + gh.transpose(-1, -2) + torch.einsum("...pia,...pib->...pab", h, h))
         return voigt(E)
 
     def strain_rate(self, u_all: torch.Tensor, v_all: torch.Tensor) -> torch.Tensor:
@@ -178,7 +179,6 @@ class GreenKernel:
                 self.dN.cpu().numpy().astype(np.float64),
                 self.C.cpu().numpy().astype(np.float64),
                 self.g0.cpu().numpy().astype(np.float64),
-                self.metric.cpu().numpy().astype(np.float64),
             )
         return self._np_cache
 
@@ -226,10 +226,13 @@ class GreenKernel:
 
     def point_matrices(self, u_all: np.ndarray, geometric: bool = True) -> np.ndarray:
         """Per-point K_mat (+ K_geo if ``geometric``) blocks (P, nn*3, nn*3) at u (numpy)."""
-        g = self._np()[2] + self._grad_np(u_all)
+        g0 = self._np()[2]
+        h = self._grad_np(u_all)
+        g = g0 + h
         K = self._bcb(*(2 * (self._B_np(g),)))
         if geometric:
-            E = 0.5 * (np.matmul(g.transpose(0, 2, 1), g) - self._np()[3])
+            gh = np.matmul(g0.transpose(0, 2, 1), h)
+            E = 0.5 * (gh + gh.transpose(0, 2, 1) + np.matmul(h.transpose(0, 2, 1), h))
             K = K + self._geo_np(self._stress_np(E))
         return K
 
