@@ -167,7 +167,7 @@ class FEModel:
     # -- assembly helpers ------------------------------------------------------------------------
     def _linear_all(self, kernels: list[GreenKernel]) -> sp.csr_matrix:
         zero = np.zeros(self.n_all)
-        parts = [(k.dof_np, k.point_matrices(zero, geometric=False)) for k in kernels]
+        parts = [(k.dof_np, k.point_matrices(zero, geometric=0.0)) for k in kernels]
         return assemble(parts + self._lin_parts, self.n_all)
 
     def _mass_all(self) -> sp.csr_matrix:
@@ -331,37 +331,34 @@ class FEModel:
         with torch.no_grad():
             return self.material_force_torch(torch.from_numpy(u), torch.from_numpy(v)).numpy()
 
-    def _assemble(self, u, which: str, v=None) -> sp.csr_matrix:
-        st = self._state()
+    def matrix_combination(self, u, material: float = 0.0, geometric: float = 0.0,
+                           damping: float = 0.0, v=None) -> sp.csr_matrix:
+        """material · K_mat(u) + geometric · K_geo(u) + damping · ∂(K_mat(u) v)/∂u, assembled in
+        one pass (K_T = K_mat + K_geo; the linear element parts belong to K_mat)."""
         u_all = self.T @ np.asarray(u, dtype=float)
-        if which == "damping":
-            v_all = self.T @ np.asarray(v, dtype=float)
-            K = sp.csr_matrix((self.n_dof, self.n_dof))
-        else:
-            K = self._K_const_free
-        for kern, pat in zip(st.kernels, self._patterns):
-            if which == "damping":
-                blocks = kern.damping_derivative_matrices(u_all, v_all)
-            else:
-                blocks = kern.point_matrices(u_all, geometric=(which == "tangent"))
-            K = K + pat.assemble(blocks)
+        v_all = None if not damping else self.T @ np.asarray(v, dtype=float)
+        K = self._K_const_free * material if material else sp.csr_matrix((self.n_dof,) * 2)
+        blocks = [kern.point_matrices(u_all, material, geometric, damping, v_all)
+                  for kern in self._state().kernels]
+        for pat, b in zip(self._patterns, blocks):
+            K = K + pat.assemble(b)
         return K.tocsr()
 
     def tangent_stiffness(self, u) -> sp.csr_matrix:
         """K_T(u) = ∂f/∂u (sparse, symmetric)."""
         u = self._check_u(u, "tangent_stiffness")
         self._warn_linear()
-        return self._assemble(u, "tangent")
+        return self.matrix_combination(u, material=1.0, geometric=1.0)
 
     def material_tangent(self, u) -> sp.csr_matrix:
         """K_mat(u): the tangent without the initial-stress part (Kelvin–Voigt damping matrix)."""
         u = self._check_u(u, "material_tangent")
-        return self._assemble(u, "material")
+        return self.matrix_combination(u, material=1.0)
 
     def damping_derivative(self, u, v) -> sp.csr_matrix:
         """∂(K_mat(u) v)/∂u (non-symmetric), for implicit Kelvin–Voigt time integration."""
-        return self._assemble(self._check_u(u, "damping_derivative"), "damping",
-                              self._check_u(v, "damping_derivative"))
+        return self.matrix_combination(self._check_u(u, "damping_derivative"), damping=1.0,
+                                       v=self._check_u(v, "damping_derivative"))
 
     # -- loads -----------------------------------------------------------------------------------
     def nodal_load(self, loads: dict[tuple[int, int], float]) -> np.ndarray:

@@ -48,6 +48,12 @@ class Modes:
         return out
 
 
+def solve_linear(K: sp.spmatrix, r: np.ndarray) -> np.ndarray:
+    """K⁻¹ r by sparse LU (SuperLU). Single-threaded, so it does not degrade when the cores are
+    shared, unlike a multi-threaded dense LU (measured: 7 ms vs 35 ms for 360 DOFs under load)."""
+    return sla.splu(sp.csc_matrix(K)).solve(r)
+
+
 def _massless(M: sp.csr_matrix) -> np.ndarray:
     return np.asarray(abs(M).sum(axis=1)).ravel() == 0.0
 
@@ -223,10 +229,10 @@ def _newton(fe, u, F, lam, p_idx, p_val, unknown, max_iter, tol):
         first = res if first is None else first
         if it > 3 and res > 1e3 * first:
             return False, u, it, res
-        K = fe.tangent_stiffness(u)[unknown][:, unknown].tocsc()
+        K = fe.tangent_stiffness(u)[unknown][:, unknown]
         try:
-            du = sla.splu(K).solve(ru)
-        except RuntimeError:
+            du = solve_linear(K, ru)
+        except (RuntimeError, la.LinAlgError):
             return False, u, it, res
         u[unknown] -= du
         if np.linalg.norm(du) <= 1e-14 * max(np.linalg.norm(u), 1e-300):
@@ -330,20 +336,21 @@ def transient(
         for it in range(max_iter):
             an = (un - u_pred) / (nb * dt**2)
             vn = v_pred + ng * dt * an
-            R = M @ an + damping(un, vn) + internal(un) - Fk
-            scale = max(np.linalg.norm(Fk), np.linalg.norm(M @ an), np.linalg.norm(internal(un)),
-                        1e-300)
+            fi = internal(un)
+            R = M @ an + damping(un, vn) + fi - Fk
+            scale = max(np.linalg.norm(Fk), np.linalg.norm(M @ an), np.linalg.norm(fi), 1e-300)
             if np.linalg.norm(R) <= tol * scale and it > 0:
                 ok = True
                 break
-            Kt = fe.tangent_stiffness(un) if nonlinear else K1
-            C = c_lin
-            if gamma:
-                C = C + gamma * (fe.material_tangent(un) if nonlinear else K1)
-            J = M / (nb * dt**2) + C * (ng / (nb * dt)) + Kt
-            if gamma and nonlinear:
-                J = J + gamma * fe.damping_derivative(un, vn)
-            un = un - sla.splu(sp.csc_matrix(J)).solve(R)
+            c = ng / (nb * dt)
+            J = M / (nb * dt**2) + c_lin * c
+            if nonlinear:
+                # K_T + c γ K_mat + γ ∂(K_mat v)/∂u in one assembly pass.
+                J = J + fe.matrix_combination(un, material=1.0 + c * gamma, geometric=1.0,
+                                              damping=gamma, v=vn)
+            else:
+                J = J + K1 * (1.0 + c * gamma)
+            un = un - solve_linear(J, R)
             total += 1
         if not ok:
             raise ConvergenceError(

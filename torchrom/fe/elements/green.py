@@ -224,22 +224,27 @@ class GreenKernel:
         C = self._np()[1]
         return np.matmul(B.transpose(0, 2, 1), np.matmul(C, B2))
 
-    def point_matrices(self, u_all: np.ndarray, geometric: bool = True) -> np.ndarray:
-        """Per-point K_mat (+ K_geo if ``geometric``) blocks (P, nn*3, nn*3) at u (numpy)."""
+    def point_matrices(self, u_all: np.ndarray, material: float = 1.0, geometric: float = 1.0,
+                       damping: float = 0.0, v_all: np.ndarray | None = None) -> np.ndarray:
+        """Per-point blocks (P, nn*3, nn*3) of the weighted sum
+        material · K_mat(u) + geometric · K_geo(u) + damping · ∂(K_mat(u) v)/∂u (numpy).
+
+        K_T = K_mat + K_geo; the last term is K_geo(C Ė(u; v)) + B(u)ᵀ C B_v (Kelvin–Voigt).
+        """
         g0 = self._np()[2]
         h = self._grad_np(u_all)
         g = g0 + h
-        K = self._bcb(*(2 * (self._B_np(g),)))
+        B = self._B_np(g)
+        K = np.zeros((B.shape[0], B.shape[2], B.shape[2]))
+        if material:
+            K += material * self._bcb(B, B)
         if geometric:
             gh = np.matmul(g0.transpose(0, 2, 1), h)
             E = 0.5 * (gh + gh.transpose(0, 2, 1) + np.matmul(h.transpose(0, 2, 1), h))
-            K = K + self._geo_np(self._stress_np(E))
+            K += geometric * self._geo_np(self._stress_np(E))
+        if damping:
+            gv = self._grad_np(v_all)
+            Ed = np.matmul(g.transpose(0, 2, 1), gv)
+            K += damping * (self._bcb(B, self._B_np(gv))
+                            + self._geo_np(self._stress_np(0.5 * (Ed + Ed.transpose(0, 2, 1)))))
         return K
-
-    def damping_derivative_matrices(self, u_all: np.ndarray, v_all: np.ndarray) -> np.ndarray:
-        """∂(K_mat(u) v)/∂u per point: K_geo(C Ė(u; v)) + B(u)ᵀ C B_v (P, nn*3, nn*3)."""
-        g = self._np()[2] + self._grad_np(u_all)
-        gv = self._grad_np(v_all)
-        Ed = np.matmul(g.transpose(0, 2, 1), gv)
-        K = self._bcb(self._B_np(g), self._B_np(gv))
-        return K + self._geo_np(self._stress_np(0.5 * (Ed + Ed.transpose(0, 2, 1))))
