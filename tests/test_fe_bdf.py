@@ -44,6 +44,15 @@ def test_pt145_modes_match_closed_form(shared):
     assert modes.frequencies_hz[1] == pytest.approx(tors, rel=1e-10)
 
 
+def test_nonlinear_analysis_with_cbar_warns(shared):
+    from torchrom.fe import LinearElementWarning
+
+    fe = read_bdf(shared / PT145)
+    with pytest.warns(LinearElementWarning, match="CBAR elements are linear"):
+        f = fe.internal_force(np.full(fe.n_dof, 1e-3))
+    np.testing.assert_allclose(f, fe.stiffness_matrix() @ np.full(fe.n_dof, 1e-3), rtol=1e-12)
+
+
 def test_cli_modes_pt145(shared, tmp_path, capsys):
     out = tmp_path / "modes.json"
     assert main(["modes", str(shared / PT145), "--n", "3", "--json", str(out)]) == 0

@@ -337,6 +337,7 @@ class _Reader:
     def mesh(self, spc_id: int | None) -> Mesh:
         ids, xyz, cd = self.grids()
         self.row = {int(g): k for k, g in enumerate(ids)}
+        self.ids = ids
         self.xyz = xyz
         mesh = Mesh(grid_ids=ids, xyz=xyz, cd_axes=cd)
         mesh.coupled_mass = self._param("COUPMASS", -1) > 0
@@ -355,6 +356,8 @@ class _Reader:
         mesh.rods = _stack(RodSet, rods)
         mesh.quads = _stack(QuadSet, quads)
         mesh.shears = _stack(ShearSet, shears)
+        self._check_surfaces("CQUAD4", mesh.quads.eids, mesh.quads.nodes)
+        self._check_surfaces("CSHEAR", mesh.shears.eids, mesh.shears.nodes)
         mesh.bars = _stack(BarSet, bars)
         for sel in (mesh.rods, mesh.quads, mesh.shears, mesh.bars):
             sel.rho *= wtmass
@@ -406,16 +409,27 @@ class _Reader:
         nodes = self.rows(e.nodes, card, e.eid)
         if len(set(nodes)) < 4:
             raise self.err(f"{card} {e.eid}: repeated grid in {e.nodes}")
-        X = self.xyz[nodes][None]
-        _, xy = quad_frames(X)
-        # Jacobian at the corners: positive at all four iff the quad is convex (no interior
-        # angle of 180° or more); relative to the mean, so a sliver is also rejected.
-        dets = np.array([np.linalg.det(np.einsum("ra,ai->ri", shape(xi, eta)[1], xy[0]))
-                         for xi, eta in CORNERS])
-        if not np.all(np.isfinite(dets)) or dets.min() <= 1e-8 * abs(dets.mean()):
-            raise self.err(f"{card} {e.eid}: zero-area, degenerate or concave element "
-                           f"(grids {e.nodes})")
         return nodes
+
+    def _check_surfaces(self, card: str, eids: np.ndarray, nodes: np.ndarray) -> None:
+        """Jacobian at the corners (all elements at once): positive at all four iff the quad is
+        convex (no interior angle of 180° or more); relative to the mean, so that a sliver is
+        also rejected."""
+        if not len(eids):
+            return
+        _, xy = quad_frames(self.xyz[nodes])
+        dets = []
+        for xi, eta in CORNERS:
+            J = np.einsum("ra,nai->nri", shape(xi, eta)[1], xy)
+            dets.append(J[:, 0, 0] * J[:, 1, 1] - J[:, 0, 1] * J[:, 1, 0])
+        dets = np.stack(dets, axis=1)
+        bad = ~np.all(np.isfinite(dets), axis=1) | (
+            dets.min(axis=1) <= 1e-8 * np.abs(dets.mean(axis=1)))
+        if bad.any():
+            k = int(np.argmax(bad))
+            grids = [int(g) for g in self.ids[nodes[k]]]
+            raise self.err(f"{card} {int(eids[k])}: zero-area, degenerate or concave element "
+                           f"(grids {grids})")
 
     def _quad(self, e):
         eid = e.eid

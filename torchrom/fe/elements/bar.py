@@ -32,7 +32,7 @@ def _to_basic(R: np.ndarray, K: np.ndarray) -> np.ndarray:
     Tr = np.zeros((n, 12, 12))
     for b in range(4):
         Tr[:, 3 * b : 3 * b + 3, 3 * b : 3 * b + 3] = R
-    return np.einsum("nki,nkl,nlj->nij", Tr, K, Tr)
+    return Tr.transpose(0, 2, 1) @ K @ Tr
 
 
 def bar_dofs(nodes: np.ndarray) -> np.ndarray:
