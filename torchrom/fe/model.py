@@ -31,7 +31,13 @@ from .assembly import ProjectedPattern, assemble, project
 from .constraints import COMPONENT, build_constraints, drop_free
 from .elements.bar import bar_mass_blocks, bar_stiffness_blocks
 from .elements.green import GreenKernel, GreenPoints
-from .elements.quad4 import area_mass_blocks, bending_blocks, pressure_forces, quad_frames
+from .elements.quad4 import (
+    area_mass_blocks,
+    bending_blocks,
+    membrane_points,
+    pressure_forces,
+    quad_frames,
+)
 from .elements.rod import rod_mass_blocks, rod_points, rod_torsion_blocks
 from .elements.shear import shear_mass_blocks, shear_points
 from .mass import cmass2_blocks, conm2_blocks
@@ -100,8 +106,6 @@ class FEModel:
             groups.append(rod_points(mesh.rods, mesh.xyz))
         quad_like = []
         if len(mesh.quads):
-            from .elements.quad4 import membrane_points
-
             quad_like.append(membrane_points(mesh.quads, mesh.xyz))
         if len(mesh.shears):
             quad_like.append(shear_points(mesh.shears, mesh.xyz))
@@ -124,6 +128,9 @@ class FEModel:
         K_all0 = self._linear_all(kernels0)
         self.autospc: list[tuple[int, int]] = []
         if autospc:
+            # Nastran's AUTOSPC: free DOFs whose linear stiffness diagonal is zero (relative to
+            # the largest of their kind) are constrained, e.g. the rotations of membrane-only or
+            # rod-only grids, or the out-of-plane translations of a planar rod/shear structure.
             Kf = project(K_all0, cons.T)
             d = np.abs(Kf.diagonal())
             drop = []
@@ -147,8 +154,8 @@ class FEModel:
         self._free_index = {(int(g), int(c)): k for k, (g, c) in enumerate(cons.free)}
 
         self._K_lin_free = project(K_all0, self.T)
-        # The nonlinear-only part of K0 is re-assembled through the pattern each time; the
-        # constant linear parts are added as fixed entries of the same pattern.
+        # Tangents = constant linear part (bending, drilling, torsion, CBAR) + the Green-strain
+        # point blocks scattered through precomputed patterns (assembly.ProjectedPattern).
         self._const = assemble(self._lin_parts, self.n_all)
         self._K_const_free = project(self._const, self.T)
         self._patterns = [ProjectedPattern(p.dof_index(), self.T) for p in self._points]
