@@ -13,12 +13,13 @@ import json
 
 import numpy as np
 import pytest
-from fe_decks import model_of, new_deck
 
 from torchrom.cli import main
 from torchrom.errors import InputError
 from torchrom.fe import goland, read_bdf, write_bdf
 from torchrom.fe.bdf_read import UnsupportedCardWarning
+
+from .fe_decks import model_of, new_deck
 
 PT145 = "nastran/pt145.bdf"
 

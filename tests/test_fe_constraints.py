@@ -8,9 +8,10 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from fe_decks import model_of, new_deck, rotation
 
 from torchrom.errors import InputError
+
+from .fe_decks import model_of, new_deck, rotation
 
 
 def _rigid_free_vector(fe, t, w, grids=None):

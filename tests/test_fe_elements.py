@@ -10,7 +10,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 import torch
-from fe_decks import model_of, new_deck, rotation, single_element
+
+from .fe_decks import model_of, new_deck, rotation, single_element
 
 KINDS = ["rod", "membrane", "shear"]
 

@@ -15,9 +15,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 import torch
-from fe_decks import flange_web_beam, model_of, new_deck, plate_strip, two_bar_truss
 
 from torchrom.fe.solvers import _dense_modes
+
+from .fe_decks import flange_web_beam, model_of, new_deck, plate_strip, two_bar_truss
 
 BETA = (1.8751040687, 4.6940911330)  # cantilever eigenvalues β_n L
 
