@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 
 import numpy as np
 
@@ -20,7 +20,7 @@ from .._version import __version__
 from ..errors import InputError
 from ..rom import NonlinearROM
 from .backend import FEBackend
-from .basis import Basis, DualModeOptions, dual_basis, linear_basis
+from .basis import PAPER_COMBINATIONS, Basis, DualModeOptions, dual_basis, linear_basis
 from .damping import (
     DampingIdentification,
     DecompositionOptions,
@@ -107,6 +107,10 @@ class IdentificationResult:
                 out[f"damping_min_eig_scaled_{key}"] = d[key]["min_eigenvalue_scaled"]
                 out[f"damping_min_eig_{key}"] = d[key]["min_eigenvalue"]
             out["damping_enforcement"] = d["enforcement"]["method"]
+            out["damping_decomposition_reproduction_error_K2"] = d[
+                "decomposition_reproduction_error_K2"]
+            out["damping_decomposition_reproduction_error_K3"] = d[
+                "decomposition_reproduction_error_K3"]
             out["damping_reproduction_error_K2"] = d["reproduction_error_K2"]
             out["damping_reproduction_error_K3"] = d["reproduction_error_K3"]
         else:
@@ -153,7 +157,13 @@ def identify(fe, options: IdentifyOptions | None = None,
     timings["linear_modes"] = time.perf_counter() - t0
     if opt.n_dual > 0:
         t1 = time.perf_counter()
-        basis = dual_basis(be, basis, opt.n_dual, opt.dual, progress=stage("dual modes"))
+        dual_opt = opt.dual
+        if dual_opt.combinations == PAPER_COMBINATIONS and opt.n_linear < 5:
+            # the paper's combinations need modes 1..5: keep those within the basis
+            dual_opt = replace(dual_opt, combinations=tuple(
+                c for c in PAPER_COMBINATIONS if max(c) <= opt.n_linear))
+            opt = replace(opt, dual=dual_opt)
+        basis = dual_basis(be, basis, opt.n_dual, dual_opt, progress=stage("dual modes"))
         timings["dual_modes"] = time.perf_counter() - t1
     Phi = basis.Phi
     amps = identification_amplitudes(Phi, opt.amplitude, be.reference_length,

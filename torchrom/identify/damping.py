@@ -597,6 +597,10 @@ def _optimum_decomposition(K1: np.ndarray, K2: np.ndarray, K3: np.ndarray,
     report["stages"] = stages
     report["after_subsets"] = dict(zip(("min_eigenvalue_scaled", "min_eigenvalue"),
                                        report_eigs(m)))
+    Gs, Hs = _tensors_from_values(st, m.numpy() / fs)
+    K2d, K3d = cv.stiffness_from_gram(torch.as_tensor(Gs), torch.as_tensor(Hs))
+    report["decomposition_reproduction_error_K2"] = _rel_spread(K2d.numpy(), K2s)
+    report["decomposition_reproduction_error_K3"] = _rel_spread(K3d.numpy(), K3s)
     # never less positive than the particular solution, and at least semidefinite (+ margin)
     floor = max(opt.margin, report["symmetric_split"]["min_eigenvalue_scaled"])
     m, report["enforcement"] = _enforce_psd(st, K1hat, m, alpha_hat, b, floor,

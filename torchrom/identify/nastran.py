@@ -91,6 +91,22 @@ class DofMap:
         return self.T.T @ K @ self.T
 
 
+def write_bulk_include(fe, path, *, force: bool = False) -> Path:
+    """The bulk data of a ``torchrom.fe`` model's deck (no executive/case control), to be
+    INCLUDEd by the decks written here."""
+    if getattr(fe, "bdf", None) is None:
+        raise InputError(f"write_bulk_include: model {getattr(fe, 'name', '')!r} has no deck")
+    buf = io.StringIO()
+    with contextlib.redirect_stdout(io.StringIO()), warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        fe.bdf.write_bdf(buf, size=16, is_double=True, enddata=False, close=False)
+    text = buf.getvalue()
+    start = text.upper().find("BEGIN BULK")
+    if start >= 0:
+        text = text[text.index("\n", start) + 1:]
+    return _write_text(path, text, force)
+
+
 def _new_bdf():
     from pyNastran.bdf.bdf import BDF
 
