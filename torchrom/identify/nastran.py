@@ -323,7 +323,10 @@ def write_op2_results(path, dofmap: DofMap, displacements=None, spc_forces=None,
             G[pos] = r
             table[isub] = cls.add_static_case(name, ngt, G.reshape(1, -1, 6), isub,
                                               is_sort1=True)
-    with atomic_path(path) as tmp, contextlib.redirect_stdout(io.StringIO()):
+    with atomic_path(path) as tmp, contextlib.redirect_stdout(io.StringIO()), \
+            warnings.catch_warnings():
+        # pyNastran warns when it stores float64 results in single precision: that is the format
+        warnings.simplefilter("ignore")
         op2.write_op2(str(tmp), post=-1, endian=b"<", nastran_format="msc")
     return path
 
