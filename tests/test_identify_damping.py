@@ -97,8 +97,9 @@ def test_decomposition_subset_stages_improve_each_subset():
     d = optimum_decomposition(rom.K1.numpy(), rom.K2.numpy(), rom.K3.numpy(),
                               DecompositionOptions(iterations=80))
     st = d.report["stages"]
-    assert set(st) == {"pairs", "triples", "quadruples"}
+    assert set(st) == {"pairs", "triples", "quadruples", "whole"}
     # parameter counts of NOTES-damping: G null space n(n+1)(n-1)/3 = 20, H null space 20
-    assert sum(s["parameters"] for s in st.values()) == 20 + 20
+    assert sum(st[k]["parameters"] for k in ("pairs", "triples", "quadruples")) == 20 + 20
+    assert st["whole"]["parameters"] == 40
     for s in st.values():
         assert s["min_eigenvalue_after"] >= s["min_eigenvalue_before"]

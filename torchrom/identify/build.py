@@ -103,7 +103,7 @@ class IdentificationResult:
         out.update({f"time_{k}_s": v for k, v in self.timings.items()})
         out.update({f"residual_{k}": v for k, v in self.stiffness.residuals.items()})
         if self.damping.method == "decomposition":
-            for key in ("symmetric_split", "after_subsets", "final"):
+            for key in ("symmetric_split", "after_subsets", "after_whole", "final"):
                 out[f"damping_min_eig_scaled_{key}"] = d[key]["min_eigenvalue_scaled"]
                 out[f"damping_min_eig_{key}"] = d[key]["min_eigenvalue"]
             out["damping_enforcement"] = d["enforcement"]["method"]
