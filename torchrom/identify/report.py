@@ -116,6 +116,8 @@ def write_report(result, backend, directory, *, gamma: float = 1e-3, cycles: int
         curves[shape] = c
         for k, e in c.errors.items():
             numbers[f"static_{shape}_{k}_max_rel_error"] = e
+        for k, e in c.error_table(max_tip_pct=15.0).items():
+            numbers[f"static_{shape}_{k}_max_rel_error_tip_le_15pct"] = e
         numbers[f"static_{shape}_max_tip_pct_span"] = float(c.tip_pct_span.max())
     if curves:
         _static_figure(curves, directory / "static.png")
@@ -195,6 +197,8 @@ def _markdown(result, curves, dec, numbers) -> str:
         for shape, c in curves.items():
             for k, e in c.errors.items():
                 lines.append(f"| {shape} | {k} | {_fmt(e)} | {c.tip_pct_span.max():.1f} |")
+            for k, e in c.error_table(max_tip_pct=15.0).items():
+                lines.append(f"| {shape} | {k} | {_fmt(e)} | ≤ 15 |")
     if dec is not None:
         m = dec.metrics
         lines += ["", f"## Free decay (γ = {dec.gamma:g} s, {dec.cycles} cycles)", "",

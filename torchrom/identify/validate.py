@@ -116,13 +116,17 @@ class StaticCurve:
     rom: dict[str, np.ndarray]
     errors: dict[str, float] = field(default_factory=dict)
 
-    def error_table(self, min_tip_pct: float = 1.0) -> dict[str, float]:
-        """Largest |ROM − FE| / |FE| per output over levels with tip ≥ min_tip_pct % of span."""
-        sel = self.tip_pct_span >= min_tip_pct
+    def error_table(self, min_tip_pct: float = 1.0, max_tip_pct: float = np.inf
+                    ) -> dict[str, float]:
+        """Largest |ROM − FE| / |FE| per output over the levels with min_tip_pct ≤ tip ≤
+        max_tip_pct (% of span). Values of an output below 1e-6 of the largest transverse one
+        (e.g. Tx of a symmetric FE response, ~1e-13) are not divided by: NaN if none is left."""
+        sel = (self.tip_pct_span >= min_tip_pct) & (self.tip_pct_span <= max_tip_pct)
+        ref = max(np.abs(self.fe["A_Tz"]).max(), 1e-300)
         out = {}
         for k in self.fe:
             fe, ro = self.fe[k][sel], self.rom[k][sel]
-            big = np.abs(fe) > 1e-12 * max(np.abs(self.fe[k]).max(), 1e-300)
+            big = np.abs(fe) > 1e-6 * ref
             out[k] = float(np.max(np.abs(ro[big] - fe[big]) / np.abs(fe[big]))) if big.any() \
                 else float("nan")
         return out
