@@ -1,0 +1,221 @@
+"""From an FE model to ``AeroData`` (GAF + RFA) and to flutter results: the Python API.
+
+Hand-written glue: modes from the FE model (:mod:`torchrom.fe`), box motion through a spline
+(:mod:`torchrom.aero.splines`), DLM GAFs (:mod:`torchrom.aero.dlm`, PanelAero), the RFA
+(:mod:`torchrom.aero.rfa`) and the matched-point flutter solvers (:mod:`torchrom.aero.flutter`).
+
+For a deck with CAERO1/SPLINE cards the deck's boxes and splines are used; otherwise the built-in
+Goland planform (chord 6 ft, semispan 20 ft, LE at x = 0, mirrored to full span) with an
+infinite-plate spline over the structural grids that lie in the planform.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import InputError
+from .dlm import BoxMotion, compute_gaf
+from .files import AeroData
+from .flutter import (
+    AeroTable,
+    MatchedPointResult,
+    ModalStructure,
+    flutter_altitude_pk,
+    flutter_altitude_state_space,
+)
+from .panels import GOLAND_CHORD_FT, GOLAND_SEMISPAN_FT, AeroPanels, goland_panels, goland_reference
+from .rfa import fit_minimum_state, fit_roger
+from .splines import PlateSpline
+
+#: reduced frequencies (k = ω b / V) of the Goland GAF table; the paper's flutter point has
+#: k ≈ 0.05 and the 9th mode (29 Hz) at 4,000 ft reaches k ≈ 0.7
+GOLAND_K_LIST = (
+    0.0,
+    0.001,
+    0.005,
+    0.01,
+    0.02,
+    0.03,
+    0.04,
+    0.05,
+    0.06,
+    0.08,
+    0.1,
+    0.125,
+    0.15,
+    0.2,
+    0.25,
+    0.3,
+    0.4,
+    0.5,
+    0.6,
+    0.8,
+    1.0,
+)
+
+#: paper's baseline Rayleigh damping (Eq. 46): α0 (1/s), β0 = γ (s) with D̄1 = K1
+BASELINE_ALPHA = 0.2565
+BASELINE_GAMMA = 1.338e-4
+
+#: paper's reference results at Mach 0.70 (Sec. III.C, Table 3)
+PAPER_FLUTTER_ALTITUDE_FT = 11275.0
+PAPER_FLUTTER_FREQUENCY_HZ = 1.975
+PAPER_TABLE3 = {4000.0: 1.851, 6000.0: 1.881, 8000.0: 1.911, 10000.0: 1.945, 11000.0: 1.962}
+
+
+@dataclass
+class ModalData:
+    """Modes of an FE model on its grids: frequencies (m,) and displacements (m, n_grid, 6)."""
+
+    frequencies_hz: np.ndarray
+    grid_ids: np.ndarray
+    grid_xyz: np.ndarray
+    displacements: np.ndarray
+
+    def structure(self, alpha: float = 0.0, gamma: float = 0.0) -> ModalStructure:
+        """Mass-normalised modal structure M = I, K = diag ω², D̄1 = K (Rayleigh γ K)."""
+        w = 2 * np.pi * self.frequencies_hz
+        return ModalStructure(np.eye(len(w)), np.diag(w**2), alpha=alpha, gamma=gamma)
+
+
+def modal_data(fe, n_modes: int) -> ModalData:
+    modes = fe.modes(int(n_modes))
+    shapes = np.asarray(modes.shapes, dtype=float)
+    return ModalData(
+        frequencies_hz=np.asarray(modes.frequencies_hz, dtype=float),
+        grid_ids=np.asarray(fe.grid_ids),
+        grid_xyz=np.asarray(fe.grid_xyz, dtype=float),
+        displacements=np.asarray(fe.expand(shapes.T), dtype=float).reshape(shapes.shape[1], -1, 6),
+    )
+
+
+def planform_grid_mask(
+    grid_xyz, x_le=0.0, chord=GOLAND_CHORD_FT, semispan=GOLAND_SEMISPAN_FT, tol=1e-6
+) -> np.ndarray:
+    """Grids whose (x, y) lie inside the rectangular planform (the spline's structural points)."""
+    xyz = np.asarray(grid_xyz)
+    return (
+        (xyz[:, 0] >= x_le - tol)
+        & (xyz[:, 0] <= x_le + chord + tol)
+        & (xyz[:, 1] >= -tol)
+        & (xyz[:, 1] <= semispan + tol)
+    )
+
+
+def planform_box_motion(modes: ModalData, panels: AeroPanels, grid_mask=None) -> BoxMotion:
+    """Box motion of a mirrored (symmetric) or half model through an infinite-plate spline."""
+    mask = planform_grid_mask(modes.grid_xyz) if grid_mask is None else np.asarray(grid_mask)
+    if mask.sum() < 3:
+        raise InputError("aero spline: fewer than three structural grids inside the planform")
+    spline = PlateSpline(modes.grid_xyz[mask])
+    half = ~panels.mirrored
+    src = np.flatnonzero(half)
+    u = modes.displacements[:, mask, :].reshape(len(modes.frequencies_hz), -1)
+    hl, _ = spline.operators(panels.doublet_points[src])
+    hc, hx = spline.operators(panels.control_points[src])
+    # Values per half-model box (``src`` is in half-model order), spread to the image boxes
+    # (symmetric shapes).
+    return BoxMotion(
+        panels.box_motion(u @ hl.T), panels.box_motion(u @ hc.T), panels.box_motion(u @ hx.T)
+    )
+
+
+def build_from_modes(
+    modes: ModalData,
+    mach: float = 0.7,
+    n_lags: int = 13,
+    k_list=GOLAND_K_LIST,
+    panels: AeroPanels | None = None,
+    semichord: float | None = None,
+    kernel: str = "quartic",
+    rfa_kind: str = "minimum-state",
+    optimize_roots: bool = False,
+    progress=None,
+) -> AeroData:
+    """GAF + RFA on the given modes over the built-in Goland planform (or given panels)."""
+    panels = goland_panels() if panels is None else panels
+    b = goland_reference().semichord if semichord is None else float(semichord)
+    motion = planform_box_motion(modes, panels)
+    gaf = compute_gaf(panels, motion, mach, k_list, b, kernel, progress=progress)
+    if rfa_kind == "minimum-state":
+        rfa = fit_minimum_state(gaf, n_lags=n_lags, optimize_roots=optimize_roots)
+    elif rfa_kind == "roger":
+        rfa = fit_roger(gaf, n_lags=n_lags)
+    else:
+        raise InputError(f"aero: rfa: expected 'minimum-state' or 'roger', got {rfa_kind!r}")
+    meta = {
+        "frequencies_hz": modes.frequencies_hz.tolist(),
+        "n_boxes": int(panels.n),
+        "n_lags": int(n_lags),
+        "units": "ft, slug, s",
+    }
+    return AeroData(gaf, rfa, meta)
+
+
+def build(
+    fe,
+    mach: float = 0.7,
+    n_modes: int = 9,
+    n_lags: int = 13,
+    k_list=GOLAND_K_LIST,
+    panels: AeroPanels | None = None,
+    kernel: str = "quartic",
+    rfa_kind: str = "minimum-state",
+    progress=None,
+) -> AeroData:
+    """``tr.aero.build(fe, mach=0.7, n_modes=9, n_lags=13)`` (DESIGN Python API)."""
+    modes = modal_data(fe, n_modes)
+    data = build_from_modes(
+        modes, mach, n_lags, k_list, panels, None, kernel, rfa_kind, progress=progress
+    )
+    data.metadata["source"] = str(getattr(fe, "source", ""))
+    return data
+
+
+def flutter_altitude(
+    rom_or_structure,
+    aero: AeroData,
+    mach: float | None = None,
+    alpha: float = BASELINE_ALPHA,
+    gamma: float = BASELINE_GAMMA,
+    alt_range=(0.0, 40000.0),
+    method: str = "state-space",
+    units: str = "ft",
+    n_grid: int = 41,
+) -> MatchedPointResult:
+    """Flutter altitude at fixed Mach (DESIGN Python API): ``method`` 'state-space' or 'p-k'."""
+    if isinstance(rom_or_structure, ModalStructure):
+        st = rom_or_structure.with_damping(alpha, gamma)
+    else:
+        st = ModalStructure.from_rom(rom_or_structure, aero.n_modes, alpha, gamma)
+    mach = aero.mach if mach is None else float(mach)
+    if abs(mach - aero.mach) > 1e-9:
+        raise InputError(
+            f"flutter: mach {mach:g} differs from the GAF Mach {aero.mach:g} of the aero file"
+        )
+    if method == "state-space":
+        return flutter_altitude_state_space(st, aero.rfa, mach, alt_range, n_grid, units)
+    if method == "p-k":
+        return flutter_altitude_pk(st, AeroTable.from_gaf(aero.gaf), mach, alt_range, n_grid, units)
+    raise InputError(f"flutter: method: expected 'state-space' or 'p-k', got {method!r}")
+
+
+def structure_from_rom_file(path, n_modes: int, alpha: float, gamma: float) -> ModalStructure:
+    """Linear part (M, K1, D1) of a ``rom.npz`` (DESIGN contract arrays) on its first m modes."""
+    path = Path(path)
+    if not path.is_file():
+        raise InputError(f"{path}: ROM file not found")
+    z = np.load(path, allow_pickle=False)
+    for key in ("M", "K1"):
+        if key not in z.files:
+            raise InputError(f"{path}: array {key!r} missing (not a rom.npz file?)")
+    m = int(n_modes)
+    if z["M"].shape[0] < m:
+        raise InputError(
+            f"{path}: the ROM has {z['M'].shape[0]} basis functions, the aero file {m} modes"
+        )
+    d1 = z["D1"][:m, :m] if "D1" in z.files else None
+    return ModalStructure(z["M"][:m, :m], z["K1"][:m, :m], D1=d1, alpha=alpha, gamma=gamma)
