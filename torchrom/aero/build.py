@@ -140,12 +140,7 @@ def build_from_modes(
     b = goland_reference().semichord if semichord is None else float(semichord)
     motion = planform_box_motion(modes, panels)
     gaf = compute_gaf(panels, motion, mach, k_list, b, kernel, progress=progress)
-    if rfa_kind == "minimum-state":
-        rfa = fit_minimum_state(gaf, n_lags=n_lags, optimize_roots=optimize_roots)
-    elif rfa_kind == "roger":
-        rfa = fit_roger(gaf, n_lags=n_lags)
-    else:
-        raise InputError(f"aero: rfa: expected 'minimum-state' or 'roger', got {rfa_kind!r}")
+    rfa = _fit(gaf, n_lags, rfa_kind, optimize_roots)
     meta = {
         "frequencies_hz": modes.frequencies_hz.tolist(),
         "n_boxes": int(panels.n),
@@ -173,6 +168,55 @@ def build(
     )
     data.metadata["source"] = str(getattr(fe, "source", ""))
     return data
+
+
+def build_from_deck(
+    path,
+    fe,
+    mach: float,
+    n_modes: int,
+    n_lags: int = 13,
+    k_list=None,
+    kernel: str = "quartic",
+    rfa_kind: str = "minimum-state",
+    progress=None,
+) -> AeroData:
+    """GAF + RFA with the deck's CAERO1 boxes and SPLINE1/SPLINE2 cards (AERO SYMXZ honoured).
+
+    Default reduced frequencies: the deck's MKAERO values at the nearest Mach number (k = 0 is
+    always added for the A0 = Q(0) constraint), else :data:`GOLAND_K_LIST`.
+    """
+    from .nastran_flutter import load_deck
+
+    deck = load_deck(path, require_flutter=False)
+    modes = modal_data(fe, n_modes)
+    motion = deck.box_motion(modes.grid_ids, modes.displacements)
+    if k_list is None:
+        if deck.mkaero:
+            near = min({m for m, _ in deck.mkaero}, key=lambda m: abs(m - mach))
+            k_list = [k for m, k in deck.mkaero if m == near]
+        else:
+            k_list = GOLAND_K_LIST
+    k_list = sorted({0.0, *(float(k) for k in k_list)})
+    gaf = compute_gaf(
+        deck.aero_panels, motion, mach, k_list, deck.reference.semichord, kernel, progress=progress
+    )
+    rfa = _fit(gaf, n_lags, rfa_kind, False)
+    meta = {
+        "frequencies_hz": modes.frequencies_hz.tolist(),
+        "n_boxes": int(deck.aero_panels.n),
+        "n_lags": int(n_lags),
+        "source": str(path),
+    }
+    return AeroData(gaf, rfa, meta)
+
+
+def _fit(gaf, n_lags, rfa_kind, optimize_roots):
+    if rfa_kind == "minimum-state":
+        return fit_minimum_state(gaf, n_lags=n_lags, optimize_roots=optimize_roots)
+    if rfa_kind == "roger":
+        return fit_roger(gaf, n_lags=n_lags)
+    raise InputError(f"aero: rfa: expected 'minimum-state' or 'roger', got {rfa_kind!r}")
 
 
 def flutter_altitude(

@@ -686,3 +686,30 @@ def refine_pk_crossings(
             )
         )
     return out
+
+
+def pk_matched_sweep(
+    structure, aero: AeroTable, mach, altitudes, units="ft", start_altitude=None, eps: float = 1e-7
+) -> ModeSweep:
+    """p-k along a matched-point path through ``altitudes`` (sorted high to low internally).
+
+    ``start_altitude`` (optional, above the others) is where tracking starts from the in-vacuo
+    modes; the returned sweep holds only the requested altitudes, high to low.
+    """
+    h = np.sort(np.atleast_1d(np.asarray(altitudes, dtype=float)))[::-1]
+    path = h if start_altitude is None else np.r_[float(start_altitude), h]
+    fc = flight_condition(mach, path, units)
+    sweep = pk_sweep(structure, aero, fc.velocity, fc.density, altitudes=path, mach=mach, eps=eps)
+    if start_altitude is None:
+        return sweep
+    keep = slice(1, None)
+    return replace(
+        sweep,
+        velocity=sweep.velocity[keep],
+        density=sweep.density[keep],
+        eigenvalues=sweep.eigenvalues[keep],
+        k=sweep.k[keep],
+        damping=sweep.damping[keep],
+        altitude=sweep.altitude[keep],
+        vectors=sweep.vectors[keep],
+    )

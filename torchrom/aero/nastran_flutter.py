@@ -155,7 +155,7 @@ def _spline_defs(model, path: Path, panels: AeroPanels) -> list[SplineDef]:
             raise InputError(f"{where}: only SPLINE1 and SPLINE2 are supported")
         if sp.caero not in model.caeros:
             raise InputError(f"{where}: CAERO1 {sp.caero} not found")
-        b1, b2 = (sp.box1, sp.box2) if sp.type == "SPLINE1" else (sp.id1, sp.id2)
+        b1, b2 = sp.box1, sp.box2
         box_index = np.flatnonzero(
             (panels.caero_ids == sp.caero) & (panels.box_ids >= b1) & (panels.box_ids <= b2)
         )
@@ -192,8 +192,12 @@ def _spline_defs(model, path: Path, panels: AeroPanels) -> list[SplineDef]:
     return defs
 
 
-def load_deck(path) -> FlutterDeck:
-    """Read and check the aeroelastic part of a deck (everything except the modal solution)."""
+def load_deck(path, require_flutter: bool = True) -> FlutterDeck:
+    """Read and check the aeroelastic part of a deck (everything except the modal solution).
+
+    ``require_flutter=False`` accepts a deck with aerodynamic boxes and splines but no FLUTTER
+    cards (to build GAFs only).
+    """
     path = Path(path)
     model = read_model(path)
     if not model.caeros:
@@ -216,7 +220,7 @@ def load_deck(path) -> FlutterDeck:
             mkaero += [(float(m), float(k)) for m, k in zip(mk.machs, mk.reduced_freqs)]
 
     fmethods = _case_ids(model, "FMETHOD") or sorted(model.flutters)
-    if not fmethods:
+    if not fmethods and require_flutter:
         raise InputError(f"{path}: FLUTTER: no flutter card (and no FMETHOD in case control)")
     cases = []
     for sid in fmethods:
@@ -257,7 +261,7 @@ def load_deck(path) -> FlutterDeck:
             )
         )
 
-    n_modes, frange = _mode_count(model, path)
+    n_modes, frange = _mode_count(model, path) if require_flutter else (None, (0.0, None))
     vref = float(model.params["VREF"].values[0]) if "VREF" in model.params else 1.0
     title = ""
     cc = model.case_control_deck

@@ -2,6 +2,14 @@
 
 # Order in ``torchrom --help``; commands not listed come after, alphabetically.
 ORDER = [
-    "paper", "goland", "modes", "identify", "aero", "flutter", "sweep", "plot",
-    "calibrate", "bifurcation",
+    "paper",
+    "goland",
+    "modes",
+    "identify",
+    "aero",
+    "flutter",
+    "sweep",
+    "plot",
+    "calibrate",
+    "bifurcation",
 ]

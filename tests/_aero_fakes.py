@@ -1,0 +1,76 @@
+"""Stand-ins for FE models (modes given in closed form) used by the aero tests.
+
+They implement the part of the FEModel contract (COMMON.md) the aero code uses: grid_ids,
+grid_xyz, n_dof, expand(u) and modes(n) -> (frequencies_hz, shapes mass-normalised, kinds).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+
+@dataclass
+class Modes:
+    frequencies_hz: np.ndarray
+    shapes: np.ndarray
+    kinds: list
+
+
+class ClosedFormFE:
+    """Grids with prescribed 6-DOF mode shapes (n_modes, n_grid, 6) and frequencies."""
+
+    def __init__(self, grid_ids, grid_xyz, frequencies_hz, mode_fields, source="closed-form"):
+        self.grid_ids = np.asarray(grid_ids)
+        self.grid_xyz = np.asarray(grid_xyz, dtype=float)
+        self._f = np.asarray(frequencies_hz, dtype=float)
+        self._fields = np.asarray(mode_fields, dtype=float)
+        self.n_dof = self.grid_ids.size * 6
+        self.source = source
+
+    def expand(self, u):
+        u = np.asarray(u)
+        return u.reshape(*u.shape[:-1], len(self.grid_ids), 6)
+
+    def modes(self, n):
+        n = min(n, len(self._f))
+        shapes = self._fields[:n].reshape(n, -1).T
+        return Modes(self._f[:n], shapes, ["closed-form"] * n)
+
+
+def beam_fe(grid_ids, grid_xyz, axes, frequencies_hz=(20.0, 60.0, 120.0),
+            generalized_masses=(1.0, 1.0, 1.0)):
+    """Cantilever beam along axes[1] (rows: x, y, z unit vectors in basic), root at grid 0.
+
+    Modes: bending w = (s/L)², torsion θ = s/L, second bending w = (s/L)³ (about the beam's
+    y axis for torsion, its x axis for the bending slope), scaled by 1/sqrt(generalized mass)
+    so that they are mass-normalised for the structure they stand for.
+    """
+    xyz = np.asarray(grid_xyz, dtype=float)
+    ex, ey, ez = np.asarray(axes, dtype=float)
+    s = (xyz - xyz[0]) @ ey
+    L = s.max()
+    fields = np.zeros((3, len(s), 6))
+    fields[0, :, :3] = np.outer((s / L) ** 2, ez)
+    fields[0, :, 3:] = np.outer(2 * s / L**2, ex)
+    fields[1, :, 3:] = np.outer(s / L, ey)
+    fields[2, :, :3] = np.outer((s / L) ** 3, ez)
+    fields[2, :, 3:] = np.outer(3 * s**2 / L**3, ex)
+    fields /= np.sqrt(np.asarray(generalized_masses, dtype=float))[:, None, None]
+    return ClosedFormFE(grid_ids, xyz, frequencies_hz, fields)
+
+
+def plate_fe(nx=3, ny=11, chord=4.0, span=20.0, frequencies_hz=(1.7, 3.1)):
+    """Goland-like box grid (x 0..chord, y 0..span, top and bottom skins) with a bending mode and
+    a torsion mode about x = chord / 2."""
+    gx, gy = np.meshgrid(np.linspace(0, chord, nx), np.linspace(0, span, ny))
+    top = np.c_[gx.ravel(), gy.ravel(), np.full(gx.size, 1 / 6)]
+    xyz = np.r_[top, top * [1, 1, -1]]
+    y, x = xyz[:, 1] / span, xyz[:, 0] - chord / 2
+    fields = np.zeros((2, len(xyz), 6))
+    fields[0, :, 2] = y**2
+    fields[0, :, 3] = 2 * y / span
+    fields[1, :, 2] = -x * y  # nose-up twist θ = y/span about the mid-box line
+    fields[1, :, 4] = y
+    return ClosedFormFE(np.arange(1, len(xyz) + 1), xyz, frequencies_hz, fields)
