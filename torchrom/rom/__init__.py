@@ -1,0 +1,16 @@
+"""The nonlinear reduced-order model: tensors, conventions, compact kernels, ``rom.npz``."""
+
+from . import conventions
+from .model import NonlinearROM
+from .monomials import MonomialIndex, monomial_index
+from .storage import FORMAT_VERSION, load_rom, save_rom
+
+__all__ = [
+    "NonlinearROM",
+    "conventions",
+    "monomial_index",
+    "MonomialIndex",
+    "save_rom",
+    "load_rom",
+    "FORMAT_VERSION",
+]
