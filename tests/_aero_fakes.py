@@ -61,9 +61,11 @@ def beam_fe(grid_ids, grid_xyz, axes, frequencies_hz=(20.0, 60.0, 120.0),
     return ClosedFormFE(grid_ids, xyz, frequencies_hz, fields)
 
 
-def plate_fe(nx=3, ny=11, chord=4.0, span=20.0, frequencies_hz=(1.7, 3.1)):
+def plate_fe(nx=3, ny=11, chord=4.0, span=20.0, frequencies_hz=(1.7, 3.1),
+             generalized_masses=(50.0, 190.0)):
     """Goland-like box grid (x 0..chord, y 0..span, top and bottom skins) with a bending mode and
-    a torsion mode about x = chord / 2."""
+    a torsion mode about x = chord / 2, mass-normalised for the given generalized masses (the
+    defaults are those of w = (y/L)² and θ = y/L on a 12.5 slug/ft wing with I_α ≈ 28 slug·ft)."""
     gx, gy = np.meshgrid(np.linspace(0, chord, nx), np.linspace(0, span, ny))
     top = np.c_[gx.ravel(), gy.ravel(), np.full(gx.size, 1 / 6)]
     xyz = np.r_[top, top * [1, 1, -1]]
@@ -73,4 +75,5 @@ def plate_fe(nx=3, ny=11, chord=4.0, span=20.0, frequencies_hz=(1.7, 3.1)):
     fields[0, :, 3] = 2 * y / span
     fields[1, :, 2] = -x * y  # nose-up twist θ = y/span about the mid-box line
     fields[1, :, 4] = y
+    fields /= np.sqrt(np.asarray(generalized_masses, dtype=float))[:, None, None]
     return ClosedFormFE(np.arange(1, len(xyz) + 1), xyz, frequencies_hz, fields)

@@ -4,11 +4,12 @@ import re
 
 import numpy as np
 import pytest
-from _aero_fakes import beam_fe
 
 from torchrom.aero.nastran_flutter import format_deck_result, load_deck, run_deck
 from torchrom.aero.panels import read_model
 from torchrom.errors import InputError
+
+from ._aero_fakes import beam_fe
 
 
 def _field8(*fields):

@@ -12,7 +12,6 @@ infinite-plate spline over the structural grids that lie in the planform.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from pathlib import Path
 
 import numpy as np
 
@@ -28,7 +27,7 @@ from .flutter import (
 )
 from .panels import GOLAND_CHORD_FT, GOLAND_SEMISPAN_FT, AeroPanels, goland_panels, goland_reference
 from .rfa import fit_minimum_state, fit_roger
-from .splines import PlateSpline
+from .splines import PlateSpline, SectionSpline
 
 #: reduced frequencies (k = ω b / V) of the Goland GAF table; the paper's flutter point has
 #: k ≈ 0.05 and the 9th mode (29 Hz) at 4,000 ft reaches k ≈ 0.7
@@ -105,17 +104,31 @@ def planform_grid_mask(
     )
 
 
-def planform_box_motion(modes: ModalData, panels: AeroPanels, grid_mask=None) -> BoxMotion:
-    """Box motion of a mirrored (symmetric) or half model through an infinite-plate spline."""
+SPLINES = ("section", "plate")
+
+
+def planform_box_motion(modes: ModalData, panels: AeroPanels, grid_mask=None,
+                        spline: str = "section") -> BoxMotion:
+    """Box motion of a mirrored (symmetric) or half model from the structural grids' T3.
+
+    ``spline``: "section" (chordwise-rigid strips, the wing box has rigid ribs; exact chordwise
+    extrapolation from the 4 ft box to the 6 ft chord) or "plate" (infinite-plate spline).
+    """
     mask = planform_grid_mask(modes.grid_xyz) if grid_mask is None else np.asarray(grid_mask)
     if mask.sum() < 3:
         raise InputError("aero spline: fewer than three structural grids inside the planform")
-    spline = PlateSpline(modes.grid_xyz[mask])
+    if spline == "section":
+        xyz = modes.grid_xyz[mask]
+        spline_op = SectionSpline(xyz, x_ref=float(np.mean(xyz[:, 0])))
+    elif spline == "plate":
+        spline_op = PlateSpline(modes.grid_xyz[mask])
+    else:
+        raise InputError(f"aero spline: expected one of {SPLINES}, got {spline!r}")
     half = ~panels.mirrored
     src = np.flatnonzero(half)
     u = modes.displacements[:, mask, :].reshape(len(modes.frequencies_hz), -1)
-    hl, _ = spline.operators(panels.doublet_points[src])
-    hc, hx = spline.operators(panels.control_points[src])
+    hl, _ = spline_op.operators(panels.doublet_points[src])
+    hc, hx = spline_op.operators(panels.control_points[src])
     # Values per half-model box (``src`` is in half-model order), spread to the image boxes
     # (symmetric shapes).
     return BoxMotion(
@@ -134,17 +147,19 @@ def build_from_modes(
     rfa_kind: str = "minimum-state",
     optimize_roots: bool = False,
     progress=None,
+    spline: str = "section",
 ) -> AeroData:
     """GAF + RFA on the given modes over the built-in Goland planform (or given panels)."""
     panels = goland_panels() if panels is None else panels
     b = goland_reference().semichord if semichord is None else float(semichord)
-    motion = planform_box_motion(modes, panels)
+    motion = planform_box_motion(modes, panels, spline=spline)
     gaf = compute_gaf(panels, motion, mach, k_list, b, kernel, progress=progress)
     rfa = _fit(gaf, n_lags, rfa_kind, optimize_roots)
     meta = {
         "frequencies_hz": modes.frequencies_hz.tolist(),
         "n_boxes": int(panels.n),
         "n_lags": int(n_lags),
+        "spline": spline,
         "units": "ft, slug, s",
     }
     return AeroData(gaf, rfa, meta)
@@ -248,18 +263,12 @@ def flutter_altitude(
 
 
 def structure_from_rom_file(path, n_modes: int, alpha: float, gamma: float) -> ModalStructure:
-    """Linear part (M, K1, D1) of a ``rom.npz`` (DESIGN contract arrays) on its first m modes."""
-    path = Path(path)
-    if not path.is_file():
-        raise InputError(f"{path}: ROM file not found")
-    z = np.load(path, allow_pickle=False)
-    for key in ("M", "K1"):
-        if key not in z.files:
-            raise InputError(f"{path}: array {key!r} missing (not a rom.npz file?)")
-    m = int(n_modes)
-    if z["M"].shape[0] < m:
+    """Linear part (M, K1, D̄1) of a ``rom.npz`` (NonlinearROM) on its first m basis functions."""
+    from ..rom import NonlinearROM
+
+    rom = NonlinearROM.load(path)
+    if rom.n < n_modes:
         raise InputError(
-            f"{path}: the ROM has {z['M'].shape[0]} basis functions, the aero file {m} modes"
+            f"{path}: the ROM has {rom.n} basis functions, the aero file {n_modes} modes"
         )
-    d1 = z["D1"][:m, :m] if "D1" in z.files else None
-    return ModalStructure(z["M"][:m, :m], z["K1"][:m, :m], D1=d1, alpha=alpha, gamma=gamma)
+    return ModalStructure.from_rom(rom, n_modes, alpha, gamma)

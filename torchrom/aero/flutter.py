@@ -571,7 +571,8 @@ def flutter_altitude_pk(
     h = _altitude_grid(alt_range, n_grid)
     fc = flight_condition(mach, h, units)
     sweep = pk_sweep(structure, aero, fc.velocity, fc.density, altitudes=h, mach=mach, eps=eps)
-    g = sweep.damping
+    # Non-oscillatory roots (divergence) have g = ±inf and are not flutter crossings.
+    g = np.where(np.isfinite(sweep.damping), sweep.damping, np.nan)
     first = None
     for j in range(structure.n_modes):
         idx = np.flatnonzero((g[:-1, j] < 0) & (g[1:, j] >= 0))

@@ -343,8 +343,9 @@ def fit_minimum_state(
         gam = np.sort(np.exp(res.x))
 
     prob, (polys, d, e, _) = fit_for(gam, max_iter)
-    if polish:
-        x0 = prob.pack(polys, d, e)
+    x0 = prob.pack(polys, d, e)
+    # MINPACK's Levenberg–Marquardt needs at least as many residuals as unknowns.
+    if polish and 2 * len(prob.p) * prob.m * prob.m >= len(x0):
         sol = least_squares(
             prob.fun,
             x0,

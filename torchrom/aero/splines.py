@@ -222,3 +222,59 @@ class BeamSpline:
             h_sorted[:, inv, :].reshape(len(pts), n * 6),
             hx_sorted[:, inv, :].reshape(len(pts), n * 6),
         )
+
+
+@dataclass
+class SectionSpline:
+    """Chordwise-rigid strip spline for a wing box with rigid ribs (built-in Goland planform).
+
+    At every spanwise station (grids with the same y within ``tol``) the normal displacements are
+    fitted by least squares with a chordwise-rigid section, w = a + b (x - x_ref); a(y) and b(y)
+    are then interpolated spanwise by cubic splines (not-a-knot; linear extrapolation beyond the
+    end stations). A box point gets h = a(y) + b(y) (x - x_ref) and ∂h/∂x = b(y). Exact for
+    rigid sections whose deflection and twist are cubic in y; extrapolates chordwise exactly
+    (unlike a plate spline) beyond the structural box.
+    """
+
+    grid_xyz: np.ndarray
+    x_ref: float = 0.0
+    tol: float = 1e-6
+
+    def __post_init__(self):
+        self.grid_xyz = np.asarray(self.grid_xyz, dtype=float).reshape(-1, 3)
+        y = self.grid_xyz[:, 1]
+        key = np.round(y / self.tol).astype(np.int64)
+        stations, inverse = np.unique(key, return_inverse=True)
+        inverse = inverse.reshape(-1)
+        n_grid = len(y)
+        self._y = np.array([y[inverse == j].mean() for j in range(len(stations))])
+        if len(self._y) < 2:
+            raise InputError("section spline: needs structural grids at two or more span stations")
+        # per station: [a; b] = pinv([1, x - x_ref]) w_station
+        self._a = np.zeros((len(self._y), n_grid))
+        self._b = np.zeros((len(self._y), n_grid))
+        for j in range(len(self._y)):
+            idx = np.flatnonzero(inverse == j)
+            dx = self.grid_xyz[idx, 0] - self.x_ref
+            if np.ptp(dx) > self.tol:
+                coef = np.linalg.pinv(np.c_[np.ones(len(idx)), dx])
+                self._a[j, idx], self._b[j, idx] = coef[0], coef[1]
+            else:  # one chordwise position: deflection only
+                self._a[j, idx] = 1.0 / len(idx)
+
+    def _span(self, y):
+        s = self._y
+        n = len(s)
+        eye = np.eye(n)
+        spl = CubicSpline(s, eye, bc_type="not-a-knot" if n >= 4 else "natural")
+        inside = np.clip(y, s[0], s[-1])
+        return spl(inside) + (y - inside)[:, None] * spl(inside, 1)
+
+    def operators(self, points) -> tuple[np.ndarray, np.ndarray]:
+        """H, Hx (n_pts, n_grid*6) acting on the flattened (n_grid, 6) basic displacement field."""
+        pts = np.asarray(points, dtype=float).reshape(-1, 3)
+        span = self._span(pts[:, 1])  # (n_pts, n_stations)
+        a, b = span @ self._a, span @ self._b  # (n_pts, n_grid) from grid T3
+        h = a + (pts[:, 0] - self.x_ref)[:, None] * b
+        pick = np.kron(np.eye(len(self.grid_xyz)), np.array([[0.0, 0.0, 1.0, 0.0, 0.0, 0.0]]))
+        return h @ pick, b @ pick
