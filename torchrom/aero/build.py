@@ -67,12 +67,18 @@ PAPER_TABLE3 = {4000.0: 1.851, 6000.0: 1.881, 8000.0: 1.911, 10000.0: 1.945, 110
 
 @dataclass
 class ModalData:
-    """Modes of an FE model on its grids: frequencies (m,) and displacements (m, n_grid, 6)."""
+    """Modes of an FE model on its grids: frequencies (m,) and displacements (m, n_grid, 6).
+
+    ``element_grids``: mask of the grids that carry structural elements (None: all), so that
+    mass-only or rigid-element reference grids (e.g. the Goland store grid, an RBE3 reference
+    point at the store's chordwise position) do not enter the aerodynamic spline.
+    """
 
     frequencies_hz: np.ndarray
     grid_ids: np.ndarray
     grid_xyz: np.ndarray
     displacements: np.ndarray
+    element_grids: np.ndarray | None = None
 
     def structure(self, alpha: float = 0.0, gamma: float = 0.0) -> ModalStructure:
         """Mass-normalised modal structure M = I, K = diag ω², D̄1 = K (Rayleigh γ K)."""
@@ -83,12 +89,26 @@ class ModalData:
 def modal_data(fe, n_modes: int) -> ModalData:
     modes = fe.modes(int(n_modes))
     shapes = np.asarray(modes.shapes, dtype=float)
+    grid_ids = np.asarray(fe.grid_ids)
     return ModalData(
         frequencies_hz=np.asarray(modes.frequencies_hz, dtype=float),
-        grid_ids=np.asarray(fe.grid_ids),
+        grid_ids=grid_ids,
         grid_xyz=np.asarray(fe.grid_xyz, dtype=float),
         displacements=np.asarray(fe.expand(shapes.T), dtype=float).reshape(shapes.shape[1], -1, 6),
+        element_grids=_element_grid_mask(fe, grid_ids),
     )
+
+
+def _element_grid_mask(fe, grid_ids) -> np.ndarray | None:
+    """Grids connected to structural elements of the FE model's deck (``fe.bdf``), if known."""
+    deck = getattr(fe, "bdf", None)
+    elements = getattr(deck, "elements", None)
+    if not elements:
+        return None
+    ids = set()
+    for element in elements.values():
+        ids.update(int(n) for n in element.node_ids if n)
+    return np.isin(grid_ids, sorted(ids))
 
 
 def planform_grid_mask(
@@ -107,14 +127,20 @@ def planform_grid_mask(
 SPLINES = ("section", "plate")
 
 
-def planform_box_motion(modes: ModalData, panels: AeroPanels, grid_mask=None,
-                        spline: str = "section") -> BoxMotion:
+def planform_box_motion(
+    modes: ModalData, panels: AeroPanels, grid_mask=None, spline: str = "section"
+) -> BoxMotion:
     """Box motion of a mirrored (symmetric) or half model from the structural grids' T3.
 
     ``spline``: "section" (chordwise-rigid strips, the wing box has rigid ribs; exact chordwise
     extrapolation from the 4 ft box to the 6 ft chord) or "plate" (infinite-plate spline).
     """
-    mask = planform_grid_mask(modes.grid_xyz) if grid_mask is None else np.asarray(grid_mask)
+    if grid_mask is None:
+        mask = planform_grid_mask(modes.grid_xyz)
+        if modes.element_grids is not None:
+            mask &= modes.element_grids
+    else:
+        mask = np.asarray(grid_mask)
     if mask.sum() < 3:
         raise InputError("aero spline: fewer than three structural grids inside the planform")
     if spline == "section":

@@ -714,3 +714,15 @@ def pk_matched_sweep(
         altitude=sweep.altitude[keep],
         vectors=sweep.vectors[keep],
     )
+
+
+def growing_response_frequency_pk(
+    structure, aero: AeroTable, mach, altitudes, units="ft", start_altitude=None
+) -> np.ndarray:
+    """Frequency (Hz) of the least-damped p-k mode at each altitude (in the given order)."""
+    alts = np.atleast_1d(np.asarray(altitudes, dtype=float))
+    sweep = pk_matched_sweep(structure, aero, mach, alts, units, start_altitude)
+    order = np.argsort(-alts, kind="stable")  # the sweep runs high to low
+    out = np.empty(len(alts))
+    out[order] = sweep.frequency_hz[np.arange(len(alts)), np.argmax(sweep.damping, axis=1)]
+    return out

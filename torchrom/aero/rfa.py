@@ -297,13 +297,15 @@ def fit_minimum_state(
     optimize_roots: bool = False,
     max_iter: int = 300,
     tol: float = 1e-10,
-    polish: bool = True,
+    polish: bool | None = None,
     initial_d=None,
 ) -> RFA:
     """Karpel's minimum-state RFA (A0 = Q(0); ALS + Levenberg–Marquardt polish).
 
     ``weight_floor``: entries are weighted by 1/max(max_k |Q_ij|, weight_floor).
     ``optimize_roots``: refine log(γ) by Nelder–Mead on the weighted fit cost.
+    ``polish``: joint Levenberg–Marquardt refinement after the ALS (None: only for small problems,
+    at most 200 unknowns — for 9 modes and 13 lags it costs a minute and gains little).
     ``initial_d``: starting D (m × n_L) of the alternating least squares (default: from a Roger
     fit with the same roots, column l = dominant singular vector of lag matrix l).
     """
@@ -344,6 +346,8 @@ def fit_minimum_state(
 
     prob, (polys, d, e, _) = fit_for(gam, max_iter)
     x0 = prob.pack(polys, d, e)
+    if polish is None:
+        polish = len(x0) <= 200
     # MINPACK's Levenberg–Marquardt needs at least as many residuals as unknowns.
     if polish and 2 * len(prob.p) * prob.m * prob.m >= len(x0):
         sol = least_squares(

@@ -161,7 +161,7 @@ def _matched(args, structure, aero, compare_paper: bool) -> int:
         flutter_altitude_pk,
         flutter_altitude_state_space,
         growing_response_frequency,
-        pk_matched_sweep,
+        growing_response_frequency_pk,
     )
     from ..errors import InputError
 
@@ -195,10 +195,9 @@ def _matched(args, structure, aero, compare_paper: bool) -> int:
     if args.at:
         alts = np.asarray(args.at, dtype=float)
         f_ss = growing_response_frequency(structure, aero.rfa, mach, alts)
-        pk = pk_matched_sweep(structure, table, mach, alts, start_altitude=args.alt_range[1])
-        order = np.argsort(-alts)  # pk sweep is high to low
-        f_pk = np.empty(len(alts))
-        f_pk[order] = pk.frequency_hz[np.arange(len(alts)), np.argmax(pk.damping, axis=1)]
+        f_pk = growing_response_frequency_pk(
+            structure, table, mach, alts, start_altitude=args.alt_range[1]
+        )
         print(
             f"  growing-response frequency (Hz){'':8}{'state space':>12}{'p-k':>9}"
             + (f"{'paper':>9}" if compare_paper else "")
