@@ -30,8 +30,11 @@ class ClosedFormFE:
         self.source = source
 
     def expand(self, u):
+        """(n_dof,) -> (n_grid, 6); (n_dof, k) -> (k, n_grid, 6) (FEModel contract)."""
         u = np.asarray(u)
-        return u.reshape(*u.shape[:-1], len(self.grid_ids), 6)
+        if u.ndim == 1:
+            return u.reshape(len(self.grid_ids), 6)
+        return u.T.reshape(u.shape[1], len(self.grid_ids), 6)
 
     def modes(self, n):
         n = min(n, len(self._f))

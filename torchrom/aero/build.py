@@ -94,7 +94,7 @@ def modal_data(fe, n_modes: int) -> ModalData:
         frequencies_hz=np.asarray(modes.frequencies_hz, dtype=float),
         grid_ids=grid_ids,
         grid_xyz=np.asarray(fe.grid_xyz, dtype=float),
-        displacements=np.asarray(fe.expand(shapes.T), dtype=float).reshape(shapes.shape[1], -1, 6),
+        displacements=np.asarray(fe.expand(shapes), dtype=float).reshape(shapes.shape[1], -1, 6),
         element_grids=_element_grid_mask(fe, grid_ids),
     )
 

@@ -376,7 +376,7 @@ def run_deck(deck_or_path, fe=None, kernel: str = "quartic", log=print) -> DeckR
     if len(freqs) == 0:
         raise InputError(f"{deck.path}: modes: none in the requested range")
     log(f"{deck.path.name}: {len(freqs)} modes: " + ", ".join(f"{f:.4g}" for f in freqs) + " Hz")
-    disp = np.asarray(fe.expand(shapes.T))  # (n_modes, n_grid, 6)
+    disp = np.asarray(fe.expand(shapes)).reshape(shapes.shape[1], -1, 6)  # (n_modes, n_grid, 6)
     motion = deck.box_motion(fe.grid_ids, disp)
     omega = 2 * np.pi * freqs
     structure = ModalStructure(np.eye(len(freqs)), np.diag(omega**2))
