@@ -33,7 +33,7 @@ def _horseshoe_lift_slope(panels, far=1e6):
         + segment(p, b[None], b_inf[None])
     )[..., 2]
     gamma = np.linalg.solve(w, -np.ones(panels.n))  # unit freestream, α = 1 rad
-    return 2 * (gamma * np.linalg.norm(b - a, axis=1)).sum() / panels.areas.sum()
+    return 2 * (gamma * np.linalg.norm(b - a, axis=1)).sum() / panels.areas.sum()  # full wing
 
 
 @pytest.fixture(scope="module")
@@ -66,7 +66,8 @@ def test_reduced_frequency_is_converted_at_the_boundary(wing):
     plunge = BoxMotion.from_function(wing, [(lambda x, y: np.ones_like(x), lambda x, y: 0 * x)])
     q = compute_gaf(wing, plunge, 0.3, [k], b).Q[0, 0, 0]
     qjj = DLM.calc_Qjj(copy.deepcopy(wing.to_panelaero()), 0.3, k / b, method="quartic")
-    direct = -(wing.areas * (qjj @ (-1j * (k / b) * np.ones(wing.n)))).sum()
+    half = ~wing.mirrored  # loads on the modelled half wing only
+    direct = -(wing.areas * (qjj @ (-1j * (k / b) * np.ones(wing.n))))[half].sum()
     assert q == pytest.approx(direct, rel=1e-10)
     # scale invariance: a wing twice as large at the same Nastran k (semichord doubled) has the
     # same pressures for the same h/b, so Q_hh (a length) doubles; a wrong k convention breaks it
@@ -81,12 +82,33 @@ def test_high_aspect_ratio_plunge_tends_to_theodorsen():
     wing = rectangular_wing(2.0, 40.0, 4, 40)  # b = 1
     plunge = BoxMotion.from_function(wing, [(lambda x, y: np.ones_like(x), lambda x, y: 0 * x)])
     ks = np.array([0.1, 0.5])
-    q = compute_gaf(wing, plunge, 0.0, ks, 1.0).Q[:, 0, 0] / 80.0
+    q = compute_gaf(wing, plunge, 0.0, ks, 1.0).Q[:, 0, 0] / 40.0  # half model: 40 span
     c = hankel2(1, ks) / (hankel2(1, ks) + 1j * hankel2(0, ks))
     q2d = -2 * np.pi * ks**2 + 4j * np.pi * ks * c
     # 3-D (finite span) effects at AR 40 lower the lift by a few per cent
     np.testing.assert_allclose(q, q2d, rtol=0.06)
     assert np.all(q.imag > 0)  # positive aerodynamic damping (paper sign F = -q Q q)
+
+
+def test_mirrored_half_model_carries_half_the_full_wing_load():
+    """A half wing with its image (symmetric modes) = one side of the same full wing."""
+    from torchrom.aero.panels import lattice
+
+    half_plus_image = rectangular_wing(1.0, 2.0, 4, 8)
+    one_piece = lattice(
+        [0, -2, 0], [1, -2, 0], [1, 2, 0], [0, 2, 0], np.linspace(0, 1, 5), np.linspace(0, 1, 17)
+    )
+    shapes = [
+        (lambda x, y: np.ones_like(x), lambda x, y: 0 * x),
+        (lambda x, y: -(x - 0.3) * np.abs(y), lambda x, y: -np.abs(y)),
+    ]  # symmetric twist
+    q_half = compute_gaf(
+        half_plus_image, BoxMotion.from_function(half_plus_image, shapes), 0.5, [0.0, 0.3], 0.5
+    ).Q
+    q_full = compute_gaf(
+        one_piece, BoxMotion.from_function(one_piece, shapes), 0.5, [0.0, 0.3], 0.5
+    ).Q
+    np.testing.assert_allclose(q_half, q_full / 2, rtol=1e-9, atol=1e-12)
 
 
 def test_gaf_signs_and_steady_limit(wing):

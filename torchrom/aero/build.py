@@ -252,9 +252,26 @@ def build_from_deck(
     return AeroData(gaf, rfa, meta)
 
 
+#: entry-weight floor of the minimum-state fit relative to the largest |Q_ij|. REFERENCE's
+#: 1/max(|Q_ij|, 1) assumes GAFs of order 1..100; with mass-normalised modes in ft-slug units
+#: the Goland GAFs are O(1), where an absolute floor of 1 would weight all entries alike.
+RELATIVE_WEIGHT_FLOOR = 1e-2
+#: residual weighting of the minimum-state fit ("point": relative error at every k; with
+#: Karpel's per-entry weights the 13-lag Goland fit misses the low-k GAFs near the flutter point
+#: by ~1 %, which moves the state-space flutter altitude ~1.2 % from p-k)
+RFA_WEIGHTING = "point"
+
+
 def _fit(gaf, n_lags, rfa_kind, optimize_roots):
     if rfa_kind == "minimum-state":
-        return fit_minimum_state(gaf, n_lags=n_lags, optimize_roots=optimize_roots)
+        floor = RELATIVE_WEIGHT_FLOOR * float(np.abs(gaf.Q).max())
+        return fit_minimum_state(
+            gaf,
+            n_lags=n_lags,
+            optimize_roots=optimize_roots,
+            weight_floor=floor,
+            weighting=RFA_WEIGHTING,
+        )
     if rfa_kind == "roger":
         return fit_roger(gaf, n_lags=n_lags)
     raise InputError(f"aero: rfa: expected 'minimum-state' or 'roger', got {rfa_kind!r}")

@@ -15,8 +15,9 @@ Conventions (DESIGN; REFERENCE Sec. 7):
   three-quarter-chord point;
 * the GAF follows the paper's sign (Eq. 49): the aerodynamic force on the modal coordinates is
   F_aero = -q∞ Q(ik) q, so Q_ij = -Σ_p h_i(p) A_p Δc_p(j) with h_i at the quarter-chord (load)
-  point. At k = 0, Q is an aerodynamic stiffness; the imaginary part of Q_ii is positive for
-  aerodynamic damping. (Nastran's QHH is -Q.)
+  point, summed over the boxes of the modelled (half) structure only — image boxes of a
+  mirrored model carry the image wing's loads. At k = 0, Q is an aerodynamic stiffness; the
+  imaginary part of Q_ii is positive for aerodynamic damping. (Nastran's QHH is -Q.)
 """
 
 from __future__ import annotations
@@ -130,7 +131,10 @@ def compute_gaf(
         )
     k = _check_k(k_list, semichord)
     a_steady, _ = VLM.calc_Ajj(aerogrid=panels.to_panelaero(), Ma=mach)
-    weights = motion.h_load * panels.areas  # (m, n): h_i(p) A_p
+    # Generalized forces act on the modal coordinates of the structure that is modelled: with a
+    # mirrored (full-span) aero model the image boxes shape the flow, but their loads act on the
+    # image wing, so only the half-model boxes are integrated.
+    weights = motion.h_load * panels.areas * ~panels.mirrored  # (m, n): h_i(p) A_p
     q = np.empty((len(k), motion.n_modes, motion.n_modes), dtype=complex)
     for i, ki in enumerate(k):
         a = a_steady.astype(complex)
@@ -160,4 +164,4 @@ def lift_curve_slope(
         ],
     )
     gaf = compute_gaf(panels, motion, mach, [k], semichord, kernel)
-    return -gaf.Q[0, 0, 1] / panels.areas.sum()
+    return -gaf.Q[0, 0, 1] / panels.areas[~panels.mirrored].sum()

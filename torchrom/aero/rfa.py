@@ -157,64 +157,102 @@ def fit_roger(
     return rfa
 
 
-class _MinStateProblem:
-    """The weighted minimum-state least-squares problem for fixed lag roots."""
+WEIGHTINGS = ("entry", "point")
 
-    def __init__(self, gaf: GAF, gam, include_a1, include_a2, weight_floor):
+
+def _residual_weights(q: np.ndarray, floor: float, weighting: str):
+    """Weights (nk, m, m) of the real and of the imaginary residuals at the fitted frequencies.
+
+    "entry" (Karpel; REFERENCE Sec. 7): W_ij = 1 / max(max_k |Q_ij(k)|, floor) for both parts.
+    "point": each part relative to its own size at that frequency,
+    W_ij(k) = 1 / max(|part Q_ij(k)|, 0.1 max_k |part Q_ij|, floor) — so that the small
+    imaginary (aerodynamic damping) parts of the bending–torsion coupling at low k, which drive
+    flutter, are fitted as well as the large apparent-mass terms at high k.
+    """
+    if weighting == "entry":
+        w = np.broadcast_to(1.0 / np.maximum(np.abs(q).max(axis=0), floor), q.shape).copy()
+        return w, w
+    if weighting == "point":
+        out = []
+        for part in (q.real, q.imag):
+            size = np.abs(part)
+            out.append(1.0 / np.maximum(size, np.maximum(0.1 * size.max(axis=0), floor)[None]))
+        return tuple(out)
+    raise InputError(f"RFA: weighting: expected one of {WEIGHTINGS}, got {weighting!r}")
+
+
+def _weighted_rows(a: np.ndarray, w_re: np.ndarray, w_im: np.ndarray) -> np.ndarray:
+    """Real least-squares rows [w_re Re(a); w_im Im(a)] (weights per complex row)."""
+    shape = (-1,) + (1,) * (a.ndim - 1)
+    return np.concatenate([a.real * w_re.reshape(shape), a.imag * w_im.reshape(shape)], axis=0)
+
+
+class _MinStateProblem:
+    """The weighted minimum-state least-squares problem for fixed lag roots.
+
+    Residual r_kij = [A1 p + A2 p² + D (pI - R)⁻¹ E p - (Q - A0)]_ij at p = ik, its real part
+    weighted by w_re[k, i, j] and its imaginary part by w_im[k, i, j].
+    """
+
+    def __init__(self, gaf: GAF, gam, include_a1, include_a2, weight_floor, weighting="entry"):
         self.a0, self.p, self.rhs, self.poly = _prepare(gaf, include_a1, include_a2)
         self.gam = np.asarray(gam, dtype=float)
-        self.w = _weights(gaf.Q, weight_floor)  # (m, m)
+        self.w_re, self.w_im = _residual_weights(gaf.Q[gaf.k > 0], weight_floor, weighting)
         self.m = gaf.n_modes
         self.nl = len(self.gam)
         self.npoly = len(self.poly)
         self.lag = self.p[:, None] / (self.p[:, None] + self.gam[None, :])  # (nk, nL)
 
+    def _solve(self, coupling, rhs, w_re, w_im):
+        """Least squares for one column (or row): unknowns [poly coefs (npoly·m); lag (nL)].
+
+        coupling: (nk, m, nL) complex lag basis per residual; rhs: (nk, m); weights (nk, m).
+        """
+        m, nk = self.m, len(self.p)
+        eye = np.eye(m)
+        blocks = [
+            (self.poly[t][:, None, None] * eye[None]).reshape(nk * m, m) for t in range(self.npoly)
+        ]
+        blocks.append(coupling.reshape(nk * m, self.nl))
+        a = _weighted_rows(np.concatenate(blocks, axis=1), w_re.ravel(), w_im.ravel())
+        b = _weighted_rows(rhs.reshape(nk * m), w_re.ravel(), w_im.ravel())
+        x, *_ = np.linalg.lstsq(a, b, rcond=None)
+        return x[: self.npoly * m].reshape(self.npoly, m), x[self.npoly * m :]
+
     def solve_e(self, d):
         """D fixed: columns j of (A_poly, E) by weighted least squares."""
-        m, nk = self.m, len(self.p)
-        polys = np.zeros((self.npoly, m, m))
-        e = np.zeros((self.nl, m))
-        for j in range(m):
-            w = self.w[:, j]  # per row i
-            # unknowns: poly coefs for rows i (npoly*m) then E[:, j] (nL)
-            blocks = [np.kron(self.poly[t][:, None], np.diag(w)) for t in range(self.npoly)]
-            lagpart = (self.lag[:, None, :] * d[None, :, :]) * w[None, :, None]  # (nk, m, nL)
-            blocks.append(lagpart.reshape(nk * m, self.nl))
-            a = _stack_complex(np.concatenate(blocks, axis=1))
-            b = _stack_complex((self.rhs[:, :, j] * w[None, :]).reshape(nk * m))
-            x, *_ = np.linalg.lstsq(a, b, rcond=None)
-            for t in range(self.npoly):
-                polys[t][:, j] = x[t * m : (t + 1) * m]
-            e[:, j] = x[self.npoly * m :]
+        polys = np.zeros((self.npoly, self.m, self.m))
+        e = np.zeros((self.nl, self.m))
+        for j in range(self.m):
+            coupling = self.lag[:, None, :] * d[None, :, :]  # (nk, m_i, nL)
+            pj, e[:, j] = self._solve(
+                coupling, self.rhs[:, :, j], self.w_re[:, :, j], self.w_im[:, :, j]
+            )
+            polys[:, :, j] = pj
         return polys, e
 
     def solve_d(self, e):
         """E fixed: rows i of (A_poly, D) by weighted least squares."""
-        m, nk = self.m, len(self.p)
-        polys = np.zeros((self.npoly, m, m))
-        d = np.zeros((m, self.nl))
-        for i in range(m):
-            w = self.w[i, :]  # per column j
-            blocks = [np.kron(self.poly[t][:, None], np.diag(w)) for t in range(self.npoly)]
-            lagpart = (self.lag[:, None, :] * e.T[None, :, :]) * w[None, :, None]  # (nk, m_j, nL)
-            blocks.append(lagpart.reshape(nk * m, self.nl))
-            a = _stack_complex(np.concatenate(blocks, axis=1))
-            b = _stack_complex((self.rhs[:, i, :] * w[None, :]).reshape(nk * m))
-            x, *_ = np.linalg.lstsq(a, b, rcond=None)
-            for t in range(self.npoly):
-                polys[t][i, :] = x[t * m : (t + 1) * m]
-            d[i, :] = x[self.npoly * m :]
+        polys = np.zeros((self.npoly, self.m, self.m))
+        d = np.zeros((self.m, self.nl))
+        for i in range(self.m):
+            coupling = self.lag[:, None, :] * e.T[None, :, :]  # (nk, m_j, nL)
+            pi, d[i, :] = self._solve(
+                coupling, self.rhs[:, i, :], self.w_re[:, i, :], self.w_im[:, i, :]
+            )
+            polys[:, i, :] = pi
         return polys, d
 
     def model(self, polys, d, e):
         out = np.einsum("tk,tij->kij", self.poly, polys) if self.npoly else 0.0
         return out + np.einsum("il,kl,lj->kij", d, self.lag, e)
 
-    def residual(self, polys, d, e):
-        return (self.model(polys, d, e) - self.rhs) * self.w[None]
+    def fun(self, x):
+        r = self.model(*self.unpack(x)) - self.rhs
+        return np.concatenate([(r.real * self.w_re).ravel(), (r.imag * self.w_im).ravel()])
 
     def cost(self, polys, d, e) -> float:
-        return float((np.abs(self.residual(polys, d, e)) ** 2).sum())
+        return float((self.fun(self.pack(polys, d, e)) ** 2).sum())
 
     # -- joint Levenberg–Marquardt polish ------------------------------------------------------
     def pack(self, polys, d, e):
@@ -227,35 +265,29 @@ class _MinStateProblem:
         e = x[npl * m * m + m * nl :].reshape(nl, m)
         return polys, d, e
 
-    def fun(self, x):
-        r = self.residual(*self.unpack(x)).ravel()
-        return np.concatenate([r.real, r.imag])
-
     def jac(self, x):
-        polys, d, e = self.unpack(x)
+        _, d, e = self.unpack(x)
         m, nl, npl, nk = self.m, self.nl, self.npoly, len(self.p)
-        w = self.w
         n_res = nk * m * m
         cols = []
-        # ∂r_kij/∂poly_t,ab = poly_t(k) w_ij δ_ia δ_jb
+        # ∂r_kij/∂poly_t,ab = poly_t(k) δ_ia δ_jb
         jp = np.zeros((n_res, npl * m * m), dtype=complex)
         idx = np.arange(m * m)
         for t in range(npl):
             for kk in range(nk):
-                jp[kk * m * m + idx, t * m * m + idx] = self.poly[t, kk] * w.ravel()
+                jp[kk * m * m + idx, t * m * m + idx] = self.poly[t, kk]
         cols.append(jp)
-        # ∂r_kij/∂D_il = lag_kl E_lj w_ij
+        # ∂r_kij/∂D_il = lag_kl E_lj
         jd = np.zeros((nk, m, m, m, nl), dtype=complex)
         for i in range(m):
-            jd[:, i, :, i, :] = (self.lag[:, None, :] * e.T[None, :, :]) * w[i][None, :, None]
+            jd[:, i, :, i, :] = self.lag[:, None, :] * e.T[None, :, :]
         cols.append(jd.reshape(n_res, m * nl))
-        # ∂r_kij/∂E_lj = D_il lag_kl w_ij
+        # ∂r_kij/∂E_lj = D_il lag_kl
         je = np.zeros((nk, m, m, nl, m), dtype=complex)
         for j in range(m):
-            je[:, :, j, :, j] = (self.lag[:, None, :] * d[None, :, :]) * w[:, j][None, :, None]
+            je[:, :, j, :, j] = self.lag[:, None, :] * d[None, :, :]
         cols.append(je.reshape(n_res, nl * m))
-        jac = np.concatenate(cols, axis=1)
-        return np.concatenate([jac.real, jac.imag], axis=0)
+        return _weighted_rows(np.concatenate(cols, axis=1), self.w_re.ravel(), self.w_im.ravel())
 
 
 def _initial_d(problem: _MinStateProblem, gaf: GAF, include_a1, include_a2) -> np.ndarray:
@@ -299,10 +331,13 @@ def fit_minimum_state(
     tol: float = 1e-10,
     polish: bool | None = None,
     initial_d=None,
+    weighting: str = "entry",
 ) -> RFA:
     """Karpel's minimum-state RFA (A0 = Q(0); ALS + Levenberg–Marquardt polish).
 
-    ``weight_floor``: entries are weighted by 1/max(max_k |Q_ij|, weight_floor).
+    ``weight_floor``: entries are weighted by 1/max(max_k |Q_ij|, weight_floor) (``weighting``
+    "entry", Karpel's); ``weighting="point"`` weights every frequency by its own magnitude
+    (see :func:`_residual_weights`).
     ``optimize_roots``: refine log(γ) by Nelder–Mead on the weighted fit cost.
     ``polish``: joint Levenberg–Marquardt refinement after the ALS (None: only for small problems,
     at most 200 unknowns — for 9 modes and 13 lags it costs a minute and gains little).
@@ -320,7 +355,7 @@ def fit_minimum_state(
         raise InputError(f"RFA: lag roots: expected distinct positive values, got {gam.tolist()}")
 
     def fit_for(g, iters):
-        prob = _MinStateProblem(gaf, g, include_a1, include_a2, weight_floor)
+        prob = _MinStateProblem(gaf, g, include_a1, include_a2, weight_floor, weighting)
         if initial_d is not None and len(g) == np.shape(initial_d)[1]:
             d0 = np.array(initial_d, dtype=float)
         else:
