@@ -158,7 +158,7 @@ def goland_flutter(
 
 def calibrate_store_x(
     target_altitude: float = PAPER_FLUTTER_ALTITUDE_FT,
-    bracket=(1.0, 4.0),
+    bracket=(2.0, 4.0),
     boxes=DEFAULT_BOXES,
     xtol: float = 1e-3,
     log=print,
@@ -166,23 +166,31 @@ def calibrate_store_x(
     """Store chordwise position (ft from the LE) whose p-k flutter altitude is the target.
 
     Brent's method on h_flutter(store_x) - target; every evaluation rebuilds the FE model (its
-    density is recalibrated to mode 1 = 1.690 Hz), the modes and the DLM GAFs.
+    density is recalibrated to mode 1 = 1.690 Hz), the modes and the DLM GAFs. A store far
+    forward is stable down to the bottom of the search range, far aft unstable at its top; both
+    count as beyond the range's ends.
     """
+    search = (-4000.0, 50000.0)
 
     def miss(x):
-        res, _ = pk_flutter_altitude(goland_modes(x), boxes)
-        alt = ALT_RANGE[1] + 1000.0 if res.altitude is None else res.altitude
+        res, _ = pk_flutter_altitude(goland_modes(x), boxes, alt_range=search)
+        if res.altitude is not None:
+            alt = res.altitude
+        else:
+            g = res.sweep.damping[-1]  # lowest altitude (highest dynamic pressure)
+            stable = np.all(g[np.isfinite(g)] < 0)
+            alt = search[0] - 1000.0 if stable else search[1] + 1000.0
         log(f"  store_x = {x:.4f} ft: p-k flutter altitude {alt:.1f} ft")
         return alt - target_altitude
 
     lo, hi = bracket
-    f_lo, f_hi = miss(lo), miss(hi)
-    if f_lo * f_hi > 0:
+    try:
+        return float(brentq(miss, lo, hi, xtol=xtol))
+    except ValueError:
         raise ConvergenceError(
             f"store calibration: flutter altitude does not bracket "
             f"{target_altitude:g} ft for store_x in {lo:g}..{hi:g} ft"
-        )
-    return float(brentq(miss, lo, hi, xtol=xtol))
+        ) from None
 
 
 def panel_convergence(
