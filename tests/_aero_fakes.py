@@ -42,8 +42,9 @@ class ClosedFormFE:
         return Modes(self._f[:n], shapes, ["closed-form"] * n)
 
 
-def beam_fe(grid_ids, grid_xyz, axes, frequencies_hz=(20.0, 60.0, 120.0),
-            generalized_masses=(1.0, 1.0, 1.0)):
+def beam_fe(
+    grid_ids, grid_xyz, axes, frequencies_hz=(20.0, 60.0, 120.0), generalized_masses=(1.0, 1.0, 1.0)
+):
     """Cantilever beam along axes[1] (rows: x, y, z unit vectors in basic), root at grid 0.
 
     Modes: bending w = (s/L)², torsion θ = s/L, second bending w = (s/L)³ (about the beam's
@@ -64,8 +65,9 @@ def beam_fe(grid_ids, grid_xyz, axes, frequencies_hz=(20.0, 60.0, 120.0),
     return ClosedFormFE(grid_ids, xyz, frequencies_hz, fields)
 
 
-def plate_fe(nx=3, ny=11, chord=4.0, span=20.0, frequencies_hz=(1.7, 3.1),
-             generalized_masses=(50.0, 190.0)):
+def plate_fe(
+    nx=3, ny=11, chord=4.0, span=20.0, frequencies_hz=(1.7, 3.1), generalized_masses=(50.0, 190.0)
+):
     """Goland-like box grid (x 0..chord, y 0..span, top and bottom skins) with a bending mode and
     a torsion mode about x = chord / 2, mass-normalised for the given generalized masses (the
     defaults are those of w = (y/L)² and θ = y/L on a 12.5 slug/ft wing with I_α ≈ 28 slug·ft)."""

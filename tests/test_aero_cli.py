@@ -52,6 +52,9 @@ def test_flutter_rom_and_aero_files(tmp_path, capsys):
             str(tmp_path / "vg.png"),
             "--root-locus",
             str(tmp_path / "rl.png"),
+            "--alpha-for-gamma",
+            "0.001",
+            "0.01",
         ]
     )
     assert rc == 0
@@ -63,6 +66,9 @@ def test_flutter_rom_and_aero_files(tmp_path, capsys):
     assert [g["altitude"] for g in out["growing_response"]] == [4000.0, 8000.0]
     g = out["growing_response"][0]
     assert g["frequency_hz_pk"] == pytest.approx(g["frequency_hz_state_space"], rel=0.01)
+    a1, a2 = (p["alpha"] for p in out["alpha_for_gamma"])
+    assert a1 > a2  # more stiffness-proportional damping needs less mass-proportional damping
+    assert out["alpha_for_gamma"][0]["altitude"] == pytest.approx(ss["altitude"])
     assert (tmp_path / "vg.png").stat().st_size > 0 and (tmp_path / "rl.png").stat().st_size > 0
     assert "state-space" in capsys.readouterr().out
 

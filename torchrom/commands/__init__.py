@@ -2,14 +2,6 @@
 
 # Order in ``torchrom --help``; commands not listed come after, alphabetically.
 ORDER = [
-    "paper",
-    "goland",
-    "modes",
-    "identify",
-    "aero",
-    "flutter",
-    "sweep",
-    "plot",
-    "calibrate",
-    "bifurcation",
+    "paper", "goland", "modes", "identify", "aero", "flutter", "sweep", "plot",
+    "calibrate", "bifurcation",
 ]

@@ -19,7 +19,9 @@ def add_json_option(parser: argparse.ArgumentParser) -> None:
 
 
 def add_force_option(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--force", action="store_true", help="overwrite outputs that already exist")
+    parser.add_argument(
+        "--force", action="store_true", help="overwrite outputs that already exist"
+    )
 
 
 def maybe_write_json(args: argparse.Namespace, obj: Any) -> None:

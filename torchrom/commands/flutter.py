@@ -11,7 +11,8 @@ dynamic_pressure, reduced_frequency}], "vg": [{..., mode, velocity, damping_g, f
 reduced_frequency, eigenvalue_real, eigenvalue_imag}], "notes"}.
 Matched-point form: {"mach", "alpha" (1/s), "gamma" (s), "units", "flutter": [{method, altitude,
 frequency_hz, velocity, density, dynamic_pressure, mode}], "growing_response": [{altitude,
-frequency_hz_state_space, frequency_hz_pk}], "paper": {...} (Goland only)}.
+frequency_hz_state_space, frequency_hz_pk}], "alpha_for_gamma": [{gamma, alpha, altitude}],
+"paper": {...} (Goland only)}.
 """
 
 from __future__ import annotations
@@ -68,6 +69,14 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         help="goland form: boxes per half wing (default 8 20)",
     )
     p.add_argument("--kernel", choices=["quartic", "parabolic"], default="quartic")
+    p.add_argument(
+        "--alpha-for-gamma",
+        type=float,
+        nargs="+",
+        metavar="GAMMA",
+        help="for each γ (s), the α (1/s) that keeps the state-space flutter altitude of the "
+        "given α, γ (paper Fig. 9)",
+    )
     p.add_argument("--plot", type=Path, help="write a V-g / V-f figure (PNG/PDF)")
     p.add_argument("--root-locus", type=Path, help="write a state-space root-locus figure")
     add_json_option(p)
@@ -212,6 +221,18 @@ def _matched(args, structure, aero, compare_paper: bool) -> int:
                     "frequency_hz_pk": float(fp),
                 }
             )
+    pairs = []
+    if args.alpha_for_gamma:
+        from ..aero.flutter import alpha_for_gamma
+
+        ref = flutter_altitude_state_space(structure, aero.rfa, mach, args.alt_range)
+        if ref.altitude is None:
+            raise InputError("--alpha-for-gamma: no state-space flutter point in --alt-range")
+        print(f"  alpha(gamma) keeping the flutter altitude at {ref.altitude:.1f} ft:")
+        for g in args.alpha_for_gamma:
+            a = alpha_for_gamma(structure, aero.rfa, g, mach, ref.altitude)
+            print(f"    gamma = {g:10.4g} s   alpha = {a:10.5g} 1/s")
+            pairs.append({"gamma": g, "alpha": a, "altitude": ref.altitude})
     if args.plot is not None:
         from ..aero.plots import plot_vg
 
@@ -233,6 +254,7 @@ def _matched(args, structure, aero, compare_paper: bool) -> int:
         "units": "ft",
         "flutter": [r.as_dict() for r in results],
         "growing_response": growing,
+        "alpha_for_gamma": pairs,
     }
     if compare_paper:
         out["paper"] = {

@@ -78,9 +78,8 @@ def sym_gram_H(H: Tensor) -> Tensor:
 # --------------------------------------------------------------------------------------------
 # Symmetric storage <-> combined (paper Eqs. 25-28) and compact monomial matrices
 # --------------------------------------------------------------------------------------------
-def compact_from_symmetric(
-    K2: Tensor | None = None, K3: Tensor | None = None, D3: Tensor | None = None
-) -> dict[str, Tensor]:
+def compact_from_symmetric(K2: Tensor | None = None, K3: Tensor | None = None,
+                           D3: Tensor | None = None) -> dict[str, Tensor]:
     """Monomial-coefficient matrices: K2c (n, N2), K3c (n, N3), D3c (n, N2, n).
 
     K2c[m, P] is the coefficient of the monomial P = (n ≤ l) in f_m, i.e. the combined K̃2_mnl;
@@ -107,9 +106,8 @@ def compact_from_symmetric(
     return out
 
 
-def symmetric_from_compact(
-    K2c: Tensor | None = None, K3c: Tensor | None = None, D3c: Tensor | None = None
-) -> dict[str, Tensor]:
+def symmetric_from_compact(K2c: Tensor | None = None, K3c: Tensor | None = None,
+                           D3c: Tensor | None = None) -> dict[str, Tensor]:
     """Inverse of :func:`compact_from_symmetric`: share each coefficient equally among orderings."""
     out: dict[str, Tensor] = {}
     if K2c is not None:
@@ -118,7 +116,7 @@ def symmetric_from_compact(
         idx = monomial_index(n)
         vals = K2c / torch.as_tensor(idx.pair_mult, dtype=K2c.dtype)
         K2 = K2c.new_zeros(n, n, n)
-        for a, b in ((0, 1), (1, 0)):
+        for (a, b) in ((0, 1), (1, 0)):
             K2[:, idx.pairs[:, a], idx.pairs[:, b]] = vals
         out["K2"] = K2
     if K3c is not None:
@@ -137,15 +135,14 @@ def symmetric_from_compact(
         idx = monomial_index(n)
         vals = D3c / torch.as_tensor(idx.pair_mult, dtype=D3c.dtype)[None, :, None]
         D3 = D3c.new_zeros(n, n, n, n)
-        for a, b in ((0, 1), (1, 0)):
+        for (a, b) in ((0, 1), (1, 0)):
             D3[:, idx.pairs[:, a], idx.pairs[:, b], :] = vals
         out["D3"] = D3
     return out
 
 
-def to_combined(
-    K2: Tensor | None = None, K3: Tensor | None = None, D3: Tensor | None = None
-) -> dict[str, Tensor]:
+def to_combined(K2: Tensor | None = None, K3: Tensor | None = None,
+                D3: Tensor | None = None) -> dict[str, Tensor]:
     """Symmetric storage -> the paper's combined dense tensors K̃2, K̃3, D̃3 (Eqs. 25, 26, 28).
 
     Entries with out-of-order indices are zero.
@@ -173,13 +170,8 @@ def to_combined(
     return out
 
 
-def from_combined(
-    K2: Tensor | None = None,
-    K3: Tensor | None = None,
-    D3: Tensor | None = None,
-    *,
-    check: bool = True,
-) -> dict[str, Tensor]:
+def from_combined(K2: Tensor | None = None, K3: Tensor | None = None,
+                  D3: Tensor | None = None, *, check: bool = True) -> dict[str, Tensor]:
     """The paper's combined dense tensors (Eqs. 25, 26, 28) -> symmetric storage.
 
     With ``check`` (default) the out-of-order entries must be zero, as Eqs. 25–28 define them;
@@ -199,9 +191,8 @@ def from_combined(
         idx = monomial_index(K3.shape[0])
         compact["K3c"] = K3[:, idx.triples[:, 0], idx.triples[:, 1], idx.triples[:, 2]]
         if check:
-            _check_zero_outside(
-                K3, lambda n, l, p: not (p >= l >= n), "combined K3 (Eq. 26)", InputError
-            )
+            _check_zero_outside(K3, lambda n, l, p: not (p >= l >= n), "combined K3 (Eq. 26)",
+                                InputError)
     if D3 is not None:
         D3 = _t(D3)
         idx = monomial_index(D3.shape[0])
@@ -310,7 +301,7 @@ def symmetric_pair_basis(n: int, dtype=torch.float64) -> Tensor:
         if i == j:
             P[i * n + i, c] = 1.0
         else:
-            P[i * n + j, c] = P[j * n + i, c] = 2.0**-0.5
+            P[i * n + j, c] = P[j * n + i, c] = 2.0 ** -0.5
     return P
 
 
@@ -356,5 +347,5 @@ def pair_lift(q: Tensor, v: Tensor) -> Tensor:
     j = torch.as_tensor(idx.pairs[:, 1], device=q.device)
     s = 0.5 * (q[..., i] * v[..., j] + q[..., j] * v[..., i])
     one = torch.ones((), dtype=q.dtype, device=q.device)
-    scale = torch.where(i == j, one, one * 2.0**0.5)
+    scale = torch.where(i == j, one, one * 2.0 ** 0.5)
     return s * scale

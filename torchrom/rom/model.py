@@ -31,9 +31,8 @@ SYMMETRY_RTOL = 1e-9
 
 def _as_tensor(x, name: str) -> Tensor:
     try:
-        t = torch.as_tensor(
-            np.asarray(x.detach().cpu() if isinstance(x, Tensor) else x), dtype=torch.float64
-        )
+        t = torch.as_tensor(np.asarray(x.detach().cpu() if isinstance(x, Tensor) else x),
+                            dtype=torch.float64)
     except (TypeError, ValueError) as exc:
         raise InputError(f"{name}: not a numeric array ({exc})") from None
     return t
@@ -89,15 +88,8 @@ class NonlinearROM:
             raise InputError(f"M: expected a square (n, n) matrix, got shape {tuple(M.shape)}")
         n = M.shape[0]
         zeros = {"K2": (n,) * 3, "K3": (n,) * 4, "D2": (n,) * 3, "D3": (n,) * 4}
-        given = {
-            "M": M,
-            "K1": K1,
-            "K2": K2,
-            "K3": K3,
-            "D1": D1 if D1 is not None else K1,
-            "D2": D2,
-            "D3": D3,
-        }
+        given = {"M": M, "K1": K1, "K2": K2, "K3": K3, "D1": D1 if D1 is not None else K1,
+                 "D2": D2, "D3": D3}
         t: dict[str, Tensor] = {}
         for name in self.TENSORS:
             val = given[name]
@@ -124,26 +116,19 @@ class NonlinearROM:
         else:
             for name in ("M", "K1", "D1"):
                 _check_symmetric(name, t[name], t[name].T, "symmetric")
-            _check_symmetric(
-                "K2",
-                t["K2"],
-                t["K2"].transpose(1, 2),
-                "symmetric in its last two indices (K2_mnl = K2_mln)",
-            )
-            _check_symmetric(
-                "K3", t["K3"], cv.sym_last3(t["K3"]), "symmetric in its last three indices"
-            )
-            _check_symmetric(
-                "D3",
-                t["D3"],
-                t["D3"].transpose(1, 2),
-                "symmetric in its middle two indices (D3_mlpn = D3_mpln)",
-            )
+            _check_symmetric("K2", t["K2"], t["K2"].transpose(1, 2), "symmetric in its last two "
+                             "indices (K2_mnl = K2_mln)")
+            _check_symmetric("K3", t["K3"], cv.sym_last3(t["K3"]), "symmetric in its last three "
+                             "indices")
+            _check_symmetric("D3", t["D3"], t["D3"].transpose(1, 2), "symmetric in its middle two "
+                             "indices (D3_mlpn = D3_mpln)")
         try:
             torch.linalg.cholesky(t["M"])
         except RuntimeError:
             emin = torch.linalg.eigvalsh(0.5 * (t["M"] + t["M"].T)).min().item()
-            raise InputError(f"M: not positive definite (smallest eigenvalue {emin:.3e})") from None
+            raise InputError(
+                f"M: not positive definite (smallest eigenvalue {emin:.3e})"
+            ) from None
         for name, val in t.items():
             setattr(self, name, val)
         self.n = n
@@ -154,14 +139,14 @@ class NonlinearROM:
             frequencies_hz = self.linear_frequencies_hz()
         self.frequencies_hz = np.asarray(frequencies_hz, dtype=float).reshape(-1)
         if self.frequencies_hz.shape != (n,):
-            raise InputError(f"frequencies_hz: expected {n} values, got {self.frequencies_hz.size}")
+            raise InputError(f"frequencies_hz: expected {n} values, got "
+                             f"{self.frequencies_hz.size}")
         self.outputs: dict[str, np.ndarray] = {}
         for key, row in (outputs or {}).items():
             row = np.asarray(row, dtype=float).reshape(-1)
             if row.shape != (n,) or not np.all(np.isfinite(row)):
-                raise InputError(
-                    f"outputs[{key!r}]: expected {n} finite values, got shape {row.shape}"
-                )
+                raise InputError(f"outputs[{key!r}]: expected {n} finite values, got shape "
+                                 f"{row.shape}")
             self.outputs[str(key)] = row
         self.metadata: dict[str, Any] = dict(metadata or {})
         self._kernels: dict[tuple, CompactForces] = {}
@@ -188,12 +173,8 @@ class NonlinearROM:
     def replace(self, **changes) -> NonlinearROM:
         """A copy with some tensors or metadata replaced."""
         args = {name: getattr(self, name) for name in self.TENSORS}
-        meta = {
-            "mode_kinds": self.mode_kinds,
-            "frequencies_hz": self.frequencies_hz,
-            "outputs": self.outputs,
-            "metadata": self.metadata,
-        }
+        meta = {"mode_kinds": self.mode_kinds, "frequencies_hz": self.frequencies_hz,
+                "outputs": self.outputs, "metadata": self.metadata}
         for key, val in changes.items():
             if key in args:
                 args[key] = val
@@ -235,9 +216,8 @@ class NonlinearROM:
         names = list(self.outputs) if names is None else list(names)
         missing = [k for k in names if k not in self.outputs]
         if missing:
-            raise InputError(
-                f"outputs {missing} not defined for this ROM; it has {sorted(self.outputs)}"
-            )
+            raise InputError(f"outputs {missing} not defined for this ROM; it has "
+                             f"{sorted(self.outputs)}")
         C = np.stack([self.outputs[k] for k in names]) if names else np.zeros((0, self.n))
         return names, C
 
@@ -260,15 +240,8 @@ class NonlinearROM:
         key = (str(torch.device(device) if device is not None else torch.device("cpu")), dtype)
         if key not in self._kernels:
             self._kernels[key] = CompactForces.build(
-                self.M,
-                self.K1,
-                self.K2,
-                self.K3,
-                self.D1,
-                self.D2,
-                self.D3,
-                device=device,
-                dtype=dtype,
+                self.M, self.K1, self.K2, self.K3, self.D1, self.D2, self.D3,
+                device=device, dtype=dtype,
             )
         return self._kernels[key]
 
@@ -299,9 +272,8 @@ class NonlinearROM:
         D = self.damping_matrix(q)
         return torch.einsum("...m,...mn,...n->...", qd, D, qd)
 
-    def force(
-        self, q: Tensor, qd: Tensor, alpha=0.0, gamma=0.0, stiffness_nl=True, damping_nl=True
-    ) -> Tensor:
+    def force(self, q: Tensor, qd: Tensor, alpha=0.0, gamma=0.0, stiffness_nl=True,
+              damping_nl=True) -> Tensor:
         """Structural force of Eq. 54 for a batch: q, q̇ (B, n); α, γ, flags scalar or (B,)."""
         q2, single, k = self._prep(q)
         qd2 = qd.reshape(q2.shape)
@@ -317,9 +289,8 @@ class NonlinearROM:
         f = f + a * (qd2 @ k.M.T) + g * (d_lin + d_nl * d_nl_force)
         return f[0] if single else f
 
-    def tangents(
-        self, q: Tensor, qd: Tensor, alpha=0.0, gamma=0.0, stiffness_nl=True, damping_nl=True
-    ) -> tuple[Tensor, Tensor]:
+    def tangents(self, q: Tensor, qd: Tensor, alpha=0.0, gamma=0.0, stiffness_nl=True,
+                 damping_nl=True) -> tuple[Tensor, Tensor]:
         """(∂f/∂q, ∂f/∂q̇) of Eq. 54, each (B, n, n) (or (n, n) for a single state)."""
         q2, single, k = self._prep(q)
         qd2 = qd.reshape(q2.shape)

@@ -74,7 +74,9 @@ def quadratic_monomials(q: torch.Tensor, index: MonomialIndex) -> torch.Tensor:
     return q[..., i] * q[..., j]
 
 
-def cubic_monomials(q: torch.Tensor, m2: torch.Tensor, index: MonomialIndex) -> torch.Tensor:
+def cubic_monomials(
+    q: torch.Tensor, m2: torch.Tensor, index: MonomialIndex
+) -> torch.Tensor:
     """q_i q_j q_k for i ≤ j ≤ k, built from the quadratic monomials ``m2``."""
     p = torch.as_tensor(index.triple_pair, device=q.device)
     k = torch.as_tensor(index.triples[:, 2], device=q.device)

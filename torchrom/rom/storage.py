@@ -66,9 +66,8 @@ def load_rom(path):
     names = [str(s) for s in data.get("output_names", np.array([], dtype=str)).tolist()]
     C = data.get("output_matrix", np.zeros((0, data["M"].shape[0])))
     if len(names) != C.shape[0]:
-        raise InputError(
-            f"{path}: output_names has {len(names)} names but output_matrix has {C.shape[0]} rows"
-        )
+        raise InputError(f"{path}: output_names has {len(names)} names but output_matrix has "
+                         f"{C.shape[0]} rows")
     try:
         metadata = json.loads(str(data.get("metadata_json", "{}")))
     except json.JSONDecodeError as exc:
@@ -76,8 +75,7 @@ def load_rom(path):
     try:
         return NonlinearROM(
             *(data[name] for name in NonlinearROM.TENSORS),
-            mode_kinds=[str(s) for s in data["mode_kinds"].tolist()]
-            if "mode_kinds" in data
+            mode_kinds=[str(s) for s in data["mode_kinds"].tolist()] if "mode_kinds" in data
             else None,
             frequencies_hz=data.get("frequencies_hz"),
             outputs=dict(zip(names, C)),
