@@ -318,6 +318,11 @@ class DeckResult:
 
     def as_dict(self) -> dict:
         """Flat records for --json (velocities in deck units / VREF, frequencies in Hz)."""
+        vref = self.deck.vref
+
+        def scaled(rec: dict) -> dict:
+            return {**rec, "velocity": rec["velocity"] / vref}
+
         return {
             "deck": str(self.deck.path),
             "title": self.deck.title,
@@ -328,7 +333,7 @@ class DeckResult:
                     "method": r.case.method,
                     "mach": r.mach,
                     "density_ratio": r.density_ratio,
-                    **p.as_dict(),
+                    **scaled(p.as_dict()),
                 }
                 for r in self.results
                 for p in r.points
@@ -339,7 +344,7 @@ class DeckResult:
                     "method": r.case.method,
                     "mach": r.mach,
                     "density_ratio": r.density_ratio,
-                    **row,
+                    **scaled(row),
                 }
                 for r in self.results
                 for row in r.sweep.table()
