@@ -735,5 +735,6 @@ def growing_response_frequency_pk(
     sweep = pk_matched_sweep(structure, aero, mach, alts, units, start_altitude)
     order = np.argsort(-alts, kind="stable")  # the sweep runs high to low
     out = np.empty(len(alts))
-    out[order] = sweep.frequency_hz[np.arange(len(alts)), np.argmax(sweep.damping, axis=1)]
+    g = np.where(np.isfinite(sweep.damping), sweep.damping, -np.inf)  # oscillatory roots only
+    out[order] = sweep.frequency_hz[np.arange(len(alts)), np.argmax(g, axis=1)]
     return out
