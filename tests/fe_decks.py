@@ -1,0 +1,106 @@
+"""Small in-memory Nastran decks (pyNastran BDF objects) shared by the FE tests."""
+
+from __future__ import annotations
+
+import numpy as np
+from pyNastran.bdf.bdf import BDF
+
+from torchrom.fe.bdf_read import from_pynastran
+
+
+def new_deck() -> BDF:
+    return BDF(debug=None)
+
+
+def model_of(bdf: BDF, name: str = "test", **kw):
+    return from_pynastran(bdf, source=f"{name}.bdf", name=name, **kw)
+
+
+def rotation(axis, angle: float) -> np.ndarray:
+    """Rodrigues rotation matrix."""
+    a = np.asarray(axis, float) / np.linalg.norm(axis)
+    K = np.array([[0, -a[2], a[1]], [a[2], 0, -a[0]], [-a[1], a[0], 0]])
+    return np.eye(3) + np.sin(angle) * K + (1 - np.cos(angle)) * K @ K
+
+
+def single_element(kind: str) -> BDF:
+    """One unconstrained element of a Green-strain family: 'rod', 'membrane' or 'shear'.
+
+    The quad is a slightly irregular (but planar) quadrilateral, tilted out of the x-y plane.
+    """
+    m = new_deck()
+    m.add_mat1(1, 7.0e10, None, 0.3, rho=2700.0)
+    if kind == "rod":
+        m.add_grid(1, [0.1, -0.2, 0.3])
+        m.add_grid(2, [1.3, 0.4, -0.2])
+        m.add_prod(1, 1, 1e-4)
+        m.add_crod(1, 1, [1, 2])
+        return m
+    R = rotation([1.0, 2.0, 0.5], 0.4)
+    pts = np.array([[0.0, 0.0, 0.0], [1.2, 0.1, 0.0], [1.0, 0.9, 0.0], [-0.1, 0.8, 0.0]]) @ R.T
+    for k, p in enumerate(pts):
+        m.add_grid(k + 1, list(p))
+    if kind == "membrane":
+        m.add_pshell(1, mid1=1, t=0.01)
+        m.add_cquad4(1, 1, [1, 2, 3, 4])
+    else:
+        m.add_pshear(1, 1, 0.01)
+        m.add_cshear(1, 1, [1, 2, 3, 4])
+    return m
+
+
+def plate_strip(n_long: int, n_wide: int, L: float, b: float, t: float, E: float, nu: float,
+                rho: float, bending: bool = True, coupled: bool = False) -> BDF:
+    """Cantilever strip of CQUAD4s in the x-y plane, clamped at x = 0."""
+    m = new_deck()
+    nid = lambda i, j: 1 + i * (n_wide + 1) + j  # noqa: E731
+    for i in range(n_long + 1):
+        for j in range(n_wide + 1):
+            m.add_grid(nid(i, j), [L * i / n_long, b * j / n_wide, 0.0])
+    m.add_mat1(1, E, None, nu, rho=rho)
+    m.add_pshell(1, mid1=1, t=t, mid2=1 if bending else None, mid3=1 if bending else None)
+    eid = 1
+    for i in range(n_long):
+        for j in range(n_wide):
+            m.add_cquad4(eid, 1, [nid(i, j), nid(i + 1, j), nid(i + 1, j + 1), nid(i, j + 1)])
+            eid += 1
+    m.add_spc1(1, "123456", [nid(0, j) for j in range(n_wide + 1)])
+    if coupled:
+        m.add_param("COUPMASS", [1])
+    return m
+
+
+def flange_web_beam(n: int, L: float, h: float, A: float, t: float, E: float, nu: float,
+                    rho: float) -> BDF:
+    """Planar cantilever in the x-z plane: rod flanges at z = ±h/2, a CSHEAR web and vertical
+    posts (the shear panel has no direct stiffness)."""
+    m = new_deck()
+    for i in range(n + 1):
+        m.add_grid(100 + i, [L * i / n, 0.0, h / 2])
+        m.add_grid(200 + i, [L * i / n, 0.0, -h / 2])
+    m.add_mat1(1, E, None, nu, rho=rho)
+    m.add_prod(1, 1, A)
+    m.add_pshear(2, 1, t)
+    m.add_prod(3, 1, A / 100)
+    for i in range(n):
+        m.add_crod(1 + i, 1, [100 + i, 101 + i])
+        m.add_crod(101 + i, 1, [200 + i, 201 + i])
+        m.add_cshear(201 + i, 2, [100 + i, 101 + i, 201 + i, 200 + i])
+        m.add_crod(301 + i, 3, [101 + i, 201 + i])
+    m.add_spc1(1, "123456", [100, 200])
+    return m
+
+
+def two_bar_truss(a: float, h: float, EA: float) -> BDF:
+    """Von Mises truss: supports at (±a, 0, 0), apex at (0, 0, h), free only along z."""
+    m = new_deck()
+    m.add_grid(1, [-a, 0.0, 0.0])
+    m.add_grid(2, [a, 0.0, 0.0])
+    m.add_grid(3, [0.0, 0.0, h])
+    m.add_mat1(1, EA, None, 0.3, rho=1.0)
+    m.add_prod(1, 1, 1.0)
+    m.add_crod(1, 1, [1, 3])
+    m.add_crod(2, 1, [2, 3])
+    m.add_spc1(1, "123456", [1, 2])
+    m.add_spc1(1, "12456", [3])
+    return m

@@ -1,0 +1,174 @@
+"""Nastran bulk data input/output: pt145 (CBAR, CMASS2, CORD2R, PS, aero cards), loads, bad
+input, and the writer round trip.
+
+pt145 references (closed form, independent of the FE code): a uniform Euler–Bernoulli
+cantilever's first two bending frequencies (β L = 1.8751, 4.6941) and the exact eigenvalues of
+the lumped torsional chain formed by the CMASS2 inertias (interior 2.8e-6, tip 1.4e-6) and the
+CBAR torsion springs G J / h: ω_j = (2/h) √(G J / I_p) sin((2j − 1) π / (4N)).
+"""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from torchrom.cli import main
+from torchrom.errors import InputError
+from torchrom.fe import goland, read_bdf, write_bdf
+from torchrom.fe.bdf_read import UnsupportedCardWarning
+
+from .fe_decks import model_of, new_deck
+
+PT145 = "nastran/pt145.bdf"
+
+
+def test_pt145_modes_match_closed_form(shared):
+    fe = read_bdf(shared / PT145)
+    assert fe.n_modes_requested == 6  # EIGR ND
+    assert fe.n_dof == 30  # 10 free grids x (T3, R1, R2) in CORD2R 1: PS = 126, root SPC1 345
+    assert fe.mesh.coupled_mass  # PARAM COUPMASS 1
+    # Aerodynamic cards are kept for the aerodynamics module, not errors.
+    assert 101 in fe.bdf.caeros and 100 in fe.bdf.splines and 30 in fe.bdf.flutters
+    modes = fe.modes(3)
+    print("pt145 first three modes (Hz):", modes.frequencies_hz, modes.kinds)
+    assert modes.kinds == ["bending", "torsion", "bending"]
+    E, G, A, I1, J, rho, L = 10.4e6, 3.9e6, 7.175e-2, 9.83e-6, 36.8e-6, 2.61e-4, 5.72
+    mL = rho * A
+    bend = [b**2 / (2 * np.pi * L**2) * np.sqrt(E * I1 / mL) for b in (1.8751040687, 4.6940911330)]
+    h, N = L / 10, 10
+    tors = 2 / h * np.sqrt(G * J / (2.8e-6 / h)) * np.sin(np.pi / (4 * N)) / (2 * np.pi)
+    # Consistent Hermite mass, 10 elements: bending within 1e-4; the torsional chain is exact.
+    assert modes.frequencies_hz[0] == pytest.approx(bend[0], rel=1e-4)
+    assert modes.frequencies_hz[2] == pytest.approx(bend[1], rel=1e-4)
+    assert modes.frequencies_hz[1] == pytest.approx(tors, rel=1e-10)
+
+
+def test_nonlinear_analysis_with_cbar_warns(shared):
+    from torchrom.fe import LinearElementWarning
+
+    fe = read_bdf(shared / PT145)
+    with pytest.warns(LinearElementWarning, match="CBAR elements are linear"):
+        f = fe.internal_force(np.full(fe.n_dof, 1e-3))
+    np.testing.assert_allclose(f, fe.stiffness_matrix() @ np.full(fe.n_dof, 1e-3), rtol=1e-12)
+
+
+def test_cli_modes_pt145(shared, tmp_path, capsys):
+    out = tmp_path / "modes.json"
+    assert main(["modes", str(shared / PT145), "--n", "3", "--json", str(out)]) == 0
+    text = capsys.readouterr().out
+    assert "bending" in text and "torsion" in text
+    recs = json.loads(out.read_text())
+    assert [r["mode"] for r in recs] == [1, 2, 3]
+    assert set(recs[0]) >= {"mode", "frequency_hz", "kind"}
+
+
+BAD_DECKS = {
+    "malformed": ("GRID    1               0.0     abc     0.0\n", r"GRID 1: field #4 \(x2\)"),
+    "missing_property": (
+        "GRID    1               0.0     0.0     0.0\nGRID    2               1.0     0.0     0.0\n"
+        "MAT1    1       1.0e7           0.3     0.1\nCROD    1       7       1       2\n",
+        "CROD 1: field PID: property 7 not found",
+    ),
+    "missing_material": (
+        "GRID    1               0.0     0.0     0.0\nGRID    2               1.0     0.0     0.0\n"
+        "PROD    1       9       0.5\nCROD    1       1       1       2\n",
+        "PROD 1: field MID: material 9 not found",
+    ),
+    "zero_length": (
+        "GRID    1               1.0     0.0     0.0\nGRID    2               1.0     0.0     0.0\n"
+        "MAT1    1       1.0e7           0.3     0.1\nPROD    1       1       0.5\n"
+        "CROD    1       1       1       2\n",
+        "CROD 1: zero length",
+    ),
+    "missing_node": (
+        "GRID    1               0.0     0.0     0.0\nGRID    2               1.0     0.0     0.0\n"
+        "MAT1    1       1.0e7           0.3     0.1\nPROD    1       1       0.5\n"
+        "CROD    1       1       1       99\n",
+        "CROD 1: field G2: grid 99 not found",
+    ),
+    "degenerate_quad": (
+        "GRID    1               0.0     0.0     0.0\nGRID    2               1.0     0.0     0.0\n"
+        "GRID    3               2.0     0.0     0.0\nGRID    4               0.0     1.0     0.0\n"
+        "MAT1    1       1.0e7           0.3     0.1\nPSHELL  1       1       0.1\n"
+        "CQUAD4  3       1       1       2       3       4\n",
+        "CQUAD4 3: zero-area, degenerate or concave",
+    ),
+}
+
+
+@pytest.mark.parametrize("case", sorted(BAD_DECKS))
+def test_bad_input_gives_one_line_error(tmp_path, case, capsys):
+    text, pattern = BAD_DECKS[case]
+    path = tmp_path / f"{case}.bdf"
+    path.write_text("BEGIN BULK\n" + text + "ENDDATA\n")
+    with pytest.raises(InputError, match=pattern) as info:
+        read_bdf(path)
+    msg = str(info.value)
+    assert "\n" not in msg and msg.startswith(f"{case}.bdf: ")
+    assert main(["modes", str(path)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and pattern.split(":")[0].replace("\\", "") in err
+
+
+def test_unsupported_cards_are_listed_with_counts(tmp_path):
+    path = tmp_path / "unsup.bdf"
+    path.write_text(
+        "SOL 103\nCEND\nBEGIN BULK\n"
+        "GRID    1               0.0     0.0     0.0\nGRID    2               1.0     0.0     0.0\n"
+        "GRID    3               1.0     1.0     0.0\nMAT1    1       1.0e7           0.3     0.1\n"
+        "PROD    1       1       0.5\nCROD    1       1       1       2\n"
+        "CROD    2       1       2       3\nPSHELL  2       1       0.1\n"
+        "CTRIA3  5       2       1       2       3\nCTRIA3  6       2       1       2       3\n"
+        "FOOBAR  1       2\nENDDATA\n"
+    )
+    with pytest.raises(InputError, match=r"unsupported cards: CTRIA3 \(2\), FOOBAR \(1\)"):
+        read_bdf(path)
+    with pytest.warns(UnsupportedCardWarning, match="CTRIA3"):
+        fe = read_bdf(path, unsupported="warn")
+    assert len(fe.mesh.rods) == 2
+
+
+def test_loads_and_coordinate_systems():
+    """FORCE in a rotated system, PLOAD2/PLOAD4 resultants, LOAD combination; a bulk-only deck."""
+    m = new_deck()
+    for nid, p in enumerate([[0, 0, 0], [2, 0, 0], [2, 1, 0], [0, 1, 0]], start=1):
+        m.add_grid(nid, p)
+    m.add_mat1(1, 1e7, None, 0.3, rho=1.0)
+    m.add_pshell(1, mid1=1, t=0.1, mid2=1, mid3=1)
+    m.add_cquad4(1, 1, [1, 2, 3, 4])
+    c, s = np.cos(0.3), np.sin(0.3)
+    m.add_cord2r(7, [0, 0, 0], [0, 0, 1], [c, s, 0])
+    m.add_force(10, 3, 5.0, [1.0, 0.0, 0.0], cid=7)
+    m.add_pload2(11, 3.0, [1])
+    m.add_pload4(12, [1], [1.0, 2.0, 3.0, 4.0])
+    m.add_load(20, 2.0, [1.0, -1.0], [10, 11])
+    fe = model_of(m, autospc=False)
+    F10 = fe.expand(fe.load_vector(10))
+    np.testing.assert_allclose(F10[2, :3], 5.0 * np.array([c, s, 0.0]), atol=1e-12)
+    assert fe.expand(fe.load_vector(11))[:, 2].sum() == pytest.approx(3.0 * 2.0)  # p × area
+    assert fe.expand(fe.load_vector(12))[:, 2].sum() == pytest.approx(2.5 * 2.0)  # mean p × area
+    np.testing.assert_allclose(fe.load_vector(20),
+                               2.0 * (fe.load_vector(10) - fe.load_vector(11)), atol=1e-12)
+    with pytest.raises(InputError, match="load set 99"):
+        fe.load_vector(99)
+
+
+def test_writer_round_trip_gives_identical_matrices(tmp_path):
+    fe0 = goland()
+    p1, p2 = tmp_path / "a" / "goland.bdf", tmp_path / "b" / "goland.bdf"
+    write_bdf(fe0, p1)
+    fe1 = read_bdf(p1)
+    write_bdf(fe1, p2)
+    fe2 = read_bdf(p2)
+    for fe in (fe1, fe2):
+        assert fe.n_dof == fe0.n_dof
+        for name in ("stiffness_matrix", "mass_matrix"):
+            A, B = getattr(fe0, name)(), getattr(fe, name)()
+            assert (A != B).nnz == 0  # bit-identical
+        assert fe.output_points == fe0.output_points
+        assert fe.units == fe0.units
+    assert p1.read_text() == p2.read_text()
+    with pytest.raises(InputError, match="already exists"):
+        write_bdf(fe1, p1)

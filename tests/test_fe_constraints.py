@@ -1,0 +1,142 @@
+"""Constraint elimination: SPC/PS in rotated displacement systems, RBE2, RBE3, chains, AUTOSPC.
+
+References: exact rigid-body kinematics (a rigid element must reproduce a rigid motion exactly),
+the weighted-average property of the RBE3 for translations, and hand-built expectations.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from torchrom.errors import InputError
+
+from .fe_decks import model_of, new_deck, rotation
+
+
+def _rigid_free_vector(fe, t, w, grids=None):
+    """Free-DOF values of the small rigid motion u = t + w × x, θ = w (CD components)."""
+    u = np.zeros(fe.n_dof)
+    row = fe.mesh.grid_row()
+    for k, (gid, comp) in enumerate(fe.free_dofs()):
+        if grids is not None and gid not in grids:
+            continue
+        g = row[gid]
+        x = fe.grid_xyz[g]
+        basic = np.concatenate((t + np.cross(w, x), w))
+        axes = fe.mesh.cd_axes[g]
+        c = comp - 1
+        u[k] = axes[:, c % 3] @ basic[3 * (c // 3): 3 * (c // 3) + 3]
+    return u
+
+
+def _spring_deck(with_rbe: str):
+    """Four independent grids carried by rods to ground-like supports, plus a dependent grid."""
+    m = new_deck()
+    pts = {1: [0.0, 0.0, 0.0], 2: [2.0, 0.0, 0.1], 3: [2.0, 1.5, -0.2], 4: [0.0, 1.0, 0.3],
+           9: [0.7, 0.4, 0.5]}
+    for nid, p in pts.items():
+        m.add_grid(nid, p)
+    m.add_mat1(1, 1e7, None, 0.3, rho=1.0)
+    m.add_pshell(1, mid1=1, t=0.1, mid2=1, mid3=1)
+    m.add_cquad4(1, 1, [1, 2, 3, 4])
+    if with_rbe == "rbe3":
+        m.add_rbe3(10, 9, "123456", [1.0, 3.0], ["123", "123"], [[1, 2], [3, 4]])
+    elif with_rbe == "rbe2":
+        m.add_rbe2(10, 1, "123456", [9])
+    m.add_conm2(20, 9, 2.0, I=[1.0, 0.0, 1.0, 0.0, 0.0, 1.0])
+    return m
+
+
+@pytest.mark.parametrize("kind", ["rbe2", "rbe3"])
+def test_rigid_elements_reproduce_rigid_motion(kind):
+    fe = model_of(_spring_deck(kind), autospc=False)
+    with pytest.raises(InputError, match="not an independent DOF"):
+        fe.dof_index(9, 1)
+    t, w = np.array([0.1, -0.2, 0.3]), np.array([0.02, 0.05, -0.03])
+    U = fe.expand(_rigid_free_vector(fe, t, w))
+    x9 = fe.grid_xyz[fe.mesh.grid_row()[9]]
+    expected = np.concatenate((t + np.cross(w, x9), w))
+    np.testing.assert_allclose(U[fe.mesh.grid_row()[9]], expected, rtol=0, atol=1e-13)
+
+
+def test_rbe3_translation_is_the_weighted_average():
+    """For pure translations of the independent grids (no rigid part), the reference grid's
+    translation is the weighted mean when the weighted centroid is the reference point."""
+    m = new_deck()
+    pts = {1: [-1.0, 0.0, 0.0], 2: [1.0, 0.0, 0.0], 3: [0.0, 1.0, 0.0], 4: [0.0, -1.0, 0.0],
+           9: [0.0, 0.0, 0.0]}
+    for nid, p in pts.items():
+        m.add_grid(nid, p)
+    m.add_mat1(1, 1e7, None, 0.3, rho=1.0)
+    m.add_prod(1, 1, 1e-2)
+    for e, (a, b) in enumerate([(1, 3), (3, 2), (2, 4), (4, 1)]):
+        m.add_crod(e + 1, 1, [a, b])
+    m.add_rbe3(10, 9, "123", [1.0, 2.0], ["123", "123"], [[1, 2], [3, 4]])
+    fe = model_of(m, autospc=False)  # a planar rod frame: T3 has no stiffness
+    u = np.zeros(fe.n_dof)
+    vals = {1: 1.0, 2: 3.0, 3: -2.0, 4: 5.0}
+    for gid, val in vals.items():
+        u[fe.dof_index(gid, 3)] = val
+    U = fe.expand(u)
+    mean = (1.0 * (1.0 + 3.0) + 2.0 * (-2.0 + 5.0)) / (2 * 1.0 + 2 * 2.0)
+    assert U[fe.mesh.grid_row()[9], 2] == pytest.approx(mean, rel=1e-13)
+
+
+def test_rbe_chain_and_cycle():
+    m = _spring_deck("rbe3")
+    m.add_grid(11, [1.0, 1.0, 1.0])
+    m.add_rbe2(12, 9, "123456", [11])  # independent grid 9 is itself RBE3-dependent
+    fe = model_of(m, autospc=False)
+    t, w = np.array([0.0, 0.1, 0.0]), np.array([0.01, 0.0, 0.02])
+    U = fe.expand(_rigid_free_vector(fe, t, w))
+    x = fe.grid_xyz[fe.mesh.grid_row()[11]]
+    np.testing.assert_allclose(U[fe.mesh.grid_row()[11], :3], t + np.cross(w, x), atol=1e-13)
+    m.add_rbe2(13, 11, "123", [2])  # 2 -> 11 -> 9 -> (1, 2, 3, 4): a cycle through grid 2
+    with pytest.raises(InputError, match="cycle"):
+        model_of(m, autospc=False)
+
+
+def test_rbe3_needs_a_rigid_fit():
+    m = new_deck()
+    for nid, x in ((1, 0.0), (2, 1.0), (3, 2.0), (9, 1.0)):
+        m.add_grid(nid, [x, 0.0, 0.0 if nid != 9 else 0.5])
+    m.add_rbe3(10, 9, "123456", [1.0], ["123"], [[1, 2, 3]])  # collinear: twist undetermined
+    with pytest.raises(InputError, match="RBE3 10"):
+        model_of(m)
+
+
+def test_spc_in_rotated_displacement_system():
+    """GRID CD in a rotated CORD2R: SPC/PS components and dof_index refer to that system and
+    expand() returns basic components."""
+    m = new_deck()
+    R = rotation([0.0, 0.0, 1.0], np.deg2rad(30.0))
+    m.add_cord2r(5, [0.0, 0.0, 0.0], list(R[:, 2]), list(R[:, 0]))
+    m.add_grid(1, [0.0, 0.0, 0.0], cd=5, ps="123456")
+    m.add_grid(2, [1.0, 0.0, 0.0], cd=5, ps="3456")
+    m.add_mat1(1, 1e6, None, 0.3, rho=1.0)
+    m.add_prod(1, 1, 1.0)
+    m.add_crod(1, 1, [1, 2])
+    m.add_spc1(1, "2", [2])  # local y of grid 2 constrained
+    fe = model_of(m)
+    assert fe.free_dofs() == [(2, 1)]
+    U = fe.expand(np.array([1.0]))
+    np.testing.assert_allclose(U[1, :3], R[:, 0], atol=1e-15)
+    # Axial stiffness of the rod seen along the local x axis (30 degrees off the rod axis).
+    assert fe.stiffness_matrix()[0, 0] == pytest.approx(1e6 * np.cos(np.deg2rad(30)) ** 2)
+    with pytest.raises(InputError, match="SPC1 1"):
+        fe.dof_index(2, 2)
+
+
+def test_autospc_removes_dofs_without_stiffness():
+    m = new_deck()
+    for nid, p in enumerate([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]], start=1):
+        m.add_grid(nid, p)
+    m.add_mat1(1, 1e6, None, 0.3, rho=1.0)
+    m.add_pshell(1, mid1=1, t=0.1)  # membrane only: rotations and out-of-plane are singular
+    m.add_cquad4(1, 1, [1, 2, 3, 4])
+    fe = model_of(m)
+    assert {c for _, c in fe.free_dofs()} == {1, 2}
+    assert len(fe.autospc) == 4 * 4
+    fe_all = model_of(m, autospc=False)
+    assert fe_all.n_dof == 24

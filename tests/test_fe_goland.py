@@ -1,0 +1,131 @@
+"""The heavy Goland wing: calibration, stiffness vs REFERENCE Sec. 6, modes vs Table 2, point A,
+pressure loads, nonlinear statics and the ``torchrom goland`` command."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+import torch
+
+from torchrom.cli import main
+from torchrom.fe import TABLE2_HZ, calibrate_density, goland, goland_stiffness, read_bdf
+from torchrom.fe.goland import CALIBRATED_DENSITY, DEFAULT_STORE_X, POINT_A_GRID
+
+
+@pytest.fixture(scope="module")
+def fe():
+    return goland()
+
+
+@pytest.fixture(scope="module")
+def modes(fe):
+    return fe.modes(9)
+
+
+def test_calibration_reproduces_cached_density_and_mode_1(fe, modes):
+    cached = CALIBRATED_DENSITY[("bending", "cshear", False, DEFAULT_STORE_X)]
+    assert calibrate_density() == pytest.approx(cached, rel=1e-9)  # 10-digit rounding
+    assert fe.mesh.rods.rho[0] == cached
+    assert modes.frequencies_hz[0] == pytest.approx(TABLE2_HZ[0], rel=1e-3)
+    assert modes.kinds[0] == "bending" and modes.kinds[1] == "torsion"
+
+
+def test_box_stiffness_matches_reference(fe):
+    """REFERENCE Sec. 6: EI ≈ 2.4e7 lbf ft² (5 %), GJ ≈ 2.4e6 lbf ft² (10 %), flexural axis at
+    2 ft from the leading edge (33 % of the 6 ft chord)."""
+    s = goland_stiffness(fe)
+    assert s["EI"] == pytest.approx(2.4e7, rel=0.05)
+    assert s["GJ"] == pytest.approx(2.4e6, rel=0.10)
+    assert s["elastic_axis_x"] == pytest.approx(2.0, abs=0.02)
+
+
+def test_lead_lag_mode(modes):
+    """Table 2's mode 5 (11.258 Hz) is the in-plane lead–lag mode. Our box predicts it at
+    11.32 Hz but as mode 4: with the store's CG on the elastic axis our second torsion mode
+    (12.4 Hz) lies above it (see the report: torsion modes are 10–35 % high)."""
+    inplane = [f for f, k in zip(modes.frequencies_hz[:5], modes.kinds[:5]) if k == "in-plane"]
+    assert len(inplane) == 1
+    assert inplane[0] == pytest.approx(TABLE2_HZ[4], rel=0.05)
+
+
+def test_point_a_and_outputs(fe):
+    assert fe.output_points == {"A_Tx": (POINT_A_GRID, 1), "A_Ty": (POINT_A_GRID, 2),
+                                "A_Tz": (POINT_A_GRID, 3)}
+    np.testing.assert_allclose(fe.grid_xyz[fe.mesh.grid_row()[POINT_A_GRID]],
+                               [2.0, 20.0, 0.16667])
+    assert fe.units == {"length": "ft", "mass": "slug", "time": "s", "force": "lbf"}
+    k = fe.dof_index(*fe.output_points["A_Tz"])
+    u = np.zeros(fe.n_dof)
+    u[k] = 1.0
+    assert fe.expand(u)[fe.mesh.grid_row()[POINT_A_GRID], 2] == 1.0
+
+
+def _resultant(fe, F, comp):
+    return sum(F[k] for k, (_, c) in enumerate(fe.free_dofs()) if c == comp)
+
+
+def test_pressure_loads(fe):
+    """p acts on the upper skin only (the lifting surface, 4 ft x 20 ft), upwards; the root row
+    of grids (1/20 of the consistent load: half a 2-ft bay) is clamped, so 95 % remains."""
+    F = fe.pressure_load(10.0)
+    assert _resultant(fe, F, 3) == pytest.approx(10.0 * 80.0 * 0.95)
+    assert _resultant(fe, F, 1) == 0.0 and _resultant(fe, F, 2) == 0.0
+    upper = {g for g, c in fe.free_dofs() if fe.grid_xyz[fe.mesh.grid_row()[g], 2] > 0}
+    assert all(F[k] == 0 for k, (g, _) in enumerate(fe.free_dofs()) if g not in upper)
+    step = fe.pressure_load(lambda x, y: np.where(x < 2.0, 10.0, -10.0))
+    assert abs(_resultant(fe, step, 3)) < 1e-9
+
+
+def test_nonlinear_static_matches_linear_at_small_load_and_converges(fe):
+    F = fe.pressure_load(1.0)
+    u_lin = fe.linear_static(F)
+    res = fe.static_solve(F)
+    assert res.converged
+    np.testing.assert_allclose(res.u, u_lin, rtol=0, atol=2e-3 * np.abs(u_lin).max())
+    big = fe.static_solve(fe.pressure_load(1000.0))  # tip deflection ≈ 17 % of the span
+    assert big.converged
+    r = fe.internal_force(big.u) - fe.pressure_load(1000.0)
+    assert np.linalg.norm(r) <= 1e-8 * np.linalg.norm(fe.pressure_load(1000.0))
+    a = fe.dof_index(*fe.output_points["A_Tz"])
+    assert big.u[a] / 20.0 > 0.15
+
+
+def test_modal_taylor_coefficients_are_exact(fe, modes):
+    """Φᵀ f(Φ q) is an exact cubic in q: its third derivative along q is constant (this is what
+    the identification differentiates)."""
+    Phi = torch.tensor(modes.shapes[:, :2])
+    q0 = torch.tensor([0.3, -0.2], dtype=torch.float64)
+    d = torch.tensor([1.0, 0.5], dtype=torch.float64)
+
+    def g(s):
+        return Phi.T @ fe.internal_force_torch(Phi @ (q0 + s * d))
+
+    d3 = torch.func.jacfwd(torch.func.jacfwd(torch.func.jacfwd(g)))
+    a = d3(torch.tensor(0.0, dtype=torch.float64))
+    b = d3(torch.tensor(2.0, dtype=torch.float64))
+    assert torch.allclose(a, b, rtol=1e-8, atol=1e-10 * a.abs().max())
+
+
+def test_membrane_skin_variant_calibrates():
+    fe_m = goland(skins="membrane")
+    assert fe_m.modes(1).frequencies_hz[0] == pytest.approx(TABLE2_HZ[0], rel=1e-3)
+    assert all(c <= 3 for _, c in fe_m.free_dofs())  # no rotations left (AUTOSPC)
+
+
+def test_cli_goland_writes_deck_and_table(tmp_path, capsys):
+    out = tmp_path / "g"
+    js = tmp_path / "modes.json"
+    assert main(["goland", "--out", str(out), "--json", str(js)]) == 0
+    text = capsys.readouterr().out
+    assert "paper Hz" in text and "wrote" in text
+    recs = json.loads(js.read_text())
+    assert len(recs) == 9 and recs[0]["paper_hz"] == TABLE2_HZ[0]
+    assert abs(recs[0]["diff_pct"]) < 0.1
+    fe2 = read_bdf(out / "goland.bdf")
+    assert fe2.output_points["A_Tz"] == (POINT_A_GRID, 3)
+    assert main(["goland", "--out", str(out)]) == 2  # no overwrite without --force
+    assert "already exists" in capsys.readouterr().err
+    assert main(["modes", str(out / "goland.bdf"), "--n", "3"]) == 0
+    assert "paper Hz" in capsys.readouterr().out

@@ -1,0 +1,652 @@
+"""Nastran bulk data → :class:`torchrom.fe.model.FEModel`.
+
+Delegated to pyNastran: parsing the deck (free/small/large field, continuations, INCLUDE),
+card objects and the coordinate systems' axes (``Coord.beta()``, ``GRID.get_position()``).
+Hand-written here: which cards are supported, the checks that turn bad input into one-line
+:class:`~torchrom.errors.InputError` messages naming the file, card and ID, the conversion of
+properties/materials/constraints/loads into the plain arrays of :mod:`torchrom.fe.mesh`, and the
+selection of the SPC set and eigenvalue method from the case control (or the only one present).
+
+Supported structural cards: GRID (CP, CD, PS), GRDSET, CORD1R/C/S, CORD2R/C/S, SPC, SPC1,
+SPCADD, MAT1, CROD/PROD, CONROD, CQUAD4/PSHELL, CSHEAR/PSHEAR, CBAR/PBAR, CONM2, CMASS2, RBE2,
+RBE3, EIGR, EIGRL, FORCE, MOMENT, PLOAD2, PLOAD4, LOAD, PARAM (COUPMASS, WTMASS are used).
+Aerodynamic and solution-control cards (CAERO1, PAERO1, SPLINE*, SET1, AERO, AEROS, MKAERO*,
+FLFACT, FLUTTER, ...) are kept in ``fe.bdf`` for :mod:`torchrom.aero` and ignored here. Any other
+card is an error listing the card names and counts (``unsupported="warn"`` demotes it to a
+warning and ignores those cards).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import io
+import logging
+import re
+import warnings
+from collections import Counter
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..errors import InputError
+from .elements.quad4 import quad_frames, shape
+from .mesh import (
+    BarSet,
+    InterpRBE3,
+    Mesh,
+    PointMass,
+    QuadSet,
+    RigidRBE2,
+    RodSet,
+    ScalarMass,
+    ShearSet,
+)
+
+STRUCTURAL_CARDS = frozenset(
+    "GRID GRDSET CORD1R CORD1C CORD1S CORD2R CORD2C CORD2S SPC SPC1 SPCADD MAT1 CROD PROD "
+    "CONROD CQUAD4 PSHELL CSHEAR PSHEAR CBAR PBAR CONM2 CMASS2 RBE2 RBE3 EIGR EIGRL FORCE MOMENT "
+    "PLOAD2 PLOAD4 LOAD PARAM ENDDATA".split()
+)
+# Kept for the aerodynamics (and for Nastran itself when the deck is written back); no effect on
+# the structure.
+PASSIVE_CARDS = frozenset(
+    "AERO AEROS CAERO1 CAERO2 CAERO3 CAERO4 CAERO5 PAERO1 PAERO2 PAERO3 PAERO4 PAERO5 SPLINE1 "
+    "SPLINE2 SPLINE3 SPLINE4 SPLINE5 SPLINE6 SPLINE7 SET1 SET2 MKAERO1 MKAERO2 FLFACT FLUTTER "
+    "AEFACT AELIST AESURF AESURFS AESTAT AELINK AEPARM TRIM DIVERG CSSCHD EIGC TABDMP1 MONPNT1 "
+    "GUST NLPARM TSTEP DMI".split()
+)
+GOLAND_TITLE = "torchrom heavy Goland wing"
+CORNERS = ((-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0))
+
+
+class UnsupportedCardWarning(UserWarning):
+    """Cards the FE reader ignores (only with ``unsupported='warn'``)."""
+
+
+def _quiet_logger() -> logging.Logger:
+    log = logging.getLogger("torchrom.pyNastran")
+    if not log.handlers:
+        log.addHandler(logging.NullHandler())
+    log.propagate = False
+    return log
+
+
+_FIELD_MSG = re.compile(r"^(\w+) = (.*?) \(field #(\d+)\) on card (.*)$")
+_CARD_MSG = re.compile(r"card=\[(.*?)\]", re.S)
+
+
+def _pynastran_error(fname: str, exc: Exception) -> InputError:
+    """One line from a pyNastran parsing error: file, card, id, field and what was wrong."""
+    text = str(exc)
+    first = text.strip().splitlines()[0] if text.strip() else type(exc).__name__
+    card = ""
+    m = _CARD_MSG.search(text)
+    if m:
+        parts = [p.strip().strip("'\"") for p in m.group(1).split(",")]
+        card = " ".join(p for p in parts[:2] if p and p != "None")
+    f = _FIELD_MSG.match(first)
+    if f:
+        name, value, num, rest = f.groups()
+        what = re.sub(r"\s*\(not an? [^)]*\)", "", rest.rstrip(".")).replace("must be", "expected")
+        return InputError(f"{fname}: {card}: field #{num} ({name}): {what}, got {value}")
+    where = f"{card}: " if card else ""
+    return InputError(f"{fname}: {where}{first}")
+
+
+def _read_pynastran(path: Path):
+    from pyNastran.bdf.bdf import read_bdf as pn_read_bdf
+
+    try:
+        text = path.read_text(errors="replace")
+    except OSError as exc:
+        raise InputError(f"{path}: cannot read the deck: {exc.strerror or exc}") from None
+    upper = [ln.split("$")[0].strip().upper() for ln in text.splitlines()]
+    has_cend = any(ln == "CEND" for ln in upper)
+    has_begin = any(ln.startswith("BEGIN") and "BULK" in ln for ln in upper)
+    if not has_cend:
+        # A bulk-data-only deck: give pyNastran an empty executive/case control section.
+        text = "SOL 103\nCEND\n" + ("" if has_begin else "BEGIN BULK\n") + text
+    sink = io.StringIO()
+    try:
+        with contextlib.redirect_stdout(sink), warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            model = pn_read_bdf(io.StringIO(text), xref=False, validate=False, log=_quiet_logger())
+    except Exception as exc:  # pyNastran raises many types for bad cards
+        raise _pynastran_error(path.name, exc) from None
+    return model
+
+
+def read_bdf(
+    path,
+    *,
+    spc_id: int | None = None,
+    unsupported: str = "error",
+    drilling: float = 1e-4,
+    autospc: bool = True,
+    output_points: dict[str, tuple[int, int]] | None = None,
+):
+    """Read a Nastran deck into an :class:`~torchrom.fe.model.FEModel`.
+
+    ``spc_id`` selects the SPC set (default: the case control's SPC, else the only set);
+    ``unsupported`` is ``"error"`` (default) or ``"warn"``; ``drilling`` scales the CQUAD4
+    drilling penalty; ``autospc`` removes DOFs without stiffness (Nastran's AUTOSPC);
+    ``output_points`` maps names to (grid id, component 1..6) — decks written by
+    ``torchrom goland`` get the Goland point A automatically.
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise InputError(f"{path}: no such deck")
+    model = _read_pynastran(path)
+    return from_pynastran(
+        model,
+        source=str(path),
+        name=path.stem,
+        spc_id=spc_id,
+        unsupported=unsupported,
+        drilling=drilling,
+        autospc=autospc,
+        output_points=output_points,
+    )
+
+
+def _case_value(model, key: str):
+    """First value of a case-control entry (global subcase first), or None."""
+    cc = model.case_control_deck
+    if cc is None:
+        return None
+    for isub in sorted(cc.subcases):
+        try:
+            return cc.subcases[isub].get_parameter(key)[0]
+        except KeyError:
+            continue
+    return None
+
+
+def _title(model) -> str:
+    value = _case_value(model, "TITLE")
+    return "" if value is None else str(value).strip()
+
+
+def from_pynastran(
+    model,
+    *,
+    source: str,
+    name: str,
+    spc_id: int | None = None,
+    unsupported: str = "error",
+    drilling: float = 1e-4,
+    autospc: bool = True,
+    output_points: dict[str, tuple[int, int]] | None = None,
+    units: dict[str, str] | None = None,
+):
+    """Build an FEModel from a pyNastran ``BDF`` object (read from a file or built in memory)."""
+    from .model import FEModel
+
+    fname = Path(source).name
+    if unsupported not in ("error", "warn"):
+        raise InputError(f"unsupported: expected 'error' or 'warn', got {unsupported!r}")
+    _check_cards(model, fname, unsupported)
+    reader = _Reader(model, fname)
+    mesh = reader.mesh(spc_id)
+    loads = reader.loads(mesh)
+    title = _title(model)
+    if output_points is None and title.startswith(GOLAND_TITLE):
+        from .goland import goland_output_points
+
+        output_points = goland_output_points(mesh)
+        units = units or dict(GOLAND_UNITS)
+    return FEModel(
+        mesh,
+        name=name,
+        source=source,
+        units=units or {"system": "consistent units of the deck"},
+        bdf=model,
+        loads=loads,
+        n_modes_requested=reader.n_modes(),
+        output_points=output_points or {},
+        drilling=drilling,
+        autospc=autospc,
+    )
+
+
+GOLAND_UNITS = {"length": "ft", "mass": "slug", "time": "s", "force": "lbf"}
+
+
+def _check_cards(model, fname: str, unsupported: str) -> None:
+    counts = Counter({k: v for k, v in model.card_count.items() if v})
+    bad = {k: v for k, v in counts.items() if k not in STRUCTURAL_CARDS | PASSIVE_CARDS}
+    if not bad:
+        return
+    listing = ", ".join(f"{k} ({v})" for k, v in sorted(bad.items()))
+    if unsupported == "error":
+        raise InputError(
+            f"{fname}: unsupported cards: {listing}; the FE reader supports "
+            f"{', '.join(sorted(STRUCTURAL_CARDS - {'ENDDATA', 'PARAM', 'GRDSET'}))} "
+            "(unsupported='warn' or --unsupported warn ignores them)"
+        )
+    warnings.warn(f"{fname}: ignoring unsupported cards: {listing}", UnsupportedCardWarning,
+                  stacklevel=3)
+
+
+def _comps(value, fname: str, where: str) -> list[int]:
+    """Nastran component string ('123456' subset) → sorted 0-based list."""
+    if value in (None, "", 0, "0"):
+        return []
+    s = str(value)
+    if not s.isdigit() or any(ch not in "123456" for ch in s):
+        raise InputError(f"{fname}: {where}: expected components from 1..6, got {value!r}")
+    return sorted({int(ch) - 1 for ch in s})
+
+
+def axes_at(coord, point: np.ndarray) -> np.ndarray:
+    """Unit axes (columns, basic) of a coordinate system at a basic point (curvilinear too)."""
+    beta = np.asarray(coord.beta(), dtype=float)  # rows: local x, y, z in basic
+    kind = coord.type[-1]
+    if coord.cid == 0 or kind == "R":
+        return beta.T
+    p = beta @ (np.asarray(point, float) - np.asarray(coord.origin, float))
+    th = np.arctan2(p[1], p[0])
+    c, s = np.cos(th), np.sin(th)
+    if kind == "C":
+        local = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+    else:  # spherical (R, θ from z, φ about z)
+        r_xy = np.hypot(p[0], p[1])
+        ph = np.arctan2(r_xy, p[2])
+        cp, sp_ = np.cos(ph), np.sin(ph)
+        local = np.array(
+            [[sp_ * c, cp * c, -s], [sp_ * s, cp * s, c], [cp, -sp_, 0.0]]
+        )
+    return beta.T @ local
+
+
+class _Reader:
+    """Turns a pyNastran model into a :class:`Mesh` with card-level checks."""
+
+    def __init__(self, model, fname: str):
+        self.m = model
+        self.f = fname
+
+    def err(self, msg: str) -> InputError:
+        return InputError(f"{self.f}: {msg}")
+
+    # -- grids -------------------------------------------------------------------------------
+    def grids(self):
+        m = self.m
+        for nid, node in m.nodes.items():
+            for field, cid in (("CP", node.cp), ("CD", node.cd)):
+                if cid not in (0, None, -1) and cid not in m.coords:
+                    raise self.err(f"GRID {nid}: field {field}: coordinate system {cid} not found")
+        for cid, coord in m.coords.items():
+            rid = getattr(coord, "rid", 0)
+            if rid not in (0, None) and rid not in m.coords:
+                raise self.err(f"{coord.type} {cid}: field RID: coordinate system {rid} not found")
+        if not m.nodes:
+            raise self.err("no GRID cards")
+        try:
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                m.cross_reference(
+                    xref=True, xref_nodes=True, xref_elements=False,
+                    xref_nodes_with_elements=False, xref_properties=False, xref_masses=False,
+                    xref_materials=False, xref_loads=False, xref_constraints=False,
+                    xref_aero=False, xref_sets=False, xref_optimization=False,
+                )
+        except Exception as exc:
+            raise _pynastran_error(self.f, exc) from None
+        ids = np.array(sorted(m.nodes), dtype=int)
+        xyz = np.array([m.nodes[i].get_position() for i in ids], dtype=float).reshape(-1, 3)
+        cd = np.empty((len(ids), 3, 3))
+        for k, i in enumerate(ids):
+            node = m.nodes[i]
+            cd[k] = axes_at(m.coords[node.cd or 0], xyz[k]) if node.cd else np.eye(3)
+        return ids, xyz, cd
+
+    # -- materials and properties --------------------------------------------------------------
+    def mat1(self, mid, owner: str, field: str):
+        mat = self.m.materials.get(mid)
+        if mat is None:
+            raise self.err(f"{owner}: field {field}: material {mid} not found")
+        if mat.type != "MAT1":
+            raise self.err(f"{owner}: field {field}: material {mid} is a {mat.type}; "
+                           "only MAT1 is supported")
+        E = float(mat.e or 0.0)
+        G = float(mat.g or 0.0)
+        nu = float(mat.nu or 0.0)
+        rho = float(mat.rho or 0.0)
+        return E, G, nu, rho
+
+    def prop(self, pid, card: str, eid: int, expected: tuple[str, ...]):
+        p = self.m.properties.get(pid)
+        if p is None:
+            raise self.err(f"{card} {eid}: field PID: property {pid} not found")
+        if p.type not in expected:
+            raise self.err(f"{card} {eid}: field PID: property {pid} is a {p.type}; "
+                           f"expected {' or '.join(expected)}")
+        return p
+
+    def rows(self, nids, card: str, eid, field="G"):
+        out = []
+        for k, nid in enumerate(nids):
+            if nid not in self.row:
+                raise self.err(f"{card} {eid}: field {field}{k + 1}: grid {nid} not found")
+            out.append(self.row[nid])
+        return out
+
+    # -- mesh ----------------------------------------------------------------------------------
+    def mesh(self, spc_id: int | None) -> Mesh:
+        ids, xyz, cd = self.grids()
+        self.row = {int(g): k for k, g in enumerate(ids)}
+        self.ids = ids
+        self.xyz = xyz
+        mesh = Mesh(grid_ids=ids, xyz=xyz, cd_axes=cd)
+        mesh.coupled_mass = self._param("COUPMASS", -1) > 0
+        wtmass = float(self._param("WTMASS", 1.0))
+        rods, quads, shears, bars = [], [], [], []
+        for eid in sorted(self.m.elements):
+            e = self.m.elements[eid]
+            if e.type in ("CROD", "CONROD"):
+                rods.append(self._rod(e))
+            elif e.type == "CQUAD4":
+                quads.append(self._quad(e))
+            elif e.type == "CSHEAR":
+                shears.append(self._shear(e))
+            elif e.type == "CBAR":
+                bars.append(self._bar(e))
+        mesh.rods = _stack(RodSet, rods)
+        mesh.quads = _stack(QuadSet, quads)
+        mesh.shears = _stack(ShearSet, shears)
+        self._check_surfaces("CQUAD4", mesh.quads.eids, mesh.quads.nodes)
+        self._check_surfaces("CSHEAR", mesh.shears.eids, mesh.shears.nodes)
+        mesh.bars = _stack(BarSet, bars)
+        for sel in (mesh.rods, mesh.quads, mesh.shears, mesh.bars):
+            sel.rho *= wtmass
+            sel.nsm *= wtmass
+        for eid in sorted(self.m.masses):
+            c = self.m.masses[eid]
+            if c.type == "CONM2":
+                mesh.conm2.append(self._conm2(c, wtmass))
+            elif c.type == "CMASS2":
+                mesh.cmass2.append(self._cmass2(c, wtmass))
+        for eid in sorted(self.m.rigid_elements):
+            c = self.m.rigid_elements[eid]
+            if c.type == "RBE2":
+                (nrow,) = self.rows([c.gn], "RBE2", eid, "GN")
+                dep = self.rows(c.Gmi, "RBE2", eid, "GM")
+                comps = _comps(c.cm, self.f, f"RBE2 {eid}: field CM")
+                mesh.rbe2.append(RigidRBE2(eid, nrow, comps, dep))
+            elif c.type == "RBE3":
+                mesh.rbe3.append(self._rbe3(c))
+        self._spcs(mesh, spc_id)
+        return mesh
+
+    def _param(self, key: str, default):
+        p = self.m.params.get(key)
+        if p is None or not p.values:
+            return default
+        return p.values[0]
+
+    def _rod(self, e):
+        eid = e.eid
+        if e.type == "CROD":
+            p = self.prop(e.pid, "CROD", eid, ("PROD",))
+            owner = f"PROD {p.pid}"
+            mid, A, J, nsm = p.mid, p.A, p.j, p.nsm
+        else:
+            owner = f"CONROD {eid}"
+            mid, A, J, nsm = e.mid, e.A, e.j, e.nsm
+        E, G, _, rho = self.mat1(mid, owner, "MID")
+        n1, n2 = self.rows(e.nodes, e.type, eid)
+        if not float(A or 0.0) > 0.0:
+            raise self.err(f"{owner}: field A: expected a positive area, got {A}")
+        if np.linalg.norm(self.xyz[n2] - self.xyz[n1]) <= 1e-12 * (1 + np.abs(self.xyz).max()):
+            raise self.err(f"{e.type} {eid}: zero length (grids {e.nodes[0]} and {e.nodes[1]} "
+                           "coincide)")
+        return dict(eids=eid, nodes=[n1, n2], E=E, G=G, A=float(A), J=float(J or 0.0), rho=rho,
+                    nsm=float(nsm or 0.0))
+
+    def _surface(self, e, card: str) -> list[int]:
+        nodes = self.rows(e.nodes, card, e.eid)
+        if len(set(nodes)) < 4:
+            raise self.err(f"{card} {e.eid}: repeated grid in {e.nodes}")
+        return nodes
+
+    def _check_surfaces(self, card: str, eids: np.ndarray, nodes: np.ndarray) -> None:
+        """Jacobian at the corners (all elements at once): positive at all four iff the quad is
+        convex (no interior angle of 180° or more); relative to the mean, so that a sliver is
+        also rejected."""
+        if not len(eids):
+            return
+        _, xy = quad_frames(self.xyz[nodes])
+        dets = []
+        for xi, eta in CORNERS:
+            J = np.einsum("ra,nai->nri", shape(xi, eta)[1], xy)
+            dets.append(J[:, 0, 0] * J[:, 1, 1] - J[:, 0, 1] * J[:, 1, 0])
+        dets = np.stack(dets, axis=1)
+        bad = ~np.all(np.isfinite(dets), axis=1) | (
+            dets.min(axis=1) <= 1e-8 * np.abs(dets.mean(axis=1)))
+        if bad.any():
+            k = int(np.argmax(bad))
+            grids = [int(g) for g in self.ids[nodes[k]]]
+            raise self.err(f"{card} {int(eids[k])}: zero-area, degenerate or concave element "
+                           f"(grids {grids})")
+
+    def _quad(self, e):
+        eid = e.eid
+        p = self.prop(e.pid, "CQUAD4", eid, ("PSHELL",))
+        owner = f"PSHELL {p.pid}"
+        if abs(float(e.zoffset or 0.0)) > 0.0:
+            raise self.err(f"CQUAD4 {eid}: field ZOFFS: offsets are not supported, got {e.zoffset}")
+        t = p.t
+        if t is None or not float(t) > 0.0:
+            raise self.err(f"{owner}: field T: expected a positive thickness, got {t}")
+        t = float(t)
+        corner = [x for x in (e.T1, e.T2, e.T3, e.T4) if x is not None]
+        if corner and (e.tflag or any(abs(x - t) > 1e-12 * t for x in corner)):
+            raise self.err(f"CQUAD4 {eid}: fields T1-T4: corner thicknesses differing from "
+                           "PSHELL T are not supported")
+        if p.mid4 not in (None, 0):
+            raise self.err(f"{owner}: field MID4: membrane-bending coupling is not supported")
+        nodes = self._surface(e, "CQUAD4")
+        E = G = nu = rho = 0.0
+        if p.mid1 not in (None, 0):
+            E, G, nu, rho = self.mat1(p.mid1, owner, "MID1")
+        bend_E = bend_nu = shear_G = 0.0
+        if p.mid2 not in (None, 0):
+            if p.mid2 < 0:
+                raise self.err(f"{owner}: field MID2: plane strain (MID2 = -1) is not supported")
+            Eb, Gb, nub, rho_b = self.mat1(p.mid2, owner, "MID2")
+            bend_E = Eb * float(p.twelveIt3 if p.twelveIt3 is not None else 1.0)
+            bend_nu = nub
+            shear_G = Gb * 5.0 / 6.0
+            if p.mid3 not in (None, 0):
+                Gs = self.mat1(p.mid3, owner, "MID3")[1]
+                shear_G = Gs * float(p.tst if p.tst is not None else 5.0 / 6.0)
+            if p.mid1 in (None, 0):
+                rho = rho_b
+        return dict(eids=eid, nodes=nodes, t=t, E=E, nu=nu, G=G, rho=rho,
+                    nsm=float(p.nsm or 0.0), bend_E=bend_E, bend_nu=bend_nu, shear_G=shear_G)
+
+    def _shear(self, e):
+        eid = e.eid
+        p = self.prop(e.pid, "CSHEAR", eid, ("PSHEAR",))
+        owner = f"PSHEAR {p.pid}"
+        if float(p.f1 or 0.0) or float(p.f2 or 0.0):
+            raise self.err(f"{owner}: fields F1/F2: extensional effectiveness is not supported "
+                           f"(expected 0, got {p.f1}, {p.f2})")
+        if not float(p.t or 0.0) > 0.0:
+            raise self.err(f"{owner}: field T: expected a positive thickness, got {p.t}")
+        _, G, _, rho = self.mat1(p.mid, owner, "MID")
+        nodes = self._surface(e, "CSHEAR")
+        return dict(eids=eid, nodes=nodes, t=float(p.t), G=G, rho=rho, nsm=float(p.nsm or 0.0))
+
+    def _bar(self, e):
+        eid = e.eid
+        p = self.prop(e.pid, "CBAR", eid, ("PBAR",))
+        owner = f"PBAR {p.pid}"
+        E, G, _, rho = self.mat1(p.mid, owner, "MID")
+        n1, n2 = self.rows(e.nodes, "CBAR", eid)
+        L = np.linalg.norm(self.xyz[n2] - self.xyz[n1])
+        if L <= 1e-12 * (1 + np.abs(self.xyz).max()):
+            raise self.err(f"CBAR {eid}: zero length (grids {e.nodes[0]} and {e.nodes[1]} "
+                           "coincide)")
+        if e.pa or e.pb:
+            raise self.err(f"CBAR {eid}: fields PA/PB: pin flags are not supported")
+        for field, w in (("WA", e.wa), ("WB", e.wb)):
+            if w is not None and np.any(np.abs(np.asarray(w, float)) > 0):
+                raise self.err(f"CBAR {eid}: field {field}: offsets are not supported")
+        if float(p.i12 or 0.0):
+            raise self.err(f"{owner}: field I12: product of inertia is not supported")
+        if e.g0 not in (None, 0):
+            (g0,) = self.rows([e.g0], "CBAR", eid, "G0")
+            v = self.xyz[g0] - self.xyz[n1]
+        else:
+            x = np.asarray(e.x, dtype=float)
+            # OFFT's first letter: orientation vector in GA's displacement system (G, the
+            # default and the old numeric flag) or in basic (B).
+            offt = e.offt if isinstance(e.offt, str) else "GGG"
+            cd = self.m.nodes[e.nodes[0]].cd
+            v = axes_at(self.m.coords[cd], self.xyz[n1]) @ x if offt[:1] == "G" and cd else x
+        axis = (self.xyz[n2] - self.xyz[n1]) / L
+        if np.linalg.norm(np.cross(axis, v)) <= 1e-9 * max(np.linalg.norm(v), 1e-300):
+            raise self.err(f"CBAR {eid}: fields X1-X3/G0: orientation vector is parallel to the "
+                           "bar axis or zero")
+        return dict(eids=eid, nodes=[n1, n2], v=v, A=float(p.A or 0.0), I1=float(p.i1 or 0.0),
+                    I2=float(p.i2 or 0.0), J=float(p.j or 0.0), E=E, G=G, rho=rho,
+                    nsm=float(p.nsm or 0.0))
+
+    def _conm2(self, c, wtmass: float) -> PointMass:
+        (g,) = self.rows([c.nid], "CONM2", c.eid)
+        I6 = np.asarray(c.I, dtype=float)
+        inertia = np.array([[I6[0], -I6[1], -I6[3]], [-I6[1], I6[2], -I6[4]],
+                            [-I6[3], -I6[4], I6[5]]])
+        X = np.asarray(c.X, dtype=float)
+        cid = c.cid if c.cid is not None else 0
+        if cid == -1:
+            offset = X - self.xyz[g]
+        elif cid == 0:
+            offset = X
+        else:
+            coord = self.m.coords.get(cid)
+            if coord is None:
+                raise self.err(f"CONM2 {c.eid}: field CID: coordinate system {cid} not found")
+            if coord.type[-1] != "R":
+                raise self.err(f"CONM2 {c.eid}: field CID: only rectangular systems are "
+                               f"supported, got {coord.type} {cid}")
+            Rb = axes_at(coord, self.xyz[g])
+            offset = Rb @ X
+            inertia = Rb @ inertia @ Rb.T
+        return PointMass(c.eid, g, float(c.mass) * wtmass, offset, inertia * wtmass)
+
+    def _cmass2(self, c, wtmass: float) -> ScalarMass:
+        n1, n2 = (list(c.nodes) + [None, None])[:2]
+        if n1 in (None, 0):
+            n1, n2, c1, c2 = n2, None, c.c2, c.c1
+        else:
+            c1, c2 = c.c1, c.c2
+        (g1,) = self.rows([n1], "CMASS2", c.eid)
+        comp1 = _comps(c1, self.f, f"CMASS2 {c.eid}: field C1")
+        g2, comp2 = -1, [0]
+        if n2 not in (None, 0):
+            (g2,) = self.rows([n2], "CMASS2", c.eid)
+            comp2 = _comps(c2, self.f, f"CMASS2 {c.eid}: field C2")
+        if len(comp1) != 1 or len(comp2) != 1:
+            raise self.err(f"CMASS2 {c.eid}: fields C1/C2: expected one component each")
+        return ScalarMass(c.eid, float(c.mass) * wtmass, g1, comp1[0], g2, comp2[0])
+
+    def _rbe3(self, c) -> InterpRBE3:
+        eid = c.eid
+        if c.Gmi:
+            raise self.err(f"RBE3 {eid}: fields UM: alternative dependent DOFs are not supported")
+        (ref,) = self.rows([c.refgrid], "RBE3", eid, "REFGRID")
+        groups = []
+        for w, comps, grids in zip(c.weights, c.comps, c.Gijs):
+            rows = self.rows(grids, "RBE3", eid, "G")
+            cc = _comps(comps, self.f, f"RBE3 {eid}: field C")
+            if not float(w) > 0:
+                raise self.err(f"RBE3 {eid}: field WT: expected a positive weight, got {w}")
+            groups.append((float(w), cc, rows))
+        refc = _comps(c.refc, self.f, f"RBE3 {eid}: field REFC")
+        return InterpRBE3(eid, ref, refc, groups)
+
+    # -- constraints ---------------------------------------------------------------------------
+    def _case_value(self, key: str):
+        return _case_value(self.m, key)
+
+    def _spcs(self, mesh: Mesh, spc_id: int | None) -> None:
+        for nid, node in self.m.nodes.items():
+            for c in _comps(node.ps, self.f, f"GRID {nid}: field PS"):
+                dof = (self.row[nid], c)
+                mesh.spc.append(dof)
+                mesh.spc_source[dof] = f"GRID {nid} PS"
+        ids = sorted(set(self.m.spcs) | set(self.m.spcadds))
+        if spc_id is None:
+            spc_id = self._case_value("SPC")
+            if spc_id is None and len(ids) > 1:
+                raise self.err(f"several SPC sets {ids} and no SPC in the case control; "
+                               "select one (spc_id=...)")
+            if spc_id is None and ids:
+                spc_id = ids[0]
+        if spc_id is None:
+            return
+        if spc_id not in ids:
+            raise self.err(f"case control SPC = {spc_id}: no SPC/SPC1/SPCADD with that ID")
+        for sid in self._spc_ids(spc_id, set()):
+            for card in self.m.spcs.get(sid, []):
+                self._spc_card(card, sid, mesh)
+
+    def _spc_ids(self, sid: int, seen: set) -> list[int]:
+        if sid in seen:
+            raise self.err(f"SPCADD {sid}: refers to itself")
+        seen.add(sid)
+        out = [sid] if sid in self.m.spcs else []
+        for add in self.m.spcadds.get(sid, []):
+            for s in add.sets:
+                if s not in self.m.spcs and s not in self.m.spcadds:
+                    raise self.err(f"SPCADD {sid}: field S: SPC set {s} not found")
+                out += self._spc_ids(s, seen)
+        return out
+
+    def _spc_card(self, card, sid: int, mesh: Mesh) -> None:
+        if card.type == "SPC1":
+            pairs = [(nid, card.components) for nid in card.node_ids]
+            enforced = [0.0] * len(pairs)
+        elif card.type == "SPC":
+            pairs = list(zip(card.node_ids, card.components))
+            enforced = list(card.enforced)
+        else:
+            raise self.err(f"{card.type} {sid}: not supported")
+        for (nid, comps), d in zip(pairs, enforced):
+            if d not in (None, 0, 0.0):
+                raise self.err(f"SPC {sid}: grid {nid}: enforced displacement {d} is not "
+                               "supported (use static_solve(prescribed=...))")
+            (g,) = self.rows([nid], card.type, sid, "G")
+            for c in _comps(comps, self.f, f"{card.type} {sid}: field C"):
+                mesh.spc.append((g, c))
+                mesh.spc_source[(g, c)] = f"{card.type} {sid}"
+
+    # -- methods -------------------------------------------------------------------------------
+    def n_modes(self) -> int | None:
+        methods = self.m.methods
+        sid = self._case_value("METHOD")
+        if sid is None and len(methods) == 1:
+            sid = next(iter(methods))
+        card = methods.get(sid) if sid is not None else None
+        return int(card.nd) if card is not None and card.nd else None
+
+    # -- loads ---------------------------------------------------------------------------------
+    def loads(self, mesh: Mesh) -> dict[int, np.ndarray]:
+        from .loads import LoadBuilder
+
+        return LoadBuilder(self, mesh).all()
+
+
+def _stack(cls, rows: list[dict[str, Any]]):
+    if not rows:
+        return cls()
+    fields = rows[0].keys()
+    out = {}
+    for k in fields:
+        dtype = int if k in ("eids", "nodes") else float
+        out[k] = np.array([r[k] for r in rows], dtype=dtype)
+    return cls(**out)

@@ -1,0 +1,57 @@
+"""Concentrated masses: CONM2 (rigid mass with offset and inertia) and CMASS2 (scalar mass).
+
+Hand-written. CONM2: a rigid body whose CG sits at ``offset`` r from its grid; with the grid's
+translation t and rotation θ (small rotations) the CG moves t + θ × r = t − [r×] θ, so
+
+    M = [[ m I,      −m [r×]           ],
+         [ m [r×],   I_cg − m [r×][r×] ]]
+
+(I_cg the inertia tensor about the CG; Nastran's CONM2 products of inertia enter with a minus
+sign, handled by the reader). CMASS2: m (u1 − u2)² / 2 on two scalar DOFs, each a component of
+a grid in its displacement system (grid 2 may be ground).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .mesh import PointMass, ScalarMass
+
+
+def skew(r: np.ndarray) -> np.ndarray:
+    """[r×] such that [r×] a = r × a."""
+    return np.array([[0.0, -r[2], r[1]], [r[2], 0.0, -r[0]], [-r[1], r[0], 0.0]])
+
+
+def conm2_blocks(masses: list[PointMass]) -> tuple[np.ndarray, np.ndarray]:
+    dofs = np.zeros((len(masses), 6), dtype=int)
+    blocks = np.zeros((len(masses), 6, 6))
+    for k, pm in enumerate(masses):
+        S = skew(np.asarray(pm.offset, dtype=float))
+        m = pm.mass
+        blocks[k, :3, :3] = m * np.eye(3)
+        blocks[k, :3, 3:] = -m * S
+        blocks[k, 3:, :3] = m * S
+        blocks[k, 3:, 3:] = np.asarray(pm.inertia, dtype=float) - m * S @ S
+        dofs[k] = pm.grid * 6 + np.arange(6)
+    return dofs, blocks
+
+
+def cmass2_blocks(
+    masses: list[ScalarMass], cd_axes: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """(n, 6) DOFs (both grids' translation or rotation triplets) and (n, 6, 6) blocks."""
+    dofs = np.zeros((len(masses), 6), dtype=int)
+    blocks = np.zeros((len(masses), 6, 6))
+    for k, sm in enumerate(masses):
+        a = np.zeros(6)
+        a[:3] = cd_axes[sm.grid1][:, sm.comp1 % 3]
+        base1 = sm.grid1 * 6 + 3 * (sm.comp1 // 3)
+        if sm.grid2 >= 0:
+            a[3:] = -cd_axes[sm.grid2][:, sm.comp2 % 3]
+            base2 = sm.grid2 * 6 + 3 * (sm.comp2 // 3)
+        else:
+            base2 = base1  # ground: the second half of ``a`` is zero
+        dofs[k] = np.concatenate((base1 + np.arange(3), base2 + np.arange(3)))
+        blocks[k] = sm.mass * np.outer(a, a)
+    return dofs, blocks

@@ -1,0 +1,165 @@
+"""Plain-array description of a structural model, independent of the Nastran reader.
+
+:mod:`torchrom.fe.bdf_read` fills a :class:`Mesh` from a pyNastran BDF object; the element
+modules and :class:`torchrom.fe.model.FEModel` only see these arrays. Grids are referred to by
+their row in ``grid_ids``; all positions and directions are in the basic system; every grid has
+six DOFs (T1, T2, T3, R1, R2, R3) whose components are measured in that grid's displacement
+system (columns of ``cd_axes``), as in Nastran.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+
+def _empty(n: int, *shape: int, dtype=float) -> np.ndarray:
+    return np.zeros((n, *shape), dtype=dtype)
+
+
+@dataclass
+class RodSet:
+    """CROD/CONROD: axial Green-strain truss plus a linear torsion spring (G J / L)."""
+
+    eids: np.ndarray = field(default_factory=lambda: _empty(0, dtype=int))
+    nodes: np.ndarray = field(default_factory=lambda: _empty(0, 2, dtype=int))
+    E: np.ndarray = field(default_factory=lambda: _empty(0))
+    G: np.ndarray = field(default_factory=lambda: _empty(0))
+    A: np.ndarray = field(default_factory=lambda: _empty(0))
+    J: np.ndarray = field(default_factory=lambda: _empty(0))
+    rho: np.ndarray = field(default_factory=lambda: _empty(0))
+    nsm: np.ndarray = field(default_factory=lambda: _empty(0))
+
+    def __len__(self) -> int:
+        return len(self.eids)
+
+
+@dataclass
+class QuadSet:
+    """CQUAD4/PSHELL: Green-strain membrane, optional linear bending (MITC4), drilling spring.
+
+    ``bend_E``/``bend_nu`` come from PSHELL MID2 scaled by 12I/t³ (0 where MID2 is blank:
+    membrane only); ``shear_G`` is the transverse shear modulus times TS/T.
+    """
+
+    eids: np.ndarray = field(default_factory=lambda: _empty(0, dtype=int))
+    nodes: np.ndarray = field(default_factory=lambda: _empty(0, 4, dtype=int))
+    t: np.ndarray = field(default_factory=lambda: _empty(0))
+    E: np.ndarray = field(default_factory=lambda: _empty(0))
+    nu: np.ndarray = field(default_factory=lambda: _empty(0))
+    G: np.ndarray = field(default_factory=lambda: _empty(0))
+    rho: np.ndarray = field(default_factory=lambda: _empty(0))
+    nsm: np.ndarray = field(default_factory=lambda: _empty(0))
+    bend_E: np.ndarray = field(default_factory=lambda: _empty(0))
+    bend_nu: np.ndarray = field(default_factory=lambda: _empty(0))
+    shear_G: np.ndarray = field(default_factory=lambda: _empty(0))
+
+    def __len__(self) -> int:
+        return len(self.eids)
+
+
+@dataclass
+class ShearSet:
+    """CSHEAR/PSHEAR: in-plane shear only (Green shear strain at the panel centre)."""
+
+    eids: np.ndarray = field(default_factory=lambda: _empty(0, dtype=int))
+    nodes: np.ndarray = field(default_factory=lambda: _empty(0, 4, dtype=int))
+    t: np.ndarray = field(default_factory=lambda: _empty(0))
+    G: np.ndarray = field(default_factory=lambda: _empty(0))
+    rho: np.ndarray = field(default_factory=lambda: _empty(0))
+    nsm: np.ndarray = field(default_factory=lambda: _empty(0))
+
+    def __len__(self) -> int:
+        return len(self.eids)
+
+
+@dataclass
+class BarSet:
+    """CBAR/PBAR: linear Euler–Bernoulli beam; ``v`` is the orientation vector in basic axes."""
+
+    eids: np.ndarray = field(default_factory=lambda: _empty(0, dtype=int))
+    nodes: np.ndarray = field(default_factory=lambda: _empty(0, 2, dtype=int))
+    v: np.ndarray = field(default_factory=lambda: _empty(0, 3))
+    A: np.ndarray = field(default_factory=lambda: _empty(0))
+    I1: np.ndarray = field(default_factory=lambda: _empty(0))
+    I2: np.ndarray = field(default_factory=lambda: _empty(0))
+    J: np.ndarray = field(default_factory=lambda: _empty(0))
+    E: np.ndarray = field(default_factory=lambda: _empty(0))
+    G: np.ndarray = field(default_factory=lambda: _empty(0))
+    rho: np.ndarray = field(default_factory=lambda: _empty(0))
+    nsm: np.ndarray = field(default_factory=lambda: _empty(0))
+
+    def __len__(self) -> int:
+        return len(self.eids)
+
+
+@dataclass
+class PointMass:
+    """CONM2: rigid mass at ``offset`` (basic) from its grid, inertia about its CG (basic)."""
+
+    eid: int
+    grid: int  # row
+    mass: float
+    offset: np.ndarray
+    inertia: np.ndarray
+
+
+@dataclass
+class ScalarMass:
+    """CMASS2: scalar mass between (grid1, comp1) and (grid2, comp2); grid2 = -1 is ground."""
+
+    eid: int
+    mass: float
+    grid1: int
+    comp1: int  # 0..5
+    grid2: int
+    comp2: int
+
+
+@dataclass
+class RigidRBE2:
+    """RBE2: components ``comps`` (0..5) of the ``dependent`` rows follow grid ``independent``."""
+
+    eid: int
+    independent: int
+    comps: list[int]
+    dependent: list[int]
+
+
+@dataclass
+class InterpRBE3:
+    """RBE3: reference grid components ``ref_comps`` = weighted least-squares rigid fit of the
+    groups (weight, components 0..5, grid rows)."""
+
+    eid: int
+    ref: int
+    ref_comps: list[int]
+    groups: list[tuple[float, list[int], list[int]]]
+
+
+@dataclass
+class Mesh:
+    """Everything the FE model needs, in basic axes and grid rows."""
+
+    grid_ids: np.ndarray
+    xyz: np.ndarray
+    cd_axes: np.ndarray  # (n_grid, 3, 3): columns are the displacement-system axes in basic
+    rods: RodSet = field(default_factory=RodSet)
+    quads: QuadSet = field(default_factory=QuadSet)
+    shears: ShearSet = field(default_factory=ShearSet)
+    bars: BarSet = field(default_factory=BarSet)
+    conm2: list[PointMass] = field(default_factory=list)
+    cmass2: list[ScalarMass] = field(default_factory=list)
+    rbe2: list[RigidRBE2] = field(default_factory=list)
+    rbe3: list[InterpRBE3] = field(default_factory=list)
+    spc: list[tuple[int, int]] = field(default_factory=list)  # (grid row, comp 0..5)
+    spc_source: dict[tuple[int, int], str] = field(default_factory=dict)
+    coupled_mass: bool = False
+
+    @property
+    def n_grid(self) -> int:
+        return len(self.grid_ids)
+
+    def grid_row(self) -> dict[int, int]:
+        return {int(g): i for i, g in enumerate(self.grid_ids)}

@@ -1,0 +1,482 @@
+"""The built-in geometrically nonlinear FE model (the default "FE backend").
+
+Hand-written: assembly, constraint elimination, internal forces and tangents; delegated:
+sparse matrices to scipy.sparse, the element kernels' tensor algebra to torch (float64, so that
+the internal forces are differentiable by autograd in forward and reverse mode), eigenvalues and
+sparse factorisations to scipy (see :mod:`torchrom.fe.solvers`).
+
+Total Lagrangian, St Venant–Kirchhoff (DIGEST Sec. 1, Eqs. 1–4): rods, membranes and shear
+panels use the Green–Lagrange strain, so their internal forces are exact cubic polynomials of the
+displacements; plate bending, drilling, rod torsion and CBAR are linear (see the element modules).
+All public vectors live on the independent ("free") DOFs: ``u_all = T u`` (constraints: SPC,
+GRID PS, RBE2, RBE3, automatic SPC of DOFs without stiffness).
+
+- internal force f(u) = f_nl(u) + K_lin u;
+- tangent stiffness K_T(u) = ∂f/∂u = K_mat(u) + K_geo(u);
+- material tangent K_mat(u) = Σ B(u)ᵀ C B(u) + K_lin (no initial-stress part): with Kelvin–Voigt
+  damping D = γ C the damping force is γ K_mat(u) u̇ (NOTES-damping.md, DIGEST Eqs. 52–54).
+"""
+
+from __future__ import annotations
+
+import warnings
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse as sp
+import torch
+
+from ..errors import InputError
+from .assembly import ProjectedPattern, assemble, project
+from .constraints import COMPONENT, build_constraints, drop_free
+from .elements.bar import bar_mass_blocks, bar_stiffness_blocks
+from .elements.green import GreenKernel, GreenPoints
+from .elements.quad4 import (
+    area_mass_blocks,
+    bending_blocks,
+    membrane_points,
+    pressure_forces,
+    quad_frames,
+)
+from .elements.rod import rod_mass_blocks, rod_points, rod_torsion_blocks
+from .elements.shear import shear_mass_blocks, shear_points
+from .mass import cmass2_blocks, conm2_blocks
+from .mesh import Mesh
+
+
+class LinearElementWarning(UserWarning):
+    """A nonlinear analysis of a model whose CBAR elements are linear (small rotations)."""
+
+
+@dataclass
+class _TorchState:
+    kernels: list[GreenKernel]
+    T_rows: torch.Tensor
+    T_cols: torch.Tensor
+    T_vals: torch.Tensor
+    K_rows: torch.Tensor
+    K_cols: torch.Tensor
+    K_vals: torch.Tensor
+
+
+def _coo_parts(M: sp.spmatrix):
+    c = M.tocoo()
+    return c.row.astype(np.int64), c.col.astype(np.int64), c.data
+
+
+class FEModel:
+    """A structural model with geometrically nonlinear internal forces on its free DOFs.
+
+    Build one with :func:`torchrom.fe.read_bdf` or :func:`torchrom.fe.goland`. Public attributes:
+    ``grid_ids``, ``grid_xyz`` (basic), ``n_dof``, ``output_points`` (name → (grid id,
+    component 1..6)), ``name``, ``units``, ``source``, ``bdf`` (the pyNastran deck, including its
+    aerodynamic cards), ``loads`` (load set id → free-DOF vector), ``n_modes_requested`` (EIGR/EIGRL
+    ND), ``autospc`` (list of (grid id, component) removed for lack of stiffness).
+    """
+
+    def __init__(
+        self,
+        mesh: Mesh,
+        *,
+        name: str = "model",
+        source: str = "",
+        units: dict[str, str] | None = None,
+        bdf=None,
+        loads: dict[int, np.ndarray] | None = None,
+        n_modes_requested: int | None = None,
+        output_points: dict[str, tuple[int, int]] | None = None,
+        drilling: float = 1e-4,
+        autospc: bool = True,
+    ):
+        self.mesh = mesh
+        self.name = name
+        self.source = source
+        self.units = dict(units or {})
+        self.bdf = bdf
+        self.n_modes_requested = n_modes_requested
+        self.grid_ids = np.asarray(mesh.grid_ids, dtype=int)
+        self.grid_xyz = np.asarray(mesh.xyz, dtype=float)
+        self._row = mesh.grid_row()
+        self.n_all = 6 * mesh.n_grid
+        self._warned_linear = False
+
+        # Nonlinear (Green-strain) integration points: rods (2 nodes, 1-D), quads+shear (4, 2-D).
+        groups = []
+        if len(mesh.rods):
+            groups.append(rod_points(mesh.rods, mesh.xyz))
+        quad_like = []
+        if len(mesh.quads):
+            quad_like.append(membrane_points(mesh.quads, mesh.xyz))
+        if len(mesh.shears):
+            quad_like.append(shear_points(mesh.shears, mesh.xyz))
+        if quad_like:
+            groups.append(GreenPoints.concat(quad_like))
+        self._points = groups
+
+        # Linear stiffness parts (bending + drilling, rod torsion, CBAR).
+        lin = []
+        if len(mesh.quads):
+            lin.append(bending_blocks(mesh.quads, mesh.xyz, drilling))
+        if len(mesh.rods):
+            lin.append(rod_torsion_blocks(mesh.rods, mesh.xyz))
+        if len(mesh.bars):
+            lin.append(bar_stiffness_blocks(mesh.bars, mesh.xyz))
+        self._lin_parts = [p for p in lin if len(p[0])]
+
+        cons = build_constraints(mesh, source=self.source or self.name)
+        kernels0 = [GreenKernel(p, mesh.xyz) for p in self._points]
+        K_all0 = self._linear_all(kernels0)
+        self.autospc: list[tuple[int, int]] = []
+        if autospc:
+            # Nastran's AUTOSPC: free DOFs whose linear stiffness diagonal is zero (relative to
+            # the largest of their kind) are constrained, e.g. the rotations of membrane-only or
+            # rod-only grids, or the out-of-plane translations of a planar rod/shear structure.
+            Kf = project(K_all0, cons.T)
+            d = np.abs(Kf.diagonal())
+            drop = []
+            for kind in (0, 1):  # translations, rotations judged separately (different units)
+                sel = np.nonzero((cons.free[:, 1] >= 3) == bool(kind))[0]
+                if len(sel):
+                    ref = d[sel].max() if d[sel].max() > 0 else 1.0
+                    drop.extend(sel[d[sel] <= 1e-12 * ref])
+            drop = np.array(sorted(drop), dtype=int)
+            cons = drop_free(cons, drop, "AUTOSPC")
+            self.autospc = [
+                (int(self.grid_ids[g]), int(c) + 1)
+                for (g, c), why in sorted(cons.status.items())
+                if why == "AUTOSPC"
+            ]
+        self.constraints = cons
+        self.T = cons.T
+        self.n_dof = self.T.shape[1]
+        if self.n_dof == 0:
+            raise InputError(f"{self.source or self.name}: the model has no free DOFs")
+        self._free_index = {(int(g), int(c)): k for k, (g, c) in enumerate(cons.free)}
+
+        self._K_lin_free = project(K_all0, self.T)
+        # Tangents = constant linear part (bending, drilling, torsion, CBAR) + the Green-strain
+        # point blocks scattered through precomputed patterns (assembly.ProjectedPattern).
+        self._const = assemble(self._lin_parts, self.n_all)
+        self._K_const_free = project(self._const, self.T)
+        self._patterns = [ProjectedPattern(p.dof_index(), self.T) for p in self._points]
+        self._M_free = project(self._mass_all(), self.T)
+        self._M_free.eliminate_zeros()
+        self._loads_all = dict(loads or {})
+        self.loads = {sid: self.T.T @ f for sid, f in self._loads_all.items()}
+        self.output_points = dict(output_points or {})
+        for key, (gid, comp) in self.output_points.items():
+            self.dof_index(gid, comp, what=f"output point {key}")
+        self._torch: dict[tuple, _TorchState] = {}
+        # Built eagerly: a state first built inside a torch.func transform would cache tensors
+        # tied to that transform's level (call prepare_torch for other dtypes/devices).
+        self.prepare_torch()
+
+    # -- assembly helpers ------------------------------------------------------------------------
+    def _linear_all(self, kernels: list[GreenKernel]) -> sp.csr_matrix:
+        zero = np.zeros(self.n_all)
+        parts = [(k.dof_np, k.point_matrices(zero, geometric=0.0)) for k in kernels]
+        return assemble(parts + self._lin_parts, self.n_all)
+
+    def _mass_all(self) -> sp.csr_matrix:
+        mesh, xyz, cm = self.mesh, self.mesh.xyz, self.mesh.coupled_mass
+        parts = []
+        if len(mesh.rods):
+            parts.append(rod_mass_blocks(mesh.rods, xyz, cm))
+        if len(mesh.quads):
+            q = mesh.quads
+            parts.append(area_mass_blocks(xyz, q.nodes, q.rho * q.t + q.nsm, cm))
+        if len(mesh.shears):
+            parts.append(shear_mass_blocks(mesh.shears, xyz, cm))
+        if len(mesh.bars):
+            parts.append(bar_mass_blocks(mesh.bars, xyz, cm))
+        if mesh.conm2:
+            parts.append(conm2_blocks(mesh.conm2))
+        if mesh.cmass2:
+            parts.append(cmass2_blocks(mesh.cmass2, mesh.cd_axes))
+        return assemble(parts, self.n_all)
+
+    def _state(self, dtype=torch.float64, device=None) -> _TorchState:
+        device = torch.device(device if device is not None else "cpu")
+        key = (dtype, str(device))
+        st = self._torch.get(key)
+        if st is None:
+            opts = dict(dtype=dtype, device=device)
+            r, c, v = _coo_parts(self.T)
+            kr, kc, kv = _coo_parts(self._K_const_free)
+            st = _TorchState(
+                kernels=[GreenKernel(p, self.mesh.xyz, dtype=dtype, device=device)
+                         for p in self._points],
+                T_rows=torch.as_tensor(r, device=device),
+                T_cols=torch.as_tensor(c, device=device),
+                T_vals=torch.as_tensor(v, **opts),
+                K_rows=torch.as_tensor(kr, device=device),
+                K_cols=torch.as_tensor(kc, device=device),
+                K_vals=torch.as_tensor(kv, **opts),
+            )
+            self._torch[key] = st
+        return st
+
+    def prepare_torch(self, dtype=torch.float64, device=None) -> None:
+        """Build the torch kernels for ``dtype``/``device`` now (float64 CPU is built at
+        construction); do this before using another dtype/device inside ``torch.func``
+        transforms."""
+        self._state(dtype, device)
+
+    def _warn_linear(self) -> None:
+        if len(self.mesh.bars) and not self._warned_linear:
+            self._warned_linear = True
+            warnings.warn(
+                f"{self.name}: {len(self.mesh.bars)} CBAR elements are linear (small rotations); "
+                "the nonlinear analysis includes them through their linear stiffness only",
+                LinearElementWarning,
+                stacklevel=3,
+            )
+
+    # -- DOF bookkeeping -------------------------------------------------------------------------
+    def dof_index(self, grid_id: int, component: int, what: str = "dof_index") -> int:
+        """Index of (grid, component 1..6 in the grid's CD system) among the free DOFs."""
+        if int(component) not in range(1, 7):
+            raise InputError(f"{what}: component: expected 1..6, got {component}")
+        row = self._row.get(int(grid_id))
+        if row is None:
+            raise InputError(f"{what}: grid {grid_id} not found in {self.name}")
+        key = (row, int(component) - 1)
+        k = self._free_index.get(key)
+        if k is None:
+            why = self.constraints.status.get(key, "constrained")
+            raise InputError(
+                f"{what}: grid {grid_id} component {component} ({COMPONENT[key[1]]}) is not an "
+                f"independent DOF ({why})"
+            )
+        return k
+
+    def free_dofs(self) -> list[tuple[int, int]]:
+        """(grid id, component 1..6) of every free DOF, in order."""
+        return [(int(self.grid_ids[g]), int(c) + 1) for g, c in self.constraints.free]
+
+    def expand(self, u) -> np.ndarray:
+        """Free-DOF vector(s) → (n_grid, 6) or (k, n_grid, 6) in basic axes (T1..T3, R1..R3)."""
+        u = np.asarray(u, dtype=float)
+        if u.shape[0] != self.n_dof:
+            raise InputError(f"expand: expected {self.n_dof} rows, got shape {u.shape}")
+        full = self.T @ u
+        if u.ndim == 1:
+            return full.reshape(-1, 6)
+        return np.moveaxis(full.reshape(-1, 6, u.shape[1]), 2, 0)
+
+    def _check_u(self, u, what: str) -> np.ndarray:
+        u = np.asarray(u, dtype=float)
+        if u.shape[-1] != self.n_dof:
+            raise InputError(f"{what}: expected a vector of {self.n_dof} free DOFs, "
+                             f"got shape {u.shape}")
+        return u
+
+    # -- matrices --------------------------------------------------------------------------------
+    def mass_matrix(self) -> sp.csr_matrix:
+        """Mass matrix on the free DOFs (lumped, or consistent with PARAM COUPMASS > 0)."""
+        return self._M_free.copy()
+
+    def stiffness_matrix(self) -> sp.csr_matrix:
+        """Linear stiffness K = K_T(0) = K_mat(0) on the free DOFs."""
+        return self._K_lin_free.copy()
+
+    def _all_torch(self, u: torch.Tensor, st: _TorchState) -> torch.Tensor:
+        out = torch.zeros(*u.shape[:-1], self.n_all, dtype=u.dtype, device=u.device)
+        return out.index_add(-1, st.T_rows, u.index_select(-1, st.T_cols) * st.T_vals)
+
+    def _free_torch(self, f_all: torch.Tensor, st: _TorchState) -> torch.Tensor:
+        out = torch.zeros(*f_all.shape[:-1], self.n_dof, dtype=f_all.dtype, device=f_all.device)
+        return out.index_add(-1, st.T_cols, f_all.index_select(-1, st.T_rows) * st.T_vals)
+
+    def _const_torch(self, u: torch.Tensor, st: _TorchState) -> torch.Tensor:
+        if not len(st.K_rows):
+            return torch.zeros_like(u)
+        out = torch.zeros_like(u)
+        return out.index_add(-1, st.K_rows, u.index_select(-1, st.K_cols) * st.K_vals)
+
+    def internal_force_torch(self, u: torch.Tensor) -> torch.Tensor:
+        """Differentiable internal force f(u) for u of shape (..., n_dof) (any float dtype/device).
+
+        Exactly cubic in u (Green-strain parts) plus linear terms; autograd (reverse or forward
+        mode, e.g. ``torch.func.jvp``/``jacfwd``) gives the exact tangent and Taylor coefficients.
+        """
+        st = self._state(u.dtype, u.device)
+        u_all = self._all_torch(u, st)
+        f_all = torch.zeros_like(u_all)
+        for k in st.kernels:
+            f_all = f_all + k.internal_force(u_all)
+        return self._free_torch(f_all, st) + self._const_torch(u, st)
+
+    def material_force_torch(self, u: torch.Tensor, v: torch.Tensor) -> torch.Tensor:
+        """K_mat(u) v, differentiable, for u, v of shape (..., n_dof)."""
+        st = self._state(u.dtype, u.device)
+        u_all, v_all = self._all_torch(u, st), self._all_torch(v, st)
+        f_all = torch.zeros_like(u_all)
+        for k in st.kernels:
+            f_all = f_all + k.material_force(u_all, v_all)
+        return self._free_torch(f_all, st) + self._const_torch(v, st)
+
+    def strain_energy_torch(self, u: torch.Tensor) -> torch.Tensor:
+        """Strain energy W(u) (...,): f = ∂W/∂u."""
+        st = self._state(u.dtype, u.device)
+        u_all = self._all_torch(u, st)
+        W = 0.5 * (u * self._const_torch(u, st)).sum(-1)
+        for k in st.kernels:
+            W = W + k.energy(u_all)
+        return W
+
+    def internal_force(self, u) -> np.ndarray:
+        """f(u) on the free DOFs (numpy in, numpy out; u may be (..., n_dof))."""
+        u = self._check_u(u, "internal_force")
+        self._warn_linear()
+        with torch.no_grad():
+            return self.internal_force_torch(torch.from_numpy(u)).numpy()
+
+    def material_force(self, u, v) -> np.ndarray:
+        u = self._check_u(u, "material_force")
+        v = self._check_u(v, "material_force")
+        with torch.no_grad():
+            return self.material_force_torch(torch.from_numpy(u), torch.from_numpy(v)).numpy()
+
+    def matrix_combination(self, u, material: float = 0.0, geometric: float = 0.0,
+                           damping: float = 0.0, v=None) -> sp.csr_matrix:
+        """material · K_mat(u) + geometric · K_geo(u) + damping · ∂(K_mat(u) v)/∂u, assembled in
+        one pass (K_T = K_mat + K_geo; the linear element parts belong to K_mat)."""
+        u_all = self.T @ np.asarray(u, dtype=float)
+        v_all = None if not damping else self.T @ np.asarray(v, dtype=float)
+        K = self._K_const_free * material if material else sp.csr_matrix((self.n_dof,) * 2)
+        blocks = [kern.point_matrices(u_all, material, geometric, damping, v_all)
+                  for kern in self._state().kernels]
+        for pat, b in zip(self._patterns, blocks):
+            K = K + pat.assemble(b)
+        return K.tocsr()
+
+    def tangent_stiffness(self, u) -> sp.csr_matrix:
+        """K_T(u) = ∂f/∂u (sparse, symmetric)."""
+        u = self._check_u(u, "tangent_stiffness")
+        self._warn_linear()
+        return self.matrix_combination(u, material=1.0, geometric=1.0)
+
+    def material_tangent(self, u) -> sp.csr_matrix:
+        """K_mat(u): the tangent without the initial-stress part (Kelvin–Voigt damping matrix)."""
+        u = self._check_u(u, "material_tangent")
+        return self.matrix_combination(u, material=1.0)
+
+    def damping_derivative(self, u, v) -> sp.csr_matrix:
+        """∂(K_mat(u) v)/∂u (non-symmetric), for implicit Kelvin–Voigt time integration."""
+        return self.matrix_combination(self._check_u(u, "damping_derivative"), damping=1.0,
+                                       v=self._check_u(v, "damping_derivative"))
+
+    # -- loads -----------------------------------------------------------------------------------
+    def nodal_load(self, loads: dict[tuple[int, int], float]) -> np.ndarray:
+        """Free-DOF load vector from {(grid id, component 1..6 in basic axes): value}."""
+        f = np.zeros(self.n_all)
+        for (gid, comp), val in loads.items():
+            row = self._row.get(int(gid))
+            if row is None:
+                raise InputError(f"nodal_load: grid {gid} not found in {self.name}")
+            if int(comp) not in range(1, 7):
+                raise InputError(f"nodal_load: component: expected 1..6, got {comp}")
+            f[row * 6 + int(comp) - 1] += float(val)
+        return self.T.T @ f
+
+    def load_vector(self, load_id: int) -> np.ndarray:
+        """Free-DOF vector of a FORCE/MOMENT/PLOAD2/PLOAD4/LOAD set of the deck."""
+        if load_id not in self.loads:
+            raise InputError(f"{self.name}: load set {load_id} not found "
+                             f"(available: {sorted(self.loads)})")
+        return self.loads[load_id].copy()
+
+    def pressure_elements(self) -> np.ndarray:
+        """CQUAD4 ids loaded by :meth:`pressure_load` by default: the upper skin.
+
+        Of CQUAD4s sharing the same planform position (centroid x, y), the highest one (largest
+        centroid z); a single-surface model loads all of them.
+        """
+        q = self.mesh.quads
+        if not len(q):
+            return np.zeros(0, dtype=int)
+        c = self.mesh.xyz[q.nodes].mean(axis=1)
+        scale = max(np.ptp(self.mesh.xyz, axis=0).max(), 1e-300)
+        keys = np.round(c[:, :2] / (1e-6 * scale)).astype(np.int64)
+        best: dict[tuple, int] = {}
+        for k, key in enumerate(map(tuple, keys)):
+            if key not in best or c[k, 2] > c[best[key], 2]:
+                best[key] = k
+        return np.sort(q.eids[sorted(best.values())])
+
+    def pressure_load(self, p, elements=None) -> np.ndarray:
+        """Consistent nodal loads of a pressure on CQUAD4 skins (free DOFs, dead load).
+
+        ``p``: a float (force per area) or a callable ``p(x, y)`` of basic coordinates (arrays).
+        It acts normal to each element, oriented so that p > 0 pushes towards +z (for a wing in
+        the x-y plane: upwards); elements with a vertical normal keep their own normal.
+        ``elements``: CQUAD4 ids, default :meth:`pressure_elements` (the upper skin).
+        """
+        q = self.mesh.quads
+        eids = self.pressure_elements() if elements is None else np.asarray(elements, int)
+        pos = {int(e): k for k, e in enumerate(q.eids)}
+        missing = [int(e) for e in eids if int(e) not in pos]
+        if missing:
+            raise InputError(f"pressure_load: elements {missing[:5]} are not CQUAD4s of "
+                             f"{self.name}")
+        sel = np.array([pos[int(e)] for e in eids], dtype=int)
+        nodes = q.nodes[sel]
+        R, _ = quad_frames(self.mesh.xyz[nodes])
+        normal = R[:, 2]
+        flip = np.where(normal[:, 2] < -1e-9, -1.0, 1.0)
+        dofs, F = pressure_forces(self.mesh.xyz, nodes, p, None, normal * flip[:, None])
+        f = np.zeros(self.n_all)
+        np.add.at(f, dofs.reshape(-1), F.reshape(-1))
+        return self.T.T @ f
+
+    # -- analyses (see solvers.py) ---------------------------------------------------------------
+    def modes(self, n: int | None = None, sigma: float | None = None):
+        """Lowest ``n`` modes: frequencies (Hz), mass-normalised shapes (n_dof, n), kinds."""
+        from .solvers import modal_analysis
+
+        n = n or self.n_modes_requested or 10
+        return modal_analysis(self, int(n), sigma=sigma)
+
+    def static_solve(self, load=None, **options):
+        """Nonlinear static solution f(u) = λ load (:func:`torchrom.fe.solvers.static_solve`)."""
+        from .solvers import static_solve
+
+        self._warn_linear()
+        return static_solve(self, load, **options)
+
+    def transient(self, **options):
+        """Nonlinear Newmark transient (see :func:`torchrom.fe.solvers.transient`)."""
+        from .solvers import transient
+
+        self._warn_linear()
+        return transient(self, **options)
+
+    def linear_static(self, load) -> np.ndarray:
+        """K⁻¹ load (linear static solution)."""
+        import scipy.sparse.linalg as sla
+
+        load = self._check_u(load, "linear_static")
+        return sla.spsolve(self._K_lin_free.tocsc(), load)
+
+    def summary(self) -> dict:
+        m = self.mesh
+        return {
+            "name": self.name,
+            "grids": int(m.n_grid),
+            "free_dofs": int(self.n_dof),
+            "CROD": len(m.rods),
+            "CQUAD4": len(m.quads),
+            "CSHEAR": len(m.shears),
+            "CBAR": len(m.bars),
+            "CONM2": len(m.conm2),
+            "CMASS2": len(m.cmass2),
+            "RBE2": len(m.rbe2),
+            "RBE3": len(m.rbe3),
+            "autospc": len(self.autospc),
+        }
+
+    def __repr__(self) -> str:
+        s = self.summary()
+        return f"FEModel({s['name']!r}, grids={s['grids']}, n_dof={s['free_dofs']})"
+

@@ -1,0 +1,367 @@
+"""Analyses on an :class:`~torchrom.fe.model.FEModel`: modes, nonlinear statics, transient.
+
+Delegated: the sparse eigensolver (``scipy.sparse.linalg.eigsh``, shift-invert Lanczos/ARPACK),
+dense ``scipy.linalg.eigh`` for small models, and sparse LU (``splu``). Hand-written: the shift,
+mass normalisation and sign convention of the modes; Newton–Raphson with load stepping and step
+cutting; the displacement-controlled variant; Newmark (average acceleration) with Newton
+iterations, Rayleigh damping α M + β K and Kelvin–Voigt damping γ K_mat(u) u̇ (DIGEST Eqs. 46,
+51–54 at the FE level).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import numpy as np
+import scipy.linalg as la
+import scipy.sparse as sp
+import scipy.sparse.linalg as sla
+
+from ..errors import ConvergenceError, InputError
+from .kinds import classify
+
+
+@dataclass
+class Modes:
+    """Linear normal modes: ``frequencies_hz (n,)``, mass-normalised ``shapes (n_dof, n)``
+    (Φᵀ M Φ = I, the largest-magnitude entry of each shape positive), ``kinds`` (bending,
+    torsion, in-plane, axial), ``eigenvalues`` ω² (rad²/s²), ``fractions`` (content per kind)."""
+
+    frequencies_hz: np.ndarray
+    shapes: np.ndarray
+    kinds: list[str]
+    eigenvalues: np.ndarray
+    fractions: list[dict[str, float]] = field(default_factory=list)
+
+    def records(self, reference_hz=None) -> list[dict]:
+        """One dict per mode: mode, frequency_hz, kind (+ paper_hz, diff_pct when given)."""
+        out = []
+        for i, f in enumerate(self.frequencies_hz):
+            rec = {"mode": i + 1, "frequency_hz": float(f), "kind": self.kinds[i]}
+            if reference_hz is not None:
+                ref = reference_hz[i] if i < len(reference_hz) else None
+                rec["paper_hz"] = ref
+                rec["diff_pct"] = None if ref is None else 100.0 * (float(f) - ref) / ref
+            rec.update({f"content_{k}": v for k, v in self.fractions[i].items()})
+            out.append(rec)
+        return out
+
+
+def solve_linear(K: sp.spmatrix, r: np.ndarray) -> np.ndarray:
+    """K⁻¹ r by sparse LU (SuperLU). Single-threaded, so it does not degrade when the cores are
+    shared, unlike a multi-threaded dense LU (measured: 7 ms vs 35 ms for 360 DOFs under load)."""
+    return sla.splu(sp.csc_matrix(K)).solve(r)
+
+
+def _massless(M: sp.csr_matrix) -> np.ndarray:
+    return np.asarray(abs(M).sum(axis=1)).ravel() == 0.0
+
+
+def _dense_modes(K: sp.spmatrix, M: sp.spmatrix, n: int):
+    K = K.toarray()
+    M = M.toarray()
+    z = np.asarray(np.abs(M).sum(axis=1)).ravel() == 0.0
+    m = ~z
+    if n > m.sum():
+        raise InputError(f"modes: asked for {n} modes but only {int(m.sum())} DOFs carry mass")
+    if z.any():
+        # Massless DOFs have no inertia: condense them statically (exact for the eigenproblem).
+        Kzz, Kzm = K[np.ix_(z, z)], K[np.ix_(z, m)]
+        X = la.solve(Kzz, Kzm, assume_a="sym")
+        Kc = K[np.ix_(m, m)] - Kzm.T @ X
+        vals, vm = la.eigh(Kc, M[np.ix_(m, m)], subset_by_index=[0, n - 1])
+        vecs = np.zeros((K.shape[0], n))
+        vecs[m] = vm
+        vecs[z] = -X @ vm
+    else:
+        vals, vecs = la.eigh(K, M, subset_by_index=[0, n - 1])
+    return vals, vecs
+
+
+def modal_analysis(fe, n: int, sigma: float | None = None) -> Modes:
+    """Lowest ``n`` modes of K φ = ω² M φ on the free DOFs.
+
+    Sparse shift-invert (ARPACK via ``eigsh``) about a small negative shift ``sigma`` (default
+    −1e-6 × mean(diag K)/mean(diag M), safe for free-free models); small models (≤ 200 DOFs or
+    n close to n_dof) use a dense solver with static condensation of massless DOFs.
+    """
+    K = fe.stiffness_matrix()
+    M = fe.mass_matrix()
+    N = K.shape[0]
+    if n < 1:
+        raise InputError(f"modes: n: expected a positive number of modes, got {n}")
+    if n >= N:
+        raise InputError(f"modes: asked for {n} modes of a model with {N} free DOFs")
+    if N <= 200 or n >= N - 1:
+        vals, vecs = _dense_modes(K, M, n)
+    else:
+        dK, dM = K.diagonal(), M.diagonal()
+        if sigma is None:
+            ratio = np.mean(np.abs(dK)) / max(np.mean(np.abs(dM[dM != 0])) if (dM != 0).any()
+                                               else 1.0, 1e-300)
+            sigma = -1e-6 * ratio
+        try:
+            vals, vecs = sla.eigsh(K.tocsc(), k=n, M=M.tocsc(), sigma=sigma, which="LM")
+        except (RuntimeError, sla.ArpackNoConvergence) as exc:
+            raise ConvergenceError(f"modes: the eigensolver failed: {exc}") from None
+    order = np.argsort(vals)
+    vals, vecs = vals[order], vecs[:, order]
+    gen_mass = np.einsum("ik,ik->k", vecs, M @ vecs)
+    vecs = vecs / np.sqrt(np.abs(gen_mass))
+    big = np.argmax(np.abs(vecs), axis=0)
+    vecs = vecs * np.sign(vecs[big, np.arange(vecs.shape[1])])
+    freqs = np.sqrt(np.clip(vals, 0.0, None)) / (2 * np.pi)
+    kinds, fractions = classify(fe, vecs)
+    return Modes(freqs, vecs, kinds, vals, fractions)
+
+
+@dataclass
+class StaticResult:
+    """Nonlinear static solution: ``u`` (n_dof,), ``converged``, total Newton ``iterations``,
+    ``load_factor`` reached (1 when converged), ``residual_norm`` (of the last iterate),
+    ``steps`` (load steps taken), ``reactions`` (force on prescribed DOFs, free-DOF vector,
+    zero elsewhere), ``history`` (per step: load factor, iterations, residual)."""
+
+    u: np.ndarray
+    converged: bool
+    iterations: int
+    load_factor: float
+    residual_norm: float
+    steps: int = 0
+    reactions: np.ndarray | None = None
+    history: list[dict] = field(default_factory=list)
+    message: str = ""
+
+
+def _prescribed(fe, prescribed) -> tuple[np.ndarray, np.ndarray]:
+    if prescribed is None:
+        return np.zeros(0, dtype=int), np.zeros(0)
+    items = prescribed.items() if isinstance(prescribed, dict) else prescribed
+    idx, val = [], []
+    for k, v in items:
+        k = int(k)
+        if not 0 <= k < fe.n_dof:
+            raise InputError(f"static_solve: prescribed DOF index {k} outside 0..{fe.n_dof - 1}")
+        idx.append(k)
+        val.append(float(v))
+    return np.array(idx, dtype=int), np.array(val)
+
+
+def static_solve(
+    fe,
+    load=None,
+    *,
+    prescribed=None,
+    u0=None,
+    n_steps: int = 1,
+    max_cuts: int = 10,
+    max_iter: int = 30,
+    tol: float = 1e-9,
+    raise_on_failure: bool = False,
+    callback: Callable[[float, np.ndarray], None] | None = None,
+) -> StaticResult:
+    """Solve f(u) = λ F for λ from 0 to 1 by Newton–Raphson with load stepping.
+
+    ``load`` F (n_dof,) may be None for pure displacement control. ``prescribed`` (dict free
+    DOF index → value at λ = 1) imposes u_k = λ value (displacement control, e.g. past a limit
+    point); the reactions are returned. ``u0`` is the starting guess (continuation).
+    Convergence: ‖r‖ ≤ tol · max(‖λF‖, ‖reactions‖, ‖f_int‖) on the unknown DOFs, or a Newton
+    correction ‖Δu‖ ≤ 1e-10 ‖u‖ once the residual has stopped decreasing (the residual has
+    reached its rounding floor, which for stiff models can exceed tol · ‖F‖). A step that
+    fails (no convergence in ``max_iter``, NaN, or a growing residual) is halved, up to
+    ``max_cuts`` times; then the result says ``converged=False`` with the load factor reached
+    (or :class:`~torchrom.errors.ConvergenceError` with ``raise_on_failure``).
+    """
+    n = fe.n_dof
+    F = np.zeros(n) if load is None else np.asarray(load, dtype=float).reshape(-1)
+    if F.shape != (n,):
+        raise InputError(f"static_solve: load: expected {n} free-DOF entries, got {F.shape}")
+    p_idx, p_val = _prescribed(fe, prescribed)
+    unknown = np.setdiff1d(np.arange(n), p_idx)
+    u = np.zeros(n) if u0 is None else np.array(u0, dtype=float)
+    lam, total_iter, steps, history = 0.0, 0, 0, []
+    dlam = 1.0 / max(int(n_steps), 1)
+    cuts = 0
+    res_norm = 0.0
+    message = ""
+    while lam < 1.0 - 1e-14:
+        target = min(1.0, lam + dlam)
+        ok, u_new, its, res_norm = _newton(fe, u, F, target, p_idx, p_val, unknown, max_iter, tol)
+        total_iter += its
+        if ok:
+            u, lam = u_new, target
+            steps += 1
+            history.append({"load_factor": lam, "iterations": its, "residual": res_norm})
+            if callback is not None:
+                callback(lam, u)
+            continue
+        cuts += 1
+        if cuts > max_cuts:
+            message = (f"static_solve: no convergence after {max_cuts} step cuts at load factor "
+                       f"{lam:.4g} (residual {res_norm:.3g})")
+            break
+        dlam /= 2.0
+    converged = lam >= 1.0 - 1e-14
+    if not converged and raise_on_failure:
+        raise ConvergenceError(message)
+    r = fe.internal_force(u) - lam * F
+    reactions = np.zeros(n)
+    reactions[p_idx] = r[p_idx]
+    return StaticResult(u, converged, total_iter, lam, res_norm, steps, reactions, history,
+                        message)
+
+
+def _newton(fe, u, F, lam, p_idx, p_val, unknown, max_iter, tol):
+    u = u.copy()
+    u[p_idx] = lam * p_val
+    first = None
+    res = np.inf
+    prev = np.inf
+    du_norm = np.inf
+    for it in range(1, max_iter + 1):
+        f = fe.internal_force(u)
+        r = f - lam * F
+        ru = r[unknown]
+        res = float(np.linalg.norm(ru))
+        scale = max(np.linalg.norm(lam * F[unknown]), np.linalg.norm(r[p_idx]),
+                    np.linalg.norm(f), 1e-300)
+        if not np.isfinite(res):
+            return False, u, it, res
+        if res <= tol * scale:
+            return True, u, it - 1, res
+        if du_norm <= 1e-10 * max(np.linalg.norm(u), 1e-300) and res >= 0.5 * prev:
+            return True, u, it - 1, res  # at the rounding floor
+        prev = res
+        first = res if first is None else first
+        if it > 3 and res > 1e3 * first:
+            return False, u, it, res
+        K = fe.tangent_stiffness(u)[unknown][:, unknown]
+        try:
+            du = solve_linear(K, ru)
+        except (RuntimeError, la.LinAlgError):
+            return False, u, it, res
+        u[unknown] -= du
+        du_norm = float(np.linalg.norm(du))
+    return False, u, max_iter, res
+
+
+@dataclass
+class TransientResult:
+    """Newmark time history: ``t (nt,)``, ``u``/``v`` (nt, n_rec) of the recorded DOFs
+    (``dofs``), ``iterations`` (total Newton iterations), ``converged``."""
+
+    t: np.ndarray
+    u: np.ndarray
+    v: np.ndarray
+    dofs: np.ndarray
+    iterations: int
+    converged: bool
+
+
+def transient(
+    fe,
+    *,
+    t_end: float,
+    dt: float,
+    load=None,
+    u0=None,
+    v0=None,
+    alpha: float = 0.0,
+    beta: float = 0.0,
+    gamma: float = 0.0,
+    nonlinear: bool = True,
+    record=None,
+    newmark_beta: float = 0.25,
+    newmark_gamma: float = 0.5,
+    tol: float = 1e-9,
+    max_iter: int = 20,
+) -> TransientResult:
+    """M ü + (α M + β K) u̇ + γ K_mat(u) u̇ + f(u) = F(t), Newmark + full Newton.
+
+    ``load`` is None, a constant free-DOF vector or a callable t → vector. ``alpha`` (1/s) and
+    ``beta`` (s) give linear Rayleigh damping (DIGEST Eq. 46), ``gamma`` (s) Kelvin–Voigt
+    damping D = γ C (Eq. 52: force γ K_mat(u) u̇). ``nonlinear=False`` uses f = K u, K_mat = K.
+    ``record`` lists the free-DOF indices stored (default: all). Massless DOFs start with zero
+    acceleration (their equations are algebraic and are satisfied from the first step on).
+    """
+    n = fe.n_dof
+    if not dt > 0 or not t_end > 0:
+        raise InputError(f"transient: expected dt > 0 and t_end > 0, got dt={dt}, t_end={t_end}")
+    M = fe.mass_matrix().tocsc()
+    K1 = fe.stiffness_matrix().tocsc()
+    if load is None:
+        def force(t):
+            return np.zeros(n)
+    elif callable(load):
+        def force(t):
+            return np.asarray(load(t), dtype=float)
+    else:
+        const = np.asarray(load, dtype=float)
+
+        def force(t):
+            return const
+    dofs = np.arange(n) if record is None else np.asarray(record, dtype=int)
+    u = np.zeros(n) if u0 is None else np.array(u0, dtype=float)
+    v = np.zeros(n) if v0 is None else np.array(v0, dtype=float)
+
+    def internal(u):
+        return fe.internal_force(u) if nonlinear else K1 @ u
+
+    def kv_force(u, v):
+        if gamma == 0.0:
+            return np.zeros(n)
+        return gamma * (fe.material_force(u, v) if nonlinear else K1 @ v)
+
+    def damping(u, v):
+        return alpha * (M @ v) + beta * (K1 @ v) + kv_force(u, v)
+
+    r0 = force(0.0) - damping(u, v) - internal(u)
+    a = np.zeros(n)
+    heavy = ~_massless(M.tocsr())
+    if heavy.any():
+        Mh = M[heavy][:, heavy]
+        a[heavy] = sla.splu(Mh.tocsc()).solve(r0[heavy])
+    nb, ng = newmark_beta, newmark_gamma
+    steps = int(round(t_end / dt))
+    ts = np.arange(steps + 1) * dt
+    U = np.zeros((steps + 1, len(dofs)))
+    V = np.zeros_like(U)
+    U[0], V[0] = u[dofs], v[dofs]
+    total = 0
+    c_lin = alpha * M + beta * K1
+    for k in range(1, steps + 1):
+        t = ts[k]
+        Fk = force(t)
+        u_pred = u + dt * v + dt**2 * (0.5 - nb) * a
+        v_pred = v + dt * (1 - ng) * a
+        un = u_pred.copy()
+        ok = False
+        for it in range(max_iter):
+            an = (un - u_pred) / (nb * dt**2)
+            vn = v_pred + ng * dt * an
+            fi = internal(un)
+            R = M @ an + damping(un, vn) + fi - Fk
+            scale = max(np.linalg.norm(Fk), np.linalg.norm(M @ an), np.linalg.norm(fi), 1e-300)
+            if np.linalg.norm(R) <= tol * scale and it > 0:
+                ok = True
+                break
+            c = ng / (nb * dt)
+            J = M / (nb * dt**2) + c_lin * c
+            if nonlinear:
+                # K_T + c γ K_mat + γ ∂(K_mat v)/∂u in one assembly pass.
+                J = J + fe.matrix_combination(un, material=1.0 + c * gamma, geometric=1.0,
+                                              damping=gamma, v=vn)
+            else:
+                J = J + K1 * (1.0 + c * gamma)
+            un = un - solve_linear(J, R)
+            total += 1
+        if not ok:
+            raise ConvergenceError(
+                f"transient: Newton did not converge at t = {t:.6g} s (step {k}); reduce dt"
+            )
+        a = (un - u_pred) / (nb * dt**2)
+        v = v_pred + ng * dt * a
+        u = un
+        U[k], V[k] = u[dofs], v[dofs]
+    return TransientResult(ts, U, V, dofs, total, True)
