@@ -42,29 +42,6 @@ class ClosedFormFE:
         return Modes(self._f[:n], shapes, ["closed-form"] * n)
 
 
-def beam_fe(
-    grid_ids, grid_xyz, axes, frequencies_hz=(20.0, 60.0, 120.0), generalized_masses=(1.0, 1.0, 1.0)
-):
-    """Cantilever beam along axes[1] (rows: x, y, z unit vectors in basic), root at grid 0.
-
-    Modes: bending w = (s/L)², torsion θ = s/L, second bending w = (s/L)³ (about the beam's
-    y axis for torsion, its x axis for the bending slope), scaled by 1/sqrt(generalized mass)
-    so that they are mass-normalised for the structure they stand for.
-    """
-    xyz = np.asarray(grid_xyz, dtype=float)
-    ex, ey, ez = np.asarray(axes, dtype=float)
-    s = (xyz - xyz[0]) @ ey
-    L = s.max()
-    fields = np.zeros((3, len(s), 6))
-    fields[0, :, :3] = np.outer((s / L) ** 2, ez)
-    fields[0, :, 3:] = np.outer(2 * s / L**2, ex)
-    fields[1, :, 3:] = np.outer(s / L, ey)
-    fields[2, :, :3] = np.outer((s / L) ** 3, ez)
-    fields[2, :, 3:] = np.outer(3 * s**2 / L**3, ex)
-    fields /= np.sqrt(np.asarray(generalized_masses, dtype=float))[:, None, None]
-    return ClosedFormFE(grid_ids, xyz, frequencies_hz, fields)
-
-
 def plate_fe(
     nx=3, ny=11, chord=4.0, span=20.0, frequencies_hz=(1.7, 3.1), generalized_masses=(50.0, 190.0)
 ):

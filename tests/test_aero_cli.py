@@ -2,26 +2,17 @@
 
 import json
 
-import numpy as np
 import pytest
 
 from torchrom.aero.files import AeroData, save_aero
-from torchrom.aero.panels import read_model
 from torchrom.aero.rfa import fit_minimum_state
 from torchrom.cli import main
 
-from ._aero_fakes import beam_fe
 from .test_aero_flutter import _altitude_case
 
 
 @pytest.fixture
-def pt145_stub(shared, monkeypatch):
-    """Replace the FE model behind the commands by closed-form pt145 modes."""
-    model = read_model(shared / "nastran" / "pt145.bdf")
-    ids = sorted(model.nodes)
-    xyz = np.array([model.nodes[i].get_position() for i in ids])
-    fe = beam_fe(ids, xyz, model.coords[1].beta(), (40.0, 237.0, 250.0), (2.14e-5, 1.08e-5, 1.5e-5))
-    monkeypatch.setattr("torchrom.commands.aero.load_fe", lambda model: fe)
+def pt145(shared):
     return shared / "nastran" / "pt145.bdf"
 
 
@@ -73,8 +64,8 @@ def test_flutter_rom_and_aero_files(tmp_path, capsys):
     assert "state-space" in capsys.readouterr().out
 
 
-def test_flutter_deck(pt145_stub, tmp_path, capsys):
-    rc = main(["flutter", str(pt145_stub), "--json", str(tmp_path / "d.json")])
+def test_flutter_deck(pt145, tmp_path, capsys):
+    rc = main(["flutter", str(pt145), "--json", str(tmp_path / "d.json")])
     assert rc == 0
     text = capsys.readouterr().out
     assert "FLUTTER SUMMARY" in text and "flutter speed" in text
@@ -82,11 +73,11 @@ def test_flutter_deck(pt145_stub, tmp_path, capsys):
     assert out["flutter"][0]["method"] == "KE" and out["flutter"][0]["velocity"] > 0
 
 
-def test_aero_command_writes_aero_npz(pt145_stub, tmp_path, capsys):
+def test_aero_command_writes_aero_npz(pt145, tmp_path, capsys):
     out = tmp_path / "aero.npz"
     args = [
         "aero",
-        str(pt145_stub),
+        str(pt145),
         "--mach",
         "0.45",
         "--out",
