@@ -60,3 +60,27 @@ def test_section_spline_needs_two_stations():
 
     with pytest.raises(InputError, match="two or more span stations"):
         SectionSpline(np.array([[0.0, 1.0, 0.0], [2.0, 1.0, 0.0]]))
+
+
+def test_python_api_build_and_flutter_altitude():
+    """DESIGN API: tr.aero.build(fe, ...) and tr.aero.flutter_altitude(rom, aero, ...)."""
+    import torchrom as tr
+    from torchrom.aero.flutter import flutter_altitude_state_space
+    from torchrom.rom import NonlinearROM
+
+    fe = tr.fe.goland()
+    aero = tr.aero.build(
+        fe,
+        mach=0.7,
+        n_modes=2,
+        n_lags=2,
+        k_list=[0.0, 0.03, 0.06, 0.12],
+        panels=goland_panels(2, 5),
+    )
+    assert aero.n_modes == 2 and aero.metadata["source"] == "goland"
+    np.testing.assert_allclose(aero.metadata["frequencies_hz"][0], 1.690, rtol=1e-3)
+    modes = modal_data(fe, 2)
+    rom = NonlinearROM(np.eye(2), np.diag((2 * np.pi * modes.frequencies_hz) ** 2))
+    res = tr.aero.flutter_altitude(rom, aero, alpha=0.2565, gamma=1.338e-4, alt_range=(0, 30000))
+    ref = flutter_altitude_state_space(modes.structure(0.2565, 1.338e-4), aero.rfa, 0.7, (0, 30000))
+    assert res.altitude == pytest.approx(ref.altitude, rel=1e-9)
