@@ -18,13 +18,12 @@ HELP = "write the heavy Goland wing BDF (goland.bdf) and print its modes against
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    from ..fe.goland import DEFAULT_STORE_X
-
     parser.add_argument("--out", type=Path, default=Path("."),
                         help="output directory for goland.bdf (default: current directory)")
-    parser.add_argument("--store-x", type=float, default=DEFAULT_STORE_X,
-                        help=f"chordwise store position, ft from the leading edge "
-                             f"(default {DEFAULT_STORE_X})")
+    # the default is resolved in run(): importing torchrom.fe here would slow down --help
+    parser.add_argument("--store-x", type=float, default=None,
+                        help="chordwise store position, ft from the leading edge (default: the "
+                             "calibrated torchrom.fe.goland.DEFAULT_STORE_X)")
     parser.add_argument("--density", type=float, default=None,
                         help="uniform density, slug/ft^3 (default: calibrated, mode 1 = 1.690 Hz)")
     parser.add_argument("--skins", choices=("bending", "membrane"), default="bending",
@@ -46,6 +45,10 @@ def run(args: argparse.Namespace) -> int:
 
     out = Path(args.out) / "goland.bdf"
     check_can_write(out, args.force, "deck")
+    if args.store_x is None:
+        from ..fe.goland import DEFAULT_STORE_X
+
+        args.store_x = DEFAULT_STORE_X
     print(f"building the heavy Goland wing (store_x = {args.store_x:g} ft, skins {args.skins}, "
           f"webs {args.webs}, {'consistent' if args.coupled_mass else 'lumped'} mass)")
     fe = goland(store_x=args.store_x, density=args.density, skins=args.skins, webs=args.webs,

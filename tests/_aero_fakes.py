@@ -1,0 +1,61 @@
+"""Stand-ins for FE models (modes given in closed form) used by the aero tests.
+
+They implement the part of the FEModel contract (COMMON.md) the aero code uses: grid_ids,
+grid_xyz, n_dof, expand(u) and modes(n) -> (frequencies_hz, shapes mass-normalised, kinds).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+
+@dataclass
+class Modes:
+    frequencies_hz: np.ndarray
+    shapes: np.ndarray
+    kinds: list
+
+
+class ClosedFormFE:
+    """Grids with prescribed 6-DOF mode shapes (n_modes, n_grid, 6) and frequencies."""
+
+    def __init__(self, grid_ids, grid_xyz, frequencies_hz, mode_fields, source="closed-form"):
+        self.grid_ids = np.asarray(grid_ids)
+        self.grid_xyz = np.asarray(grid_xyz, dtype=float)
+        self._f = np.asarray(frequencies_hz, dtype=float)
+        self._fields = np.asarray(mode_fields, dtype=float)
+        self.n_dof = self.grid_ids.size * 6
+        self.source = source
+
+    def expand(self, u):
+        """(n_dof,) -> (n_grid, 6); (n_dof, k) -> (k, n_grid, 6) (FEModel contract)."""
+        u = np.asarray(u)
+        if u.ndim == 1:
+            return u.reshape(len(self.grid_ids), 6)
+        return u.T.reshape(u.shape[1], len(self.grid_ids), 6)
+
+    def modes(self, n):
+        n = min(n, len(self._f))
+        shapes = self._fields[:n].reshape(n, -1).T
+        return Modes(self._f[:n], shapes, ["closed-form"] * n)
+
+
+def plate_fe(
+    nx=3, ny=11, chord=4.0, span=20.0, frequencies_hz=(1.7, 3.1), generalized_masses=(50.0, 190.0)
+):
+    """Goland-like box grid (x 0..chord, y 0..span, top and bottom skins) with a bending mode and
+    a torsion mode about x = chord / 2, mass-normalised for the given generalized masses (the
+    defaults are those of w = (y/L)² and θ = y/L on a 12.5 slug/ft wing with I_α ≈ 28 slug·ft)."""
+    gx, gy = np.meshgrid(np.linspace(0, chord, nx), np.linspace(0, span, ny))
+    top = np.c_[gx.ravel(), gy.ravel(), np.full(gx.size, 1 / 6)]
+    xyz = np.r_[top, top * [1, 1, -1]]
+    y, x = xyz[:, 1] / span, xyz[:, 0] - chord / 2
+    fields = np.zeros((2, len(xyz), 6))
+    fields[0, :, 2] = y**2
+    fields[0, :, 3] = 2 * y / span
+    fields[1, :, 2] = -x * y  # nose-up twist θ = y/span about the mid-box line
+    fields[1, :, 4] = y
+    fields /= np.sqrt(np.asarray(generalized_masses, dtype=float))[:, None, None]
+    return ClosedFormFE(np.arange(1, len(xyz) + 1), xyz, frequencies_hz, fields)

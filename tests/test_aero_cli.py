@@ -1,0 +1,111 @@
+"""``torchrom aero`` and ``torchrom flutter`` end to end (in process; FE modes stubbed)."""
+
+import json
+
+import pytest
+
+from torchrom.aero.files import AeroData, save_aero
+from torchrom.aero.rfa import fit_minimum_state
+from torchrom.cli import main
+
+from .test_aero_flutter import _altitude_case
+
+
+@pytest.fixture
+def pt145(shared):
+    return shared / "nastran" / "pt145.bdf"
+
+
+def test_flutter_rom_and_aero_files(tmp_path, capsys):
+    from torchrom.rom import NonlinearROM
+
+    _, st, gaf, mach = _altitude_case()
+    NonlinearROM(st.M, st.K).save(tmp_path / "rom.npz")
+    save_aero(AeroData(gaf, fit_minimum_state(gaf, n_lags=8)), tmp_path / "aero.npz")
+    rc = main(
+        [
+            "flutter",
+            str(tmp_path / "rom.npz"),
+            str(tmp_path / "aero.npz"),
+            "--alt-range",
+            "0",
+            "20000",
+            "--alpha",
+            "0",
+            "--gamma",
+            "0",
+            "--at",
+            "4000",
+            "8000",
+            "--json",
+            str(tmp_path / "f.json"),
+            "--plot",
+            str(tmp_path / "vg.png"),
+            "--root-locus",
+            str(tmp_path / "rl.png"),
+            "--alpha-for-gamma",
+            "0.001",
+            "0.01",
+        ]
+    )
+    assert rc == 0
+    out = json.loads((tmp_path / "f.json").read_text())
+    pk, ss = out["flutter"]
+    assert pk["method"] == "p-k" and ss["method"] == "state-space"
+    assert pk["altitude"] == pytest.approx(10000.0, abs=5.0)  # the case is scaled to 10,000 ft
+    assert ss["altitude"] == pytest.approx(pk["altitude"], rel=0.01)
+    assert [g["altitude"] for g in out["growing_response"]] == [4000.0, 8000.0]
+    g = out["growing_response"][0]
+    assert g["frequency_hz_pk"] == pytest.approx(g["frequency_hz_state_space"], rel=0.01)
+    a1, a2 = (p["alpha"] for p in out["alpha_for_gamma"])
+    assert a1 > a2  # more stiffness-proportional damping needs less mass-proportional damping
+    assert out["alpha_for_gamma"][0]["altitude"] == pytest.approx(ss["altitude"])
+    assert (tmp_path / "vg.png").stat().st_size > 0 and (tmp_path / "rl.png").stat().st_size > 0
+    assert "state-space" in capsys.readouterr().out
+
+
+def test_flutter_deck(pt145, tmp_path, capsys):
+    rc = main(["flutter", str(pt145), "--json", str(tmp_path / "d.json")])
+    assert rc == 0
+    text = capsys.readouterr().out
+    assert "FLUTTER SUMMARY" in text and "flutter speed" in text
+    out = json.loads((tmp_path / "d.json").read_text())
+    assert out["flutter"][0]["method"] == "KE" and out["flutter"][0]["velocity"] > 0
+
+
+def test_aero_command_writes_aero_npz(pt145, tmp_path, capsys):
+    out = tmp_path / "aero.npz"
+    args = [
+        "aero",
+        str(pt145),
+        "--mach",
+        "0.45",
+        "--out",
+        str(out),
+        "--modes",
+        "2",
+        "--lags",
+        "2",
+        "--k",
+        "0.05",
+        "0.1",
+        "0.2",
+        "0.4",
+        "--json",
+        str(tmp_path / "a.json"),
+    ]
+    assert main(args) == 0
+    rec = json.loads((tmp_path / "a.json").read_text())
+    assert rec["k"] == [0.0, 0.05, 0.1, 0.2, 0.4] and rec["n_modes"] == 2
+    assert rec["semichord"] == pytest.approx(2.0706 / 2)
+    assert main(args) == 2  # no overwrite without --force
+    assert "already exists" in capsys.readouterr().err
+
+
+def test_bad_deck_exit_code(shared, tmp_path, capsys):
+    text = (shared / "nastran" / "pt145.bdf").read_text().replace("PAERO1  1", "PAERO1  2", 1)
+    bad = tmp_path / "bad.bdf"
+    bad.write_text(text)
+    assert main(["flutter", str(bad)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.count("\n") == 0 and "CAERO1 101: PAERO1 1 not found" in err

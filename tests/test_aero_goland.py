@@ -1,0 +1,112 @@
+"""Heavy Goland wing at Mach 0.70 (9 modes, 13 lags): flutter by p-k and state space vs the paper.
+
+Paper (Sec. III.C): flutter altitude 11,275 ft at 1.975 Hz; Table 3 growing-response
+frequencies 1.851–1.962 Hz at 4,000–11,000 ft. The store's chordwise position (the FE default,
+2.6945 ft) was calibrated once so that the p-k flutter altitude with the default 8 × 20-box mesh
+is 11,275 ft (experiments/aero_goland_flutter.py --calibrate); the flutter frequency and Table 3
+are predictions. They come out 5–9 % high, as the FE's first torsion mode is 4.03 Hz against the
+paper's 3.05 Hz (see tests/test_fe_goland.py). Default tests use a coarse 4 × 10 mesh (+3.5 % in
+altitude against the default mesh); the default mesh is in the ``slow`` test.
+"""
+
+import json
+
+import pytest
+
+from torchrom.aero.build import PAPER_FLUTTER_ALTITUDE_FT, PAPER_FLUTTER_FREQUENCY_HZ, PAPER_TABLE3
+from torchrom.aero.files import load_aero
+from torchrom.cli import main
+
+
+def _check(res, altitude_tol_ft, table3_rel):
+    # p-k (tabulated DLM GAFs) and state space (13-lag minimum-state RFA) agree within 1 % in
+    # altitude, as in the paper (observed 0.02 % coarse, 0.21 % default mesh)
+    assert res.ss_altitude == pytest.approx(res.pk_altitude, rel=0.01)
+    assert res.ss_frequency_hz == pytest.approx(res.pk_frequency_hz, rel=0.01)
+    assert res.pk_altitude == pytest.approx(PAPER_FLUTTER_ALTITUDE_FT, abs=altitude_tol_ft)
+    # predictions (observed +5.6 % default mesh, +6.9 % coarse)
+    assert res.pk_frequency_hz == pytest.approx(PAPER_FLUTTER_FREQUENCY_HZ, rel=0.08)
+    for alt, (f_ss, f_pk, paper) in res.table3.items():
+        assert paper == PAPER_TABLE3[alt]
+        assert f_ss == pytest.approx(paper, rel=table3_rel)
+        assert f_pk == pytest.approx(f_ss, rel=0.01)
+
+
+@pytest.fixture(scope="module")
+def modes():
+    from torchrom.aero.goland import goland_modes
+
+    return goland_modes()
+
+
+@pytest.fixture(scope="module")
+def coarse_aero(tmp_path_factory):
+    """``torchrom aero goland`` with a coarse mesh: aero.npz and its --json record."""
+    d = tmp_path_factory.mktemp("goland")
+    rc = main(
+        [
+            "aero",
+            "goland",
+            "--mach",
+            "0.7",
+            "--out",
+            str(d / "aero.npz"),
+            "--boxes",
+            "4",
+            "10",
+            "--json",
+            str(d / "aero.json"),
+        ]
+    )
+    assert rc == 0
+    return d
+
+
+def test_aero_file_of_the_goland_wing(coarse_aero):
+    rec = json.loads((coarse_aero / "aero.json").read_text())
+    assert rec["n_modes"] == 9 and rec["n_lags"] == 13 and rec["semichord"] == 3.0
+    assert rec["frequencies_hz"][0] == pytest.approx(1.690, rel=1e-3)
+    assert rec["fit_error"]["rms_relative"] < 0.03  # observed 0.017
+    data = load_aero(coarse_aero / "aero.npz")
+    assert data.rfa.n_states == 13 and data.gaf.Q.shape == (21, 9, 9)
+
+
+def test_goland_flutter_coarse_mesh(modes, coarse_aero):
+    from torchrom.aero.goland import goland_flutter
+
+    res = goland_flutter(modes=modes, aero=load_aero(coarse_aero / "aero.npz"))
+    _check(res, altitude_tol_ft=500.0, table3_rel=0.11)  # observed 11,665 ft; Table 3 +7..+10 %
+
+
+def test_flutter_command_compares_with_the_paper(coarse_aero, capsys):
+    out = coarse_aero / "flutter.json"
+    rc = main(
+        [
+            "flutter",
+            "goland",
+            "--aero",
+            str(coarse_aero / "aero.npz"),
+            "--alt-range",
+            "0",
+            "30000",
+            "--json",
+            str(out),
+        ]
+    )
+    assert rc == 0
+    text = capsys.readouterr().out
+    assert "paper" in text and "11275.0" in text and "1.851" in text
+    rec = json.loads(out.read_text())
+    pk, ss = rec["flutter"]
+    assert ss["altitude"] == pytest.approx(pk["altitude"], rel=0.01)
+    assert [g["altitude"] for g in rec["growing_response"]] == sorted(PAPER_TABLE3)
+    assert rec["alpha"] == 0.2565 and rec["gamma"] == 1.338e-4
+
+
+@pytest.mark.slow
+def test_goland_flutter_default_mesh(modes):
+    from torchrom.aero.goland import DEFAULT_BOXES, goland_flutter
+
+    res = goland_flutter(boxes=DEFAULT_BOXES, modes=modes)
+    # the calibration target, observed 11,275.5 ft; Table 3 observed +6.9 .. +9.4 %
+    _check(res, altitude_tol_ft=25.0, table3_rel=0.10)

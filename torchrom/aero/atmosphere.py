@@ -1,0 +1,143 @@
+"""U.S. Standard Atmosphere 1976 at geometric altitude, in foot–slug–second or SI units.
+
+Delegated: the atmosphere itself is the ``ambiance`` package (USSA-76, geometric altitude,
+valid from -5,004 m to 81,020 m). Hand-written: unit conversion, range checks with one-line
+errors, and the matched-point flight condition (V = M a(h), q = ½ ρ V²) used by the flutter
+solvers (paper Sec. III.C: Mach 0.70, altitude in ft).
+
+Units (DESIGN contract, never converted inside the numerics):
+
+========  =========  ===========  =========  ============  ===========
+units     altitude   density      velocity   pressure      temperature
+========  =========  ===========  =========  ============  ===========
+``"ft"``  ft         slug/ft³     ft/s       lbf/ft² (psf) K
+``"si"``  m          kg/m³        m/s        Pa            K
+========  =========  ===========  =========  ============  ===========
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..errors import InputError
+
+#: metres per foot (exact, international foot)
+FT = 0.3048
+#: kg/m³ per slug/ft³ (1 slug = 14.593902937 kg)
+SLUG_PER_FT3 = 14.593902937206364 / FT**3
+#: Pa per lbf/ft²
+PSF = 4.4482216152605 / FT**2
+
+#: geometric altitude range of ambiance's USSA-76 model, m
+ALTITUDE_RANGE_M = (-5004.0, 81020.0)
+
+_UNITS = {
+    # name: (metres per altitude unit, kg/m³ per density unit, Pa per pressure unit)
+    "ft": (FT, SLUG_PER_FT3, PSF),
+    "si": (1.0, 1.0, 1.0),
+}
+
+
+@dataclass(frozen=True)
+class AtmosphereState:
+    """USSA-76 state at one or more geometric altitudes (arrays or floats, in ``units``)."""
+
+    altitude: np.ndarray | float
+    temperature: np.ndarray | float  # K
+    pressure: np.ndarray | float
+    density: np.ndarray | float
+    speed_of_sound: np.ndarray | float
+    units: str
+
+
+@dataclass(frozen=True)
+class FlightCondition:
+    """Matched-point flight condition at a fixed Mach number (V = M a(h), q = ½ ρ V²)."""
+
+    altitude: np.ndarray | float
+    mach: float
+    velocity: np.ndarray | float
+    density: np.ndarray | float
+    dynamic_pressure: np.ndarray | float
+    speed_of_sound: np.ndarray | float
+    units: str
+
+
+def _factors(units: str) -> tuple[float, float, float]:
+    try:
+        return _UNITS[units]
+    except KeyError:
+        raise InputError(
+            f"atmosphere: units: expected one of {sorted(_UNITS)}, got {units!r}"
+        ) from None
+
+
+def _altitude_m(altitude, units: str) -> tuple[np.ndarray, float]:
+    length, _, _ = _factors(units)
+    h = np.asarray(altitude, dtype=float)
+    if not np.all(np.isfinite(h)):
+        raise InputError(f"atmosphere: altitude: expected finite values, got {altitude!r}")
+    h_m = h * length
+    lo, hi = ALTITUDE_RANGE_M
+    if np.any(h_m < lo) or np.any(h_m > hi):
+        bad = h.flat[np.argmax((h_m < lo) | (h_m > hi))]
+        raise InputError(
+            f"atmosphere: altitude {bad:g} {'ft' if units == 'ft' else 'm'} is outside the "
+            f"USSA-76 range {lo / length:.0f} .. {hi / length:.0f}"
+        )
+    return h_m, length
+
+
+def _scalar_or_array(x: np.ndarray, like) -> np.ndarray | float:
+    return float(x) if np.ndim(like) == 0 else x
+
+
+def atmosphere(altitude, units: str = "ft") -> AtmosphereState:
+    """USSA-76 temperature, pressure, density and speed of sound at geometric ``altitude``."""
+    from ambiance import Atmosphere
+
+    h_m, length = _altitude_m(altitude, units)
+    _, dens_f, pres_f = _factors(units)
+    atm = Atmosphere(np.atleast_1d(h_m))
+    shape = np.shape(h_m)
+    out = {
+        "temperature": atm.temperature.reshape(shape),
+        "pressure": atm.pressure.reshape(shape) / pres_f,
+        "density": atm.density.reshape(shape) / dens_f,
+        "speed_of_sound": atm.speed_of_sound.reshape(shape) / length,
+    }
+    return AtmosphereState(
+        altitude=_scalar_or_array(np.asarray(altitude, dtype=float), altitude),
+        units=units,
+        **{k: _scalar_or_array(v, altitude) for k, v in out.items()},
+    )
+
+
+def density(altitude, units: str = "ft"):
+    """Air density (slug/ft³ for ``units="ft"``, kg/m³ for ``"si"``)."""
+    return atmosphere(altitude, units).density
+
+
+def speed_of_sound(altitude, units: str = "ft"):
+    """Speed of sound (ft/s for ``units="ft"``, m/s for ``"si"``)."""
+    return atmosphere(altitude, units).speed_of_sound
+
+
+def flight_condition(mach: float, altitude, units: str = "ft") -> FlightCondition:
+    """Matched-point condition at fixed Mach: V = M a(h), ρ(h), q = ½ ρ V²."""
+    if not (np.isfinite(mach) and mach > 0.0):
+        raise InputError(f"flight condition: mach: expected a positive number, got {mach!r}")
+    st = atmosphere(altitude, units)
+    v = mach * np.asarray(st.speed_of_sound)
+    q = 0.5 * np.asarray(st.density) * v**2
+    return FlightCondition(
+        altitude=st.altitude,
+        mach=float(mach),
+        velocity=_scalar_or_array(v, altitude),
+        density=st.density,
+        dynamic_pressure=_scalar_or_array(q, altitude),
+        speed_of_sound=st.speed_of_sound,
+        units=units,
+    )

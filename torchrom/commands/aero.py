@@ -1,0 +1,155 @@
+"""``torchrom aero``: doublet-lattice GAFs on the first m modes and their RFA -> aero.npz.
+
+Output JSON (--json): {"out", "mach", "semichord", "n_modes", "k" (list), "n_lags", "rfa_kind",
+"fit_error" {rms_relative, max_weighted, max_entry_relative, worst_entry}, "frequencies_hz"}.
+"""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from ._common import add_force_option, add_json_option, maybe_write_json
+
+NAME = "aero"
+HELP = "unsteady aerodynamics: DLM generalized forces Q(k) on the modes and their RFA (aero.npz)"
+
+
+def add_arguments(p: argparse.ArgumentParser) -> None:
+    p.add_argument(
+        "model", help="Nastran deck (.bdf) or 'goland' for the built-in heavy Goland wing"
+    )
+    p.add_argument("--mach", type=float, required=True, help="Mach number (subsonic)")
+    p.add_argument("--out", type=Path, required=True, help="output aero.npz")
+    p.add_argument("--modes", type=int, default=9, help="number of structural modes m (default 9)")
+    p.add_argument("--lags", type=int, default=13, help="RFA lag states (default 13)")
+    p.add_argument("--rfa", choices=["minimum-state", "roger"], default="minimum-state")
+    p.add_argument(
+        "--kernel",
+        choices=["quartic", "parabolic"],
+        default="quartic",
+        help="DLM kernel approximation (PanelAero)",
+    )
+    p.add_argument(
+        "--k",
+        type=float,
+        nargs="+",
+        metavar="K",
+        help="reduced frequencies k = ω b / V (default: the deck's MKAERO list or the "
+        "Goland list); k = 0 is always added",
+    )
+    p.add_argument(
+        "--boxes",
+        type=int,
+        nargs=2,
+        metavar=("NCHORD", "NSPAN"),
+        default=(8, 20),
+        help="Goland planform boxes per half wing (default 8 20)",
+    )
+    p.add_argument(
+        "--planform",
+        choices=["deck", "goland"],
+        default="deck",
+        help="aerodynamic boxes from the deck's CAERO1 cards or the built-in Goland "
+        "planform (default: deck; 'goland' for the built-in model)",
+    )
+    add_force_option(p)
+    add_json_option(p)
+
+
+def load_fe(model: str):
+    """The FE model: built-in Goland or a Nastran deck through torchrom.fe."""
+    from ..errors import InputError
+
+    try:
+        from .. import fe as fe_mod
+    except ImportError as exc:
+        raise InputError(f"the FE module (torchrom.fe) is not available: {exc}") from None
+    if model == "goland":
+        return fe_mod.goland()
+    path = Path(model)
+    if not path.is_file():
+        raise InputError(f"{path}: file not found")
+    return fe_mod.read_bdf(path)
+
+
+def run(args: argparse.Namespace) -> int:
+    from ..aero.build import GOLAND_K_LIST, build_from_deck, build_from_modes, modal_data
+    from ..aero.panels import goland_panels
+    from ..io import check_can_write
+
+    check_can_write(args.out, args.force, "aero file")
+    goland = args.model == "goland" or args.planform == "goland"
+    print(f"torchrom aero: {args.model}: modal analysis ({args.modes} modes)")
+    fe = load_fe(args.model)
+    bar = _progress()
+    if goland:
+        modes = modal_data(fe, args.modes)
+        k_list = GOLAND_K_LIST if args.k is None else sorted({0.0, *args.k})
+        panels = goland_panels(*args.boxes)
+        print(
+            f"  {panels.n} boxes (built-in Goland planform, full span), {len(k_list)} reduced "
+            f"frequencies, Mach {args.mach:g}, {args.kernel} kernel"
+        )
+        data = build_from_modes(
+            modes, args.mach, args.lags, k_list, panels, None, args.kernel, args.rfa, progress=bar
+        )
+        data.metadata["source"] = args.model
+    else:
+        data = build_from_deck(
+            args.model,
+            fe,
+            args.mach,
+            args.modes,
+            args.lags,
+            args.k,
+            args.kernel,
+            args.rfa,
+            progress=bar,
+        )
+    bar(None, None)
+    err = data.rfa.fit_error
+    print(
+        "  modal frequencies (Hz): "
+        + ", ".join(f"{f:.4g}" for f in data.metadata["frequencies_hz"])
+    )
+    print(
+        f"  RFA ({data.rfa.kind}, {args.lags} lags): weighted RMS error {err['rms_relative']:.3e}, "
+        f"worst entry {err['max_entry_relative']:.3e} "
+        f"at Q{tuple(i + 1 for i in err['worst_entry'])}"
+    )
+    data.save(args.out, force=args.force)
+    print(f"wrote {args.out}")
+    maybe_write_json(
+        args,
+        {
+            "out": str(args.out),
+            "mach": data.mach,
+            "semichord": data.semichord,
+            "n_modes": data.n_modes,
+            "k": data.gaf.k.tolist(),
+            "n_lags": args.lags,
+            "rfa_kind": data.rfa.kind,
+            "fit_error": err,
+            "frequencies_hz": data.metadata["frequencies_hz"],
+        },
+    )
+    return 0
+
+
+def _progress():
+    """A tqdm bar over reduced frequencies (closed by calling it with None)."""
+    from tqdm import tqdm
+
+    state = {}
+
+    def update(i, n):
+        if i is None:
+            if "bar" in state:
+                state["bar"].close()
+            return
+        if "bar" not in state:
+            state["bar"] = tqdm(total=n, desc="  DLM", unit="k", leave=False)
+        state["bar"].update(1)
+
+    return update

@@ -1,0 +1,266 @@
+"""``torchrom flutter``: SOL 145-style flutter of a deck, or matched-point flutter of a ROM.
+
+Forms:
+  torchrom flutter DECK.bdf                      FLUTTER/FLFACT/MKAERO cards of the deck (PK, KE)
+  torchrom flutter ROM.npz AERO.npz [--mach M]   matched point at fixed Mach (p-k + state space)
+  torchrom flutter goland [--aero AERO.npz]      built-in heavy Goland wing, compared with the paper
+
+JSON (--json), deck form: {"deck", "title", "modal_frequencies_hz", "flutter": [{flutter_id,
+method, mach, density_ratio, mode, velocity (deck units / VREF), frequency_hz, density,
+dynamic_pressure, reduced_frequency}], "vg": [{..., mode, velocity, damping_g, frequency_hz,
+reduced_frequency, eigenvalue_real, eigenvalue_imag}], "notes"}.
+Matched-point form: {"mach", "alpha" (1/s), "gamma" (s), "units", "flutter": [{method, altitude,
+frequency_hz, velocity, density, dynamic_pressure, mode}], "growing_response": [{altitude,
+frequency_hz_state_space, frequency_hz_pk}], "alpha_for_gamma": [{gamma, alpha, altitude}],
+"paper": {...} (Goland only)}.
+"""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+import numpy as np
+
+from ._common import add_json_option, maybe_write_json
+
+NAME = "flutter"
+HELP = (
+    "flutter: SOL 145 analysis of a Nastran deck, or matched-point altitude of rom.npz + aero.npz"
+)
+
+
+def add_arguments(p: argparse.ArgumentParser) -> None:
+    p.add_argument(
+        "inputs", nargs="+", metavar="INPUT", help="DECK.bdf | ROM.npz AERO.npz | goland"
+    )
+    p.add_argument("--mach", type=float, help="Mach number (default: the aero file's)")
+    p.add_argument(
+        "--alt-range",
+        type=float,
+        nargs=2,
+        metavar=("LO", "HI"),
+        default=(0.0, 40000.0),
+        help="altitude range searched for the flutter point (ft; default 0 40000)",
+    )
+    p.add_argument("--alpha", type=float, help="mass-proportional damping α (1/s; default 0.2565)")
+    p.add_argument(
+        "--gamma", type=float, help="stiffness-proportional damping γ (s; default 1.338e-4)"
+    )
+    p.add_argument("--method", choices=["both", "pk", "state-space"], default="both")
+    p.add_argument(
+        "--at",
+        type=float,
+        nargs="+",
+        metavar="ALT",
+        help="altitudes (ft) at which to report the growing-response frequency "
+        "(default for goland: the paper's Table 3 altitudes)",
+    )
+    p.add_argument(
+        "--aero", type=Path, help="goland form: use this aero.npz instead of building one"
+    )
+    p.add_argument("--lags", type=int, default=13, help="goland form: RFA lag states (default 13)")
+    p.add_argument(
+        "--boxes",
+        type=int,
+        nargs=2,
+        default=(8, 20),
+        metavar=("NCHORD", "NSPAN"),
+        help="goland form: boxes per half wing (default 8 20)",
+    )
+    p.add_argument("--kernel", choices=["quartic", "parabolic"], default="quartic")
+    p.add_argument(
+        "--alpha-for-gamma",
+        type=float,
+        nargs="+",
+        metavar="GAMMA",
+        help="for each γ (s), the α (1/s) that keeps the state-space flutter altitude of the "
+        "given α, γ (paper Fig. 9)",
+    )
+    p.add_argument("--plot", type=Path, help="write a V-g / V-f figure (PNG/PDF)")
+    p.add_argument("--root-locus", type=Path, help="write a state-space root-locus figure")
+    add_json_option(p)
+
+
+def run(args: argparse.Namespace) -> int:
+    from ..errors import InputError
+
+    inputs = args.inputs
+    if len(inputs) == 1 and inputs[0] != "goland":
+        return _run_deck(args, Path(inputs[0]))
+    if len(inputs) == 1:
+        return _run_goland(args)
+    if len(inputs) == 2:
+        return _run_rom(args, Path(inputs[0]), Path(inputs[1]))
+    raise InputError(
+        f"flutter: expected DECK.bdf, ROM.npz AERO.npz or goland, got {len(inputs)} inputs"
+    )
+
+
+def _run_deck(args, path: Path) -> int:
+    from ..aero.nastran_flutter import format_deck_result, load_deck, run_deck
+    from .aero import load_fe
+
+    deck = load_deck(path)
+    print(
+        f"torchrom flutter: {path}: {len(deck.cases)} FLUTTER case(s), {deck.aero_panels.n} boxes"
+    )
+    res = run_deck(deck, fe=load_fe(str(path)), kernel=args.kernel)
+    print(format_deck_result(res))
+    if args.plot is not None and res.results:
+        from ..aero.plots import plot_vg
+
+        plot_vg(
+            res.results[0].sweep, args.plot, title=f"{path.name}: FLUTTER {res.results[0].case.sid}"
+        )
+        print(f"wrote {args.plot}")
+    maybe_write_json(args, res.as_dict())
+    return 0
+
+
+def _run_rom(args, rom_path: Path, aero_path: Path) -> int:
+    from ..aero.build import BASELINE_ALPHA, BASELINE_GAMMA, structure_from_rom_file
+    from ..aero.files import load_aero
+
+    aero = load_aero(aero_path)
+    alpha = BASELINE_ALPHA if args.alpha is None else args.alpha
+    gamma = BASELINE_GAMMA if args.gamma is None else args.gamma
+    st = structure_from_rom_file(rom_path, aero.n_modes, alpha, gamma)
+    return _matched(args, st, aero, compare_paper=False)
+
+
+def _run_goland(args) -> int:
+    from ..aero.build import (
+        BASELINE_ALPHA,
+        BASELINE_GAMMA,
+        GOLAND_K_LIST,
+        build_from_modes,
+        modal_data,
+    )
+    from ..aero.files import load_aero
+    from ..aero.panels import goland_panels
+    from .aero import load_fe
+
+    alpha = BASELINE_ALPHA if args.alpha is None else args.alpha
+    gamma = BASELINE_GAMMA if args.gamma is None else args.gamma
+    mach = 0.7 if args.mach is None else args.mach
+    fe = load_fe("goland")
+    if args.aero is not None:
+        aero = load_aero(args.aero)
+        modes = modal_data(fe, aero.n_modes)
+    else:
+        modes = modal_data(fe, 9)
+        print(
+            f"torchrom flutter: goland: {args.boxes[0]}x{args.boxes[1]} boxes per half wing, "
+            f"Mach {mach:g}, {args.lags} lags"
+        )
+        aero = build_from_modes(
+            modes, mach, args.lags, GOLAND_K_LIST, goland_panels(*args.boxes), None, args.kernel
+        )
+    print("  modal frequencies (Hz): " + ", ".join(f"{f:.4g}" for f in modes.frequencies_hz))
+    if args.at is None:
+        args.at = [4000.0, 6000.0, 8000.0, 10000.0, 11000.0]
+    return _matched(args, modes.structure(alpha, gamma), aero, compare_paper=True)
+
+
+def _matched(args, structure, aero, compare_paper: bool) -> int:
+    from ..aero.build import PAPER_FLUTTER_ALTITUDE_FT, PAPER_FLUTTER_FREQUENCY_HZ, PAPER_TABLE3
+    from ..aero.flutter import (
+        AeroTable,
+        flutter_altitude_pk,
+        flutter_altitude_state_space,
+        growing_response_frequency,
+        growing_response_frequency_pk,
+    )
+    from ..errors import InputError
+
+    mach = aero.mach if args.mach is None else args.mach
+    if abs(mach - aero.mach) > 1e-9:
+        raise InputError(f"--mach {mach:g} differs from the aero file's Mach {aero.mach:g}")
+    table = AeroTable.from_gaf(aero.gaf)
+    results = []
+    print(
+        f"  matched point at Mach {mach:g}, "
+        f"altitudes {args.alt_range[0]:g}..{args.alt_range[1]:g} ft, "
+        f"alpha = {structure.alpha:g} 1/s, gamma = {structure.gamma:g} s, "
+        f"RFA fit error {aero.rfa.fit_error.get('rms_relative', float('nan')):.2e}"
+    )
+    if args.method in ("both", "pk"):
+        results.append(flutter_altitude_pk(structure, table, mach, args.alt_range))
+    if args.method in ("both", "state-space"):
+        results.append(flutter_altitude_state_space(structure, aero.rfa, mach, args.alt_range))
+    print(f"  {'method':<13}{'altitude ft':>13}{'frequency Hz':>14}{'V ft/s':>10}{'q psf':>9}")
+    for r in results:
+        if r.altitude is None:
+            print(f"  {r.method:<13}{'no flutter in range':>46}")
+            continue
+        print(
+            f"  {r.method:<13}{r.altitude:13.1f}{r.frequency_hz:14.4f}{r.velocity:10.1f}"
+            f"{0.5 * r.density * r.velocity**2:9.1f}"
+        )
+    if compare_paper:
+        print(f"  {'paper':<13}{PAPER_FLUTTER_ALTITUDE_FT:13.1f}{PAPER_FLUTTER_FREQUENCY_HZ:14.4f}")
+    growing = []
+    if args.at:
+        alts = np.asarray(args.at, dtype=float)
+        f_ss = growing_response_frequency(structure, aero.rfa, mach, alts)
+        f_pk = growing_response_frequency_pk(
+            structure, table, mach, alts, start_altitude=args.alt_range[1]
+        )
+        print(
+            f"  growing-response frequency (Hz){'':8}{'state space':>12}{'p-k':>9}"
+            + (f"{'paper':>9}" if compare_paper else "")
+        )
+        for a, fs, fp in zip(alts, f_ss, f_pk):
+            paper = PAPER_TABLE3.get(float(a)) if compare_paper else None
+            print(f"  {a:10.0f} ft{'':28}{fs:12.4f}{fp:9.4f}" + (f"{paper:9.3f}" if paper else ""))
+            growing.append(
+                {
+                    "altitude": float(a),
+                    "frequency_hz_state_space": float(fs),
+                    "frequency_hz_pk": float(fp),
+                }
+            )
+    pairs = []
+    if args.alpha_for_gamma:
+        from ..aero.flutter import alpha_for_gamma
+
+        ref = flutter_altitude_state_space(structure, aero.rfa, mach, args.alt_range)
+        if ref.altitude is None:
+            raise InputError("--alpha-for-gamma: no state-space flutter point in --alt-range")
+        print(f"  alpha(gamma) keeping the flutter altitude at {ref.altitude:.1f} ft:")
+        for g in args.alpha_for_gamma:
+            a = alpha_for_gamma(structure, aero.rfa, g, mach, ref.altitude)
+            print(f"    gamma = {g:10.4g} s   alpha = {a:10.5g} 1/s")
+            pairs.append({"gamma": g, "alpha": a, "altitude": ref.altitude})
+    if args.plot is not None:
+        from ..aero.plots import plot_vg
+
+        sweep = next((r.sweep for r in results if r.method == "p-k"), None)
+        if sweep is not None:
+            plot_vg(sweep, args.plot, x="altitude", title=f"p-k, Mach {mach:g}")
+            print(f"wrote {args.plot}")
+    if args.root_locus is not None:
+        from ..aero.plots import plot_root_locus
+
+        sweep = next((r.sweep for r in results if r.method == "state-space"), None)
+        if sweep is not None:
+            plot_root_locus(sweep, args.root_locus, title=f"state space, Mach {mach:g}")
+            print(f"wrote {args.root_locus}")
+    out = {
+        "mach": mach,
+        "alpha": structure.alpha,
+        "gamma": structure.gamma,
+        "units": "ft",
+        "flutter": [r.as_dict() for r in results],
+        "growing_response": growing,
+        "alpha_for_gamma": pairs,
+    }
+    if compare_paper:
+        out["paper"] = {
+            "altitude": PAPER_FLUTTER_ALTITUDE_FT,
+            "frequency_hz": PAPER_FLUTTER_FREQUENCY_HZ,
+            "table3": {str(int(k)): v for k, v in PAPER_TABLE3.items()},
+        }
+    maybe_write_json(args, out)
+    return 0
