@@ -162,8 +162,10 @@ def test_cli_identify_small_basis(goland_fe, tmp_path):
 
 @pytest.mark.slow
 def test_full_validation_report(goland_fe, goland_exact, tmp_path):
-    """Acceptance: static Tz, Ty within 2 % up to 25 % span tip deflection (both load shapes);
-    free decay within 3 % envelope and 1 % frequency over ten cycles (γ = 1e-3 s)."""
+    """Acceptance (issue 4): static Tz, Ty within 2 % up to 25 % span tip deflection (both load
+    shapes); free decay from a 2 ft (10 % span) tip deflection within 3 % envelope and 1 %
+    frequency over ten cycles (γ = 1e-3 s). Measured with the current FE: the decay passes
+    (2.1 %, 0.13 %); the static items pass up to ~15 % span for the uniform pressure only."""
     from torchrom.identify.report import write_report
 
     nums = write_report(goland_exact, as_backend(goland_fe), tmp_path / "report", gamma=1e-3)

@@ -43,6 +43,9 @@ def add_arguments(parser) -> None:
                         help="also validate the ROM against the FE and write DIR/report.md")
     parser.add_argument("--gamma", type=float, default=1e-3,
                         help="Kelvin-Voigt gamma (s) of the report's free decay (1e-3)")
+    parser.add_argument("--decay-tip", type=float, default=0.10,
+                        help="initial tip deflection of the report's free decay, fraction of "
+                             "the span (0.10)")
     add_json_option(parser)
     add_force_option(parser)
 
@@ -107,7 +110,8 @@ def run(args) -> int:
         from ..identify.report import write_report
 
         print(f"validating against the FE -> {args.report}")
-        nums = write_report(res, backend, args.report, gamma=args.gamma)
+        nums = write_report(res, backend, args.report, gamma=args.gamma,
+                            decay_tip_fraction=args.decay_tip)
         s.update(nums)
         for k, v in nums.items():
             if k.endswith("_error"):
