@@ -1,0 +1,74 @@
+"""The identification pipeline on the synthetic SVK truss: ROM vs the closed-form intrusive
+projection, outputs and metadata, options and errors."""
+
+import numpy as np
+import pytest
+import torch
+
+from torchrom.errors import InputError
+from torchrom.identify.basis import DualModeOptions
+from torchrom.identify.build import IdentifyOptions, build_rom, identify
+from torchrom.rom import NonlinearROM
+
+from .identify_fixtures import TrussWing, touze_backend
+
+DUAL = DualModeOptions(combinations=((1, 1), (1, 2), (2, 2)), n_amplitudes=10)
+
+
+def rel(a, b):
+    a, b = np.asarray(a), np.asarray(b)
+    return float(np.abs(a - b).max() / np.abs(b).max())
+
+
+@pytest.fixture(scope="module")
+def truss_exact():
+    fe = TrussWing()
+    return fe, identify(fe, IdentifyOptions(n_linear=5, n_dual=3, damping="exact", dual=DUAL))
+
+
+def test_pipeline_matches_intrusive_projection(truss_exact):
+    fe, res = truss_exact
+    ref = fe.intrusive_rom(res.basis.Phi)
+    rom = res.rom
+    assert rom.n == 8 and rom.mode_kinds == ["linear"] * 5 + ["dual"] * 3
+    # cubic FE, amplitude 1 % of span: rounding-level agreement (see test_identify_stiffness)
+    for name in ("M", "K1", "K2", "K3", "D1", "D2", "D3"):
+        assert rel(getattr(rom, name), getattr(ref, name)) < 1e-9, name
+    # outputs are rows of the basis at point A
+    assert set(rom.outputs) == {"A_Tx", "A_Ty", "A_Tz"}
+    assert np.array_equal(rom.outputs["A_Tz"], res.basis.Phi[fe.outputs["A_Tz"]])
+    meta = rom.metadata
+    assert meta["damping"]["method"] == "exact"
+    assert meta["basis"]["n_dual"] == 3 and len(meta["identification"]["modal_amplitudes"]) == 8
+    s = res.summary()
+    assert s["fe_static_solves"] == 30 and s["fe_tangent_evaluations"] == 1 + 2 * 8 + 2 * 28
+
+
+def test_rom_file_round_trip(truss_exact, tmp_path):
+    _, res = truss_exact
+    res.rom.save(tmp_path / "rom.npz")
+    back = NonlinearROM.load(tmp_path / "rom.npz")
+    assert torch.equal(back.K3, res.rom.K3) and back.mode_kinds == res.rom.mode_kinds
+    assert back.metadata["damping"]["method"] == "exact"
+
+
+def test_decomposition_pipeline_keeps_stiffness_and_dissipates():
+    fe = TrussWing(n_bays=4)
+    res = identify(fe, IdentifyOptions(n_linear=4, n_dual=2, dual=DUAL))
+    ref = fe.intrusive_rom(res.basis.Phi)
+    assert rel(res.rom.K3, ref.K3) < 1e-9           # stiffness is the identified one
+    assert res.rom.extended_damping_min_eigenvalue() >= -1e-9 * res.rom.D1.abs().max()
+    assert res.summary()["damping_method"] == "decomposition"
+
+
+def test_options_and_errors():
+    with pytest.raises(InputError, match="damping"):
+        build_rom(touze_backend(), n_linear=2, n_dual=0, damping="magic")
+    be = touze_backend()
+    be.has_material_tangent = False
+    with pytest.raises(InputError, match="material tangent"):
+        build_rom(be, n_linear=2, n_dual=0, damping="exact")
+    with pytest.raises(InputError, match="cannot use"):
+        build_rom(object())
+    rom = build_rom(touze_backend(), n_linear=2, n_dual=0, damping="exact", stiffness="tangent")
+    assert rom.n == 2

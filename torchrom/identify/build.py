@@ -1,0 +1,246 @@
+"""Identification pipeline: FE backend -> basis -> stiffness -> damping -> :class:`NonlinearROM`.
+
+``identify(fe, IdentifyOptions(...))`` runs every step non-intrusively through the FE-backend
+protocol and returns the ROM with everything needed to judge it (basis, POD spectrum, symmetry
+residuals, eigenvalues of the extended damping matrix, FE call counts and timings);
+``build_rom(fe, n_linear=9, n_dual=12, damping="decomposition")`` returns just the ROM (DESIGN
+"Python API"). The ROM carries outputs (rows Φ[dof, :] of the backend's output points, e.g.
+"A_Tx", "A_Ty", "A_Tz"), mode kinds "linear"/"dual" and provenance metadata. Hand-written glue.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from dataclasses import asdict, dataclass, field, replace
+
+import numpy as np
+
+from .._version import __version__
+from ..errors import InputError
+from ..rom import NonlinearROM
+from .backend import FEBackend
+from .basis import PAPER_COMBINATIONS, Basis, DualModeOptions, dual_basis, linear_basis
+from .damping import (
+    DampingIdentification,
+    DecompositionOptions,
+    damping_from_material_tangents,
+    optimum_decomposition,
+)
+from .stiffness import (
+    StiffnessIdentification,
+    identification_amplitudes,
+    identify_stiffness_step,
+    identify_stiffness_tangent,
+)
+
+DAMPING_METHODS = ("decomposition", "exact")
+STIFFNESS_METHODS = ("tangent", "step")
+
+
+@dataclass
+class IdentifyOptions:
+    """Options of :func:`identify`.
+
+    n_linear, n_dual: basis size (DIGEST Sec. 6: 9 and 12 for Goland "9L12D");
+    damping: "decomposition" (paper) or "exact" (material tangent; backend must provide it);
+    stiffness: "tangent" (Eqs. 37–41) or "step" (enforced displacements, forces only);
+    amplitude: identification amplitude, largest translation of each basis function as a
+    fraction of the backend's reference length (span);
+    symmetric_pairs: impose ±(a_j e_j + a_l e_l) for Eq. 41 (cancels the quadratic term exactly);
+    dual, decomposition: options of the dual modes and of the optimum decomposition.
+    """
+
+    n_linear: int = 9
+    n_dual: int = 12
+    damping: str = "decomposition"
+    stiffness: str = "tangent"
+    amplitude: float = 0.01
+    symmetric_pairs: bool = True
+    dual: DualModeOptions = field(default_factory=DualModeOptions)
+    decomposition: DecompositionOptions = field(default_factory=DecompositionOptions)
+
+    def validate(self) -> None:
+        if self.damping not in DAMPING_METHODS:
+            raise InputError(f"damping: expected one of {DAMPING_METHODS}, got {self.damping!r}")
+        if self.stiffness not in STIFFNESS_METHODS:
+            raise InputError(f"stiffness: expected one of {STIFFNESS_METHODS}, got "
+                             f"{self.stiffness!r}")
+        if self.n_linear < 1 or self.n_dual < 0:
+            raise InputError(f"basis: need n_linear >= 1 and n_dual >= 0, got {self.n_linear}, "
+                             f"{self.n_dual}")
+        if self.damping == "exact" and self.stiffness == "step":
+            raise InputError("damping 'exact' needs the tangent plan (stiffness 'tangent')")
+
+
+@dataclass
+class IdentificationResult:
+    """The identified ROM and everything needed to judge it."""
+
+    rom: NonlinearROM
+    basis: Basis
+    stiffness: StiffnessIdentification
+    damping: DampingIdentification
+    counters: dict
+    timings: dict
+    # raw data of the plan (for file exchange and the report)
+    plan_points: np.ndarray | None = None
+
+    def summary(self) -> dict:
+        """A flat, JSON-ready summary (the ``--json`` record of ``torchrom identify``)."""
+        d = self.damping.report
+        out = {
+            "n_linear": self.basis.kinds.count("linear"),
+            "n_dual": self.basis.kinds.count("dual"),
+            "stiffness_method": self.stiffness.method,
+            "damping_method": self.damping.method,
+            "fe_static_solves": self.counters["static_solves"],
+            "fe_newton_iterations": self.counters["newton_iterations"],
+            "fe_tangent_evaluations": self.counters["tangent_evaluations"],
+            "fe_material_tangent_evaluations": self.counters["material_tangent_evaluations"],
+            "fe_force_evaluations": self.counters["force_evaluations"],
+        }
+        out.update({f"time_{k}_s": v for k, v in self.timings.items()})
+        out.update({f"residual_{k}": v for k, v in self.stiffness.residuals.items()})
+        if self.damping.method == "decomposition":
+            for key in ("symmetric_split", "after_subsets", "after_whole", "final"):
+                out[f"damping_min_eig_scaled_{key}"] = d[key]["min_eigenvalue_scaled"]
+                out[f"damping_min_eig_{key}"] = d[key]["min_eigenvalue"]
+            out["damping_enforcement"] = d["enforcement"]["method"]
+            out["damping_decomposition_reproduction_error_K2"] = d[
+                "decomposition_reproduction_error_K2"]
+            out["damping_decomposition_reproduction_error_K3"] = d[
+                "decomposition_reproduction_error_K3"]
+            out["damping_reproduction_error_K2"] = d["reproduction_error_K2"]
+            out["damping_reproduction_error_K3"] = d["reproduction_error_K3"]
+        else:
+            out["damping_min_eig_scaled_final"] = d["min_eigenvalue_scaled"]
+            out["damping_min_eig_final"] = d["min_eigenvalue"]
+        out["frequencies_hz"] = [float(f) for f in self.basis.frequencies_hz
+                                 if np.isfinite(f)]
+        out["pod_spectrum_head"] = [float(v) for v in self.basis.pod_values[:self.basis.n]]
+        return out
+
+
+def as_backend(fe) -> FEBackend:
+    """The FE-backend of an object: a backend itself, or a built-in ``torchrom.fe`` model."""
+    if isinstance(fe, FEBackend):
+        return fe
+    from .fe_backend import BuiltinFEBackend
+
+    if BuiltinFEBackend.accepts(fe):
+        return BuiltinFEBackend(fe)
+    raise InputError(f"identify: cannot use a {type(fe).__name__} as an FE model; pass a "
+                     "torchrom.fe model or a torchrom.identify.FEBackend (e.g. CallableBackend)")
+
+
+def identify(fe, options: IdentifyOptions | None = None,
+             progress: Callable[[str, int, int], None] | None = None) -> IdentificationResult:
+    """Identify the nonlinear ROM of an FE model non-intrusively (DIGEST Secs. 4–6).
+
+    ``progress(stage, done, total)`` is called as the FE work advances (stages "dual modes",
+    "tangents", "forces").
+    """
+    opt = options or IdentifyOptions()
+    opt.validate()
+    be = as_backend(fe)
+    if opt.damping == "exact" and not be.has_material_tangent:
+        raise InputError(f"{be.name}: damping 'exact' needs the FE material tangent, which this "
+                         "backend does not provide; use damping 'decomposition'")
+
+    def stage(name):
+        return None if progress is None else (lambda d, t: progress(name, d, t))
+
+    timings: dict[str, float] = {}
+    t0 = time.perf_counter()
+    basis = linear_basis(be, opt.n_linear)
+    timings["linear_modes"] = time.perf_counter() - t0
+    if opt.n_dual > 0:
+        t1 = time.perf_counter()
+        dual_opt = opt.dual
+        if dual_opt.combinations == PAPER_COMBINATIONS and opt.n_linear < 5:
+            # the paper's combinations need modes 1..5: keep those within the basis
+            dual_opt = replace(dual_opt, combinations=tuple(
+                c for c in PAPER_COMBINATIONS if max(c) <= opt.n_linear))
+            opt = replace(opt, dual=dual_opt)
+        basis = dual_basis(be, basis, opt.n_dual, dual_opt, progress=stage("dual modes"))
+        timings["dual_modes"] = time.perf_counter() - t1
+    Phi = basis.Phi
+    amps = identification_amplitudes(Phi, opt.amplitude, be.reference_length,
+                                     be.translational_dofs)
+    t1 = time.perf_counter()
+    Kmat = None
+    if opt.stiffness == "tangent":
+        stiff, plan, _, Kmat = identify_stiffness_tangent(
+            be, Phi, amps, symmetric_pairs=opt.symmetric_pairs,
+            material=opt.damping == "exact", progress=stage("tangents"))
+    else:
+        stiff, plan, _ = identify_stiffness_step(be, Phi, amps, progress=stage("forces"))
+    timings["stiffness"] = time.perf_counter() - t1
+    t1 = time.perf_counter()
+    if opt.damping == "exact":
+        damp = damping_from_material_tangents(plan, Kmat)
+    else:
+        damp = optimum_decomposition(stiff.K1, stiff.K2, stiff.K3, opt.decomposition)
+    timings["damping"] = time.perf_counter() - t1
+    timings["total"] = time.perf_counter() - t0
+    rom = assemble_rom(be, basis, stiff, damp, opt, amps, timings)
+    return IdentificationResult(rom, basis, stiff, damp, be.counters.as_dict(), timings,
+                                plan.points)
+
+
+def assemble_rom(be: FEBackend, basis: Basis, stiff: StiffnessIdentification,
+                 damp: DampingIdentification, opt: IdentifyOptions, amplitudes: np.ndarray,
+                 timings: dict | None = None) -> NonlinearROM:
+    """The :class:`NonlinearROM` from identified parts (also used by the Nastran exchange)."""
+    Phi = basis.Phi
+    M = Phi.T @ np.asarray(be.mass_matrix() @ Phi)
+    outputs = {name: Phi[dof, :] for name, dof in be.outputs.items()}
+    metadata = {
+        "torchrom_version": __version__,
+        "source": be.metadata,
+        "basis": {"kinds": basis.kinds, "n_linear": basis.kinds.count("linear"),
+                  "n_dual": basis.kinds.count("dual"),
+                  "dual_combinations": [list(c) for c in opt.dual.combinations],
+                  "dual_amplitudes": opt.dual.n_amplitudes,
+                  "dual_tip_range": list(opt.dual.tip_range),
+                  "dual_snapshots_ok": sum(r.get("status") == "ok" for r in basis.snapshots),
+                  "dual_snapshots_failed": sum(r.get("status") == "failed"
+                                               for r in basis.snapshots),
+                  "pod_spectrum": basis.pod_values[: basis.n + 5].tolist()},
+        "identification": {"stiffness_method": stiff.method, "amplitude": opt.amplitude,
+                           "modal_amplitudes": np.asarray(amplitudes).tolist(),
+                           "symmetric_pairs": opt.symmetric_pairs,
+                           "residuals": stiff.residuals},
+        "damping": {"method": damp.method, "report": _jsonable(damp.report)},
+        "linear_frequencies_hz": [float(f) for f in basis.frequencies_hz if np.isfinite(f)],
+        "fe_counters": be.counters.as_dict(),
+        "timings_s": dict(timings or {}),
+    }
+    return NonlinearROM(M, stiff.K1, stiff.K2, stiff.K3, damp.D1, damp.D2, damp.D3,
+                        mode_kinds=basis.kinds, frequencies_hz=basis.frequencies_hz,
+                        outputs=outputs, metadata=metadata, symmetrize=True)
+
+
+def build_rom(fe, n_linear: int = 9, n_dual: int = 12, damping: str = "decomposition",
+              **options) -> NonlinearROM:
+    """The identified :class:`NonlinearROM` of an FE model (DESIGN "Python API").
+
+    Extra keyword arguments are :class:`IdentifyOptions` fields (stiffness, amplitude, dual, ...).
+    """
+    opt = IdentifyOptions(n_linear=n_linear, n_dual=n_dual, damping=damping, **options)
+    return identify(fe, opt).rom
+
+
+def _jsonable(obj):
+    if isinstance(obj, dict):
+        return {str(k): _jsonable(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [_jsonable(v) for v in obj]
+    if isinstance(obj, np.ndarray):
+        return obj.tolist()
+    if isinstance(obj, np.generic):
+        return obj.item()
+    if hasattr(obj, "__dataclass_fields__"):
+        return _jsonable(asdict(obj))
+    return obj
