@@ -54,6 +54,8 @@ from .system import CaseSystem
 Tensor = torch.Tensor
 
 SOLVERS = ("newton", "fixed_point")
+#: multiply-adds of one batched force evaluation below which 'auto' runs on one thread
+AUTO_THREADS_WORK = 4_000_000
 PREDICTORS = ("constant", "linear", "quadratic")
 #: default tolerance on the last relative acceleration correction, by dtype
 DEFAULT_TOL = {torch.float64: 1e-6, torch.float32: 1e-4}
@@ -128,6 +130,10 @@ class Newmark:
         predictor: 'constant' (a_n), 'linear' (2a_n − a_{n−1}) or 'quadratic' extrapolation.
         check_every: steps between host checks (LCO decisions, compaction, progress).
         compile: compile the step with torch.compile (needs a C compiler on CPU; opt-in).
+        threads: torch intra-op threads during the run on CPU: an int, 'keep' (leave torch's
+            setting) or 'auto' (default: one thread when a nonlinear force evaluation is below
+            ~4M multiply-adds — the per-step kernels are then too small to share, and waiting on
+            a second thread costs more than it saves, badly so on a busy machine — else keep).
     """
 
     dt: float = 1e-3
@@ -139,6 +145,7 @@ class Newmark:
     predictor: str = "linear"
     check_every: int = 500
     compile: bool = False
+    threads: int | str = "auto"
     params: SchemeParameters = field(init=False, repr=False)
 
     def __post_init__(self):
@@ -153,6 +160,10 @@ class Newmark:
             raise InputError(f"integrator.iterations: expected >= 1, got {self.iterations}")
         if int(self.check_every) < 2:
             raise InputError(f"integrator.check_every: expected >= 2, got {self.check_every}")
+        if not (self.threads in ("auto", "keep") or (isinstance(self.threads, int)
+                                                     and self.threads >= 1)):
+            raise InputError(f"integrator.threads: expected 'auto', 'keep' or an integer >= 1, "
+                             f"got {self.threads!r}")
         if self.tol is not None and not self.tol > 0:
             raise InputError(f"integrator.tol: expected a positive number, got {self.tol}")
         self.params = SchemeParameters.from_name(self.scheme, self.rho_inf)
@@ -249,9 +260,28 @@ class Newmark:
             history: cases whose decimated output histories are kept.
             progress: called as progress(cases_done, cases_total) at every check.
         """
-        with torch.no_grad():
-            return _Run(self, system, q0, v0, xi0, t_end, outputs, lco or LCOCriteria(),
-                        history, progress).execute()
+        threads = self._threads(system)
+        before = torch.get_num_threads()
+        try:
+            if threads != before:
+                torch.set_num_threads(threads)
+            with torch.no_grad():
+                return _Run(self, system, q0, v0, xi0, t_end, outputs, lco or LCOCriteria(),
+                            history, progress).execute()
+        finally:
+            if torch.get_num_threads() != before:
+                torch.set_num_threads(before)
+
+    def _threads(self, system: CaseSystem) -> int:
+        current = torch.get_num_threads()
+        if system.device.type != "cpu" or self.threads == "keep":
+            return current
+        if isinstance(self.threads, int):
+            return self.threads
+        n = system.n
+        pairs = n * (n + 1) // 2
+        work = system.batch_size * n * (pairs + pairs * (n + 2) // 3 + n + pairs)
+        return 1 if work < AUTO_THREADS_WORK else current
 
 
 class _Run:
