@@ -43,6 +43,13 @@ def colex_pairs(n: int) -> np.ndarray:
     return np.array([(i, j) for j in range(n) for i in range(j + 1)], dtype=np.int64).reshape(-1, 2)
 
 
+#: from this many modes on the cubic stiffness runs block-wise without materialising the cubic
+#: monomials (fewer bytes moved); below it one GEMM over all monomials (fewer kernel launches)
+BLOCKED_MIN_N = 8
+#: from this many modes on only the upper triangle of the symmetric damping matrix is computed
+SYMMETRIC_MIN_N = 6
+
+
 class NonlinearForces:
     """The nonlinear part of the ROM force for a batch, on one device and dtype.
 
@@ -63,27 +70,37 @@ class NonlinearForces:
         lex_of_colex = lex.pair_id[cp[:, 0], cp[:, 1]]
         compact = compact_from_symmetric(rom.K2, rom.K3, rom.D3)
         kw = {"device": device, "dtype": dtype}
-        self.pair_i = torch.as_tensor(cp[:, 0], device=device)
-        self.pair_j = torch.as_tensor(cp[:, 1], device=device)
+        self.blocked = n >= BLOCKED_MIN_N
 
-        # stiffness: quadratic coefficients per colex pair, cubic ones per k block
+        # stiffness: quadratic coefficients per colex pair, cubic ones per k block (the cubic
+        # monomials (i, j, k), i ≤ j ≤ k, ordered by k, then (i, j) colex)
         K2c = compact["K2c"][:, lex_of_colex]  # (n, N2)
         K3c = compact["K3c"]  # (n, N3) lex
         triple_id = np.full((n, n, n), -1, dtype=np.int64)
         triple_id[lex.triples[:, 0], lex.triples[:, 1], lex.triples[:, 2]] = np.arange(
             lex.n_triples)
+        block_ids = [triple_id[cp[:(k + 1) * (k + 2) // 2, 0], cp[:(k + 1) * (k + 2) // 2, 1], k]
+                     for k in range(n)]
         self.has_k2 = bool(stiffness and K2c.abs().max() > 0)
-        self.K2 = K2c.to(**kw).contiguous()
-        blocks = []
-        for k in range(n):
-            Nk = (k + 1) * (k + 2) // 2
-            ids = triple_id[cp[:Nk, 0], cp[:Nk, 1], k]
-            blk = K3c[:, ids]
-            # a block with no coefficient costs nothing (sparse analytic ROMs, e.g. Van der Pol)
-            blocks.append(blk.to(**kw).contiguous() if blk.abs().max() > 0 else None)
-        self.K3_blocks = blocks if stiffness else [None] * n
-        self.has_k3 = any(b is not None for b in self.K3_blocks)
+        self.has_k3 = bool(stiffness and K3c.abs().max() > 0)
         self.has_stiffness = self.has_k2 or self.has_k3
+        # feature rows: q (n), m2 (N2, colex) and, unless blocked, m3 (N3, k blocks); each row is
+        # the product qa[a] qa[b] qa[c] of three rows of [q; 1]
+        one = n
+        rows = [(i, one, one) for i in range(n)] + [(i, j, one) for i, j in cp]
+        if self.blocked:
+            self.K2 = K2c.to(**kw).contiguous()
+            # a block with no coefficient costs nothing (sparse ROMs)
+            self.K3_blocks = [K3c[:, ids].to(**kw).contiguous()
+                              if self.has_k3 and K3c[:, ids].abs().max() > 0 else None
+                              for ids in block_ids]
+        else:
+            order = np.concatenate(block_ids)
+            rows += [(i, j, k) for k in range(n) for i, j in cp[:(k + 1) * (k + 2) // 2]]
+            self.K23 = torch.cat([K2c, K3c[:, order]], dim=1).to(**kw).contiguous()
+        rows = np.array(rows, dtype=np.int64)
+        self.row_a, self.row_b, self.row_c = (torch.as_tensor(rows[:, i], device=device)
+                                              for i in range(3))
 
         # damping matrix coefficients: D_nl(q)[m, p] = Σ_r x_r C[r, (m, p)], x = [q; m2(colex)]
         D2 = rom.D2  # (m, l, p): D2_mlp q_l q̇_p
@@ -93,7 +110,7 @@ class NonlinearForces:
         scale = float(coef.abs().max()) or 1.0
         asym = float((coef - coef.transpose(1, 2)).abs().max())
         self.symmetric_damping = asym <= DAMPING_SYMMETRY_RTOL * scale
-        if self.symmetric_damping:
+        if self.symmetric_damping and n >= SYMMETRIC_MIN_N:
             coef = 0.5 * (coef + coef.transpose(1, 2))
             upper = coef[:, cp[:, 0], cp[:, 1]]  # (n + N2, N2): entries (i ≤ j)
             self.D = upper.T.to(**kw).contiguous()  # (N2, n + N2)
@@ -110,27 +127,27 @@ class NonlinearForces:
         return self.has_stiffness or self.has_damping
 
     def features(self, q: Tensor) -> Tensor:
-        """[q; m2(q)] feature-major, (n + N2, B)."""
-        qT = q.T.contiguous()
-        X = torch.empty((self.n + self.n_pairs, q.shape[0]), device=q.device, dtype=q.dtype)
-        X[: self.n] = qT
-        torch.mul(qT.index_select(0, self.pair_i), qT.index_select(0, self.pair_j),
-                  out=X[self.n:])
-        return X
+        """Monomial rows, feature-major: [q; m2] (blocked) or [q; m2; m3], (rows, B)."""
+        qa = torch.cat([q.T, q.new_ones(1, q.shape[0])], dim=0)
+        return (qa.index_select(0, self.row_a) * qa.index_select(0, self.row_b)).mul_(
+            qa.index_select(0, self.row_c))
 
     def stiffness_T(self, X: Tensor) -> Tensor:
         """K2(q,q) + K3(q,q,q), feature-major (n, B), from the features X."""
-        m2 = X[self.n:]
+        n = self.n
+        if not self.blocked:
+            return self.K23 @ X[n:]
+        m2 = X[n:]
         f = self.K2 @ m2 if self.has_k2 else None
         for k, blk in enumerate(self.K3_blocks):
             if blk is not None:
                 part = blk @ m2[: blk.shape[1]]
                 f = part.mul_(X[k]) if f is None else f.addcmul_(part, X[k])
-        return f if f is not None else X.new_zeros(self.n, X.shape[1])
+        return f if f is not None else X.new_zeros(n, X.shape[1])
 
     def damping_matrix_T(self, X: Tensor) -> Tensor:
         """D̄2(q) + D̄3(q,q) per case, feature-major (n, n, B) (the nonlinear part of Eq. 32)."""
-        U = self.D @ X
+        U = self.D @ X[: self.n + self.n_pairs]
         if self.expand is not None:
             U = U.index_select(0, self.expand)
         return U.view(self.n, self.n, X.shape[1])

@@ -54,6 +54,8 @@ from .system import CaseSystem
 Tensor = torch.Tensor
 
 SOLVERS = ("newton", "fixed_point")
+#: per-case matrix-vector products below this many matrix entries use one bmm kernel
+MV_SMALL = 16384
 #: multiply-adds of one batched force evaluation below which 'auto' runs on one thread
 AUTO_THREADS_WORK = 4_000_000
 PREDICTORS = ("constant", "linear", "quadratic")
@@ -95,7 +97,12 @@ def output_matrix(rom: NonlinearROM, names: Sequence[str] | None = None
 
 
 def _mv(A: Tensor, x: Tensor) -> Tensor:
-    """Per-case matrix-vector product (B, m, k) · (B, k) -> (B, m)."""
+    """Per-case matrix-vector product (B, m, k) · (B, k) -> (B, m).
+
+    Multiply-and-sum streams the B small matrices once (about twice as fast as a batched GEMM
+    for 21 x 21 matrices on a CPU); for small batches one bmm kernel is cheaper to launch."""
+    if A.shape[0] * A.shape[1] * A.shape[2] < MV_SMALL:
+        return torch.bmm(A, x.unsqueeze(-1)).squeeze(-1)
     return torch.linalg.vecdot(A, x.unsqueeze(-2))
 
 
@@ -478,15 +485,16 @@ class _Run:
         dt = integ.dt
         case_steps = 0
         tol = integ.tolerance(self.kw["dtype"])
-        O = len(self.names)
         while len(self.active) and self.step_no < self.steps_total:
             N = min(integ.check_every, self.steps_total - self.step_no)
             Bc = len(self.active)
-            Y = torch.empty(N, Bc, O, **self.kw)
-            Yd = torch.empty(N, Bc, O, **self.kw)
+            ys, yds = [], []
             st, m = self.state, self.mats
-            for i in range(N):
-                st, Y[i], Yd[i] = self.stepfn(st, m)
+            for _ in range(N):
+                st, y, yd = self.stepfn(st, m)
+                ys.append(y)
+                yds.append(yd)
+            Y, Yd = torch.stack(ys), torch.stack(yds)
             self.state = st
             step0 = self.step_no
             self.step_no += N
