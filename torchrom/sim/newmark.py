@@ -49,7 +49,7 @@ from .lco import FAILED, RUNNING, STATUS_NAMES, LCOCriteria, PeakTracker
 from .metrics import window_metrics
 from .result import History, SimulationResult
 from .schemes import SchemeParameters
-from .system import CaseSystem
+from .system import CaseSystem, as_float_tensor
 
 Tensor = torch.Tensor
 
@@ -322,7 +322,7 @@ class _Run:
         def per_case(x, width, name):
             if x is None:
                 return torch.zeros(B, width, **self.kw)
-            t = torch.as_tensor(x).to(**self.kw)
+            t = as_float_tensor(x, **self.kw)
             if t.dim() == 1:
                 t = t.expand(B, width)
             if tuple(t.shape) != (B, width):

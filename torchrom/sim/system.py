@@ -18,12 +18,21 @@ from __future__ import annotations
 import dataclasses
 from dataclasses import dataclass
 
+import numpy as np
 import torch
 
 from ..errors import InputError
 from ..rom import NonlinearROM
 
 Tensor = torch.Tensor
+
+def as_float_tensor(x, device=None, dtype=torch.float64) -> Tensor:
+    """A tensor of ``dtype`` from a tensor, array, list, bool or float — going through float64, so
+    that Python floats are never rounded to torch's default float32 on the way."""
+    if isinstance(x, Tensor):
+        return x.to(device=device, dtype=dtype)
+    return torch.as_tensor(np.asarray(x, dtype=np.float64)).to(device=device, dtype=dtype)
+
 
 _PER_CASE_SCALARS = ("alpha", "gamma", "stiffness_nl", "damping_nl")
 _PER_CASE_MATRICES = ("M_add", "C_add", "K_add", "lag_D", "lag_E", "lag_R", "load")
@@ -73,7 +82,7 @@ class CaseSystem:
                  "damping_nl": damping_nl, "M_add": M_add, "C_add": C_add, "K_add": K_add,
                  "lag_D": lag_D, "lag_E": lag_E, "lag_R": lag_R, "load": load}
         kw = {"device": device, "dtype": dtype}
-        tensors = {k: None if v is None else torch.as_tensor(v).to(**kw) for k, v in given.items()}
+        tensors = {k: None if v is None else as_float_tensor(v, **kw) for k, v in given.items()}
         if batch is None:
             batch = 1
             for name, t in tensors.items():
