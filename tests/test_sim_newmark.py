@@ -227,3 +227,16 @@ def test_bad_inputs_name_the_parameter():
         Newmark().run(system, torch.zeros(3, 1), t_end=1.0)
     with pytest.raises(InputError, match="not an output"):
         Newmark().run(system, [0.0], t_end=1.0, outputs=["tip"])
+
+
+@pytest.mark.slow
+def test_compiled_step_matches_eager():
+    """torch.compile of the step (opt-in; needs a C compiler, ~30–60 s to compile on CPU) gives
+    the eager result to rounding. The eager path, tested everywhere above, is the same code."""
+    rom = van_der_pol_duffing([1.0, 1.7], c1=[-0.5, 0.1], d3=1.0, k3=[3.0, 1.0],
+                              coupling=[[0.0, 2.0], [2.0, 0.0]])
+    system = CaseSystem.build(rom, 3, gamma=[0.5, 1.0, 2.0])
+    kw = {"t_end": 5.0, "lco": RUN_TO_END}
+    eager = Newmark(dt=0.01).run(system, [0.3, 0.0], **kw)
+    compiled = Newmark(dt=0.01, compile=True).run(system, [0.3, 0.0], **kw)
+    assert np.abs(compiled.q - eager.q).max() < 1e-12 * np.abs(eager.q).max()
