@@ -40,8 +40,8 @@ def _as_tensor(x, name: str) -> Tensor:
 
 def _per_case(x, B: int, like: Tensor) -> Tensor:
     """Broadcast a scalar, bool or (B,) array to a (B, 1) tensor on like's device/dtype."""
-    t = torch.as_tensor(x, device=like.device)
-    t = t.to(like.dtype)
+    # straight to like's dtype: torch.as_tensor(0.05) would round to float32 first
+    t = torch.as_tensor(x, dtype=like.dtype, device=like.device)
     if t.dim() == 0:
         return t.expand(B).reshape(B, 1)
     return t.reshape(B, 1)

@@ -1,0 +1,102 @@
+"""``torchrom sweep``: the demo configuration end to end, and its error messages."""
+
+import json
+import shutil
+
+import pandas as pd
+import pytest
+
+from torchrom.cli import main
+
+from .conftest import REPO
+
+SMALL = """
+title = "small"
+[model]
+builtin = "van_der_pol_duffing"
+frequencies_hz = [1.0, 2.0]
+c1 = [-0.8, 0.1]
+d3 = [1.0, 1.0]
+k3 = [4.0, 0.0]
+coupling = [[0.0, 3.0], [3.0, 0.0]]
+[initial]
+q0 = 1.0
+[integrator]
+dt = 0.01
+t_end = 40.0
+predictor = "quadratic"
+[lco]
+outputs = ["sum", "q1", "q2"]
+rtol = 1e-3
+[cases]
+alpha = [0.0, 0.4, 1.2]
+gamma = [1.0, 2.0]
+[plot]
+x = "alpha"
+hue = "gamma"
+"""
+
+
+@pytest.fixture()
+def small_config(tmp_path):
+    path = tmp_path / "small.toml"
+    path.write_text(SMALL)
+    return path
+
+
+def test_sweep_writes_table_figure_and_json(small_config, tmp_path, capsys):
+    out = tmp_path / "out"
+    js = tmp_path / "r.json"
+    assert main(["sweep", str(small_config), "--out", str(out), "--json", str(js)]) == 0
+    table = pd.read_parquet(out / "results.parquet")
+    csv = pd.read_csv(out / "results.csv")
+    assert len(table) == len(csv) == 6
+    for col in ("case_id", "alpha", "gamma", "status", "amplitude", "frequency_hz",
+                "ratio_q1_q2", "steps", "t_end", "config_hash", "version"):
+        assert col in table.columns, col
+    assert table["case_id"].is_unique
+    # α = 1.2 damps both γ levels' self-excitation (net c = α + γ c1 > 0 for γ = 1), α = 0 not
+    by = table.set_index(["alpha", "gamma"])
+    assert by.loc[(0.0, 1.0), "status"] == "lco" and by.loc[(0.0, 1.0), "amplitude"] > 0.5
+    assert by.loc[(1.2, 1.0), "status"] == "decay"
+    assert (out / "amplitude_vs_alpha.png").stat().st_size > 10_000
+    records = json.loads(js.read_text())
+    assert len(records) == 6 and set(records[0]) == set(table.columns)
+    assert "status:" in capsys.readouterr().out
+
+    # refuses to overwrite without --force, then overwrites with it
+    assert main(["sweep", str(small_config), "--out", str(out)]) == 2
+    assert "--force" in capsys.readouterr().err
+    assert main(["sweep", str(small_config), "--out", str(out), "--force"]) == 0
+
+
+@pytest.mark.parametrize("edit,message", [
+    (lambda s: s.replace("dt = 0.01", "dt = -1"), "[integrator] dt: expected a positive"),
+    (lambda s: s.replace("[cases]\n", "[cases]\nalpah = 1\n"), "unknown case parameter 'alpah'"),
+    (lambda s: s.replace("rtol = 1e-3", "rtl = 1e-3"), "[lco]: unknown key 'rtl'"),
+    (lambda s: s.replace("c1 = [-0.8, 0.1]", "c1 = [-0.8, 0.1, 0.2]"), "c1: expected 2"),
+    (lambda s: s.replace('predictor = "quadratic"', 'predictor = "cubic"'),
+     "integrator.predictor"),
+    (lambda s: s.replace("[plot]", "[plot\n"), "invalid TOML"),
+    (lambda s: s.replace('outputs = ["sum", "q1", "q2"]', 'outputs = ["tip"]'),
+     "output 'tip': not an output"),
+])
+def test_bad_configuration_gives_one_line_error(small_config, tmp_path, capsys, edit, message):
+    small_config.write_text(edit(SMALL))
+    assert main(["sweep", str(small_config), "--out", str(tmp_path / "o")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.count("\n") == 0 and message in err, err
+    assert not (tmp_path / "o" / "results.parquet").exists()
+
+
+def test_demo_configuration_runs(tmp_path):
+    """The README's main job (the shipped demo), on a copy with a shorter t_end."""
+    demo = (REPO / "configs" / "demo_vdp.toml").read_text()
+    assert "t_end = 200.0" in demo
+    cfg = tmp_path / "demo.toml"
+    cfg.write_text(demo.replace("t_end = 200.0", "t_end = 30.0")
+                   .replace("num = 13", "num = 4"))
+    shutil.copy(cfg, tmp_path / "demo_copy.toml")
+    assert main(["sweep", str(cfg), "--out", str(tmp_path / "demo"), "--dtype", "float32"]) == 0
+    table = pd.read_csv(tmp_path / "demo" / "results.csv")
+    assert len(table) == 12 and set(table["status"]) <= {"lco", "decay", "unconverged"}

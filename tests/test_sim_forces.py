@@ -1,0 +1,84 @@
+"""The integrator's force kernel against the ROM's own batched forces (independent einsum path
+in tests/test_rom_model.py) for every storage path: small/blocked stiffness, symmetric/full
+damping, sparse analytic ROMs, float32."""
+
+import pytest
+import torch
+
+from torchrom.rom import NonlinearROM
+from torchrom.rom.analytic import van_der_pol_duffing
+from torchrom.sim.forces import BLOCKED_MIN_N, SYMMETRIC_MIN_N, NonlinearForces
+
+from .rom_fixtures import random_gram_model
+
+
+def _nonlinear_reference(rom, q, v, s, g):
+    """Eq. 54 minus its linear part, from NonlinearROM.force."""
+    full = rom.force(q, v, 0.0, g, stiffness_nl=s, damping_nl=1.0)
+    return full - q @ rom.K1.T - g[:, None] * (v @ rom.D1.T)
+
+
+def _random_states(n, B=11, seed=3, dtype=torch.float64):
+    g = torch.Generator().manual_seed(seed)
+    q = torch.randn(B, n, generator=g, dtype=dtype)
+    v = torch.randn(B, n, generator=g, dtype=dtype)
+    s = torch.rand(B, generator=g, dtype=dtype)
+    gam = torch.rand(B, generator=g, dtype=dtype)
+    return q, v, s, gam
+
+
+@pytest.mark.parametrize("n", [1, 2, SYMMETRIC_MIN_N, BLOCKED_MIN_N, 11])
+def test_kelvin_voigt_rom_forces(n):
+    rom, _, _ = random_gram_model(n, seed=n)
+    forces = NonlinearForces(rom)
+    assert forces.blocked == (n >= BLOCKED_MIN_N)
+    assert forces.symmetric_damping  # Kelvin–Voigt: the damping matrix is a Hessian
+    q, v, s, g = _random_states(n)
+    got = forces(q, v, s[None], g[None])
+    ref = _nonlinear_reference(rom, q, v, s, g)
+    # two summation orders of the same polynomial: agreement to rounding of the force scale
+    assert torch.allclose(got, ref, rtol=0, atol=1e-13 * ref.abs().max())
+
+
+@pytest.mark.parametrize("n", [3, BLOCKED_MIN_N])
+def test_nonsymmetric_damping_takes_the_full_path(n):
+    """A damping tensor that is not a Hessian (random D̄2, D̄3) uses the full n² layout."""
+    g = torch.Generator().manual_seed(7)
+    rom0, _, _ = random_gram_model(n, seed=1)
+    D2 = torch.randn(n, n, n, generator=g, dtype=torch.float64)
+    D3 = torch.randn(n, n, n, n, generator=g, dtype=torch.float64)
+    D3 = 0.5 * (D3 + D3.transpose(1, 2))
+    rom = rom0.replace(D2=D2, D3=D3)
+    forces = NonlinearForces(rom)
+    assert not forces.symmetric_damping and forces.expand is None
+    q, v, s, gam = _random_states(n)
+    got = forces(q, v, s[None], gam[None])
+    ref = _nonlinear_reference(rom, q, v, s, gam)
+    assert torch.allclose(got, ref, rtol=0, atol=1e-13 * ref.abs().max())
+
+
+def test_switches_and_sparse_analytic_rom():
+    rom = van_der_pol_duffing([1.0, 2.0, 3.0], c1=-0.1, d3=[0.5, 0.0, 0.2], k3=[2.0, 0.0, 1.0])
+    q, v, s, g = _random_states(3)
+    both = NonlinearForces(rom)
+    assert both.has_stiffness and both.has_damping and not both.has_k2
+    ref = _nonlinear_reference(rom, q, v, s, g)
+    assert torch.allclose(both(q, v, s[None], g[None]), ref, atol=1e-13)
+    stiff = NonlinearForces(rom, damping=False)
+    assert not stiff.has_damping
+    ref_s = _nonlinear_reference(rom, q, v, s, torch.zeros_like(g))
+    assert torch.allclose(stiff(q, v, s[None], None), ref_s, atol=1e-13)
+    linear = NonlinearForces(NonlinearROM([[1.0]], [[4.0]]))
+    assert not linear.active
+    assert (linear(q[:, :1], v[:, :1], None, None) == 0).all()
+
+
+def test_float32_kernel():
+    rom, _, _ = random_gram_model(BLOCKED_MIN_N + 1, seed=2)
+    q, v, s, g = _random_states(rom.n)
+    ref = _nonlinear_reference(rom, q, v, s, g)
+    f32 = NonlinearForces(rom, dtype=torch.float32)
+    got = f32(q.float(), v.float(), s[None].float(), g[None].float())
+    assert got.dtype == torch.float32
+    # float32 rounding of sums of ~2000 monomial terms: 1e-5 of the force scale
+    assert torch.allclose(got.double(), ref, rtol=0, atol=1e-5 * ref.abs().max())

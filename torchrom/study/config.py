@@ -1,0 +1,230 @@
+"""Sweep configurations in TOML (hand-written validation; parsing by tomllib / tomli).
+
+A sweep configuration has these tables (every key is checked; a bad one gives a one-line
+:class:`~torchrom.errors.InputError` naming the file, the table and the key):
+
+``title``        a string shown in figures.
+``[model]``      ``rom = "path/to/rom.npz"`` (relative to the configuration file) or
+                 ``builtin = "van_der_pol_duffing"`` / ``"touze_two_mode"`` with that function's
+                 keyword arguments (:mod:`torchrom.rom.analytic`).
+``[initial]``    ``q0``: a number (the displacement of basis function ``mode``, 1-based, default
+                 1) or a list of n numbers; ``v0``: a number or a list (default 0).
+``[integrator]`` ``dt``, ``t_end`` (s) and the options of :class:`torchrom.sim.Newmark`
+                 (scheme, rho_inf, solver, iterations, tol, predictor, check_every, compile,
+                 threads).
+``[lco]``        ``outputs`` (ROM outputs or generalized coordinates "q1"…; the first decides)
+                 and the options of :class:`torchrom.sim.LCOCriteria` (rtol, cycles, decay_ratio,
+                 max_amplitude, ring).
+``[cases]``      the case grid (:mod:`torchrom.study.grid`); parameters ``alpha`` (1/s),
+                 ``gamma`` (s), ``stiffness_nl``, ``damping_nl`` (true/false or a scale) and
+                 ``q0`` (scales the initial displacement).
+``[plot]``       ``x`` (a case parameter; default the first swept one), ``y`` (a table column,
+                 default "amplitude"), ``hue`` (a case parameter, optional).
+``[run]``        ``batch_size`` (cases integrated together, default 512).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import inspect
+import math
+import sys
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+if sys.version_info >= (3, 11):
+    import tomllib
+else:  # pragma: no cover - Python 3.10
+    import tomli as tomllib
+
+from ..errors import InputError
+from ..rom import NonlinearROM
+from ..rom.analytic import BUILTIN
+from ..sim import LCOCriteria, Newmark
+from .grid import config_hash, expand_cases
+
+#: case parameters of a structural (no aerodynamics) sweep
+STRUCTURAL_PARAMETERS = ("alpha", "gamma", "stiffness_nl", "damping_nl", "q0")
+SECTIONS = ("title", "model", "initial", "integrator", "lco", "cases", "plot", "run")
+_NEWMARK_KEYS = ("scheme", "rho_inf", "solver", "iterations", "tol", "predictor", "check_every",
+                 "compile", "threads")
+_LCO_KEYS = ("rtol", "cycles", "decay_ratio", "max_amplitude", "ring")
+
+
+@dataclass
+class PlotSpec:
+    x: str
+    y: str = "amplitude"
+    hue: str | None = None
+
+
+@dataclass
+class SweepConfig:
+    """A validated sweep configuration (see the module docstring)."""
+
+    source: Path
+    title: str
+    model: dict[str, Any]
+    initial: dict[str, Any]
+    integrator: Newmark
+    t_end: float
+    lco: LCOCriteria
+    outputs: list[str] | None
+    cases: list[dict[str, Any]]
+    plot: PlotSpec
+    batch_size: int = 512
+    raw: dict[str, Any] = field(default_factory=dict, repr=False)
+
+    @property
+    def hash(self) -> str:
+        """Hash of everything but the case grid (cases carry their own ``case_id``)."""
+        return config_hash({k: v for k, v in self.raw.items() if k not in ("cases", "plot")})
+
+    def build_rom(self) -> NonlinearROM:
+        return build_model(self.model, self.source)
+
+
+def _err(source: Path, where: str, msg: str) -> InputError:
+    return InputError(f"{source}: {where}: {msg}")
+
+
+def _table(raw: dict, name: str, source: Path) -> dict:
+    value = raw.get(name, {})
+    if not isinstance(value, dict):
+        raise _err(source, f"[{name}]", f"expected a table, got {type(value).__name__}")
+    return dict(value)
+
+
+def _check_keys(table: dict, allowed, source: Path, where: str) -> None:
+    unknown = sorted(set(table) - set(allowed))
+    if unknown:
+        raise _err(source, where, f"unknown key {unknown[0]!r}; expected one of {sorted(allowed)}")
+
+
+def _positive(table: dict, key: str, source: Path, where: str, default=None) -> float:
+    if key not in table:
+        if default is None:
+            raise _err(source, f"{where} {key}", "missing (expected a positive number)")
+        return default
+    x = table[key]
+    if isinstance(x, bool) or not isinstance(x, (int, float)) or not (x > 0 and math.isfinite(x)):
+        raise _err(source, f"{where} {key}", f"expected a positive number, got {x!r}")
+    return float(x)
+
+
+def build_model(model: dict[str, Any], source: Path) -> NonlinearROM:
+    """The ROM of a ``[model]`` table."""
+    where = "[model]"
+    if ("rom" in model) == ("builtin" in model):
+        raise _err(source, where, "give exactly one of rom = 'file.npz' or builtin = 'name'")
+    if "rom" in model:
+        _check_keys(model, ("rom",), source, where)
+        path = Path(model["rom"])
+        if not path.is_absolute():
+            path = source.parent / path
+        return NonlinearROM.load(path)
+    name = model["builtin"]
+    if name not in BUILTIN:
+        raise _err(source, f"{where} builtin", f"expected one of {sorted(BUILTIN)}, got {name!r}")
+    fn = BUILTIN[name]
+    kwargs = {k: v for k, v in model.items() if k != "builtin"}
+    params = inspect.signature(fn).parameters
+    _check_keys(kwargs, params, source, f"{where} ({name})")
+    try:
+        return fn(**kwargs)
+    except InputError as exc:
+        raise _err(source, f"{where} ({name})", str(exc)) from None
+    except (TypeError, ValueError) as exc:
+        raise _err(source, f"{where} ({name})", f"bad value ({exc})") from None
+
+
+def load_sweep_config(path) -> SweepConfig:
+    """Read and validate a sweep configuration (InputError naming the key on any problem)."""
+    source = Path(path)
+    if not source.is_file():
+        raise InputError(f"{source}: no such configuration file")
+    try:
+        raw = tomllib.loads(source.read_text())
+    except tomllib.TOMLDecodeError as exc:
+        raise InputError(f"{source}: invalid TOML: {exc}") from None
+    except UnicodeDecodeError:
+        raise InputError(f"{source}: not a text (UTF-8) file") from None
+    _check_keys(raw, SECTIONS, source, "top level")
+    title = raw.get("title", source.stem)
+    if not isinstance(title, str):
+        raise _err(source, "title", f"expected a string, got {title!r}")
+
+    model = _table(raw, "model", source)
+    initial = _table(raw, "initial", source)
+    _check_keys(initial, ("q0", "v0", "mode"), source, "[initial]")
+
+    integ = _table(raw, "integrator", source)
+    _check_keys(integ, ("dt", "t_end", *_NEWMARK_KEYS), source, "[integrator]")
+    dt = _positive(integ, "dt", source, "[integrator]", 1e-3)
+    t_end = _positive(integ, "t_end", source, "[integrator]")
+    try:
+        newmark = Newmark(dt=dt, **{k: integ[k] for k in _NEWMARK_KEYS if k in integ})
+    except InputError as exc:
+        raise _err(source, "[integrator]", str(exc)) from None
+    except TypeError as exc:
+        raise _err(source, "[integrator]", f"bad value ({exc})") from None
+
+    lco_t = _table(raw, "lco", source)
+    _check_keys(lco_t, ("outputs", *_LCO_KEYS), source, "[lco]")
+    outputs = lco_t.get("outputs")
+    if outputs is not None and (not isinstance(outputs, list) or not outputs
+                                or not all(isinstance(o, str) for o in outputs)):
+        raise _err(source, "[lco] outputs", f"expected a list of output names, got {outputs!r}")
+    try:
+        lco = LCOCriteria(**{k: lco_t[k] for k in _LCO_KEYS if k in lco_t})
+    except InputError as exc:
+        raise _err(source, "[lco]", str(exc)) from None
+    except TypeError as exc:
+        raise _err(source, "[lco]", f"bad value ({exc})") from None
+
+    cases_t = _table(raw, "cases", source)
+    try:
+        cases = expand_cases(cases_t, "[cases]", allowed=STRUCTURAL_PARAMETERS)
+    except InputError as exc:
+        raise InputError(f"{source}: {exc}") from None
+    for k, case in enumerate(cases):
+        for name, value in case.items():
+            ok = isinstance(value, (int, float)) and math.isfinite(float(value))
+            if not ok:
+                raise _err(source, f"[cases] {name}", f"expected a number or true/false, got "
+                           f"{value!r} (case {k})")
+
+    plot_t = _table(raw, "plot", source)
+    _check_keys(plot_t, ("x", "y", "hue"), source, "[plot]")
+    swept = [k for k in STRUCTURAL_PARAMETERS if len({repr(c.get(k)) for c in cases}) > 1]
+    x = plot_t.get("x", swept[0] if swept else "alpha")
+    hue = plot_t.get("hue")
+    for key, value in (("x", x), ("hue", hue)):
+        if value is not None and value not in STRUCTURAL_PARAMETERS:
+            raise _err(source, f"[plot] {key}", f"expected a case parameter "
+                       f"{STRUCTURAL_PARAMETERS}, got {value!r}")
+    plot = PlotSpec(x=x, y=plot_t.get("y", "amplitude"), hue=hue)
+
+    run_t = _table(raw, "run", source)
+    _check_keys(run_t, ("batch_size",), source, "[run]")
+    batch = run_t.get("batch_size", 512)
+    if isinstance(batch, bool) or not isinstance(batch, int) or batch < 1:
+        raise _err(source, "[run] batch_size", f"expected a positive integer, got {batch!r}")
+
+    cfg = SweepConfig(source=source, title=title, model=model, initial=initial,
+                      integrator=newmark, t_end=t_end, lco=lco, outputs=outputs, cases=cases,
+                      plot=plot, batch_size=batch, raw=raw)
+    build_model(model, source)  # fail now, not after a long run
+    return cfg
+
+
+def with_overrides(cfg: SweepConfig, **integrator_options) -> SweepConfig:
+    """A copy whose integrator has some options replaced (e.g. compile from the command line)."""
+    options = {k: v for k, v in integrator_options.items() if v is not None}
+    if not options:
+        return cfg
+    fields = {f.name: getattr(cfg.integrator, f.name) for f in dataclasses.fields(Newmark)
+              if f.init}
+    fields.update(options)
+    return dataclasses.replace(cfg, integrator=Newmark(**fields))

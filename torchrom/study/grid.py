@@ -1,0 +1,145 @@
+"""Case grids from TOML tables and stable case identifiers (hand-written; tomllib parses).
+
+A ``[cases]`` table lists parameters. Each value is
+
+- a scalar: the same for every case;
+- a list: one case per entry;
+- a table ``{start, stop, num}`` (evenly spaced, both ends included) with optional
+  ``spacing = "log"`` (geometric), or ``{values = [...]}``.
+
+``combine = "product"`` (default) makes every combination of the swept parameters (the first
+one varies slowest); ``combine = "zip"`` pairs them entry by entry (equal lengths required).
+``[[cases.list]]`` entries add explicit cases (the scalars of ``[cases]`` fill what they omit).
+
+``case_id`` is a stable hash of a case's parameters: the same parameters give the same id on
+any machine and in any order of the keys, and 0, 0.0 and False are the same value.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import itertools
+import json
+import math
+from collections.abc import Iterable, Mapping
+from typing import Any
+
+import numpy as np
+
+from ..errors import InputError
+
+COMBINE = ("product", "zip")
+
+
+def _number(x, where: str) -> float:
+    if isinstance(x, bool) or not isinstance(x, (int, float)):
+        raise InputError(f"{where}: expected a number, got {x!r}")
+    return float(x)
+
+
+def parameter_values(value: Any, where: str) -> tuple[list[Any], bool]:
+    """(values, swept) for one parameter specification (see the module docstring)."""
+    if isinstance(value, list):
+        if not value:
+            raise InputError(f"{where}: expected at least one value, got an empty list")
+        return list(value), True
+    if isinstance(value, dict):
+        if "values" in value:
+            extra = set(value) - {"values"}
+            if extra:
+                raise InputError(f"{where}: unexpected keys {sorted(extra)} beside 'values'")
+            return parameter_values(list(value["values"]), where)
+        extra = set(value) - {"start", "stop", "num", "spacing"}
+        if extra:
+            raise InputError(f"{where}: unknown keys {sorted(extra)}; expected start, stop, num "
+                             f"and optionally spacing")
+        missing = [k for k in ("start", "stop", "num") if k not in value]
+        if missing:
+            raise InputError(f"{where}: missing {', '.join(missing)} (expected "
+                             f"{{start, stop, num}})")
+        start = _number(value["start"], f"{where}.start")
+        stop = _number(value["stop"], f"{where}.stop")
+        num = value["num"]
+        if isinstance(num, bool) or not isinstance(num, int) or num < 1:
+            raise InputError(f"{where}.num: expected a positive integer, got {num!r}")
+        spacing = value.get("spacing", "linear")
+        if spacing == "linear":
+            vals = np.linspace(start, stop, num)
+        elif spacing == "log":
+            if start <= 0 or stop <= 0:
+                raise InputError(f"{where}: log spacing needs positive start and stop")
+            vals = np.geomspace(start, stop, num)
+        else:
+            raise InputError(f"{where}.spacing: expected 'linear' or 'log', got {spacing!r}")
+        return [float(v) for v in vals], True
+    return [value], False
+
+
+def expand_cases(table: Mapping[str, Any], where: str = "[cases]",
+                 allowed: Iterable[str] | None = None) -> list[dict[str, Any]]:
+    """The list of cases (parameter dicts) described by a ``[cases]`` table."""
+    table = dict(table)
+    combine = table.pop("combine", "product")
+    if combine not in COMBINE:
+        raise InputError(f"{where} combine: expected one of {COMBINE}, got {combine!r}")
+    explicit = table.pop("list", [])
+    if not isinstance(explicit, list) or not all(isinstance(c, dict) for c in explicit):
+        raise InputError(f"{where} list: expected an array of tables ([[cases.list]])")
+    allowed = None if allowed is None else set(allowed)
+
+    def check_name(name: str, at: str) -> None:
+        if allowed is not None and name not in allowed:
+            raise InputError(f"{at}: unknown case parameter {name!r}; expected one of "
+                             f"{sorted(allowed)}")
+
+    fixed: dict[str, Any] = {}
+    swept: dict[str, list[Any]] = {}
+    for name, spec in table.items():
+        check_name(name, f"{where} {name}")
+        vals, is_swept = parameter_values(spec, f"{where} {name}")
+        if is_swept:
+            swept[name] = vals
+        else:
+            fixed[name] = vals[0]
+    cases: list[dict[str, Any]] = []
+    if swept:
+        names = list(swept)
+        if combine == "zip":
+            lengths = {k: len(v) for k, v in swept.items()}
+            if len(set(lengths.values())) > 1:
+                raise InputError(f"{where}: combine = 'zip' needs lists of equal length, got "
+                                 f"{lengths}")
+            combos = zip(*swept.values())
+        else:
+            combos = itertools.product(*swept.values())
+        cases = [{**fixed, **dict(zip(names, combo))} for combo in combos]
+    elif not explicit:
+        cases = [dict(fixed)]
+    for k, extra in enumerate(explicit):
+        for name in extra:
+            check_name(name, f"{where} list[{k}]")
+        cases.append({**fixed, **extra})
+    return cases
+
+
+def _canonical(value: Any) -> Any:
+    if isinstance(value, (bool, int, float, np.integer, np.floating)):
+        x = float(value)
+        return "nan" if math.isnan(x) else repr(x)
+    if isinstance(value, (list, tuple)):
+        return [_canonical(v) for v in value]
+    return str(value)
+
+
+def case_id(params: Mapping[str, Any]) -> str:
+    """Stable 16-hex-digit hash of a case's parameters (key order and int/float/bool spelling of
+    the same number do not matter)."""
+    canon = {str(k): _canonical(v) for k, v in params.items()}
+    text = json.dumps(canon, sort_keys=True, separators=(",", ":"))
+    return hashlib.sha256(text.encode()).hexdigest()[:16]
+
+
+def config_hash(obj: Any) -> str:
+    """Stable 16-hex-digit hash of a JSON-serialisable configuration."""
+    text = json.dumps(obj, sort_keys=True, separators=(",", ":"), default=str)
+    return hashlib.sha256(text.encode()).hexdigest()[:16]

@@ -1,0 +1,91 @@
+"""Result tables: one row per case, written as parquet and CSV (pandas/pyarrow), atomically.
+
+Columns (DESIGN "Files"; those that apply to the sweep at hand):
+``case_id`` (stable hash of the case parameters), the case parameters (``alpha`` 1/s,
+``gamma`` s, ``stiffness_nl``, ``damping_nl``, ... plus any other swept parameter), ``status``
+(lco, decay, diverged, unconverged, failed), ``amplitude`` (half peak-to-peak of the first
+output over the converged window, output units), ``amplitude_pct_span`` (when the model knows its
+span), ``frequency_hz``, ``ratio_q1_q2`` / ``ratio_q1_q4`` (generalized-coordinate amplitude
+ratios, when tracked), ``steps``, ``t_end`` (simulated time reached, s), ``amplitude_<output>``
+for every tracked output, ``amplitude_change`` (relative change over the last cycle),
+``solver_error`` (estimated relative acceleration error of the nonlinear iterations),
+``config_hash`` and ``version``.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from .._version import __version__
+from ..io import atomic_path, check_can_write
+from ..sim import SimulationResult
+from ..sim.metrics import amplitude_ratio
+from .grid import case_id
+
+#: DESIGN parameter columns, in this order when present
+PARAMETER_ORDER = ("altitude_ft", "mach", "velocity", "dynamic_pressure", "density", "alpha",
+                   "gamma", "stiffness_nl", "damping_nl")
+
+
+def result_rows(cases: Sequence[Mapping[str, Any]], result: SimulationResult, *,
+                config_hash: str, span: float | None = None,
+                extra: Sequence[Mapping[str, Any]] | None = None) -> pd.DataFrame:
+    """The table rows of one simulated batch: ``cases[i]`` are the parameters of result case i;
+    ``extra[i]`` adds derived columns (e.g. velocity, density) without entering the case_id."""
+    names = result.output_names
+    amp = result.amplitude
+    cols: dict[str, Any] = {"case_id": [case_id(c) for c in cases]}
+    keys = list(dict.fromkeys(k for c in cases for k in c))
+    if extra:
+        keys += [k for k in dict.fromkeys(k for e in extra for k in e) if k not in keys]
+    ordered = [k for k in PARAMETER_ORDER if k in keys] + [k for k in keys
+                                                           if k not in PARAMETER_ORDER]
+    for k in ordered:
+        cols[k] = [({**c, **(extra[i] if extra else {})}).get(k, np.nan)
+                   for i, c in enumerate(cases)]
+    cols["status"] = list(result.status)
+    cols["amplitude"] = amp[:, 0]
+    if span:
+        cols["amplitude_pct_span"] = 100.0 * amp[:, 0] / span
+    cols["frequency_hz"] = result.frequency_hz
+    for a, b in (("q1", "q2"), ("q1", "q4")):
+        if a in names and b in names:
+            cols[f"ratio_{a}_{b}"] = amplitude_ratio(amp[:, names.index(a)],
+                                                     amp[:, names.index(b)])
+    cols["steps"] = result.steps
+    cols["t_end"] = result.time
+    for j, name in enumerate(names):
+        cols[f"amplitude_{name}"] = amp[:, j]
+    cols["amplitude_change"] = result.amplitude_change
+    cols["solver_error"] = result.solver_error
+    cols["config_hash"] = config_hash
+    cols["version"] = __version__
+    df = pd.DataFrame(cols)
+    for k in ("stiffness_nl", "damping_nl"):
+        if k in df:
+            df[k] = df[k].astype(float)
+    return df
+
+
+def table_paths(out_dir, stem: str = "results") -> dict[str, Path]:
+    out = Path(out_dir)
+    return {"parquet": out / f"{stem}.parquet", "csv": out / f"{stem}.csv"}
+
+
+def write_table(df: pd.DataFrame, out_dir, *, force: bool = False,
+                stem: str = "results") -> dict[str, Path]:
+    """Write ``<stem>.parquet`` and ``<stem>.csv`` into ``out_dir`` atomically; refuse to replace
+    existing files unless ``force``."""
+    paths = table_paths(out_dir, stem)
+    for p in paths.values():
+        check_can_write(p, force, "results table")
+    with atomic_path(paths["parquet"]) as tmp:
+        df.to_parquet(tmp, index=False)
+    with atomic_path(paths["csv"]) as tmp:
+        df.to_csv(tmp, index=False)
+    return paths
