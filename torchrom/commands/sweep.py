@@ -12,14 +12,8 @@ import argparse
 import sys
 from pathlib import Path
 
-import torch
-
 from ..errors import InputError
 from ..io import check_can_write
-from ..study.config import load_sweep_config, with_overrides
-from ..study.plots import parameter_plot
-from ..study.sweep import run_sweep
-from ..study.table import table_paths, write_table
 from ._common import add_force_option, add_json_option, maybe_write_json
 
 NAME = "sweep"
@@ -41,7 +35,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     add_force_option(parser)
 
 
-def _device(name: str) -> torch.device:
+def _device(name: str):
+    import torch
+
     try:
         dev = torch.device(name)
     except (RuntimeError, ValueError) as exc:
@@ -52,6 +48,14 @@ def _device(name: str) -> torch.device:
 
 
 def run(args: argparse.Namespace) -> int:
+    # heavy imports here, not at module level: `torchrom --help` must stay fast
+    import torch
+
+    from ..study.config import load_sweep_config, with_overrides
+    from ..study.plots import parameter_plot
+    from ..study.sweep import run_sweep
+    from ..study.table import table_paths, write_table
+
     device = _device(args.device)
     dtype = getattr(torch, args.dtype)
     cfg = load_sweep_config(args.config)
