@@ -1,7 +1,9 @@
 """``torchrom sweep CONFIG.toml --out DIR``: run a TOML-defined grid of LCO simulations.
 
 Writes ``DIR/results.parquet`` and ``DIR/results.csv`` (one row per case; columns in
-:mod:`torchrom.study.table`) and ``DIR/<y>_vs_<x>.png`` (the ``[plot]`` figure). With
+:mod:`torchrom.study.table`), ``DIR/<y>_vs_<x>.png`` (the ``[plot]`` figure) and, when the
+configuration asks for them (``[history]``), ``DIR/histories.parquet`` (case_id, t and one column
+per output). With
 ``--json FILE`` the same rows are written as a JSON list of records (same keys and units as the
 table columns; NaN as null). Existing outputs are never replaced without ``--force``.
 """
@@ -54,7 +56,7 @@ def run(args: argparse.Namespace) -> int:
     from ..study.config import load_sweep_config, with_overrides
     from ..study.plots import parameter_plot
     from ..study.sweep import run_sweep
-    from ..study.table import table_paths, write_table
+    from ..study.table import table_paths, write_histories, write_table
 
     device = _device(args.device)
     dtype = getattr(torch, args.dtype)
@@ -63,7 +65,8 @@ def run(args: argparse.Namespace) -> int:
     out = Path(args.out)
     paths = table_paths(out)
     figure = out / f"{cfg.plot.y}_vs_{cfg.plot.x}.png"
-    for p in (*paths.values(), figure):
+    hist_path = out / "histories.parquet"
+    for p in (*paths.values(), figure, *([hist_path] if cfg.history else [])):
         check_can_write(p, args.force, "output")
     if args.json is not None:
         check_can_write(args.json, args.force, "JSON output")
@@ -77,9 +80,13 @@ def run(args: argparse.Namespace) -> int:
         def progress(done: int, total: int) -> None:
             bar.update(done - bar.n)
 
-        table, timing = run_sweep(cfg, device=device, dtype=dtype, progress=progress)
+        histories = []
+        table, timing = run_sweep(cfg, device=device, dtype=dtype, progress=progress,
+                                  on_history=histories.append)
 
     written = write_table(table, out, force=args.force)
+    if histories:
+        written["histories"] = write_histories(histories, hist_path)
     parameter_plot(table, figure, x=cfg.plot.x, y=cfg.plot.y, hue=cfg.plot.hue,
                    title=cfg.title, force=args.force)
     counts = table["status"].value_counts().to_dict()

@@ -10,6 +10,9 @@ A ``[cases]`` table lists parameters. Each value is
 ``combine = "product"`` (default) makes every combination of the swept parameters (the first
 one varies slowest); ``combine = "zip"`` pairs them entry by entry (equal lengths required).
 ``[[cases.list]]`` entries add explicit cases (the scalars of ``[cases]`` fill what they omit).
+A list of inline tables is a *bundle*: each table sets several parameters together (e.g.
+``curve = [{gamma = 0.0}, {gamma = 1e-3, stiffness_nl = false}]`` swept against ``altitude_ft``);
+the bundle's own name is only a label of the axis.
 
 ``case_id`` is a stable hash of a case's parameters: the same parameters give the same id on
 any machine and in any order of the keys, and 0, 0.0 and False are the same value.
@@ -93,17 +96,22 @@ def expand_cases(table: Mapping[str, Any], where: str = "[cases]",
                              f"{sorted(allowed)}")
 
     fixed: dict[str, Any] = {}
-    swept: dict[str, list[Any]] = {}
+    swept: dict[str, list[dict[str, Any]]] = {}  # one axis per swept parameter or bundle
     for name, spec in table.items():
-        check_name(name, f"{where} {name}")
         vals, is_swept = parameter_values(spec, f"{where} {name}")
+        if is_swept and all(isinstance(v, dict) for v in vals):
+            for k, bundle in enumerate(vals):
+                for key in bundle:
+                    check_name(key, f"{where} {name}[{k}]")
+            swept[name] = [dict(v) for v in vals]
+            continue
+        check_name(name, f"{where} {name}")
         if is_swept:
-            swept[name] = vals
+            swept[name] = [{name: v} for v in vals]
         else:
             fixed[name] = vals[0]
     cases: list[dict[str, Any]] = []
     if swept:
-        names = list(swept)
         if combine == "zip":
             lengths = {k: len(v) for k, v in swept.items()}
             if len(set(lengths.values())) > 1:
@@ -112,7 +120,8 @@ def expand_cases(table: Mapping[str, Any], where: str = "[cases]",
             combos = zip(*swept.values())
         else:
             combos = itertools.product(*swept.values())
-        cases = [{**fixed, **dict(zip(names, combo))} for combo in combos]
+        cases = [{**fixed, **{k: v for part in combo for k, v in part.items()}}
+                 for combo in combos]
     elif not explicit:
         cases = [dict(fixed)]
     for k, extra in enumerate(explicit):

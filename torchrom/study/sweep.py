@@ -1,8 +1,9 @@
-"""Run a structural sweep: cases in batches through the batched integrator, one table row each.
+"""Run a sweep: cases in batches through the batched integrator, one table row each.
 
 In-process and chunked: ``batch_size`` cases are integrated together (one
-:class:`~torchrom.sim.CaseSystem`); chunks are independent, so a later scale-out (worker processes
-or Dask) only has to distribute them. Hand-written; pandas for the table.
+:class:`~torchrom.sim.CaseSystem`, built by :func:`torchrom.study.cases.case_system` for a
+structural or an aeroelastic model); chunks are independent, so a later scale-out (worker
+processes or Dask) only has to distribute them. Hand-written; pandas for the table.
 """
 
 from __future__ import annotations
@@ -16,8 +17,12 @@ import torch
 
 from ..errors import InputError
 from ..rom import NonlinearROM
-from ..sim import CaseSystem
+from ..sim import HistoryRequest
+from .cases import case_system, history_table
+from .cases import structural_system as structural_system  # noqa: F401 - public name
 from .config import SweepConfig
+from .grid import case_id
+from .models import model_rom
 from .table import result_rows
 
 
@@ -55,40 +60,40 @@ def initial_velocity(rom: NonlinearROM, initial: dict[str, Any], batch: int,
     return np.broadcast_to(arr, (batch, rom.n)).copy()
 
 
-def structural_system(rom: NonlinearROM, cases: list[dict[str, Any]], device=None,
-                      dtype=torch.float64) -> CaseSystem:
-    """The per-case system of a structural sweep (Eq. 54 parameters only)."""
-    def column(name, default):
-        return [float(c.get(name, default)) for c in cases]
-
-    return CaseSystem.build(rom, len(cases), alpha=column("alpha", 0.0),
-                            gamma=column("gamma", 0.0),
-                            stiffness_nl=column("stiffness_nl", 1.0),
-                            damping_nl=column("damping_nl", 1.0), device=device, dtype=dtype)
-
-
 def run_sweep(cfg: SweepConfig, *, device=None, dtype=torch.float64,
               progress: Callable[[int, int], None] | None = None,
-              rom: NonlinearROM | None = None) -> tuple[pd.DataFrame, dict[str, float]]:
+              rom: NonlinearROM | None = None, model=None,
+              on_history: Callable[[pd.DataFrame], None] | None = None,
+              ) -> tuple[pd.DataFrame, dict[str, float]]:
     """Integrate every case of ``cfg``; returns (table, timing) with timing keys wall_time_s,
-    case_steps and us_per_case_step."""
-    rom = rom or cfg.build_rom()
+    case_steps and us_per_case_step.
+
+    ``model``: the sweep's model (default ``cfg.build_model()``; ``rom`` is accepted for a
+    structural model); ``on_history(frame)`` receives the time histories of the cases that
+    ``[history]`` selects (see :func:`torchrom.study.cases.history_table`), chunk by chunk.
+    """
+    model = model if model is not None else (rom if rom is not None else cfg.build_model())
+    rom = model_rom(model)
     cases = cfg.cases
-    span = rom.metadata.get("span")
+    span = getattr(model, "span", None) or rom.metadata.get("span")
     frames, wall, case_steps, done = [], 0.0, 0, 0
     for start in range(0, len(cases), cfg.batch_size):
         chunk = cases[start:start + cfg.batch_size]
-        system = structural_system(rom, chunk, device, dtype)
+        system, extra = case_system(model, chunk, device, dtype)
         q0 = initial_displacement(rom, cfg.initial, chunk)
         v0 = initial_velocity(rom, cfg.initial, len(chunk))
+        keep = cfg.history.indices(chunk) if cfg.history is not None else []
+        history = HistoryRequest(tuple(keep), cfg.history.every) if keep else None
 
         def report(k, total, base=done):
             if progress is not None:
                 progress(base + k, len(cases))
 
         res = cfg.integrator.run(system, q0, v0, t_end=cfg.t_end, outputs=cfg.outputs,
-                                 lco=cfg.lco, progress=report)
-        frames.append(result_rows(chunk, res, config_hash=cfg.hash, span=span))
+                                 lco=cfg.lco, history=history, progress=report)
+        frames.append(result_rows(chunk, res, config_hash=cfg.hash, span=span, extra=extra))
+        if keep and on_history is not None:
+            on_history(history_table(res, [case_id(c) for c in chunk]))
         wall += res.wall_time_s
         case_steps += res.case_steps
         done += len(chunk)
