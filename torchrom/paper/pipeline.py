@@ -51,8 +51,9 @@ from ..sim.aeroelastic import mode_outputs
 from ..study.models import ALTITUDE_RANGE_FT, AeroelasticModel
 from .cache import FileCache
 
-#: the paper's Table 2 natural frequencies (Hz)
+#: the paper's Table 2 natural frequencies (Hz) and what it says of the first five modes
 PAPER_TABLE2_HZ = (1.690, 3.051, 9.172, 10.834, 11.258, 16.260, 22.845, 26.318, 29.183)
+PAPER_MODE_KINDS = ("bending", "torsion", "transverse", "bending-torsion", "in-plane")
 DAMPING_METHODS = ("decomposition", "exact")
 
 
@@ -208,7 +209,8 @@ def goland_pipeline(options: GolandPipeline | None = None, folder=None, *, force
                              altitude_range_ft=tuple(opt.altitude_range_ft))
 
     # -- flutter --------------------------------------------------------------------------------
-    fl_inputs = {"stage": "flutter", "rom": rom_key, "aero": aero_key,
+    kinds = [str(k) for k in fe.modes(opt.aero_modes).kinds]
+    fl_inputs = {"stage": "flutter", "rom": rom_key, "aero": aero_key, "kinds": kinds,
                  "alpha": opt.baseline_alpha, "gamma": opt.baseline_gamma,
                  "range": list(opt.altitude_range_ft)}
     fl_key = FileCache.key(fl_inputs)
@@ -216,7 +218,7 @@ def goland_pipeline(options: GolandPipeline | None = None, folder=None, *, force
     t0 = time.perf_counter()
     if fl_path is None:
         log("flutter: baseline damping, state space (Eqs. 49-50) and p-k; Table 3")
-        summary = flutter_summary(model)
+        summary = flutter_summary(model, kinds)
         fl_path = cache.put("flutter.json", fl_key, lambda p: write_json_atomic(p, summary))
     else:
         log(f"flutter: reusing {fl_path}")
@@ -265,8 +267,9 @@ def aero_on_basis(fe, Phi: np.ndarray, rom: NonlinearROM, opt: GolandPipeline) -
     return aero
 
 
-def flutter_summary(model: AeroelasticModel) -> dict[str, Any]:
-    """Baseline flutter (state space and p-k), Table 3 and Table 2 comparisons (JSON-ready)."""
+def flutter_summary(model: AeroelasticModel, mode_kinds=None) -> dict[str, Any]:
+    """Baseline flutter (state space and p-k), Table 3 and Table 2 comparisons (JSON-ready);
+    ``mode_kinds``: the FE's classification of the modes (bending, torsion, in-plane, ...)."""
     from ..aero.flutter import (
         AeroTable,
         flutter_altitude_pk,
@@ -294,7 +297,9 @@ def flutter_summary(model: AeroelasticModel) -> dict[str, Any]:
         "table3": [{"altitude_ft": a, "state_space_hz": float(fs), "pk_hz": float(fp),
                     "paper_hz": PAPER_TABLE3[a]} for a, fs, fp in zip(alts, f_ss, f_pk)],
         "table2": [{"mode": i + 1, "frequency_hz": f, "paper_hz": p,
-                    "diff_pct": 100.0 * (f - p) / p}
+                    "diff_pct": 100.0 * (f - p) / p,
+                    "kind": None if mode_kinds is None or i >= len(mode_kinds) else mode_kinds[i],
+                    "paper_kind": PAPER_MODE_KINDS[i] if i < len(PAPER_MODE_KINDS) else None}
                    for i, (f, p) in enumerate(zip(freqs, PAPER_TABLE2_HZ))],
         "rfa_fit_error": model.aero.rfa.fit_error,
     }

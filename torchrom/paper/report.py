@@ -89,8 +89,9 @@ def render(summary: dict[str, Any], findings: list[Finding], table: pd.DataFrame
         lines += ["**Quick run**: coarser altitude and γ grids and shorter runs "
                   "(`--quick`); the full run is `torchrom paper`.", ""]
     lines += ["## Run", ""]
-    rows = [[k, _f(v, "{:.1f}")] for k, v in summary["seconds"].items()]
-    lines += _table(rows, ["stage", "wall time (s)"])
+    rows = [[k, _f(v, "{:.1f}"), _f(summary["cpu_seconds"].get(k), "{:.1f}")]
+            for k, v in summary["seconds"].items()]
+    lines += _table(rows, ["stage", "wall time (s)", "CPU time (s)"])
     lines += ["", f"Model files reused from the cache: {', '.join(summary['reused']) or 'none'}."
               f" LCO sweep: {summary['lco']['cases']} cases, {summary['lco']['case_steps']:,} "
               f"case-steps, {_f(summary['lco']['us_per_case_step'], '{:.0f}')} µs per "
@@ -98,8 +99,10 @@ def render(summary: dict[str, Any], findings: list[Finding], table: pd.DataFrame
 
     lines += ["## Table 2: natural frequencies (Hz)", ""]
     lines += _table([[r["mode"], _f(r["frequency_hz"], "{:.3f}"), _f(r["paper_hz"], "{:.3f}"),
-                      _f(r["diff_pct"], "{:+.1f}")] for r in t2],
-                    ["mode", "torchrom", "paper", "difference %"])
+                      _f(r["diff_pct"], "{:+.1f}"), r.get("kind") or "–",
+                      r.get("paper_kind") or "–"] for r in t2],
+                    ["mode", "torchrom", "paper", "difference %", "torchrom kind",
+                     "paper kind"])
     lines += ["", "## Flutter point, Mach 0.70, baseline damping (α0 = 0.2565 1/s, "
               "β0 = 1.338e-4 s)", ""]
     lines += _table([

@@ -67,17 +67,18 @@ def curve_label(gamma: float, stiffness_nl: float, damping_nl: float) -> str:
 
 
 def curves(table: pd.DataFrame, x: str = "altitude_ft", min_points: int = 2):
-    """[(label, rows sorted by x)] per damping setting with at least ``min_points`` x values,
-    in the order: increasing γ, settings with both nonlinearities first."""
+    """[(label, rows sorted by x)] per damping setting with at least ``min_points`` x values
+    (the linear system, without any nonlinearity, is left out), in the order: increasing γ,
+    settings with both nonlinearities first."""
     _require(table, (x, *CURVE_KEYS), "curves")
     t = table.copy()
     for k in ("stiffness_nl", "damping_nl"):
         t[k] = t[k].astype(float)
     out = []
     for key, grp in t.groupby(list(CURVE_KEYS), sort=False):
-        if grp[x].nunique() < min_points:
-            continue
         g, s, d = (float(v) for v in key)
+        if grp[x].nunique() < min_points or (s == 0 and (d == 0 or g == 0)):
+            continue  # a single point, or the linear system (it has no LCO to show)
         out.append(((g, -s, -d), curve_label(g, s, d), grp.sort_values(x)))
     return [(label, grp) for _, label, grp in sorted(out, key=lambda c: c[0])]
 
@@ -187,6 +188,7 @@ def fig13(table: pd.DataFrame, path, *, force: bool = False) -> Path:
     for ax, col, what in ((axes[0], "ratio_q1_q2", "mode 1 / mode 2"),
                           (axes[1], "ratio_q1_q4", "mode 1 / mode 4")):
         _curve_axes(ax, table, col)
+        ax.set_yscale("log")
         ax.set_xlabel("altitude (ft)")
         ax.set_ylabel(f"LCO amplitude ratio {what} (-)")
     axes[0].legend(fontsize=7.5)
