@@ -1,4 +1,4 @@
-"""Helpers shared by the sub-commands: --json/--force options and result reporting."""
+"""Helpers shared by the sub-commands: --json/--force/--workers options and result reporting."""
 
 from __future__ import annotations
 
@@ -7,6 +7,31 @@ from pathlib import Path
 from typing import Any
 
 from ..io import write_json_atomic
+
+
+def cpu_workers(value: str) -> int:
+    """``--workers`` value: a positive integer or 'auto' (one worker process per core)."""
+    import os
+
+    n = (os.cpu_count() or 1) if value == "auto" else (int(value) if value.isdigit() else 0)
+    if n < 1:
+        raise argparse.ArgumentTypeError(f"expected a positive integer or 'auto', got {value!r}")
+    return n
+
+
+def add_executor_options(parser: argparse.ArgumentParser) -> None:
+    """--workers N | --scheduler ADDR and --chunk-size (commands that run many cases; see
+    :mod:`torchrom.study.runner`). Default: in-process."""
+    group = parser.add_mutually_exclusive_group()
+    group.add_argument("--workers", type=cpu_workers, default=None, metavar="N",
+                       help="run chunks on a local Dask cluster of N single-threaded worker "
+                            "processes ('auto': one per core)")
+    group.add_argument("--scheduler", default=None, metavar="ADDR",
+                       help="run chunks on the existing Dask cluster at ADDR "
+                            "(e.g. tcp://host:8786)")
+    parser.add_argument("--chunk-size", type=int, default=None, metavar="N",
+                        help="cases per chunk of work (default: [run] chunk_size, else about 8 "
+                             "chunks)")
 
 
 def add_json_option(parser: argparse.ArgumentParser) -> None:

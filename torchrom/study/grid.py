@@ -131,11 +131,17 @@ def _canonical(value: Any) -> Any:
     return str(value)
 
 
-def case_id(params: Mapping[str, Any]) -> str:
+def case_id(params: Mapping[str, Any], context: str | None = None) -> str:
     """Stable 16-hex-digit hash of a case's parameters (key order and int/float/bool spelling of
-    the same number do not matter)."""
+    the same number do not matter).
+
+    ``context`` (e.g. the hash of the model, the configuration and the precision a sweep runs
+    with) enters the hash too, so that the same parameters of a different model get another id
+    and stored results of one model are never taken for another's."""
     canon = {str(k): _canonical(v) for k, v in params.items()}
     text = json.dumps(canon, sort_keys=True, separators=(",", ":"))
+    if context is not None:
+        text += "\x00" + str(context)
     return hashlib.sha256(text.encode()).hexdigest()[:16]
 
 
