@@ -359,11 +359,31 @@ def open_executor(workers: int | None = None, scheduler: str | None = None
         return
     # one single-threaded worker process per core; the nanny's pre-spawn environment sets
     # OMP/MKL_NUM_THREADS = 1, and each chunk also sets torch's intra-op threads to 1
-    with LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
-                      dashboard_address=None, silence_logs=logging.ERROR) as cluster, \
-            Client(cluster) as client:
+    with _sigint_ignored_in_children():
+        cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
+                               dashboard_address=None, silence_logs=logging.ERROR)
+    with cluster, Client(cluster) as client:
         yield DaskExecutor(client, f"local Dask cluster of {workers} worker process"
                                    f"{'es' if workers > 1 else ''}")
+
+
+@contextlib.contextmanager
+def _sigint_ignored_in_children() -> Iterator[None]:
+    """Start worker processes with SIGINT ignored (an ignored signal stays ignored across exec,
+    and Python then installs no KeyboardInterrupt handler): a Ctrl-C in the terminal reaches the
+    whole process group, and only this process should react — by closing the cluster in order —
+    instead of every worker printing a traceback."""
+    import signal
+    import threading
+
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, previous)
 
 
 # ----------------------------------------------------------------------------------------------
