@@ -3,7 +3,10 @@
 Writes ``DIR/results.parquet`` and ``DIR/results.csv`` (one row per case; columns in
 :mod:`torchrom.study.table`) and ``DIR/<y>_vs_<x>.png`` (the ``[plot]`` figure). With
 ``--json FILE`` the same rows are written as a JSON list of records (same keys and units as the
-table columns; NaN as null).
+table columns; NaN as null). A configuration that samples parameters from distributions
+(:mod:`torchrom.study.sampling`) also gets ``DIR/amplitude_distribution.{parquet,csv,png}``:
+per group of the other swept parameters (e.g. altitude) the counts, P(LCO), mean, standard
+deviation and 5/50/95 % quantiles of the amplitude, and its histogram and CDF.
 
 Cases run in chunks, in-process by default, on a local Dask cluster with ``--workers N`` or on
 an existing one with ``--scheduler ADDR`` (:mod:`torchrom.study.runner`). Finished chunks are
@@ -23,6 +26,7 @@ from ..io import check_can_write
 from ._common import add_executor_options, add_force_option, add_json_option, maybe_write_json
 
 NAME = "sweep"
+DISTRIBUTION = "amplitude_distribution"
 HELP = "run a TOML-defined grid of batched LCO simulations; write a results table and a figure"
 
 
@@ -54,6 +58,23 @@ def _device(name: str):
     return dev
 
 
+def _write_distribution(table, cfg, sampled: list[str], paths: dict[str, Path]) -> list[Path]:
+    """The amplitude distribution of an uncertainty-sampling sweep: summary table and figure
+    per group of the non-sampled swept parameters (e.g. per altitude)."""
+    from ..study.plots import distribution_plot
+    from ..study.sampling import amplitude_distribution, group_parameters
+    from ..study.table import write_table
+
+    by = group_parameters(cfg.cases, sampled)
+    summary = amplitude_distribution(table, by)
+    written = write_table(summary, paths["parquet"].parent, force=True, stem=DISTRIBUTION)
+    figure = distribution_plot(table, paths["figure"], by=by, force=True,
+                               title=f"{cfg.title}: {', '.join(sampled)} sampled")
+    print(f"amplitude distribution ({', '.join(sampled)} sampled; decay counts as 0):")
+    print(summary.to_string(index=False, float_format=lambda x: f"{x:.4g}"))
+    return [*written.values(), figure]
+
+
 def run(args: argparse.Namespace) -> int:
     # heavy imports here, not at module level: `torchrom --help` must stay fast
     import torch
@@ -61,6 +82,7 @@ def run(args: argparse.Namespace) -> int:
     from ..study.config import load_sweep_config, with_overrides
     from ..study.plots import parameter_plot
     from ..study.runner import PartStore, open_executor
+    from ..study.sampling import sampled_parameters
     from ..study.sweep import run_description, run_sweep
     from ..study.table import table_paths, write_table
 
@@ -74,7 +96,9 @@ def run(args: argparse.Namespace) -> int:
     resumable = PartStore(out, run_description(cfg, rom, dtype)).check(args.force)
     paths = table_paths(out)
     figure = out / f"{cfg.plot.y}_vs_{cfg.plot.x}.png"
-    for p in (*paths.values(), figure):
+    sampled = sampled_parameters(cfg.raw.get("cases", {}))
+    uq_paths = {**table_paths(out, DISTRIBUTION), "figure": out / f"{DISTRIBUTION}.png"}
+    for p in (*paths.values(), figure, *(uq_paths.values() if sampled else ())):
         check_can_write(p, args.force or resumable, "output")
     if args.json is not None:
         check_can_write(args.json, args.force, "JSON output")
@@ -103,6 +127,7 @@ def run(args: argparse.Namespace) -> int:
     written = write_table(table, out, force=True)
     parameter_plot(table, figure, x=cfg.plot.x, y=cfg.plot.y, hue=cfg.plot.hue,
                    title=cfg.title, force=True)
+    extra = _write_distribution(table, cfg, sampled, uq_paths) if sampled else []
     counts = table["status"].value_counts().to_dict()
     print("status: " + ", ".join(f"{k} {v}" for k, v in sorted(counts.items())))
     print(f"cases: {timing['computed']} computed in {timing['chunks']} chunks, "
@@ -110,7 +135,7 @@ def run(args: argparse.Namespace) -> int:
     print(f"time: {timing['elapsed_s']:.1f} s elapsed, {timing['wall_time_s']:.1f} s "
           f"integrating, {timing['case_steps']} case-steps, "
           f"{timing['us_per_case_step']:.2f} us per case-step")
-    for p in (*written.values(), figure):
+    for p in (*written.values(), figure, *extra):
         print(f"wrote {p}")
     maybe_write_json(args, table.to_dict(orient="records"))
     return 0

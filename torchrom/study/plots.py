@@ -19,11 +19,7 @@ def parameter_plot(table: pd.DataFrame, path, *, x: str, y: str = "amplitude",
                    force: bool = False) -> Path:
     """y against the swept parameter x, one line per value of ``hue``; markers show the status
     (filled circle: converged LCO). Returns the path written (PNG/PDF by its suffix)."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
+    plt = _pyplot()
     for col in (x, y) + ((hue,) if hue else ()):
         if col not in table.columns:
             raise InputError(f"plot: no column {col!r} in the results table; it has "
@@ -49,7 +45,63 @@ def parameter_plot(table: pd.DataFrame, path, *, x: str, y: str = "amplitude",
     ax.grid(alpha=0.3)
     if title:
         ax.set_title(title, fontsize=10)
+    return _save(fig, path)
+
+
+def _pyplot():
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    return plt
+
+
+def _save(fig, path: Path) -> Path:
     with atomic_path(path) as tmp:
         fig.savefig(tmp, dpi=120, format=path.suffix.lstrip(".") or "png")
-    plt.close(fig)
+    _pyplot().close(fig)
     return path
+
+
+def distribution_plot(table: pd.DataFrame, path, *, by=(), value: str = "amplitude",
+                      title: str | None = None, force: bool = False) -> Path:
+    """Histogram (left) and empirical CDF (right) of ``value`` over sampled cases, one curve
+    per group of ``by`` (e.g. altitude). An LCO counts with its amplitude, a decay as 0 (the
+    CDF's jump at 0 is the probability of no LCO); other statuses are left out (see
+    :func:`torchrom.study.sampling.distribution_values`)."""
+    import numpy as np
+
+    from .sampling import distribution_values
+
+    for col in (value, *by):
+        if col not in table.columns:
+            raise InputError(f"plot: no column {col!r} in the results table; it has "
+                             f"{list(table.columns)}")
+    path = check_can_write(path, force, "figure")
+    plt = _pyplot()
+    vals = distribution_values(table, value)
+    fig, (ax_h, ax_c) = plt.subplots(1, 2, figsize=(10, 4.2), constrained_layout=True)
+    finite = vals.dropna()
+    edges = np.histogram_bin_edges(finite, bins=max(10, min(40, 2 * int(len(finite) ** 0.5))))
+    groups = table.groupby(list(by), sort=True) if by else [(None, table)]
+    for key, grp in groups:
+        v = np.sort(vals[grp.index].dropna().to_numpy())
+        if not len(v):
+            continue
+        key = key if isinstance(key, tuple) else (key,)
+        label = ", ".join(f"{b} = {k:g}" for b, k in zip(by, key)) if by else None
+        label = f"{label} (n = {len(v)})" if label else f"n = {len(v)}"
+        ax_h.hist(v, bins=edges, histtype="step", lw=1.4, label=label)
+        ax_c.step(v, np.arange(1, len(v) + 1) / len(v), where="post", lw=1.4, label=label)
+    ax_h.set_xlabel(f"{value} (decay = 0)")
+    ax_h.set_ylabel("cases")
+    ax_c.set_xlabel(f"{value} (decay = 0)")
+    ax_c.set_ylabel("cumulative probability")
+    ax_c.set_ylim(0, 1.02)
+    for ax in (ax_h, ax_c):
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=8)
+    if title:
+        fig.suptitle(title, fontsize=10)
+    return _save(fig, path)
