@@ -9,6 +9,28 @@ from typing import Any
 from ..io import write_json_atomic
 
 
+def add_precision_options(parser: argparse.ArgumentParser) -> None:
+    """--device and --dtype of the batched integration."""
+    parser.add_argument("--device", default="cpu", help="torch device, e.g. cpu or cuda:0")
+    parser.add_argument("--dtype", choices=("float64", "float32"), default="float64",
+                        help="floating-point precision of the integration (default float64)")
+
+
+def torch_device(name: str):
+    """The torch device ``name`` (InputError when it is not one or CUDA is missing)."""
+    import torch
+
+    from ..errors import InputError
+
+    try:
+        dev = torch.device(name)
+    except (RuntimeError, ValueError) as exc:
+        raise InputError(f"--device: not a torch device: {name!r} ({exc})") from None
+    if dev.type == "cuda" and not torch.cuda.is_available():
+        raise InputError(f"--device: {name} requested but CUDA is not available")
+    return dev
+
+
 def cpu_workers(value: str) -> int:
     """``--workers`` value: a positive integer or 'auto' (one worker process per core)."""
     import os
@@ -47,6 +69,18 @@ def add_force_option(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--force", action="store_true", help="overwrite outputs that already exist"
     )
+
+
+def check_outputs(args: argparse.Namespace, paths, may_replace: bool | None = None) -> None:
+    """Refuse (InputError) before any work when an output or the --json file exists, unless
+    --force (``may_replace`` overrides --force for ``paths``, e.g. a sweep resuming its own)."""
+    from ..io import check_can_write
+
+    force = bool(getattr(args, "force", False))
+    for p in paths:
+        check_can_write(p, force if may_replace is None else may_replace, "output")
+    if getattr(args, "json", None) is not None:
+        check_can_write(args.json, force, "JSON output")
 
 
 def maybe_write_json(args: argparse.Namespace, obj: Any) -> None:

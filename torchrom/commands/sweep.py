@@ -21,9 +21,15 @@ import argparse
 import sys
 from pathlib import Path
 
-from ..errors import InputError
-from ..io import check_can_write
-from ._common import add_executor_options, add_force_option, add_json_option, maybe_write_json
+from ._common import (
+    add_executor_options,
+    add_force_option,
+    add_json_option,
+    add_precision_options,
+    check_outputs,
+    maybe_write_json,
+    torch_device,
+)
 
 NAME = "sweep"
 DISTRIBUTION = "amplitude_distribution"
@@ -34,9 +40,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("config", type=Path, help="sweep configuration (TOML)")
     parser.add_argument("--out", type=Path, required=True, metavar="DIR",
                         help="output folder (results.parquet, results.csv, figure)")
-    parser.add_argument("--device", default="cpu", help="torch device, e.g. cpu or cuda:0")
-    parser.add_argument("--dtype", choices=("float64", "float32"), default="float64",
-                        help="floating-point precision of the integration (default float64)")
+    add_precision_options(parser)
     parser.add_argument("--compile", action="store_true",
                         help="compile the time step with torch.compile (pays off for long runs)")
     parser.add_argument("--threads", type=int, default=None,
@@ -44,18 +48,6 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     add_executor_options(parser)
     add_json_option(parser)
     add_force_option(parser)
-
-
-def _device(name: str):
-    import torch
-
-    try:
-        dev = torch.device(name)
-    except (RuntimeError, ValueError) as exc:
-        raise InputError(f"--device: not a torch device: {name!r} ({exc})") from None
-    if dev.type == "cuda" and not torch.cuda.is_available():
-        raise InputError(f"--device: {name} requested but CUDA is not available")
-    return dev
 
 
 def _write_distribution(table, cfg, sampled: list[str], paths: dict[str, Path]) -> list[Path]:
@@ -86,7 +78,7 @@ def run(args: argparse.Namespace) -> int:
     from ..study.sweep import run_description, run_sweep
     from ..study.table import table_paths, write_table
 
-    device = _device(args.device)
+    device = torch_device(args.device)
     dtype = getattr(torch, args.dtype)
     cfg = load_sweep_config(args.config)
     cfg = with_overrides(cfg, compile=True if args.compile else None, threads=args.threads)
@@ -98,10 +90,8 @@ def run(args: argparse.Namespace) -> int:
     figure = out / f"{cfg.plot.y}_vs_{cfg.plot.x}.png"
     sampled = sampled_parameters(cfg.raw.get("cases", {}))
     uq_paths = {**table_paths(out, DISTRIBUTION), "figure": out / f"{DISTRIBUTION}.png"}
-    for p in (*paths.values(), figure, *(uq_paths.values() if sampled else ())):
-        check_can_write(p, args.force or resumable, "output")
-    if args.json is not None:
-        check_can_write(args.json, args.force, "JSON output")
+    check_outputs(args, (*paths.values(), figure, *(uq_paths.values() if sampled else ())),
+                  may_replace=args.force or resumable)
 
     from tqdm import tqdm
 

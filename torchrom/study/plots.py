@@ -105,3 +105,42 @@ def distribution_plot(table: pd.DataFrame, path, *, by=(), value: str = "amplitu
     if title:
         fig.suptitle(title, fontsize=10)
     return _save(fig, path)
+
+
+def _case_label(case: dict, keys) -> str:
+    return ", ".join(f"{k} = {case[k]:g}" for k in keys if k in case)
+
+
+def calibration_plot(evaluations: pd.DataFrame, result: pd.DataFrame, path, *,
+                     column: str = "amplitude", target: float, title: str | None = None,
+                     force: bool = False) -> Path:
+    """The response (``column`` of an LCO, 0 for a decay) against γ for every base case of a
+    calibration (:func:`torchrom.study.calibrate.calibrate_gamma`), the target (horizontal line)
+    and the calibrated γ (dashed vertical lines)."""
+    path = check_can_write(path, force, "figure")
+    plt = _pyplot()
+    fig, ax = plt.subplots(figsize=(6.4, 4.4), constrained_layout=True)
+    keys = [k for k in result.columns if k not in ("base_case",)
+            and k in evaluations.columns and k not in ("gamma", "alpha", column, "status")
+            and result[k].nunique() > 1]
+    for b, grp in evaluations.groupby("base_case", sort=True):
+        grp = grp.sort_values("gamma")
+        decided = grp[grp["status"].isin(["lco", "decay"])]
+        label = _case_label(grp.iloc[0].to_dict(), keys) or None
+        (line,) = ax.plot(decided["gamma"], decided["response"], "-", lw=1.0, label=label)
+        for status, (marker, filled) in _MARKERS.items():
+            sel = decided[decided["status"] == status]
+            if len(sel):
+                ax.plot(sel["gamma"], sel["response"], marker, ms=3.5, color=line.get_color(),
+                        mfc=line.get_color() if filled else "none", ls="none")
+        for g in result.loc[(result["base_case"] == b) & (result["status"] == "ok"), "gamma"]:
+            ax.axvline(g, color=line.get_color(), ls="--", lw=0.9)
+    ax.axhline(target, color="0.3", lw=0.9, ls=":", label=f"target {column} = {target:g}")
+    ax.set_xscale("log")
+    ax.set_xlabel("gamma (s)")
+    ax.set_ylabel(f"{column} (decay = 0)")
+    ax.grid(alpha=0.3, which="both")
+    ax.legend(fontsize=8)
+    if title:
+        ax.set_title(title, fontsize=10)
+    return _save(fig, path)

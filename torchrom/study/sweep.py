@@ -130,3 +130,17 @@ def run_sweep(cfg: SweepConfig, *, device=None, dtype=torch.float64,
                              chunk_size=chunk_size or cfg.chunk_size, executor=executor,
                              store=store, force=force, progress=progress, log=log)
     return table, stats.as_dict()
+
+
+def case_evaluator(cfg: SweepConfig, rom: NonlinearROM | None = None, *, device=None,
+                   dtype=torch.float64, executor=None, chunk_size: int | None = None
+                   ) -> Callable[[list[dict[str, Any]]], pd.DataFrame]:
+    """``evaluate(cases) -> table``: the cases simulated with ``cfg``'s model and options, one
+    row each in order (no part files) — what calibration and bifurcation sweeps iterate on."""
+    rom = rom or cfg.build_rom()
+
+    def evaluate(cases: list[dict[str, Any]]) -> pd.DataFrame:
+        return run_sweep(cfg, rom=rom, cases=cases, device=device, dtype=dtype,
+                         executor=executor, chunk_size=chunk_size)[0]
+
+    return evaluate
