@@ -71,6 +71,26 @@ def add_force_option(parser: argparse.ArgumentParser) -> None:
     )
 
 
+def add_study_options(parser: argparse.ArgumentParser, outputs: str) -> None:
+    """--out DIR (holding ``outputs``), --device/--dtype, --workers/--scheduler/--chunk-size,
+    --json and --force: the options of the commands that simulate cases of a configuration."""
+    parser.add_argument("--out", type=Path, required=True, metavar="DIR",
+                        help=f"output folder ({outputs})")
+    add_precision_options(parser)
+    add_executor_options(parser)
+    add_json_option(parser)
+    add_force_option(parser)
+
+
+def load_study(args: argparse.Namespace):
+    """(torch device, torch dtype, SweepConfig) from --device, --dtype and the configuration."""
+    import torch
+
+    from ..study.config import load_sweep_config
+
+    return torch_device(args.device), getattr(torch, args.dtype), load_sweep_config(args.config)
+
+
 def check_outputs(args: argparse.Namespace, paths, may_replace: bool | None = None) -> None:
     """Refuse (InputError) before any work when an output or the --json file exists, unless
     --force (``may_replace`` overrides --force for ``paths``, e.g. a sweep resuming its own)."""

@@ -21,15 +21,7 @@ import sys
 from pathlib import Path
 
 from ..errors import InputError
-from ._common import (
-    add_executor_options,
-    add_force_option,
-    add_json_option,
-    add_precision_options,
-    check_outputs,
-    maybe_write_json,
-    torch_device,
-)
+from ._common import add_study_options, check_outputs, load_study, maybe_write_json
 
 NAME = "calibrate"
 HELP = "find the Kelvin-Voigt factor gamma that produces a target LCO amplitude (batched)"
@@ -51,40 +43,20 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="relative width of the final bracket (default 2e-3)")
     parser.add_argument("--rounds", type=int, default=6,
                         help="largest number of refinement rounds (default 6)")
-    parser.add_argument("--out", type=Path, required=True, metavar="DIR",
-                        help="output folder (calibration.parquet/.csv/.png)")
-    add_precision_options(parser)
-    add_executor_options(parser)
-    add_json_option(parser)
-    add_force_option(parser)
-
-
-def base_cases(cases: list[dict], drop: tuple[str, ...]) -> list[dict]:
-    """The distinct cases without the keys ``drop`` (order kept)."""
-    seen, out = set(), []
-    for c in cases:
-        base = {k: v for k, v in c.items() if k not in drop}
-        key = repr(sorted(base.items()))
-        if key not in seen:
-            seen.add(key)
-            out.append(base)
-    return out
+    add_study_options(parser, "calibration.parquet/.csv/.png")
 
 
 def run(args: argparse.Namespace) -> int:
-    import torch
 
     from ..study.calibrate import calibrate_gamma
-    from ..study.config import load_sweep_config
+    from ..study.grid import distinct_cases
     from ..study.plots import calibration_plot
     from ..study.runner import open_executor
     from ..study.sweep import case_evaluator
     from ..study.table import table_paths, write_table
 
-    device = torch_device(args.device)
-    dtype = getattr(torch, args.dtype)
-    cfg = load_sweep_config(args.config)
-    bases = base_cases(cfg.cases, ("gamma", "sample"))
+    device, dtype, cfg = load_study(args)
+    bases = distinct_cases(cfg.cases, ("gamma", "sample"))
     if args.gamma is None:
         gammas = [float(c["gamma"]) for c in cfg.cases if float(c.get("gamma", 0.0)) > 0]
         if not gammas:

@@ -21,15 +21,7 @@ import argparse
 import sys
 from pathlib import Path
 
-from ._common import (
-    add_executor_options,
-    add_force_option,
-    add_json_option,
-    add_precision_options,
-    check_outputs,
-    maybe_write_json,
-    torch_device,
-)
+from ._common import add_study_options, check_outputs, load_study, maybe_write_json
 
 NAME = "sweep"
 DISTRIBUTION = "amplitude_distribution"
@@ -38,16 +30,11 @@ HELP = "run a TOML-defined grid of batched LCO simulations; write a results tabl
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("config", type=Path, help="sweep configuration (TOML)")
-    parser.add_argument("--out", type=Path, required=True, metavar="DIR",
-                        help="output folder (results.parquet, results.csv, figure)")
-    add_precision_options(parser)
+    add_study_options(parser, "results.parquet, results.csv, figures, parts/")
     parser.add_argument("--compile", action="store_true",
                         help="compile the time step with torch.compile (pays off for long runs)")
     parser.add_argument("--threads", type=int, default=None,
                         help="torch intra-op threads (default: automatic)")
-    add_executor_options(parser)
-    add_json_option(parser)
-    add_force_option(parser)
 
 
 def _write_distribution(table, cfg, sampled: list[str], paths: dict[str, Path]) -> list[Path]:
@@ -69,18 +56,15 @@ def _write_distribution(table, cfg, sampled: list[str], paths: dict[str, Path]) 
 
 def run(args: argparse.Namespace) -> int:
     # heavy imports here, not at module level: `torchrom --help` must stay fast
-    import torch
 
-    from ..study.config import load_sweep_config, with_overrides
+    from ..study.config import with_overrides
     from ..study.plots import parameter_plot
     from ..study.runner import PartStore, open_executor
     from ..study.sampling import sampled_parameters
     from ..study.sweep import run_description, run_sweep
     from ..study.table import table_paths, write_table
 
-    device = torch_device(args.device)
-    dtype = getattr(torch, args.dtype)
-    cfg = load_sweep_config(args.config)
+    device, dtype, cfg = load_study(args)
     cfg = with_overrides(cfg, compile=True if args.compile else None, threads=args.threads)
     rom = cfg.build_rom()
     out = Path(args.out)

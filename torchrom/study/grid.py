@@ -139,6 +139,21 @@ def expand_cases(table: Mapping[str, Any], where: str = "[cases]",
     return cases
 
 
+def distinct_cases(cases: Iterable[Mapping[str, Any]], drop: Iterable[str] = ()
+                   ) -> list[dict[str, Any]]:
+    """The distinct cases after removing the parameters ``drop`` (first occurrence order),
+    e.g. the base cases of a calibration (``drop=("gamma",)``)."""
+    drop = set(drop)
+    seen, out = set(), []
+    for c in cases:
+        base = {k: v for k, v in c.items() if k not in drop}
+        key = case_id(base)
+        if key not in seen:
+            seen.add(key)
+            out.append(base)
+    return out
+
+
 def _canonical(value: Any) -> Any:
     if isinstance(value, (bool, int, float, np.integer, np.floating)):
         x = float(value)

@@ -144,3 +144,65 @@ def calibration_plot(evaluations: pd.DataFrame, result: pd.DataFrame, path, *,
     if title:
         ax.set_title(title, fontsize=10)
     return _save(fig, path)
+
+
+def bifurcation_plot(runs: pd.DataFrame, summary: pd.DataFrame, path, *, x: str | None,
+                     title: str | None = None, force: bool = False) -> Path:
+    """Bifurcation diagram (left: amplitude of every attractor against the control parameter
+    ``x``, rest states at 0, unbounded growth as ▲ at the top, basin thresholds as open
+    circles: the unstable branch) and the evidence behind it (right: the amplitude each run
+    ends on against its initial amplitude, one curve per control). Amplitudes are in the
+    decision output's units (``initial_scale`` of
+    :func:`torchrom.study.bifurcation.bifurcation_sweep`). With one control case (``x`` None)
+    the left panel has that case only."""
+    import numpy as np
+
+    path = check_can_write(path, force, "figure")
+    plt = _pyplot()
+    fig, (ax_b, ax_r) = plt.subplots(1, 2, figsize=(11, 4.4), constrained_layout=True)
+    xs = summary[x].to_numpy(dtype=float) if x else np.zeros(len(summary))
+    lco = runs[runs["status"] == "lco"]
+    thr = summary["threshold_amplitude"]
+    top = 1.15 * max(float(lco["amplitude"].max()) if len(lco) else 0.0,
+                     float(thr.max()) if thr.notna().any() else 0.0,
+                     float(runs["initial_amplitude"].max()))
+    colors = plt.rcParams["axes.prop_cycle"].by_key()["color"]
+    for c, row in summary.reset_index(drop=True).iterrows():
+        mine = runs[runs["control"] == c].sort_values("initial_amplitude")
+        xv = xs[c]
+        if (mine["status"] == "decay").any():
+            ax_b.plot(xv, 0.0, "o", color="k", ms=6)
+        for _lab, grp in mine[mine["status"] == "lco"].groupby("attractor"):
+            ax_b.plot(xv, grp["amplitude"].mean(), "o", color="C0", ms=6)
+        if (mine["status"] == "diverged").any():
+            ax_b.plot(xv, top, "^", color="C3", ms=7)
+        if np.isfinite(row["threshold_amplitude"]):
+            ax_b.plot(xv, row["threshold_amplitude"], "o", mfc="none", color="C1", ms=7)
+        color = colors[c % len(colors)]
+        label = f"{x} = {xv:g}" if x else None
+        final = np.where(mine["status"] == "decay", 0.0,
+                         np.where(mine["status"] == "diverged", top, mine["amplitude"]))
+        ok = mine["attractor"] != "undecided"
+        ax_r.plot(mine["initial_amplitude"][ok], final[ok.to_numpy()], ".-", color=color, lw=1,
+                  label=label)
+    has = thr.notna().to_numpy()
+    if has.sum() > 1:
+        ax_b.plot(xs[has], thr[has], "--", color="C1", lw=1)
+    handles = [plt.Line2D([], [], marker="o", ls="none", color="k", label="rest (decay)"),
+               plt.Line2D([], [], marker="o", ls="none", color="C0", label="stable LCO"),
+               plt.Line2D([], [], marker="o", ls="none", mfc="none", color="C1",
+                          label="threshold (unstable LCO)"),
+               plt.Line2D([], [], marker="^", ls="none", color="C3", label="unbounded")]
+    ax_b.legend(handles=handles, fontsize=8)
+    ax_b.set_xlabel(x or "case")
+    ax_b.set_ylabel("amplitude (LCO; threshold: initial amplitude)")
+    ax_r.set_xscale("log")
+    ax_r.set_xlabel("initial amplitude")
+    ax_r.set_ylabel("final amplitude (decay = 0, unbounded at the top)")
+    if x:
+        ax_r.legend(fontsize=7)
+    for ax in (ax_b, ax_r):
+        ax.grid(alpha=0.3)
+    if title:
+        fig.suptitle(title, fontsize=10)
+    return _save(fig, path)
