@@ -188,12 +188,14 @@ def bifurcation_plot(runs: pd.DataFrame, summary: pd.DataFrame, path, *, x: str 
     has = thr.notna().to_numpy()
     if has.sum() > 1:
         ax_b.plot(xs[has], thr[has], "--", color="C1", lw=1)
-    handles = [plt.Line2D([], [], marker="o", ls="none", color="k", label="rest (decay)"),
-               plt.Line2D([], [], marker="o", ls="none", color="C0", label="stable LCO"),
-               plt.Line2D([], [], marker="o", ls="none", mfc="none", color="C1",
-                          label="threshold (unstable LCO)"),
-               plt.Line2D([], [], marker="^", ls="none", color="C3", label="unbounded")]
-    ax_b.legend(handles=handles, fontsize=8)
+    present = {"rest (decay)": (runs["status"] == "decay").any(),
+               "stable LCO": (runs["status"] == "lco").any(),
+               "threshold (unstable LCO)": bool(has.any()),
+               "unbounded": (runs["status"] == "diverged").any()}
+    styles = {"rest (decay)": ("o", "k", "k"), "stable LCO": ("o", "C0", "C0"),
+              "threshold (unstable LCO)": ("o", "C1", "none"), "unbounded": ("^", "C3", "C3")}
+    ax_b.legend(handles=[plt.Line2D([], [], marker=m, ls="none", color=c, mfc=f, label=k)
+                         for k, (m, c, f) in styles.items() if present[k]], fontsize=8)
     ax_b.set_xlabel(x or "case")
     ax_b.set_ylabel("amplitude (LCO; threshold: initial amplitude)")
     ax_r.set_xscale("log")
