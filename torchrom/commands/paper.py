@@ -41,10 +41,10 @@ def run(args: argparse.Namespace) -> int:
     import time
 
     from ..paper.study import FIGURE_FILES, run_paper
-    from .sweep import _device
+    from ._common import torch_device
 
     out = args.out or Path("paper-quick" if args.quick else "paper")
-    device = _device(args.device)
+    device = torch_device(args.device)
     t0 = time.perf_counter()
     print(f"torchrom paper{' --quick' if args.quick else ''}: heavy Goland wing study into {out}")
     summary = run_paper(out, quick=args.quick, force=args.force, device=str(device))

@@ -1,14 +1,18 @@
-"""Run a sweep: cases in batches through the batched integrator, one table row each.
+"""Run a sweep: cases in chunks through the batched integrator, one table row each.
 
-In-process and chunked: ``batch_size`` cases are integrated together (one
-:class:`~torchrom.sim.CaseSystem`, built by :func:`torchrom.study.cases.case_system` for a
-structural or an aeroelastic model); chunks are independent, so a later scale-out (worker
-processes or Dask) only has to distribute them. Hand-written; pandas for the table.
+A chunk of cases is integrated together (one :class:`~torchrom.sim.CaseSystem`, built by
+:func:`torchrom.study.cases.case_system` for a structural or an aeroelastic model) by a
+:class:`SweepTask`; :mod:`.runner` splits the cases into chunks, runs them in-process or on
+Dask workers and, given an output folder, stores finished chunks as resumable part files.
+Case ids hash each case's parameters together with the run key (:func:`run_description`).
+Hand-written; pandas for the table.
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -21,8 +25,9 @@ from ..sim import HistoryRequest
 from .cases import case_system, history_table
 from .cases import structural_system as structural_system  # noqa: F401 - public name
 from .config import SweepConfig
-from .grid import case_id
-from .models import model_rom
+from .grid import case_id, config_hash
+from .models import AeroelasticModel, model_rom
+from .runner import ChunkResult, PartStore, run_cases
 from .table import result_rows
 
 
@@ -60,44 +65,100 @@ def initial_velocity(rom: NonlinearROM, initial: dict[str, Any], batch: int,
     return np.broadcast_to(arr, (batch, rom.n)).copy()
 
 
+@dataclass
+class SweepTask:
+    """One chunk of a sweep (picklable: what a Dask worker receives once).
+
+    ``model``: a :class:`~torchrom.rom.NonlinearROM` (structural sweep) or an
+    :class:`~torchrom.study.models.AeroelasticModel`. Called as ``task(cases, case_ids,
+    progress)`` -> :class:`~torchrom.study.runner.ChunkResult` with one table row per case and
+    the time histories of the cases that ``[history]`` selects (see :mod:`torchrom.study.runner`).
+    """
+
+    cfg: SweepConfig
+    model: Any
+    device: str = "cpu"
+    dtype: torch.dtype = torch.float64
+
+    def __call__(self, cases: list[dict[str, Any]], case_ids: list[str],
+                 progress: Callable[[int, int], None] | None = None) -> ChunkResult:
+        cfg, rom = self.cfg, model_rom(self.model)
+        system, extra = case_system(self.model, cases, torch.device(self.device), self.dtype)
+        q0 = initial_displacement(rom, cfg.initial, cases)
+        v0 = initial_velocity(rom, cfg.initial, len(cases))
+        keep = cfg.history.indices(cases) if cfg.history is not None else []
+        history = HistoryRequest(tuple(keep), cfg.history.every) if keep else None
+        res = cfg.integrator.run(system, q0, v0, t_end=cfg.t_end, outputs=cfg.outputs,
+                                 lco=cfg.lco, history=history, progress=progress)
+        span = getattr(self.model, "span", None) or rom.metadata.get("span")
+        rows = result_rows(cases, res, config_hash=cfg.hash, span=span, case_ids=case_ids,
+                           extra=extra)
+        return ChunkResult(rows, res.wall_time_s, res.case_steps,
+                           history_table(res, case_ids) if keep else None)
+
+
+
+
+def model_hash(model) -> str:
+    """Content hash of a sweep model: the ROM's tensors, outputs and metadata, and for an
+    aeroelastic model its aerodynamic data and flight-condition settings too."""
+    rom = model_rom(model)
+    info = {"tensors": rom.content_hash(), "metadata": rom.metadata}
+    if isinstance(model, AeroelasticModel):
+        info["aeroelastic"] = model.content_hash()
+    return config_hash(info)
+
+
+def run_description(cfg: SweepConfig, model, dtype=torch.float64) -> dict[str, str]:
+    """The run key of a sweep (a hash of the configuration without its case grid, the model
+    (:func:`model_hash`) and the precision) with its parts: what case ids and stored results
+    depend on. Any change of the model gives new case ids."""
+    info = {"config_hash": cfg.hash, "model_hash": model_hash(model),
+            "dtype": str(dtype).replace("torch.", "")}
+    return {"run_key": config_hash(info), **info, "title": cfg.title, "config": str(cfg.source)}
+
+
 def run_sweep(cfg: SweepConfig, *, device=None, dtype=torch.float64,
               progress: Callable[[int, int], None] | None = None,
               rom: NonlinearROM | None = None, model=None,
+              cases: list[dict[str, Any]] | None = None,
+              out=None, force: bool = False, executor=None, chunk_size: int | None = None,
+              log: Callable[[str], None] | None = None,
               on_history: Callable[[pd.DataFrame], None] | None = None,
               ) -> tuple[pd.DataFrame, dict[str, float]]:
-    """Integrate every case of ``cfg``; returns (table, timing) with timing keys wall_time_s,
-    case_steps and us_per_case_step.
+    """Integrate every case of ``cfg`` (or ``cases``, e.g. a calibration batch); returns
+    (table, timing) with timing keys wall_time_s (Σ integration time), case_steps,
+    us_per_case_step, elapsed_s, cases, reused, computed and chunks.
 
-    ``model``: the sweep's model (default ``cfg.build_model()``; ``rom`` is accepted for a
-    structural model); ``on_history(frame)`` receives the time histories of the cases that
-    ``[history]`` selects (see :func:`torchrom.study.cases.history_table`), chunk by chunk.
-    """
+    ``out``: folder for resumable part files (:class:`~torchrom.study.runner.PartStore`; a
+    folder of another configuration needs ``force``); ``executor``: from
+    :func:`~torchrom.study.runner.open_executor` (default in-process); ``model``: the sweep's
+    model (default ``cfg.build_model()``; ``rom`` is accepted for a structural model);
+    ``on_history(frame)`` receives the time histories of the cases that ``[history]`` selects
+    (see :func:`torchrom.study.cases.history_table`)."""
     model = model if model is not None else (rom if rom is not None else cfg.build_model())
-    rom = model_rom(model)
-    cases = cfg.cases
-    span = getattr(model, "span", None) or rom.metadata.get("span")
-    frames, wall, case_steps, done = [], 0.0, 0, 0
-    for start in range(0, len(cases), cfg.batch_size):
-        chunk = cases[start:start + cfg.batch_size]
-        system, extra = case_system(model, chunk, device, dtype)
-        q0 = initial_displacement(rom, cfg.initial, chunk)
-        v0 = initial_velocity(rom, cfg.initial, len(chunk))
-        keep = cfg.history.indices(chunk) if cfg.history is not None else []
-        history = HistoryRequest(tuple(keep), cfg.history.every) if keep else None
+    cases = cfg.cases if cases is None else cases
+    run = run_description(cfg, model, dtype)
+    ids = [case_id(c, context=run["run_key"]) for c in cases]
+    task = SweepTask(cfg, model, str(torch.device(device or "cpu")), dtype)
+    store = PartStore(Path(out), run) if out is not None else None
+    table, stats = run_cases(task, cases, ids, batch_size=cfg.batch_size,
+                             chunk_size=chunk_size or cfg.chunk_size, executor=executor,
+                             store=store, force=force, progress=progress, log=log,
+                             on_history=on_history)
+    return table, stats.as_dict()
 
-        def report(k, total, base=done):
-            if progress is not None:
-                progress(base + k, len(cases))
 
-        res = cfg.integrator.run(system, q0, v0, t_end=cfg.t_end, outputs=cfg.outputs,
-                                 lco=cfg.lco, history=history, progress=report)
-        frames.append(result_rows(chunk, res, config_hash=cfg.hash, span=span, extra=extra))
-        if keep and on_history is not None:
-            on_history(history_table(res, [case_id(c) for c in chunk]))
-        wall += res.wall_time_s
-        case_steps += res.case_steps
-        done += len(chunk)
-    table = pd.concat(frames, ignore_index=True)
-    timing = {"wall_time_s": wall, "case_steps": case_steps,
-              "us_per_case_step": 1e6 * wall / max(case_steps, 1)}
-    return table, timing
+def case_evaluator(cfg: SweepConfig, model=None, *, device=None,
+                   dtype=torch.float64, executor=None, chunk_size: int | None = None
+                   ) -> Callable[[list[dict[str, Any]]], pd.DataFrame]:
+    """``evaluate(cases) -> table``: the cases simulated with ``cfg``'s model and options, one
+    row each in order (no part files) — what calibration and bifurcation sweeps iterate on.
+    ``model``: a NonlinearROM or an AeroelasticModel (default ``cfg.build_model()``)."""
+    model = model if model is not None else cfg.build_model()
+
+    def evaluate(cases: list[dict[str, Any]]) -> pd.DataFrame:
+        return run_sweep(cfg, model=model, cases=cases, device=device, dtype=dtype,
+                         executor=executor, chunk_size=chunk_size)[0]
+
+    return evaluate
