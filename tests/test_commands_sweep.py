@@ -64,10 +64,23 @@ def test_sweep_writes_table_figure_and_json(small_config, tmp_path, capsys):
     assert len(records) == 6 and set(records[0]) == set(table.columns)
     assert "status:" in capsys.readouterr().out
 
-    # refuses to overwrite without --force, then overwrites with it
+    # the same configuration again resumes: nothing recomputed, the same table
+    assert main(["sweep", str(small_config), "--out", str(out)]) == 0
+    assert "0 computed in 0 chunks, 6 reused" in capsys.readouterr().out
+    pd.testing.assert_frame_equal(pd.read_parquet(out / "results.parquet"), table)
+    # a changed configuration is refused without --force, then replaces the results with it
+    small_config.write_text(SMALL.replace("rtol = 1e-3", "rtol = 2e-3"))
     assert main(["sweep", str(small_config), "--out", str(out)]) == 2
-    assert "--force" in capsys.readouterr().err
+    err = capsys.readouterr().err
+    assert "different configuration (config changed" in err and "--force" in err
     assert main(["sweep", str(small_config), "--out", str(out), "--force"]) == 0
+    assert "6 computed" in capsys.readouterr().out
+    # a results table this command did not write is never replaced silently
+    foreign = tmp_path / "foreign"
+    foreign.mkdir()
+    (foreign / "results.csv").write_text("x\n1\n")
+    assert main(["sweep", str(small_config), "--out", str(foreign)]) == 2
+    assert "already exists" in capsys.readouterr().err
 
 
 @pytest.mark.parametrize("edit,message", [

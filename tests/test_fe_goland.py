@@ -25,7 +25,7 @@ def modes(fe):
 
 
 def test_calibration_reproduces_cached_density_and_mode_1(fe, modes):
-    cached = CALIBRATED_DENSITY[("bending", "cshear", False, DEFAULT_STORE_X)]
+    cached = CALIBRATED_DENSITY[("bending", "cquad4-membrane", False, DEFAULT_STORE_X)]
     assert calibrate_density() == pytest.approx(cached, rel=1e-9)  # 10-digit rounding
     assert fe.mesh.rods.rho[0] == cached
     assert modes.frequencies_hz[0] == pytest.approx(TABLE2_HZ[0], rel=1e-3)
@@ -43,11 +43,55 @@ def test_box_stiffness_matches_reference(fe):
 
 def test_lead_lag_mode(modes):
     """Table 2's mode 5 (11.258 Hz) is the in-plane lead–lag mode. Our box predicts it at
-    11.32 Hz but as mode 4: with the store's CG on the elastic axis our second torsion mode
-    (12.4 Hz) lies above it (see the report: torsion modes are 10–35 % high)."""
+    11.24 Hz (−0.2 %) but as mode 4: our second torsion mode (12.23 Hz, paper's mode 5 slot)
+    lies above it, as the torsion modes are 9–31 % high (no calibration knob but the density and
+    the store position is allowed, REFERENCE Sec. 6)."""
     inplane = [f for f, k in zip(modes.frequencies_hz[:5], modes.kinds[:5]) if k == "in-plane"]
     assert len(inplane) == 1
     assert inplane[0] == pytest.approx(TABLE2_HZ[4], rel=0.05)
+    assert modes.kinds[3] == "in-plane" and modes.kinds[4] == "torsion"
+
+
+def test_web_variants_stiffness():
+    """Membrane-only CQUAD4 webs (default) and CSHEAR panels give the same box stiffness within
+    2 %; webs with plate bending triple GJ (the ribs' out-of-plane bending restrains the
+    section's warping), which is why they are not the default."""
+    ref = goland_stiffness(goland(store_x=DEFAULT_STORE_X, density=10.0))
+    shear = goland_stiffness(goland(density=10.0, webs="cshear"))
+    plate = goland_stiffness(goland(density=10.0, webs="cquad4"))
+    assert shear["EI"] == pytest.approx(ref["EI"], rel=0.02)
+    assert shear["GJ"] == pytest.approx(ref["GJ"], rel=0.02)
+    assert plate["GJ"] > 2.5 * ref["GJ"]
+
+
+def _box_depth(fe, u, station, chord):
+    from torchrom.fe.goland import grid_id
+
+    row = fe.mesh.grid_row()
+    U = fe.expand(u)
+    top, bot = row[grid_id(1, station, chord)], row[grid_id(2, station, chord)]
+    return float(np.linalg.norm(fe.grid_xyz[top] + U[top, :3] - fe.grid_xyz[bot] - U[bot, :3]))
+
+
+def test_large_bending_stiffens_with_membrane_webs_and_crushes_cshear_boxes(fe):
+    """Uniform pressure p₅ giving a 5 ft (25 % span) tip deflection at point A linearly. A
+    cantilever stiffens: with membrane CQUAD4 webs (default) the FE converges at p₅ with
+    A_Tz = 4.75 ft and keeps the box depth. CSHEAR webs carry no normal stress, so the skins'
+    bending stresses crush the section (root bay −15 % depth at 0.8 p₅): the response softens
+    (A_Tz 4.22 ft > 4 ft linear at 0.8 p₅) and the static solution is lost before p₅."""
+    a = fe.dof_index(*fe.output_points["A_Tz"])
+    F = fe.pressure_load(1.0)
+    p5 = 5.0 / fe.linear_static(F)[a]
+    res = fe.static_solve(p5 * F, n_steps=2)
+    assert res.converged and 4.6 < res.u[a] < 4.9
+    assert _box_depth(fe, res.u, 1, 1) == pytest.approx(0.33334, rel=0.01)
+    cs = goland(density=10.0, webs="cshear")
+    Fc = cs.pressure_load(1.0)
+    p5c = 5.0 / cs.linear_static(Fc)[a]
+    soft = cs.static_solve(0.8 * p5c * Fc, n_steps=4)
+    assert soft.converged and soft.u[a] > 1.04 * 4.0
+    assert _box_depth(cs, soft.u, 1, 1) < 0.9 * 0.33334
+    assert not cs.static_solve(p5c * Fc, n_steps=4).converged
 
 
 def test_point_a_and_outputs(fe):
@@ -76,6 +120,8 @@ def test_pressure_loads(fe):
     assert all(F[k] == 0 for k, (g, _) in enumerate(fe.free_dofs()) if g not in upper)
     step = fe.pressure_load(lambda x, y: np.where(x < 2.0, 10.0, -10.0))
     assert abs(_resultant(fe, step, 3)) < 1e-9
+    # the vertical spar and rib webs (CQUAD4s too) are not loaded: 2 x 10 upper-skin plates
+    assert len(fe.pressure_elements()) == 20 and fe.pressure_elements().max() <= 20
 
 
 def test_nonlinear_static_matches_linear_at_small_load_and_converges(fe):

@@ -52,21 +52,87 @@ def test_dual_amplitudes_cover_the_paper_range(truss_dual):
     # the solved responses are nonlinear: the achieved tip deflection departs from the linear one
     big = [r for r in recs if r["tip_linear_pct_span"] > 14]
     assert all(abs(r["tip_pct_span"] - r["tip_linear_pct_span"]) > 1e-3 for r in big)
+    # "response" amplitudes: the FE tip deflection hits its target within 3 %, or (a stiffening
+    # response) the α is the one whose linear prediction is the target
+    for r in recs:
+        t = r["target_pct_span"]
+        assert r["tip_pct_span"] <= 1.03 * t
+        assert r["tip_pct_span"] >= 0.97 * t or r["tip_linear_pct_span"] == pytest.approx(t)
 
 
-def test_dual_modes_capture_the_nonlinear_static_response(truss_dual):
+def _softening_backend():
+    """Two DOFs, f(u) = K u − c u³ componentwise: the response to α K U grows faster than α."""
+    K = np.array([[2.0, -1.0], [-1.0, 2.0]])
+    c = np.array([3.0, 1.0])
+    return CallableBackend(lambda u: K @ u - c * u**3, lambda u: K - np.diag(3 * c * u**2),
+                           np.eye(2), reference_length=1.0, transverse_dofs=[0, 1])
+
+
+def test_response_amplitudes_follow_a_softening_fe():
+    """Where the response softens, the "response" amplitudes stay on the targets (the loads
+    with α from the linear prediction overshoot them: the paper's range is of the data)."""
+    be = _softening_backend()
+    lin = linear_basis(be, 2)
+    tips = {}
+    for control in ("response", "linear"):
+        opts = DualModeOptions(combinations=((1, 1),), n_amplitudes=8, tip_range=(0.02, 0.2),
+                               amplitude_control=control)
+        recs = dual_basis(be, lin, 1, opts).snapshots
+        tips[control] = np.array([[r["target_pct_span"], r["tip_pct_span"],
+                                   r["tip_linear_pct_span"]] for r in recs])
+    target, tip, linear = tips["response"].T
+    assert np.all(np.abs(tip - target) <= 0.03 * target) and np.all(linear < target + 1e-12)
+    assert np.all(linear[target > 10] < 0.97 * target[target > 10])  # α reduced
+    target, tip, linear = tips["linear"].T
+    assert np.allclose(linear, target) and tip.max() > 1.1 * target.max()
+
+
+def test_dual_basis_is_reproducible():
+    """Same FE, same options: the same basis bit for bit (signs by orient_columns, fixed
+    eigensolver start, fixed solution order)."""
+    fe = TrussWing()
+    opts = DualModeOptions(combinations=((1, 1), (1, 2)), n_amplitudes=6)
+    a = dual_basis(fe, linear_basis(fe, 4), 2, opts).Phi
+    b = dual_basis(fe, linear_basis(fe, 4), 2, opts).Phi
+    assert np.array_equal(a, b)
+
+
+def test_orient_columns_is_immune_to_mirror_ties():
+    """Mirror-image entries of equal magnitude and opposite sign: "largest entry positive"
+    depends on the last bit, the first entry above half the maximum does not."""
+    from torchrom.eigen import orient_columns
+
+    v = np.array([0.1, -0.7, 0.3, 0.7, 0.2])
+    for eps in (1e-16, -1e-16):
+        w = v.copy()
+        w[3] += eps
+        out = orient_columns(w[:, None])[:, 0]
+        assert out[1] == pytest.approx(0.7) and out[3] == pytest.approx(-0.7)
+    assert np.array_equal(orient_columns(-v[:, None]), orient_columns(v[:, None]))
+
+
+@pytest.mark.parametrize("weights, tol", [("unit", 0.03), ("relative", 0.10)])
+def test_dual_modes_capture_the_nonlinear_static_response(truss_dual, weights, tol):
     """The reason dual modes exist: the part of a nonlinear static response outside the linear
     modes lies (almost) in the span of the dual modes — checked at a load not among the
-    snapshots (mode 1 + mode 2 loading at about 11 % of span)."""
-    fe, lin, basis = truss_dual
-    M = fe.mass_matrix()
+    snapshots (mode 1 + mode 2 loading at about 11 % of span), in the energy norm of the
+    (stiffness-norm) POD. With only three dual modes on this very nonlinear truss (residuals up
+    to 35 times the linear part) unit snapshot weights, which favour the quadratic (small-
+    amplitude) content, capture it best (measured 0.9 %); the default relative weights, which
+    favour the large amplitudes, leave 6.9 % (they are the better choice on the Goland wing,
+    see torchrom.identify.basis)."""
+    fe, lin, _ = truss_dual
+    opts = DualModeOptions(combinations=((1, 1), (1, 2), (2, 2)), n_amplitudes=10,
+                           snapshot_weights=weights)
+    basis = dual_basis(fe, lin, 3, opts)
+    M, K = fe.mass_matrix(), fe.stiffness_matrix()
     U = lin.Phi[:, 0] + lin.Phi[:, 1]
     alpha = 0.11 * fe.reference_length / np.abs(U[fe.transverse_dofs]).max()
-    u = fe.static_solve(alpha * (fe.stiffness_matrix() @ U)).u
+    u = fe.static_solve(alpha * (K @ U)).u
     outside = u - lin.Phi @ (lin.Phi.T @ (M @ u))
     D = basis.Phi[:, 5:]
-    left = outside - D @ (D.T @ (M @ outside))
-    assert np.sqrt(left @ (M @ left)) < 0.05 * np.sqrt(outside @ (M @ outside))
+    left = outside - D @ np.linalg.solve(D.T @ (K @ D), D.T @ (K @ outside))
+    assert np.sqrt(left @ (K @ left)) < tol * np.sqrt(outside @ (K @ outside))
 
 
 def test_pod_of_known_snapshots():

@@ -41,7 +41,10 @@ def test_pipeline_matches_intrusive_projection(truss_exact):
     assert meta["damping"]["method"] == "exact"
     assert meta["basis"]["n_dual"] == 3 and len(meta["identification"]["modal_amplitudes"]) == 8
     s = res.summary()
-    assert s["fe_static_solves"] == 30 and s["fe_tangent_evaluations"] == 1 + 2 * 8 + 2 * 28
+    # 30 dual-mode loads; "response" amplitudes take extra solves where the response softens
+    solves = sum(r["solves"] for r in res.basis.snapshots)
+    assert s["fe_static_solves"] == solves >= 30 and meta["basis"]["dual_fe_solves"] == solves
+    assert s["fe_tangent_evaluations"] == 1 + 2 * 8 + 2 * 28
 
 
 def test_rom_file_round_trip(truss_exact, tmp_path):

@@ -24,7 +24,7 @@ def test_static_validation_of_an_exact_rom(exact_pair):
     be, res = exact_pair
     for shape, load in be.load_shapes().items():
         c = v.static_validation(be, res.rom, res.basis.Phi, shape, load, max_tip_fraction=0.25)
-        assert c.tip_pct_span.max() >= 25.0 - 1e-9
+        assert c.tip_pct_span.max() >= 25.0 * (1 - 5e-3)  # levels stop within 0.5 %
         # same equations solved twice by Newton to 1e-10: agreement ~1e-9 relative
         assert max(c.errors.values()) < 1e-8, c.errors
 

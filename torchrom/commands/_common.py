@@ -1,4 +1,4 @@
-"""Helpers shared by the sub-commands: --json/--force options and result reporting."""
+"""Helpers shared by the sub-commands: --json/--force/--workers options and result reporting."""
 
 from __future__ import annotations
 
@@ -7,6 +7,53 @@ from pathlib import Path
 from typing import Any
 
 from ..io import write_json_atomic
+
+
+def add_precision_options(parser: argparse.ArgumentParser) -> None:
+    """--device and --dtype of the batched integration."""
+    parser.add_argument("--device", default="cpu", help="torch device, e.g. cpu or cuda:0")
+    parser.add_argument("--dtype", choices=("float64", "float32"), default="float64",
+                        help="floating-point precision of the integration (default float64)")
+
+
+def torch_device(name: str):
+    """The torch device ``name`` (InputError when it is not one or CUDA is missing)."""
+    import torch
+
+    from ..errors import InputError
+
+    try:
+        dev = torch.device(name)
+    except (RuntimeError, ValueError) as exc:
+        raise InputError(f"--device: not a torch device: {name!r} ({exc})") from None
+    if dev.type == "cuda" and not torch.cuda.is_available():
+        raise InputError(f"--device: {name} requested but CUDA is not available")
+    return dev
+
+
+def cpu_workers(value: str) -> int:
+    """``--workers`` value: a positive integer or 'auto' (one worker process per core)."""
+    import os
+
+    n = (os.cpu_count() or 1) if value == "auto" else (int(value) if value.isdigit() else 0)
+    if n < 1:
+        raise argparse.ArgumentTypeError(f"expected a positive integer or 'auto', got {value!r}")
+    return n
+
+
+def add_executor_options(parser: argparse.ArgumentParser) -> None:
+    """--workers N | --scheduler ADDR and --chunk-size (commands that run many cases; see
+    :mod:`torchrom.study.runner`). Default: in-process."""
+    group = parser.add_mutually_exclusive_group()
+    group.add_argument("--workers", type=cpu_workers, default=None, metavar="N",
+                       help="run chunks on a local Dask cluster of N single-threaded worker "
+                            "processes ('auto': one per core)")
+    group.add_argument("--scheduler", default=None, metavar="ADDR",
+                       help="run chunks on the existing Dask cluster at ADDR "
+                            "(e.g. tcp://host:8786)")
+    parser.add_argument("--chunk-size", type=int, default=None, metavar="N",
+                        help="cases per chunk of work (default: [run] chunk_size, else about 8 "
+                             "chunks)")
 
 
 def add_json_option(parser: argparse.ArgumentParser) -> None:
@@ -22,6 +69,38 @@ def add_force_option(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--force", action="store_true", help="overwrite outputs that already exist"
     )
+
+
+def add_study_options(parser: argparse.ArgumentParser, outputs: str) -> None:
+    """--out DIR (holding ``outputs``), --device/--dtype, --workers/--scheduler/--chunk-size,
+    --json and --force: the options of the commands that simulate cases of a configuration."""
+    parser.add_argument("--out", type=Path, required=True, metavar="DIR",
+                        help=f"output folder ({outputs})")
+    add_precision_options(parser)
+    add_executor_options(parser)
+    add_json_option(parser)
+    add_force_option(parser)
+
+
+def load_study(args: argparse.Namespace):
+    """(torch device, torch dtype, SweepConfig) from --device, --dtype and the configuration."""
+    import torch
+
+    from ..study.config import load_sweep_config
+
+    return torch_device(args.device), getattr(torch, args.dtype), load_sweep_config(args.config)
+
+
+def check_outputs(args: argparse.Namespace, paths, may_replace: bool | None = None) -> None:
+    """Refuse (InputError) before any work when an output or the --json file exists, unless
+    --force (``may_replace`` overrides --force for ``paths``, e.g. a sweep resuming its own)."""
+    from ..io import check_can_write
+
+    force = bool(getattr(args, "force", False))
+    for p in paths:
+        check_can_write(p, force if may_replace is None else may_replace, "output")
+    if getattr(args, "json", None) is not None:
+        check_can_write(args.json, force, "JSON output")
 
 
 def maybe_write_json(args: argparse.Namespace, obj: Any) -> None:

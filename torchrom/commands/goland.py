@@ -29,7 +29,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--skins", choices=("bending", "membrane"), default="bending",
                         help="CQUAD4 skins with plate bending (default) or membrane only")
     parser.add_argument("--webs", choices=("cshear", "cquad4", "cquad4-membrane"),
-                        default="cshear", help="shear-panel modelling (default CSHEAR)")
+                        default="cquad4-membrane",
+                        help="shear-panel modelling (default membrane-only CQUAD4)")
     parser.add_argument("--coupled-mass", action="store_true",
                         help="consistent mass (PARAM COUPMASS 1) instead of lumped")
     parser.add_argument("--n", type=int, default=9, help="number of modes (default 9)")

@@ -43,9 +43,13 @@ def add_arguments(parser) -> None:
                         help="also validate the ROM against the FE and write DIR/report.md")
     parser.add_argument("--gamma", type=float, default=1e-3,
                         help="Kelvin-Voigt gamma (s) of the report's free decay (1e-3)")
-    parser.add_argument("--decay-tip", type=float, default=0.10,
+    parser.add_argument("--decay-tip", type=float, default=0.15,
                         help="initial tip deflection of the report's free decay, fraction of "
-                             "the span (0.10)")
+                             "the span (0.15)")
+    parser.add_argument("--step-x", type=float, default=None,
+                        help="chordwise mid-line (basic x) of the report's step pressure "
+                             "(default: the wing's mid-chord when the deck is known, e.g. 3 ft "
+                             "for the Goland deck, else the middle of the grid)")
     add_json_option(parser)
     add_force_option(parser)
 
@@ -83,6 +87,8 @@ def run(args) -> int:
     print(f"reading {args.model}")
     fe = read_bdf(args.model)
     backend = as_backend(fe)
+    if args.step_x is not None:
+        backend.step_x = float(args.step_x)
     print(f"  {backend.n_dof} DOFs, span {backend.reference_length:g}, "
           f"outputs {sorted(backend.outputs)}")
     opt = IdentifyOptions(n_linear=args.linear, n_dual=args.dual, damping=args.damping,

@@ -3,7 +3,16 @@
 Writes ``DIR/results.parquet`` and ``DIR/results.csv`` (one row per case; columns in
 :mod:`torchrom.study.table`) and ``DIR/<y>_vs_<x>.png`` (the ``[plot]`` figure). With
 ``--json FILE`` the same rows are written as a JSON list of records (same keys and units as the
-table columns; NaN as null). Existing outputs are never replaced without ``--force``.
+table columns; NaN as null). A configuration that samples parameters from distributions
+(:mod:`torchrom.study.sampling`) also gets ``DIR/amplitude_distribution.{parquet,csv,png}``:
+per group of the other swept parameters (e.g. altitude) the counts, P(LCO), mean, standard
+deviation and 5/50/95 % quantiles of the amplitude, and its histogram and CDF.
+
+Cases run in chunks, in-process by default, on a local Dask cluster with ``--workers N`` or on
+an existing one with ``--scheduler ADDR`` (:mod:`torchrom.study.runner`). Finished chunks are
+kept in ``DIR/parts`` as they complete, so an interrupted or crashed sweep is resumed by running
+the same command again (only the missing cases are computed). A folder holding results of a
+different configuration or model, or results it did not write, is refused unless ``--force``.
 """
 
 from __future__ import annotations
@@ -12,81 +21,95 @@ import argparse
 import sys
 from pathlib import Path
 
-from ..errors import InputError
-from ..io import check_can_write
-from ._common import add_force_option, add_json_option, maybe_write_json
+from ._common import add_study_options, check_outputs, load_study, maybe_write_json
 
 NAME = "sweep"
+DISTRIBUTION = "amplitude_distribution"
 HELP = "run a TOML-defined grid of batched LCO simulations; write a results table and a figure"
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("config", type=Path, help="sweep configuration (TOML)")
-    parser.add_argument("--out", type=Path, required=True, metavar="DIR",
-                        help="output folder (results.parquet, results.csv, figure)")
-    parser.add_argument("--device", default="cpu", help="torch device, e.g. cpu or cuda:0")
-    parser.add_argument("--dtype", choices=("float64", "float32"), default="float64",
-                        help="floating-point precision of the integration (default float64)")
+    add_study_options(parser, "results.parquet, results.csv, figures, parts/")
     parser.add_argument("--compile", action="store_true",
                         help="compile the time step with torch.compile (pays off for long runs)")
     parser.add_argument("--threads", type=int, default=None,
                         help="torch intra-op threads (default: automatic)")
-    add_json_option(parser)
-    add_force_option(parser)
 
 
-def _device(name: str):
-    import torch
+def _write_distribution(table, cfg, sampled: list[str], paths: dict[str, Path]) -> list[Path]:
+    """The amplitude distribution of an uncertainty-sampling sweep: summary table and figure
+    per group of the non-sampled swept parameters (e.g. per altitude)."""
+    from ..study.plots import distribution_plot
+    from ..study.sampling import amplitude_distribution, group_parameters
+    from ..study.table import write_table
 
-    try:
-        dev = torch.device(name)
-    except (RuntimeError, ValueError) as exc:
-        raise InputError(f"--device: not a torch device: {name!r} ({exc})") from None
-    if dev.type == "cuda" and not torch.cuda.is_available():
-        raise InputError(f"--device: {name} requested but CUDA is not available")
-    return dev
+    by = group_parameters(cfg.cases, sampled)
+    summary = amplitude_distribution(table, by)
+    written = write_table(summary, paths["parquet"].parent, force=True, stem=DISTRIBUTION)
+    figure = distribution_plot(table, paths["figure"], by=by, force=True,
+                               title=f"{cfg.title}: {', '.join(sampled)} sampled")
+    print(f"amplitude distribution ({', '.join(sampled)} sampled; decay counts as 0):")
+    print(summary.to_string(index=False, float_format=lambda x: f"{x:.4g}"))
+    return [*written.values(), figure]
 
 
 def run(args: argparse.Namespace) -> int:
     # heavy imports here, not at module level: `torchrom --help` must stay fast
-    import torch
 
-    from ..study.config import load_sweep_config, with_overrides
+    from ..study.config import with_overrides
     from ..study.plots import parameter_plot
-    from ..study.sweep import run_sweep
+    from ..study.runner import PartStore, open_executor
+    from ..study.sampling import sampled_parameters
+    from ..study.sweep import run_description, run_sweep
     from ..study.table import table_paths, write_table
 
-    device = _device(args.device)
-    dtype = getattr(torch, args.dtype)
-    cfg = load_sweep_config(args.config)
+    device, dtype, cfg = load_study(args)
     cfg = with_overrides(cfg, compile=True if args.compile else None, threads=args.threads)
+    rom = cfg.build_rom()
     out = Path(args.out)
+    # outputs of this very run (same run key) may be rewritten: that is how a sweep resumes
+    resumable = PartStore(out, run_description(cfg, rom, dtype)).check(args.force)
     paths = table_paths(out)
     figure = out / f"{cfg.plot.y}_vs_{cfg.plot.x}.png"
-    for p in (*paths.values(), figure):
-        check_can_write(p, args.force, "output")
-    if args.json is not None:
-        check_can_write(args.json, args.force, "JSON output")
+    sampled = sampled_parameters(cfg.raw.get("cases", {}))
+    uq_paths = {**table_paths(out, DISTRIBUTION), "figure": out / f"{DISTRIBUTION}.png"}
+    check_outputs(args, (*paths.values(), figure, *(uq_paths.values() if sampled else ())),
+                  may_replace=args.force or resumable)
 
-    print(f"torchrom sweep: {len(cfg.cases)} cases of '{cfg.title}' ({args.config}) on "
-          f"{device}/{args.dtype}, dt = {cfg.integrator.dt:g} s, t_end = {cfg.t_end:g} s")
     from tqdm import tqdm
 
-    with tqdm(total=len(cfg.cases), unit="case", desc="cases done", file=sys.stderr,
-              disable=None) as bar:
-        def progress(done: int, total: int) -> None:
-            bar.update(done - bar.n)
+    with open_executor(args.workers, args.scheduler) as executor:
+        print(f"torchrom sweep: {len(cfg.cases)} cases of '{cfg.title}' ({args.config}) on "
+              f"{device}/{args.dtype}, {executor.description}, dt = {cfg.integrator.dt:g} s, "
+              f"t_end = {cfg.t_end:g} s")
+        with tqdm(total=len(cfg.cases), unit="case", desc="cases done", file=sys.stderr,
+                  disable=None) as bar:
+            def progress(done: int, total: int) -> None:
+                bar.update(done - bar.n)
 
-        table, timing = run_sweep(cfg, device=device, dtype=dtype, progress=progress)
+            try:
+                table, timing = run_sweep(cfg, rom=rom, device=device, dtype=dtype,
+                                          progress=progress, out=out, force=args.force,
+                                          executor=executor, chunk_size=args.chunk_size,
+                                          log=bar.write)
+            except KeyboardInterrupt:
+                bar.write(f"interrupted: finished chunks are kept in {out / 'parts'}; run the "
+                          f"same command again to resume")
+                raise
 
-    written = write_table(table, out, force=args.force)
+    written = write_table(table, out, force=True)
     parameter_plot(table, figure, x=cfg.plot.x, y=cfg.plot.y, hue=cfg.plot.hue,
-                   title=cfg.title, force=args.force)
+                   title=cfg.title, force=True)
+    extra = _write_distribution(table, cfg, sampled, uq_paths) if sampled else []
     counts = table["status"].value_counts().to_dict()
     print("status: " + ", ".join(f"{k} {v}" for k, v in sorted(counts.items())))
-    print(f"time: {timing['wall_time_s']:.1f} s integrating, {timing['case_steps']} case-steps, "
+    print(f"cases: {timing['computed']} computed in {timing['chunks']} chunks, "
+          f"{timing['reused']} reused from {out / 'parts'}")
+    print(f"time: {timing['elapsed_s']:.1f} s elapsed, {timing['wall_time_s']:.1f} s "
+          f"integrating, {timing['case_steps']} case-steps, "
           f"{timing['us_per_case_step']:.2f} us per case-step")
-    for p in (*written.values(), figure):
+    for p in (*written.values(), figure, *extra):
         print(f"wrote {p}")
     maybe_write_json(args, table.to_dict(orient="records"))
     return 0

@@ -191,12 +191,15 @@ def from_pynastran(
     mesh = reader.mesh(spc_id)
     loads = reader.loads(mesh)
     title = _title(model)
-    if output_points is None and title.startswith(GOLAND_TITLE):
-        from .goland import goland_output_points
+    wing_chord = None
+    if title.startswith(GOLAND_TITLE):
+        from .goland import WING_CHORD, goland_output_points
 
-        output_points = goland_output_points(mesh)
-        units = units or dict(GOLAND_UNITS)
-    return FEModel(
+        wing_chord = WING_CHORD
+        if output_points is None:
+            output_points = goland_output_points(mesh)
+            units = units or dict(GOLAND_UNITS)
+    fe = FEModel(
         mesh,
         name=name,
         source=source,
@@ -208,6 +211,8 @@ def from_pynastran(
         drilling=drilling,
         autospc=autospc,
     )
+    fe.wing_chord = wing_chord
+    return fe
 
 
 GOLAND_UNITS = {"length": "ft", "mass": "slug", "time": "s", "force": "lbf"}

@@ -8,10 +8,30 @@ Geometry (Table 1): wing box x ∈ {0, 2, 4} ft from the leading edge, y = 0..20
 z = ±0.16667 ft (depth 0.33334 ft). Upper and lower skins: 2 × 10 CQUAD4 each (t = 0.0155 ft).
 CROD: spanwise at x = 0, 2, 4 on both skins (A = 0.1496 ft² at mid-wing x = 2, 0.0416 ft² at the
 edges), chordwise at every station (0.0422 ft²), thicknesswise at every node column (8e-4 ft²).
-CSHEAR: spanwise webs at x = 0, 2, 4 (t = 0.0889 ft at x = 2, 6e-4 ft at the edges) and chordwise
-ribs at every station (t = 0.0347 ft). E = 1.4976e9 lbf/ft², ν = 0.3333. Root (y = 0) clamped.
+Shear panels ("webs"): spanwise spars at x = 0, 2, 4 (t = 0.0889 ft at x = 2, 6e-4 ft at the
+edges) and chordwise ribs at every station (t = 0.0347 ft), by default membrane-only CQUAD4s
+(PSHELL without MID2), as the paper says its shear panels were "CQUAD4 Nastran elements" (see
+"Web modelling" below). E = 1.4976e9 lbf/ft², ν = 0.3333. Root (y = 0) clamped.
 Tip store: CONM2 22.498 slug, I_yy = 50.3396 slug·ft² (spanwise axis), on a reference grid at
 (``store_x``, 20, 0) tied to the six tip grids by an RBE3 (translations, unit weights).
+
+Web modelling (``webs``), measured with this builder (tests/test_fe_goland.py,
+experiments/goland_variants.py):
+- ``"cquad4-membrane"`` (default): the webs carry in-plane shear *and* in-plane normal stress, so
+  the box cross-section keeps its depth under large bending. Under a uniform pressure the tip
+  deflection stiffens as a cantilever's should (4.75 ft at the load that gives 5 ft linearly;
+  Newton converges beyond 40 % of the span). EI 2.44e7, GJ 2.52e6 lbf·ft².
+- ``"cshear"``: CSHEAR panels (shear only, Nastran PSHEAR without extensional effectiveness).
+  Linear stiffness and modes are nearly the same (EI 2.39e7, GJ 2.52e6, torsion 4.03 vs
+  3.99 Hz), but nothing resists the crushing of the section by the skins' bending stresses except
+  the 8e-4 ft² thicknesswise rods: the root bay loses 15 % of its depth at a 4.2 ft tip
+  deflection, the response *softens* (4.22 ft at 80 % of the load that gives 5 ft linearly) and
+  the static Newton solution is lost at ≈ 22 % of the span.
+- ``"cquad4"``: CQUAD4s with plate bending. The ribs' out-of-plane bending and transverse shear
+  (t = 0.0347 ft over a 0.333 ft depth, one element, rotations shared with the skins at rigid
+  joints) restrain the warping and distortion of the box cross-section in torsion: GJ 7.36e6
+  (ribs alone with bending 7.30e6, spars alone 2.57e6), torsion mode 6.8 Hz against Table 2's
+  3.05 Hz — further from the paper than either membrane option.
 
 Not given by the paper (REFERENCE Sec. 6) and therefore chosen here:
 - the uniform structural density, calibrated so that mode 1 is 1.690 Hz (Table 2)
@@ -30,6 +50,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..eigen import arpack_start
 from ..errors import InputError
 from .bdf_read import GOLAND_TITLE, GOLAND_UNITS, from_pynastran
 
@@ -45,6 +66,8 @@ N_BAYS = 10
 SKIN_T = 0.0155
 ROD_AREA = {"span_mid": 0.1496, "span_edge": 0.0416, "chord": 0.0422, "thick": 8e-4}
 WEB_T = {"span_mid": 0.0889, "span_edge": 6e-4, "chord": 0.0347}
+#: x of the leading and trailing edges of the aerodynamic chord (6 ft, classic Goland planform)
+WING_CHORD = (0.0, 6.0)
 STORE_MASS = 22.498
 STORE_IYY = 50.3396
 
@@ -52,11 +75,11 @@ STORE_IYY = 50.3396
 #: paper; calibrated (REFERENCE Sec. 6) so that the p-k flutter altitude at Mach 0.70 with the
 #: default aerodynamic model (torchrom.aero.goland, 8 x 20 DLM boxes per half wing) is the
 #: paper's 11,275 ft: experiments/aero_goland_flutter.py --calibrate.
-DEFAULT_STORE_X = 2.6945
+DEFAULT_STORE_X = 2.6888
 #: Calibrated uniform density (slug/ft³) of the default model (mode 1 = 1.690 Hz), rounded to
 #: 10 significant digits so that it is written exactly to the deck.
 #: Keyed by (skins, webs, coupled_mass, store_x); the test suite re-calibrates and compares.
-CALIBRATED_DENSITY = {("bending", "cshear", False, DEFAULT_STORE_X): 13.57687927}
+CALIBRATED_DENSITY = {("bending", "cquad4-membrane", False, DEFAULT_STORE_X): 13.94723614}
 
 STORE_GRID = 3000
 POINT_A_GRID = 1102
@@ -70,11 +93,13 @@ def grid_id(surface: int, station: int, chord: int) -> int:
 @dataclass(frozen=True)
 class GolandOptions:
     """Modelling variants: ``skins`` "bending" (PSHELL with MID2) or "membrane"; ``webs``
-    "cshear" (CSHEAR shear panels), "cquad4" (CQUAD4 with bending, as the paper's text says the
-    shear panels were CQUAD4s) or "cquad4-membrane"; ``coupled_mass`` (PARAM COUPMASS)."""
+    "cquad4-membrane" (default: membrane-only CQUAD4, the paper's shear panels were CQUAD4s),
+    "cshear" (CSHEAR shear panels) or "cquad4" (CQUAD4 with bending); see the module docstring
+    for what each does to the stiffness and the large-deflection response; ``coupled_mass``
+    (PARAM COUPMASS)."""
 
     skins: str = "bending"
-    webs: str = "cshear"
+    webs: str = "cquad4-membrane"
     coupled_mass: bool = False
 
     def check(self) -> None:
@@ -193,7 +218,7 @@ def _key(options: GolandOptions, store_x: float):
 
 
 def goland(store_x: float = DEFAULT_STORE_X, density: float | None = None, *,
-           skins: str = "bending", webs: str = "cshear", coupled_mass: bool = False,
+           skins: str = "bending", webs: str = "cquad4-membrane", coupled_mass: bool = False,
            n_modes: int = 10, drilling: float = 1e-4):
     """Build the heavy Goland wing FE model (ft, slug, s, lbf).
 
@@ -214,7 +239,8 @@ def goland(store_x: float = DEFAULT_STORE_X, density: float | None = None, *,
 def _lowest_eigen(K, M):
     import scipy.sparse.linalg as sla
 
-    vals, vecs = sla.eigsh(K.tocsc(), k=1, M=M.tocsc(), sigma=-1.0, which="LM")
+    vals, vecs = sla.eigsh(K.tocsc(), k=1, M=M.tocsc(), sigma=-1.0, which="LM",
+                           v0=arpack_start(K.shape[0]))
     phi = vecs[:, 0]
     return float(vals[0]), phi / np.sqrt(phi @ (M @ phi))
 

@@ -71,7 +71,9 @@ class FEModel:
     ``grid_ids``, ``grid_xyz`` (basic), ``n_dof``, ``output_points`` (name → (grid id,
     component 1..6)), ``name``, ``units``, ``source``, ``bdf`` (the pyNastran deck, including its
     aerodynamic cards), ``loads`` (load set id → free-DOF vector), ``n_modes_requested`` (EIGR/EIGRL
-    ND), ``autospc`` (list of (grid id, component) removed for lack of stiffness).
+    ND), ``autospc`` (list of (grid id, component) removed for lack of stiffness),
+    ``wing_chord`` ((x_LE, x_TE) of the aerodynamic chord in basic x when known, e.g. the heavy
+    Goland wing's (0, 6) ft; None otherwise).
     """
 
     def __init__(
@@ -99,6 +101,7 @@ class FEModel:
         self._row = mesh.grid_row()
         self.n_all = 6 * mesh.n_grid
         self._warned_linear = False
+        self.wing_chord: tuple[float, float] | None = None
 
         # Nonlinear (Green-strain) integration points: rods (2 nodes, 1-D), quads+shear (4, 2-D).
         groups = []
@@ -390,17 +393,23 @@ class FEModel:
     def pressure_elements(self) -> np.ndarray:
         """CQUAD4 ids loaded by :meth:`pressure_load` by default: the upper skin.
 
-        Of CQUAD4s sharing the same planform position (centroid x, y), the highest one (largest
-        centroid z); a single-surface model loads all of them.
+        Only plates facing up or down (|n_z| ≥ ½: not the vertical spar and rib webs of a box
+        modelled with CQUAD4s, which a pressure on the wing surface does not load), unless the
+        model has none; of those sharing the same planform position (centroid x, y), the highest
+        one (largest centroid z); a single-surface model loads all of them.
         """
         q = self.mesh.quads
         if not len(q):
             return np.zeros(0, dtype=int)
-        c = self.mesh.xyz[q.nodes].mean(axis=1)
+        X = self.mesh.xyz[q.nodes]
+        c = X.mean(axis=1)
+        facing = np.abs(quad_frames(X)[0][:, 2, 2]) >= 0.5
+        candidates = np.flatnonzero(facing) if facing.any() else np.arange(len(q))
         scale = max(np.ptp(self.mesh.xyz, axis=0).max(), 1e-300)
         keys = np.round(c[:, :2] / (1e-6 * scale)).astype(np.int64)
         best: dict[tuple, int] = {}
-        for k, key in enumerate(map(tuple, keys)):
+        for k in candidates:
+            key = tuple(keys[k])
             if key not in best or c[k, 2] > c[best[key], 2]:
                 best[key] = k
         return np.sort(q.eids[sorted(best.values())])

@@ -18,6 +18,7 @@ import scipy.linalg as la
 import scipy.sparse as sp
 import scipy.sparse.linalg as sla
 
+from ..eigen import arpack_start, orient_columns
 from ..errors import ConvergenceError, InputError
 from .kinds import classify
 
@@ -25,7 +26,7 @@ from .kinds import classify
 @dataclass
 class Modes:
     """Linear normal modes: ``frequencies_hz (n,)``, mass-normalised ``shapes (n_dof, n)``
-    (Φᵀ M Φ = I, the largest-magnitude entry of each shape positive), ``kinds`` (bending,
+    (Φᵀ M Φ = I, signs by :func:`orient_columns`), ``kinds`` (bending,
     torsion, in-plane, axial), ``eigenvalues`` ω² (rad²/s²), ``fractions`` (content per kind)."""
 
     frequencies_hz: np.ndarray
@@ -102,15 +103,15 @@ def modal_analysis(fe, n: int, sigma: float | None = None) -> Modes:
                                                else 1.0, 1e-300)
             sigma = -1e-6 * ratio
         try:
-            vals, vecs = sla.eigsh(K.tocsc(), k=n, M=M.tocsc(), sigma=sigma, which="LM")
+            vals, vecs = sla.eigsh(K.tocsc(), k=n, M=M.tocsc(), sigma=sigma, which="LM",
+                                   v0=arpack_start(N))
         except (RuntimeError, sla.ArpackNoConvergence) as exc:
             raise ConvergenceError(f"modes: the eigensolver failed: {exc}") from None
     order = np.argsort(vals)
     vals, vecs = vals[order], vecs[:, order]
     gen_mass = np.einsum("ik,ik->k", vecs, M @ vecs)
     vecs = vecs / np.sqrt(np.abs(gen_mass))
-    big = np.argmax(np.abs(vecs), axis=0)
-    vecs = vecs * np.sign(vecs[big, np.arange(vecs.shape[1])])
+    vecs = orient_columns(vecs)
     freqs = np.sqrt(np.clip(vals, 0.0, None)) / (2 * np.pi)
     kinds, fractions = classify(fe, vecs)
     return Modes(freqs, vecs, kinds, vals, fractions)

@@ -33,6 +33,7 @@ import scipy.linalg
 import scipy.sparse
 import scipy.sparse.linalg
 
+from ..eigen import arpack_start, orient_columns
 from ..errors import ConvergenceError, InputError
 
 
@@ -258,21 +259,21 @@ class FEBackend:
 
 
 def generalized_modes(K, M, n: int, name: str = "fe") -> tuple[np.ndarray, np.ndarray]:
-    """Lowest n eigenpairs of K φ = ω² M φ, φᵀ M φ = 1, frequencies in Hz, sign fixed so that the
-    largest-magnitude entry of each shape is positive (reproducible shapes)."""
+    """Lowest n eigenpairs of K φ = ω² M φ, φᵀ M φ = 1, frequencies in Hz, signs by
+    :func:`torchrom.eigen.orient_columns` and a fixed ARPACK start (reproducible shapes)."""
     n_dof = K.shape[0]
     if not 1 <= n <= n_dof:
         raise InputError(f"{name}: asked for {n} modes of a model with {n_dof} DOFs")
     if scipy.sparse.issparse(K) and n < n_dof // 2 and n_dof > 400:
-        lam, V = scipy.sparse.linalg.eigsh(K.tocsc(), k=n, M=M.tocsc(), sigma=0.0, which="LM")
+        lam, V = scipy.sparse.linalg.eigsh(K.tocsc(), k=n, M=M.tocsc(), sigma=0.0, which="LM",
+                                           v0=arpack_start(n_dof))
     else:
         lam, V = scipy.linalg.eigh(as_dense(K), as_dense(M), subset_by_index=(0, n - 1))
     order = np.argsort(lam)
     lam, V = lam[order], V[:, order]
     Mv = np.asarray(M @ V)
     V = V / np.sqrt(np.einsum("ij,ij->j", V, Mv))
-    sign = np.sign(V[np.abs(V).argmax(axis=0), np.arange(n)])
-    V = V * np.where(sign == 0, 1.0, sign)
+    V = orient_columns(V)
     with np.errstate(invalid="ignore"):
         f = np.sqrt(np.where(lam > 0, lam, np.nan)) / (2 * np.pi)
     return f, V

@@ -6,15 +6,48 @@ a large transverse deflection drags along. For each combination (j, l) of linear
     F = α K U^(j)                 (l = j, Eq. 47)      or      F = α (K U^(j) + K U^(l))   (Eq. 48)
 
 — loads that would produce exactly U^(j) (+ U^(l)) in a linear model — are applied with 20 values
-of α (half positive, half negative) spread uniformly in the predicted tip transverse displacement
-from 0.1 % to 15 % of the span, and solved nonlinearly. The parts of the responses outside the span
-of the linear modes (residuals, removed by M-orthogonal projection) are decomposed by proper
-orthogonal decomposition (POD, in the mass inner product); the dominant POD vectors, mass-
-orthonormalised against the linear modes, are the dual modes. Each snapshot is normalised to unit
-mass norm before the POD, so small and large amplitudes weigh alike (the small ones carry the
-quadratic, the large ones the cubic, membrane response). The paper's nine combinations (1-based)
-are the default. A load the FE cannot carry (no converged static solution) is recorded as
-"failed" and the larger loads of that combination and sign are skipped; the POD uses the rest.
+of α (half positive, half negative) and solved nonlinearly. The parts of the responses outside the
+span of the linear modes (residuals, removed by M-orthogonal projection) are decomposed by proper
+orthogonal decomposition (POD); the dominant POD vectors, mass-orthonormalised against the linear
+modes, are the dual modes. The paper's nine combinations (1-based) are the default.
+
+Choices (each an option of :class:`DualModeOptions`), measured on the heavy Goland wing, 9L12D,
+as the largest A_Tz / A_Ty errors at point A up to a 25 % span tip deflection under the uniform
+and the step pressures (``experiments/goland_validation.py``,
+``experiments/results/goland_validation_variants.md``):
+
+- **Amplitudes** (``amplitude_control``). The paper chose α "so that the displacement data induce
+  tip transverse displacements ... from about 0.1 % to 15 % of span ... distributed in this
+  range as uniformly as possible". ``"response"`` (default) does that with the FE's response: the
+  targets are spread uniformly over the range and each α is found by a few secant/regula-falsi
+  solves so that the FE tip deflection hits its target, never beyond the α whose *linear*
+  prediction hits it (a stiffening combination, e.g. torsion, stops there). ``"linear"`` uses
+  the linear prediction only (one solve per load, the plan written to Nastran decks). The
+  difference matters where the response *softens*: on Goland a combination with the in-plane
+  (lead–lag) mode, whose equal modal amplitude means an enormous in-plane load, meets the
+  wing's lateral–torsional instability: with ``"linear"`` the loads from 3 % up give tip
+  deflections of 40–50 % of the span with the tip swung 14 ft aft — snapshots of a collapsed
+  wing (uniform 0.84 / 0.59 %, step 3.3 / 5.8 %, against 0.22 / 1.7 % and 1.7 / 3.4 %).
+- **POD inner product** (``pod_norm``). ``"stiffness"`` (default): the POD maximises the captured
+  strain energy uᵀ K u of the residuals. The dual modes exist to let the ROM relax membrane
+  strain energy, and a Galerkin ROM's static error is bounded by the best approximation in the
+  energy norm (Céa's lemma); in-plane residuals carry little mass, so the mass-norm POD ranks
+  them by an irrelevant measure: uniform 16 / 30 %, step 11 / 19 % with ``"mass"``.
+- **Snapshot weights** (``snapshot_weights``). ``"relative"`` (default): each residual divided by
+  the norm of its response's linear-mode part, so the POD minimises the summed squared
+  *relative* misrepresentation of the responses; ``"unit"``: each residual scaled to unit norm,
+  so the smallest loads (pure quadratic content, negligible in the responses) weigh as much as
+  the largest. On Goland the step pressure at 25 %: 1.7 / 3.4 % (relative) vs 5.0 / 9.4 %
+  (unit), and with more dual modes relative weights converge faster (14 duals: every error
+  ≤ 1.1 %; unit weights still 2.1 / 3.7 % with 20). Not universal: on a very nonlinear
+  synthetic truss with only 3 dual modes unit weights capture a response better
+  (tests/test_identify_basis.py). The paper's recipe read literally ("linear", "mass", "unit")
+  gives 9.7 / 17 % (uniform) and 16 / 28 % (step).
+- **Reproducibility**: signs by :func:`torchrom.eigen.orient_columns`, POD eigenvectors ordered
+  by decreasing eigenvalue, fixed solution order: the same FE gives the same basis bit for bit.
+
+A load the FE cannot carry (no converged static solution) is recorded as "failed" and the larger
+loads of that combination and sign are skipped; the POD uses the rest.
 
 Hand-written; the static solves are the backend's, the eigen-solvers scipy's.
 """
@@ -28,6 +61,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import scipy.linalg
 
+from ..eigen import orient_columns
 from ..errors import ConvergenceError, InputError
 
 #: the paper's combinations (j, l), 1-based mode numbers (DIGEST Sec. 6)
@@ -35,20 +69,53 @@ PAPER_COMBINATIONS: tuple[tuple[int, int], ...] = (
     (1, 1), (1, 2), (1, 3), (1, 4), (1, 5), (2, 2), (2, 3), (2, 4), (2, 5))
 
 
+AMPLITUDE_CONTROLS = ("response", "linear")
+POD_NORMS = ("stiffness", "mass")
+SNAPSHOT_WEIGHTS = ("relative", "unit", "none")
+
+
+def _check_choice(name: str, value: str, allowed: tuple[str, ...]) -> None:
+    if value not in allowed:
+        raise InputError(f"dual modes: {name}: expected one of {allowed}, got {value!r}")
+
+
 @dataclass
 class DualModeOptions:
-    """Options of the dual-mode generation (DIGEST Sec. 6).
+    """Options of the dual-mode generation (DIGEST Sec. 6; see the module docstring).
 
     combinations: (j, l) pairs of 1-based linear-mode numbers (j == l: single mode, Eq. 47);
     n_amplitudes: loads per combination (half positive, half negative);
-    tip_range: predicted tip transverse displacement range as fractions of the span;
-    normalize_snapshots: scale each residual to unit mass norm before the POD.
+    tip_range: tip transverse displacement range as fractions of the span;
+    amplitude_control: "response" (the FE's tip deflection spread over the range, α never
+    beyond its linear prediction) or "linear" (the linear prediction spread over the range);
+    response_tolerance: relative tolerance on the FE tip deflection of each target ("response");
+    pod_norm: inner product of the POD, "stiffness" (strain energy) or "mass";
+    snapshot_weights: how each residual enters the POD: "relative" (divided by the norm of
+    the response's linear-mode part), "unit" (scaled to unit norm) or "none".
     """
 
     combinations: Sequence[tuple[int, int]] = PAPER_COMBINATIONS
     n_amplitudes: int = 20
     tip_range: tuple[float, float] = (0.001, 0.15)
-    normalize_snapshots: bool = True
+    amplitude_control: str = "response"
+    response_tolerance: float = 0.03
+    pod_norm: str = "stiffness"
+    snapshot_weights: str = "relative"
+
+    def validate(self, n_linear: int) -> None:
+        for (j, l) in self.combinations:
+            if not (1 <= j <= n_linear and 1 <= l <= n_linear):
+                raise InputError(f"dual modes: combination ({j}, {l}) refers to a linear mode "
+                                 f"outside 1..{n_linear}")
+        if self.n_amplitudes < 1 or not (0 < self.tip_range[0] <= self.tip_range[1]):
+            raise InputError(f"dual modes: need n_amplitudes >= 1 and 0 < tip_range[0] <= "
+                             f"tip_range[1], got {self.n_amplitudes}, {self.tip_range}")
+        _check_choice("amplitude_control", self.amplitude_control, AMPLITUDE_CONTROLS)
+        _check_choice("snapshot_weights", self.snapshot_weights, SNAPSHOT_WEIGHTS)
+        _check_choice("pod_norm", self.pod_norm, POD_NORMS)
+        if not 0 < self.response_tolerance < 1:
+            raise InputError(f"dual modes: response_tolerance: expected 0 < value < 1, got "
+                             f"{self.response_tolerance}")
 
 
 @dataclass
@@ -86,30 +153,43 @@ def _m_project_out(R: np.ndarray, Phi: np.ndarray, M) -> np.ndarray:
     return R
 
 
-def pod(snapshots: np.ndarray, M, n_keep: int) -> tuple[np.ndarray, np.ndarray]:
-    """Mass-weighted POD (method of snapshots): (M-orthonormal vectors (n_dof, n_keep),
-    normalised eigenvalues of all snapshots, descending, summing to 1)."""
-    C = snapshots.T @ np.asarray(M @ snapshots)
+def pod(snapshots: np.ndarray, W, n_keep: int) -> tuple[np.ndarray, np.ndarray]:
+    """POD (method of snapshots) in the inner product ⟨a, b⟩ = aᵀ W b (W = M or K):
+    (W-orthonormal vectors (n_dof, n_keep), normalised eigenvalues of all snapshots, descending,
+    summing to 1). Eigenvectors in decreasing eigenvalue order, signs by
+    :func:`~torchrom.eigen.orient_columns`."""
+    C = snapshots.T @ np.asarray(W @ snapshots)
     lam, V = scipy.linalg.eigh(0.5 * (C + C.T))
     lam, V = lam[::-1], V[:, ::-1]
     lam = np.clip(lam, 0.0, None)
     if n_keep > int(np.sum(lam > 1e-14 * lam[0])):
         raise InputError(f"dual modes: asked for {n_keep} but the {snapshots.shape[1]} snapshots "
                          f"span only {int(np.sum(lam > 1e-14 * lam[0]))} independent directions")
-    W = snapshots @ V[:, :n_keep] / np.sqrt(lam[:n_keep])
-    return W, lam / lam.sum()
+    Wv = orient_columns(snapshots @ V[:, :n_keep] / np.sqrt(lam[:n_keep]))
+    return Wv, lam / lam.sum()
 
 
-def _amplitude_table(backend, U: np.ndarray, opts: DualModeOptions) -> np.ndarray:
-    """α values: predicted (linear) tip transverse displacement spread uniformly over the range."""
-    peak = np.abs(U[backend.transverse_dofs]).max()
-    if peak == 0:
-        peak = np.abs(U[backend.translational_dofs]).max()
+def _combination(Phi_L: np.ndarray, KU: np.ndarray, j: int, l: int):
+    """(U, F): the linear displacement U^(j) (+ U^(l)) and the load K U^(j) (+ K U^(l))."""
+    cols = [j - 1] if j == l else [j - 1, l - 1]
+    return Phi_L[:, cols].sum(axis=1), KU[:, cols].sum(axis=1)
+
+
+def _tip_fractions(opts: DualModeOptions) -> tuple[np.ndarray, np.ndarray]:
+    """Target tip deflections (fractions of the span) of the positive and the negative loads."""
     half = opts.n_amplitudes // 2
-    lo, hi = opts.tip_range
-    fr = np.linspace(lo, hi, half)
-    alphas = np.concatenate([fr, -fr[: opts.n_amplitudes - half]])
-    return alphas * backend.reference_length / peak
+    fr = np.linspace(opts.tip_range[0], opts.tip_range[1], half)
+    return fr, fr[: opts.n_amplitudes - half]
+
+
+def _tip(backend, u: np.ndarray) -> float:
+    """Tip transverse displacement: the largest |u| over the backend's transverse DOFs."""
+    return float(np.abs(u[backend.transverse_dofs]).max())
+
+
+def _transverse_peak(backend, U: np.ndarray) -> float:
+    peak = np.abs(U[backend.transverse_dofs]).max()
+    return float(peak if peak > 0 else np.abs(U[backend.translational_dofs]).max())
 
 
 @dataclass
@@ -123,53 +203,123 @@ class DualLoad:
 
 
 def dual_loads(backend, linear: Basis, options: DualModeOptions | None = None) -> list[DualLoad]:
-    """The dual-mode loads in solution order: per combination and sign, increasing |α| (so each
-    solve can start from the previous one — and so a Nastran SOL 106 run can continue)."""
+    """The dual-mode loads with α from the linear prediction (``amplitude_control="linear"``,
+    the plan written to Nastran decks), in solution order: per combination and sign, increasing
+    |α| (so each solve can start from the previous one — and a SOL 106 run can continue)."""
     opts = options or DualModeOptions()
     Phi_L = linear.Phi
-    nL = Phi_L.shape[1]
-    for (j, l) in opts.combinations:
-        if not (1 <= j <= nL and 1 <= l <= nL):
-            raise InputError(f"dual modes: combination ({j}, {l}) refers to a linear mode outside "
-                             f"1..{nL}")
-    if opts.n_amplitudes < 1 or not (0 < opts.tip_range[0] <= opts.tip_range[1]):
-        raise InputError(f"dual modes: need n_amplitudes >= 1 and 0 < tip_range[0] <= "
-                         f"tip_range[1], got {opts.n_amplitudes}, {opts.tip_range}")
+    opts.validate(Phi_L.shape[1])
     KU = np.asarray(backend.stiffness_matrix() @ Phi_L)
+    span = backend.reference_length
     out = []
     for (j, l) in opts.combinations:
-        cols = [j - 1] if j == l else [j - 1, l - 1]
-        U = Phi_L[:, cols].sum(axis=1)
-        F = KU[:, cols].sum(axis=1)
-        alphas = _amplitude_table(backend, U, opts)
-        tip_lin = np.abs(U[backend.transverse_dofs]).max()
-        for sign in (1.0, -1.0):
-            for a in sorted(alphas[np.sign(alphas) == sign], key=abs):
-                out.append(DualLoad((int(j), int(l)), float(a), a * F,
-                                    float(100 * abs(a) * tip_lin / backend.reference_length)))
+        U, F = _combination(Phi_L, KU, j, l)
+        peak = _transverse_peak(backend, U)
+        for sign, fractions in zip((1.0, -1.0), _tip_fractions(opts)):
+            for t in fractions:
+                a = sign * t * span / peak
+                out.append(DualLoad((int(j), int(l)), float(a), a * F, float(100 * t)))
     return out
 
 
-def dual_modes_from_responses(linear: Basis, M, responses: np.ndarray, n_dual: int,
-                              normalize: bool = True) -> tuple[Basis, np.ndarray]:
+def _norms(W, X: np.ndarray) -> np.ndarray:
+    return np.sqrt(np.clip(np.einsum("ij,ij->j", X, np.asarray(W @ X)), 0.0, None))
+
+
+def dual_modes_from_responses(linear: Basis, M, responses: np.ndarray, n_dual: int, *,
+                              K=None, pod_norm: str = "stiffness", weights: str = "relative"
+                              ) -> tuple[Basis, np.ndarray]:
     """Dual modes from nonlinear static responses (rows of ``responses``): residuals outside the
-    linear modes, mass-weighted POD, mass-orthonormalised. Returns (basis, residual mass norms)."""
+    linear modes, weighted (``weights``, see :class:`DualModeOptions`), POD in the ``pod_norm``
+    inner product (K needed for "stiffness"), mass-orthonormalised. Returns (basis, relative
+    residuals: residual norm / norm of the linear-mode part, in the POD inner product)."""
+    _check_choice("pod_norm", pod_norm, POD_NORMS)
+    _check_choice("snapshot_weights", weights, SNAPSHOT_WEIGHTS)
+    if pod_norm == "stiffness" and K is None:
+        raise InputError("dual modes: the stiffness-norm POD needs the linear stiffness K")
+    W = M if pod_norm == "mass" else K
     Phi_L = linear.Phi
-    R = _m_project_out(np.atleast_2d(responses).T, Phi_L, M)
-    norms = np.sqrt(np.einsum("ij,ij->j", R, np.asarray(M @ R)))
-    if normalize:
-        R = R / np.where(norms > 0, norms, 1.0)
-    W, spectrum = pod(R, M, n_dual)
-    W = _m_project_out(W, Phi_L, M)
+    U = np.atleast_2d(responses).T
+    R = _m_project_out(U, Phi_L, M)
+    norms, linear_norms = _norms(W, R), _norms(W, U - R)
+    scale = {"relative": linear_norms, "unit": norms, "none": np.ones_like(norms)}[weights]
+    R = R / np.where(scale > 0, scale, 1.0)
+    V, spectrum = pod(R, W, n_dual)
+    V = _m_project_out(V, Phi_L, M)
     # mass-orthonormalise the dual vectors among themselves (Cholesky: order-preserving)
-    G = W.T @ np.asarray(M @ W)
+    G = V.T @ np.asarray(M @ V)
     L = np.linalg.cholesky(0.5 * (G + G.T))
-    W = scipy.linalg.solve_triangular(L, W.T, lower=True).T
-    sign = np.sign(W[np.abs(W).argmax(axis=0), np.arange(n_dual)])
-    W = W * np.where(sign == 0, 1.0, sign)
-    basis = Basis(np.concatenate([Phi_L, W], axis=1), linear.kinds + ["dual"] * n_dual,
+    V = orient_columns(scipy.linalg.solve_triangular(L, V.T, lower=True).T)
+    basis = Basis(np.concatenate([Phi_L, V], axis=1), linear.kinds + ["dual"] * n_dual,
                   np.concatenate([linear.frequencies_hz, np.full(n_dual, np.nan)]), spectrum)
-    return basis, norms
+    return basis, norms / np.where(linear_norms > 0, linear_norms, 1.0)
+
+
+@dataclass
+class _Point:
+    """A solved dual-mode load: |α|, FE tip deflection (length units), displacement."""
+
+    alpha: float
+    tip: float
+    u: np.ndarray | None
+
+
+class _Walk:
+    """The loads of one combination and sign, in increasing order, each solved from the
+    previous solution scaled to the new α (continuation)."""
+
+    def __init__(self, backend, F: np.ndarray, sign: float, peak: float, opts: DualModeOptions):
+        self.be, self.F, self.sign, self.peak, self.opts = backend, F, sign, peak, opts
+        self.span = backend.reference_length
+        self.last = _Point(0.0, 0.0, None)
+        self.solves = 0
+
+    def _solve(self, alpha: float, start: _Point) -> _Point:
+        u0 = None if start.u is None else start.u * (alpha / start.alpha)
+        self.solves += 1
+        try:
+            sol = self.be.static_solve(self.sign * alpha * self.F, u0=u0)
+        except ConvergenceError:
+            return _Point(alpha, np.inf, None)
+        return _Point(alpha, _tip(self.be, sol.u), sol.u)
+
+    def linear(self, t: float) -> _Point | None:
+        """α from the linear prediction of the target tip deflection t (fraction of span)."""
+        p = self._solve(t * self.span / self.peak, self.last)
+        return None if p.u is None else p
+
+    def response(self, t: float, max_solves: int = 12) -> _Point | None:
+        """α ≤ the linear-prediction α whose FE tip deflection is t (± the tolerance), or that
+        α itself when the response stiffens: secant steps, then the Illinois variant of regula
+        falsi once bracketed (bisection across a load the FE cannot carry)."""
+        target, tol = t * self.span, self.opts.response_tolerance
+        a_lin = target / self.peak
+        lo, hi = self.last, None
+        f_lo, f_hi, side = lo.tip - target, np.inf, 0
+        a = a_lin if lo.tip <= 0 else min(a_lin, lo.alpha * target / lo.tip)
+        solved = []
+        for _ in range(max_solves):
+            p = self._solve(a, lo)
+            if p.u is not None:
+                solved.append(p)
+                if p.tip <= target * (1 + tol) and (p.tip >= target * (1 - tol)
+                                                    or a >= a_lin * (1 - 1e-12)):
+                    return p
+            f = p.tip - target
+            if f > 0:
+                f_lo *= 0.5 if side == 1 else 1.0  # Illinois: the end kept twice weighs less
+                hi, f_hi, side = p, f, 1
+            else:
+                f_hi *= 0.5 if side == -1 else 1.0
+                lo, f_lo, side = p, f, -1
+            if hi is None:
+                a = min(a_lin, a * target / p.tip)
+            elif not np.isfinite(f_hi):
+                a = 0.5 * (lo.alpha + hi.alpha)
+            else:
+                a = (lo.alpha * f_hi - hi.alpha * f_lo) / (f_hi - f_lo)
+        # not within the tolerance after max_solves: the solved load closest to the target
+        return min(solved, key=lambda p: abs(p.tip - target)) if solved else None
 
 
 def dual_basis(backend, linear: Basis, n_dual: int, options: DualModeOptions | None = None,
@@ -177,38 +327,48 @@ def dual_basis(backend, linear: Basis, n_dual: int, options: DualModeOptions | N
     """Linear modes + n_dual dual modes (DIGEST Sec. 6, Eqs. 47–48), solved by the backend."""
     opts = options or DualModeOptions()
     t0 = time.perf_counter()
-    loads = dual_loads(backend, linear, opts)
-    responses, records = [], []
-    prev = None          # (combination, sign, u, alpha) of the last converged solve
-    failed = set()
+    Phi_L = linear.Phi
+    opts.validate(Phi_L.shape[1])
+    KU = np.asarray(backend.stiffness_matrix() @ Phi_L)
     span = backend.reference_length
-    for k, ld in enumerate(loads, start=1):
-        if progress is not None:
-            progress(k, len(loads))
-        key = (ld.combination, np.sign(ld.alpha))
-        rec = {"combination": list(ld.combination), "alpha": ld.alpha,
-               "tip_linear_pct_span": ld.tip_linear_pct_span}
-        if key in failed:
-            # past a load the FE could not carry, the larger ones are skipped too
-            records.append({**rec, "status": "skipped"})
-            continue
-        u0 = prev[2] * (ld.alpha / prev[3]) if prev is not None and prev[:2] == key else None
-        try:
-            sol = backend.static_solve(ld.load, u0=u0)
-        except ConvergenceError as exc:
-            failed.add(key)
-            records.append({**rec, "status": "failed", "message": str(exc)})
-            continue
-        prev = (*key, sol.u, ld.alpha)
-        responses.append(sol.u)
-        records.append({**rec, "status": "ok", "iterations": int(sol.iterations),
-                        "tip_pct_span": float(100 * np.abs(sol.u[backend.transverse_dofs]).max()
-                                              / span)})
-    basis, norms = dual_modes_from_responses(linear, backend.mass_matrix(), np.array(responses),
-                                             n_dual, opts.normalize_snapshots)
+    responses, records = [], []
+    total, done = len(opts.combinations) * opts.n_amplitudes, 0
+    for (j, l) in opts.combinations:
+        U, F = _combination(Phi_L, KU, j, l)
+        peak = _transverse_peak(backend, U)
+        for sign, fractions in zip((1.0, -1.0), _tip_fractions(opts)):
+            walk = _Walk(backend, F, sign, peak, opts)
+            stopped = False
+            for t in fractions:
+                done += 1
+                if progress is not None:
+                    progress(done, total)
+                rec = {"combination": [int(j), int(l)], "target_pct_span": float(100 * t)}
+                if stopped:
+                    # past a load the FE could not carry, the larger ones are skipped too
+                    records.append({**rec, "status": "skipped"})
+                    continue
+                before = walk.solves
+                p = walk.response(t) if opts.amplitude_control == "response" else walk.linear(t)
+                if p is None:
+                    stopped = True
+                    records.append({**rec, "status": "failed", "solves": walk.solves - before,
+                                    "message": "no converged static solution"})
+                    continue
+                walk.last = p
+                responses.append(p.u)
+                records.append({**rec, "status": "ok", "alpha": float(sign * p.alpha),
+                                "tip_linear_pct_span": float(100 * p.alpha * peak / span),
+                                "tip_pct_span": float(100 * p.tip / span),
+                                "solves": walk.solves - before})
+    if not responses:
+        raise ConvergenceError("dual modes: the FE carried none of the dual-mode loads")
+    basis, norms = dual_modes_from_responses(
+        linear, backend.mass_matrix(), np.array(responses), n_dual,
+        K=backend.stiffness_matrix(), pod_norm=opts.pod_norm, weights=opts.snapshot_weights)
     ok = [r for r in records if r["status"] == "ok"]
     for r, nrm in zip(ok, norms):
-        r["residual_mass_norm"] = float(nrm)
+        r["relative_residual"] = float(nrm)
     basis.snapshots = records
     basis.seconds = linear.seconds + time.perf_counter() - t0
     return basis

@@ -15,9 +15,23 @@ from ..errors import ConvergenceError
 from .backend import FEBackend, StaticSolution
 
 
+def step_midline(fe) -> float:
+    """Mid-line of the "step uniform" pressure (DIGEST Sec. 6): the mid-chord of the wing, from
+    the model's ``wing_chord`` (x of the leading and trailing edges, e.g. (0, 6) ft for the
+    heavy Goland wing, whose 4 ft box spans x = 0..4: mid-chord 3 ft, so the step pressure is
+    a lift plus a nose-up torque) when it has one, else the middle of the grid's x extent."""
+    chord = getattr(fe, "wing_chord", None)
+    if chord is not None:
+        return 0.5 * (float(chord[0]) + float(chord[1]))
+    x = np.asarray(fe.grid_xyz, float)[:, 0]
+    return 0.5 * (float(x.min()) + float(x.max()))
+
+
 class BuiltinFEBackend(FEBackend):
     """Backend over a ``torchrom.fe.FEModel``.
 
+    ``step_x``: chordwise position (basic x) of the mid-line of the "step uniform" pressure;
+    default :func:`step_midline`.
     ``static_tol``: relative residual of the FE's Newton solver. 1e-8 rather than tighter: with
     E ≈ 1.5e9 psf the element forces carry rounding of ~1e-7 lbf, which is ~1e-9 of the smallest
     dual-mode loads (0.1 % of span), so a tighter tolerance cannot always be met.
@@ -30,9 +44,10 @@ class BuiltinFEBackend(FEBackend):
         return all(hasattr(fe, a) for a in ("n_dof", "internal_force", "tangent_stiffness",
                                             "mass_matrix", "free_dofs", "static_solve"))
 
-    def __init__(self, fe, *, static_tol: float = 1e-8):
+    def __init__(self, fe, *, static_tol: float = 1e-8, step_x: float | None = None):
         super().__init__()
         self.fe = fe
+        self.step_x = step_midline(fe) if step_x is None else float(step_x)
         self.n_dof = int(fe.n_dof)
         self.name = str(getattr(fe, "name", "fe"))
         self.static_tol = static_tol
@@ -77,9 +92,8 @@ class BuiltinFEBackend(FEBackend):
 
     def load_shapes(self) -> dict[str, np.ndarray]:
         """Uniform pressure (1 per unit area) and the "step uniform" pressure (+1 ahead of the
-        mid-chord line of the grid, −1 behind) on the FE's default pressure skin."""
-        xyz = np.asarray(self.fe.grid_xyz, float)
-        x_mid = 0.5 * (xyz[:, 0].min() + xyz[:, 0].max())
+        mid-line x = ``step_x``, −1 behind) on the FE's default pressure skin."""
+        x_mid = self.step_x
         return {"uniform": self.fe.pressure_load(1.0),
                 "step": self.fe.pressure_load(lambda x, y: np.where(x < x_mid, 1.0, -1.0))}
 

@@ -2,15 +2,22 @@
 
 - :mod:`.grid`: ``[cases]`` tables -> case lists (product / zip / explicit), ``case_id``.
 - :mod:`.config`: validated sweep configurations (:func:`load_sweep_config`).
-- :mod:`.sweep`: :func:`run_sweep` (in-process, chunked).
+- :mod:`.sweep`: :func:`run_sweep` (chunked, resumable; in-process or on Dask workers).
+- :mod:`.runner`: chunks, part files, executors (:func:`open_executor`, :func:`run_cases`).
+- :mod:`.sampling`: seeded uncertainty sampling of case parameters, amplitude distributions.
+- :mod:`.calibrate`: :func:`calibrate_gamma` (γ from a target LCO amplitude).
+- :mod:`.bifurcation`: :func:`bifurcation_sweep` (supercritical or subcritical LCOs).
 - :mod:`.table`: one row per case, parquet + CSV written atomically.
 - :mod:`.plots`: result figures.
 """
 
+from .bifurcation import bifurcation_sweep
+from .calibrate import calibrate_gamma
 from .config import SweepConfig, load_sweep_config
 from .grid import case_id, config_hash, expand_cases
 from .plots import parameter_plot
-from .sweep import run_sweep
+from .runner import open_executor, run_cases
+from .sweep import case_evaluator, run_sweep
 from .table import result_rows, write_table
 
 __all__ = [
@@ -20,6 +27,11 @@ __all__ = [
     "case_id",
     "config_hash",
     "run_sweep",
+    "case_evaluator",
+    "run_cases",
+    "open_executor",
+    "calibrate_gamma",
+    "bifurcation_sweep",
     "result_rows",
     "write_table",
     "parameter_plot",

@@ -20,7 +20,9 @@ A sweep configuration has these tables (every key is checked; a bad one gives a 
                  ``q0`` (scales the initial displacement).
 ``[plot]``       ``x`` (a case parameter; default the first swept one), ``y`` (a table column,
                  default "amplitude"), ``hue`` (a case parameter, optional).
-``[run]``        ``batch_size`` (cases integrated together, default 512).
+``[run]``        ``batch_size`` (largest number of cases integrated together, default 512) and
+                 ``chunk_size`` (cases per chunk of work and per part file; default: about 8
+                 chunks, see :func:`torchrom.study.runner.plan_chunks`).
 """
 
 from __future__ import annotations
@@ -74,6 +76,7 @@ class SweepConfig:
     cases: list[dict[str, Any]]
     plot: PlotSpec
     batch_size: int = 512
+    chunk_size: int | None = None
     raw: dict[str, Any] = field(default_factory=dict, repr=False)
 
     @property
@@ -207,14 +210,17 @@ def load_sweep_config(path) -> SweepConfig:
     plot = PlotSpec(x=x, y=plot_t.get("y", "amplitude"), hue=hue)
 
     run_t = _table(raw, "run", source)
-    _check_keys(run_t, ("batch_size",), source, "[run]")
+    _check_keys(run_t, ("batch_size", "chunk_size"), source, "[run]")
+    for key in ("batch_size", "chunk_size"):
+        value = run_t.get(key, 1)
+        if isinstance(value, bool) or not isinstance(value, int) or value < 1:
+            raise _err(source, f"[run] {key}", f"expected a positive integer, got {value!r}")
     batch = run_t.get("batch_size", 512)
-    if isinstance(batch, bool) or not isinstance(batch, int) or batch < 1:
-        raise _err(source, "[run] batch_size", f"expected a positive integer, got {batch!r}")
 
     cfg = SweepConfig(source=source, title=title, model=model, initial=initial,
                       integrator=newmark, t_end=t_end, lco=lco, outputs=outputs, cases=cases,
-                      plot=plot, batch_size=batch, raw=raw)
+                      plot=plot, batch_size=batch,
+                      chunk_size=run_t.get("chunk_size"), raw=raw)
     build_model(model, source)  # fail now, not after a long run
     return cfg
 

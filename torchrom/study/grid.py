@@ -10,6 +10,8 @@ A ``[cases]`` table lists parameters. Each value is
 ``combine = "product"`` (default) makes every combination of the swept parameters (the first
 one varies slowest); ``combine = "zip"`` pairs them entry by entry (equal lengths required).
 ``[[cases.list]]`` entries add explicit cases (the scalars of ``[cases]`` fill what they omit).
+A parameter may also be a distribution (``{distribution = ..., ...}`` with ``samples`` and
+``seed``): its seeded draws form one swept block (:mod:`torchrom.study.sampling`).
 
 ``case_id`` is a stable hash of a case's parameters: the same parameters give the same id on
 any machine and in any order of the keys, and 0, 0.0 and False are the same value.
@@ -27,6 +29,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import InputError
+from .sampling import SAMPLING_KEYS, is_distribution, sample_block
 
 COMBINE = ("product", "zip")
 
@@ -92,27 +95,41 @@ def expand_cases(table: Mapping[str, Any], where: str = "[cases]",
             raise InputError(f"{at}: unknown case parameter {name!r}; expected one of "
                              f"{sorted(allowed)}")
 
+    sampling = {k: table.pop(k) for k in SAMPLING_KEYS if k in table}
     fixed: dict[str, Any] = {}
-    swept: dict[str, list[Any]] = {}
+    # one axis per swept parameter, one for the jointly sampled ones (at the first's place)
+    axes: dict[str, list[dict[str, Any]]] = {}
+    sampled: dict[str, Any] = {}
     for name, spec in table.items():
         check_name(name, f"{where} {name}")
+        if is_distribution(spec):
+            sampled[name] = spec
+            axes.setdefault("(sampled)", [])
+            continue
         vals, is_swept = parameter_values(spec, f"{where} {name}")
         if is_swept:
-            swept[name] = vals
+            axes[name] = [{name: v} for v in vals]
         else:
             fixed[name] = vals[0]
+    if sampled:
+        axes["(sampled)"] = sample_block(sampled, sampling.get("samples"),
+                                         sampling.get("seed"), sampling.get("sampling", "random"),
+                                         where)
+    elif sampling:
+        raise InputError(f"{where} {next(iter(sampling))}: given, but no parameter is a "
+                         f"distribution (e.g. gamma = {{distribution = 'lognormal', ...}})")
     cases: list[dict[str, Any]] = []
-    if swept:
-        names = list(swept)
+    if axes:
         if combine == "zip":
-            lengths = {k: len(v) for k, v in swept.items()}
+            lengths = {k: len(v) for k, v in axes.items()}
             if len(set(lengths.values())) > 1:
                 raise InputError(f"{where}: combine = 'zip' needs lists of equal length, got "
                                  f"{lengths}")
-            combos = zip(*swept.values())
+            combos = zip(*axes.values())
         else:
-            combos = itertools.product(*swept.values())
-        cases = [{**fixed, **dict(zip(names, combo))} for combo in combos]
+            combos = itertools.product(*axes.values())
+        cases = [{**fixed, **{k: v for part in combo for k, v in part.items()}}
+                 for combo in combos]
     elif not explicit:
         cases = [dict(fixed)]
     for k, extra in enumerate(explicit):
@@ -120,6 +137,21 @@ def expand_cases(table: Mapping[str, Any], where: str = "[cases]",
             check_name(name, f"{where} list[{k}]")
         cases.append({**fixed, **extra})
     return cases
+
+
+def distinct_cases(cases: Iterable[Mapping[str, Any]], drop: Iterable[str] = ()
+                   ) -> list[dict[str, Any]]:
+    """The distinct cases after removing the parameters ``drop`` (first occurrence order),
+    e.g. the base cases of a calibration (``drop=("gamma",)``)."""
+    drop = set(drop)
+    seen, out = set(), []
+    for c in cases:
+        base = {k: v for k, v in c.items() if k not in drop}
+        key = case_id(base)
+        if key not in seen:
+            seen.add(key)
+            out.append(base)
+    return out
 
 
 def _canonical(value: Any) -> Any:
@@ -131,11 +163,17 @@ def _canonical(value: Any) -> Any:
     return str(value)
 
 
-def case_id(params: Mapping[str, Any]) -> str:
+def case_id(params: Mapping[str, Any], context: str | None = None) -> str:
     """Stable 16-hex-digit hash of a case's parameters (key order and int/float/bool spelling of
-    the same number do not matter)."""
+    the same number do not matter).
+
+    ``context`` (e.g. the hash of the model, the configuration and the precision a sweep runs
+    with) enters the hash too, so that the same parameters of a different model get another id
+    and stored results of one model are never taken for another's."""
     canon = {str(k): _canonical(v) for k, v in params.items()}
     text = json.dumps(canon, sort_keys=True, separators=(",", ":"))
+    if context is not None:
+        text += "\x00" + str(context)
     return hashlib.sha256(text.encode()).hexdigest()[:16]
 
 

@@ -1,13 +1,17 @@
-"""Run a structural sweep: cases in batches through the batched integrator, one table row each.
+"""Run a structural sweep: cases in chunks through the batched integrator, one table row each.
 
-In-process and chunked: ``batch_size`` cases are integrated together (one
-:class:`~torchrom.sim.CaseSystem`); chunks are independent, so a later scale-out (worker processes
-or Dask) only has to distribute them. Hand-written; pandas for the table.
+A chunk of cases is integrated together (one :class:`~torchrom.sim.CaseSystem`) by a
+:class:`StructuralTask`; :mod:`.runner` splits the cases into chunks, runs them in-process or on
+Dask workers and, given an output folder, stores finished chunks as resumable part files.
+Case ids hash each case's parameters together with the run key (:func:`run_description`).
+Hand-written; pandas for the table.
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -18,6 +22,8 @@ from ..errors import InputError
 from ..rom import NonlinearROM
 from ..sim import CaseSystem
 from .config import SweepConfig
+from .grid import case_id, config_hash
+from .runner import ChunkResult, PartStore, run_cases
 from .table import result_rows
 
 
@@ -67,32 +73,74 @@ def structural_system(rom: NonlinearROM, cases: list[dict[str, Any]], device=Non
                             damping_nl=column("damping_nl", 1.0), device=device, dtype=dtype)
 
 
+@dataclass
+class StructuralTask:
+    """One chunk of a structural sweep (picklable: what a Dask worker receives once).
+
+    Called as ``task(cases, case_ids, progress)`` -> :class:`~torchrom.study.runner.ChunkResult`
+    with one table row per case (see :mod:`torchrom.study.runner`)."""
+
+    cfg: SweepConfig
+    rom: NonlinearROM
+    device: str = "cpu"
+    dtype: torch.dtype = torch.float64
+
+    def __call__(self, cases: list[dict[str, Any]], case_ids: list[str],
+                 progress: Callable[[int, int], None] | None = None) -> ChunkResult:
+        cfg, rom = self.cfg, self.rom
+        system = structural_system(rom, cases, torch.device(self.device), self.dtype)
+        q0 = initial_displacement(rom, cfg.initial, cases)
+        v0 = initial_velocity(rom, cfg.initial, len(cases))
+        res = cfg.integrator.run(system, q0, v0, t_end=cfg.t_end, outputs=cfg.outputs,
+                                 lco=cfg.lco, progress=progress)
+        rows = result_rows(cases, res, config_hash=cfg.hash, span=rom.metadata.get("span"),
+                           case_ids=case_ids)
+        return ChunkResult(rows, res.wall_time_s, res.case_steps)
+
+
+def run_description(cfg: SweepConfig, rom: NonlinearROM, dtype=torch.float64) -> dict[str, str]:
+    """The run key of a sweep (a hash of the configuration without its case grid, the model's
+    tensors, outputs and metadata, and the precision) with its parts: what case ids and stored
+    results depend on. Any change of the model gives new case ids."""
+    info = {"config_hash": cfg.hash,
+            "model_hash": config_hash({"tensors": rom.content_hash(), "metadata": rom.metadata}),
+            "dtype": str(dtype).replace("torch.", "")}
+    return {"run_key": config_hash(info), **info, "title": cfg.title, "config": str(cfg.source)}
+
+
 def run_sweep(cfg: SweepConfig, *, device=None, dtype=torch.float64,
               progress: Callable[[int, int], None] | None = None,
-              rom: NonlinearROM | None = None) -> tuple[pd.DataFrame, dict[str, float]]:
-    """Integrate every case of ``cfg``; returns (table, timing) with timing keys wall_time_s,
-    case_steps and us_per_case_step."""
+              rom: NonlinearROM | None = None, cases: list[dict[str, Any]] | None = None,
+              out=None, force: bool = False, executor=None, chunk_size: int | None = None,
+              log: Callable[[str], None] | None = None) -> tuple[pd.DataFrame, dict[str, float]]:
+    """Integrate every case of ``cfg`` (or ``cases``, e.g. a calibration batch); returns
+    (table, timing) with timing keys wall_time_s (Σ integration time), case_steps,
+    us_per_case_step, elapsed_s, cases, reused, computed and chunks.
+
+    ``out``: folder for resumable part files (:class:`~torchrom.study.runner.PartStore`; a
+    folder of another configuration needs ``force``); ``executor``: from
+    :func:`~torchrom.study.runner.open_executor` (default in-process)."""
     rom = rom or cfg.build_rom()
-    cases = cfg.cases
-    span = rom.metadata.get("span")
-    frames, wall, case_steps, done = [], 0.0, 0, 0
-    for start in range(0, len(cases), cfg.batch_size):
-        chunk = cases[start:start + cfg.batch_size]
-        system = structural_system(rom, chunk, device, dtype)
-        q0 = initial_displacement(rom, cfg.initial, chunk)
-        v0 = initial_velocity(rom, cfg.initial, len(chunk))
+    cases = cfg.cases if cases is None else cases
+    run = run_description(cfg, rom, dtype)
+    ids = [case_id(c, context=run["run_key"]) for c in cases]
+    task = StructuralTask(cfg, rom, str(torch.device(device or "cpu")), dtype)
+    store = PartStore(Path(out), run) if out is not None else None
+    table, stats = run_cases(task, cases, ids, batch_size=cfg.batch_size,
+                             chunk_size=chunk_size or cfg.chunk_size, executor=executor,
+                             store=store, force=force, progress=progress, log=log)
+    return table, stats.as_dict()
 
-        def report(k, total, base=done):
-            if progress is not None:
-                progress(base + k, len(cases))
 
-        res = cfg.integrator.run(system, q0, v0, t_end=cfg.t_end, outputs=cfg.outputs,
-                                 lco=cfg.lco, progress=report)
-        frames.append(result_rows(chunk, res, config_hash=cfg.hash, span=span))
-        wall += res.wall_time_s
-        case_steps += res.case_steps
-        done += len(chunk)
-    table = pd.concat(frames, ignore_index=True)
-    timing = {"wall_time_s": wall, "case_steps": case_steps,
-              "us_per_case_step": 1e6 * wall / max(case_steps, 1)}
-    return table, timing
+def case_evaluator(cfg: SweepConfig, rom: NonlinearROM | None = None, *, device=None,
+                   dtype=torch.float64, executor=None, chunk_size: int | None = None
+                   ) -> Callable[[list[dict[str, Any]]], pd.DataFrame]:
+    """``evaluate(cases) -> table``: the cases simulated with ``cfg``'s model and options, one
+    row each in order (no part files) — what calibration and bifurcation sweeps iterate on."""
+    rom = rom or cfg.build_rom()
+
+    def evaluate(cases: list[dict[str, Any]]) -> pd.DataFrame:
+        return run_sweep(cfg, rom=rom, cases=cases, device=device, dtype=dtype,
+                         executor=executor, chunk_size=chunk_size)[0]
+
+    return evaluate

@@ -34,12 +34,15 @@ PARAMETER_ORDER = ("altitude_ft", "mach", "velocity", "dynamic_pressure", "densi
 
 def result_rows(cases: Sequence[Mapping[str, Any]], result: SimulationResult, *,
                 config_hash: str, span: float | None = None,
-                extra: Sequence[Mapping[str, Any]] | None = None) -> pd.DataFrame:
+                extra: Sequence[Mapping[str, Any]] | None = None,
+                case_ids: Sequence[str] | None = None) -> pd.DataFrame:
     """The table rows of one simulated batch: ``cases[i]`` are the parameters of result case i;
-    ``extra[i]`` adds derived columns (e.g. velocity, density) without entering the case_id."""
+    ``extra[i]`` adds derived columns (e.g. velocity, density) without entering the case_id;
+    ``case_ids`` are the ids to write (default: the hash of each case's parameters alone)."""
     names = result.output_names
     amp = result.amplitude
-    cols: dict[str, Any] = {"case_id": [case_id(c) for c in cases]}
+    ids = list(case_ids) if case_ids is not None else [case_id(c) for c in cases]
+    cols: dict[str, Any] = {"case_id": ids}
     keys = list(dict.fromkeys(k for c in cases for k in c))
     if extra:
         keys += [k for k in dict.fromkeys(k for e in extra for k in e) if k not in keys]

@@ -1,0 +1,482 @@
+"""Chunked, resumable and optionally distributed execution of sweep cases.
+
+Hand-written orchestration; Dask ``distributed`` does the scale-out (LocalCluster, Client,
+futures, as_completed), pandas/pyarrow write the part files, hashlib the checksums.
+
+**Tasks and chunks.** A *task* is a picklable callable ``task(cases, case_ids, progress=None)``
+returning a :class:`ChunkResult` (one table row per case, in order). The cases of a sweep are
+split into chunks (:func:`plan_chunks`); one chunk is one batched integration, the unit of work
+sent to a worker and the unit of storage. The split depends only on the number of cases and on
+``batch_size`` / ``chunk_size`` — never on the number of workers — so an in-process run, a cluster
+run and a resumed run integrate the same batches and give bit-identical numbers. By default
+a sweep gets about :data:`TARGET_CHUNKS` chunks of at least :data:`MIN_CHUNK` cases and at most
+``batch_size``: the batched integrator's cost per case falls steeply up to batches of ~64 and
+slowly after that (sim benchmark, 21 modes, 13 lags: 542, 35 and 29 µs per case-step at B = 1,
+64 and 512), while several chunks keep a few workers busy and keep the work lost to an interrupt
+small. Large clusters want more chunks: set ``[run] chunk_size`` or ``--chunk-size``.
+
+**Executors** (:func:`open_executor`). In-process by default (a plain loop, Dask is not even
+imported; progress is reported within a chunk); ``workers=N`` starts a LocalCluster of N
+single-threaded worker processes (torch intra-op threads = 1 in each: on a CPU one process per
+core beats one process with threads); ``scheduler=ADDR`` uses an existing cluster. The task is
+submitted once as a computed future (not scattered data), so a worker that dies is replaced by
+its nanny and everything it held — the task and the chunk it was integrating — is recomputed
+elsewhere by the scheduler; a finished chunk's future is released as soon as its rows have been
+stored, so finished work is never redone.
+
+**Part files** (:class:`PartStore`). With an output folder, each finished chunk is written at
+once as ``parts/part-<hash>.parquet`` (atomically: temporary file, then rename), followed by
+its sidecar ``part-<hash>.json`` with the SHA-256, size, run key and case ids;
+``parts/manifest.json`` records the run key (a hash of the configuration, the model and the
+precision). A rerun with the same run key reads the valid parts and computes only the missing
+cases. A part whose checksum, size, run key or case ids do not match (truncated, corrupted,
+or left by a crash between the two renames) is moved to ``parts/rejected/`` with a warning and
+its cases are recomputed. Another run key in the same folder is refused unless ``force`` (then
+the old parts are deleted). The final table is always assembled from the part files, in case
+order, so an interrupted-and-resumed sweep gives exactly the table of an uninterrupted one.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import dataclasses
+import hashlib
+import io
+import json
+import math
+import shutil
+import time
+from collections.abc import Callable, Iterator, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Protocol
+
+import pandas as pd
+
+from .._version import __version__
+from ..errors import InputError, TorchromError
+from ..io import atomic_path, write_json_atomic
+
+#: default number of chunks a sweep is split into (when the cases allow it)
+TARGET_CHUNKS = 8
+#: smallest default chunk (the batched integrator is far cheaper per case at B >= 32..64)
+MIN_CHUNK = 32
+PART_FORMAT = "torchrom-parts-1"
+
+Progress = Callable[[int, int], None]
+
+
+@dataclass
+class ChunkResult:
+    """What a task returns for one chunk: the table rows (one per case, in order) and timing."""
+
+    rows: pd.DataFrame
+    wall_time_s: float = 0.0
+    case_steps: int = 0
+
+
+class Task(Protocol):
+    def __call__(self, cases: list[dict[str, Any]], case_ids: list[str],
+                 progress: Progress | None = None) -> ChunkResult: ...
+
+
+# ----------------------------------------------------------------------------------------------
+# chunking
+# ----------------------------------------------------------------------------------------------
+def plan_chunks(n_cases: int, batch_size: int, chunk_size: int | None = None) -> list[range]:
+    """Split case indices 0..n_cases-1 into contiguous chunks of nearly equal size.
+
+    ``chunk_size`` given: chunks of that many cases (the last one shorter). Otherwise
+    max(ceil(n / batch_size), min(TARGET_CHUNKS, ceil(n / MIN_CHUNK))) chunks whose sizes
+    differ by at most one (see the module docstring)."""
+    if n_cases <= 0:
+        return []
+    if chunk_size is not None:
+        if chunk_size < 1:
+            raise InputError(f"chunk_size: expected a positive integer, got {chunk_size}")
+        return [range(a, min(a + chunk_size, n_cases)) for a in range(0, n_cases, chunk_size)]
+    count = max(math.ceil(n_cases / batch_size),
+                min(TARGET_CHUNKS, math.ceil(n_cases / MIN_CHUNK)))
+    base, extra = divmod(n_cases, count)
+    chunks, start = [], 0
+    for k in range(count):
+        size = base + (1 if k < extra else 0)
+        chunks.append(range(start, start + size))
+        start += size
+    return chunks
+
+
+def chunk_key(case_ids: Sequence[str]) -> str:
+    """Name of a chunk's part file: a hash of its case ids (16 hex digits)."""
+    return hashlib.sha256("\n".join(case_ids).encode()).hexdigest()[:16]
+
+
+# ----------------------------------------------------------------------------------------------
+# part files
+# ----------------------------------------------------------------------------------------------
+def _sha256(data: bytes) -> str:
+    return hashlib.sha256(data).hexdigest()
+
+
+@dataclass
+class PartStore:
+    """The part files of one sweep in ``folder/parts`` (see the module docstring).
+
+    ``run`` describes the run: ``run_key`` (required; what case ids and stored results depend
+    on) plus descriptive entries (config_hash, model_hash, dtype, title, config) that name
+    what changed when a folder is reused with another run key.
+    """
+
+    folder: Path
+    run: dict[str, str]
+    warn: Callable[[str], None] = print
+    _opened: bool = field(default=False, init=False, repr=False)
+
+    @property
+    def parts(self) -> Path:
+        return Path(self.folder) / "parts"
+
+    @property
+    def manifest_path(self) -> Path:
+        return self.parts / "manifest.json"
+
+    @property
+    def run_key(self) -> str:
+        return self.run["run_key"]
+
+    def previous_run(self) -> dict[str, Any] | None:
+        """The manifest of the results already in the folder (None when there are none)."""
+        if not self.manifest_path.exists():
+            return None
+        try:
+            return json.loads(self.manifest_path.read_text())
+        except (json.JSONDecodeError, UnicodeDecodeError):
+            return {"run_key": "unreadable manifest"}
+
+    def check(self, force: bool = False) -> bool:
+        """True when the folder holds results of this very run (resumable), False when it holds
+        none, or those of another run with ``force``; InputError naming what changed when it
+        holds another run's results and ``force`` is not set."""
+        old = self.previous_run()
+        if old is None:
+            return False
+        if old.get("run_key") == self.run_key:
+            return True
+        if not force:
+            raise InputError(
+                f"{self.folder}: holds sweep results of a different configuration "
+                f"({self._changed(old)}: run key {old.get('run_key')} -> {self.run_key}); pass "
+                f"--force to discard them or choose another output folder")
+        return False
+
+    def _changed(self, old: dict[str, Any]) -> str:
+        changed = [k for k in ("model_hash", "config_hash", "dtype")
+                   if k in old and old.get(k) != self.run.get(k)]
+        return (", ".join(k.replace("_hash", "") for k in changed) or "run key") + " changed"
+
+    def open(self, force: bool = False) -> None:
+        """Check the folder (:meth:`check`), then write the manifest; with ``force``, the part
+        files of another run are deleted first."""
+        old = self.previous_run()
+        if not self.check(force) and old is not None:
+            removed = 0
+            for p in list(self.parts.glob("part-*")):
+                p.unlink()
+                removed += 1
+            self.warn(f"--force: removed {removed} part files of a previous configuration "
+                      f"({self._changed(old)}) from {self.parts}")
+        self.parts.mkdir(parents=True, exist_ok=True)
+        write_json_atomic(self.manifest_path, {"format": PART_FORMAT, **self.run,
+                                               "version": __version__})
+        self._opened = True
+
+    def write(self, rows: pd.DataFrame) -> Path:
+        """Store one finished chunk (rows with a ``case_id`` column): parquet, then sidecar."""
+        if not self._opened:
+            raise RuntimeError("PartStore.write before open()")
+        ids = [str(c) for c in rows["case_id"]]
+        name = f"part-{chunk_key(ids)}"
+        buf = io.BytesIO()
+        rows.to_parquet(buf, index=False)
+        data = buf.getvalue()
+        path = self.parts / f"{name}.parquet"
+        with atomic_path(path) as tmp:
+            tmp.write_bytes(data)
+        write_json_atomic(self.parts / f"{name}.json",
+                          {"format": PART_FORMAT, "run_key": self.run_key, "sha256": _sha256(data),
+                           "bytes": len(data), "rows": len(ids), "case_ids": ids})
+        return path
+
+    def _check(self, sidecar: Path) -> tuple[pd.DataFrame | None, str]:
+        """(rows, "") for a valid part, (None, reason) otherwise."""
+        try:
+            meta = json.loads(sidecar.read_text())
+        except (json.JSONDecodeError, UnicodeDecodeError, OSError):
+            return None, "unreadable sidecar"
+        part = sidecar.with_suffix(".parquet")
+        if not part.exists():
+            return None, "part file missing"
+        if meta.get("run_key") != self.run_key:
+            return None, f"written for run key {meta.get('run_key')}"
+        data = part.read_bytes()
+        if len(data) != meta.get("bytes") or _sha256(data) != meta.get("sha256"):
+            return None, (f"checksum mismatch ({len(data)} bytes, expected {meta.get('bytes')}): "
+                          f"truncated or corrupted")
+        try:
+            rows = pd.read_parquet(io.BytesIO(data))
+        except Exception as exc:  # noqa: BLE001 - any reader failure means a bad part
+            return None, f"unreadable parquet ({type(exc).__name__})"
+        if "case_id" not in rows or [str(c) for c in rows["case_id"]] != meta.get("case_ids"):
+            return None, "case ids do not match its sidecar"
+        return rows, ""
+
+    def _reject(self, path: Path, reason: str) -> None:
+        dest = self.parts / "rejected"
+        dest.mkdir(exist_ok=True)
+        stamp = time.strftime("%Y%m%dT%H%M%S")
+        for p in (path.with_suffix(".parquet"), path.with_suffix(".json")):
+            if p.exists():
+                shutil.move(str(p), dest / f"{p.name}.{stamp}")
+        self.warn(f"warning: {path.with_suffix('.parquet')}: {reason}; moved to {dest}, its "
+                  f"cases will be recomputed")
+
+    def load(self) -> pd.DataFrame | None:
+        """The rows of every valid part (None when there are none); bad parts are rejected."""
+        if not self.parts.is_dir():
+            return None
+        frames = []
+        sidecars = sorted(self.parts.glob("part-*.json"))
+        for sidecar in sidecars:
+            rows, reason = self._check(sidecar)
+            if rows is None:
+                self._reject(sidecar, reason)
+            else:
+                frames.append(rows)
+        covered = {s.with_suffix(".parquet") for s in sidecars}
+        for orphan in sorted(self.parts.glob("part-*.parquet")):
+            if orphan not in covered:
+                self._reject(orphan, "no sidecar (interrupted while being written)")
+        if not frames:
+            return None
+        return pd.concat(frames, ignore_index=True)
+
+
+# ----------------------------------------------------------------------------------------------
+# executors
+# ----------------------------------------------------------------------------------------------
+def _identity(x):
+    return x
+
+
+def _run_chunk_on_worker(task: Task, cases, case_ids) -> ChunkResult:
+    """Dask entry point: one intra-op torch thread per concurrently running chunk."""
+    import torch
+
+    if torch.get_num_threads() != 1:
+        torch.set_num_threads(1)
+    return task(cases, case_ids)
+
+
+class InProcessExecutor:
+    """Run chunks one after another in this process (progress within each chunk)."""
+
+    description = "in-process"
+
+    def run(self, task: Task, chunks: list[tuple[list[dict], list[str]]],
+            progress: Progress | None = None) -> Iterator[tuple[int, ChunkResult]]:
+        done, total = 0, sum(len(c) for c, _ in chunks)
+        for k, (cases, ids) in enumerate(chunks):
+            def inner(i, _n, base=done):
+                if progress is not None:
+                    progress(base + i, total)
+
+            yield k, task(cases, ids, inner)
+            done += len(cases)
+
+
+class DaskExecutor:
+    """Run chunks as futures on a Dask cluster and yield them as they complete."""
+
+    def __init__(self, client, description: str):
+        self.client = client
+        self.description = description
+
+    def run(self, task: Task, chunks: list[tuple[list[dict], list[str]]],
+            progress: Progress | None = None) -> Iterator[tuple[int, ChunkResult]]:
+        from distributed import as_completed
+
+        client = self.client
+        # a computed future (not scattered data): if the worker holding it dies, the scheduler
+        # recomputes it from its recipe instead of losing it
+        task_future = client.submit(_identity, task, pure=False)
+        futures = {client.submit(_run_chunk_on_worker, task_future, cases, ids, pure=False,
+                                 key=f"torchrom-chunk-{k}-{chunk_key(ids)}"): k
+                   for k, (cases, ids) in enumerate(chunks)}
+        done, total = 0, sum(len(c) for c, _ in chunks)
+        try:
+            for fut in as_completed(list(futures)):
+                k = futures.pop(fut)
+                try:
+                    result = fut.result()
+                except Exception as exc:
+                    raise TorchromError(f"chunk {k} ({len(chunks[k][0])} cases) failed on the "
+                                        f"cluster: {type(exc).__name__}: {exc}") from exc
+                fut.release()  # done: never recomputed if its worker dies later
+                done += len(chunks[k][0])
+                yield k, result
+                if progress is not None:
+                    progress(done, total)
+        finally:
+            for fut in futures:
+                fut.cancel()
+            task_future.cancel()
+
+
+@contextlib.contextmanager
+def open_executor(workers: int | None = None, scheduler: str | None = None
+                  ) -> Iterator[InProcessExecutor | DaskExecutor]:
+    """In-process (default), a LocalCluster of ``workers`` processes, or the cluster at
+    ``scheduler``; the cluster and client are closed on exit (also on Ctrl-C)."""
+    if workers is not None and scheduler is not None:
+        raise InputError("--workers and --scheduler: give at most one of them")
+    if workers is None and scheduler is None:
+        yield InProcessExecutor()
+        return
+    if workers is not None and workers < 1:
+        raise InputError(f"--workers: expected a positive number of worker processes, got "
+                         f"{workers}")
+    import logging
+
+    from distributed import Client, LocalCluster
+
+    if scheduler is not None:
+        try:
+            client = Client(scheduler, timeout="20s")
+        except (OSError, TimeoutError) as exc:
+            raise InputError(f"--scheduler: cannot connect to {scheduler!r} ({exc})") from None
+        with client:
+            yield DaskExecutor(client, f"Dask cluster at {scheduler}")
+        return
+    # one single-threaded worker process per core; the nanny's pre-spawn environment sets
+    # OMP/MKL_NUM_THREADS = 1, and each chunk also sets torch's intra-op threads to 1
+    with _sigint_ignored_in_children():
+        cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
+                               dashboard_address=None, silence_logs=logging.ERROR)
+    with cluster, Client(cluster) as client:
+        yield DaskExecutor(client, f"local Dask cluster of {workers} worker process"
+                                   f"{'es' if workers > 1 else ''}")
+
+
+@contextlib.contextmanager
+def _sigint_ignored_in_children() -> Iterator[None]:
+    """Start worker processes with SIGINT ignored (an ignored signal stays ignored across exec,
+    and Python then installs no KeyboardInterrupt handler): a Ctrl-C in the terminal reaches the
+    whole process group, and only this process should react — by closing the cluster in order —
+    instead of every worker printing a traceback."""
+    import signal
+    import threading
+
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, previous)
+
+
+# ----------------------------------------------------------------------------------------------
+# running
+# ----------------------------------------------------------------------------------------------
+@dataclass
+class RunStats:
+    """What a run did: cases reused from part files / computed now, and timings."""
+
+    cases: int = 0
+    reused: int = 0
+    computed: int = 0
+    chunks: int = 0
+    wall_time_s: float = 0.0  # Σ of the chunks' integration times
+    case_steps: int = 0
+    elapsed_s: float = 0.0  # wall-clock time of the whole run
+
+    def as_dict(self) -> dict[str, float]:
+        return {**dataclasses.asdict(self),
+                "us_per_case_step": 1e6 * self.wall_time_s / max(self.case_steps, 1)}
+
+
+def _ordered(table: pd.DataFrame, case_ids: Sequence[str], warn) -> pd.DataFrame:
+    """The rows of ``case_ids`` in that order, each exactly once."""
+    dup = table["case_id"].duplicated(keep="first")
+    if dup.any():
+        warn(f"warning: {int(dup.sum())} cases were stored twice; keeping the first copy")
+        table = table[~dup]
+    indexed = table.set_index("case_id", drop=False)
+    missing = [c for c in case_ids if c not in indexed.index]
+    if missing:
+        raise TorchromError(f"{len(missing)} of {len(case_ids)} cases have no result (e.g. "
+                            f"{missing[0]})")
+    return indexed.loc[list(case_ids)].reset_index(drop=True)
+
+
+def run_cases(task: Task, cases: Sequence[dict[str, Any]], case_ids: Sequence[str], *,
+              batch_size: int = 512, chunk_size: int | None = None,
+              executor: InProcessExecutor | DaskExecutor | None = None,
+              store: PartStore | None = None, force: bool = False,
+              progress: Progress | None = None,
+              log: Callable[[str], None] | None = None) -> tuple[pd.DataFrame, RunStats]:
+    """Evaluate ``task`` on every case (see the module docstring); returns (table, stats).
+
+    With ``store``, finished chunks go to part files as they complete, cases already stored
+    for the same run key are skipped, and the table is assembled from the part files."""
+    t0 = time.perf_counter()
+    log = log or (lambda _msg: None)
+    cases = list(cases)
+    case_ids = [str(c) for c in case_ids]
+    if len(set(case_ids)) != len(case_ids):
+        raise InputError("cases: two cases have the same parameters (duplicate case ids)")
+    executor = executor or InProcessExecutor()
+    stats = RunStats(cases=len(cases))
+    done_ids: set[str] = set()
+    if store is not None:
+        store.warn = log
+        store.open(force=force)
+        previous = store.load()
+        if previous is not None:
+            done_ids = set(previous["case_id"]) & set(case_ids)
+    stats.reused = len(done_ids)
+    todo = []
+    for rng in plan_chunks(len(cases), batch_size, chunk_size):
+        idx = [i for i in rng if case_ids[i] not in done_ids]
+        if idx:
+            todo.append(([cases[i] for i in idx], [case_ids[i] for i in idx]))
+    if stats.reused:
+        log(f"resuming: {stats.reused} of {len(cases)} cases already in {store.parts}; "
+            f"computing {len(cases) - stats.reused} in {len(todo)} chunks")
+    frames = []
+
+    def report(k: int, total: int) -> None:
+        if progress is not None:
+            progress(stats.reused + k, len(cases))
+
+    report(0, 0)
+    for _k, result in executor.run(task, todo, report):
+        rows = result.rows
+        if store is not None:
+            store.write(rows)
+        else:
+            frames.append(rows)
+        stats.computed += len(rows)
+        stats.chunks += 1
+        stats.wall_time_s += result.wall_time_s
+        stats.case_steps += result.case_steps
+    if store is not None:
+        table = store.load()
+    else:
+        table = pd.concat(frames, ignore_index=True) if frames else None
+    if table is None:
+        raise TorchromError("no results")
+    table = _ordered(table, case_ids, log)
+    stats.elapsed_s = time.perf_counter() - t0
+    return table, stats
