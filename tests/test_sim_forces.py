@@ -7,7 +7,12 @@ import torch
 
 from torchrom.rom import NonlinearROM
 from torchrom.rom.analytic import van_der_pol_duffing
-from torchrom.sim.forces import BLOCKED_MIN_N, SYMMETRIC_MIN_N, NonlinearForces
+from torchrom.sim.forces import (
+    BLOCKED_MIN_BATCH,
+    BLOCKED_MIN_N,
+    SYMMETRIC_MIN_N,
+    NonlinearForces,
+)
 
 from .rom_fixtures import random_gram_model
 
@@ -27,13 +32,16 @@ def _random_states(n, B=11, seed=3, dtype=torch.float64):
     return q, v, s, gam
 
 
+@pytest.mark.parametrize("batch", [11, BLOCKED_MIN_BATCH], ids=["gathered", "blocked"])
 @pytest.mark.parametrize("n", [1, 2, SYMMETRIC_MIN_N, BLOCKED_MIN_N, 11])
-def test_kelvin_voigt_rom_forces(n):
+def test_kelvin_voigt_rom_forces(n, batch):
+    """Both cubic-stiffness paths (gathered monomials for small batches, block GEMMs from
+    BLOCKED_MIN_BATCH cases on for n >= BLOCKED_MIN_N) against the einsum reference."""
     rom, _, _ = random_gram_model(n, seed=n)
     forces = NonlinearForces(rom)
     assert forces.blocked == (n >= BLOCKED_MIN_N)
     assert forces.symmetric_damping  # Kelvin–Voigt: the damping matrix is a Hessian
-    q, v, s, g = _random_states(n)
+    q, v, s, g = _random_states(n, B=batch)
     got = forces(q, v, s[None], g[None])
     ref = _nonlinear_reference(rom, q, v, s, g)
     # two summation orders of the same polynomial: agreement to rounding of the force scale
@@ -82,3 +90,28 @@ def test_float32_kernel():
     assert got.dtype == torch.float32
     # float32 rounding of sums of ~2000 monomial terms: 1e-5 of the force scale
     assert torch.allclose(got.double(), ref, rtol=0, atol=1e-5 * ref.abs().max())
+
+
+@pytest.mark.parametrize("n,nonsymmetric", [(3, False), (BLOCKED_MIN_N + 1, False),
+                                            (BLOCKED_MIN_N, True)])
+def test_jacobian_rows_against_rom_tangents(n, nonsymmetric):
+    """The Jacobian pieces of the refreshed iteration matrix: the nonlinear tangent stiffness
+    (at q̇ = 0, ∂f/∂q of NonlinearROM.tangents minus K1) and the nonlinear damping matrix
+    (∂f/∂q̇ at γ = 1 minus D̄1), in the per-case product layout A[k, m] = matrix[m, k]."""
+    rom, _, _ = random_gram_model(n, seed=5)
+    if nonsymmetric:
+        g = torch.Generator().manual_seed(2)
+        rom = rom.replace(D2=torch.randn(n, n, n, generator=g, dtype=torch.float64))
+    forces = NonlinearForces(rom)
+    q, v, s, gam = _random_states(n)
+    f, K, D = forces.evaluate_T(q.T.contiguous(), v.T.contiguous(), s[None], gam[None],
+                                jacobian=True)
+    assert torch.allclose(f.T, forces(q, v, s[None], gam[None]), rtol=0, atol=1e-14 * f.abs().max())
+    ones = torch.ones(len(q), dtype=torch.float64)
+    Kt, _ = rom.tangents(q, torch.zeros_like(v), 0.0, ones)
+    _, Ct = rom.tangents(q, v, 0.0, ones)
+    Kref = Kt - rom.K1
+    Dref = Ct - rom.D1
+    # Gram-form ROMs are conservative: the tangent is symmetric and the symmetric part exact
+    assert torch.allclose(K.permute(2, 1, 0), Kref, rtol=0, atol=1e-12 * Kref.abs().max())
+    assert torch.allclose(D.permute(2, 1, 0), Dref, rtol=0, atol=1e-12 * Dref.abs().max())

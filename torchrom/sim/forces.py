@@ -9,15 +9,21 @@ nonlinearity flag). The coefficients are the ROM's combined monomial coefficient
 :mod:`torchrom.rom.conventions`), reordered so that the work is a few dense GEMMs with a shared
 coefficient matrix and no large temporaries:
 
-- monomials are kept *feature-major* (rows = monomials, columns = cases), so every gather copies
-  contiguous rows of B values;
+- everything is *feature-major* (rows = monomials or coordinates, columns = cases), the layout
+  of the integrator's state, so every gather copies contiguous rows of B values and every GEMM
+  has the batch as its long dimension;
 - quadratic monomials m2 = q_i q_j (i ≤ j) are stored in co-lexicographic order (by j, then i),
   so the pairs with j ≤ k are a prefix of m2 and the cubic force is
-  Σ_k q_k ⊙ (K̃3_[:, (·,·,k)] m2[:N_k]) — the 1771 cubic monomials of a 21-mode ROM are never
-  written to memory;
-- the nonlinear damping matrix D̄2(q) + D̄3(q,q) (Eq. 32) is one GEMM of its coefficients with
-  [q; m2]; when it is symmetric for every q (always for Kelvin–Voigt damping, where it is the
-  Hessian of the dissipation function) only its upper triangle is computed (half the work).
+  Σ_k q_k ⊙ (K̃3_[:, (·,·,k)] m2[:N_k]); for large batches the 1771 cubic monomials of a 21-mode
+  ROM are never written to memory (21 GEMMs on prefixes of m2), for small batches they are
+  gathered and one GEMM does the work (fewer kernel launches, which dominate there);
+- the nonlinear damping matrix D̄2(q) + D̄3(q,q) (Eq. 32) and the quadratic stiffness force come
+  out of ONE GEMM of their stacked coefficients with x = [q; m2]; when the damping matrix is
+  symmetric for every q (always for Kelvin–Voigt damping, where it is the Hessian of the
+  dissipation function) only its upper triangle is computed (half the work);
+- on request the same GEMM also gives the nonlinear tangent stiffness 2K2(q,·) + 3K3(q,q,·)
+  (upper triangle of its symmetric part; exact for a conservative ROM), which with the damping
+  matrix forms the Jacobian the integrator's iteration matrix is refreshed with.
 
 Nothing mixes cases: every operation is a GEMM with a shared coefficient matrix or an elementwise
 / per-column operation, so a NaN in one case never reaches another.
@@ -36,6 +42,14 @@ Tensor = torch.Tensor
 
 #: relative asymmetry below which the nonlinear damping matrix is treated as symmetric
 DAMPING_SYMMETRY_RTOL = 1e-12
+#: from this many modes on the cubic stiffness of large batches runs block-wise without
+#: materialising the cubic monomials (fewer bytes moved)
+BLOCKED_MIN_N = 8
+#: ... and from this batch size on (below it, gathering the cubic monomials and one GEMM costs
+#: fewer kernel launches than the n block GEMMs; measured crossover 64–512 cases for n = 21)
+BLOCKED_MIN_BATCH = 128
+#: from this many modes on only the upper triangle of the symmetric damping matrix is computed
+SYMMETRIC_MIN_N = 6
 
 
 def colex_pairs(n: int) -> np.ndarray:
@@ -43,11 +57,13 @@ def colex_pairs(n: int) -> np.ndarray:
     return np.array([(i, j) for j in range(n) for i in range(j + 1)], dtype=np.int64).reshape(-1, 2)
 
 
-#: from this many modes on the cubic stiffness runs block-wise without materialising the cubic
-#: monomials (fewer bytes moved); below it one GEMM over all monomials (fewer kernel launches)
-BLOCKED_MIN_N = 8
-#: from this many modes on only the upper triangle of the symmetric damping matrix is computed
-SYMMETRIC_MIN_N = 6
+def _full_of_upper(pairs: np.ndarray) -> np.ndarray:
+    """(n, n) index of the upper-triangle entry (row of ``pairs``) holding each entry of a
+    symmetric matrix."""
+    n = int(pairs.max()) + 1
+    full_of = np.empty((n, n), dtype=np.int64)
+    full_of[pairs[:, 0], pairs[:, 1]] = full_of[pairs[:, 1], pairs[:, 0]] = np.arange(len(pairs))
+    return full_of
 
 
 class NonlinearForces:
@@ -64,43 +80,42 @@ class NonlinearForces:
                  stiffness: bool = True, damping: bool = True):
         n = rom.n
         self.n = n
-        self.n_pairs = n * (n + 1) // 2
+        self.n_pairs = N2 = n * (n + 1) // 2
         lex = monomial_index(n)
         cp = colex_pairs(n)
         lex_of_colex = lex.pair_id[cp[:, 0], cp[:, 1]]
         compact = compact_from_symmetric(rom.K2, rom.K3, rom.D3)
         kw = {"device": device, "dtype": dtype}
+        ikw = {"device": device, "dtype": torch.long}
         self.blocked = n >= BLOCKED_MIN_N
+        self.pair_i = torch.as_tensor(cp[:, 0], **ikw)
+        self.pair_j = torch.as_tensor(cp[:, 1], **ikw)
 
         # stiffness: quadratic coefficients per colex pair, cubic ones per k block (the cubic
         # monomials (i, j, k), i ≤ j ≤ k, ordered by k, then (i, j) colex)
         K2c = compact["K2c"][:, lex_of_colex]  # (n, N2)
         K3c = compact["K3c"]  # (n, N3) lex
-        triple_id = np.full((n, n, n), -1, dtype=np.int64)
-        triple_id[lex.triples[:, 0], lex.triples[:, 1], lex.triples[:, 2]] = np.arange(
-            lex.n_triples)
-        block_ids = [triple_id[cp[:(k + 1) * (k + 2) // 2, 0], cp[:(k + 1) * (k + 2) // 2, 1], k]
-                     for k in range(n)]
         self.has_k2 = bool(stiffness and K2c.abs().max() > 0)
         self.has_k3 = bool(stiffness and K3c.abs().max() > 0)
         self.has_stiffness = self.has_k2 or self.has_k3
-        # feature rows: q (n), m2 (N2, colex) and, unless blocked, m3 (N3, k blocks); each row is
-        # the product qa[a] qa[b] qa[c] of three rows of [q; 1]
-        one = n
-        rows = [(i, one, one) for i in range(n)] + [(i, j, one) for i, j in cp]
-        if self.blocked:
-            self.K2 = K2c.to(**kw).contiguous()
-            # a block with no coefficient costs nothing (sparse ROMs)
-            self.K3_blocks = [K3c[:, ids].to(**kw).contiguous()
-                              if self.has_k3 and K3c[:, ids].abs().max() > 0 else None
-                              for ids in block_ids]
-        else:
-            order = np.concatenate(block_ids)
-            rows += [(i, j, k) for k in range(n) for i, j in cp[:(k + 1) * (k + 2) // 2]]
-            self.K23 = torch.cat([K2c, K3c[:, order]], dim=1).to(**kw).contiguous()
-        rows = np.array(rows, dtype=np.int64)
-        self.row_a, self.row_b, self.row_c = (torch.as_tensor(rows[:, i], device=device)
-                                              for i in range(3))
+        triple_id = np.full((n, n, n), -1, dtype=np.int64)
+        triple_id[lex.triples[:, 0], lex.triples[:, 1], lex.triples[:, 2]] = np.arange(
+            lex.n_triples)
+        # a block with no coefficient costs nothing (sparse ROMs)
+        blocks = []
+        for k in range(n):
+            Nk = (k + 1) * (k + 2) // 2
+            coef = K3c[:, triple_id[cp[:Nk, 0], cp[:Nk, 1], k]]
+            if self.has_k3 and coef.abs().max() > 0:
+                blocks.append((k, coef))
+        self.K3_blocks = [(k, c.to(**kw).contiguous()) for k, c in blocks]
+        # the same coefficients for gathered cubic monomials m3 = m2[prefix of block k] * q_k
+        self.K3_gathered = (torch.cat([c for _, c in blocks], dim=1).to(**kw).contiguous()
+                            if blocks else None)
+        self.m3_pair = torch.as_tensor(np.concatenate(
+            [np.arange(c.shape[1]) for _, c in blocks] or [np.zeros(0, np.int64)]), **ikw)
+        self.m3_k = torch.as_tensor(np.concatenate(
+            [np.full(c.shape[1], k) for k, c in blocks] or [np.zeros(0, np.int64)]), **ikw)
 
         # damping matrix coefficients: D_nl(q)[m, p] = Σ_r x_r C[r, (m, p)], x = [q; m2(colex)]
         D2 = rom.D2  # (m, l, p): D2_mlp q_l q̇_p
@@ -112,56 +127,90 @@ class NonlinearForces:
         self.symmetric_damping = asym <= DAMPING_SYMMETRY_RTOL * scale
         if self.symmetric_damping and n >= SYMMETRIC_MIN_N:
             coef = 0.5 * (coef + coef.transpose(1, 2))
-            upper = coef[:, cp[:, 0], cp[:, 1]]  # (n + N2, N2): entries (i ≤ j)
-            self.D = upper.T.to(**kw).contiguous()  # (N2, n + N2)
-            full_of = np.empty((n, n), dtype=np.int64)
-            for P, (i, j) in enumerate(cp):
-                full_of[i, j] = full_of[j, i] = P
-            self.expand = torch.as_tensor(full_of.reshape(-1), device=device)
+            D = coef[:, cp[:, 0], cp[:, 1]].T  # (N2, n + N2): entries (i ≤ j)
+            self.expand = torch.as_tensor(_full_of_upper(cp).reshape(-1), device=device)
         else:
-            self.D = coef.reshape(coef.shape[0], n * n).T.to(**kw).contiguous()  # (n², n + N2)
+            # rows (p, m), p major: the product with q̇ then sums over the leading dimension
+            D = coef.transpose(1, 2).reshape(coef.shape[0], n * n).T  # (n², n + N2)
             self.expand = None
+        self.upper_expand = torch.as_tensor(_full_of_upper(cp).reshape(-1), device=device)
+        # one GEMM for the damping matrix entries and the quadratic stiffness force
+        rows = []
+        self.n_damping_rows = D.shape[0] if self.has_damping else 0
+        if self.has_damping:
+            rows.append(D)
+        if self.has_k2:
+            rows.append(torch.cat([K2c.new_zeros(n, n), K2c], dim=1))
+        self.W = torch.cat(rows).to(**kw).contiguous() if rows else None
+        self.n_x = n + N2
+        # ... and, for the Jacobian, the tangent stiffness rows after them: T[(m, j), x_r] with
+        # 2 K2_mjl for x_r = q_l and 3 K3_mjlp·(orderings of l ≤ p) for x_r = q_l q_p
+        self.W_jacobian = None
+        if self.has_stiffness:
+            mult = torch.as_tensor(np.where(cp[:, 0] == cp[:, 1], 1.0, 2.0), dtype=rom.K3.dtype)
+            T = torch.cat([2.0 * rom.K2.permute(2, 0, 1),
+                           3.0 * (rom.K3[:, :, cp[:, 0], cp[:, 1]] * mult).permute(2, 0, 1)])
+            T = 0.5 * (T + T.transpose(1, 2))
+            rows.append(T[:, cp[:, 0], cp[:, 1]].T)  # (N2, n + N2): entries (i ≤ j)
+            self.W_jacobian = torch.cat(rows).to(**kw).contiguous()
 
     @property
     def active(self) -> bool:
         return self.has_stiffness or self.has_damping
 
-    def features(self, q: Tensor) -> Tensor:
-        """Monomial rows, feature-major: [q; m2] (blocked) or [q; m2; m3], (rows, B)."""
-        qa = torch.cat([q.T, q.new_ones(1, q.shape[0])], dim=0)
-        return (qa.index_select(0, self.row_a) * qa.index_select(0, self.row_b)).mul_(
-            qa.index_select(0, self.row_c))
+    def features_T(self, qT: Tensor) -> Tensor:
+        """x = [q; m2(colex)], feature-major (n + N2, B), from q feature-major (n, B)."""
+        m2 = qT.index_select(0, self.pair_i).mul_(qT.index_select(0, self.pair_j))
+        return torch.cat([qT, m2])
 
-    def stiffness_T(self, X: Tensor) -> Tensor:
-        """K2(q,q) + K3(q,q,q), feature-major (n, B), from the features X."""
-        n = self.n
-        if not self.blocked:
-            return self.K23 @ X[n:]
-        m2 = X[n:]
-        f = self.K2 @ m2 if self.has_k2 else None
-        for k, blk in enumerate(self.K3_blocks):
-            if blk is not None:
+    def cubic_T(self, qT: Tensor, m2: Tensor, out: Tensor | None) -> Tensor | None:
+        """K3(q,q,q) added to ``out`` (n, B) (None: a new tensor, or None without cubic terms)."""
+        if not self.K3_blocks:
+            return out
+        if self.blocked and qT.shape[1] >= BLOCKED_MIN_BATCH:
+            for k, blk in self.K3_blocks:
                 part = blk @ m2[: blk.shape[1]]
-                f = part.mul_(X[k]) if f is None else f.addcmul_(part, X[k])
-        return f if f is not None else X.new_zeros(n, X.shape[1])
+                out = part.mul_(qT[k]) if out is None else out.addcmul_(part, qT[k])
+            return out
+        m3 = m2.index_select(0, self.m3_pair).mul_(qT.index_select(0, self.m3_k))
+        part = self.K3_gathered @ m3
+        return part if out is None else out.add_(part)
 
-    def damping_matrix_T(self, X: Tensor) -> Tensor:
-        """D̄2(q) + D̄3(q,q) per case, feature-major (n, n, B) (the nonlinear part of Eq. 32)."""
-        U = self.D @ X[: self.n + self.n_pairs]
-        if self.expand is not None:
-            U = U.index_select(0, self.expand)
-        return U.view(self.n, self.n, X.shape[1])
+    def evaluate_T(self, qT: Tensor, vT: Tensor, s: Tensor | None, g: Tensor | None,
+                   jacobian: bool = False):
+        """f_nl feature-major (n, B) for q, q̇ feature-major (n, B) and per-case scales s, g
+        (1, B) (None: that term unused).
+
+        With ``jacobian``: (f_nl, K, D) where K = 2K2(q,·) + 3K3(q,q,·) (symmetric part) and
+        D = D̄2(q) + D̄3(q,q), unscaled, each (n, n, B) laid out for a per-case product
+        Σ_k A[k] x[k] (entry [k, m] = matrix[m, k]), or None where that term is unused."""
+        n, B = self.n, qT.shape[1]
+        X = self.features_T(qT)
+        W = self.W_jacobian if jacobian and self.W_jacobian is not None else self.W
+        U = W @ X if W is not None else None
+        f = Dm = fK = None
+        if self.has_damping and g is not None:
+            Dm = U[: self.n_damping_rows]
+            if self.expand is not None:
+                Dm = Dm.index_select(0, self.expand)
+            # Σ_p D[p, m] q̇_p over the leading dimension (rows (p, m)): streams Dm once
+            Dm = Dm.view(n, n, B)
+            f = (Dm * vT.unsqueeze(1)).sum(0).mul_(g)
+        if self.has_stiffness and s is not None:
+            if self.has_k2:
+                fK = U[self.n_damping_rows: self.n_damping_rows + n]
+            fK = self.cubic_T(qT, X[n:], fK)
+            f = fK.mul_(s) if f is None else f.addcmul_(fK, s)
+        f = f if f is not None else torch.zeros_like(qT)
+        if not jacobian:
+            return f
+        Kt = None
+        if self.W_jacobian is not None and s is not None:
+            Kt = U[-self.n_pairs:].index_select(0, self.upper_expand).view(n, n, B)
+        return f, Kt, Dm
 
     def __call__(self, q: Tensor, v: Tensor, s: Tensor | None, g: Tensor | None) -> Tensor:
         """f_nl (B, n) for states q, q̇ (B, n) and per-case scales s, g (1, B) (None: unused).
 
-        The result may be a transposed view (feature-major storage)."""
-        X = self.features(q)
-        f = None
-        if self.has_damping and g is not None:
-            D = self.damping_matrix_T(X)
-            f = (D * v.T.unsqueeze(0)).sum(1).mul_(g)
-        if self.has_stiffness and s is not None:
-            fK = self.stiffness_T(X)
-            f = fK.mul_(s) if f is None else f.addcmul_(fK, s)
-        return f.T if f is not None else torch.zeros_like(q)
+        The result may be a transposed view (the kernel works feature-major)."""
+        return self.evaluate_T(q.T.contiguous(), v.T.contiguous(), s, g).T

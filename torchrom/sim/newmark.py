@@ -111,10 +111,21 @@ def _mv(A: Tensor, x: Tensor) -> Tensor:
     return torch.linalg.vecdot(A, x.unsqueeze(-2))
 
 
-def _scales(m: dict) -> tuple[Tensor | None, Tensor | None]:
-    """The per-case nonlinearity scales as (1, B) rows (the force kernel works feature-major)."""
-    s, g = m.get("s"), m.get("g")
-    return (None if s is None else s.unsqueeze(0)), (None if g is None else g.unsqueeze(0))
+def _refreshed_inverse(S: Tensor, K: Tensor | None, D: Tensor | None, s: Tensor | None,
+                       g: Tensor | None, bdt2: float, gdt: float, Z: Tensor) -> Tensor:
+    """(S + J)⁻¹ per case, J = β dt² s K + γ dt g D the Jacobian of the (scaled) nonlinear force
+    at the predicted state without ∂(D q̇)/∂q (O(β dt |q̇|/|q|) smaller: the slow LCO motion);
+    all (n, n, B) in the layout of :func:`_cmv`. A case whose matrix cannot be inverted keeps
+    its previous iteration matrix Z (the batch never mixes cases: one LAPACK solve each)."""
+    SJ = S
+    if K is not None:
+        SJ = SJ + K * (bdt2 * s)
+    if D is not None:
+        SJ = SJ + D * (gdt * g)
+    Zb, info = torch.linalg.inv_ex(SJ.permute(2, 1, 0))
+    Znew = Zb.permute(2, 1, 0)
+    ok = (info == 0) & torch.isfinite(Znew).all(0).all(0)
+    return torch.where(ok, Znew, Z).contiguous()
 
 
 def _inverse(A: Tensor) -> tuple[Tensor, Tensor]:
@@ -145,7 +156,15 @@ class Newmark:
             by about ε ω/|c|, c the net linear damping); cases above it are 'unconverged'.
         predictor: 'constant' (a_n), 'linear' (2a_n − a_{n−1}) or 'quadratic' extrapolation.
         check_every: steps between host checks (LCO decisions, compaction, progress).
+        sample_every: with ``iterations=1``, every sample_every-th step iterates twice and
+            records the ratio of its two corrections (the contraction ratio r of the
+            iteration); the error left by the single iteration of the other steps is estimated
+            as their correction times r/(1−r) (0: never sample; r = ½ is then assumed, i.e.
+            the error is bounded by the correction itself).
         compile: compile the step with torch.compile (needs a C compiler on CPU; opt-in).
+        cuda_graphs: on a CUDA device, capture the steps of a check interval in a CUDA graph
+            and replay it (True / False / 'auto' = on CUDA devices); the eager code path is the
+            same sequence of kernels.
         threads: torch intra-op threads during the run on CPU: an int, 'keep' (leave torch's
             setting) or 'auto' (default: one thread when a nonlinear force evaluation is below
             ~4M multiply-adds — the per-step kernels are then too small to share, and waiting on
@@ -161,8 +180,11 @@ class Newmark:
     tol: float | None = None
     predictor: str = "linear"
     check_every: int = 500
+    refresh_every: int = 16
+    sample_every: int = 16
     compile: bool = False
     threads: int | str = "auto"
+    cuda_graphs: bool | str = "auto"
     params: SchemeParameters = field(init=False, repr=False)
 
     def __post_init__(self):
@@ -180,6 +202,13 @@ class Newmark:
                              f"{self.startup_iterations}")
         if int(self.check_every) < 2:
             raise InputError(f"integrator.check_every: expected >= 2, got {self.check_every}")
+        for name in ("refresh_every", "sample_every"):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not (isinstance(value, int) and value >= 0):
+                raise InputError(f"integrator.{name}: expected an integer >= 0, got {value!r}")
+        if self.cuda_graphs not in (True, False, "auto"):
+            raise InputError(f"integrator.cuda_graphs: expected true, false or 'auto', got "
+                             f"{self.cuda_graphs!r}")
         if not (self.threads in ("auto", "keep") or (isinstance(self.threads, int)
                                                      and self.threads >= 1)):
             raise InputError(f"integrator.threads: expected 'auto', 'keep' or an integer >= 1, "
@@ -230,11 +259,15 @@ class Newmark:
         Z, okZ = _inverse(S if self.solver == "newton" else (1 - p.alpha_m) * MT)
         ok &= okZ
         blocks = [Ceff, KT] + ([sysd.lag_D] if na else [])
-        ZL = -(1 - p.alpha_f) * (Z @ torch.cat(blocks, dim=2))
+        # right-hand side b = L x of the acceleration equation S a = b − (1−αf) f_nl, x the
+        # predicted state [v̂, q̂, lag term (, a_n, f_int,n)]
+        L = -(1 - p.alpha_f) * torch.cat(blocks, dim=2)
         if not p.is_newmark:
-            ZL = torch.cat([ZL, -p.alpha_m * Z @ MT, -p.alpha_f * Z], dim=2)
+            eye = torch.eye(n, **f64).expand(B, n, n)
+            L = torch.cat([L, -p.alpha_m * MT, -p.alpha_f * eye], dim=2)
             mats["MT"] = MT
-        mats["ZL"] = ZL
+        mats["L"], mats["S"], mats["Z"] = L, S, Z
+        mats["ZL"] = Z @ L
         mats["Zf"] = (1 - p.alpha_f) * Z
         if self.solver == "fixed_point":
             mats["ZR"] = Z @ lin
@@ -304,8 +337,28 @@ class Newmark:
         return 1 if work < AUTO_THREADS_WORK else current
 
 
+def _fm(t: Tensor) -> Tensor:
+    """Batch-major per-case tensor -> feature-major: (B,) -> (1, B), (B, m) -> (m, B),
+    (B, m, k) -> (k, m, B) (the layout of :func:`_cmv`)."""
+    view = t.unsqueeze(0) if t.dim() == 1 else (t.T if t.dim() == 2 else t.permute(2, 1, 0))
+    return view.clone(memory_format=torch.contiguous_format)  # never aliases another tensor
+
+
+def _cmv(A: Tensor, x: Tensor) -> Tensor:
+    """Per-case matrix-vector product, feature-major: A (k, m, B), x (k, B) -> (m, B).
+
+    Σ_k A[k] ⊙ x[k] over the leading dimension streams the B small matrices once with unit
+    stride (faster than a batched GEMM of B 21 x 21 products on a CPU); one case is one GEMV."""
+    if x.shape[1] == 1:
+        return A.squeeze(2).T @ x
+    return (A * x.unsqueeze(1)).sum(0)
+
+
 class _Run:
-    """One batched integration: state, per-case matrices, compaction and result assembly."""
+    """One batched integration: state, per-case matrices, compaction and result assembly.
+
+    The state and the per-case matrices are feature-major (rows = coordinates, columns =
+    cases): the force kernel's layout, so no step transposes anything."""
 
     def __init__(self, integ: Newmark, system: CaseSystem, q0, v0, xi0, t_end, outputs, crit,
                  history, progress):
@@ -326,7 +379,7 @@ class _Run:
         self.names = list(names)
         if max(crit.decision_outputs) >= len(self.names) or min(crit.decision_outputs) < 0:
             raise InputError(f"lco.decision_outputs: indices must be in 0..{len(self.names) - 1}")
-        self.CT = torch.as_tensor(C.T.copy(), **self.kw)
+        self.C = torch.as_tensor(C, **self.kw)
         self.steps_total = int(round(t_end / integ.dt))
         self.history = history
         p = integ.params
@@ -357,12 +410,13 @@ class _Run:
         mats64, ok = integ.case_matrices(system)
         ok &= torch.isfinite(q).all(1) & torch.isfinite(v).all(1) & torch.isfinite(xi).all(1)
         mats = {k: t.to(dtype) for k, t in mats64.items()}
-        mats["s"] = system.stiffness_nl.clone() if self.forces.has_stiffness else None
-        mats["g"] = g.clone() if self.forces.has_damping else None
+        s = system.stiffness_nl if self.forces.has_stiffness else None
+        g = g if self.forces.has_damping else None
         # initial acceleration from the equations of motion at t = 0
         rhs = -_mv(mats["CT"], v) - _mv(mats["KT"], q)
         if self.nonlinear:
-            rhs = rhs - self.forces(q, v, *_scales(mats))
+            rhs = rhs - self.forces(q, v, None if s is None else s.unsqueeze(0),
+                                    None if g is None else g.unsqueeze(0))
         if na:
             rhs = rhs - _mv(system.lag_D, xi)
         if system.load is not None:
@@ -375,14 +429,25 @@ class _Run:
         if not p.is_newmark:
             F = system.load if system.load is not None else torch.zeros_like(q)
             state["fint"] = F - _mv(mats64["MT"].to(dtype), a)
-        for k in ("Minv", "CT", "KT"):
-            del mats[k]
-        mats = {k: t for k, t in mats.items() if t is not None}
-        self.mats = mats
-        self.state = state
+        # the iterative path works on b − S a (correction form, any iteration matrix Z); the
+        # linear Newton path needs only the premultiplied Z L
+        self.iterative = self.nonlinear or integ.solver == "fixed_point"
+        if self.iterative:
+            mats["LS"] = torch.cat([mats["L"], -mats["S"]], dim=2)
+            state["Z"] = mats["Z"]
+            keep = ["LS", "S"]
+        else:
+            keep = ["ZL", "uF"]
+        keep += ["F", "Q", "W"] + ([] if p.is_newmark else ["MT"])
+        mats = {k: mats[k] for k in keep if k in mats}
+        # (1−αf) f_nl enters the equation: scale the per-case nonlinearity scales once
+        mats["s"] = None if s is None else (1.0 - p.alpha_f) * s
+        mats["g"] = None if g is None else (1.0 - p.alpha_f) * g
+        self.mats = {k: _fm(t) for k, t in mats.items() if t is not None}
+        self.state = {k: _fm(t) for k, t in state.items()}
         self._reset_error()
         self.solver_rel = torch.zeros(B, device=dev, dtype=torch.float64)
-        y0, yd0 = q @ self.CT, v @ self.CT
+        y0, yd0 = q @ self.C.T, v @ self.C.T
         self.tracker = PeakTracker(y0, yd0, crit.ring)
         self.active = np.arange(B)
         self.step_no = 0
@@ -393,7 +458,7 @@ class _Run:
             "time": np.zeros(B), "amplitude": np.full((B, O), np.nan),
             "frequency_hz": np.full(B, np.nan), "amplitude_change": np.full(B, np.nan),
             "solver_error": np.full(B, np.nan), "q": np.full((B, n), np.nan),
-            "v": np.full((B, n), np.nan),
+            "v": np.full((B, n), np.nan), "xi": np.full((B, na), np.nan),
         }
         self.hist: dict[int, list] = {}
         if history is not None:
@@ -401,32 +466,48 @@ class _Run:
                 if not 0 <= int(c) < B:
                     raise InputError(f"history.cases: {c} is not a case index in 0..{B - 1}")
                 self.hist[int(c)] = [(0.0, y0[int(c)].double().cpu().numpy())]
-        self.stepfn = self._make_step(int(integ.iterations))
+        self.iterations = int(integ.iterations)
         startup = integ.startup_iterations
-        startup = int(integ.iterations) + 2 if startup is None else int(startup)
-        self.startup_fn = self._make_step(startup) if startup != integ.iterations else None
-        if integ.compile:
-            self.stepfn = torch.compile(self.stepfn, dynamic=True)
+        self.startup_iterations = self.iterations + 2 if startup is None else int(startup)
+        # with one iteration per step, the step before every sample_every-th step iterates
+        # twice to measure the contraction ratio that turns the single correction into an
+        # error estimate (just before a refresh of the iteration matrix: its largest value)
+        self.sampling = self.iterations == 1 and integ.sample_every > 0 and self.iterative
+        self.refreshing = (integ.refresh_every > 0 and self.nonlinear
+                           and integ.solver == "newton")
+        self._step_cache: dict[tuple, Callable] = {}
+        self.graphs = integ.cuda_graphs is True or (integ.cuda_graphs == "auto"
+                                                    and dev.type == "cuda")
+        self._graph = None
         bad = ~ok
         if bool(bad.any()):
             self._finish(np.nonzero(bad.cpu().numpy())[0], np.full(int(bad.sum()), FAILED))
 
     def _reset_error(self):
-        B = self.state["q"].shape[0]
-        self.state["err"] = torch.zeros(B, **self.kw)
-        self.state["amax"] = torch.zeros(B, **self.kw)
+        """Zero the per-interval solver accumulators (in place: a captured graph reads them)."""
+        B = self.state["q"].shape[1]
+        for k in ("err", "amax", "c1", "rho"):
+            if k in self.state:
+                self.state[k].zero_()
+            else:
+                self.state[k] = torch.zeros(B, **self.kw)
 
     # ------------------------------------------------------------------------------------------
-    def _make_step(self, iters: int):
-        """The step as a pure function of (state, mats) with every branch decided here."""
+    def _make_step(self, iters: int, refresh: bool = False, rho: bool = False):
+        """The step as a pure function of (state, mats) with every branch decided here.
+
+        ``iters``: nonlinear iterations; ``refresh``: evaluate the Jacobian at the predicted
+        state and make (S + J)⁻¹ the iteration matrix from this step on; ``rho``: also record
+        the ratio of the last two corrections (the measured contraction ratio, used by the
+        error estimate of single-iteration steps)."""
         integ, p, dt = self.integ, self.p, self.integ.dt
         c_qa, c_va = dt * dt * (0.5 - p.beta), dt * (1.0 - p.gamma)
         bdt2, gdt = p.beta * dt * dt, p.gamma * dt
         am, af = p.alpha_m, p.alpha_f
         lag, newmark, nonlinear = self.na > 0, p.is_newmark, self.nonlinear
-        fixed_point = integ.solver == "fixed_point"
-        predictor, forces, CT = integ.predictor, self.forces, self.CT
-        has_load = "uF" in self.mats
+        predictor, forces, C = integ.predictor, self.forces, self.C
+        has_load = "F" in self.mats
+        iterative = self.iterative
         tiny = torch.finfo(self.kw["dtype"]).tiny
 
         def step(st: dict, m: dict):
@@ -438,61 +519,143 @@ class _Run:
             parts = [vh, qh]
             if lag:
                 xih = torch.add(st["xi"], st["xid"], alpha=c_va)
-                lag_in = xih if newmark else torch.cat([xih, st["xi"], st["xid"], v], dim=1)
-                xid_star = _mv(m["Q"], lag_in)
+                lag_in = xih if newmark else torch.cat([xih, st["xi"], st["xid"], v])
+                xid_star = _cmv(m["Q"], lag_in)
                 parts.append(torch.add(xih, xid_star, alpha=gdt))
             if not newmark:
                 parts += [a, st["fint"]]
-            u = _mv(m["ZL"], torch.cat(parts, dim=1))
-            if has_load:
-                u = u + m["uF"]
-            if predictor == "constant":
-                ak = a
-            elif predictor == "linear":
-                ak = torch.lerp(st["a1"], a, 2.0)  # 2 a_n − a_{n−1}
+            new = dict(st)
+            if not iterative:
+                # linear, modified Newton: S is the exact Jacobian, one solve is exact
+                ak = _cmv(m["ZL"], torch.cat(parts))
+                if has_load:
+                    ak = ak.add_(m["uF"])
             else:
-                ak = torch.sub(a, st["a1"]).mul_(3.0).add_(st["a2"])
-            if nonlinear or fixed_point:
+                if predictor == "constant":
+                    ak = a
+                elif predictor == "linear":
+                    ak = torch.lerp(st["a1"], a, 2.0)  # 2 a_n − a_{n−1}
+                else:
+                    ak = torch.sub(a, st["a1"]).mul_(3.0).add_(st["a2"])
+                # residual of the linear part at the predictor: b − S a_p in one product
+                res_lin = _cmv(m["LS"], torch.cat(parts + [ak]))
+                if has_load:
+                    res_lin = res_lin.add_(m["F"])
+                a_p, Z = ak, st["Z"]
+                s, g = m.get("s"), m.get("g")
                 prev = last = None
-                for _ in range(iters):
-                    rhs = u
+                for it in range(iters):
+                    r = res_lin if it == 0 else res_lin - _cmv(m["S"], ak - a_p)
                     if nonlinear:
-                        f = forces(torch.add(qh, ak, alpha=bdt2), torch.add(vh, ak, alpha=gdt),
-                                   *_scales(m))
-                        rhs = rhs - _mv(m["Zf"], f)
-                    if fixed_point:
-                        rhs = rhs - _mv(m["ZR"], ak)
+                        qk, vk = torch.add(qh, ak, alpha=bdt2), torch.add(vh, ak, alpha=gdt)
+                        if refresh and it == 0:
+                            f, K, D = forces.evaluate_T(qk, vk, s, g, jacobian=True)
+                            Z = _refreshed_inverse(m["S"], K, D, s, g, bdt2, gdt, Z)
+                            new["Z"] = Z
+                        else:
+                            f = forces.evaluate_T(qk, vk, s, g)
+                        r = r - f
+                    corr = _cmv(Z, r)
+                    ak = ak + corr
                     # abs().amax(): vector_norm(ord=inf) is several times slower on CPU
-                    prev, last = last, (rhs - ak).abs().amax(1)
-                    ak = rhs
+                    prev, last = last, corr.abs().amax(0)
                 if prev is None:
-                    err = last  # one iteration: the predictor's error bounds what is left
+                    # one iteration: its correction times r/(1−r), r the contraction ratio
+                    # measured on the sampled steps (see Newmark.sample_every)
+                    new["c1"] = torch.maximum(st["c1"], last)
                 else:
                     # error left after the last correction: Aitken |Δa_K|²/(|Δa_{K−1}|−|Δa_K|)
                     # = |Δa_K| r/(1−r), r the contraction ratio, capped at r = 0.99 (≈ 100|Δa_K|)
                     err = last * last / torch.maximum(prev - last, 0.01 * prev).clamp_min(tiny)
-            else:
-                ak = u  # linear and modified Newton: S is the exact Jacobian, one solve is exact
-                err = None
+                    new["err"] = torch.maximum(st["err"], err)
+                    if rho:
+                        new["rho"] = torch.maximum(st["rho"], last / prev.clamp_min(tiny))
             q1 = torch.add(qh, ak, alpha=bdt2)
             v1 = torch.add(vh, ak, alpha=gdt)
-            new = {"q": q1, "v": v1, "a": ak, "a1": a, "a2": st["a1"],
-                   "err": st["err"] if err is None else torch.maximum(st["err"], err),
-                   "amax": torch.maximum(st["amax"], ak.abs().amax(1))}
+            new.update(q=q1, v=v1, a=ak, a1=a, a2=st["a1"],
+                       amax=torch.maximum(st["amax"], ak.abs().amax(0)))
             if lag:
-                xid1 = xid_star + _mv(m["W"], v1)
+                xid1 = xid_star + _cmv(m["W"], v1)
                 new["xid"] = xid1
                 new["xi"] = torch.add(xih, xid1, alpha=gdt)
             if not newmark:
                 # internal force at t_{n+1} recovered from the equation of motion (exact at
                 # convergence; an error in it is multiplied by αf/(1−αf) ≤ ½ per step)
-                fint = -(1.0 - am) * _mv(m["MT"], ak) - am * _mv(m["MT"], a) - af * st["fint"]
+                fint = _cmv(m["MT"], torch.add(ak, a, alpha=am / (1.0 - am))).mul_(am - 1.0)
+                fint = fint.sub_(st["fint"], alpha=af)
                 if has_load:
-                    fint = fint + m["F"]
-                new["fint"] = fint / (1.0 - af)
-            return new, q1 @ CT, v1 @ CT
+                    fint = fint.add_(m["F"])
+                new["fint"] = fint.div_(1.0 - af)
+            return new, C @ q1, C @ v1
 
         return step
+
+    def _step_function(self, step_no: int):
+        """The step function of global step ``step_no`` (host decision, no synchronisation)."""
+        integ = self.integ
+        startup = step_no < integ.check_every
+        iters = self.startup_iterations if startup else self.iterations
+        refresh = self.refreshing and step_no % integ.refresh_every == 0
+        rho = self.sampling and not startup and (step_no + 1) % integ.sample_every == 0
+        key = (max(iters, 2) if rho else iters, refresh, rho)
+        fn = self._step_cache.get(key)
+        if fn is None:
+            fn = self._make_step(*key)
+            if integ.compile:
+                fn = torch.compile(fn, dynamic=True)
+            self._step_cache[key] = fn
+        return fn
+
+    def _steps(self, st: dict, step0: int, N: int) -> tuple[dict, Tensor, Tensor]:
+        """Advance N steps from ``st``: the new state and the outputs Y, Ẏ (N, O, B)."""
+        ys, yds = [], []
+        m = self.mats
+        for i in range(N):
+            st, y, yd = self._step_function(step0 + i)(st, m)
+            ys.append(y)
+            yds.append(yd)
+        return st, torch.stack(ys), torch.stack(yds)
+
+    def _steps_in_place(self, step0: int, N: int) -> tuple[Tensor, Tensor]:
+        """:meth:`_steps` writing the new state into the current state tensors: the form a CUDA
+        graph can capture (static input and output addresses), run eagerly elsewhere."""
+        st, Y, Yd = self._steps(self.state, step0, N)
+        # a step passes some inputs through (a_n becomes a_{n-1}): copy those first
+        inputs = {id(t) for t in self.state.values()}
+        st = {k: t.clone() if id(t) in inputs else t for k, t in st.items()}
+        for k, t in self.state.items():
+            t.copy_(st[k])
+        return Y, Yd
+
+    def _advance(self, step0: int, N: int) -> tuple[Tensor, Tensor]:
+        """N steps of the whole batch; on CUDA (``cuda_graphs``) by replaying a captured graph
+        of the chunk (captured again when the batch or the chunk's step pattern changes)."""
+        if not self.graphs:
+            self.state, Y, Yd = self._steps(self.state, step0, N)
+            return Y, Yd
+        pattern = tuple(id(self._step_function(step0 + i)) for i in range(N))
+        key = (pattern, self.state["q"].shape[1])
+        if self._graph is None or self._graph[0] != key:
+            self._graph = (key, *self._capture(step0, N))
+        _, graph, Y, Yd = self._graph
+        graph.replay()
+        return Y.clone(), Yd.clone()
+
+    def _capture(self, step0: int, N: int):
+        """CUDA-graph capture of :meth:`_steps_in_place` (after a warm-up on a side stream, as
+        torch.cuda.graphs requires); the state is saved and restored around the warm-up."""
+        saved = {k: t.clone() for k, t in self.state.items()}
+        stream = torch.cuda.Stream()
+        stream.wait_stream(torch.cuda.current_stream())
+        with torch.cuda.stream(stream):
+            self._steps_in_place(step0, min(N, 2))
+        torch.cuda.current_stream().wait_stream(stream)
+        for k, t in self.state.items():
+            t.copy_(saved[k])
+        graph = torch.cuda.CUDAGraph()
+        with torch.cuda.graph(graph):  # records the kernels without running them
+            Y, Yd = self._steps_in_place(step0, N)
+        return graph, Y, Yd
 
     # ------------------------------------------------------------------------------------------
     def execute(self) -> SimulationResult:
@@ -504,26 +667,19 @@ class _Run:
         while len(self.active) and self.step_no < self.steps_total:
             N = min(integ.check_every, self.steps_total - self.step_no)
             Bc = len(self.active)
-            ys, yds = [], []
-            st, m = self.state, self.mats
-            stepfn = self.startup_fn if (self.step_no == 0 and self.startup_fn) else self.stepfn
-            for _ in range(N):
-                st, y, yd = stepfn(st, m)
-                ys.append(y)
-                yds.append(yd)
-            Y, Yd = torch.stack(ys), torch.stack(yds)
-            self.state = st
             step0 = self.step_no
+            Y, Yd = self._advance(step0, N)
+            st = self.state
             self.step_no += N
             case_steps += N * Bc
+            Y, Yd = Y.transpose(1, 2), Yd.transpose(1, 2)  # (N, B, O) for the tracker
             self.tracker.update(Y, Yd, step0, dt)
             self._record_history(Y, step0)
             # per-case checks: one host synchronisation per chunk
-            err, amax = st["err"].double(), st["amax"].double()
-            rel = torch.where(err > 0, err / amax.clamp_min(torch.finfo(torch.float64).tiny), 0.0)
+            rel = self._solver_error(st)
             self.solver_rel = torch.maximum(self.solver_rel, rel)
             solver_ok = rel <= tol
-            finite = torch.isfinite(st["q"]).all(1) & torch.isfinite(st["v"]).all(1)
+            finite = torch.isfinite(st["q"]).all(0) & torch.isfinite(st["v"]).all(0)
             final = self.step_no >= self.steps_total
             status = self.tracker.decide(crit, finite, solver_ok, final).cpu().numpy()
             self._reset_error()
@@ -540,7 +696,20 @@ class _Run:
             q=res["q"], v=res["v"],
             histories={c: History(np.array([s[0] for s in h]), np.stack([s[1] for s in h]),
                                   self.names) for c, h in self.hist.items()},
-            wall_time_s=time.perf_counter() - t0, case_steps=case_steps)
+            wall_time_s=time.perf_counter() - t0, case_steps=case_steps, xi=res["xi"])
+
+    def _solver_error(self, st: dict) -> Tensor:
+        """(B,) estimated error left in the acceleration, relative to the largest |a| of the
+        check interval: the Aitken estimate of multi-iteration steps, and for single-iteration
+        steps their largest correction times r/(1−r), r the largest contraction ratio measured
+        on the sampled steps (r = ½ — the correction itself — where none was measured)."""
+        f64 = torch.float64
+        tiny = torch.finfo(f64).tiny
+        r = st["rho"].to(f64)
+        r = torch.where(r > 0, r.clamp(max=0.99), 0.5)
+        err = torch.maximum(st["err"].to(f64), st["c1"].to(f64) * r / (1.0 - r))
+        amax = st["amax"].to(f64)
+        return torch.where(err > 0, err / amax.clamp_min(tiny), 0.0)
 
     def _record_history(self, Y: Tensor, step0: int) -> None:
         if not self.hist:
@@ -563,11 +732,15 @@ class _Run:
         tr = self.tracker
         dev = self.state["q"].device
         di = torch.as_tensor(done, device=dev)
+
+        def rows(name):
+            return self.state[name].index_select(1, di).T.double().cpu().numpy()
+
         vals = tr.values.index_select(0, di).cpu().numpy()
         times = tr.times.index_select(0, di).cpu().numpy()
         count = tr.count.index_select(0, di).cpu().numpy()
-        q = self.state["q"].index_select(0, di).double().cpu().numpy()
-        v = self.state["v"].index_select(0, di).double().cpu().numpy()
+        q, v = rows("q"), rows("v")
+        xi = rows("xi") if "xi" in self.state else np.zeros((len(done), 0))
         rel = self.solver_rel.index_select(0, di).cpu().numpy()
         primary = self.crit.decision_outputs[0]
         for k, c in enumerate(cases):
@@ -580,11 +753,12 @@ class _Run:
             r["frequency_hz"][c] = met["frequency_hz"]
             r["amplitude_change"][c] = met["amplitude_change"]
             r["solver_error"][c] = rel[k]
-            r["q"][c], r["v"][c] = q[k], v[k]
+            r["q"][c], r["v"][c], r["xi"][c] = q[k], v[k], xi[k]
         keep = np.setdiff1d(np.arange(len(self.active)), done)
         self.active = self.active[keep]
         ki = torch.as_tensor(keep, device=dev, dtype=torch.long)
-        self.state = {k: t.index_select(0, ki) for k, t in self.state.items()}
-        self.mats = {k: t.index_select(0, ki) for k, t in self.mats.items()}
+        self.state = {k: t.index_select(-1, ki) for k, t in self.state.items()}
+        self.mats = {k: t.index_select(-1, ki) for k, t in self.mats.items()}
         self.solver_rel = self.solver_rel.index_select(0, ki)
+        self._graph = None
         tr.select(ki)

@@ -33,6 +33,7 @@ class SimulationResult:
         solver_error: (B,) largest relative acceleration correction of the last nonlinear
             iteration (relative to the largest acceleration), over the check intervals.
         q, v: (B, n) final generalized displacements and velocities.
+        xi: (B, na) final lag states (None where the run did not record them).
         histories: case index -> :class:`History` for the requested cases.
         wall_time_s: wall-clock time of the run; case_steps: Σ over cases of steps computed.
     """
@@ -50,6 +51,7 @@ class SimulationResult:
     histories: dict[int, History] = field(default_factory=dict)
     wall_time_s: float = 0.0
     case_steps: int = 0
+    xi: np.ndarray | None = None
 
     @property
     def batch_size(self) -> int:
