@@ -20,8 +20,8 @@ A sweep configuration has these tables (every key is checked; a bad one gives a 
 ``[initial]``    ``q0``: a number (the displacement of basis function ``mode``, 1-based, default
                  1) or a list of n numbers; ``v0``: a number or a list (default 0).
 ``[integrator]`` ``dt``, ``t_end`` (s) and the options of :class:`torchrom.sim.Newmark`
-                 (scheme, rho_inf, solver, iterations, tol, predictor, check_every, compile,
-                 threads).
+                 (scheme, rho_inf, solver, iterations, startup_iterations, tol, predictor,
+                 check_every, refresh_every, sample_every, compile, threads, cuda_graphs).
 ``[lco]``        ``outputs`` (ROM outputs or generalized coordinates "q1"…; the first decides)
                  and the options of :class:`torchrom.sim.LCOCriteria` (rtol, cycles, decay_ratio,
                  max_amplitude, ring).
@@ -74,8 +74,9 @@ SECTIONS = ("title", "model", "aeroelastic", "initial", "integrator", "lco", "ca
 #: [aeroelastic] keys (AeroelasticModel fields)
 AEROELASTIC_KEYS = ("baseline_alpha", "baseline_gamma", "reference_altitude_ft",
                     "altitude_range_ft")
-_NEWMARK_KEYS = ("scheme", "rho_inf", "solver", "iterations", "tol", "predictor", "check_every",
-                 "compile", "threads")
+_NEWMARK_KEYS = ("scheme", "rho_inf", "solver", "iterations", "startup_iterations", "tol",
+                 "predictor", "check_every", "refresh_every", "sample_every", "compile", "threads",
+                 "cuda_graphs")
 _LCO_KEYS = ("rtol", "cycles", "decay_ratio", "max_amplitude", "ring")
 
 
