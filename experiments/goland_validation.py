@@ -23,7 +23,7 @@ import numpy as np
 
 from torchrom.fe import goland
 from torchrom.identify import validate as v
-from torchrom.identify.basis import DualModeOptions
+from torchrom.identify.basis import BENDING_TORSION_COMBINATIONS, DualModeOptions
 from torchrom.identify.build import IdentifyOptions, identify
 from torchrom.identify.fe_backend import BuiltinFEBackend
 
@@ -35,7 +35,7 @@ VARIANTS = {
     "paper-like": {"pod_norm": "mass", "snapshot_weights": "unit",
                    "amplitude_control": "linear"},
     "range-25": {"tip_range": (0.001, 0.25)},
-    "combinations-1-3": {"combinations": ((1, 1), (1, 2), (1, 3), (2, 2), (2, 3))},
+    "combinations-1-3": {"combinations": BENDING_TORSION_COMBINATIONS},  # the pipeline's
 }
 BANDS = (5.0, 10.0, 15.0, 20.0, 25.0)
 

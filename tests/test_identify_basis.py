@@ -176,3 +176,17 @@ def test_callable_backend_validates_and_solves():
     # newton_static_solve with a warm start at the answer returns it at once
     again = newton_static_solve(f, kt, np.array([1.0, 10.0, -50.0]), u0=sol.u)
     assert again.iterations == 0
+
+
+def test_parse_combinations_names_pairs_and_errors():
+    from torchrom.identify.basis import (
+        BENDING_TORSION_COMBINATIONS,
+        PAPER_COMBINATIONS,
+        parse_combinations,
+    )
+
+    assert parse_combinations("paper") == PAPER_COMBINATIONS
+    assert parse_combinations("bending-torsion") == BENDING_TORSION_COMBINATIONS
+    assert parse_combinations("1:1,2:3") == ((1, 1), (2, 3))
+    with pytest.raises(InputError, match="--combinations: expected one of"):
+        parse_combinations("1-2")

@@ -30,6 +30,10 @@ def add_arguments(parser) -> None:
     parser.add_argument("model", type=Path, help="Nastran BDF of the structure")
     parser.add_argument("--linear", type=int, default=9, help="number of linear modes (9)")
     parser.add_argument("--dual", type=int, default=12, help="number of dual modes (12)")
+    parser.add_argument("--combinations", default="paper", metavar="SET",
+                        help="linear-mode pairs loaded for the dual modes: 'paper' (the paper's "
+                             "nine, default), 'bending-torsion' ((1,1),(1,2),(1,3),(2,2),(2,3): "
+                             "the validated set for the Goland wing) or J:L,J:L,...")
     parser.add_argument("--damping", choices=("decomposition", "exact"),
                         default="decomposition",
                         help="damping identification: the paper's optimum decomposition, or "
@@ -82,7 +86,10 @@ def run(args) -> int:
     if not args.model.is_file():
         raise InputError(f"{args.model}: no such model file")
     from ..fe import read_bdf
+    from ..identify import DualModeOptions
+    from ..identify.basis import parse_combinations
 
+    combinations = parse_combinations(args.combinations)
     t0 = time.perf_counter()
     print(f"reading {args.model}")
     fe = read_bdf(args.model)
@@ -92,7 +99,8 @@ def run(args) -> int:
     print(f"  {backend.n_dof} DOFs, span {backend.reference_length:g}, "
           f"outputs {sorted(backend.outputs)}")
     opt = IdentifyOptions(n_linear=args.linear, n_dual=args.dual, damping=args.damping,
-                          stiffness=args.stiffness, amplitude=args.amplitude)
+                          stiffness=args.stiffness, amplitude=args.amplitude,
+                          dual=DualModeOptions(combinations=combinations))
     print(f"identifying {args.linear}L{args.dual}D ROM: stiffness {args.stiffness}, damping "
           f"{args.damping}")
     res = identify(backend, opt, progress=_Progress())

@@ -45,6 +45,7 @@ from ..aero.build import (
 )
 from ..aero.files import AeroData
 from ..errors import InputError
+from ..identify.basis import BENDING_TORSION_COMBINATIONS
 from ..io import atomic_path, write_json_atomic
 from ..rom import NonlinearROM
 from ..sim.aeroelastic import mode_outputs
@@ -63,6 +64,8 @@ class GolandPipeline:
 
     damping: "decomposition" (paper) or "exact" (FE material tangent);
     n_linear, n_dual: basis size (9L12D); dual_amplitudes: static loads per dual combination;
+    dual_combinations: the linear-mode pairs loaded for the dual modes (1-based; default the
+    bending-torsion set, see :mod:`torchrom.identify.basis`, "Combinations");
     mach, aero_modes, lags: aerodynamics (Mach 0.70, m = 9 modes, 13 lag states);
     boxes: DLM boxes per half wing (chordwise, spanwise); k_list: reduced frequencies;
     baseline_alpha, baseline_gamma: the FE model's Rayleigh damping (Eq. 46);
@@ -73,6 +76,7 @@ class GolandPipeline:
     n_linear: int = 9
     n_dual: int = 12
     dual_amplitudes: int = 20
+    dual_combinations: tuple[tuple[int, int], ...] = BENDING_TORSION_COMBINATIONS
     mach: float = 0.7
     aero_modes: int = 9
     lags: int = 13
@@ -170,7 +174,8 @@ def goland_pipeline(options: GolandPipeline | None = None, folder=None, *, force
 
     # -- identification -------------------------------------------------------------------------
     id_inputs = {"stage": "rom", "fe": fe_key, "damping": opt.damping, "n_linear": opt.n_linear,
-                 "n_dual": opt.n_dual, "dual_amplitudes": opt.dual_amplitudes}
+                 "n_dual": opt.n_dual, "dual_amplitudes": opt.dual_amplitudes,
+                 "dual_combinations": [list(c) for c in opt.dual_combinations]}
     rom_key = FileCache.key(id_inputs)
     rom_path, basis_path = cache.get("rom.npz", rom_key), cache.get("basis.npz", rom_key)
     identification = None
@@ -233,7 +238,8 @@ def _identify(fe, opt: GolandPipeline):
     from ..identify.build import as_backend
 
     options = IdentifyOptions(n_linear=opt.n_linear, n_dual=opt.n_dual, damping=opt.damping,
-                              dual=DualModeOptions(n_amplitudes=opt.dual_amplitudes))
+                              dual=DualModeOptions(n_amplitudes=opt.dual_amplitudes,
+                                                   combinations=opt.dual_combinations))
     res = identify(fe, options)
     span = as_backend(fe).reference_length
     rom = res.rom.replace(metadata={**res.rom.metadata, "span": float(span)})
