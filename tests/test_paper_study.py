@@ -22,15 +22,13 @@ from torchrom.paper.study import FIGURE_FILES, run_paper
 #: Fig. 10 acceptance findings on which the current Goland model differs from the paper, with
 #: the reason (see report.md, "Why we differ"); measured on the quick and the full study
 KNOWN_DIFFERENCES = {
-    "gamma_1e-5_equals_0": "our γ = 1e-5 s amplitude lies 2-7 % above γ = 0 at 4,000-7,000 ft, "
-                           "where our LCOs reach 20-30 % of span (dt-converged: the same at "
-                           "dt = 0.5 ms)",
-    "amplitude_decreases_with_gamma": "our amplitude grows with γ at some altitudes (e.g. "
-                                      "+14 % from 1e-5 to 1e-4 s at 10,000 ft) before it "
-                                      "falls for γ >= 5e-4 s",
+    "gamma_1e-5_equals_0": "our γ = 1e-5 s amplitude lies 1-6 % above γ = 0 (LCOs of 9-26 % of "
+                           "span; the same at dt = 0.5 ms)",
+    "amplitude_decreases_with_gamma": "our amplitude grows from γ = 1e-5 to 1e-4 s (up to +15 % "
+                                      "at 7,000 ft) before it falls for γ >= 5e-4 s",
     "stiffness_nl_small_at_gamma_1e-3": "at γ = 1e-3 s our stiffness nonlinearity raises the "
-                                        "amplitude by 0.4-0.9 ft, more than the 5e-4 -> 1e-3 s "
-                                        "change (0.5-0.9 ft)",
+                                        "amplitude by 0.4-1.0 ft, as much as or more than the "
+                                        "5e-4 -> 1e-3 s change (0.4-0.9 ft)",
 }
 ACCEPTANCE = ("gamma_1e-5_equals_0", "amplitude_decreases_with_gamma",
               "stiffness_nl_small_at_gamma_1e-3", "linear_statuses")
@@ -79,7 +77,22 @@ def test_quick_simulator_reproduces_the_eigenvalue_flutter_altitude(quick):
         assert row["frequency_sim_hz"] == pytest.approx(row["frequency_eig_hz"], rel=1e-3)
 
 
-@pytest.mark.parametrize("key", _acceptance_params())
+def test_quick_damping_cause_check(quick):
+    """The Fig. 10 cases with the exact Kelvin–Voigt tensors: the γ = 1e-5 s curve coincides
+    with γ = 0 (measured +0.3 %, the 2 % of the acceptance), so the decomposition's D̄2, D̄3
+    cause that difference of the main study; the report says so."""
+    check = _summary(quick)["damping_check"]
+    verdicts = {f["key"]: f["verdict"] for f in check["findings"]}
+    assert set(verdicts) == {"gamma_1e-5_equals_0", "amplitude_decreases_with_gamma",
+                             "stiffness_nl_small_at_gamma_1e-3"}
+    assert verdicts["gamma_1e-5_equals_0"] == "agree"
+    assert all(r["status"] == "lco" for r in check["table"])
+    text = (quick / "report.md").read_text()
+    assert "## Cause check: the same cases with the exact Kelvin–Voigt damping" in text
+    assert "`gamma_1e-5_equals_0` agrees with the paper" in text
+
+
+@pytest.mark.parametrize("key", list(_acceptance_params()))
 def test_quick_acceptance_findings(quick, key):
     found = {f["key"]: f for f in _summary(quick)["findings"]}
     assert found[key]["acceptance"]

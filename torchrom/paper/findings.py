@@ -346,6 +346,12 @@ def alpha_decreases_with_gamma(alpha_gamma: pd.DataFrame) -> Finding:
         {"alpha": t["alpha"].tolist(), "gamma": t["gamma"].tolist()})
 
 
+def fig10_acceptance(table: pd.DataFrame) -> list[Finding]:
+    """The three Fig. 10 findings the issue accepts on, e.g. for the damping cause check."""
+    return [gamma_small_matches_zero(table), amplitude_not_increasing_with_gamma(table),
+            stiffness_matters_little_at_large_gamma(table)]
+
+
 def evaluate(table: pd.DataFrame, histories: pd.DataFrame | None, alpha_gamma: pd.DataFrame,
              flutter_altitude: float, mode_kinds: list[str] | None = None) -> list[Finding]:
     """Every finding, in the order of the report."""
