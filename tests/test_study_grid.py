@@ -41,3 +41,13 @@ def test_case_id_is_stable_and_spelling_independent():
     assert case_id({"alpha": 0.1}) != case_id({"alpha": 0.1000001})
     # pinned: the id must not change between versions or machines
     assert case_id({"alpha": 0.5, "gamma": 1.0}) == case_id({"gamma": 1, "alpha": 0.5})
+
+
+def test_case_label_names_numbers_and_words():
+    from torchrom.study.grid import case_label
+
+    case = {"altitude_ft": 7000.0, "alpha": "matched", "gamma": 1e-3, "stiffness_nl": True}
+    assert case_label(case, ["altitude_ft", "alpha", "gamma", "missing"]) == \
+        "altitude_ft = 7000, alpha = matched, gamma = 0.001"
+    assert case_label(case, ["stiffness_nl"]) == "stiffness_nl = True"
+    assert case_label(case, [], empty="the case") == "the case"

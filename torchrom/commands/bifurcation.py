@@ -53,7 +53,7 @@ def run(args: argparse.Namespace) -> int:
 
     from ..sim import output_matrix
     from ..study.bifurcation import bifurcation_sweep
-    from ..study.grid import distinct_cases
+    from ..study.grid import case_label, distinct_cases
     from ..study.models import model_rom
     from ..study.plots import bifurcation_plot
     from ..study.runner import open_executor
@@ -105,7 +105,7 @@ def run(args: argparse.Namespace) -> int:
                bifurcation_plot(result.runs, summary, paths["figure"], x=x,
                                 title=f"{cfg.title}: {result.character}", force=args.force)]
     for _, row in summary.iterrows():
-        label = ", ".join(f"{k} = {row[k]:g}" for k in varying) or "case"
+        label = case_label(row, varying, empty="case")
         print(f"[{label}] {row['local']}: {row['attractors']}")
     print(f"character: {result.character}")
     print(f"evidence: {result.evidence}")

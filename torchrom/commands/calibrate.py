@@ -49,7 +49,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
 
     from ..study.calibrate import calibrate_gamma
-    from ..study.grid import distinct_cases
+    from ..study.grid import case_label, distinct_cases
     from ..study.plots import calibration_plot
     from ..study.runner import open_executor
     from ..study.sweep import case_evaluator
@@ -86,7 +86,7 @@ def run(args: argparse.Namespace) -> int:
                calibration_plot(result.evaluations, table, paths["figure"], column=args.column,
                                 target=args.target, title=cfg.title, force=args.force)]
     for _, row in table.iterrows():
-        base = ", ".join(f"{k} = {row[k]:g}" for k in bases[int(row["base_case"])])
+        base = case_label(row, bases[int(row["base_case"])])
         if row["status"] != "ok":
             print(f"[{base}] not bracketed: {row['note']}")
             continue

@@ -43,6 +43,7 @@ import numpy as np
 import pandas as pd
 
 from ..errors import InputError
+from .grid import case_label
 
 Evaluate = Callable[[list[dict[str, Any]]], pd.DataFrame]
 _OUTCOME = {"decay": "rest", "lco": "lco", "diverged": "unbounded"}
@@ -103,7 +104,7 @@ def _local(labels: set[str]) -> str:
 
 
 def _control_label(control: dict[str, Any], keys: Sequence[str]) -> str:
-    return ", ".join(f"{k} = {control[k]:g}" for k in keys) or "the case"
+    return case_label(control, keys, empty="the case")
 
 
 def bifurcation_sweep(evaluate: Evaluate, controls: Sequence[dict[str, Any]],

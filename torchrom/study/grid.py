@@ -191,3 +191,12 @@ def config_hash(obj: Any) -> str:
     """Stable 16-hex-digit hash of a JSON-serialisable configuration."""
     text = json.dumps(obj, sort_keys=True, separators=(",", ":"), default=str)
     return hashlib.sha256(text.encode()).hexdigest()[:16]
+
+
+def case_label(case: Mapping[str, Any], keys: Iterable[str], empty: str = "") -> str:
+    """``"k = v, ..."`` for the ``keys`` present in ``case`` (numbers compactly, anything else,
+    e.g. ``alpha = matched``, as is): how messages and figures name a case."""
+    def value(v) -> str:
+        return f"{v:g}" if isinstance(v, (int, float)) and not isinstance(v, bool) else str(v)
+
+    return ", ".join(f"{k} = {value(case[k])}" for k in keys if k in case) or empty

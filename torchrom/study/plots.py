@@ -8,6 +8,7 @@ import pandas as pd
 
 from ..errors import InputError
 from ..io import atomic_path, check_can_write
+from .grid import case_label
 
 #: marker per status: settled LCOs filled, everything else hollow or crossed
 _MARKERS = {"lco": ("o", True), "decay": ("v", False), "unconverged": ("s", False),
@@ -108,7 +109,7 @@ def distribution_plot(table: pd.DataFrame, path, *, by=(), value: str = "amplitu
 
 
 def _case_label(case: dict, keys) -> str:
-    return ", ".join(f"{k} = {case[k]:g}" for k in keys if k in case)
+    return case_label(case, keys)
 
 
 def calibration_plot(evaluations: pd.DataFrame, result: pd.DataFrame, path, *,
