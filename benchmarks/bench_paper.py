@@ -1,0 +1,78 @@
+"""Benchmark (d): wall time of ``torchrom paper`` (quick and full) on this machine.
+
+    PYTHONPATH=. python benchmarks/bench_paper.py [--quick-only] [--out benchmarks/results]
+
+Runs the whole study from nothing (fresh folders: FE model, identification, aerodynamics,
+flutter, every sweep, figures and report) once per form and records the wall and CPU time of
+every stage as ``torchrom paper`` reports it, with the machine's load average — the issue's
+limits are 3 minutes for ``--quick`` and 15 minutes for the full study on 2 cores. A second
+call of the quick form into the same folder measures the cached rerun. Writes
+``benchmarks/results/bench_paper.json`` and ``.csv``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import platform
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import pandas as pd
+import torch
+
+HERE = Path(__file__).resolve().parent
+sys.path.insert(0, str(HERE.parent))
+
+from torchrom.paper.study import run_paper  # noqa: E402
+
+LIMITS_S = {"quick": 180.0, "full": 900.0}
+
+
+def one_run(folder: Path, quick: bool, label: str) -> dict:
+    load0 = os.getloadavg()[0]
+    t0 = time.perf_counter()
+    summary = run_paper(folder, quick=quick, log=lambda m: print(f"  [{label}] {m}", flush=True))
+    wall = time.perf_counter() - t0
+    return {"form": label, "wall_s": wall, "limit_s": LIMITS_S["quick" if quick else "full"],
+            "within_limit": wall <= LIMITS_S["quick" if quick else "full"],
+            "stages_s": summary["seconds"], "cpu_s": summary["cpu_seconds"],
+            "lco_cases": summary["lco"]["cases"], "case_steps": summary["lco"]["case_steps"],
+            "us_per_case_step": summary["lco"]["us_per_case_step"],
+            "load_average_1min_start": load0, "load_average_1min_end": os.getloadavg()[0]}
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--quick-only", action="store_true", help="skip the full study")
+    ap.add_argument("--out", type=Path, default=HERE / "results")
+    ap.add_argument("--full-out", type=Path, default=None,
+                    help="keep the full study's folder here (default: a temporary folder)")
+    args = ap.parse_args(argv)
+    rows = []
+    with tempfile.TemporaryDirectory() as tmp:
+        quick = Path(tmp) / "quick"
+        rows.append(one_run(quick, True, "quick"))
+        rows.append(one_run(quick, True, "quick, cached rerun"))
+        if not args.quick_only:
+            rows.append(one_run(args.full_out or Path(tmp) / "full", False, "full"))
+    meta = {"python": platform.python_version(), "torch": torch.__version__,
+            "cpus": os.cpu_count(), "machine": platform.machine()}
+    args.out.mkdir(parents=True, exist_ok=True)
+    (args.out / "bench_paper.json").write_text(json.dumps({"meta": meta, "runs": rows},
+                                                          indent=1))
+    pd.DataFrame([{k: v for k, v in r.items() if not isinstance(v, dict)} for r in rows]).to_csv(
+        args.out / "bench_paper.csv", index=False)
+    for r in rows:
+        print(f"{r['form']}: {r['wall_s']:.0f} s (limit {r['limit_s']:.0f} s), "
+              f"{r['us_per_case_step']:.0f} us per case-step, "
+              f"load {r['load_average_1min_end']:.1f}")
+    print(f"wrote {args.out / 'bench_paper.json'}, {args.out / 'bench_paper.csv'}")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
