@@ -10,9 +10,11 @@ simulator against the eigenvalues, runs the LCO sweep and writes into DIR (defau
   the paper with our verdict (agree / differ, with numbers and causes);
 - ``paper.json``: the same numbers machine-readably (keys: version, quick, seconds, flutter,
   linear, lco, alpha_gamma, findings, figures, identification);
-- ``model/`` (goland.bdf, rom.npz, basis.npz, aero.npz, flutter.json), ``tables/`` (alpha_gamma,
-  table3, linear_check) and ``sweeps/lco/`` (results, histories): cached by the hash of their
-  inputs and the package version and reused on the next run; ``--force`` rebuilds everything.
+- ``model/`` (goland.bdf, rom.npz, basis.npz, aero.npz, flutter.json), ``model_exact/`` (the same
+  with the exact Kelvin–Voigt damping, for the report's damping cause check), ``tables/``
+  (alpha_gamma, table3, linear_check) and ``sweeps/lco/``, ``sweeps/lco_exact_damping/``
+  (results, histories): cached by the hash of their inputs and the package version and reused
+  on the next run; ``--force`` rebuilds everything.
 ``--quick``: coarser grids and shorter runs (minutes instead of a quarter of an hour).
 """
 
