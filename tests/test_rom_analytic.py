@@ -26,7 +26,7 @@ def test_van_der_pol_duffing_force_is_the_equation():
     got = rom.force(q, v, alpha, gamma)
     assert torch.allclose(got, expect, rtol=1e-13, atol=1e-12)
     assert rom.outputs["sum"].tolist() == [1.0, 1.0]
-    assert set(BUILTIN) == {"van_der_pol_duffing", "touze_two_mode"}
+    assert set(BUILTIN) == {"van_der_pol_duffing", "touze_two_mode", "quintic_damping_oscillator"}
 
 
 def test_touze_builtin_is_exact():

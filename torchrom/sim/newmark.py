@@ -163,8 +163,9 @@ class Newmark:
             the error is bounded by the correction itself).
         compile: compile the step with torch.compile (needs a C compiler on CPU; opt-in).
         cuda_graphs: on a CUDA device, capture the steps of a check interval in a CUDA graph
-            and replay it (True / False / 'auto' = on CUDA devices); the eager code path is the
-            same sequence of kernels.
+            and replay it (True / False / 'auto' = on CUDA devices); True on a CPU runs the
+            captured code (the steps writing into static state tensors) eagerly, which is how
+            that path is tested without a GPU.
         threads: torch intra-op threads during the run on CPU: an int, 'keep' (leave torch's
             setting) or 'auto' (default: one thread when a nonlinear force evaluation is below
             ~4M multiply-adds — the per-step kernels are then too small to share, and waiting on
@@ -633,6 +634,9 @@ class _Run:
         if not self.graphs:
             self.state, Y, Yd = self._steps(self.state, step0, N)
             return Y, Yd
+        if self.state["q"].device.type != "cuda":
+            # the code a graph records, run eagerly: how the CUDA path is tested on a CPU
+            return self._steps_in_place(step0, N)
         pattern = tuple(id(self._step_function(step0 + i)) for i in range(N))
         key = (pattern, self.state["q"].shape[1])
         if self._graph is None or self._graph[0] != key:
