@@ -54,13 +54,15 @@ def run(args: argparse.Namespace) -> int:
     from ..sim import output_matrix
     from ..study.bifurcation import bifurcation_sweep
     from ..study.grid import distinct_cases
+    from ..study.models import model_rom
     from ..study.plots import bifurcation_plot
     from ..study.runner import open_executor
     from ..study.sweep import case_evaluator, initial_displacement
     from ..study.table import table_paths, write_table
 
     device, dtype, cfg = load_study(args)
-    rom = cfg.build_rom()
+    model = cfg.build_model()
+    rom = model_rom(model)
     controls = distinct_cases(cfg.cases, ("q0", "sample"))
     varying = [k for k in dict.fromkeys(k for c in controls for k in c)
                if len({repr(c.get(k)) for c in controls}) > 1]
@@ -90,7 +92,7 @@ def run(args: argparse.Namespace) -> int:
     with open_executor(args.workers, args.scheduler) as executor:
         print(f"torchrom bifurcation: {len(controls)} control case(s) of '{cfg.title}' x "
               f"{args.num} initial amplitudes q0 in [{lo:g}, {hi:g}], {executor.description}")
-        evaluate = case_evaluator(cfg, rom, device=device, dtype=dtype, executor=executor,
+        evaluate = case_evaluator(cfg, model, device=device, dtype=dtype, executor=executor,
                                   chunk_size=args.chunk_size)
         result = bifurcation_sweep(evaluate, controls, np.geomspace(lo, hi, args.num),
                                    refine=args.refine, points=args.points,

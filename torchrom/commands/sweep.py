@@ -1,7 +1,9 @@
 """``torchrom sweep CONFIG.toml --out DIR``: run a TOML-defined grid of LCO simulations.
 
 Writes ``DIR/results.parquet`` and ``DIR/results.csv`` (one row per case; columns in
-:mod:`torchrom.study.table`) and ``DIR/<y>_vs_<x>.png`` (the ``[plot]`` figure). With
+:mod:`torchrom.study.table`), ``DIR/<y>_vs_<x>.png`` (the ``[plot]`` figure) and, when the
+configuration asks for them (``[history]``), ``DIR/histories.parquet`` (case_id, t and one column
+per output). With
 ``--json FILE`` the same rows are written as a JSON list of records (same keys and units as the
 table columns; NaN as null). A configuration that samples parameters from distributions
 (:mod:`torchrom.study.sampling`) also gets ``DIR/amplitude_distribution.{parquet,csv,png}``:
@@ -62,19 +64,21 @@ def run(args: argparse.Namespace) -> int:
     from ..study.runner import PartStore, open_executor
     from ..study.sampling import sampled_parameters
     from ..study.sweep import run_description, run_sweep
-    from ..study.table import table_paths, write_table
+    from ..study.table import table_paths, write_histories, write_table
 
     device, dtype, cfg = load_study(args)
     cfg = with_overrides(cfg, compile=True if args.compile else None, threads=args.threads)
-    rom = cfg.build_rom()
+    model = cfg.build_model()
     out = Path(args.out)
     # outputs of this very run (same run key) may be rewritten: that is how a sweep resumes
-    resumable = PartStore(out, run_description(cfg, rom, dtype)).check(args.force)
+    resumable = PartStore(out, run_description(cfg, model, dtype)).check(args.force)
     paths = table_paths(out)
     figure = out / f"{cfg.plot.y}_vs_{cfg.plot.x}.png"
+    hist_path = out / "histories.parquet"
     sampled = sampled_parameters(cfg.raw.get("cases", {}))
     uq_paths = {**table_paths(out, DISTRIBUTION), "figure": out / f"{DISTRIBUTION}.png"}
-    check_outputs(args, (*paths.values(), figure, *(uq_paths.values() if sampled else ())),
+    check_outputs(args, (*paths.values(), figure, *(uq_paths.values() if sampled else ()),
+                         *((hist_path,) if cfg.history else ())),
                   may_replace=args.force or resumable)
 
     from tqdm import tqdm
@@ -88,17 +92,20 @@ def run(args: argparse.Namespace) -> int:
             def progress(done: int, total: int) -> None:
                 bar.update(done - bar.n)
 
+            histories = []
             try:
-                table, timing = run_sweep(cfg, rom=rom, device=device, dtype=dtype,
+                table, timing = run_sweep(cfg, model=model, device=device, dtype=dtype,
                                           progress=progress, out=out, force=args.force,
                                           executor=executor, chunk_size=args.chunk_size,
-                                          log=bar.write)
+                                          log=bar.write, on_history=histories.append)
             except KeyboardInterrupt:
                 bar.write(f"interrupted: finished chunks are kept in {out / 'parts'}; run the "
                           f"same command again to resume")
                 raise
 
     written = write_table(table, out, force=True)
+    if histories:
+        written["histories"] = write_histories(histories, hist_path)
     parameter_plot(table, figure, x=cfg.plot.x, y=cfg.plot.y, hue=cfg.plot.hue,
                    title=cfg.title, force=True)
     extra = _write_distribution(table, cfg, sampled, uq_paths) if sampled else []

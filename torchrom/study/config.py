@@ -4,25 +4,41 @@ A sweep configuration has these tables (every key is checked; a bad one gives a 
 :class:`~torchrom.errors.InputError` naming the file, the table and the key):
 
 ``title``        a string shown in figures.
-``[model]``      ``rom = "path/to/rom.npz"`` (relative to the configuration file) or
-                 ``builtin = "van_der_pol_duffing"`` / ``"touze_two_mode"`` with that function's
-                 keyword arguments (:mod:`torchrom.rom.analytic`).
+``[model]``      ``rom = "path/to/rom.npz"`` (relative to the configuration file), with
+                 ``aero = "aero.npz"`` (GAFs + RFA on the ROM's first modes) for an aeroelastic
+                 sweep and optionally ``span`` (reference length of amplitudes in % of span);
+                 or ``builtin = "goland"``: the built-in Goland pipeline (FE model, identified
+                 9L12D ROM, aerodynamics; :class:`torchrom.paper.pipeline.GolandPipeline` keys,
+                 files cached in ``cache``, default ``$TORCHROM_CACHE`` or
+                 ``~/.cache/torchrom/goland``); or ``builtin = "van_der_pol_duffing"`` /
+                 ``"touze_two_mode"`` with that function's keyword arguments
+                 (:mod:`torchrom.rom.analytic`).
+``[aeroelastic]`` (models with aerodynamics) :class:`~torchrom.study.models.AeroelasticModel`
+                 options: ``baseline_alpha``, ``baseline_gamma`` (the damping whose flutter
+                 altitude ``alpha = "matched"`` keeps), ``reference_altitude_ft``,
+                 ``altitude_range_ft``.
 ``[initial]``    ``q0``: a number (the displacement of basis function ``mode``, 1-based, default
                  1) or a list of n numbers; ``v0``: a number or a list (default 0).
 ``[integrator]`` ``dt``, ``t_end`` (s) and the options of :class:`torchrom.sim.Newmark`
-                 (scheme, rho_inf, solver, iterations, tol, predictor, check_every, compile,
-                 threads).
+                 (scheme, rho_inf, solver, iterations, startup_iterations, tol, predictor,
+                 check_every, refresh_every, sample_every, compile, threads, cuda_graphs).
 ``[lco]``        ``outputs`` (ROM outputs or generalized coordinates "q1"…; the first decides)
                  and the options of :class:`torchrom.sim.LCOCriteria` (rtol, cycles, decay_ratio,
                  max_amplitude, ring).
 ``[cases]``      the case grid (:mod:`torchrom.study.grid`); parameters ``alpha`` (1/s),
                  ``gamma`` (s), ``stiffness_nl``, ``damping_nl`` (true/false or a scale) and
-                 ``q0`` (scales the initial displacement).
+                 ``q0`` (scales the initial displacement); aeroelastic sweeps add
+                 ``altitude_ft``, ``mach`` and ``alpha = "matched"`` (:mod:`.cases`).
+``[history]``    cases whose output time histories are kept: ``where`` (parameter values),
+                 ``every`` (steps); see :class:`~torchrom.study.cases.HistorySpec`.
 ``[plot]``       ``x`` (a case parameter; default the first swept one), ``y`` (a table column,
                  default "amplitude"), ``hue`` (a case parameter, optional).
 ``[run]``        ``batch_size`` (largest number of cases integrated together, default 512) and
                  ``chunk_size`` (cases per chunk of work and per part file; default: about 8
                  chunks, see :func:`torchrom.study.runner.plan_chunks`).
+``[variants.NAME]`` tables that replace parts of the others when the configuration is loaded as
+                 variant NAME (e.g. ``[variants.quick.cases]`` with a coarser grid); tables are
+                 merged key by key, other values replaced.
 """
 
 from __future__ import annotations
@@ -44,13 +60,23 @@ from ..errors import InputError
 from ..rom import NonlinearROM
 from ..rom.analytic import BUILTIN
 from ..sim import LCOCriteria, Newmark
+from .cases import (
+    STRUCTURAL_PARAMETERS,  # noqa: F401 - re-exported (public name of this module)
+    HistorySpec,
+    case_parameters,
+    check_case_values,
+)
 from .grid import config_hash, expand_cases
+from .models import AeroelasticModel, model_rom
 
-#: case parameters of a structural (no aerodynamics) sweep
-STRUCTURAL_PARAMETERS = ("alpha", "gamma", "stiffness_nl", "damping_nl", "q0")
-SECTIONS = ("title", "model", "initial", "integrator", "lco", "cases", "plot", "run")
-_NEWMARK_KEYS = ("scheme", "rho_inf", "solver", "iterations", "tol", "predictor", "check_every",
-                 "compile", "threads")
+SECTIONS = ("title", "model", "aeroelastic", "initial", "integrator", "lco", "cases", "history",
+            "plot", "run", "variants")
+#: [aeroelastic] keys (AeroelasticModel fields)
+AEROELASTIC_KEYS = ("baseline_alpha", "baseline_gamma", "reference_altitude_ft",
+                    "altitude_range_ft")
+_NEWMARK_KEYS = ("scheme", "rho_inf", "solver", "iterations", "startup_iterations", "tol",
+                 "predictor", "check_every", "refresh_every", "sample_every", "compile", "threads",
+                 "cuda_graphs")
 _LCO_KEYS = ("rtol", "cycles", "decay_ratio", "max_amplitude", "ring")
 
 
@@ -78,14 +104,20 @@ class SweepConfig:
     batch_size: int = 512
     chunk_size: int | None = None
     raw: dict[str, Any] = field(default_factory=dict, repr=False)
+    aeroelastic: dict[str, Any] | None = None
+    history: HistorySpec | None = None
 
     @property
     def hash(self) -> str:
         """Hash of everything but the case grid (cases carry their own ``case_id``)."""
         return config_hash({k: v for k, v in self.raw.items() if k not in ("cases", "plot")})
 
+    def build_model(self):
+        """The sweep's model: a NonlinearROM, or an AeroelasticModel when it has aerodynamics."""
+        return build_model(self.model, self.source, self.aeroelastic)
+
     def build_rom(self) -> NonlinearROM:
-        return build_model(self.model, self.source)
+        return model_rom(self.build_model())
 
 
 def _err(source: Path, where: str, msg: str) -> InputError:
@@ -116,20 +148,38 @@ def _positive(table: dict, key: str, source: Path, where: str, default=None) -> 
     return float(x)
 
 
-def build_model(model: dict[str, Any], source: Path) -> NonlinearROM:
-    """The ROM of a ``[model]`` table."""
+def is_aeroelastic(model: dict[str, Any]) -> bool:
+    """Whether a ``[model]`` table describes a model with aerodynamics."""
+    return "aero" in model or model.get("builtin") == "goland"
+
+
+def build_model(model: dict[str, Any], source: Path, aeroelastic: dict[str, Any] | None = None):
+    """The model of a ``[model]`` table (with its ``[aeroelastic]`` options): a NonlinearROM or
+    an :class:`~torchrom.study.models.AeroelasticModel`."""
     where = "[model]"
     if ("rom" in model) == ("builtin" in model):
         raise _err(source, where, "give exactly one of rom = 'file.npz' or builtin = 'name'")
+    if model.get("builtin") == "goland":
+        return _goland_model(model, source, aeroelastic or {})
     if "rom" in model:
-        _check_keys(model, ("rom",), source, where)
-        path = Path(model["rom"])
-        if not path.is_absolute():
-            path = source.parent / path
-        return NonlinearROM.load(path)
+        _check_keys(model, ("rom", "aero", "span"), source, where)
+        rom = NonlinearROM.load(_relative(model["rom"], source))
+        span = model.get("span")
+        if span is not None:
+            rom.metadata["span"] = _positive(model, "span", source, where)
+        if "aero" not in model:
+            return rom
+        from ..aero.files import load_aero
+
+        aero = load_aero(_relative(model["aero"], source))
+        try:
+            return AeroelasticModel(rom, aero, **_aeroelastic_options(aeroelastic, source))
+        except InputError as exc:
+            raise _err(source, where, str(exc)) from None
     name = model["builtin"]
     if name not in BUILTIN:
-        raise _err(source, f"{where} builtin", f"expected one of {sorted(BUILTIN)}, got {name!r}")
+        raise _err(source, f"{where} builtin", f"expected one of {sorted([*BUILTIN, 'goland'])}, "
+                   f"got {name!r}")
     fn = BUILTIN[name]
     kwargs = {k: v for k, v in model.items() if k != "builtin"}
     params = inspect.signature(fn).parameters
@@ -142,8 +192,81 @@ def build_model(model: dict[str, Any], source: Path) -> NonlinearROM:
         raise _err(source, f"{where} ({name})", f"bad value ({exc})") from None
 
 
-def load_sweep_config(path) -> SweepConfig:
-    """Read and validate a sweep configuration (InputError naming the key on any problem)."""
+def _relative(path: str, source: Path) -> Path:
+    p = Path(path)
+    return p if p.is_absolute() else source.parent / p
+
+
+def _aeroelastic_options(table: dict[str, Any] | None, source: Path) -> dict[str, Any]:
+    table = dict(table or {})
+    _check_keys(table, AEROELASTIC_KEYS, source, "[aeroelastic]")
+    if "altitude_range_ft" in table:
+        rng = table["altitude_range_ft"]
+        if not (isinstance(rng, list) and len(rng) == 2 and rng[0] < rng[1]):
+            raise _err(source, "[aeroelastic] altitude_range_ft", f"expected [LO, HI], got {rng!r}")
+        table["altitude_range_ft"] = (float(rng[0]), float(rng[1]))
+    return table
+
+
+def goland_cache_folder(model: dict[str, Any], source: Path) -> Path:
+    """Cache folder of the built-in Goland pipeline: ``[model] cache``, else $TORCHROM_CACHE,
+    else ~/.cache/torchrom/goland."""
+    import os
+
+    if "cache" in model:
+        return _relative(str(model["cache"]), source)
+    env = os.environ.get("TORCHROM_CACHE")
+    return Path(env) if env else Path.home() / ".cache" / "torchrom" / "goland"
+
+
+def _goland_options(model: dict[str, Any], source: Path):
+    from ..paper.pipeline import GolandPipeline
+
+    table = {k: v for k, v in model.items() if k not in ("builtin", "cache")}
+    try:
+        return GolandPipeline.from_table(table)
+    except InputError as exc:
+        raise InputError(f"{source}: {exc}") from None
+
+
+def _goland_model(model: dict[str, Any], source: Path, aeroelastic: dict[str, Any]):
+    from ..paper.pipeline import goland_pipeline
+
+    res = goland_pipeline(_goland_options(model, source), goland_cache_folder(model, source))
+    opts = _aeroelastic_options(aeroelastic, source)
+    m = res.model
+    return AeroelasticModel(m.rom, m.aero, **{"baseline_alpha": m.baseline_alpha,
+                                              "baseline_gamma": m.baseline_gamma,
+                                              "altitude_range_ft": m.altitude_range_ft, **opts})
+
+
+def _merged(base: dict[str, Any], override: dict[str, Any]) -> dict[str, Any]:
+    out = dict(base)
+    for key, value in override.items():
+        if isinstance(value, dict) and isinstance(out.get(key), dict):
+            out[key] = _merged(out[key], value)
+        else:
+            out[key] = value
+    return out
+
+
+def apply_variant(raw: dict[str, Any], variant: str | None, source: Path) -> dict[str, Any]:
+    """The raw configuration with ``[variants.<variant>]`` merged in (and the variants removed)."""
+    variants = raw.get("variants", {})
+    if not isinstance(variants, dict):
+        raise _err(source, "[variants]", f"expected a table, got {type(variants).__name__}")
+    base = {k: v for k, v in raw.items() if k != "variants"}
+    if variant is None:
+        return base
+    if variant not in variants or not isinstance(variants[variant], dict):
+        raise _err(source, "[variants]", f"no variant {variant!r}; the file has "
+                   f"{sorted(variants)}")
+    return _merged(base, variants[variant])
+
+
+def load_sweep_config(path, variant: str | None = None) -> SweepConfig:
+    """Read and validate a sweep configuration (InputError naming the key on any problem);
+    ``variant`` merges ``[variants.<variant>]`` over the rest."""
     source = Path(path)
     if not source.is_file():
         raise InputError(f"{source}: no such configuration file")
@@ -154,6 +277,8 @@ def load_sweep_config(path) -> SweepConfig:
     except UnicodeDecodeError:
         raise InputError(f"{source}: not a text (UTF-8) file") from None
     _check_keys(raw, SECTIONS, source, "top level")
+    raw = apply_variant(raw, variant, source)
+    _check_keys(raw, SECTIONS, source, f"top level (variant {variant})")
     title = raw.get("title", source.stem)
     if not isinstance(title, str):
         raise _err(source, "title", f"expected a string, got {title!r}")
@@ -186,27 +311,30 @@ def load_sweep_config(path) -> SweepConfig:
     except TypeError as exc:
         raise _err(source, "[lco]", f"bad value ({exc})") from None
 
+    aero_t = _table(raw, "aeroelastic", source)
+    aeroelastic = is_aeroelastic(model)
+    if aero_t and not aeroelastic:
+        raise _err(source, "[aeroelastic]", "needs a model with aerodynamics ([model] aero = "
+                   "'aero.npz' or builtin = 'goland')")
+    _aeroelastic_options(aero_t, source)
+    parameters = case_parameters(aeroelastic)
     cases_t = _table(raw, "cases", source)
     try:
-        cases = expand_cases(cases_t, "[cases]", allowed=STRUCTURAL_PARAMETERS)
+        cases = expand_cases(cases_t, "[cases]", allowed=parameters)
+        check_case_values(cases, aeroelastic)
+        history = HistorySpec.from_table(_table(raw, "history", source), parameters)
     except InputError as exc:
         raise InputError(f"{source}: {exc}") from None
-    for k, case in enumerate(cases):
-        for name, value in case.items():
-            ok = isinstance(value, (int, float)) and math.isfinite(float(value))
-            if not ok:
-                raise _err(source, f"[cases] {name}", f"expected a number or true/false, got "
-                           f"{value!r} (case {k})")
 
     plot_t = _table(raw, "plot", source)
     _check_keys(plot_t, ("x", "y", "hue"), source, "[plot]")
-    swept = [k for k in STRUCTURAL_PARAMETERS if len({repr(c.get(k)) for c in cases}) > 1]
+    swept = [k for k in parameters if len({repr(c.get(k)) for c in cases}) > 1]
     x = plot_t.get("x", swept[0] if swept else "alpha")
     hue = plot_t.get("hue")
     for key, value in (("x", x), ("hue", hue)):
-        if value is not None and value not in STRUCTURAL_PARAMETERS:
+        if value is not None and value not in parameters:
             raise _err(source, f"[plot] {key}", f"expected a case parameter "
-                       f"{STRUCTURAL_PARAMETERS}, got {value!r}")
+                       f"{parameters}, got {value!r}")
     plot = PlotSpec(x=x, y=plot_t.get("y", "amplitude"), hue=hue)
 
     run_t = _table(raw, "run", source)
@@ -219,9 +347,13 @@ def load_sweep_config(path) -> SweepConfig:
 
     cfg = SweepConfig(source=source, title=title, model=model, initial=initial,
                       integrator=newmark, t_end=t_end, lco=lco, outputs=outputs, cases=cases,
-                      plot=plot, batch_size=batch,
-                      chunk_size=run_t.get("chunk_size"), raw=raw)
-    build_model(model, source)  # fail now, not after a long run
+                      plot=plot, batch_size=batch, chunk_size=run_t.get("chunk_size"), raw=raw,
+                      aeroelastic=aero_t,
+                      history=history)
+    if model.get("builtin") == "goland":
+        _goland_options(model, source)  # checked now; built (or reused) when the sweep runs
+    else:
+        build_model(model, source, aero_t)  # fail now, not after a long run
     return cfg
 
 

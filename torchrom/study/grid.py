@@ -10,6 +10,9 @@ A ``[cases]`` table lists parameters. Each value is
 ``combine = "product"`` (default) makes every combination of the swept parameters (the first
 one varies slowest); ``combine = "zip"`` pairs them entry by entry (equal lengths required).
 ``[[cases.list]]`` entries add explicit cases (the scalars of ``[cases]`` fill what they omit).
+A list of inline tables is a *bundle*: each table sets several parameters together (e.g.
+``curve = [{gamma = 0.0}, {gamma = 1e-3, stiffness_nl = false}]`` swept against ``altitude_ft``);
+the bundle's own name is only a label of the axis.
 A parameter may also be a distribution (``{distribution = ..., ...}`` with ``samples`` and
 ``seed``): its seeded draws form one swept block (:mod:`torchrom.study.sampling`).
 
@@ -101,12 +104,19 @@ def expand_cases(table: Mapping[str, Any], where: str = "[cases]",
     axes: dict[str, list[dict[str, Any]]] = {}
     sampled: dict[str, Any] = {}
     for name, spec in table.items():
-        check_name(name, f"{where} {name}")
         if is_distribution(spec):
+            check_name(name, f"{where} {name}")
             sampled[name] = spec
             axes.setdefault("(sampled)", [])
             continue
         vals, is_swept = parameter_values(spec, f"{where} {name}")
+        if is_swept and all(isinstance(v, dict) for v in vals):
+            for k, bundle in enumerate(vals):
+                for key in bundle:
+                    check_name(key, f"{where} {name}[{k}]")
+            axes[name] = [dict(v) for v in vals]
+            continue
+        check_name(name, f"{where} {name}")
         if is_swept:
             axes[name] = [{name: v} for v in vals]
         else:

@@ -73,6 +73,9 @@ class ChunkResult:
     rows: pd.DataFrame
     wall_time_s: float = 0.0
     case_steps: int = 0
+    #: output time histories of the chunk's cases that asked for them (long format, with a
+    #: ``case_id`` column), or None
+    histories: pd.DataFrame | None = None
 
 
 class Task(Protocol):
@@ -131,6 +134,8 @@ class PartStore:
     run: dict[str, str]
     warn: Callable[[str], None] = print
     _opened: bool = field(default=False, init=False, repr=False)
+    #: sidecar name -> time histories of the valid parts found by the last load()
+    _histories: dict[str, pd.DataFrame] = field(default_factory=dict, init=False, repr=False)
 
     @property
     def parts(self) -> Path:
@@ -190,22 +195,39 @@ class PartStore:
                                                "version": __version__})
         self._opened = True
 
-    def write(self, rows: pd.DataFrame) -> Path:
-        """Store one finished chunk (rows with a ``case_id`` column): parquet, then sidecar."""
+    def write(self, rows: pd.DataFrame, histories: pd.DataFrame | None = None) -> Path:
+        """Store one finished chunk (rows with a ``case_id`` column) and, when given, its time
+        histories: parquet files first, then the sidecar with their checksums."""
         if not self._opened:
             raise RuntimeError("PartStore.write before open()")
         ids = [str(c) for c in rows["case_id"]]
         name = f"part-{chunk_key(ids)}"
-        buf = io.BytesIO()
-        rows.to_parquet(buf, index=False)
-        data = buf.getvalue()
-        path = self.parts / f"{name}.parquet"
-        with atomic_path(path) as tmp:
-            tmp.write_bytes(data)
-        write_json_atomic(self.parts / f"{name}.json",
-                          {"format": PART_FORMAT, "run_key": self.run_key, "sha256": _sha256(data),
-                           "bytes": len(data), "rows": len(ids), "case_ids": ids})
-        return path
+        meta = {"format": PART_FORMAT, "run_key": self.run_key}
+        for kind, frame, path in (("", rows, self.parts / f"{name}.parquet"),
+                                  ("histories_", histories, self.parts / f"{name}.hist.parquet")):
+            if frame is None:
+                continue
+            buf = io.BytesIO()
+            frame.to_parquet(buf, index=False)
+            data = buf.getvalue()
+            with atomic_path(path) as tmp:
+                tmp.write_bytes(data)
+            meta.update({f"{kind}sha256": _sha256(data), f"{kind}bytes": len(data)})
+        write_json_atomic(self.parts / f"{name}.json", {**meta, "rows": len(ids), "case_ids": ids})
+        return self.parts / f"{name}.parquet"
+
+    @staticmethod
+    def _read_checked(path: Path, meta: dict, kind: str = "") -> tuple[pd.DataFrame | None, str]:
+        if not path.exists():
+            return None, f"{path.name} missing"
+        data = path.read_bytes()
+        if len(data) != meta.get(f"{kind}bytes") or _sha256(data) != meta.get(f"{kind}sha256"):
+            return None, (f"checksum mismatch of {path.name} ({len(data)} bytes, expected "
+                          f"{meta.get(f'{kind}bytes')}): truncated or corrupted")
+        try:
+            return pd.read_parquet(io.BytesIO(data)), ""
+        except Exception as exc:  # noqa: BLE001 - any reader failure means a bad part
+            return None, f"unreadable parquet {path.name} ({type(exc).__name__})"
 
     def _check(self, sidecar: Path) -> tuple[pd.DataFrame | None, str]:
         """(rows, "") for a valid part, (None, reason) otherwise."""
@@ -213,28 +235,29 @@ class PartStore:
             meta = json.loads(sidecar.read_text())
         except (json.JSONDecodeError, UnicodeDecodeError, OSError):
             return None, "unreadable sidecar"
-        part = sidecar.with_suffix(".parquet")
-        if not part.exists():
+        if not sidecar.with_suffix(".parquet").exists():
             return None, "part file missing"
         if meta.get("run_key") != self.run_key:
             return None, f"written for run key {meta.get('run_key')}"
-        data = part.read_bytes()
-        if len(data) != meta.get("bytes") or _sha256(data) != meta.get("sha256"):
-            return None, (f"checksum mismatch ({len(data)} bytes, expected {meta.get('bytes')}): "
-                          f"truncated or corrupted")
-        try:
-            rows = pd.read_parquet(io.BytesIO(data))
-        except Exception as exc:  # noqa: BLE001 - any reader failure means a bad part
-            return None, f"unreadable parquet ({type(exc).__name__})"
+        rows, reason = self._read_checked(sidecar.with_suffix(".parquet"), meta)
+        if rows is None:
+            return None, reason
         if "case_id" not in rows or [str(c) for c in rows["case_id"]] != meta.get("case_ids"):
             return None, "case ids do not match its sidecar"
+        if "histories_sha256" in meta:
+            hist, reason = self._read_checked(sidecar.with_suffix(".hist.parquet"), meta,
+                                              "histories_")
+            if hist is None:
+                return None, reason
+            self._histories[sidecar.name] = hist
         return rows, ""
 
     def _reject(self, path: Path, reason: str) -> None:
         dest = self.parts / "rejected"
         dest.mkdir(exist_ok=True)
         stamp = time.strftime("%Y%m%dT%H%M%S")
-        for p in (path.with_suffix(".parquet"), path.with_suffix(".json")):
+        for p in (path.with_suffix(".parquet"), path.with_suffix(".json"),
+                  path.with_suffix(".hist.parquet")):
             if p.exists():
                 shutil.move(str(p), dest / f"{p.name}.{stamp}")
         self.warn(f"warning: {path.with_suffix('.parquet')}: {reason}; moved to {dest}, its "
@@ -245,6 +268,7 @@ class PartStore:
         if not self.parts.is_dir():
             return None
         frames = []
+        self._histories = {}
         sidecars = sorted(self.parts.glob("part-*.json"))
         for sidecar in sidecars:
             rows, reason = self._check(sidecar)
@@ -254,11 +278,16 @@ class PartStore:
                 frames.append(rows)
         covered = {s.with_suffix(".parquet") for s in sidecars}
         for orphan in sorted(self.parts.glob("part-*.parquet")):
-            if orphan not in covered:
+            if orphan not in covered and not orphan.name.endswith(".hist.parquet"):
                 self._reject(orphan, "no sidecar (interrupted while being written)")
         if not frames:
             return None
         return pd.concat(frames, ignore_index=True)
+
+    def load_histories(self) -> pd.DataFrame | None:
+        """The time histories stored with the valid parts found by the last :meth:`load`."""
+        frames = list(self._histories.values())
+        return pd.concat(frames, ignore_index=True) if frames else None
 
 
 # ----------------------------------------------------------------------------------------------
@@ -425,11 +454,15 @@ def run_cases(task: Task, cases: Sequence[dict[str, Any]], case_ids: Sequence[st
               executor: InProcessExecutor | DaskExecutor | None = None,
               store: PartStore | None = None, force: bool = False,
               progress: Progress | None = None,
-              log: Callable[[str], None] | None = None) -> tuple[pd.DataFrame, RunStats]:
+              log: Callable[[str], None] | None = None,
+              on_history: Callable[[pd.DataFrame], None] | None = None,
+              ) -> tuple[pd.DataFrame, RunStats]:
     """Evaluate ``task`` on every case (see the module docstring); returns (table, stats).
 
     With ``store``, finished chunks go to part files as they complete, cases already stored
-    for the same run key are skipped, and the table is assembled from the part files."""
+    for the same run key are skipped, and the table is assembled from the part files.
+    ``on_history(frame)`` receives the chunks' time histories (:attr:`ChunkResult.histories`):
+    chunk by chunk without a store, all of them (stored and new) at the end with one."""
     t0 = time.perf_counter()
     log = log or (lambda _msg: None)
     cases = list(cases)
@@ -464,15 +497,20 @@ def run_cases(task: Task, cases: Sequence[dict[str, Any]], case_ids: Sequence[st
     for _k, result in executor.run(task, todo, report):
         rows = result.rows
         if store is not None:
-            store.write(rows)
+            store.write(rows, result.histories)
         else:
             frames.append(rows)
+            if result.histories is not None and on_history is not None:
+                on_history(result.histories)
         stats.computed += len(rows)
         stats.chunks += 1
         stats.wall_time_s += result.wall_time_s
         stats.case_steps += result.case_steps
     if store is not None:
         table = store.load()
+        histories = store.load_histories()
+        if histories is not None and on_history is not None:
+            on_history(histories)
     else:
         table = pd.concat(frames, ignore_index=True) if frames else None
     if table is None:

@@ -1,7 +1,8 @@
-"""Run a structural sweep: cases in chunks through the batched integrator, one table row each.
+"""Run a sweep: cases in chunks through the batched integrator, one table row each.
 
-A chunk of cases is integrated together (one :class:`~torchrom.sim.CaseSystem`) by a
-:class:`StructuralTask`; :mod:`.runner` splits the cases into chunks, runs them in-process or on
+A chunk of cases is integrated together (one :class:`~torchrom.sim.CaseSystem`, built by
+:func:`torchrom.study.cases.case_system` for a structural or an aeroelastic model) by a
+:class:`SweepTask`; :mod:`.runner` splits the cases into chunks, runs them in-process or on
 Dask workers and, given an output folder, stores finished chunks as resumable part files.
 Case ids hash each case's parameters together with the run key (:func:`run_description`).
 Hand-written; pandas for the table.
@@ -20,9 +21,12 @@ import torch
 
 from ..errors import InputError
 from ..rom import NonlinearROM
-from ..sim import CaseSystem
+from ..sim import HistoryRequest
+from .cases import case_system, history_table
+from .cases import structural_system as structural_system  # noqa: F401 - public name
 from .config import SweepConfig
 from .grid import case_id, config_hash
+from .models import AeroelasticModel, model_rom
 from .runner import ChunkResult, PartStore, run_cases
 from .table import result_rows
 
@@ -61,86 +65,100 @@ def initial_velocity(rom: NonlinearROM, initial: dict[str, Any], batch: int,
     return np.broadcast_to(arr, (batch, rom.n)).copy()
 
 
-def structural_system(rom: NonlinearROM, cases: list[dict[str, Any]], device=None,
-                      dtype=torch.float64) -> CaseSystem:
-    """The per-case system of a structural sweep (Eq. 54 parameters only)."""
-    def column(name, default):
-        return [float(c.get(name, default)) for c in cases]
-
-    return CaseSystem.build(rom, len(cases), alpha=column("alpha", 0.0),
-                            gamma=column("gamma", 0.0),
-                            stiffness_nl=column("stiffness_nl", 1.0),
-                            damping_nl=column("damping_nl", 1.0), device=device, dtype=dtype)
-
-
 @dataclass
-class StructuralTask:
-    """One chunk of a structural sweep (picklable: what a Dask worker receives once).
+class SweepTask:
+    """One chunk of a sweep (picklable: what a Dask worker receives once).
 
-    Called as ``task(cases, case_ids, progress)`` -> :class:`~torchrom.study.runner.ChunkResult`
-    with one table row per case (see :mod:`torchrom.study.runner`)."""
+    ``model``: a :class:`~torchrom.rom.NonlinearROM` (structural sweep) or an
+    :class:`~torchrom.study.models.AeroelasticModel`. Called as ``task(cases, case_ids,
+    progress)`` -> :class:`~torchrom.study.runner.ChunkResult` with one table row per case and
+    the time histories of the cases that ``[history]`` selects (see :mod:`torchrom.study.runner`).
+    """
 
     cfg: SweepConfig
-    rom: NonlinearROM
+    model: Any
     device: str = "cpu"
     dtype: torch.dtype = torch.float64
 
     def __call__(self, cases: list[dict[str, Any]], case_ids: list[str],
                  progress: Callable[[int, int], None] | None = None) -> ChunkResult:
-        cfg, rom = self.cfg, self.rom
-        system = structural_system(rom, cases, torch.device(self.device), self.dtype)
+        cfg, rom = self.cfg, model_rom(self.model)
+        system, extra = case_system(self.model, cases, torch.device(self.device), self.dtype)
         q0 = initial_displacement(rom, cfg.initial, cases)
         v0 = initial_velocity(rom, cfg.initial, len(cases))
+        keep = cfg.history.indices(cases) if cfg.history is not None else []
+        history = HistoryRequest(tuple(keep), cfg.history.every) if keep else None
         res = cfg.integrator.run(system, q0, v0, t_end=cfg.t_end, outputs=cfg.outputs,
-                                 lco=cfg.lco, progress=progress)
-        rows = result_rows(cases, res, config_hash=cfg.hash, span=rom.metadata.get("span"),
-                           case_ids=case_ids)
-        return ChunkResult(rows, res.wall_time_s, res.case_steps)
+                                 lco=cfg.lco, history=history, progress=progress)
+        span = getattr(self.model, "span", None) or rom.metadata.get("span")
+        rows = result_rows(cases, res, config_hash=cfg.hash, span=span, case_ids=case_ids,
+                           extra=extra)
+        return ChunkResult(rows, res.wall_time_s, res.case_steps,
+                           history_table(res, case_ids) if keep else None)
 
 
-def run_description(cfg: SweepConfig, rom: NonlinearROM, dtype=torch.float64) -> dict[str, str]:
-    """The run key of a sweep (a hash of the configuration without its case grid, the model's
-    tensors, outputs and metadata, and the precision) with its parts: what case ids and stored
-    results depend on. Any change of the model gives new case ids."""
-    info = {"config_hash": cfg.hash,
-            "model_hash": config_hash({"tensors": rom.content_hash(), "metadata": rom.metadata}),
+
+
+def model_hash(model) -> str:
+    """Content hash of a sweep model: the ROM's tensors, outputs and metadata, and for an
+    aeroelastic model its aerodynamic data and flight-condition settings too."""
+    rom = model_rom(model)
+    info = {"tensors": rom.content_hash(), "metadata": rom.metadata}
+    if isinstance(model, AeroelasticModel):
+        info["aeroelastic"] = model.content_hash()
+    return config_hash(info)
+
+
+def run_description(cfg: SweepConfig, model, dtype=torch.float64) -> dict[str, str]:
+    """The run key of a sweep (a hash of the configuration without its case grid, the model
+    (:func:`model_hash`) and the precision) with its parts: what case ids and stored results
+    depend on. Any change of the model gives new case ids."""
+    info = {"config_hash": cfg.hash, "model_hash": model_hash(model),
             "dtype": str(dtype).replace("torch.", "")}
     return {"run_key": config_hash(info), **info, "title": cfg.title, "config": str(cfg.source)}
 
 
 def run_sweep(cfg: SweepConfig, *, device=None, dtype=torch.float64,
               progress: Callable[[int, int], None] | None = None,
-              rom: NonlinearROM | None = None, cases: list[dict[str, Any]] | None = None,
+              rom: NonlinearROM | None = None, model=None,
+              cases: list[dict[str, Any]] | None = None,
               out=None, force: bool = False, executor=None, chunk_size: int | None = None,
-              log: Callable[[str], None] | None = None) -> tuple[pd.DataFrame, dict[str, float]]:
+              log: Callable[[str], None] | None = None,
+              on_history: Callable[[pd.DataFrame], None] | None = None,
+              ) -> tuple[pd.DataFrame, dict[str, float]]:
     """Integrate every case of ``cfg`` (or ``cases``, e.g. a calibration batch); returns
     (table, timing) with timing keys wall_time_s (Σ integration time), case_steps,
     us_per_case_step, elapsed_s, cases, reused, computed and chunks.
 
     ``out``: folder for resumable part files (:class:`~torchrom.study.runner.PartStore`; a
     folder of another configuration needs ``force``); ``executor``: from
-    :func:`~torchrom.study.runner.open_executor` (default in-process)."""
-    rom = rom or cfg.build_rom()
+    :func:`~torchrom.study.runner.open_executor` (default in-process); ``model``: the sweep's
+    model (default ``cfg.build_model()``; ``rom`` is accepted for a structural model);
+    ``on_history(frame)`` receives the time histories of the cases that ``[history]`` selects
+    (see :func:`torchrom.study.cases.history_table`)."""
+    model = model if model is not None else (rom if rom is not None else cfg.build_model())
     cases = cfg.cases if cases is None else cases
-    run = run_description(cfg, rom, dtype)
+    run = run_description(cfg, model, dtype)
     ids = [case_id(c, context=run["run_key"]) for c in cases]
-    task = StructuralTask(cfg, rom, str(torch.device(device or "cpu")), dtype)
+    task = SweepTask(cfg, model, str(torch.device(device or "cpu")), dtype)
     store = PartStore(Path(out), run) if out is not None else None
     table, stats = run_cases(task, cases, ids, batch_size=cfg.batch_size,
                              chunk_size=chunk_size or cfg.chunk_size, executor=executor,
-                             store=store, force=force, progress=progress, log=log)
+                             store=store, force=force, progress=progress, log=log,
+                             on_history=on_history)
     return table, stats.as_dict()
 
 
-def case_evaluator(cfg: SweepConfig, rom: NonlinearROM | None = None, *, device=None,
+def case_evaluator(cfg: SweepConfig, model=None, *, device=None,
                    dtype=torch.float64, executor=None, chunk_size: int | None = None
                    ) -> Callable[[list[dict[str, Any]]], pd.DataFrame]:
     """``evaluate(cases) -> table``: the cases simulated with ``cfg``'s model and options, one
-    row each in order (no part files) — what calibration and bifurcation sweeps iterate on."""
-    rom = rom or cfg.build_rom()
+    row each in order (no part files) — what calibration and bifurcation sweeps iterate on.
+    ``model``: a NonlinearROM or an AeroelasticModel (default ``cfg.build_model()``)."""
+    model = model if model is not None else cfg.build_model()
 
     def evaluate(cases: list[dict[str, Any]]) -> pd.DataFrame:
-        return run_sweep(cfg, rom=rom, cases=cases, device=device, dtype=dtype,
+        return run_sweep(cfg, model=model, cases=cases, device=device, dtype=dtype,
                          executor=executor, chunk_size=chunk_size)[0]
 
     return evaluate

@@ -92,3 +92,11 @@ def write_table(df: pd.DataFrame, out_dir, *, force: bool = False,
     with atomic_path(paths["csv"]) as tmp:
         df.to_csv(tmp, index=False)
     return paths
+
+
+def write_histories(frames: Sequence[pd.DataFrame], path) -> Path:
+    """Write time-history frames (case_id, t, outputs...) as one parquet file, atomically."""
+    path = Path(path)
+    with atomic_path(path) as tmp:
+        pd.concat(list(frames), ignore_index=True).to_parquet(tmp, index=False)
+    return path

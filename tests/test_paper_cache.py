@@ -1,0 +1,32 @@
+"""FileCache: files reused while the hash of their inputs is unchanged (torchrom.paper.cache)."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+
+from torchrom.errors import InputError
+from torchrom.io import write_text_atomic
+from torchrom.paper.cache import MANIFEST, FileCache
+
+
+def test_reuse_rebuild_and_force(tmp_path):
+    cache = FileCache(tmp_path)
+    key = FileCache.key({"stage": "a", "x": 1})
+    assert cache.get("a.txt", key) is None
+    cache.put("a.txt", key, lambda p: write_text_atomic(p, "one"))
+    again = FileCache(tmp_path)  # a new session reads the manifest
+    assert again.get("a.txt", key).read_text() == "one" and again.hits == ["a.txt"]
+    assert again.get("a.txt", FileCache.key({"stage": "a", "x": 2})) is None  # input changed
+    assert FileCache(tmp_path, force=True).get("a.txt", key) is None
+    (tmp_path / "a.txt").unlink()
+    assert FileCache(tmp_path).get("a.txt", key) is None  # file gone
+    assert FileCache.key({"x": 1, "y": 2}) == FileCache.key({"y": 2, "x": 1})
+    assert json.loads((tmp_path / MANIFEST).read_text())["files"]["a.txt"]["key"] == key
+
+
+def test_a_corrupt_manifest_is_reported(tmp_path):
+    (tmp_path / MANIFEST).write_text("{not json")
+    with pytest.raises(InputError, match="not a torchrom cache manifest"):
+        FileCache(tmp_path)

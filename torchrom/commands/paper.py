@@ -1,0 +1,59 @@
+"""``torchrom paper [--out DIR] [--quick] [--force]``: the paper's post-flutter study end to end.
+
+Builds the heavy Goland FE model, identifies the 9L12D ROM (decomposition damping), computes the
+aerodynamics on its basis (Mach 0.70, 9 modes, 13 lags), finds flutter, checks the batched
+simulator against the eigenvalues, runs the LCO sweep and writes into DIR (default ``paper``, or
+``paper-quick`` with ``--quick``):
+
+- ``figures/fig09_alpha_gamma.png`` … ``fig13_amplitude_ratios.png`` (paper Figs. 9–13);
+- ``report.md``: Table 2, the flutter point, Table 3, the Fig. 9–13 values and every finding of
+  the paper with our verdict (agree / differ, with numbers and causes);
+- ``paper.json``: the same numbers machine-readably (keys: version, quick, seconds, flutter,
+  linear, lco, alpha_gamma, findings, figures, identification);
+- ``model/`` (goland.bdf, rom.npz, basis.npz, aero.npz, flutter.json), ``tables/`` (alpha_gamma,
+  table3, linear_check) and ``sweeps/lco/`` (results, histories): cached by the hash of their
+  inputs and the package version and reused on the next run; ``--force`` rebuilds everything.
+``--quick``: coarser grids and shorter runs (minutes instead of a quarter of an hour).
+"""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from ._common import add_force_option, add_json_option, maybe_write_json
+
+NAME = "paper"
+HELP = "the paper's whole post-flutter LCO study: model, flutter, sweeps, figures, report.md"
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--out", type=Path, default=None, metavar="DIR",
+                        help="output folder (default: paper, or paper-quick with --quick)")
+    parser.add_argument("--quick", action="store_true",
+                        help="reduced study: coarser grids, shorter runs (a few minutes)")
+    parser.add_argument("--device", default="cpu", help="torch device of the LCO sweep")
+    add_json_option(parser)
+    add_force_option(parser)
+
+
+def run(args: argparse.Namespace) -> int:
+    import time
+
+    from ..paper.study import FIGURE_FILES, run_paper
+    from ._common import torch_device
+
+    out = args.out or Path("paper-quick" if args.quick else "paper")
+    device = torch_device(args.device)
+    t0 = time.perf_counter()
+    print(f"torchrom paper{' --quick' if args.quick else ''}: heavy Goland wing study into {out}")
+    summary = run_paper(out, quick=args.quick, force=args.force, device=str(device))
+    verdicts = [f["verdict"] for f in summary["findings"]]
+    print(f"findings: {verdicts.count('agree')} agree, {verdicts.count('differ')} differ, "
+          f"{len(verdicts) - verdicts.count('agree') - verdicts.count('differ')} not assessable")
+    for name in FIGURE_FILES:
+        if name in summary["figures"]:
+            print(f"wrote {summary['figures'][name]}")
+    print(f"wrote {out / 'report.md'}, {out / 'paper.json'} ({time.perf_counter() - t0:.0f} s)")
+    maybe_write_json(args, summary)
+    return 0

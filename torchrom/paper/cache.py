@@ -1,0 +1,72 @@
+"""A folder of intermediate files, each reused while the hash of its inputs is unchanged.
+
+``cache.json`` in the folder maps each file name to the key (a hash of its inputs and the package
+version) it was made from. :meth:`FileCache.get` returns the file when its recorded key equals the
+requested one, so any change of an input (an option, an upstream file, the package version)
+rebuilds the file and, through the keys, everything downstream of it. Files are written
+atomically (:mod:`torchrom.io`); the manifest is rewritten after each file. Hand-written.
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+from .._version import __version__
+from ..errors import InputError
+from ..io import write_json_atomic
+from ..study.grid import config_hash
+
+MANIFEST = "cache.json"
+
+
+class FileCache:
+    """Intermediate files in ``folder`` keyed by the hash of their inputs.
+
+    ``force``: ignore recorded keys (rebuild everything once in this session).
+    """
+
+    def __init__(self, folder, *, force: bool = False):
+        self.folder = Path(folder)
+        self.force = force
+        self.path = self.folder / MANIFEST
+        self.entries: dict[str, dict[str, Any]] = {}
+        if self.path.is_file():
+            try:
+                self.entries = json.loads(self.path.read_text()).get("files", {})
+            except (json.JSONDecodeError, AttributeError):
+                raise InputError(f"{self.path}: not a torchrom cache manifest (delete it or pass "
+                                 f"--force)") from None
+        self.hits: list[str] = []
+        self.built: list[str] = []
+
+    @staticmethod
+    def key(inputs: dict[str, Any]) -> str:
+        """The key of a file made from ``inputs`` by this package version."""
+        return config_hash({"inputs": inputs, "version": __version__})
+
+    def get(self, name: str, key: str) -> Path | None:
+        """The cached file ``name`` if it exists and was made from ``key``."""
+        path = self.folder / name
+        entry = self.entries.get(name)
+        if self.force or entry is None or entry.get("key") != key or not path.exists():
+            return None
+        self.hits.append(name)
+        return path
+
+    def put(self, name: str, key: str, write: Callable[[Path], Any]) -> Path:
+        """Write the file ``name`` with ``write(path)`` (which must write atomically) and record
+        its key."""
+        path = self.folder / name
+        path.parent.mkdir(parents=True, exist_ok=True)
+        write(path)
+        self.entries[name] = {"key": key, "version": __version__}
+        self.built.append(name)
+        write_json_atomic(self.path, {"files": self.entries})
+        return path
+
+    def owns(self, name: str) -> bool:
+        """Whether ``name`` was written through this cache (so it may be replaced)."""
+        return name in self.entries

@@ -1,0 +1,232 @@
+"""``torchrom paper``: the whole heavy Goland study of paper Sec. IV from nothing but the package.
+
+Steps (each result a file in the output folder; model files and sweep tables are cached by the
+hash of their inputs and the package version, :mod:`.cache`):
+
+1. the Goland pipeline (:mod:`.pipeline`): FE model, 9L12D ROM, aerodynamics, flutter;
+2. Fig. 9: α(γ) at the flutter altitude (the γ grid of ``paper_fig09.toml``);
+3. the simulator's linear checks and Table 3 (:mod:`.linear`);
+4. the LCO sweep of ``paper_lco.toml`` (Figs. 10–13, Fig. 11 from its histories);
+5. the figures (:mod:`torchrom.study.figures`), the findings (:mod:`.findings`), ``report.md``
+   and ``paper.json``.
+
+``quick`` loads the configurations' ``[variants.quick]`` (coarser grids, shorter runs) and uses
+:data:`QUICK_PIPELINE`. The configurations ship in ``torchrom/data`` (the same files as
+``configs/paper_*.toml``). Hand-written orchestration.
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+import time
+from collections.abc import Callable
+from importlib import resources
+from pathlib import Path
+from typing import Any
+
+import pandas as pd
+import torch
+
+from .._version import __version__
+from ..errors import InputError
+from ..io import write_json_atomic, write_text_atomic
+from ..study import figures
+from ..study.config import load_sweep_config
+from ..study.grid import config_hash
+from ..study.models import alpha_gamma_table
+from ..study.sweep import run_sweep
+from ..study.table import write_histories
+from . import findings as fnd
+from .cache import MANIFEST, FileCache
+from .linear import linear_checks
+from .pipeline import GolandPipeline, goland_pipeline
+from .report import render
+
+#: the full pipeline is the paper's (9L12D, 8 x 20 boxes); --quick keeps the basis and uses
+#: half as many dual-mode loads per combination and a coarser DLM mesh
+QUICK_PIPELINE = GolandPipeline(dual_amplitudes=10, boxes=(4, 10))
+FULL_PIPELINE = GolandPipeline()
+#: the linear checks: run length (s) and the window (fraction of it) for Table 3
+LINEAR_T_END = {"full": 20.0, "quick": 12.0}
+LINEAR_WINDOW = 0.3
+FIGURE_FILES = {"fig9": "fig09_alpha_gamma.png", "fig10": "fig10_lco_amplitude.png",
+                "fig11": "fig11_time_histories.png", "fig12": "fig12_lco_frequency.png",
+                "fig13": "fig13_amplitude_ratios.png"}
+
+
+def config_path(name: str) -> Path:
+    """A configuration shipped with the package (``torchrom/data/<name>``)."""
+    path = Path(str(resources.files("torchrom").joinpath("data", name)))
+    if not path.is_file():
+        raise InputError(f"torchrom paper: packaged configuration {name} not found at {path}")
+    return path
+
+
+class Stopwatch:
+    """Wall-clock and CPU seconds per stage (CPU time tells a loaded machine from slow code)."""
+
+    def __init__(self):
+        self.wall: dict[str, float] = {}
+        self.cpu: dict[str, float] = {}
+        self._t0 = self._c0 = 0.0
+
+    def start(self) -> None:
+        self._t0, self._c0 = time.perf_counter(), time.process_time()
+
+    def stop(self, name: str) -> None:
+        self.wall[name] = time.perf_counter() - self._t0
+        self.cpu[name] = time.process_time() - self._c0
+
+
+def _check_folder(out: Path, force: bool) -> None:
+    """Refuse a non-empty folder that this command did not write (unless ``force``)."""
+    if out.exists() and not out.is_dir():
+        raise InputError(f"--out {out}: exists and is not a folder")
+    if out.is_dir() and any(out.iterdir()) and not (out / MANIFEST).is_file() and not force:
+        raise InputError(f"--out {out}: the folder holds files that torchrom paper did not "
+                         f"write; choose another folder or pass --force")
+
+
+def run_paper(out, *, quick: bool = False, force: bool = False, device: str = "cpu",
+              dtype: torch.dtype = torch.float64, log: Callable[[str], None] = print
+              ) -> dict[str, Any]:
+    """Run the study into ``out`` and return the summary written to ``paper.json``."""
+    out = Path(out)
+    _check_folder(out, force)
+    out.mkdir(parents=True, exist_ok=True)
+    cache = FileCache(out, force=force)
+    variant = "quick" if quick else None
+    t_all, c_all = time.perf_counter(), time.process_time()
+    watch = Stopwatch()
+    watch.start()
+    res = goland_pipeline(QUICK_PIPELINE if quick else FULL_PIPELINE, out / "model", force=force,
+                          log=log)
+    watch.stop("model (FE, ROM, aero, flutter)")
+    model = res.model
+    fl = res.flutter
+    log(f"flutter (state space): {fl['state_space']['altitude']:,.0f} ft, "
+        f"{fl['state_space']['frequency_hz']:.3f} Hz (paper 11,275 ft, 1.975 Hz)")
+    model_hash = model.content_hash()
+
+    # -- Fig. 9 -----------------------------------------------------------------------------------
+    watch.start()
+    cfg9 = load_sweep_config(config_path("paper_fig09.toml"), variant)
+    alpha_gamma = alpha_gamma_table(model, [c.get("gamma", 0.0) for c in cfg9.cases])
+    _write_table(cache, "tables/alpha_gamma.csv", alpha_gamma, model_hash)
+    watch.stop("Fig. 9: alpha(gamma)")
+
+    # -- linear checks and Table 3 --------------------------------------------------------------
+    watch.start()
+    kind = "quick" if quick else "full"
+    lin_key = FileCache.key({"model": model_hash, "t_end": LINEAR_T_END[kind],
+                             "window": LINEAR_WINDOW})
+    lin_path = cache.get("tables/linear_check.json", lin_key)
+    if lin_path is None:
+        log(f"linear checks: growth rate around the flutter altitude and Table 3 "
+            f"({LINEAR_T_END[kind]:g} s runs, both nonlinearities off)")
+        lin = linear_checks(model, t_end=LINEAR_T_END[kind], window=LINEAR_WINDOW).as_dict()
+        cache.put("tables/linear_check.json", lin_key, lambda p: write_json_atomic(p, lin))
+    else:
+        lin = json.loads(lin_path.read_text())
+    _write_table(cache, "tables/table3.csv", pd.DataFrame(lin["table3"]), lin_key)
+    log(f"  simulated flutter altitude {lin['flutter_altitude_sim_ft']:,.1f} ft vs eigenvalues "
+        f"{lin['flutter_altitude_eig_ft']:,.1f} ft")
+    watch.stop("linear checks, Table 3")
+
+    # -- the LCO sweep ---------------------------------------------------------------------------
+    watch.start()
+    cfg = load_sweep_config(config_path("paper_lco.toml"), variant)
+    table, histories, lco_info = _lco_sweep(cache, cfg, model, model_hash, device, dtype, log)
+    watch.stop("LCO sweep (Figs. 10-13)")
+
+    # -- figures ---------------------------------------------------------------------------------
+    watch.start()
+    fig_dir = out / "figures"
+    paths = {"fig9": figures.fig9(alpha_gamma, fig_dir / FIGURE_FILES["fig9"], force=True)}
+    for name in ("fig10", "fig12", "fig13"):
+        paths[name] = figures.TABLE_FIGURES[name](table, fig_dir / FIGURE_FILES[name],
+                                                  force=True)
+    if len(histories):
+        paths["fig11"] = figures.fig11(table, histories, fig_dir / FIGURE_FILES["fig11"],
+                                       force=True)
+    watch.stop("figures")
+
+    # -- findings and report ---------------------------------------------------------------------
+    kinds = [r.get("kind") for r in fl["table2"]]
+    found = fnd.evaluate(table, histories, alpha_gamma, float(fl["state_space"]["altitude"]),
+                         kinds)
+    watch.wall["total"] = time.perf_counter() - t_all
+    watch.cpu["total"] = time.process_time() - c_all
+    summary = {
+        "version": __version__, "quick": quick, "out": str(out), "seconds": watch.wall,
+        "cpu_seconds": watch.cpu, "model_seconds": res.seconds,
+        "reused": res.reused + lco_info.pop("reused_files"),
+        "pipeline": (QUICK_PIPELINE if quick else FULL_PIPELINE).as_dict(),
+        "flutter": fl, "linear": lin, "linear_t_end": LINEAR_T_END[kind],
+        "linear_window": LINEAR_WINDOW, "lco": lco_info,
+        "alpha_gamma": alpha_gamma.to_dict(orient="records"),
+        "findings": [f.as_dict() for f in found],
+        "figures": {k: str(v) for k, v in paths.items()},
+        "identification": res.identification,
+    }
+    write_text_atomic(out / "report.md", render(summary, found, table, alpha_gamma))
+    write_json_atomic(out / "paper.json", summary)
+    return summary
+
+
+def _write_table(cache: FileCache, name: str, df: pd.DataFrame, key: str) -> Path:
+    def write(p):
+        from ..io import atomic_path
+
+        with atomic_path(p) as tmp:
+            df.to_csv(tmp, index=False)
+
+    return cache.put(name, FileCache.key({"table": name, "of": key}), write)
+
+
+def _lco_sweep(cache: FileCache, cfg, model, model_hash: str, device, dtype, log):
+    """The LCO table and histories (cached by the configuration, the model and the precision)."""
+    key = FileCache.key({"config": cfg.hash, "cases": config_hash(cfg.cases),
+                         "history": repr(cfg.history), "model": model_hash,
+                         "device": str(device), "dtype": str(dtype)})
+    names = ("sweeps/lco/results.parquet", "sweeps/lco/histories.parquet",
+             "sweeps/lco/timing.json")
+    found = [cache.get(n, key) for n in names]
+    if all(p is not None for p in found):
+        log(f"LCO sweep: reusing {found[0]}")
+        timing = json.loads(found[2].read_text())
+        return (pd.read_parquet(found[0]), pd.read_parquet(found[1]),
+                {**timing, "reused": True, "reused_files": list(names)})
+    log(f"LCO sweep: {len(cfg.cases)} cases of '{cfg.title}', dt = {cfg.integrator.dt:g} s, "
+        f"up to {cfg.t_end:g} s")
+    from tqdm import tqdm
+
+    hist: list[pd.DataFrame] = []
+    with tqdm(total=len(cfg.cases), unit="case", desc="  cases done", file=sys.stderr,
+              disable=None) as bar:
+        def progress(done: int, total: int) -> None:
+            bar.update(done - bar.n)
+
+        table, timing = run_sweep(cfg, model=model, device=torch.device(device), dtype=dtype,
+                                  progress=progress, on_history=hist.append)
+    histories = pd.concat(hist, ignore_index=True) if hist else pd.DataFrame()
+    counts = table["status"].value_counts().to_dict()
+    log("  status: " + ", ".join(f"{k} {v}" for k, v in sorted(counts.items())) +
+        f"; {timing['us_per_case_step']:.0f} us per case-step")
+    info = {"cases": len(table), "case_steps": int(timing["case_steps"]),
+            "wall_time_s": float(timing["wall_time_s"]),
+            "us_per_case_step": float(timing["us_per_case_step"])}
+
+    def write_table(p):
+        from ..io import atomic_path
+
+        with atomic_path(p) as tmp:
+            table.to_parquet(tmp, index=False)
+        with atomic_path(p.with_suffix(".csv")) as tmp:
+            table.to_csv(tmp, index=False)
+
+    cache.put(names[0], key, write_table)
+    cache.put(names[1], key, lambda p: write_histories([histories], p))
+    cache.put(names[2], key, lambda p: write_json_atomic(p, info))
+    return table, histories, {**info, "reused": False, "reused_files": []}

@@ -1,0 +1,251 @@
+"""Aeroelastic assembly: a structural ROM + an RFA + per-case flight conditions -> CaseSystem.
+
+The aerodynamic forces of the paper's Eqs. 49–50 on the first m linear modes,
+
+    F_aero = −q∞ (b²/V²) A2 q̈ − q∞ (b/V) A1 q̇ − q∞ A0 q − q∞ D ξ,    ξ̇ = E q̇ + (V/b) R ξ,
+
+(b = the RFA's reference semichord, V = M a(h), q∞ = ½ ρ(h) V², USSA-76 at geometric altitude
+through :mod:`torchrom.aero.atmosphere`) become the per-case linear additions of
+:class:`~torchrom.sim.CaseSystem`:
+
+    M_add = q∞ b²/V² A2,  C_add = q∞ b/V A1,  K_add = q∞ A0,  lag_D = q∞ D,  lag_E = E,
+    lag_R = (V/b) R,
+
+zero-padded from the m aerodynamic modes to the n basis functions (dual modes carry no
+aerodynamic force, DESIGN "Conventions"). Together with α, γ and the nonlinearity switches
+(Eq. 54) this is the whole post-flutter model of paper Sec. IV.
+
+The GAFs must have been computed on exactly the ROM's first m basis functions (same shapes, signs
+and mass normalisation): :func:`check_aero_matches_rom` compares the linear frequencies and,
+when the aero file records them (``metadata["mode_outputs"]``, written by
+:func:`mode_outputs`), the modal values at the ROM's output points, which catch a flipped or
+rescaled mode. The linear part of the assembled system can be written as a first-order matrix
+(:func:`linear_state_matrix`) and integrated from its critical eigenvector
+(:func:`critical_mode_state`) to measure the simulator's own growth rate
+(:func:`growth_rate`), the check that the batched simulator reproduces the flutter analysis.
+
+Hand-written (numpy/torch); the atmosphere is ``ambiance``'s through torchrom.aero.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import torch
+
+from ..aero.atmosphere import flight_condition
+from ..errors import InputError
+from ..rom import NonlinearROM
+from .system import CaseSystem
+
+#: relative tolerance of the ROM/aero frequency and mode-value consistency checks
+CONSISTENCY_RTOL = 1e-6
+
+
+# -- consistency of the aerodynamic modes with the ROM basis ------------------------------------
+def mode_outputs(rom: NonlinearROM, m: int) -> dict[str, list[float]]:
+    """The values of the first ``m`` basis functions at the ROM's output points (name -> m
+    numbers): a fingerprint of the modes' shapes, signs and normalisation, to be stored in the
+    aero file's metadata when the GAFs are computed on the ROM's basis."""
+    return {name: [float(v) for v in np.asarray(row)[:m]] for name, row in rom.outputs.items()}
+
+
+def check_aero_matches_rom(rom: NonlinearROM, aero, rtol: float = CONSISTENCY_RTOL) -> None:
+    """InputError unless the aero data's m modes are the ROM's first m basis functions.
+
+    Checked: m ≤ n; the first m basis functions are linear modes (when the ROM knows its mode
+    kinds); the linear frequencies agree (when both record them); the modal values at the
+    output points agree (when the aero metadata records ``mode_outputs``), which detects a mode
+    of opposite sign or another normalisation.
+    """
+    m = int(aero.n_modes)
+    if m > rom.n:
+        raise InputError(f"aeroelastic: the aero data has {m} modes, the ROM only {rom.n} "
+                         f"basis functions")
+    kinds = list(getattr(rom, "mode_kinds", None) or [])
+    if kinds and any(k != "linear" for k in kinds[:m]):
+        raise InputError(f"aeroelastic: the ROM's first {m} basis functions must be linear modes "
+                         f"(the aerodynamic modes), got kinds {kinds[:m]}")
+    f_aero = np.asarray(aero.metadata.get("frequencies_hz", []), dtype=float)[:m]
+    f_rom = np.asarray(rom.frequencies_hz, dtype=float)[:m]
+    if len(f_aero) == m and len(f_rom) == m and np.all(np.isfinite(f_rom)):
+        bad = np.flatnonzero(np.abs(f_aero - f_rom) > rtol * np.abs(f_rom).max())
+        if len(bad):
+            j = int(bad[0])
+            raise InputError(f"aeroelastic: mode {j + 1}: the aero data was computed on a mode "
+                             f"of {f_aero[j]:.6g} Hz, the ROM's basis function {j + 1} has "
+                             f"{f_rom[j]:.6g} Hz (GAFs must be built on the ROM's modes)")
+    recorded = aero.metadata.get("mode_outputs") or {}
+    for name, values in recorded.items():
+        if name not in rom.outputs:
+            continue
+        a = np.asarray(values, dtype=float)[:m]
+        r = np.asarray(rom.outputs[name], dtype=float)[:m]
+        scale = max(np.abs(r).max(), np.abs(a).max(), np.finfo(float).tiny)
+        bad = np.flatnonzero(np.abs(a - r) > rtol * scale + 1e-12 * scale)
+        if len(bad):
+            j = int(bad[0])
+            raise InputError(f"aeroelastic: mode {j + 1}: output {name} is {a[j]:.6g} in the "
+                             f"aero data's mode and {r[j]:.6g} in the ROM's basis function "
+                             f"(a flipped or rescaled mode: build the GAFs on the ROM's basis)")
+
+
+# -- assembly -------------------------------------------------------------------------------------
+def aero_additions(aero, velocity, dynamic_pressure, n: int) -> dict[str, np.ndarray]:
+    """Per-case aerodynamic additions (Eqs. 49–50) zero-padded to n: dict of float64 arrays
+    M_add, C_add, K_add (B, n, n), lag_D (B, n, na), lag_E (B, na, n), lag_R (B, na, na)."""
+    rfa = aero.rfa
+    m, na, b = rfa.n_modes, rfa.n_states, float(rfa.semichord)
+    V = np.asarray(velocity, dtype=float).reshape(-1)
+    q = np.asarray(dynamic_pressure, dtype=float).reshape(-1)
+    B = len(V)
+    if q.shape != (B,):
+        raise InputError(f"aeroelastic: {B} velocities but {q.size} dynamic pressures")
+    if np.any(~np.isfinite(V)) or np.any(V <= 0) or np.any(~np.isfinite(q)) or np.any(q < 0):
+        raise InputError("aeroelastic: velocities must be positive and dynamic pressures "
+                         "non-negative and finite")
+    out = {"M_add": np.zeros((B, n, n)), "C_add": np.zeros((B, n, n)),
+           "K_add": np.zeros((B, n, n)), "lag_D": np.zeros((B, n, na)),
+           "lag_E": np.zeros((B, na, n))}
+    out["M_add"][:, :m, :m] = (q * (b / V) ** 2)[:, None, None] * rfa.A2
+    out["C_add"][:, :m, :m] = (q * b / V)[:, None, None] * rfa.A1
+    out["K_add"][:, :m, :m] = q[:, None, None] * rfa.A0
+    out["lag_D"][:, :m, :] = q[:, None, None] * rfa.D
+    out["lag_E"][:, :, :m] = rfa.E
+    out["lag_R"] = (V / b)[:, None, None] * np.asarray(rfa.R, dtype=float)
+    return out
+
+
+@dataclass
+class AeroelasticCases:
+    """The assembled cases and their flight conditions (arrays (B,), consistent units: ft, slug,
+    s for Goland): altitude, mach, velocity V = M a(h), density ρ(h), dynamic pressure ½ρV²."""
+
+    system: CaseSystem
+    altitude: np.ndarray
+    mach: np.ndarray
+    velocity: np.ndarray
+    density: np.ndarray
+    dynamic_pressure: np.ndarray
+
+    def conditions(self) -> list[dict[str, float]]:
+        """Per-case flight-condition columns of the results table."""
+        return [{"mach": float(self.mach[i]), "velocity": float(self.velocity[i]),
+                 "dynamic_pressure": float(self.dynamic_pressure[i]),
+                 "density": float(self.density[i])} for i in range(len(self.altitude))]
+
+
+def aeroelastic_system(rom: NonlinearROM, aero, altitude, *, alpha=0.0, gamma=0.0,
+                       stiffness_nl=1.0, damping_nl=1.0, mach=None, units: str = "ft",
+                       device=None, dtype=torch.float64, check: bool = True) -> AeroelasticCases:
+    """B aeroelastic cases of ``rom`` with the RFA of ``aero`` (paper Eqs. 49–50, 54).
+
+    Args:
+        altitude: (B,) or scalar geometric altitudes (``units``: "ft" or "m").
+        alpha, gamma: mass-proportional (1/s) and Kelvin–Voigt (s) damping, scalars or (B,).
+        stiffness_nl, damping_nl: nonlinearity switches (bools or scales), scalars or (B,).
+        mach: None (the GAF Mach) or a Mach number equal to it: the RFA holds at one Mach only.
+        check: verify that the aero modes are the ROM's first basis functions
+            (:func:`check_aero_matches_rom`).
+    """
+    if check:
+        check_aero_matches_rom(rom, aero)
+    if mach is not None and abs(float(mach) - aero.mach) > 1e-9:
+        raise InputError(f"aeroelastic: mach {float(mach):g} differs from the Mach number "
+                         f"{aero.mach:g} of the aerodynamic data (the RFA holds at one Mach)")
+    alt = np.atleast_1d(np.asarray(altitude, dtype=float))
+    if alt.ndim != 1 or not np.all(np.isfinite(alt)):
+        raise InputError(f"aeroelastic: altitude: expected finite numbers, got {altitude!r}")
+    fc = flight_condition(aero.mach, alt, units)
+    V = np.atleast_1d(np.asarray(fc.velocity, dtype=float))
+    q = np.atleast_1d(np.asarray(fc.dynamic_pressure, dtype=float))
+    rho = np.atleast_1d(np.asarray(fc.density, dtype=float))
+    add = aero_additions(aero, V, q, rom.n)
+    system = CaseSystem.build(rom, len(alt), alpha=alpha, gamma=gamma, stiffness_nl=stiffness_nl,
+                              damping_nl=damping_nl, device=device, dtype=dtype, **add)
+    return AeroelasticCases(system, alt, np.full(len(alt), aero.mach), V, rho, q)
+
+
+# -- the linearised system and the simulator's growth rate --------------------------------------
+def linear_state_matrix(system: CaseSystem, case: int = 0) -> np.ndarray:
+    """First-order matrix of case ``case`` linearised about q = 0, state x = [q, q̇, ξ]:
+
+        (M + M_add) q̈ = −(K1 + K_add) q − (α M + γ D̄1 + C_add) q̇ − lag_D ξ,
+        ξ̇ = lag_E q̇ + lag_R ξ.
+    """
+    s = system.select([case]).to(dtype=torch.float64)
+    rom = system.rom
+    n, na = system.n, system.n_lag
+
+    def mat(t):
+        return np.zeros((n, n)) if t is None else t[0].cpu().numpy()
+
+    M = rom.M.cpu().numpy() + mat(s.M_add)
+    C = (float(s.alpha[0]) * rom.M.cpu().numpy() + float(s.gamma[0]) * rom.D1.cpu().numpy()
+         + mat(s.C_add))
+    K = rom.K1.cpu().numpy() + mat(s.K_add)
+    blocks = [K, C] + ([s.lag_D[0].cpu().numpy()] if na else [])
+    rows = np.linalg.solve(M, np.hstack(blocks))
+    a = np.zeros((2 * n + na, 2 * n + na))
+    a[:n, n:2 * n] = np.eye(n)
+    a[n:2 * n] = -rows
+    if na:
+        a[2 * n:, n:2 * n] = s.lag_E[0].cpu().numpy()
+        a[2 * n:, 2 * n:] = s.lag_R[0].cpu().numpy()
+    return a
+
+
+def critical_eigenpair(system: CaseSystem, case: int = 0,
+                       min_frequency_hz: float = 1e-3) -> tuple[complex, np.ndarray]:
+    """The oscillatory root of the linearised case with the largest real part (1/s) and its
+    eigenvector (state [q, q̇, ξ])."""
+    s, v = np.linalg.eig(linear_state_matrix(system, case))
+    osc = np.flatnonzero(s.imag > 2 * np.pi * min_frequency_hz)
+    if len(osc) == 0:
+        raise InputError("aeroelastic: the linearised system has no oscillatory root")
+    j = osc[np.argmax(s[osc].real)]
+    return complex(s[j]), v[:, j]
+
+
+def critical_mode_state(system: CaseSystem, output_row, amplitude: float):
+    """Initial states (q0, v0, ξ0), each (B, ·), on the critical eigenvector of every case,
+    scaled so that the output ``output_row`` · q has the amplitude ``amplitude``; and the (B,)
+    critical eigenvalues. Starting there, the linear response is that single root."""
+    n, na = system.n, system.n_lag
+    row = np.asarray(output_row, dtype=float)
+    q0, v0, xi0, roots = [], [], [], []
+    for i in range(system.batch_size):
+        lam, x = critical_eigenpair(system, i)
+        c = row @ x[:n]
+        if abs(c) == 0:
+            c = x[np.argmax(np.abs(x[:n]))]
+        x = x * (amplitude / abs(c)) * np.conj(c) / abs(c)  # output starts at +amplitude
+        q0.append(x[:n].real)
+        v0.append(x[n:2 * n].real)
+        xi0.append(x[2 * n:2 * n + na].real)
+        roots.append(lam)
+    return np.array(q0), np.array(v0), np.array(xi0).reshape(len(q0), na), np.array(roots)
+
+
+def growth_rate(t, y) -> tuple[float, float]:
+    """(σ 1/s, f Hz) of a sampled oscillation y(t) ≈ A e^{σt} cos(2πf t + φ): least-squares line
+    through ln|extremum| against the extremum times (maxima and minima together; the times come
+    from a parabola through the three samples around each extremum), and f from the spacing of
+    the extremum times. NaN when fewer than four extrema are found."""
+    t = np.asarray(t, dtype=float)
+    y = np.asarray(y, dtype=float)
+    i = np.flatnonzero((np.abs(y[1:-1]) >= np.abs(y[:-2])) & (np.abs(y[1:-1]) > np.abs(y[2:])))
+    i = i + 1
+    if len(i) < 4:
+        return float("nan"), float("nan")
+    y0, y1, y2 = np.abs(y[i - 1]), np.abs(y[i]), np.abs(y[i + 1])
+    den = y0 - 2 * y1 + y2
+    with np.errstate(divide="ignore", invalid="ignore"):
+        shift = np.where(den != 0, 0.5 * (y0 - y2) / den, 0.0)
+    peak = y1 - 0.25 * (y0 - y2) * shift
+    h = t[i + 1] - t[i]
+    tp = t[i] + shift * h
+    sigma = float(np.polyfit(tp, np.log(peak), 1)[0])
+    half_period = float(np.polyfit(np.arange(len(tp)), tp, 1)[0])
+    return sigma, 1.0 / (2.0 * half_period)

@@ -1,0 +1,171 @@
+"""Case semantics of a sweep: case parameters -> per-case system, table columns, histories.
+
+A *structural* case has the Eq. 54 parameters ``alpha`` (1/s), ``gamma`` (s), ``stiffness_nl``,
+``damping_nl`` and ``q0`` (scale of the initial displacement). An *aeroelastic* case (a model
+with aerodynamics, :class:`~torchrom.study.models.AeroelasticModel`) adds the flight condition:
+``altitude_ft`` (geometric, USSA-76) and optionally ``mach`` (must be the GAF Mach number), from
+which V = M a(h), ρ(h) and q∞ = ½ρV² follow (paper Eqs. 49–50). There ``alpha = "matched"``
+means the α that keeps the flutter altitude of the baseline damping for the case's γ (paper
+Fig. 9, :meth:`AeroelasticModel.matched_alpha`); the table then holds the numeric α, and
+``alpha_matched`` says where it came from.
+
+``[history]`` selects cases whose output time histories are kept: ``where`` is a table of
+parameter values (a value or a list of values each; numbers compare to a relative 1e-9) and
+``every`` the sampling in steps. Hand-written; pandas for the tables.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+import pandas as pd
+import torch
+
+from ..errors import InputError
+from ..rom import NonlinearROM
+from ..sim import CaseSystem, SimulationResult
+from ..sim.aeroelastic import aeroelastic_system
+from .models import AeroelasticModel
+
+#: case parameters of a structural sweep (no aerodynamics)
+STRUCTURAL_PARAMETERS = ("alpha", "gamma", "stiffness_nl", "damping_nl", "q0")
+#: case parameters of an aeroelastic sweep
+AEROELASTIC_PARAMETERS = ("altitude_ft", "mach", "alpha", "gamma", "stiffness_nl", "damping_nl",
+                          "q0")
+#: the α of a case that keeps the baseline flutter altitude (paper Fig. 9)
+MATCHED = "matched"
+
+
+def case_parameters(aeroelastic: bool) -> tuple[str, ...]:
+    return AEROELASTIC_PARAMETERS if aeroelastic else STRUCTURAL_PARAMETERS
+
+
+def check_case_values(cases: Sequence[Mapping[str, Any]], aeroelastic: bool,
+                      where: str = "[cases]") -> None:
+    """InputError naming the parameter and case unless every value is a finite number or a
+    bool (``alpha`` may also be "matched" in an aeroelastic sweep, which needs ``altitude_ft``)."""
+    for k, case in enumerate(cases):
+        for name, value in case.items():
+            if aeroelastic and name == "alpha" and value == MATCHED:
+                continue
+            ok = isinstance(value, (int, float)) and math.isfinite(float(value))
+            if not ok:
+                extra = " or 'matched'" if aeroelastic and name == "alpha" else ""
+                raise InputError(f"{where} {name}: expected a number{extra} or true/false, got "
+                                 f"{value!r} (case {k})")
+        if aeroelastic and "altitude_ft" not in case:
+            raise InputError(f"{where} altitude_ft: missing (case {k}); an aeroelastic sweep needs "
+                             f"the altitude of every case")
+        if not aeroelastic and case.get("alpha") == MATCHED:
+            raise InputError(f"{where} alpha: 'matched' needs a model with aerodynamics "
+                             f"([model] aero = 'aero.npz' or builtin = 'goland')")
+
+
+def _column(cases, name, default) -> list[float]:
+    return [float(c.get(name, default)) for c in cases]
+
+
+def structural_system(rom: NonlinearROM, cases: list[dict[str, Any]], device=None,
+                      dtype=torch.float64) -> CaseSystem:
+    """The per-case system of a structural sweep (Eq. 54 parameters only)."""
+    return CaseSystem.build(rom, len(cases), alpha=_column(cases, "alpha", 0.0),
+                            gamma=_column(cases, "gamma", 0.0),
+                            stiffness_nl=_column(cases, "stiffness_nl", 1.0),
+                            damping_nl=_column(cases, "damping_nl", 1.0), device=device,
+                            dtype=dtype)
+
+
+def matched_alphas(model: AeroelasticModel, cases: Sequence[Mapping[str, Any]]
+                   ) -> tuple[list[float], list[bool]]:
+    """(α per case, whether it was matched): ``alpha = "matched"`` resolved by the model."""
+    matched = [c.get("alpha", 0.0) == MATCHED for c in cases]
+    alpha = [model.matched_alpha(float(c.get("gamma", 0.0))) if m else float(c.get("alpha", 0.0))
+             for c, m in zip(cases, matched)]
+    return alpha, matched
+
+
+def case_system(model, cases: list[dict[str, Any]], device=None, dtype=torch.float64
+                ) -> tuple[CaseSystem, list[dict[str, Any]] | None]:
+    """(system, extra) for a chunk of cases: ``extra[i]`` holds derived table columns of case i
+    (flight condition, numeric α) that do not enter its case_id; None for structural cases."""
+    if isinstance(model, NonlinearROM):
+        return structural_system(model, cases, device, dtype), None
+    if not isinstance(model, AeroelasticModel):
+        raise InputError(f"sweep model: expected a NonlinearROM or an AeroelasticModel, got "
+                         f"{type(model).__name__}")
+    for c in cases:
+        if "mach" in c and abs(float(c["mach"]) - model.mach) > 1e-9:
+            raise InputError(f"[cases] mach: {c['mach']} differs from the Mach number "
+                             f"{model.mach:g} of the aerodynamic data")
+    alpha, matched = matched_alphas(model, cases)
+    gamma = _column(cases, "gamma", 0.0)
+    s_nl = _column(cases, "stiffness_nl", 1.0)
+    d_nl = _column(cases, "damping_nl", 1.0)
+    ae = aeroelastic_system(model.rom, model.aero, _column(cases, "altitude_ft", 0.0),
+                            alpha=alpha, gamma=gamma, stiffness_nl=s_nl, damping_nl=d_nl,
+                            device=device, dtype=dtype, check=False)
+    # the values used (defaults included), so that no column has gaps where a case omits one
+    extra = [{**cond, "alpha": a, "gamma": g, "stiffness_nl": s, "damping_nl": d,
+              "alpha_matched": m}
+             for cond, a, g, s, d, m in zip(ae.conditions(), alpha, gamma, s_nl, d_nl, matched)]
+    return ae.system, extra
+
+
+# -- time histories --------------------------------------------------------------------------------
+@dataclass
+class HistorySpec:
+    """Which cases keep output time histories (``where``: parameter -> allowed values) and the
+    sampling interval ``every`` (steps)."""
+
+    where: dict[str, list[Any]] = field(default_factory=dict)
+    every: int = 10
+
+    @classmethod
+    def from_table(cls, table: Mapping[str, Any], allowed: Sequence[str],
+                   where: str = "[history]") -> HistorySpec | None:
+        if not table:
+            return None
+        unknown = sorted(set(table) - {"where", "every"})
+        if unknown:
+            raise InputError(f"{where}: unknown key {unknown[0]!r}; expected 'where' and 'every'")
+        every = table.get("every", 10)
+        if isinstance(every, bool) or not isinstance(every, int) or every < 1:
+            raise InputError(f"{where} every: expected a positive number of steps, got {every!r}")
+        sel = table.get("where", {})
+        if not isinstance(sel, dict):
+            raise InputError(f"{where} where: expected a table of parameter values, got {sel!r}")
+        for name in sel:
+            if name not in allowed:
+                raise InputError(f"{where} where: unknown case parameter {name!r}; expected one "
+                                 f"of {sorted(allowed)}")
+        values = {k: v if isinstance(v, list) else [v] for k, v in sel.items()}
+        return cls(values, int(every))
+
+    def selects(self, case: Mapping[str, Any]) -> bool:
+        return all(any(_same(case.get(k), v) for v in vals) for k, vals in self.where.items())
+
+    def indices(self, cases: Sequence[Mapping[str, Any]]) -> list[int]:
+        return [i for i, c in enumerate(cases) if self.selects(c)]
+
+
+def _same(a, b) -> bool:
+    if isinstance(a, (int, float)) and isinstance(b, (int, float)):
+        return math.isclose(float(a), float(b), rel_tol=1e-9, abs_tol=1e-300)
+    return a == b
+
+
+def history_table(result: SimulationResult, case_ids: Sequence[str]) -> pd.DataFrame:
+    """Long table of the kept histories: case_id, t (s) and one column per output."""
+    frames = []
+    for i, h in sorted(result.histories.items()):
+        df = pd.DataFrame(np.asarray(h.y), columns=list(h.names))
+        df.insert(0, "t", np.asarray(h.t))
+        df.insert(0, "case_id", case_ids[i])
+        frames.append(df)
+    if not frames:
+        return pd.DataFrame(columns=["case_id", "t", *result.output_names])
+    return pd.concat(frames, ignore_index=True)

@@ -1,0 +1,159 @@
+"""The model a sweep runs: a structural ROM, or a ROM with its aerodynamics (aeroelastic).
+
+:class:`AeroelasticModel` joins a :class:`~torchrom.rom.NonlinearROM` and the
+:class:`~torchrom.aero.AeroData` (GAF + RFA) computed on its first m basis functions, with what
+the paper's study needs beyond the per-case matrices (Sec. IV):
+
+- the *baseline* damping of the FE model, α0 = 0.2565 1/s and β0 = 1.338e-4 s (Eq. 46), which
+  with D̄1 = K1 is the nonlinear Rayleigh model at α = α0, γ = β0 (Eq. 54 in the linear regime);
+- the *reference altitude*: the flutter altitude of that baseline (state-space eigenvalues of
+  Eqs. 49–50 at the GAF Mach number), unless given;
+- the *matched* α(γ): for each γ, the α that keeps the flutter point at the reference altitude
+  (paper Fig. 9), so that varying γ isolates the effect of the nonlinear damping.
+
+Hand-written glue over :mod:`torchrom.aero.flutter` (eigenvalues, Brent's method).
+"""
+
+from __future__ import annotations
+
+import hashlib
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..aero.build import BASELINE_ALPHA, BASELINE_GAMMA
+from ..aero.files import AeroData
+from ..aero.flutter import (
+    MatchedPointResult,
+    ModalStructure,
+    alpha_for_gamma,
+    flutter_altitude_state_space,
+)
+from ..errors import ConvergenceError, InputError
+from ..rom import NonlinearROM
+from ..sim.aeroelastic import check_aero_matches_rom
+
+#: default altitude range (ft) searched for the baseline flutter point
+ALTITUDE_RANGE_FT = (0.0, 40000.0)
+
+
+def aero_content_hash(aero: AeroData) -> str:
+    """SHA-256 (hex, first 16) of the RFA and GAF arrays: identifies the aerodynamics."""
+    h = hashlib.sha256()
+    r = aero.rfa
+    for name, arr in (("A0", r.A0), ("A1", r.A1), ("A2", r.A2), ("D", r.D), ("R", r.R),
+                      ("E", r.E), ("k", aero.gaf.k), ("Q", aero.gaf.Q)):
+        h.update(name.encode())
+        h.update(np.ascontiguousarray(arr).tobytes())
+    h.update(repr((float(aero.mach), float(aero.semichord))).encode())
+    return h.hexdigest()[:16]
+
+
+@dataclass
+class AeroelasticModel:
+    """A ROM with its aerodynamics and the study's reference damping (see the module docstring).
+
+    Attributes:
+        rom: the structural ROM (n basis functions, the first m the aerodynamic modes).
+        aero: GAFs and RFA on the first m basis functions (one Mach number).
+        baseline_alpha, baseline_gamma: the FE model's Rayleigh damping (1/s, s), Eq. 46.
+        reference_altitude_ft: altitude the matched α(γ) keep the flutter point at (None: the
+            baseline flutter altitude).
+        altitude_range_ft: where the baseline flutter point is searched.
+        span: reference length of amplitudes in % of span (None: the ROM's metadata "span").
+    """
+
+    rom: NonlinearROM
+    aero: AeroData
+    baseline_alpha: float = BASELINE_ALPHA
+    baseline_gamma: float = BASELINE_GAMMA
+    reference_altitude_ft: float | None = None
+    altitude_range_ft: tuple[float, float] = ALTITUDE_RANGE_FT
+    span: float | None = None
+    _flutter: MatchedPointResult | None = field(default=None, init=False, repr=False)
+    _alpha: dict = field(default_factory=dict, init=False, repr=False)
+
+    def __post_init__(self):
+        check_aero_matches_rom(self.rom, self.aero)
+        if self.span is None:
+            span = self.rom.metadata.get("span")
+            self.span = None if span is None else float(span)
+
+    @property
+    def mach(self) -> float:
+        return float(self.aero.mach)
+
+    def structure(self, alpha: float = 0.0, gamma: float = 0.0) -> ModalStructure:
+        """Linear structure (M, K1, D̄1) on the m aerodynamic modes with damping α, γ."""
+        return ModalStructure.from_rom(self.rom, self.aero.n_modes, alpha, gamma)
+
+    def baseline_flutter(self) -> MatchedPointResult:
+        """Flutter point of the baseline damping (state space, Eqs. 49–50), computed once."""
+        if self._flutter is None:
+            st = self.structure(self.baseline_alpha, self.baseline_gamma)
+            res = flutter_altitude_state_space(st, self.aero.rfa, self.mach,
+                                               self.altitude_range_ft)
+            if res.altitude is None:
+                lo, hi = self.altitude_range_ft
+                raise ConvergenceError(f"aeroelastic model: no flutter point between {lo:g} and "
+                                       f"{hi:g} ft at Mach {self.mach:g} with the baseline "
+                                       f"damping (α = {self.baseline_alpha:g} 1/s, γ = "
+                                       f"{self.baseline_gamma:g} s)")
+            self._flutter = res
+        return self._flutter
+
+    def reference_altitude(self) -> float:
+        """Altitude (ft) the matched α(γ) keep the flutter point at."""
+        if self.reference_altitude_ft is not None:
+            return float(self.reference_altitude_ft)
+        return float(self.baseline_flutter().altitude)
+
+    def matched_alpha(self, gamma: float) -> float:
+        """α (1/s) that puts the flutter point at the reference altitude for this γ (Fig. 9)."""
+        key = float(gamma)
+        if key not in self._alpha:
+            if key == self.baseline_gamma and self.reference_altitude_ft is None:
+                self._alpha[key] = float(self.baseline_alpha)  # by definition of the reference
+            else:
+                self._alpha[key] = alpha_for_gamma(self.structure(), self.aero.rfa, key,
+                                                   self.mach, self.reference_altitude())
+        return self._alpha[key]
+
+    def content_hash(self) -> str:
+        """Hash of the ROM, the aerodynamics and the reference damping: the model's identity."""
+        text = repr((self.rom.content_hash(), aero_content_hash(self.aero),
+                     float(self.baseline_alpha), float(self.baseline_gamma),
+                     self.reference_altitude_ft, tuple(self.altitude_range_ft)))
+        return hashlib.sha256(text.encode()).hexdigest()[:16]
+
+
+def model_rom(model) -> NonlinearROM:
+    """The structural ROM of a sweep model (a NonlinearROM or an AeroelasticModel)."""
+    if isinstance(model, AeroelasticModel):
+        return model.rom
+    if isinstance(model, NonlinearROM):
+        return model
+    raise InputError(f"sweep model: expected a NonlinearROM or an AeroelasticModel, got "
+                     f"{type(model).__name__}")
+
+
+def alpha_gamma_table(model: AeroelasticModel, gammas):
+    """Paper Fig. 9: the matched α for each γ (s), with the reference altitude (ft), the baseline
+    damping and the flutter frequency (Hz) of each pair at the reference altitude."""
+    import pandas as pd
+
+    from ..aero.atmosphere import flight_condition
+    from ..aero.flutter import critical_root
+
+    h = model.reference_altitude()
+    fc = flight_condition(model.mach, h)
+    rows = []
+    for g in sorted({float(g) for g in gammas}):
+        a = model.matched_alpha(g)
+        root = critical_root(model.structure(a, g), model.aero.rfa, fc.velocity, fc.density)
+        rows.append({"gamma": g, "alpha": a, "reference_altitude_ft": h, "mach": model.mach,
+                     "flutter_frequency_hz": root.imag / (2 * np.pi),
+                     "growth_rate_at_reference": root.real,
+                     "baseline_alpha": model.baseline_alpha,
+                     "baseline_gamma": model.baseline_gamma})
+    return pd.DataFrame(rows)
