@@ -38,7 +38,7 @@ the iteration matrix becomes (S + (1−αf)(β dt² s K_nl + γ_N dt g D_nl))⁻
 stiffness and damping scales; kept until the next refresh): with ``refresh_every=1`` each
 correction is a Newton step (without the O(β dt |q̇|/|q|) term ∂(D(q) q̇)/∂q), and one or two
 corrections from the quadratic predictor
-reach the converged solution's LCO amplitude to ~1e-6 on the paper's Goland cases. With a
+reach the converged solution's LCO amplitude to ≤ 5e-6 on the paper's Goland cases. With a
 single correction per step the Aitken estimate needs two corrections: every ``sample_every``-th
 step iterates twice and its measured contraction ratio r turns the single correction of the
 other steps into the estimate |Δa| r/(1−r) (an upper bound that overstates the effect on the
