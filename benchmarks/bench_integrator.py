@@ -26,7 +26,6 @@ import argparse
 import json
 import multiprocessing as mp
 import os
-import platform
 import sys
 import time
 from pathlib import Path
@@ -38,10 +37,11 @@ HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
 sys.path.insert(0, str(HERE.parent))
 
-from synthetic import aero_like_matrices, synthetic_cases, synthetic_rom  # noqa: E402
+from first_order import FirstOrderCase, scipy_amplitude  # noqa: E402
+from results_io import write_results  # noqa: E402
+from synthetic import synthetic_cases, synthetic_rom  # noqa: E402
 
 from torchrom.sim import HistoryRequest, LCOCriteria, Newmark  # noqa: E402
-from torchrom.sim.forces import NonlinearForces  # noqa: E402
 from torchrom.sim.metrics import history_metrics  # noqa: E402
 
 DT = 1e-3
@@ -96,82 +96,6 @@ def two_processes(B: int, dtype_name: str, steps: int) -> float:
 # ----------------------------------------------------------------------------------------------
 # 2. SciPy comparison
 # ----------------------------------------------------------------------------------------------
-class FirstOrderCase:
-    """One case as ẋ = F(x), x = [q, q̇, ξ], with the analytic Jacobian (numpy, float64;
-    the benchmark ROM has M = I)."""
-
-    def __init__(self, rom, qbar: float, alpha=0.02, gamma=1e-3):
-        a = aero_like_matrices()
-        self.n, self.na = rom.n, a["R0"].shape[0]
-        self.K = rom.K1.numpy() + qbar * a["A0"]
-        self.C = alpha * rom.M.numpy() + gamma * rom.D1.numpy() + qbar * a["A1"]
-        self.D, self.E, self.R = qbar * a["D0"], a["E0"], a["R0"]
-        self.gamma = gamma
-        # the same monomial coefficients, used one case at a time
-        self.forces = NonlinearForces(rom)
-        f = self.forces
-        assert f.blocked, "the 21-mode benchmark ROM uses the blocked kernel layout"
-        self.X_rows = (f.row_a.numpy(), f.row_b.numpy(), f.row_c.numpy())
-        self.K2 = f.K2.numpy()
-        self.K3_blocks = [None if b is None else b.numpy() for b in f.K3_blocks]
-        self.Dm, self.expand = f.D.numpy(), (None if f.expand is None else f.expand.numpy())
-        self.rom = rom
-        self.nfev = 0
-
-    def _features(self, q):
-        qa = np.append(q, 1.0)
-        a, b, c = self.X_rows
-        return qa[a] * qa[b] * qa[c]
-
-    def nonlinear(self, q, v):
-        n = self.n
-        X = self._features(q)
-        m2 = X[n:]
-        f = self.K2 @ m2
-        for k, blk in enumerate(self.K3_blocks):
-            if blk is not None:
-                f += q[k] * (blk @ m2[: blk.shape[1]])
-        U = self.Dm @ X[: n + len(m2)]
-        if self.expand is not None:
-            U = U[self.expand]
-        return f + self.gamma * (U.reshape(n, n) @ v)
-
-    def rhs(self, t, x):
-        self.nfev += 1
-        n = self.n
-        q, v, xi = x[:n], x[n:2 * n], x[2 * n:]
-        acc = -(self.C @ v + self.K @ q + self.nonlinear(q, v) + self.D @ xi)
-        return np.concatenate([v, acc, self.E @ v + self.R @ xi])
-
-    def jac(self, t, x):
-        n, na = self.n, self.na
-        q, v = x[:n], x[n:2 * n]
-        Kt, Ct = self.rom.tangents(torch.as_tensor(q), torch.as_tensor(v), 0.0, self.gamma)
-        Kt = Kt.numpy() - self.rom.K1.numpy() + self.K
-        Ct = Ct.numpy() - self.gamma * self.rom.D1.numpy() + self.C
-        J = np.zeros((2 * n + na, 2 * n + na))
-        J[:n, n:2 * n] = np.eye(n)
-        J[n:2 * n, :n] = -Kt
-        J[n:2 * n, n:2 * n] = -Ct
-        J[n:2 * n, 2 * n:] = -self.D
-        J[2 * n:, n:2 * n] = self.E
-        J[2 * n:, 2 * n:] = self.R
-        return J
-
-
-def scipy_amplitude(case: FirstOrderCase, x0, T, rtol, window):
-    from scipy.integrate import solve_ivp
-
-    case.nfev = 0
-    t0 = time.perf_counter()
-    sol = solve_ivp(case.rhs, (0.0, T), x0, method="Radau", jac=case.jac, rtol=rtol,
-                    atol=rtol * 1e-3, dense_output=True)
-    wall = time.perf_counter() - t0
-    t = np.arange(T - window, T, DT)
-    tip = case.rom.outputs["A_Tz"] @ sol.sol(t)[: case.n]
-    return history_metrics(t, tip, cycles=4)["amplitude"], wall, case.nfev
-
-
 def scipy_comparison(cases_qbar, quick: bool):
     rom = synthetic_rom()
     # torchrom's cost per case-step with the settings these LCOs need (4 iterations), batched
@@ -191,14 +115,14 @@ def scipy_comparison(cases_qbar, quick: bool):
         window = min(4.0, T / 2)
         sel = h.t >= T - window
         ours = history_metrics(h.t[sel], h.y[sel, 0], cycles=4)["amplitude"]
-        case = FirstOrderCase(rom, qb)
+        case = FirstOrderCase(system, 0)
         x0 = np.concatenate([q0[0], np.zeros(case.n + case.na)])
-        ref, ref_wall, _ = scipy_amplitude(case, x0, T, 1e-10, window)
+        ref, ref_wall, _ = scipy_amplitude(case, x0, T, 1e-10, window, DT)
         our_err = abs(ours / ref - 1)
         tried = []
         chosen = None
         for rtol in ([1e-3, 1e-4, 1e-6] if quick else [1e-3, 1e-4, 1e-5, 1e-6, 1e-7, 1e-8]):
-            amp, wall, nfev = scipy_amplitude(case, x0, T, rtol, window)
+            amp, wall, nfev = scipy_amplitude(case, x0, T, rtol, window, DT)
             err = abs(amp / ref - 1)
             tried.append({"rtol": rtol, "amplitude_error": err, "wall_s": wall, "nfev": nfev})
             if err <= our_err and chosen is None:
@@ -262,18 +186,7 @@ def main(argv=None) -> int:
         print("SciPy comparison")
         scipy_rows = scipy_comparison([0.7, 1.0] if not args.quick else [1.0], args.quick)
 
-    args.out.mkdir(parents=True, exist_ok=True)
-    meta = {"machine": platform.processor() or platform.machine(), "cpus": os.cpu_count(),
-            "torch": torch.__version__, "dt": DT, "date": time.strftime("%Y-%m-%d %H:%M"),
-            "load_average": os.getloadavg()}
-    (args.out / "bench_integrator.json").write_text(json.dumps(
-        {"meta": meta, "throughput": rows, "scipy": scipy_rows}, indent=2, default=float) + "\n")
-    import pandas as pd
-
-    flat = rows + [{k: v for k, v in r.items() if k != "scipy_runs"} | {"kind": "scipy"}
-                   for r in scipy_rows]
-    pd.DataFrame(flat).to_csv(args.out / "bench_integrator.csv", index=False)
-    print(f"wrote {args.out / 'bench_integrator.json'} and .csv")
+    write_results(args.out, "bench_integrator", rows, scipy_rows, "scipy", "scipy", dt=DT)
     return 0
 
 

@@ -1,0 +1,31 @@
+"""Writing a benchmark's results: ``<name>.json`` (meta + sections) and a flat ``<name>.csv``."""
+
+from __future__ import annotations
+
+import json
+import os
+import platform
+import time
+from pathlib import Path
+
+import torch
+
+
+def write_results(out: Path, name: str, throughput: list[dict], runs: list[dict],
+                  runs_key: str, runs_kind: str, **meta) -> None:
+    """JSON with the machine, torch, date and load average plus ``meta``; CSV with the
+    throughput rows and the ``runs`` rows (kind ``runs_kind`` unless a row names its own;
+    without their nested 'scipy_runs' lists)."""
+    import pandas as pd
+
+    out.mkdir(parents=True, exist_ok=True)
+    meta = {"machine": platform.processor() or platform.machine(), "cpus": os.cpu_count(),
+            "torch": torch.__version__, "date": time.strftime("%Y-%m-%d %H:%M"),
+            "load_average": os.getloadavg(), **meta}
+    (out / f"{name}.json").write_text(json.dumps(
+        {"meta": meta, "throughput": throughput, runs_key: runs}, indent=2, default=float)
+        + "\n")
+    flat = throughput + [{"kind": runs_kind} | {k: v for k, v in r.items() if k != "scipy_runs"}
+                         for r in runs]
+    pd.DataFrame(flat).to_csv(out / f"{name}.csv", index=False)
+    print(f"wrote {out / f'{name}.json'} and .csv")
