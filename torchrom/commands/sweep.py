@@ -111,6 +111,11 @@ def run(args: argparse.Namespace) -> int:
     extra = _write_distribution(table, cfg, sampled, uq_paths) if sampled else []
     counts = table["status"].value_counts().to_dict()
     print("status: " + ", ".join(f"{k} {v}" for k, v in sorted(counts.items())))
+    confirmed = (int((table["precision"] == "float64 (confirmed)").sum())
+                 if "precision" in table else 0)
+    if confirmed:
+        print(f"precision: {confirmed} float32 case(s) above the solver tolerance rerun in "
+              f"float64 (column precision)")
     print(f"cases: {timing['computed']} computed in {timing['chunks']} chunks, "
           f"{timing['reused']} reused from {out / 'parts'}")
     print(f"time: {timing['elapsed_s']:.1f} s elapsed, {timing['wall_time_s']:.1f} s "

@@ -65,6 +65,11 @@ def initial_velocity(rom: NonlinearROM, initial: dict[str, Any], batch: int,
     return np.broadcast_to(arr, (batch, rom.n)).copy()
 
 
+#: statuses of a float32 case that a float64 run confirms or corrects (the solver's error
+#: estimate above the tolerance, or a non-finite state)
+CONFIRM_STATUSES = ("unconverged", "failed")
+
+
 @dataclass
 class SweepTask:
     """One chunk of a sweep (picklable: what a Dask worker receives once).
@@ -79,11 +84,34 @@ class SweepTask:
     model: Any
     device: str = "cpu"
     dtype: torch.dtype = torch.float64
+    #: in float32, rerun the borderline cases (:data:`CONFIRM_STATUSES`) in float64
+    confirm_float64: bool = True
 
     def __call__(self, cases: list[dict[str, Any]], case_ids: list[str],
                  progress: Callable[[int, int], None] | None = None) -> ChunkResult:
+        rows, hist, wall, steps = self._run(cases, case_ids, self.dtype, progress)
+        if self.dtype != torch.float32 or not self.confirm_float64:
+            return ChunkResult(rows, wall, steps, hist)
+        redo = [i for i, s in enumerate(rows["status"]) if s in CONFIRM_STATUSES]
+        if redo:
+            # the solver's own error estimate says float32 was not enough for these cases:
+            # their rows (and histories) are replaced by a float64 run of the same cases
+            ids = [case_ids[i] for i in redo]
+            rows64, hist64, wall64, steps64 = self._run([cases[i] for i in redo], ids,
+                                                        torch.float64)
+            rows64["precision"] = "float64 (confirmed)"
+            rows64.index = pd.Index(redo)
+            rows = pd.concat([rows.drop(index=redo), rows64.reindex(columns=rows.columns)]
+                             ).sort_index().reset_index(drop=True)
+            if hist is not None and hist64 is not None:
+                hist = pd.concat([hist[~hist["case_id"].isin(ids)], hist64],
+                                 ignore_index=True)
+            wall, steps = wall + wall64, steps + steps64
+        return ChunkResult(rows, wall, steps, hist)
+
+    def _run(self, cases, case_ids, dtype, progress=None):
         cfg, rom = self.cfg, model_rom(self.model)
-        system, extra = case_system(self.model, cases, torch.device(self.device), self.dtype)
+        system, extra = case_system(self.model, cases, torch.device(self.device), dtype)
         q0 = initial_displacement(rom, cfg.initial, cases)
         v0 = initial_velocity(rom, cfg.initial, len(cases))
         keep = cfg.history.indices(cases) if cfg.history is not None else []
@@ -92,9 +120,9 @@ class SweepTask:
                                  lco=cfg.lco, history=history, progress=progress)
         span = getattr(self.model, "span", None) or rom.metadata.get("span")
         rows = result_rows(cases, res, config_hash=cfg.hash, span=span, case_ids=case_ids,
-                           extra=extra)
-        return ChunkResult(rows, res.wall_time_s, res.case_steps,
-                           history_table(res, case_ids) if keep else None)
+                           extra=extra, precision=str(dtype).replace("torch.", ""))
+        return (rows, history_table(res, case_ids) if keep else None, res.wall_time_s,
+                res.case_steps)
 
 
 

@@ -35,10 +35,12 @@ PARAMETER_ORDER = ("altitude_ft", "mach", "velocity", "dynamic_pressure", "densi
 def result_rows(cases: Sequence[Mapping[str, Any]], result: SimulationResult, *,
                 config_hash: str, span: float | None = None,
                 extra: Sequence[Mapping[str, Any]] | None = None,
-                case_ids: Sequence[str] | None = None) -> pd.DataFrame:
+                case_ids: Sequence[str] | None = None,
+                precision: str | None = None) -> pd.DataFrame:
     """The table rows of one simulated batch: ``cases[i]`` are the parameters of result case i;
     ``extra[i]`` adds derived columns (e.g. velocity, density) without entering the case_id;
-    ``case_ids`` are the ids to write (default: the hash of each case's parameters alone)."""
+    ``case_ids`` are the ids to write (default: the hash of each case's parameters alone);
+    ``precision`` (e.g. "float64") fills a ``precision`` column."""
     names = result.output_names
     amp = result.amplitude
     ids = list(case_ids) if case_ids is not None else [case_id(c) for c in cases]
@@ -66,6 +68,8 @@ def result_rows(cases: Sequence[Mapping[str, Any]], result: SimulationResult, *,
         cols[f"amplitude_{name}"] = amp[:, j]
     cols["amplitude_change"] = result.amplitude_change
     cols["solver_error"] = result.solver_error
+    if precision is not None:
+        cols["precision"] = precision
     cols["config_hash"] = config_hash
     cols["version"] = __version__
     df = pd.DataFrame(cols)
