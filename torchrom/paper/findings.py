@@ -62,6 +62,11 @@ def curve_table(table: pd.DataFrame, column: str = "amplitude", lco_only: bool =
     return pd.DataFrame(out).reindex(alts)
 
 
+def _curves_dict(C: pd.DataFrame) -> dict[str, dict[float, float]]:
+    """A :func:`curve_table` as JSON-ready {curve: {altitude: value}} without the gaps."""
+    return {str(k): {float(h): float(v) for h, v in C[k].dropna().items()} for k in C.columns}
+
+
 def _fmt_pct(x: float) -> str:
     return "n/a" if not np.isfinite(x) else f"{100 * x:+.1f} %"
 
@@ -226,8 +231,7 @@ def frequency_trends(table: pd.DataFrame) -> Finding:
         _verdict([ok], len(alt_ok) + len(gam)),
         {"by_altitude_increasing": alt_ok, "by_gamma_decreasing": gam,
          "low_altitude": low, "low_altitude_rise_hz": rise,
-         "frequency_hz": {str(k): {float(h): float(v) for h, v in F[k].dropna().items()}
-                          for k in F.columns}})
+         "frequency_hz": _curves_dict(F)})
 
 
 def ratio_trends(table: pd.DataFrame, mode_kinds: list[str] | None = None) -> Finding:
@@ -256,10 +260,7 @@ def ratio_trends(table: pd.DataFrame, mode_kinds: list[str] | None = None) -> Fi
         "frequency rise at γ = 1e-3 s comes with more mode-4 participation (smaller q1/q4)", ours,
         _verdict([ok], len(alt_ok) + len(gam_ok)),
         {"low_altitude": low, "more_mode4_at_low_altitude": mode4,
-         "q1_q2": {str(k): {float(h): float(v) for h, v in R2[k].dropna().items()}
-                   for k in R2.columns},
-         "q1_q4": {str(k): {float(h): float(v) for h, v in R4[k].dropna().items()}
-                   for k in R4.columns}})
+         "q1_q2": _curves_dict(R2), "q1_q4": _curves_dict(R4)})
 
 
 def linear_statuses(table: pd.DataFrame, flutter_altitude: float) -> Finding:
