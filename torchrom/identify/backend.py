@@ -91,6 +91,47 @@ def solve_linear(A, b: np.ndarray) -> np.ndarray:
     return scipy.linalg.solve(np.asarray(A), b, assume_a="sym")
 
 
+def newmark_newton(M, force, tangents, x0: np.ndarray, *, dt: float, steps: int, tol: float,
+                   max_iter: int, record, solve=solve_linear, rounding_stop: bool = False,
+                   what: str = "transient") -> None:
+    """Newmark average acceleration (β = ¼, γ_N = ½) from rest at ``x0`` for
+    M ẍ + force(x, ẋ) = 0, Newton on M/(β dt²) + K + γ_N/(β dt) C with
+    ``(K, C) = tangents(x, ẋ)`` (C may be None); the FE and the ROM free decays share it.
+
+    A step has converged when |R| ≤ tol |M a| after at least one correction, or, with
+    ``rounding_stop``, when a correction is at the rounding level of x (a near-rest start makes
+    |M a| tiny, so the relative residual test alone can be out of reach). ``record(k, x, ẋ)``
+    is called for k = 0..steps; ConvergenceError names ``what`` and the step."""
+    b, g = 0.25, 0.5
+    x, v = np.array(x0, float), np.zeros(len(x0))
+    a = solve(M, -force(x, v))
+    record(0, x, v)
+    for k in range(1, steps + 1):
+        xp = x + dt * v + dt**2 * (0.5 - b) * a
+        vp = v + dt * (1 - g) * a
+        xn = xp.copy()
+        for it in range(max_iter):
+            an = (xn - xp) / (b * dt**2)
+            vn = vp + g * dt * an
+            R = M @ an + force(xn, vn)
+            if it > 0 and np.linalg.norm(R) <= tol * max(np.linalg.norm(M @ an), 1e-300):
+                break
+            K, C = tangents(xn, vn)
+            J = M / (b * dt**2) + K
+            if C is not None:
+                J = J + (g / (b * dt)) * C
+            dx = solve(J, R)
+            xn = xn - dx
+            if rounding_stop and np.linalg.norm(dx) <= 1e-13 * max(np.linalg.norm(xn), 1e-300):
+                break
+        else:
+            raise ConvergenceError(f"{what}: Newton did not converge at step {k}")
+        a = (xn - xp) / (b * dt**2)
+        v = vp + g * dt * a
+        x = xn
+        record(k, x, v)
+
+
 class FEBackend:
     """Base class of the FE backends: counted, timed public services over ``_``-methods.
 
@@ -220,37 +261,23 @@ class FEBackend:
         derivative of K_mat(u) u̇ in u is left out of the iteration matrix: modified Newton).
         Returns (t (k,), u[:, record] (k, len(record)))."""
         M = self.mass_matrix()
-        n, steps = self.n_dof, int(round(t_end / dt))
+        steps = int(round(t_end / dt))
         rec = np.asarray(record, dtype=int)
-        u, v = np.array(u0, float), np.zeros(self.n_dof)
-
-        def damp(u, v):
-            return gamma * np.asarray(self.material_tangent(u) @ v) if gamma else np.zeros(n)
-
-        a = solve_linear(M, -(self.internal_force(u) + damp(u, v)))
         out = np.zeros((steps + 1, len(rec)))
-        out[0] = u[rec]
-        b, g = 0.25, 0.5
-        for k in range(1, steps + 1):
-            up = u + dt * v + dt**2 * (0.5 - b) * a
-            vp = v + dt * (1 - g) * a
-            un = up.copy()
-            for it in range(40):
-                an = (un - up) / (b * dt**2)
-                vn = vp + g * dt * an
-                R = M @ an + self.internal_force(un) + damp(un, vn)
-                if it > 0 and np.linalg.norm(R) <= 1e-9 * max(np.linalg.norm(M @ an), 1e-300):
-                    break
-                J = M / (b * dt**2) + self.tangent_stiffness(un)
-                if gamma:
-                    J = J + (g / (b * dt)) * gamma * self.material_tangent(un)
-                un = un - solve_linear(J, R)
-            else:
-                raise ConvergenceError(f"{self.name}: transient Newton failed at step {k}")
-            a = (un - up) / (b * dt**2)
-            v = vp + g * dt * a
-            u = un
+
+        def force(u, v):
+            f = self.internal_force(u)
+            return f + gamma * np.asarray(self.material_tangent(u) @ v) if gamma else f
+
+        def tangents(u, v):
+            return (self.tangent_stiffness(u),
+                    gamma * self.material_tangent(u) if gamma else None)
+
+        def keep(k, u, v):
             out[k] = u[rec]
+
+        newmark_newton(M, force, tangents, np.asarray(u0, float), dt=dt, steps=steps, tol=1e-9,
+                       max_iter=40, record=keep, what=f"{self.name}: transient")
         return np.arange(steps + 1) * dt, out
 
     def modes(self, n: int) -> tuple[np.ndarray, np.ndarray]:

@@ -26,6 +26,7 @@ import scipy.linalg
 import torch
 
 from ..errors import ConvergenceError, InputError
+from .backend import newmark_newton
 
 OUTPUTS = ("A_Tx", "A_Ty", "A_Tz")
 
@@ -72,40 +73,21 @@ def rom_free_decay(rom, q0: np.ndarray, *, t_end: float, dt: float, gamma: float
     """
     M = rom.M.numpy()
     n, steps = rom.n, int(round(t_end / dt))
-    q = np.array(q0, float)
-    v = np.zeros(n)
+    Q, V = np.zeros((steps + 1, n)), np.zeros((steps + 1, n))
 
     def force(q, v):
         return rom.force(torch.as_tensor(q), torch.as_tensor(v), alpha, gamma).numpy()
 
-    a = np.linalg.solve(M, -force(q, v))
-    Q, V = np.zeros((steps + 1, n)), np.zeros((steps + 1, n))
-    Q[0], V[0] = q, v
-    b, g = 0.25, 0.5
-    for k in range(1, steps + 1):
-        qp = q + dt * v + dt**2 * (0.5 - b) * a
-        vp = v + dt * (1 - g) * a
-        qn = qp.copy()
-        for _ in range(30):
-            an = (qn - qp) / (b * dt**2)
-            vn = vp + g * dt * an
-            R = M @ an + force(qn, vn)
-            if np.linalg.norm(R) <= tol * max(np.linalg.norm(M @ an), 1e-300) and _ > 0:
-                break
-            Kt, Ct = rom.tangents(torch.as_tensor(qn), torch.as_tensor(vn), alpha, gamma)
-            J = M / (b * dt**2) + Ct.numpy() * (g / (b * dt)) + Kt.numpy()
-            dq = np.linalg.solve(J, R)
-            qn = qn - dq
-            # a correction at the rounding level of q: the residual cannot fall further (a
-            # near-rest start makes |M a| tiny, so its relative test alone can be out of reach)
-            if np.linalg.norm(dq) <= 1e-13 * max(np.linalg.norm(qn), 1e-300):
-                break
-        else:
-            raise ConvergenceError(f"ROM transient: Newton did not converge at step {k}")
-        a = (qn - qp) / (b * dt**2)
-        v = vp + g * dt * a
-        q = qn
+    def tangents(q, v):
+        Kt, Ct = rom.tangents(torch.as_tensor(q), torch.as_tensor(v), alpha, gamma)
+        return Kt.numpy(), Ct.numpy()
+
+    def keep(k, q, v):
         Q[k], V[k] = q, v
+
+    # general solves: the damping tangent of a decomposition ROM need not be symmetric
+    newmark_newton(M, force, tangents, q0, dt=dt, steps=steps, tol=tol, max_iter=30,
+                   record=keep, solve=np.linalg.solve, rounding_stop=True, what="ROM transient")
     return np.arange(steps + 1) * dt, Q, V
 
 
