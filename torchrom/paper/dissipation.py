@@ -1,0 +1,71 @@
+"""How much a ROM's nonlinear damping dissipates on an LCO: the damping cause check's measure.
+
+For a Kelvin–Voigt ROM the dissipated power is P = γ q̇ᵀ (D̄1 + D̄2(q) + D̄3(q, q)) q̇ (Eq. 54, α
+aside). On a converged γ = 0 LCO (the trajectory does not depend on the damping tensors, so every
+damping identification can be judged on the same cycle) the ratio
+
+    r = ⟨q̇ᵀ (D̄2(q) + D̄3(q, q)) q̇⟩ / ⟨q̇ᵀ D̄1 q̇⟩          (⟨·⟩: mean over whole periods)
+
+says whether the nonlinear terms add dissipation (r > 0) or cancel the linear damping of the
+dual-mode motion (r → −1: the motion is nearly inextensional, the strain rate and with it the
+Kelvin–Voigt dissipation nearly vanish). The smallest eigenvalue of the scaled extended matrix
+(the decomposition's criterion, :mod:`torchrom.identify.damping`) is reported beside it.
+
+Hand-written over :mod:`torchrom.sim` and :mod:`torchrom.rom`.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import torch
+
+from ..identify import damping as dmp
+from ..rom import NonlinearROM
+from ..rom import conventions as cv
+from ..sim.newmark import HistoryRequest
+from ..study.cases import case_system
+from ..study.sweep import initial_displacement, initial_velocity
+
+#: periods of the converged LCO the cycle means are taken over
+CYCLE_PERIODS = 3
+
+
+def scaled_min_eigenvalue(rom: NonlinearROM) -> float:
+    """Smallest eigenvalue of the scaled extended matrix of the ROM's damping tensors (the
+    quantity the optimum decomposition maximises; ≥ 0 means dissipative for every motion)."""
+    G, H = rom.gram()
+    K_E = cv.energy_extended_matrix(rom.D1, G, H)
+    return float(torch.linalg.eigvalsh(dmp._scale_matrix(K_E, rom.D1.numpy(), H.numpy())).min())
+
+
+def lco_cycle(model, cfg, altitude_ft: float, t_end: float | None = None
+              ) -> tuple[np.ndarray, np.ndarray, str]:
+    """(q, q̇, status) over the last :data:`CYCLE_PERIODS` periods of the γ = 0 case ("NL stiff")
+    of the sweep ``cfg`` (its initial condition, integrator and LCO criteria) at ``altitude_ft``,
+    every time step; q̇ by central differences of the recorded q."""
+    rom = model.rom
+    cases = [{"altitude_ft": float(altitude_ft), "gamma": 0.0, "alpha": "matched"}]
+    system, _ = case_system(model, cases, torch.device("cpu"), torch.float64)
+    # the sweep's deciding output (its first; the ROM's first output if it names none)
+    names, C = rom.output_matrix([(cfg.outputs or list(rom.outputs))[0]])
+    names += [f"q{i + 1}" for i in range(rom.n)]
+    res = cfg.integrator.run(system, initial_displacement(rom, cfg.initial, cases),
+                             initial_velocity(rom, cfg.initial, 1),
+                             t_end=cfg.t_end if t_end is None else t_end,
+                             outputs=(names, np.vstack([C, np.eye(rom.n)])), lco=cfg.lco,
+                             history=HistoryRequest((0,), 1))
+    h = res.histories[0]
+    dt = float(h.t[1] - h.t[0])
+    freq = float(res.frequency_hz[0])
+    k = int(round(CYCLE_PERIODS / freq / dt)) if np.isfinite(freq) and freq > 0 else len(h.t) // 4
+    q = h.y[-k - 2:, 1:]
+    return q[1:-1], (q[2:] - q[:-2]) / (2 * dt), str(res.status[0])
+
+
+def dissipation_ratio(rom: NonlinearROM, q: np.ndarray, qd: np.ndarray) -> float:
+    """⟨q̇ᵀ (D̄2(q) + D̄3(q, q)) q̇⟩ / ⟨q̇ᵀ D̄1 q̇⟩ over the samples (T, n) of q and q̇."""
+    Q = torch.as_tensor(q, dtype=torch.float64)
+    V = torch.as_tensor(qd, dtype=torch.float64)
+    full = torch.einsum("ti,tij,tj->t", V, rom.damping_matrix(Q), V).mean()
+    lin = torch.einsum("ti,tij,tj->t", V, rom.damping_matrix(Q, damping_nl=False), V).mean()
+    return float((full - lin) / lin)
