@@ -31,7 +31,6 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
-import itertools
 import json
 import time
 from pathlib import Path
@@ -42,35 +41,17 @@ import scipy.sparse as sp
 import torch
 
 from torchrom.identify import damping as dmp
-from torchrom.identify.stiffness import _full_sym, _rel_spread
+from torchrom.identify.stiffness import _rel_spread
 from torchrom.paper import findings as fnd
 from torchrom.paper.dissipation import dissipation_ratio, lco_cycle, scaled_min_eigenvalue
 from torchrom.paper.pipeline import goland_pipeline
 from torchrom.paper.study import FULL_PIPELINE, config_path
 from torchrom.rom import conventions as cv
-from torchrom.rom.monomials import monomial_index
 from torchrom.study.config import load_sweep_config
 from torchrom.study.sweep import run_sweep
 
 ALTITUDES = (4000.0, 7000.0, 10000.0)
 DISSIPATION_ALTITUDE = 4000.0
-
-
-def _problem(rom):
-    """The decomposition's class structure and scaled data (as in
-    :func:`torchrom.identify.damping._optimum_decomposition`)."""
-    K1 = rom.K1.numpy()
-    K1 = 0.5 * (K1 + K1.T)
-    K2s, K3s = _full_sym(rom.K2.numpy()), _full_sym(rom.K3.numpy())
-    n = K1.shape[0]
-    st = dmp._structure(n)
-    sigma, s = dmp._scales(st, K1, K3s / 2.0)
-    fs = st.f * sigma
-    idx = monomial_index(n)
-    quads = np.array(list(itertools.combinations_with_replacement(range(n), 4)))
-    b = np.concatenate([K2s[tuple(idx.triples.T)], K3s[tuple(quads.T)]])
-    K1hat = s[:n, None] * K1 * s[None, :n]
-    return st, K1, K2s, K3s, fs, st.alpha / fs, b, K1hat
 
 
 def sdp_decomposition(rom, eps: float = 1e-5, max_iters: int = 8000):
@@ -82,7 +63,9 @@ def sdp_decomposition(rom, eps: float = 1e-5, max_iters: int = 8000):
         raise SystemExit("damping_decomposition_choice: needs SCS for the semidefinite program: "
                          "pip install -c constraints.txt -e '.[experiments]'") from exc
 
-    st, K1, K2s, K3s, fs, alpha_hat, b, K1hat = _problem(rom)
+    p = dmp.decomposition_problem(rom.K1.numpy(), rom.K2.numpy(), rom.K3.numpy())
+    st, K1, K2s, K3s, fs, alpha_hat, b, K1hat = (p.st, p.K1, p.K2s, p.K3s, p.fs, p.alpha_hat,
+                                                  p.b, p.K1hat)
     n = st.n
     N = n + n * (n + 1) // 2
     ncls = len(st.rows)

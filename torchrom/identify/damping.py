@@ -556,6 +556,41 @@ def _one_thread():
         torch.set_num_threads(before)
 
 
+@dataclass
+class DecompositionProblem:
+    """The data of the decomposition in scaled class units (see the module docstring).
+
+    st: class structure; K1, K2s, K3s: symmetrized K1 and fully symmetrized K2, K3; fs: class
+    value -> scaled matrix entry factor; alpha_hat: constraint coefficients in scaled units; b:
+    identified coefficient of each multiset (G groups: sorted triples; H: sorted quadruples);
+    K1hat: the scaled K1 block. The identified coefficients are Σ_c∈group alpha_hat_c m_c = b.
+    """
+
+    st: _Structure
+    K1: np.ndarray
+    K2s: np.ndarray
+    K3s: np.ndarray
+    fs: np.ndarray
+    alpha_hat: np.ndarray
+    b: np.ndarray
+    K1hat: np.ndarray
+
+
+def decomposition_problem(K1, K2, K3) -> DecompositionProblem:
+    """Scaled decomposition data of identified (pseudo-)stiffness tensors K1, K2, K3."""
+    K1 = 0.5 * (np.asarray(K1, float) + np.asarray(K1, float).T)
+    K2s, K3s = _full_sym(np.asarray(K2, float)), _full_sym(np.asarray(K3, float))
+    n = K1.shape[0]
+    st = _structure(n)
+    sigma, s = _scales(st, K1, K3s / 2.0)
+    fs = st.f * sigma
+    idx = monomial_index(n)
+    quads = list(itertools.combinations_with_replacement(range(n), 4))
+    b = np.concatenate([K2s[tuple(idx.triples.T)], K3s[tuple(np.array(quads).T)]])
+    return DecompositionProblem(st, K1, K2s, K3s, fs, st.alpha / fs, b,
+                                s[:n, None] * K1 * s[None, :n])
+
+
 def optimum_decomposition(K1: np.ndarray, K2: np.ndarray, K3: np.ndarray,
                           options: DecompositionOptions | None = None) -> DampingIdentification:
     """``decomposition`` (see :func:`_optimum_decomposition`), on one intra-op thread."""
@@ -577,20 +612,12 @@ def _optimum_decomposition(K1: np.ndarray, K2: np.ndarray, K3: np.ndarray,
         the identified combined coefficients.
     """
     opt = options or DecompositionOptions()
-    K1 = 0.5 * (np.asarray(K1, float) + np.asarray(K1, float).T)
-    K2s, K3s = _full_sym(np.asarray(K2, float)), _full_sym(np.asarray(K3, float))
-    n = K1.shape[0]
-    st = _structure(n)
+    p = decomposition_problem(K1, K2, K3)
+    st, K1, K2s, K3s, fs, alpha_hat, b = p.st, p.K1, p.K2s, p.K3s, p.fs, p.alpha_hat, p.b
+    n = st.n
     G0, H0 = K2s / 3.0, K3s / 2.0            # fully symmetric split (particular solution)
-    sigma, s = _scales(st, K1, H0)
-    fs = st.f * sigma
-    alpha_hat = st.alpha / fs
-    # identified coefficient of each multiset (G groups: sorted triples; H: sorted quadruples)
-    idx = monomial_index(n)
-    quads = list(itertools.combinations_with_replacement(range(n), 4))
-    b = np.concatenate([K2s[tuple(idx.triples.T)], K3s[tuple(np.array(quads).T)]])
     m0 = torch.as_tensor(fs * _class_values(st, G0, H0))
-    K1hat = torch.as_tensor(s[:n, None] * K1 * s[None, :n])
+    K1hat = torch.as_tensor(p.K1hat)
 
     def report_eigs(mm):
         X = _assemble(st, K1hat, mm)
