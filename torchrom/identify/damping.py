@@ -575,6 +575,13 @@ class DecompositionProblem:
     b: np.ndarray
     K1hat: np.ndarray
 
+    def tensors(self, m) -> tuple[np.ndarray, np.ndarray, float, float]:
+        """(G, H) of the scaled class entries m, and the relative errors with which their
+        stiffness tensors reproduce the identified K2, K3."""
+        G, H = _tensors_from_values(self.st, np.asarray(m) / self.fs)
+        K2r, K3r = cv.stiffness_from_gram(torch.as_tensor(G), torch.as_tensor(H))
+        return G, H, _rel_spread(K2r.numpy(), self.K2s), _rel_spread(K3r.numpy(), self.K3s)
+
 
 def decomposition_problem(K1, K2, K3) -> DecompositionProblem:
     """Scaled decomposition data of identified (pseudo-)stiffness tensors K1, K2, K3."""
@@ -655,19 +662,14 @@ def _optimum_decomposition(K1: np.ndarray, K2: np.ndarray, K3: np.ndarray,
     report["stages"] = stages
     report["after_whole"] = dict(zip(("min_eigenvalue_scaled", "min_eigenvalue"),
                                      report_eigs(m)))
-    Gs, Hs = _tensors_from_values(st, m.numpy() / fs)
-    K2d, K3d = cv.stiffness_from_gram(torch.as_tensor(Gs), torch.as_tensor(Hs))
-    report["decomposition_reproduction_error_K2"] = _rel_spread(K2d.numpy(), K2s)
-    report["decomposition_reproduction_error_K3"] = _rel_spread(K3d.numpy(), K3s)
+    _, _, report["decomposition_reproduction_error_K2"], \
+        report["decomposition_reproduction_error_K3"] = p.tensors(m.numpy())
     # never less positive than the particular solution, and at least semidefinite (+ margin)
     floor = max(opt.margin, report["symmetric_split"]["min_eigenvalue_scaled"])
     m, report["enforcement"] = _enforce_psd(st, K1hat, m, alpha_hat, b, floor,
                                               opt.max_newton)
     report["final"] = dict(zip(("min_eigenvalue_scaled", "min_eigenvalue"), report_eigs(m)))
-    G, H = _tensors_from_values(st, m.numpy() / fs)
-    K2r, K3r = cv.stiffness_from_gram(torch.as_tensor(G), torch.as_tensor(H))
-    report["reproduction_error_K2"] = _rel_spread(K2r.numpy(), K2s)
-    report["reproduction_error_K3"] = _rel_spread(K3r.numpy(), K3s)
+    G, H, report["reproduction_error_K2"], report["reproduction_error_K3"] = p.tensors(m.numpy())
     D1, D2, D3 = cv.damping_from_gram(torch.as_tensor(K1), torch.as_tensor(G),
                                       torch.as_tensor(H))
     return DampingIdentification(D1.numpy(), D2.numpy(), D3.numpy(), "decomposition", report,

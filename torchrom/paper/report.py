@@ -103,8 +103,8 @@ def dissipation_lines(d: dict[str, Any] | None) -> list[str]:
         ["", "The LCO is nearly inextensional: the dual modes follow the bending, and the "
          "Kelvin–Voigt strain rate nearly vanishes, so the exact nonlinear terms cancel almost "
          "all of the linear damping of that motion and γ changes the amplitude little "
-         "(table above). Both "
-         "tensor sets satisfy the decomposition's criterion equally well (λ_min ≈ 0); the one "
+         "(table above). Both tensor sets satisfy the decomposition's criterion equally well "
+         "(λ_min ≈ 0); the one "
          "that cancels less dissipates more and lowers the amplitude more at large γ. "
          "`experiments/damping_decomposition_choice.py` adds the criterion's exact optimum (a "
          "semidefinite program) and its Fig. 10 verdicts."]

@@ -196,6 +196,13 @@ def _write_table(cache: FileCache, name: str, df: pd.DataFrame, key: str) -> Pat
     return cache.put(name, FileCache.key({"table": name, "of": key}), write)
 
 
+def damping_check_cases(cfg) -> list[dict[str, Any]]:
+    """The LCO sweep's cases at :data:`DAMPING_CHECK_ALTITUDES`, without the linear ones (γ = 0,
+    no stiffness nonlinearity: they do not depend on the damping tensors)."""
+    return [c for c in cfg.cases if float(c.get("altitude_ft", -1.0)) in DAMPING_CHECK_ALTITUDES
+            and not (float(c.get("gamma", 0.0)) == 0.0 and not c.get("stiffness_nl", True))]
+
+
 def _damping_check(cache: FileCache, cfg, main, quick: bool, out: Path, force: bool, device,
                    dtype, log) -> dict[str, Any]:
     """The Fig. 10 curves at :data:`DAMPING_CHECK_ALTITUDES` with a ROM whose damping tensors
@@ -205,9 +212,7 @@ def _damping_check(cache: FileCache, cfg, main, quick: bool, out: Path, force: b
     res = goland_pipeline(dataclasses.replace(base, damping="exact"), out / "model_exact",
                           force=force, log=log)
     model = res.model
-    cases = [c for c in cfg.cases if float(c.get("altitude_ft", -1.0)) in DAMPING_CHECK_ALTITUDES
-             and not (float(c.get("gamma", 0.0)) == 0.0 and not c.get("stiffness_nl", True))]
-    cfg_x = dataclasses.replace(cfg, cases=cases, history=None)
+    cfg_x = dataclasses.replace(cfg, cases=damping_check_cases(cfg), history=None)
     table, _, info = _lco_sweep(cache, cfg_x, model, model.content_hash(), device, dtype, log,
                                 name="lco_exact_damping")
     found = fnd.fig10_acceptance(table)
