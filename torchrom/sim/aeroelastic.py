@@ -168,32 +168,40 @@ def aeroelastic_system(rom: NonlinearROM, aero, altitude, *, alpha=0.0, gamma=0.
 
 
 # -- the linearised system and the simulator's growth rate --------------------------------------
-def linear_state_matrix(system: CaseSystem, case: int = 0) -> np.ndarray:
-    """First-order matrix of case ``case`` linearised about q = 0, state x = [q, q̇, ξ]:
+def linear_state_matrices(system: CaseSystem) -> torch.Tensor:
+    """First-order matrices (B, 2n + na, 2n + na) of every case linearised about q = 0, state
+    x = [q, q̇, ξ] (torch, the system's device and dtype):
 
         (M + M_add) q̈ = −(K1 + K_add) q − (α M + γ D̄1 + C_add) q̇ − lag_D ξ,
         ξ̇ = lag_E q̇ + lag_R ξ.
     """
-    s = system.select([case]).to(dtype=torch.float64)
-    rom = system.rom
-    n, na = system.n, system.n_lag
+    rom, B, n, na = system.rom, system.batch_size, system.n, system.n_lag
+    kw = {"device": system.device, "dtype": system.dtype}
+    M, K1, D1 = (getattr(rom, name).to(**kw) for name in ("M", "K1", "D1"))
 
-    def mat(t):
-        return np.zeros((n, n)) if t is None else t[0].cpu().numpy()
+    def plus(base, extra):
+        base = base.expand(B, n, n)
+        return base if extra is None else base + extra
 
-    M = rom.M.cpu().numpy() + mat(s.M_add)
-    C = (float(s.alpha[0]) * rom.M.cpu().numpy() + float(s.gamma[0]) * rom.D1.cpu().numpy()
-         + mat(s.C_add))
-    K = rom.K1.cpu().numpy() + mat(s.K_add)
-    blocks = [K, C] + ([s.lag_D[0].cpu().numpy()] if na else [])
-    rows = np.linalg.solve(M, np.hstack(blocks))
-    a = np.zeros((2 * n + na, 2 * n + na))
-    a[:n, n:2 * n] = np.eye(n)
-    a[n:2 * n] = -rows
+    Mt = plus(M, system.M_add)
+    C = plus(system.alpha[:, None, None] * M + system.gamma[:, None, None] * D1, system.C_add)
+    K = plus(K1, system.K_add)
+    blocks = [K, C] + ([system.lag_D] if na else [])
+    rows = torch.linalg.solve(Mt, torch.cat(blocks, dim=2))
+    a = torch.zeros(B, 2 * n + na, 2 * n + na, **kw)
+    a[:, :n, n:2 * n] = torch.eye(n, **kw)
+    a[:, n:2 * n] = -rows
     if na:
-        a[2 * n:, n:2 * n] = s.lag_E[0].cpu().numpy()
-        a[2 * n:, 2 * n:] = s.lag_R[0].cpu().numpy()
+        a[:, 2 * n:, n:2 * n] = system.lag_E
+        a[:, 2 * n:, 2 * n:] = system.lag_R
     return a
+
+
+def linear_state_matrix(system: CaseSystem, case: int = 0) -> np.ndarray:
+    """First-order matrix of case ``case`` linearised about q = 0 (float64 numpy), state
+    x = [q, q̇, ξ] (see :func:`linear_state_matrices`)."""
+    s = system.select([case]).to(dtype=torch.float64)
+    return linear_state_matrices(s)[0].cpu().numpy()
 
 
 def critical_eigenpair(system: CaseSystem, case: int = 0,

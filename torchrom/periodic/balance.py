@@ -1,0 +1,235 @@
+"""The harmonic balance equations of B cases: residual and analytic Jacobian (batched).
+
+For the per-case system of :class:`~torchrom.sim.CaseSystem` (the paper's Eq. 54 plus linear
+additions, e.g. the aerodynamics of Eqs. 49–50),
+
+    M_t q̈ + (C_0 + c M_t) q̇ + K_l q + s·[K2(q,q) + K3(q,q,q)] + g·[D̄2(q) + D̄3(q,q)] q̇ + D ξ
+        = load,          ξ̇ = E q̇ + R ξ,
+
+with M_t = M + M_add, C_0 = α M + γ D̄1 + C_add, K_l = K1 + K_add, s the stiffness switch,
+g = γ·d the nonlinear damping factor and c an optional *fictitious* mass-proportional damping
+(1/s, zero for a physical orbit; the cold start solves for the c that sustains an orbit of given
+amplitude), a periodic orbit q(τ) = Σ a_k cos kτ + b_k sin kτ (τ = ωt,
+:mod:`.fourier`) satisfies, harmonic by harmonic,
+
+    Z_k(ω) Q_k + F_k(X, ω) = load δ_k0,     Q_k = a_k − i b_k,
+
+    Z_k(ω) = K_l − (kω)² M_t + i kω (C_0 + c M_t) + D (ikω I − R)⁻¹ E ikω.
+
+The lag states are linear, so they drop out exactly per harmonic (the last term): the
+aerodynamics are exactly the RFA's. F_k are the harmonics of the nonlinear force, computed by
+alternating frequency–time (AFT) at the alias-free sample count of :mod:`.fourier`. The real
+residual stacks, for each k, the cos row Re(Z Q + F) and the sin row −Im(Z Q + F).
+
+The Jacobian is analytic: the linear part is block-diagonal per harmonic (2n × 2n blocks
+[[Re Z, Im Z], [−Im Z, Re Z]]); the nonlinear part is the AFT of the tangent matrices,
+
+    ∂F/∂X = P [K_n(τ_j)] E + ω P [C_n(τ_j)] E',   K_n = s·(2K2(q,·) + 3K3(q,q,·)) + g ∂(D_nl q̇)/∂q,
+                                                   C_n = g·(D̄2(q) + D̄3(q,q)),
+
+evaluated for all cases and samples with the ROM's compact kernels
+(:class:`torchrom.rom.kernels.CompactForces`) and contracted in one GEMM.
+Hand-written: no library offers batched harmonic balance of this model in torch.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import torch
+
+from ..rom.kernels import CompactForces
+from ..sim.system import CaseSystem
+from .fourier import FourierBasis, coefficients_from_samples, n_coefficients
+
+Tensor = torch.Tensor
+
+
+@dataclass
+class LinearBlocks:
+    """Per-case, per-harmonic linear dynamic stiffness Z_k (complex, (B, H, n, n)), its
+    ω-derivative and, for k = 0, the static stiffness (B, n, n)."""
+
+    Z: Tensor
+    dZ_domega: Tensor
+    K0: Tensor
+
+
+class HarmonicBalance:
+    """The HB equations of the B cases of ``system`` at H harmonics (float64 or the system's
+    dtype, on the system's device).
+
+    Args:
+        system: the per-case system (structural ROM + linear additions + lag states).
+        H: number of harmonics.
+        n_samples: AFT samples per period (default the alias-free minimum 4H + 1).
+    """
+
+    def __init__(self, system: CaseSystem, H: int, n_samples: int | None = None):
+        self.system = system
+        self.H = int(H)
+        self.nh = n_coefficients(self.H)
+        dev, dt = system.device, system.dtype
+        self.basis = FourierBasis.build(self.H, n_samples, dev, dt)
+        rom = system.rom
+        self.n = n = rom.n
+        self.B = B = system.batch_size
+        self.kernels: CompactForces = rom.kernels(dev, dt)
+        k = self.kernels
+
+        def add(base: Tensor, extra: Tensor | None) -> Tensor:
+            base = base.expand(B, n, n)
+            return base if extra is None else base + extra
+
+        self.Mt = add(k.M, system.M_add)
+        self.C0 = (system.alpha[:, None, None] * k.M + system.gamma[:, None, None] * k.D1)
+        if system.C_add is not None:
+            self.C0 = self.C0 + system.C_add
+        self.Kl = add(k.K1, system.K_add)
+        self.s = system.stiffness_nl
+        self.g = system.gamma * system.damping_nl
+        self.has_stiffness = bool((self.s != 0).any())
+        self.has_damping = bool((self.g != 0).any())
+        self.load = system.load
+        self.n_lag = system.n_lag
+        self.k = torch.arange(1, self.H + 1, device=dev, dtype=dt)
+        # the Jacobian's projections of the sample-wise tangents: [P E | P E'] (nh², 2N)
+        b = self.basis
+        PE = (b.P[:, None, :] * b.E.T[None, :, :]).reshape(self.nh * self.nh, b.N)
+        PdE = (b.P[:, None, :] * b.dE.T[None, :, :]).reshape(self.nh * self.nh, b.N)
+        self._PE = torch.cat([PE, PdE], dim=1)
+
+    # -- sizes -----------------------------------------------------------------------------------
+    @property
+    def n_unknowns(self) -> int:
+        """Fourier coefficients n(2H+1) (the Newton system adds ω and one parameter)."""
+        return self.n * self.nh
+
+    # -- linear part -----------------------------------------------------------------------------
+    def linear_blocks(self, omega: Tensor, c: Tensor | None = None) -> LinearBlocks:
+        """Z_k(ω) for k = 1..H and its ω-derivative (see the module docstring); ω, c (B,)."""
+        k = self.k
+        kw = omega[:, None] * k[None, :]  # (B, H)
+        C = self.C0 if c is None else self.C0 + c[:, None, None] * self.Mt
+        cplx = torch.complex128 if self.Mt.dtype == torch.float64 else torch.complex64
+        Mt, C, Kl = self.Mt[:, None], C[:, None], self.Kl[:, None]
+        kw4 = kw[:, :, None, None]
+        Zr = Kl - kw4**2 * Mt
+        Zi = kw4 * C
+        dZr = -2.0 * (k**2)[None, :, None, None] * omega[:, None, None, None] * Mt
+        dZi = k[None, :, None, None] * C
+        Z = torch.complex(Zr, Zi)
+        dZ = torch.complex(dZr, dZi.expand_as(dZr))
+        if self.n_lag:
+            sys = self.system
+            s = (1j * kw).to(cplx)  # (B, H): ikω
+            eye = torch.eye(self.n_lag, dtype=cplx, device=Mt.device)
+            A = s[:, :, None, None] * eye - sys.lag_R[:, None].to(cplx)  # (sI − R)
+            AinvE = torch.linalg.solve(A, sys.lag_E[:, None].to(cplx).expand(
+                -1, self.H, -1, -1))  # (B, H, na, n)
+            D = sys.lag_D[:, None].to(cplx)
+            Z = Z + s[:, :, None, None] * (D @ AinvE)
+            # d/ds [s D (sI−R)⁻¹ E] = D (sI−R)⁻¹ (−R) (sI−R)⁻¹ E, and ds/dω = ik
+            dL = D @ torch.linalg.solve(A, -sys.lag_R[:, None].to(cplx) @ AinvE)
+            dZ = dZ + (1j * k.to(cplx))[None, :, None, None] * dL
+        return LinearBlocks(Z, dZ, self.Kl)
+
+    def _apply_blocks(self, Z: Tensor, K0: Tensor, X: Tensor) -> Tensor:
+        """The linear force coefficients (B, nh, n) of blocks (Z_k, K0) applied to X."""
+        out = torch.empty_like(X)
+        out[:, 0] = (K0 @ X[:, 0, :, None])[..., 0]
+        Q = torch.complex(X[:, 1::2], -X[:, 2::2])  # (B, H, n)
+        F = (Z @ Q[..., None])[..., 0]
+        out[:, 1::2] = F.real
+        out[:, 2::2] = -F.imag
+        return out
+
+    # -- nonlinear part --------------------------------------------------------------------------
+    def samples(self, X: Tensor, omega: Tensor) -> tuple[Tensor, Tensor]:
+        """q and q̇ at the AFT samples, each (B, N, n)."""
+        b = self.basis
+        return b.E @ X, omega[:, None, None] * (b.dE @ X)
+
+    def nonlinear_force(self, q: Tensor, v: Tensor) -> Tensor:
+        """s·[K2(q,q) + K3(q,q,q)] + g·[D̄2(q) + D̄3(q,q)] q̇ at samples (B, N, n)."""
+        B, N, n = q.shape
+        k = self.kernels
+        q2, v2 = q.reshape(B * N, n), v.reshape(B * N, n)
+        f = torch.zeros_like(q2)
+        m2 = q2[:, k.pair_i] * q2[:, k.pair_j]
+        if self.has_stiffness:
+            f = f + self.s.repeat_interleave(N)[:, None] * k.stiffness_nl(q2, m2)
+        if self.has_damping:
+            Dm = k.damping_nl_matrix(q2, m2)
+            f = f + self.g.repeat_interleave(N)[:, None] * (Dm @ v2[..., None])[..., 0]
+        return f.view(B, N, n)
+
+    def nonlinear_tangents(self, q: Tensor, v: Tensor) -> tuple[Tensor, Tensor, Tensor]:
+        """(f_nl, K_n, C_n) at samples: force (B, N, n) and the (B, N, n, n) derivatives in q
+        and q̇ (module docstring)."""
+        B, N, n = q.shape
+        k = self.kernels
+        q2, v2 = q.reshape(B * N, n), v.reshape(B * N, n)
+        m2 = q2[:, k.pair_i] * q2[:, k.pair_j]
+        f = torch.zeros_like(q2)
+        Kn = q2.new_zeros(B * N, n, n)
+        Cn = q2.new_zeros(B * N, n, n)
+        if self.has_stiffness:
+            s = self.s.repeat_interleave(N)
+            f = f + s[:, None] * k.stiffness_nl(q2, m2)
+            Kn = Kn + s[:, None, None] * k.tangent_nl(q2, m2)
+        if self.has_damping:
+            g = self.g.repeat_interleave(N)
+            Dm = k.damping_nl_matrix(q2, m2)
+            f = f + g[:, None] * (Dm @ v2[..., None])[..., 0]
+            Kn = Kn + g[:, None, None] * k.damping_force_tangent(q2, v2, m2)
+            Cn = g[:, None, None] * Dm
+        return f.view(B, N, n), Kn.view(B, N, n, n), Cn.view(B, N, n, n)
+
+    # -- equations ---------------------------------------------------------------------------------
+    def residual(self, X: Tensor, omega: Tensor, c: Tensor | None = None) -> Tensor:
+        """R (B, nh, n) for coefficients X (B, nh, n), ω (B,) rad/s, fictitious damping c."""
+        lin = self.linear_blocks(omega, c)
+        R = self._apply_blocks(lin.Z, lin.K0, X)
+        if self.has_stiffness or self.has_damping:
+            q, v = self.samples(X, omega)
+            R = R + coefficients_from_samples(self.nonlinear_force(q, v), self.H)
+        if self.load is not None:
+            R[:, 0] -= self.load
+        return R
+
+    def jacobian(self, X: Tensor, omega: Tensor, c: Tensor | None = None):
+        """(R, J, R_ω, R_c): residual (B, nh, n), ∂R/∂X (B, nh·n, nh·n) (rows and columns in the
+        flattened (harmonic, coordinate) order), ∂R/∂ω and ∂R/∂c (B, nh, n)."""
+        B, n, nh, H = self.B, self.n, self.nh, self.H
+        lin = self.linear_blocks(omega, c)
+        R = self._apply_blocks(lin.Z, lin.K0, X)
+        R_omega = self._apply_blocks(lin.dZ_domega, torch.zeros_like(lin.K0), X)
+        # ∂R/∂c = coefficients of M_t q̇ = ω M_t (D X)
+        DX = self.basis.D @ X
+        R_c = omega[:, None, None] * (DX @ self.Mt.transpose(1, 2))
+        J = X.new_zeros(B, nh, n, nh, n)
+        J[:, 0, :, 0, :] = lin.K0
+        Zr, Zi = lin.Z.real, lin.Z.imag
+        for k in range(1, H + 1):
+            a, b = 2 * k - 1, 2 * k
+            J[:, a, :, a, :] = Zr[:, k - 1]
+            J[:, a, :, b, :] = Zi[:, k - 1]
+            J[:, b, :, a, :] = -Zi[:, k - 1]
+            J[:, b, :, b, :] = Zr[:, k - 1]
+        if self.has_stiffness or self.has_damping:
+            q, v = self.samples(X, omega)
+            f, Kn, Cn = self.nonlinear_tangents(q, v)
+            R = R + coefficients_from_samples(f, H)
+            Nn = self.basis.N
+            # one GEMM: [P E | P E'] (nh², 2N) @ [K_n; ω C_n] (2N, B n²)
+            T = torch.cat([Kn, omega[:, None, None, None] * Cn], dim=1)  # (B, 2N, n, n)
+            T = T.permute(1, 0, 2, 3).reshape(2 * Nn, B * n * n)
+            Jn = (self._PE @ T).view(nh, nh, B, n, n)  # [k, l, b, i, j]
+            J = J + Jn.permute(2, 0, 3, 1, 4)
+            # ∂F/∂ω: the samples of C_n (dq/dτ) projected
+            dq = self.basis.dE @ X  # (B, N, n)
+            R_omega = R_omega + self.basis.P @ (Cn @ dq[..., None])[..., 0]
+        if self.load is not None:
+            R[:, 0] -= self.load
+        return R, J.reshape(B, nh * n, nh * n), R_omega, R_c

@@ -1,0 +1,167 @@
+"""Batched Newton iteration for periodic orbits with one free scalar and two linear conditions.
+
+Unknowns per case z = [X (2H+1, n) flattened, ω, μ]: the Fourier coefficients, the angular
+frequency (rad/s) and one scalar μ — a fictitious damping c (cold start, :mod:`.solve`) or a
+continuation parameter (:mod:`.continuation`). Equations:
+
+    R(X, ω, μ) = 0                    harmonic balance (:class:`~.balance.HarmonicBalance`)
+    r · b_1 = 0                       phase condition: the output y = r·q has no sin τ term
+    w · z = d                         one linear condition: an amplitude (w picks r·a_1), a
+                                      fixed μ (w picks μ), or a pseudo-arclength condition
+
+All B cases are solved together: one batched LU per iteration (rows equilibrated, because the
+force rows of stiff dual coordinates are ~1e7 times the displacement rows). Each case stops on
+its own once its scaled correction is below the tolerance; a case whose iterate turns non-finite
+is marked and frozen, never touching its neighbours. Steps are limited to a fraction of the
+orbit's size, which keeps Newton inside its basin on the stiff dual coordinates.
+Hand-written.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import torch
+
+Tensor = torch.Tensor
+
+#: evaluate(X, ω, μ, active) -> (R, J, R_ω, R_μ) for the cases ``active`` (index tensor)
+Evaluate = Callable[[Tensor, Tensor, Tensor, Tensor], tuple[Tensor, Tensor, Tensor, Tensor]]
+#: residual(X, ω, μ, active) -> R
+Residual = Callable[[Tensor, Tensor, Tensor, Tensor], Tensor]
+
+
+@dataclass(frozen=True)
+class NewtonOptions:
+    """Newton settings.
+
+    Attributes:
+        max_iterations: iterations before a case is declared unconverged.
+        tol: convergence on the correction, relative to the orbit's largest coefficient
+            (and to ω for the frequency).
+        max_step: largest correction of the coefficients per iteration, as a fraction of the
+            orbit's largest coefficient (and of ω for the frequency).
+    """
+
+    max_iterations: int = 25
+    tol: float = 1e-9
+    max_step: float = 0.5
+
+
+@dataclass
+class NewtonResult:
+    """Per-case outcome: the iterate, convergence flags, iterations and the last scaled
+    residual max |R| / (max |J| · max |X|) (the force error relative to the largest force the
+    Jacobian can produce on the orbit)."""
+
+    X: Tensor
+    omega: Tensor
+    mu: Tensor
+    converged: Tensor
+    iterations: Tensor
+    residual: Tensor
+    jacobian_solves: int = 0
+
+
+def newton(evaluate: Evaluate, X: Tensor, omega: Tensor, mu: Tensor, phase_row: Tensor,
+           w: Tensor, d: Tensor, scale: Tensor, options: NewtonOptions = NewtonOptions(),
+           active: Tensor | None = None, residual_fn: Residual | None = None,
+           slaved: Tensor | None = None) -> NewtonResult:
+    """Solve the augmented system (module docstring) for the cases ``active`` (default all).
+
+    Args:
+        X (B, nh, n), omega (B,), mu (B,): the starting iterate (not modified).
+        phase_row: (n,) the output row r of the phase condition.
+        w: (B, nh·n + 2) and d (B,): the linear condition w·z = d.
+        scale: (B,) a size of the orbit's coefficients (the step limit and the tolerance use
+            max(scale, max |X|)).
+        residual_fn, slaved: with both, after every Newton step the equations of the coordinates
+            ``slaved`` (indices into n, e.g. the stiff dual modes) are solved once more for
+            those coordinates alone (one residual evaluation and a solve with the step's
+            Jacobian block): their response is quadratic in the others, so a plain Newton step
+            leaves them far off their slow manifold and the next step overshoots.
+    """
+    X, omega, mu = X.clone(), omega.clone(), mu.clone()
+    B, nh, n = X.shape
+    nz = nh * n + 2
+    converged = torch.zeros(B, dtype=torch.bool, device=X.device)
+    iterations = torch.zeros(B, dtype=torch.long, device=X.device)
+    residual = torch.full((B,), float("nan"), dtype=X.dtype, device=X.device)
+    todo = torch.arange(B, device=X.device) if active is None else active.clone()
+    solves = 0
+    for _ in range(options.max_iterations):
+        if todo.numel() == 0:
+            break
+        Xa, wa, ma = X[todo], omega[todo], mu[todo]
+        R, J, R_w, R_m = evaluate(Xa, wa, ma, todo)
+        Ba = len(todo)
+        A = X.new_zeros(Ba, nz, nz)
+        A[:, : nh * n, : nh * n] = J
+        A[:, : nh * n, -2] = R_w.reshape(Ba, -1)
+        A[:, : nh * n, -1] = R_m.reshape(Ba, -1)
+        A[:, -2, 2 * n: 3 * n] = phase_row  # r · b_1
+        A[:, -1] = w[todo]
+        z = torch.cat([Xa.reshape(Ba, -1), wa[:, None], ma[:, None]], dim=1)
+        rhs = torch.cat([R.reshape(Ba, -1), (Xa[:, 2] @ phase_row)[:, None],
+                         ((w[todo] * z).sum(1) - d[todo])[:, None]], dim=1)
+        # equilibrate rows: force rows of stiff coordinates are orders above the others
+        row = A.abs().amax(dim=2).clamp_min(torch.finfo(A.dtype).tiny)
+        finite = torch.isfinite(A).all(dim=(1, 2)) & torch.isfinite(rhs).all(dim=1)
+        A = torch.where(finite[:, None, None], A / row[..., None], torch.eye(nz, dtype=A.dtype,
+                                                                            device=A.device))
+        rhs = torch.where(finite[:, None], rhs / row, torch.zeros_like(rhs))
+        # ... and columns: coefficients of stiff dual coordinates are orders below the others
+        col = A.abs().amax(dim=1).clamp_min(torch.finfo(A.dtype).tiny)
+        A = A / col[:, None, :]
+        lu, piv, info = torch.linalg.lu_factor_ex(A)
+        step = -torch.linalg.lu_solve(lu, piv, rhs[..., None])[..., 0] / col
+        solves += 1
+        ok = finite & (info == 0) & torch.isfinite(step).all(dim=1)
+        size = torch.maximum(Xa.abs().amax(dim=(1, 2)), scale[todo])
+        dX = step[:, : nh * n]
+        dxmax = dX.abs().amax(dim=1)
+        lam = torch.clamp(options.max_step * size / dxmax.clamp_min(1e-300), max=1.0)
+        lam = torch.minimum(lam, torch.clamp(0.2 * wa.abs() / step[:, -2].abs().clamp_min(
+            1e-300), max=1.0))
+        step = step * lam[:, None]
+        znew = z + step
+        done = ok & (dxmax <= options.tol * size) & (step[:, -2].abs() <= options.tol * wa.abs())
+        Xn = znew[:, : nh * n].view(Ba, nh, n)
+        if residual_fn is not None and slaved is not None and slaved.numel() and not bool(
+                done.all()):
+            Xn = _resolve_slaved(residual_fn, J, Xn, znew[:, -2], znew[:, -1], todo, slaved, ok)
+        X[todo] = torch.where(ok[:, None, None], Xn, Xa)
+        omega[todo] = torch.where(ok, znew[:, -2], wa)
+        mu[todo] = torch.where(ok, znew[:, -1], ma)
+        iterations[todo] += 1
+        rs = R.abs().amax(dim=(1, 2)) / (J.abs().amax(dim=(1, 2)) * size).clamp_min(1e-300)
+        residual[todo] = rs
+        converged[todo] = done
+        # a failed case (singular or non-finite) stops, unconverged; converged cases stop
+        keep = ok & ~done
+        todo = todo[keep]
+    return NewtonResult(X, omega, mu, converged, iterations, residual, solves)
+
+
+def _resolve_slaved(residual: Residual, J: Tensor, X: Tensor, omega: Tensor, mu: Tensor,
+                    active: Tensor, slaved: Tensor, ok: Tensor) -> Tensor:
+    """X with the slaved coordinates corrected by one Newton step on their own equations
+    (the other unknowns held), using the Jacobian block of the step just taken."""
+    B, nh, n = X.shape
+    rows = (torch.arange(nh, device=X.device)[:, None] * n + slaved[None, :]).reshape(-1)
+    R = residual(X, omega, mu, active).reshape(B, -1)[:, rows]
+    Jd = J[:, rows][:, :, rows]
+    fine = ok & torch.isfinite(R).all(dim=1)
+    row = Jd.abs().amax(dim=2).clamp_min(torch.finfo(J.dtype).tiny)
+    Jd = Jd / row[..., None]
+    col = Jd.abs().amax(dim=1).clamp_min(torch.finfo(J.dtype).tiny)
+    Jd = torch.where(fine[:, None, None], Jd / col[:, None, :],
+                     torch.eye(len(rows), dtype=J.dtype, device=J.device))
+    lu, piv, info = torch.linalg.lu_factor_ex(Jd)
+    rhs = torch.where(fine[:, None], R / row, torch.zeros_like(R))
+    dx = -torch.linalg.lu_solve(lu, piv, rhs[..., None])[..., 0] / col
+    good = fine & (info == 0) & torch.isfinite(dx).all(dim=1)
+    Xf = X.reshape(B, -1).clone()
+    Xf[:, rows] = torch.where(good[:, None], Xf[:, rows] + dx, Xf[:, rows])
+    return Xf.view(B, nh, n)
