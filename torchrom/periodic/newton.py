@@ -62,6 +62,8 @@ class NewtonResult:
     iterations: Tensor
     residual: Tensor
     jacobian_solves: int = 0
+    #: sign of the determinant of the augmented Jacobian at the last iteration (±1)
+    det_sign: Tensor | None = None
 
 
 def newton(evaluate: Evaluate, X: Tensor, omega: Tensor, mu: Tensor, phase_row: Tensor,
@@ -88,6 +90,7 @@ def newton(evaluate: Evaluate, X: Tensor, omega: Tensor, mu: Tensor, phase_row: 
     converged = torch.zeros(B, dtype=torch.bool, device=X.device)
     iterations = torch.zeros(B, dtype=torch.long, device=X.device)
     residual = torch.full((B,), float("nan"), dtype=X.dtype, device=X.device)
+    det_sign = torch.zeros(B, dtype=X.dtype, device=X.device)
     todo = torch.arange(B, device=X.device) if active is None else active.clone()
     solves = 0
     for _ in range(options.max_iterations):
@@ -116,6 +119,10 @@ def newton(evaluate: Evaluate, X: Tensor, omega: Tensor, mu: Tensor, phase_row: 
         A = A / col[:, None, :]
         lu, piv, info = torch.linalg.lu_factor_ex(A)
         step = -torch.linalg.lu_solve(lu, piv, rhs[..., None])[..., 0] / col
+        # the equilibration factors are positive: sign(det A) = Π sign(U_ii) · (−1)^swaps
+        swaps = (piv != torch.arange(1, nz + 1, device=piv.device, dtype=piv.dtype)).sum(1)
+        det_sign[todo] = (torch.sign(lu.diagonal(dim1=1, dim2=2)).prod(1)
+                          * (1.0 - 2.0 * (swaps % 2)).to(lu.dtype))
         solves += 1
         ok = finite & (info == 0) & torch.isfinite(step).all(dim=1)
         size = torch.maximum(Xa.abs().amax(dim=(1, 2)), scale[todo])
@@ -141,7 +148,7 @@ def newton(evaluate: Evaluate, X: Tensor, omega: Tensor, mu: Tensor, phase_row: 
         # a failed case (singular or non-finite) stops, unconverged; converged cases stop
         keep = ok & ~done
         todo = todo[keep]
-    return NewtonResult(X, omega, mu, converged, iterations, residual, solves)
+    return NewtonResult(X, omega, mu, converged, iterations, residual, solves, det_sign)
 
 
 def _resolve_slaved(residual: Residual, J: Tensor, X: Tensor, omega: Tensor, mu: Tensor,

@@ -1,0 +1,127 @@
+"""Stability of periodic orbits: Floquet multipliers from the monodromy matrix (batched).
+
+A perturbation x = [δq, δq̇, δξ] of an orbit obeys the linear T-periodic system x' = A(t) x,
+
+    M_t δq̈ + C_t(t) δq̇ + K_t(t) δq + D δξ = 0,      δξ̇ = E δq̇ + R δξ,
+
+with the tangents of :mod:`.balance` along the orbit: K_t = K_l + K_n(q, q̇), C_t = C_0 + C_n(q).
+The monodromy matrix Φ(T) maps x(0) to x(T); its eigenvalues are the Floquet multipliers μ.
+One of them is 1 (a shift along the orbit: the eigenvector is ẋ(0)); the orbit is
+asymptotically stable when every other |μ| < 1. The *critical* multiplier is the largest of the
+others: it leaves the unit circle at +1 (fold), −1 (period doubling) or as a complex pair
+(torus / Neimark–Sacker bifurcation).
+
+Φ is integrated with the trapezoidal rule (Crank–Nicolson) over ``steps`` steps per period: it
+is A-stable, so the stiff dual coordinates need no small step, and it maps purely oscillatory
+motions onto the unit circle, so it neither adds nor removes damping from the slow modes;
+with Richardson extrapolation over two step sizes (:func:`floquet`). The trivial
+multiplier is identified by its eigenvector's alignment with ẋ(0) (not merely by being
+closest to 1: near a fold a second multiplier approaches 1 too).
+Hand-written (no library computes batched monodromy matrices of this model).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+import torch
+
+from ..sim.system import CaseSystem
+from .balance import HarmonicBalance
+
+Tensor = torch.Tensor
+
+#: default trapezoidal steps per period
+FLOQUET_STEPS = 128
+#: an orbit is stable when its critical multiplier is below 1 + this
+STABILITY_TOL = 1e-6
+
+
+@dataclass
+class FloquetResult:
+    """Per case: the multipliers (B, 2n + na) complex, the index of the trivial one, the
+    critical multiplier (complex, the largest |μ| of the others) and stability."""
+
+    multipliers: np.ndarray
+    trivial: np.ndarray
+    critical: np.ndarray
+    stable: np.ndarray
+
+    @property
+    def critical_modulus(self) -> np.ndarray:
+        return np.abs(self.critical)
+
+
+def monodromy(system: CaseSystem, X: Tensor, omega: Tensor,
+              steps: int = FLOQUET_STEPS) -> tuple[Tensor, Tensor]:
+    """(Φ (B, ns, ns), ẋ(0) (B, ns)) of the orbits X (B, 2H+1, n), ω (B,) (module docstring);
+    state [q, q̇, ξ], ns = 2n + na."""
+    H = (X.shape[1] - 1) // 2
+    hb = HarmonicBalance(system, H, n_samples=steps)
+    B, n, na = system.batch_size, system.n, system.n_lag
+    ns = 2 * n + na
+    q, v = hb.samples(X, omega)
+    _, Kn, Cn = hb.nonlinear_tangents(q, v)  # (B, S, n, n)
+    Minv = torch.linalg.inv(hb.Mt)
+    MK = Minv[:, None] @ (hb.Kl[:, None] + Kn)  # (B, S, n, n)
+    MC = Minv[:, None] @ (hb.C0[:, None] + Cn)
+    dev, dt = X.device, X.dtype
+    eye = torch.eye(ns, device=dev, dtype=dt).expand(B, ns, ns)
+    base = torch.zeros(B, ns, ns, device=dev, dtype=dt)
+    base[:, :n, n:2 * n] = torch.eye(n, device=dev, dtype=dt)
+    if na:
+        base[:, n:2 * n, 2 * n:] = -Minv @ system.lag_D
+        base[:, 2 * n:, n:2 * n] = system.lag_E
+        base[:, 2 * n:, 2 * n:] = system.lag_R
+    h = (2 * math.pi / omega) / steps  # (B,)
+
+    def A(j: int) -> Tensor:
+        a = base.clone()
+        a[:, n:2 * n, :n] = -MK[:, j % steps]
+        a[:, n:2 * n, n:2 * n] = -MC[:, j % steps]
+        return a
+
+    Phi = eye.clone()
+    half = 0.5 * h[:, None, None]
+    Aj = A(0)
+    for j in range(steps):
+        Aj1 = A(j + 1)
+        Phi = torch.linalg.solve(eye - half * Aj1, (eye + half * Aj) @ Phi)
+        Aj = Aj1
+    # ẋ(0) = [q̇(0), q̈(0), ξ̇(0)]: the orbit's own tangent (ξ̇ from the trivial multiplier's
+    # eigenvector is not needed to identify it: the structural part suffices)
+    dq = omega[:, None] * (hb.basis.dE[0] @ X)
+    ddq = omega[:, None] ** 2 * (hb.basis.dE[0] @ (hb.basis.D @ X))
+    xdot = torch.cat([dq, ddq, dq.new_zeros(B, na)], dim=1)
+    return Phi, xdot
+
+
+def floquet(system: CaseSystem, X: Tensor, omega: Tensor, steps: int = FLOQUET_STEPS,
+            tol: float = STABILITY_TOL) -> FloquetResult:
+    """Floquet multipliers and stability of the orbits X (B, 2H+1, n), ω (B,) rad/s.
+
+    Φ is Richardson-extrapolated from ``steps`` and ``steps``/2 trapezoidal steps,
+    (4Φ_S − Φ_{S/2})/3: the trapezoidal rule's global error expands in even powers of h,
+    so this removes the h² term (the trivial multiplier then equals 1 to ~1e-6 where the
+    plain rule at 128 steps is ~1e-3 off, which matters for orbits near a fold)."""
+    Phi, xdot = monodromy(system, X, omega, steps)
+    Phi_half, _ = monodromy(system, X, omega, steps // 2)
+    Phi = (4.0 * Phi - Phi_half) / 3.0
+    mu, vec = torch.linalg.eig(Phi)
+    n2 = 2 * system.n
+    v = vec[:, :n2, :]  # structural part of each eigenvector
+    xd = xdot[:, :n2].to(v.dtype)
+    align = (v.conj() * xd[:, :, None]).sum(1).abs() / (
+        v.abs().pow(2).sum(1).sqrt() * xd.abs().pow(2).sum(1).sqrt()[:, None]).clamp_min(1e-300)
+    near_one = (mu - 1).abs() < 0.1
+    score = torch.where(near_one, align, align - 10.0)
+    trivial = score.argmax(dim=1)
+    mod = mu.abs()
+    mod_other = mod.clone()
+    mod_other[torch.arange(mu.shape[0]), trivial] = -1.0
+    k = mod_other.argmax(dim=1)
+    crit = mu[torch.arange(mu.shape[0]), k]
+    stable = (crit.abs() < 1 + tol).cpu().numpy()
+    return FloquetResult(mu.cpu().numpy(), trivial.cpu().numpy(), crit.cpu().numpy(), stable)
