@@ -76,6 +76,9 @@ def add_study_options(parser: argparse.ArgumentParser, outputs: str) -> None:
     --json and --force: the options of the commands that simulate cases of a configuration."""
     parser.add_argument("--out", type=Path, required=True, metavar="DIR",
                         help=f"output folder ({outputs})")
+    parser.add_argument("--method", choices=("newmark", "hb"), default=None,
+                        help="time marching (newmark) or periodic orbits by harmonic balance "
+                             "(hb); default: the configuration's 'method' (newmark)")
     add_precision_options(parser)
     add_executor_options(parser)
     add_json_option(parser)
@@ -86,9 +89,10 @@ def load_study(args: argparse.Namespace):
     """(torch device, torch dtype, SweepConfig) from --device, --dtype and the configuration."""
     import torch
 
-    from ..study.config import load_sweep_config
+    from ..study.config import load_sweep_config, with_method
 
-    return torch_device(args.device), getattr(torch, args.dtype), load_sweep_config(args.config)
+    cfg = with_method(load_sweep_config(args.config), getattr(args, "method", None))
+    return torch_device(args.device), getattr(torch, args.dtype), cfg
 
 
 def check_outputs(args: argparse.Namespace, paths, may_replace: bool | None = None) -> None:

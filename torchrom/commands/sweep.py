@@ -84,9 +84,11 @@ def run(args: argparse.Namespace) -> int:
     from tqdm import tqdm
 
     with open_executor(args.workers, args.scheduler) as executor:
+        how = (f"harmonic balance (H {cfg.hb.options.harmonics}..{cfg.hb.options.max_harmonics}"
+               f", {cfg.hb.start} starts)" if cfg.method == "hb" else
+               f"dt = {cfg.integrator.dt:g} s, t_end = {cfg.t_end:g} s")
         print(f"torchrom sweep: {len(cfg.cases)} cases of '{cfg.title}' ({args.config}) on "
-              f"{device}/{args.dtype}, {executor.description}, dt = {cfg.integrator.dt:g} s, "
-              f"t_end = {cfg.t_end:g} s")
+              f"{device}/{args.dtype}, {executor.description}, {how}")
         with tqdm(total=len(cfg.cases), unit="case", desc="cases done", file=sys.stderr,
                   disable=None) as bar:
             def progress(done: int, total: int) -> None:
@@ -118,9 +120,14 @@ def run(args: argparse.Namespace) -> int:
               f"float64 (column precision)")
     print(f"cases: {timing['computed']} computed in {timing['chunks']} chunks, "
           f"{timing['reused']} reused from {out / 'parts'}")
-    print(f"time: {timing['elapsed_s']:.1f} s elapsed, {timing['wall_time_s']:.1f} s "
-          f"integrating, {timing['case_steps']} case-steps, "
-          f"{timing['us_per_case_step']:.2f} us per case-step")
+    if cfg.method == "hb":
+        print(f"time: {timing['elapsed_s']:.1f} s elapsed, {timing['wall_time_s']:.1f} s "
+              f"solving, {timing['case_steps']} Newton iterations, "
+              f"{1e3 * timing['wall_time_s'] / max(timing['computed'], 1):.1f} ms per case")
+    else:
+        print(f"time: {timing['elapsed_s']:.1f} s elapsed, {timing['wall_time_s']:.1f} s "
+              f"integrating, {timing['case_steps']} case-steps, "
+              f"{timing['us_per_case_step']:.2f} us per case-step")
     for p in (*written.values(), figure, *extra):
         print(f"wrote {p}")
     maybe_write_json(args, table.to_dict(orient="records"))

@@ -36,6 +36,8 @@ class SimulationResult:
         xi: (B, na) final lag states (None where the run did not record them).
         histories: case index -> :class:`History` for the requested cases.
         wall_time_s: wall-clock time of the run; case_steps: Σ over cases of steps computed.
+        extra: further per-case columns of a method (name -> (B,) array), e.g. the harmonic
+            balance's stability (:mod:`torchrom.periodic.method`).
     """
 
     output_names: list[str]
@@ -52,6 +54,7 @@ class SimulationResult:
     wall_time_s: float = 0.0
     case_steps: int = 0
     xi: np.ndarray | None = None
+    extra: dict[str, np.ndarray] = field(default_factory=dict)
 
     @property
     def batch_size(self) -> int:

@@ -115,6 +115,40 @@ def case_system(model, cases: list[dict[str, Any]], device=None, dtype=torch.flo
     return ae.system, extra
 
 
+# -- neighbour chains (harmonic balance warm starts) ----------------------------------------------
+#: longest neighbour chain: chains advance in lockstep, so longer ones mean smaller batches
+MAX_CHAIN = 16
+
+
+def neighbour_chains(cases: Sequence[Mapping[str, Any]], max_length: int = MAX_CHAIN
+                     ) -> tuple[list[list[int]], np.ndarray | None]:
+    """(chains, positions): the cases grouped by every parameter but the one with the most
+    distinct numeric values (the chain parameter, e.g. the altitude of a curve or the γ of
+    uncertainty samples), each group ordered by it from its largest value down (usually the
+    most damped end, where the orbit is smallest and a cold start cheapest) and cut into
+    chains of at most ``max_length``; positions are the chain parameter of every case (None
+    when nothing varies). For :func:`torchrom.periodic.solve_orbits`."""
+    B = len(cases)
+    keys = list(dict.fromkeys(k for c in cases for k in c))
+    numeric = [k for k in keys if all(isinstance(c.get(k), (int, float))
+                                      and not isinstance(c.get(k), bool) for c in cases)]
+    counts = {k: len({float(c[k]) for c in cases}) for k in numeric}
+    varying = [k for k in numeric if counts[k] > 1]
+    if not varying:
+        return [[i] for i in range(B)], None
+    key = max(varying, key=lambda k: counts[k])
+    groups: dict[str, list[int]] = {}
+    for i, c in enumerate(cases):
+        groups.setdefault(repr(sorted((k, repr(v)) for k, v in c.items() if k != key)),
+                          []).append(i)
+    pos = np.array([float(c[key]) for c in cases])
+    chains = []
+    for members in groups.values():
+        members = sorted(members, key=lambda i: -pos[i])
+        chains += [members[j: j + max_length] for j in range(0, len(members), max_length)]
+    return chains, pos
+
+
 # -- time histories --------------------------------------------------------------------------------
 @dataclass
 class HistorySpec:

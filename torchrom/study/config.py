@@ -4,6 +4,9 @@ A sweep configuration has these tables (every key is checked; a bad one gives a 
 :class:`~torchrom.errors.InputError` naming the file, the table and the key):
 
 ``title``        a string shown in figures.
+``method``       ``"newmark"`` (default: batched time marching, :class:`torchrom.sim.Newmark`)
+                 or ``"hb"`` (periodic orbits by harmonic balance,
+                 :class:`torchrom.periodic.HarmonicBalanceMethod`); both write the same table.
 ``[model]``      ``rom = "path/to/rom.npz"`` (relative to the configuration file), with
                  ``aero = "aero.npz"`` (GAFs + RFA on the ROM's first modes) for an aeroelastic
                  sweep and optionally ``span`` (reference length of amplitudes in % of span);
@@ -22,6 +25,10 @@ A sweep configuration has these tables (every key is checked; a bad one gives a 
 ``[integrator]`` ``dt``, ``t_end`` (s) and the options of :class:`torchrom.sim.Newmark`
                  (scheme, rho_inf, solver, iterations, startup_iterations, tol, predictor,
                  check_every, refresh_every, sample_every, compile, threads, cuda_graphs).
+``[hb]``         (method "hb") :class:`torchrom.periodic.HBOptions` keys (start_harmonics,
+                 harmonics, max_harmonics, amplitude_rtol, residual_tol, start_amplitude,
+                 amplitude_scale, max_stages, metric_points) and ``stability``,
+                 ``floquet_steps``, ``start`` ("neighbour" or "cold").
 ``[lco]``        ``outputs`` (ROM outputs or generalized coordinates "q1"…; the first decides)
                  and the options of :class:`torchrom.sim.LCOCriteria` (rtol, cycles, decay_ratio,
                  max_amplitude, ring).
@@ -57,6 +64,7 @@ else:  # pragma: no cover - Python 3.10
     import tomli as tomllib
 
 from ..errors import InputError
+from ..periodic import HarmonicBalanceMethod, HBOptions
 from ..rom import NonlinearROM
 from ..rom.analytic import BUILTIN
 from ..sim import LCOCriteria, Newmark
@@ -69,8 +77,14 @@ from .cases import (
 from .grid import config_hash, expand_cases
 from .models import AeroelasticModel, model_rom
 
-SECTIONS = ("title", "model", "aeroelastic", "initial", "integrator", "lco", "cases", "history",
-            "plot", "run", "variants")
+SECTIONS = ("title", "method", "model", "aeroelastic", "initial", "integrator", "hb", "lco",
+            "cases", "history", "plot", "run", "variants")
+#: sweep methods: time marching or harmonic balance
+METHODS = ("newmark", "hb")
+_HB_OPTION_KEYS = ("start_harmonics", "harmonics", "max_harmonics", "amplitude_rtol",
+                   "residual_tol", "start_amplitude", "amplitude_scale", "max_stages",
+                   "metric_points")
+_HB_METHOD_KEYS = ("stability", "floquet_steps", "start")
 #: [aeroelastic] keys (AeroelasticModel fields)
 AEROELASTIC_KEYS = ("baseline_alpha", "baseline_gamma", "reference_altitude_ft",
                     "altitude_range_ft")
@@ -106,6 +120,14 @@ class SweepConfig:
     raw: dict[str, Any] = field(default_factory=dict, repr=False)
     aeroelastic: dict[str, Any] | None = None
     history: HistorySpec | None = None
+    method: str = "newmark"
+    hb: HarmonicBalanceMethod = field(default_factory=HarmonicBalanceMethod)
+
+    @property
+    def solver(self):
+        """What runs the cases: the time integrator or the harmonic balance method (both have
+        ``run(system, q0, v0, t_end=…, outputs=…, lco=…, …) -> SimulationResult``)."""
+        return self.hb if self.method == "hb" else self.integrator
 
     @property
     def hash(self) -> str:
@@ -287,10 +309,16 @@ def load_sweep_config(path, variant: str | None = None) -> SweepConfig:
     initial = _table(raw, "initial", source)
     _check_keys(initial, ("q0", "v0", "mode"), source, "[initial]")
 
+    method = raw.get("method", "newmark")
+    if method not in METHODS:
+        raise _err(source, "method", f"expected one of {list(METHODS)}, got {method!r}")
     integ = _table(raw, "integrator", source)
     _check_keys(integ, ("dt", "t_end", *_NEWMARK_KEYS), source, "[integrator]")
     dt = _positive(integ, "dt", source, "[integrator]", 1e-3)
-    t_end = _positive(integ, "t_end", source, "[integrator]")
+    # harmonic balance simulates no time: t_end is needed by time marching only
+    t_end = _positive(integ, "t_end", source, "[integrator]",
+                      math.inf if method == "hb" else None)
+    hb = hb_method(_table(raw, "hb", source), source)
     try:
         newmark = Newmark(dt=dt, **{k: integ[k] for k in _NEWMARK_KEYS if k in integ})
     except InputError as exc:
@@ -349,12 +377,37 @@ def load_sweep_config(path, variant: str | None = None) -> SweepConfig:
                       integrator=newmark, t_end=t_end, lco=lco, outputs=outputs, cases=cases,
                       plot=plot, batch_size=batch, chunk_size=run_t.get("chunk_size"), raw=raw,
                       aeroelastic=aero_t,
-                      history=history)
+                      history=history, method=method, hb=hb)
     if model.get("builtin") == "goland":
         _goland_options(model, source)  # checked now; built (or reused) when the sweep runs
     else:
         build_model(model, source, aero_t)  # fail now, not after a long run
     return cfg
+
+
+def hb_method(table: dict[str, Any], source: Path, where: str = "[hb]") -> HarmonicBalanceMethod:
+    """The harmonic balance method of a ``[hb]`` table (every key checked)."""
+    _check_keys(table, (*_HB_OPTION_KEYS, *_HB_METHOD_KEYS), source, where)
+    try:
+        options = HBOptions(**{k: table[k] for k in _HB_OPTION_KEYS if k in table})
+        return HarmonicBalanceMethod(options, **{k: table[k] for k in _HB_METHOD_KEYS
+                                                 if k in table})
+    except InputError as exc:
+        raise _err(source, where, str(exc)) from None
+    except TypeError as exc:
+        raise _err(source, where, f"bad value ({exc})") from None
+
+
+def with_method(cfg: SweepConfig, method: str | None) -> SweepConfig:
+    """A copy that runs with ``method`` ("newmark" or "hb"; None: unchanged). The method is
+    part of the configuration's hash, so the two never share stored results."""
+    if method is None or method == cfg.method:
+        return cfg
+    if method not in METHODS:
+        raise InputError(f"--method: expected one of {list(METHODS)}, got {method!r}")
+    if method == "newmark" and not math.isfinite(cfg.t_end):
+        raise InputError(f"{cfg.source}: [integrator] t_end: missing (time marching needs it)")
+    return dataclasses.replace(cfg, method=method, raw={**cfg.raw, "method": method})
 
 
 def with_overrides(cfg: SweepConfig, **integrator_options) -> SweepConfig:

@@ -22,7 +22,7 @@ import torch
 from ..errors import InputError
 from ..rom import NonlinearROM
 from ..sim import HistoryRequest
-from .cases import case_system, history_table
+from .cases import case_system, history_table, neighbour_chains
 from .cases import structural_system as structural_system  # noqa: F401 - public name
 from .config import SweepConfig
 from .grid import case_id, config_hash
@@ -116,8 +116,11 @@ class SweepTask:
         v0 = initial_velocity(rom, cfg.initial, len(cases))
         keep = cfg.history.indices(cases) if cfg.history is not None else []
         history = HistoryRequest(tuple(keep), cfg.history.every) if keep else None
-        res = cfg.integrator.run(system, q0, v0, t_end=cfg.t_end, outputs=cfg.outputs,
-                                 lco=cfg.lco, history=history, progress=progress)
+        kw = {}
+        if cfg.method == "hb":  # neighbours start from each other's orbits
+            kw["chains"], kw["positions"] = neighbour_chains(cases)
+        res = cfg.solver.run(system, q0, v0, t_end=cfg.t_end, outputs=cfg.outputs,
+                             lco=cfg.lco, history=history, progress=progress, **kw)
         span = getattr(self.model, "span", None) or rom.metadata.get("span")
         rows = result_rows(cases, res, config_hash=cfg.hash, span=span, case_ids=case_ids,
                            extra=extra, precision=str(dtype).replace("torch.", ""))

@@ -9,7 +9,9 @@ span), ``frequency_hz``, ``ratio_q1_q2`` / ``ratio_q1_q4`` (generalized-coordina
 ratios, when tracked), ``steps``, ``t_end`` (simulated time reached, s), ``amplitude_<output>``
 for every tracked output, ``amplitude_change`` (relative change over the last cycle),
 ``solver_error`` (estimated relative acceleration error of the nonlinear iterations),
-``config_hash`` and ``version``.
+the method's own columns (harmonic balance: ``method``, ``harmonics``, ``hb_residual``,
+``truncation``, ``harmonic_distortion``, ``stable``, ``floquet_multiplier``; see
+:mod:`torchrom.periodic.method`), ``config_hash`` and ``version``.
 """
 
 from __future__ import annotations
@@ -68,6 +70,12 @@ def result_rows(cases: Sequence[Mapping[str, Any]], result: SimulationResult, *,
         cols[f"amplitude_{name}"] = amp[:, j]
     cols["amplitude_change"] = result.amplitude_change
     cols["solver_error"] = result.solver_error
+    for name, values in result.extra.items():
+        values = np.asarray(values)
+        if name == "stable":  # True / False / unknown (NaN or None)
+            values = pd.array([None if v is None or (isinstance(v, float) and np.isnan(v))
+                               else bool(v) for v in values], dtype="boolean")
+        cols[name] = values
     if precision is not None:
         cols["precision"] = precision
     cols["config_hash"] = config_hash
