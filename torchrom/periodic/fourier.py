@@ -23,6 +23,7 @@ Hand-written (no library offers batched real harmonic balance transforms in torc
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 
@@ -72,7 +73,12 @@ class FourierBasis:
     @classmethod
     def build(cls, H: int, N: int | None = None, device=None,
               dtype=torch.float64) -> FourierBasis:
+        """The basis (cached: the matrices are read-only and rebuilt often otherwise)."""
         N = sample_count(H) if N is None else int(N)
+        return _basis(int(H), N, str(torch.device(device or "cpu")), dtype)
+
+    @classmethod
+    def _build(cls, H: int, N: int, device, dtype) -> FourierBasis:
         if N < 2 * H + 1:
             raise ValueError(f"FourierBasis: N = {N} samples cannot hold {H} harmonics")
         tau = 2 * math.pi * torch.arange(N, dtype=torch.float64) / N
@@ -93,6 +99,11 @@ class FourierBasis:
         P = w[:, None] * E.T
         kw = {"device": device, "dtype": dtype}
         return cls(H, N, E.to(**kw), dE.to(**kw), P.to(**kw), D.to(**kw))
+
+
+@functools.lru_cache(maxsize=64)
+def _basis(H: int, N: int, device: str, dtype) -> FourierBasis:
+    return FourierBasis._build(H, N, device, dtype)
 
 
 def coefficients_from_samples(samples: Tensor, H: int) -> Tensor:

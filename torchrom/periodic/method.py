@@ -33,6 +33,7 @@ from ..sim.result import SimulationResult
 from ..sim.system import CaseSystem
 from .floquet import FLOQUET_STEPS, floquet
 from .fourier import resize_harmonics
+from .sensitivity import amplitude_derivative
 from .solve import HBOptions, solve_orbits
 
 
@@ -46,14 +47,21 @@ class HarmonicBalanceMethod:
         floquet_steps: trapezoidal steps per period of the monodromy matrix.
         start: "neighbour" (cases chained along their varying parameter start from their
             neighbour's orbit) or "cold" (every case from its linear flutter mode).
+        sensitivity: also the derivatives of each LCO's amplitude and frequency with respect
+            to γ by the implicit-function theorem (:mod:`.sensitivity`; columns
+            ``amplitude_dgamma``, output units per s, and ``frequency_dgamma``, Hz per s); the
+            caller passes the systems at γ ± δγ (``parameter_systems`` of :meth:`run`).
     """
 
     options: HBOptions = field(default_factory=HBOptions)
     stability: bool = True
     floquet_steps: int = FLOQUET_STEPS
     start: str = "neighbour"
+    sensitivity: bool = False
 
     def __post_init__(self):
+        if isinstance(self.sensitivity, str) or not isinstance(self.sensitivity, bool):
+            raise InputError(f"hb.sensitivity: expected true or false, got {self.sensitivity!r}")
         if self.start not in ("neighbour", "cold"):
             raise InputError(f"hb.start: expected 'neighbour' or 'cold', got {self.start!r}")
         if isinstance(self.stability, str) or not isinstance(self.stability, bool):
@@ -65,10 +73,12 @@ class HarmonicBalanceMethod:
 
     def run(self, system: CaseSystem, q0=None, v0=None, xi0=None, *, t_end: float = math.nan,
             outputs=None, lco: LCOCriteria | None = None, history=None, progress=None,
-            chains: list[list[int]] | None = None, positions=None) -> SimulationResult:
+            chains: list[list[int]] | None = None, positions=None,
+            parameter_systems=None) -> SimulationResult:
         """The orbits of every case; ``lco.max_amplitude`` bounds them ('diverged' beyond),
         ``chains``/``positions`` as :func:`~.solve.solve_orbits` (used with start
-        "neighbour")."""
+        "neighbour"); ``parameter_systems``: (plus, minus, δγ (B,)) the cases at γ ± δγ, for
+        ``sensitivity``."""
         t0 = time.perf_counter()
         names, C = output_matrix(system.rom, outputs)
         crit = lco or LCOCriteria()
@@ -101,11 +111,29 @@ class HarmonicBalanceMethod:
                              self.floquet_steps)
                 stable[idx] = fl.stable
                 mult[idx] = fl.critical_modulus
+        if self.sensitivity and parameter_systems is not None:
+            dA, df = np.full(B, np.nan), np.full(B, np.nan)
+            plus, minus, dg = parameter_systems
+            r = torch.as_tensor(decide, dtype=torch.float64)
+            for h in np.unique(orb.harmonics[lco_idx]):
+                idx = lco_idx[orb.harmonics[lco_idx] == h]
+                t = torch.as_tensor(idx)
+                a, w = amplitude_derivative(
+                    system.select(t).to(dtype=torch.float64),
+                    plus.select(t).to(dtype=torch.float64),
+                    minus.select(t).to(dtype=torch.float64),
+                    torch.as_tensor(np.asarray(dg, dtype=float)[idx]),
+                    resize_harmonics(orb.X[t], int(h)), orb.omega[t], r, opts.metric_points)
+                dA[idx], df[idx] = a.numpy(), w.numpy() / (2 * np.pi)
+            sens = {"amplitude_dgamma": dA, "frequency_dgamma": df}
+        else:
+            sens = {}
         dist = orb.distortion(rows[:1])[:, 0]
         dist[orb.status != "lco"] = np.nan
         extra = {"method": np.full(B, "hb", dtype=object), "harmonics": orb.harmonics,
                  "hb_residual": orb.residual, "truncation": orb.truncation,
-                 "harmonic_distortion": dist, "stable": stable, "floquet_multiplier": mult}
+                 "harmonic_distortion": dist, "stable": stable, "floquet_multiplier": mult,
+                 **sens}
         wall = time.perf_counter() - t0
         if progress is not None:
             progress(B, B)

@@ -28,7 +28,8 @@ A sweep configuration has these tables (every key is checked; a bad one gives a 
 ``[hb]``         (method "hb") :class:`torchrom.periodic.HBOptions` keys (start_harmonics,
                  harmonics, max_harmonics, amplitude_rtol, residual_tol, start_amplitude,
                  amplitude_scale, max_stages, metric_points) and ``stability``,
-                 ``floquet_steps``, ``start`` ("neighbour" or "cold").
+                 ``floquet_steps``, ``start`` ("neighbour" or "cold"), ``sensitivity``
+                 (dA/dγ by the implicit-function theorem).
 ``[lco]``        ``outputs`` (ROM outputs or generalized coordinates "q1"…; the first decides)
                  and the options of :class:`torchrom.sim.LCOCriteria` (rtol, cycles, decay_ratio,
                  max_amplitude, ring).
@@ -84,7 +85,7 @@ METHODS = ("newmark", "hb")
 _HB_OPTION_KEYS = ("start_harmonics", "harmonics", "max_harmonics", "amplitude_rtol",
                    "residual_tol", "start_amplitude", "amplitude_scale", "max_stages",
                    "metric_points")
-_HB_METHOD_KEYS = ("stability", "floquet_steps", "start")
+_HB_METHOD_KEYS = ("stability", "floquet_steps", "start", "sensitivity")
 #: [aeroelastic] keys (AeroelasticModel fields)
 AEROELASTIC_KEYS = ("baseline_alpha", "baseline_gamma", "reference_altitude_ft",
                     "altitude_range_ft")

@@ -119,6 +119,9 @@ class SweepTask:
         kw = {}
         if cfg.method == "hb":  # neighbours start from each other's orbits
             kw["chains"], kw["positions"] = neighbour_chains(cases)
+            if cfg.hb.sensitivity:
+                kw["parameter_systems"] = gamma_perturbed_systems(self.model, cases,
+                                                                  torch.device(self.device))
         res = cfg.solver.run(system, q0, v0, t_end=cfg.t_end, outputs=cfg.outputs,
                              lco=cfg.lco, history=history, progress=progress, **kw)
         span = getattr(self.model, "span", None) or rom.metadata.get("span")
@@ -128,6 +131,21 @@ class SweepTask:
                 res.case_steps)
 
 
+
+
+def gamma_perturbed_systems(model, cases, device, rel: float = 1e-4, floor: float = 1e-9):
+    """(plus, minus, δγ): the cases with γ ± δγ (δγ = rel·|γ|, at least ``floor`` s; a matched α
+    is matched again), in float64: the central difference of the harmonic balance residual
+    in γ that the implicit-function theorem needs (:mod:`torchrom.periodic.sensitivity`)."""
+    g = np.array([float(c.get("gamma", 0.0)) for c in cases])
+    dg = np.maximum(rel * np.abs(g), floor)
+    # one-sided at γ = 0 would leave the model's domain only in name: γ − δγ < 0 is a valid
+    # (slightly negative) Kelvin–Voigt factor for a residual evaluation
+    plus = case_system(model, [{**c, "gamma": float(x)} for c, x in zip(cases, g + dg)],
+                       device, torch.float64)[0]
+    minus = case_system(model, [{**c, "gamma": float(x)} for c, x in zip(cases, g - dg)],
+                        device, torch.float64)[0]
+    return plus, minus, dg
 
 
 def model_hash(model) -> str:
