@@ -70,7 +70,7 @@ class BranchOptions:
     first_amplitude: float | None = None
     step: float = 0.1
     min_step: float = 1e-3
-    max_step: float = 0.5
+    max_step: float = 0.25
     max_points: int = 60
     max_amplitude: float = math.inf
     scan: int = 17
@@ -103,8 +103,9 @@ class BranchPoint:
     iterations: int
     residual: float
     kind: str = "regular"  # hopf | regular | fold | branch_point | end
-    #: for a fold: the refined limit point (parameter, output amplitude r·a_1), else None
-    fold: tuple[float, float] | None = None
+    #: for a fold: the refined limit point (parameter, output amplitude r·a_1, its orbit
+    #: (2H+1, n), ω), else None
+    fold: tuple[float, float, Tensor, float] | None = None
 
 
 @dataclass
@@ -262,7 +263,7 @@ def follow_branches(builder: Builder, B: int, output_row, options: BranchOptions
     cur = (X1.clone(), w1.clone(), p1.clone())
     det_prev = torch.zeros(Bl, dtype=dt, device=dev)
     dp_prev = (p1 - p0)
-    count = torch.full((Bl,), 2, dtype=torch.long, device=dev)
+    count = torch.full((Bl,), 3, dtype=torch.long, device=dev)
     for _ in range(int(options.max_points) * 3):
         if not bool(alive.any()):
             break
@@ -287,7 +288,8 @@ def follow_branches(builder: Builder, B: int, output_row, options: BranchOptions
         failed = alive & ~conv
         ds = torch.where(easy, torch.clamp(ds * 1.5, max=options.max_step), ds)
         ds = torch.where(hard | failed, ds * 0.5, ds)
-        for b in np.flatnonzero(conv.cpu().numpy()):
+        inside = (res.mu >= lo) & (res.mu <= hi)
+        for b in np.flatnonzero((conv & inside).cpu().numpy()):
             pb = float(res.mu[b])
             dpb = res.mu[b] - cur[2][b]
             kind = "regular"
@@ -309,7 +311,7 @@ def follow_branches(builder: Builder, B: int, output_row, options: BranchOptions
         cur = (torch.where(conv[:, None, None], res.X, cur[0]),
                torch.where(conv, res.omega, cur[1]), torch.where(conv, res.mu, cur[2]))
         out = conv & ((res.mu < lo) | (res.mu > hi) | (amp > options.max_amplitude)
-                      | (count >= options.max_points + 2))
+                      | (count >= options.max_points + 3))
         alive &= ~out & (ds >= options.min_step)
     for b in range(B):
         if len(branches[b]) > 1:
@@ -382,4 +384,7 @@ def refine_fold(builder: Builder, branch: int, around: list[BranchPoint], r: Ten
         Xs[a_new] = BranchPoint(branch, -1, pn, res.X[0], float(res.omega[0]), 0, 0.0)
         if abs(A[2] - A[0]) <= 1e-6 * max(abs(A[1]), 1e-300):
             break
-    around[-1].fold = (float(P[1]), float(A[1]))
+    best = Xs.get(A[1])
+    if best is None:
+        best = min(Xs.values(), key=lambda pt: abs(amp(pt) - A[1]))
+    around[-1].fold = (float(P[1]), float(A[1]), best.X, float(best.omega))

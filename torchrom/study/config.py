@@ -39,6 +39,7 @@ A sweep configuration has these tables (every key is checked; a bad one gives a 
                  ``altitude_ft``, ``mach`` and ``alpha = "matched"`` (:mod:`.cases`).
 ``[history]``    cases whose output time histories are kept: ``where`` (parameter values),
                  ``every`` (steps); see :class:`~torchrom.study.cases.HistorySpec`.
+``[branch]``     ``torchrom branch`` options (:mod:`torchrom.study.branch`).
 ``[plot]``       ``x`` (a case parameter; default the first swept one), ``y`` (a table column,
                  default "amplitude"), ``hue`` (a case parameter, optional).
 ``[run]``        ``batch_size`` (largest number of cases integrated together, default 512) and
@@ -79,7 +80,7 @@ from .grid import config_hash, expand_cases
 from .models import AeroelasticModel, model_rom
 
 SECTIONS = ("title", "method", "model", "aeroelastic", "initial", "integrator", "hb", "lco",
-            "cases", "history", "plot", "run", "variants")
+            "cases", "history", "plot", "run", "branch", "variants")
 #: sweep methods: time marching or harmonic balance
 METHODS = ("newmark", "hb")
 _HB_OPTION_KEYS = ("start_harmonics", "harmonics", "max_harmonics", "amplitude_rtol",

@@ -209,3 +209,63 @@ def bifurcation_plot(runs: pd.DataFrame, summary: pd.DataFrame, path, *, x: str 
     if title:
         fig.suptitle(title, fontsize=10)
     return _save(fig, path)
+
+
+def branch_diagram(table: pd.DataFrame, path, *, parameter: str, units: str = "",
+                   y: str = "amplitude", y_label: str | None = None, title: str | None = None,
+                   label_of=None, force: bool = False) -> Path:
+    """Bifurcation diagram of branch tables (:mod:`torchrom.study.branch`): ``y`` against the
+    parameter, one colour per branch, stable orbits solid, unstable dashed, the Hopf points
+    as open circles at zero amplitude, folds as diamonds (at their refined parameter). Only
+    what is drawn gets a legend entry; the legend sits outside the axes."""
+    import numpy as np
+
+    path = check_can_write(path, force, "figure")
+    plt = _pyplot()
+    fig, ax = plt.subplots(figsize=(8.2, 4.6), constrained_layout=True)
+    colors = plt.rcParams["axes.prop_cycle"].by_key()["color"]
+    drew = {"stable": False, "unstable": False, "hopf": False, "fold": False}
+    for b, grp in table.groupby("branch", sort=True):
+        color = colors[int(b) % len(colors)]
+        grp = grp.sort_values("point")
+        x = grp[parameter].to_numpy(dtype=float)
+        v = grp[y].to_numpy(dtype=float)
+        st = grp["stable"].to_numpy(dtype=object)
+        name = label_of(grp.iloc[0]) if label_of else f"branch {b}"
+        ax.plot([], [], color=color, label=name)
+        for i in range(1, len(grp)):
+            stable = bool(st[i]) if st[i] is not None and not pd.isna(st[i]) else None
+            if stable is None:
+                continue
+            ax.plot(x[i - 1: i + 1], v[i - 1: i + 1], color=color,
+                    ls="-" if stable else "--", lw=1.6)
+            drew["stable" if stable else "unstable"] = True
+        hopf = (grp["kind"] == "hopf").to_numpy()
+        if hopf.any():
+            ax.plot(x[hopf], v[hopf], "o", mfc="white", color=color, ms=7, zorder=3)
+            drew["hopf"] = True
+        folds = grp[grp["kind"] == "fold"]
+        fold_y = "fold_" + y if "fold_" + y in grp else None
+        for _, row in folds.iterrows():
+            if fold_y is None or not np.isfinite(row["fold_parameter"]):
+                continue
+            ax.plot(row["fold_parameter"], row[fold_y], "D", color=color, ms=7, zorder=3)
+            drew["fold"] = True
+    handles = [plt.Line2D([], [], color="k", ls="-", label="stable LCO")] if drew["stable"] \
+        else []
+    if drew["unstable"]:
+        handles.append(plt.Line2D([], [], color="k", ls="--", label="unstable LCO"))
+    if drew["hopf"]:
+        handles.append(plt.Line2D([], [], marker="o", mfc="white", color="k", ls="none",
+                                  label="Hopf (flutter) point"))
+    if drew["fold"]:
+        handles.append(plt.Line2D([], [], marker="D", color="k", ls="none", label="fold"))
+    first = ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=8, title="branch")
+    ax.add_artist(first)
+    ax.legend(handles=handles, loc="lower left", bbox_to_anchor=(1.01, 0.0), fontsize=8)
+    ax.set_xlabel(f"{parameter} ({units})" if units else parameter)
+    ax.set_ylabel(y_label or y)
+    ax.grid(alpha=0.3)
+    if title:
+        ax.set_title(title, fontsize=10)
+    return _save(fig, path)

@@ -1,0 +1,52 @@
+"""``torchrom branch``: branch table, Hopf points, diagram, refusal to overwrite."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import pandas as pd
+import pytest
+
+from torchrom.cli import main
+
+from .conftest import REPO
+
+
+def test_branch_of_the_subcritical_oscillator(tmp_path, capsys):
+    out = tmp_path / "br"
+    cfg = REPO / "configs" / "bifurcation_subcritical.toml"
+    args = ["branch", str(cfg), "--parameter", "alpha", "--range", "-1.5", "1.0", "--out",
+            str(out), "--json", str(tmp_path / "br.json")]
+    assert main(args) == 0
+    table = pd.read_parquet(out / "branch.parquet")
+    assert (out / "branch.png").stat().st_size > 10_000
+    assert pd.read_csv(out / "hopf.csv")["parameter"][0] == pytest.approx(-1.0, rel=1e-9)
+    assert table["kind"].iloc[0] == "hopf" and table["amplitude"].iloc[0] == 0
+    assert table["alpha"].between(-1.5, 1.0).all()
+    assert set(table["method"]) == {"hb"}
+    # unstable from the Hopf point up to the fold, stable beyond it (the hysteresis)
+    fold = table[table["kind"] == "fold"]
+    assert len(fold) == 1 and math.isfinite(fold["fold_parameter"].iloc[0])
+    lco = table[table["kind"] != "hopf"]
+    assert not lco[lco["amplitude"] < fold["fold_amplitude"].iloc[0] * 0.95]["stable"].any()
+    assert lco[lco["amplitude"] > fold["fold_amplitude"].iloc[0] * 1.05]["stable"].all()
+    summary = json.loads((tmp_path / "br.json").read_text())
+    assert summary["parameter"] == "alpha" and len(summary["folds"]) == 1
+    printed = capsys.readouterr().out
+    assert "subcritical" in printed and "fold at alpha" in printed
+    # no output is replaced without --force
+    before = (out / "branch.csv").read_bytes()
+    assert main(args) == 2
+    assert "exists" in capsys.readouterr().err
+    assert (out / "branch.csv").read_bytes() == before
+
+
+def test_branch_bad_parameter(tmp_path, capsys):
+    cfg = REPO / "configs" / "bifurcation_subcritical.toml"
+    assert main(["branch", str(cfg), "--parameter", "colour", "--range", "0", "1", "--out",
+                 str(tmp_path / "x")]) == 2
+    assert "branch parameter" in capsys.readouterr().err
+    assert main(["branch", str(cfg), "--parameter", "alpha", "--out", str(tmp_path / "x")]) == 2
+    assert "bounds" in capsys.readouterr().err
+    assert not (tmp_path / "x").exists()

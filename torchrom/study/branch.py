@@ -1,0 +1,160 @@
+"""Branch studies: LCO branches in one case parameter from the Hopf (flutter) point.
+
+Each distinct case of a configuration, with the branch parameter removed, is one branch (e.g.
+``gamma = [0.0, 1e-3]`` with the parameter ``altitude_ft``: two branches). The branches are
+followed together by :func:`torchrom.periodic.follow_branches` over the model's per-case systems
+(:func:`torchrom.study.cases.case_system`: the atmosphere, a matched α, … are recomputed at every
+parameter value), and every point becomes a row of the *branch table*:
+
+``branch`` (0-based), ``point`` (0 = the Hopf point), ``kind`` (hopf, regular, fold,
+branch_point, end), the branch's case parameters with the parameter's value, ``status``
+("lco"; "hopf" for the zero-amplitude point), ``amplitude`` (half peak-to-peak of the decision
+output), ``amplitude_pct_span``, ``frequency_hz``, ``amplitude_<output>`` and the ratios
+``ratio_q1_q2`` / ``ratio_q1_q4`` (when tracked), ``harmonic_distortion``, ``stable``,
+``floquet_multiplier`` (modulus of the critical multiplier), ``harmonics`` (H),
+``hb_residual``, ``iterations``, ``method`` ("hb"), and for fold rows the refined limit
+point ``fold_parameter`` / ``fold_amplitude`` (output units, half peak-to-peak).
+Hand-written glue; pandas for the table.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+import pandas as pd
+import torch
+
+from .._version import __version__
+from ..errors import InputError
+from ..periodic import BranchOptions, follow_branches
+from ..periodic.solve import orbit_amplitude
+from ..sim.metrics import amplitude_ratio
+from ..sim.newmark import output_matrix
+from .cases import case_system
+from .config import SweepConfig
+from .grid import distinct_cases
+from .models import model_rom
+
+#: units of the parameters a branch may follow (axis labels, table metadata)
+PARAMETER_UNITS = {"altitude_ft": "ft", "gamma": "s", "alpha": "1/s", "stiffness_nl": "",
+                   "damping_nl": ""}
+#: [branch] keys (BranchOptions fields and the parameter)
+BRANCH_KEYS = ("parameter", "bounds", "harmonics", "amplitude_scale", "first_amplitude", "step",
+               "min_step", "max_step", "max_points", "stability")
+
+
+@dataclass
+class BranchStudy:
+    """The branch table and the Hopf points (one row per branch)."""
+
+    table: pd.DataFrame
+    hopf: pd.DataFrame
+    parameter: str
+
+
+def branch_options(cfg: SweepConfig, parameter: str | None = None,
+                   bounds: tuple[float, float] | None = None, **overrides) -> tuple[str,
+                                                                                    BranchOptions]:
+    """(parameter, options) from the configuration's ``[branch]`` table, overridden by the
+    arguments (the command line); every key checked."""
+    table = dict(cfg.raw.get("branch", {}) or {})
+    unknown = sorted(set(table) - set(BRANCH_KEYS))
+    if unknown:
+        raise InputError(f"{cfg.source}: [branch]: unknown key {unknown[0]!r}; expected one of "
+                         f"{sorted(BRANCH_KEYS)}")
+    parameter = parameter or table.pop("parameter", None)
+    table.pop("parameter", None)
+    if parameter not in PARAMETER_UNITS:
+        raise InputError(f"branch parameter: expected one of {sorted(PARAMETER_UNITS)}, got "
+                         f"{parameter!r}")
+    b = bounds if bounds is not None else table.pop("bounds", None)
+    table.pop("bounds", None)
+    if b is None or len(b) != 2:
+        raise InputError("branch bounds: give --range LO HI or [branch] bounds = [LO, HI]")
+    kw = {**table, **{k: v for k, v in overrides.items() if v is not None}}
+    if "amplitude_scale" not in kw and math.isfinite(cfg.lco.max_amplitude):
+        kw["amplitude_scale"] = cfg.lco.max_amplitude / 10
+    if math.isfinite(cfg.lco.max_amplitude):
+        kw.setdefault("max_amplitude", cfg.lco.max_amplitude)
+    try:
+        return parameter, BranchOptions(bounds=(float(b[0]), float(b[1])), **kw)
+    except TypeError as exc:
+        raise InputError(f"[branch]: bad value ({exc})") from None
+
+
+def run_branches(cfg: SweepConfig, parameter: str, options: BranchOptions, model=None,
+                 device=None) -> BranchStudy:
+    """Follow one branch per distinct case (without ``parameter``) of ``cfg``."""
+    model = model if model is not None else cfg.build_model()
+    rom = model_rom(model)
+    base = distinct_cases(cfg.cases, (parameter, "q0", "sample"))
+    if not base:
+        raise InputError(f"{cfg.source}: [cases]: no case to follow")
+    device = torch.device(device or "cpu")
+
+    def builder(p: np.ndarray, branches: np.ndarray):
+        cases = [{**base[int(b)], parameter: float(x)} for x, b in zip(p, branches)]
+        return case_system(model, cases, device, torch.float64)[0]
+
+    names, C = output_matrix(rom, cfg.outputs)
+    decide = C[cfg.lco.decision_outputs[0]]
+    br = follow_branches(builder, len(base), decide, options)
+    span = getattr(model, "span", None) or rom.metadata.get("span")
+    rows_t = torch.as_tensor(C, dtype=torch.float64)
+    records = []
+    for b, pts in enumerate(br.points):
+        lco = [pt for pt in pts if pt.kind != "hopf"]
+        stable = br.stable[b] if br.stable else np.full(len(lco), np.nan)
+        mult = br.critical_multiplier[b] if br.critical_multiplier else np.full(len(lco), np.nan)
+        if lco:
+            X = torch.stack([pt.X for pt in lco])
+            amp = orbit_amplitude(X @ rows_t.T, np.full(len(lco), "lco", dtype=object))
+            Y = (X @ rows_t.T)[:, :, 0]
+            mags = torch.sqrt(Y[:, 1::2] ** 2 + Y[:, 2::2] ** 2)
+            dist = (mags[:, 1:].norm(dim=1) / mags[:, 0]).numpy()
+        k = 0
+        for pt in pts:
+            row: dict[str, Any] = {"branch": b, "point": pt.index, "kind": pt.kind,
+                                   **base[b], parameter: pt.parameter}
+            if pt.kind == "hopf":
+                row.update({"status": "hopf", "amplitude": 0.0,
+                            "frequency_hz": pt.omega / (2 * math.pi), "stable": None,
+                            "floquet_multiplier": math.nan, "harmonic_distortion": math.nan,
+                            **{f"amplitude_{n}": 0.0 for n in names}})
+            else:
+                row.update({"status": "lco", "amplitude": float(amp[k, 0]),
+                            "frequency_hz": pt.omega / (2 * math.pi),
+                            "stable": None if np.isnan(stable[k]) else bool(stable[k])
+                            if not isinstance(stable[k], (bool, np.bool_)) else bool(stable[k]),
+                            "floquet_multiplier": float(mult[k]),
+                            "harmonic_distortion": float(dist[k]),
+                            **{f"amplitude_{n}": float(amp[k, j]) for j, n in enumerate(names)}})
+                k += 1
+            fold_amp = math.nan
+            if pt.fold:  # the refined limit point's amplitude, measured like the others
+                fold_amp = float(orbit_amplitude((pt.fold[2] @ rows_t.T)[None],
+                                                 np.array(["lco"], dtype=object))[0, 0])
+            row.update({"harmonics": options.harmonics if pt.kind != "hopf" else 0,
+                        "hb_residual": pt.residual, "iterations": pt.iterations,
+                        "fold_parameter": pt.fold[0] if pt.fold else math.nan,
+                        "fold_amplitude": fold_amp,
+                        "method": "hb", "version": __version__})
+            records.append(row)
+    table = pd.DataFrame(records)
+    if len(table):
+        if span:
+            table.insert(table.columns.get_loc("amplitude") + 1, "amplitude_pct_span",
+                         100.0 * table["amplitude"] / float(span))
+            table["fold_amplitude_pct_span"] = 100.0 * table["fold_amplitude"] / float(span)
+        for a, bname in (("q1", "q2"), ("q1", "q4")):
+            if a in names and bname in names:
+                table[f"ratio_{a}_{bname}"] = amplitude_ratio(table[f"amplitude_{a}"],
+                                                              table[f"amplitude_{bname}"])
+        table["stable"] = pd.array(table["stable"].tolist(), dtype="boolean")
+    hopf = pd.DataFrame([{**base[h["branch"]], **h} for h in br.hopf])
+    table.attrs["units"] = {parameter: PARAMETER_UNITS[parameter], "frequency_hz": "Hz",
+                            "amplitude": "output units", "amplitude_pct_span": "% of span"}
+    return BranchStudy(table, hopf, parameter)
