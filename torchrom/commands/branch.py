@@ -75,15 +75,16 @@ def run(args: argparse.Namespace) -> int:
     units = PARAMETER_UNITS[parameter]
     pct = "amplitude_pct_span" in table
     y = "amplitude_pct_span" if pct else "amplitude"
-    others = [k for k in table.columns if k in study.hopf.columns and k not in (
-        "branch", "parameter", "frequency_hz", "unstable_below", "found")]
+    # label the branches by what differs between them
+    others = [k for k in study.hopf.columns if k not in (
+        "branch", "parameter", "frequency_hz", "unstable_below", "found", parameter)
+        and study.hopf[k].astype(str).nunique() > 1]
     if len(table):
         branch_diagram(table, figure, parameter=parameter, units=units, y=y,
                        y_label="LCO amplitude (% of span)" if pct else "LCO amplitude "
                        "(output units)", title=cfg.title, force=args.force,
-                       label_of=lambda row: case_label(
-                           {k: row[k] for k in others}, [k for k in others if k != parameter],
-                           empty="branch"))
+                       label_of=lambda row: case_label({k: row[k] for k in others}, others,
+                                                       empty=f"branch {row['branch']}"))
     for _, h in study.hopf.iterrows():
         if not h["found"]:
             print(f"branch {h['branch']}: no Hopf point in the bounds")

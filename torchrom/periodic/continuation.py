@@ -9,7 +9,8 @@ For B branches (e.g. one per γ), each a case whose parameter p varies (altitude
 2. **First points.** The orbit family leaves the Hopf point with amplitude ∝ √|p − p*|, so the
    first two points fix the output amplitude (A1, 2A1) and solve for (X, ω, p), starting from
    the flutter mode: no guess of the side the branch leaves to (super- or subcritical).
-3. **Pseudo-arclength.** In scaled variables z = (X / A_s, ω / ω*, (p − p*) / p_s) the
+3. **Pseudo-arclength.** In scaled variables z = (X / X_s, ω / ω*, (p − p*) / p_s) (X_s: the
+   coefficients' norm per ``amplitude_scale`` of the output amplitude; p_s = hi − lo) the
    predictor steps along the secant of the last two points by ds, and Newton solves the HB
    equations (:mod:`.balance`) with the condition t·(z − z_pred) = 0; ∂R/∂p is a forward
    difference of the residual (the parameter enters through the atmosphere, the matched α, …).
@@ -250,7 +251,11 @@ def follow_branches(builder: Builder, B: int, output_row, options: BranchOptions
             branches[live[b]].append(BranchPoint(int(live[b]), k + 1, float(p[b]), X[b].clone(),
                                                  float(omega[b]), int(res.iterations[b]),
                                                  float(res.residual[b])))
-    scale_X = options.amplitude_scale
+    # the arclength's coefficient unit: what one amplitude_scale of the output amounts to in
+    # the coefficients (their norm per unit of output amplitude, from the second point)
+    X1 = history[1][0]
+    scale_X = (options.amplitude_scale * X1.reshape(Bl, -1).norm(dim=1)
+               / (X1[:, 1] @ r).abs().clamp_min(1e-300))[:, None]
     omega_s = torch.as_tensor(hop["omega"][live], dtype=dt, device=dev)
 
     def scaled(Xc, wc, pc):
@@ -289,6 +294,23 @@ def follow_branches(builder: Builder, B: int, output_row, options: BranchOptions
         ds = torch.where(easy, torch.clamp(ds * 1.5, max=options.max_step), ds)
         ds = torch.where(hard | failed, ds * 0.5, ds)
         inside = (res.mu >= lo) & (res.mu <= hi)
+        crossed = conv & ~inside
+        if bool(crossed.any()):  # end exactly on the bound the branch crossed
+            bound = torch.where(res.mu < lo, torch.full_like(res.mu, lo),
+                                torch.full_like(res.mu, hi))
+            f = ((bound - cur[2]) / (res.mu - cur[2])).clamp(0.0, 1.0)
+            Xb = cur[0] + f[:, None, None] * (res.X - cur[0])
+            wb = cur[1] + f * (res.omega - cur[1])
+            w_fix = torch.zeros_like(wrow)
+            w_fix[:, -1] = 1.0
+            at = newton(eq, Xb, wb, bound, r, w_fix, bound, Xb.abs().amax(dim=(1, 2)),
+                        options.newton, act_all[crossed], residual_fn=eq.residual,
+                        slaved=slaved)
+            ok = crossed & at.converged
+            res.X[ok], res.omega[ok], res.mu[ok] = at.X[ok], at.omega[ok], at.mu[ok]
+            res.iterations[ok] += at.iterations[ok]
+            res.residual[ok] = at.residual[ok]
+            inside = inside | ok
         for b in np.flatnonzero((conv & inside).cpu().numpy()):
             pb = float(res.mu[b])
             dpb = res.mu[b] - cur[2][b]
@@ -310,7 +332,7 @@ def follow_branches(builder: Builder, B: int, output_row, options: BranchOptions
         z_cur = torch.where(conv[:, None], z_new, z_cur)
         cur = (torch.where(conv[:, None, None], res.X, cur[0]),
                torch.where(conv, res.omega, cur[1]), torch.where(conv, res.mu, cur[2]))
-        out = conv & ((res.mu < lo) | (res.mu > hi) | (amp > options.max_amplitude)
+        out = conv & (crossed | (res.mu < lo) | (res.mu > hi) | (amp > options.max_amplitude)
                       | (count >= options.max_points + 3))
         alive &= ~out & (ds >= options.min_step)
     for b in range(B):

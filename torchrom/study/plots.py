@@ -211,6 +211,10 @@ def bifurcation_plot(runs: pd.DataFrame, summary: pd.DataFrame, path, *, x: str 
     return _save(fig, path)
 
 
+#: axis names of case parameters (their units come separately)
+PARAMETER_NAMES = {"altitude_ft": "altitude", "gamma": "γ", "alpha": "α"}
+
+
 def branch_diagram(table: pd.DataFrame, path, *, parameter: str, units: str = "",
                    y: str = "amplitude", y_label: str | None = None, title: str | None = None,
                    label_of=None, force: bool = False) -> Path:
@@ -263,7 +267,8 @@ def branch_diagram(table: pd.DataFrame, path, *, parameter: str, units: str = ""
     first = ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=8, title="branch")
     ax.add_artist(first)
     ax.legend(handles=handles, loc="lower left", bbox_to_anchor=(1.01, 0.0), fontsize=8)
-    ax.set_xlabel(f"{parameter} ({units})" if units else parameter)
+    name = PARAMETER_NAMES.get(parameter, parameter)
+    ax.set_xlabel(f"{name} ({units})" if units else name)
     ax.set_ylabel(y_label or y)
     ax.grid(alpha=0.3)
     if title:
