@@ -16,11 +16,13 @@ from torchrom.sim import CaseSystem, LCOCriteria, Newmark
 def test_van_der_pol_multiplier_equals_liouville():
     """One mode: the multipliers' product is exp(−∫(c + d3 q²)dt) (Liouville) and one of them
     is 1, so the other is that exponential, evaluated on the HB orbit itself. The
-    extrapolated trapezoidal monodromy reaches it to ~1e-6 (tolerance 1e-5)."""
+    extrapolated trapezoidal monodromy is fourth order: 2e-5 off at the default 64 steps per
+    period (tolerance 1e-4), 16 times closer at 128 (tolerance 1e-5)."""
     rom = van_der_pol_duffing(1.0, c1=-0.05, d3=0.4, k3=1.0)
     system = CaseSystem.build(rom, 2, alpha=[0.0, 0.02], gamma=1.0)
     orb = solve_orbits(system, [1.0])
     fl = floquet(system, orb.X, orb.omega)
+    fine = floquet(system, orb.X, orb.omega, steps=128)
     tau = torch.linspace(0, 2 * math.pi, 2049, dtype=torch.float64)[:-1]
     H = (orb.X.shape[1] - 1) // 2
     q = orb.X[:, 0, 0][:, None] + sum(orb.X[:, 2 * k - 1, 0][:, None] * torch.cos(k * tau)
@@ -29,9 +31,10 @@ def test_van_der_pol_multiplier_equals_liouville():
     T = 2 * math.pi / orb.omega.numpy()
     c = np.array([-0.05, -0.03])
     expected = np.exp(-(c + 0.4 * (q**2).mean(1).numpy()) * T)
-    assert np.allclose(fl.critical_modulus, expected, rtol=1e-5)
+    assert np.allclose(fl.critical_modulus, expected, rtol=1e-4)
+    assert np.allclose(fine.critical_modulus, expected, rtol=1e-5)
     trivial = fl.multipliers[np.arange(2), fl.trivial]
-    assert np.allclose(trivial, 1.0, atol=1e-4)
+    assert np.allclose(trivial, 1.0, atol=2e-4)
     assert fl.stable.all()
 
 

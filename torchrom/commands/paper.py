@@ -16,6 +16,10 @@ simulator against the eigenvalues, runs the LCO sweep and writes into DIR (defau
   (results, histories): cached by the hash of their inputs and the package version and reused
   on the next run; ``--force`` rebuilds everything.
 ``--quick``: coarser grids and shorter runs (minutes instead of a quarter of an hour).
+``--method hb``: the LCOs by harmonic balance (:mod:`torchrom.paper.hb`): Figs. 10, 12, 13
+from the periodic orbits, Fig. 11 and a side-by-side table from Newmark runs started on a subset
+of them, the LCO branches in altitude from the flutter point with their stability
+(``figures/lco_branches.png``, also in the full Newmark study); default folder ``paper-hb``.
 """
 
 from __future__ import annotations
@@ -34,6 +38,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="output folder (default: paper, or paper-quick with --quick)")
     parser.add_argument("--quick", action="store_true",
                         help="reduced study: coarser grids, shorter runs (a few minutes)")
+    parser.add_argument("--method", choices=("newmark", "hb"), default="newmark",
+                        help="LCOs by time marching (newmark, the paper's) or by harmonic "
+                             "balance (hb: periodic orbits, a Newmark confirmation of a subset "
+                             "and the branches from the flutter point)")
     parser.add_argument("--device", default="cpu", help="torch device of the LCO sweep")
     add_json_option(parser)
     add_force_option(parser)
@@ -45,11 +53,14 @@ def run(args: argparse.Namespace) -> int:
     from ..paper.study import FIGURE_FILES, run_paper
     from ._common import torch_device
 
-    out = args.out or Path("paper-quick" if args.quick else "paper")
+    out = args.out or Path(("paper-quick" if args.quick else "paper")
+                           + ("-hb" if args.method == "hb" else ""))
     device = torch_device(args.device)
     t0 = time.perf_counter()
-    print(f"torchrom paper{' --quick' if args.quick else ''}: heavy Goland wing study into {out}")
-    summary = run_paper(out, quick=args.quick, force=args.force, device=str(device))
+    print(f"torchrom paper{' --quick' if args.quick else ''} (method {args.method}): heavy "
+          f"Goland wing study into {out}")
+    summary = run_paper(out, quick=args.quick, force=args.force, device=str(device),
+                        method=args.method)
     verdicts = [f["verdict"] for f in summary["findings"]]
     print(f"findings: {verdicts.count('agree')} agree, {verdicts.count('differ')} differ, "
           f"{len(verdicts) - verdicts.count('agree') - verdicts.count('differ')} not assessable")

@@ -20,6 +20,8 @@ import numpy as np
 import torch
 
 from ..identify import damping as dmp
+from ..periodic import solve_orbits
+from ..periodic.fourier import FourierBasis
 from ..rom import NonlinearROM
 from ..rom import conventions as cv
 from ..sim.newmark import HistoryRequest
@@ -38,16 +40,38 @@ def scaled_min_eigenvalue(rom: NonlinearROM) -> float:
     return float(torch.linalg.eigvalsh(dmp._scale_matrix(K_E, rom.D1.numpy(), H.numpy())).min())
 
 
+#: samples of one period when the cycle comes from a harmonic balance orbit
+HB_CYCLE_SAMPLES = 1024
+#: altitude step (ft) of the neighbour chain that reaches the check's orbit from near flutter
+HB_CHAIN_STEP_FT = 1000.0
+
+
 def lco_cycle(model, cfg, altitude_ft: float, t_end: float | None = None
               ) -> tuple[np.ndarray, np.ndarray, str]:
     """(q, q̇, status) over the last :data:`CYCLE_PERIODS` periods of the γ = 0 case ("NL stiff")
     of the sweep ``cfg`` (its initial condition, integrator and LCO criteria) at ``altitude_ft``,
-    every time step; q̇ by central differences of the recorded q."""
+    every time step; q̇ by central differences of the recorded q. With ``method = "hb"`` the
+    cycle is the harmonic balance orbit (:data:`HB_CYCLE_SAMPLES` samples of one period, q̇
+    exact): the ratio is a mean over whole periods either way."""
     rom = model.rom
     cases = [{"altitude_ft": float(altitude_ft), "gamma": 0.0, "alpha": "matched"}]
     system, _ = case_system(model, cases, torch.device("cpu"), torch.float64)
     # the sweep's deciding output (its first; the ROM's first output if it names none)
     names, C = rom.output_matrix([(cfg.outputs or list(rom.outputs))[0]])
+    if getattr(cfg, "method", "newmark") == "hb":  # the orbit itself, sampled finely
+        # reached along a chain of altitudes from near flutter (warm starts, robust)
+        alts = [float(altitude_ft) + HB_CHAIN_STEP_FT * k for k in range(
+            int((model.reference_altitude() - float(altitude_ft)) // HB_CHAIN_STEP_FT) + 1)]
+        chain = [{**cases[0], "altitude_ft": a} for a in alts]
+        system, _ = case_system(model, chain, torch.device("cpu"), torch.float64)
+        orb = solve_orbits(system, C[0], cfg.hb.options, chains=[list(range(len(chain)))[::-1]],
+                           positions=alts)
+        if orb.status[0] != "lco":
+            return np.zeros((0, rom.n)), np.zeros((0, rom.n)), str(orb.status[0])
+        basis = FourierBasis.build((orb.X.shape[1] - 1) // 2, HB_CYCLE_SAMPLES)
+        q = (basis.E @ orb.X[0]).numpy()
+        qd = float(orb.omega[0]) * (basis.dE @ orb.X[0]).numpy()
+        return q, qd, "lco"
     names += [f"q{i + 1}" for i in range(rom.n)]
     res = cfg.integrator.run(system, initial_displacement(rom, cfg.initial, cases),
                              initial_velocity(rom, cfg.initial, 1),

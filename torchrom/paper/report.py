@@ -8,6 +8,7 @@ check, Table 3, the α(γ) table (Fig. 9), the Fig. 10–13 values, and every fi
 
 from __future__ import annotations
 
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -110,6 +111,60 @@ def dissipation_lines(d: dict[str, Any] | None) -> list[str]:
          "semidefinite program) and its Fig. 10 verdicts."]
 
 
+def confirmation_section(rows: list[dict[str, Any]]) -> list[str]:
+    """HB against Newmark started on the HB orbit (``torchrom paper --method hb``)."""
+    lines = ["## Harmonic balance confirmed by time marching", "",
+             "Newmark at the paper's step (1 ms), started on the harmonic balance orbit of a "
+             "subset of cases (the Fig. 11 cases and the largest LCO of every curve) and run "
+             f"for {_f(rows[0]['t_end'], '{:.1f}')} s; amplitude of point A in ft, the "
+             "differences relative to HB, and how much the Newmark amplitude still changes per "
+             "cycle at the end.", ""]
+    lines += _table([[_f(r["altitude_ft"], "{:,.0f}"), _f(r["gamma"], "{:g}"),
+                      _curve_flags(r), r["harmonics"], _f(r["hb_amplitude"], "{:.4f}"),
+                      _f(r["newmark_amplitude"], "{:.4f}"),
+                      _f(r["amplitude_diff_pct"], "{:+.3f}"),
+                      _f(r["hb_frequency_hz"], "{:.4f}"), _f(r["newmark_frequency_hz"], "{:.4f}"),
+                      _f(r["frequency_diff_pct"], "{:+.3f}"),
+                      _f(r["newmark_amplitude_change"], "{:.1e}")] for r in rows],
+                    ["altitude ft", "γ s", "nonlinearities", "H", "HB amplitude",
+                     "Newmark amplitude", "difference %", "HB Hz", "Newmark Hz",
+                     "difference %", "Newmark change per cycle"])
+    return lines
+
+
+def _curve_flags(r: dict[str, Any]) -> str:
+    s, d = float(r.get("stiffness_nl", 1.0)), float(r.get("damping_nl", 1.0))
+    return {(1.0, 1.0): "both", (0.0, 1.0): "damping only", (1.0, 0.0): "stiffness only"}.get(
+        (s, d), f"s = {s:g}, d = {d:g}")
+
+
+def branches_section(rows: list[dict[str, Any]], figure: str | None) -> list[str]:
+    """The LCO branches in altitude from the flutter (Hopf) point."""
+    lines = ["## LCO branches from the flutter point", "",
+             "Pseudo-arclength continuation of the periodic orbits (harmonic balance, H = 5) in "
+             "altitude from the Hopf point of each γ (matched α) down to 4,000 ft; stability "
+             "from the Floquet multipliers of every orbit. A branch that leaves the Hopf point "
+             "stable and has no fold is supercritical: no hysteresis, no LCO above the flutter "
+             "altitude.", ""]
+    lines += _table([[_f(r["gamma"], "{:g}"), _f(r["hopf_altitude_ft"], "{:,.1f}"),
+                      _f(r["hopf_frequency_hz"], "{:.4f}"),
+                      "stable" if r["stable_from_hopf"] else "unstable",
+                      ", ".join(_f(f, "{:,.0f}") for f in r["folds_ft"]) or "none",
+                      (f"{len(r['unstable_altitudes_ft'])} points, "
+                       f"{_f(min(r['unstable_altitudes_ft']), '{:,.0f}')}–"
+                       f"{_f(max(r['unstable_altitudes_ft']), '{:,.0f}')} ft")
+                      if r["unstable_altitudes_ft"] else "none",
+                      _f(r["lowest_altitude_ft"], "{:,.0f}"),
+                      _f(r["amplitude_pct_span_there"], "{:.2f}"), r["points"]]
+                     for r in rows],
+                    ["γ s", "Hopf altitude ft", "Hopf Hz", "leaves the Hopf point",
+                     "folds (ft)", "unstable orbits", "lowest altitude ft",
+                     "amplitude there % span", "orbits"])
+    if figure:
+        lines += ["", f"![LCO branches](figures/{Path(figure).name})"]
+    return lines
+
+
 def findings_section(findings: list[Finding], causes: dict[str, str]) -> list[str]:
     lines = ["## The paper's findings, one by one", "",
              "Verdicts are computed from the tables by `torchrom.paper.findings`; amplitudes are "
@@ -148,10 +203,18 @@ def render(summary: dict[str, Any], findings: list[Finding], table: pd.DataFrame
     rows = [[k, _f(v, "{:.1f}"), _f(summary["cpu_seconds"].get(k), "{:.1f}")]
             for k, v in summary["seconds"].items()]
     lines += _table(rows, ["stage", "wall time (s)", "CPU time (s)"])
+    if summary.get("method") == "hb":
+        ms = 1e3 * summary["lco"]["wall_time_s"] / max(summary["lco"]["cases"], 1)
+        sweep = (f" LCO sweep by harmonic balance: {summary['lco']['cases']} cases, "
+                 f"{summary['lco']['case_steps']:,} Newton iterations, {_f(ms, '{:.1f}')}"
+                 f" ms per case{' (reused)' if summary['lco']['reused'] else ''}.")
+    else:
+        sweep = (f" LCO sweep: {summary['lco']['cases']} cases, "
+                 f"{summary['lco']['case_steps']:,} case-steps, "
+                 f"{_f(summary['lco']['us_per_case_step'], '{:.0f}')} µs per "
+                 f"case-step{' (reused)' if summary['lco']['reused'] else ''}.")
     lines += ["", f"Model files reused from the cache: {', '.join(summary['reused']) or 'none'}."
-              f" LCO sweep: {summary['lco']['cases']} cases, {summary['lco']['case_steps']:,} "
-              f"case-steps, {_f(summary['lco']['us_per_case_step'], '{:.0f}')} µs per "
-              f"case-step{' (reused)' if summary['lco']['reused'] else ''}.", ""]
+              + sweep, ""]
 
     lines += ["## Table 2: natural frequencies (Hz)", ""]
     lines += _table([[r["mode"], _f(r["frequency_hz"], "{:.3f}"), _f(r["paper_hz"], "{:.3f}"),
@@ -216,6 +279,11 @@ def render(summary: dict[str, Any], findings: list[Finding], table: pd.DataFrame
             rows.append([_f(h, "{:,.0f}")] + cells)
         lines += [""] + _table(rows, ["altitude ft"] + [_curve_name(k) for k in C.columns])
     lines += [""] + findings_section(findings, causes)
+    hb = summary.get("hb") or {}
+    if hb.get("confirmation"):
+        lines += [""] + confirmation_section(hb["confirmation"])
+    if hb.get("branches"):
+        lines += [""] + branches_section(hb["branches"], summary["figures"].get("branches"))
     if summary.get("damping_check"):
         lines += [""] + damping_check_section(summary["damping_check"])
     counts = table["status"].value_counts().to_dict()

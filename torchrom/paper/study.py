@@ -33,14 +33,16 @@ from .._version import __version__
 from ..errors import InputError
 from ..io import write_json_atomic, write_text_atomic
 from ..study import figures
-from ..study.config import load_sweep_config
+from ..study.config import load_sweep_config, with_method
 from ..study.grid import config_hash
 from ..study.models import alpha_gamma_table
+from ..study.plots import branch_diagram
 from ..study.sweep import run_sweep
 from ..study.table import write_histories
 from . import findings as fnd
 from .cache import MANIFEST, FileCache
 from .dissipation import dissipation_ratio, lco_cycle, scaled_min_eigenvalue
+from .hb import branch_summary, goland_branches, newmark_confirmation
 from .linear import linear_checks
 from .pipeline import GolandPipeline, goland_pipeline
 from .report import render
@@ -57,7 +59,7 @@ LINEAR_T_END = {"full": 20.0, "quick": 12.0}
 LINEAR_WINDOW = 0.3
 FIGURE_FILES = {"fig9": "fig09_alpha_gamma.png", "fig10": "fig10_lco_amplitude.png",
                 "fig11": "fig11_time_histories.png", "fig12": "fig12_lco_frequency.png",
-                "fig13": "fig13_amplitude_ratios.png"}
+                "fig13": "fig13_amplitude_ratios.png", "branches": "lco_branches.png"}
 
 
 def config_path(name: str) -> Path:
@@ -94,9 +96,14 @@ def _check_folder(out: Path, force: bool) -> None:
 
 
 def run_paper(out, *, quick: bool = False, force: bool = False, device: str = "cpu",
-              dtype: torch.dtype = torch.float64, log: Callable[[str], None] = print
-              ) -> dict[str, Any]:
-    """Run the study into ``out`` and return the summary written to ``paper.json``."""
+              dtype: torch.dtype = torch.float64, log: Callable[[str], None] = print,
+              method: str = "newmark") -> dict[str, Any]:
+    """Run the study into ``out`` and return the summary written to ``paper.json``.
+
+    ``method``: "newmark" (the paper's time marching) or "hb" (the LCOs of Figs. 10, 12, 13 by
+    harmonic balance, with a Newmark confirmation of a subset started on the HB orbits, which
+    also gives Fig. 11, and the LCO branches in altitude from the flutter point,
+    :mod:`.hb`)."""
     out = Path(out)
     _check_folder(out, force)
     out.mkdir(parents=True, exist_ok=True)
@@ -141,9 +148,27 @@ def run_paper(out, *, quick: bool = False, force: bool = False, device: str = "c
 
     # -- the LCO sweep ---------------------------------------------------------------------------
     watch.start()
-    cfg = load_sweep_config(config_path("paper_lco.toml"), variant)
-    table, histories, lco_info = _lco_sweep(cache, cfg, model, model_hash, device, dtype, log)
-    watch.stop("LCO sweep (Figs. 10-13)")
+    cfg = with_method(load_sweep_config(config_path("paper_lco.toml"), variant), method)
+    hb_info: dict[str, Any] = {}
+    if method == "hb":
+        table, _, lco_info = _lco_sweep(cache, dataclasses.replace(cfg, history=None), model,
+                                        model_hash, device, dtype, log, name="lco_hb")
+        watch.stop("LCO sweep (Figs. 10-13)")
+        watch.start()
+        confirm, histories = _confirmation(cache, cfg, model, model_hash, table, device, log)
+        hb_info["confirmation"] = confirm.to_dict(orient="records")
+        watch.stop("Newmark confirmation (Fig. 11)")
+    else:
+        table, histories, lco_info = _lco_sweep(cache, cfg, model, model_hash, device, dtype,
+                                                log)
+        watch.stop("LCO sweep (Figs. 10-13)")
+    if method == "hb" or not quick:
+        watch.start()
+        branches = _branches(cache, cfg, model, model_hash, device, log)
+        hb_info["branches"] = branch_summary(branches)
+        watch.stop("LCO branches in altitude (continuation)")
+    else:
+        branches = None
 
     # -- cause check: the Fig. 10 cases with the exact Kelvin-Voigt damping ------------------
     watch.start()
@@ -160,6 +185,12 @@ def run_paper(out, *, quick: bool = False, force: bool = False, device: str = "c
     if len(histories):
         paths["fig11"] = figures.fig11(table, histories, fig_dir / FIGURE_FILES["fig11"],
                                        force=True)
+    if branches is not None and len(branches):
+        paths["branches"] = branch_diagram(
+            branches, fig_dir / FIGURE_FILES["branches"], parameter="altitude_ft", units="ft",
+            y="amplitude_pct_span", y_label="LCO amplitude of point A (% of span)",
+            title="LCO branches from the flutter point (harmonic balance, matched α)",
+            label_of=lambda row: f"γ = {row['gamma']:g} s", force=True)
     watch.stop("figures")
 
     # -- findings and report ---------------------------------------------------------------------
@@ -177,7 +208,7 @@ def run_paper(out, *, quick: bool = False, force: bool = False, device: str = "c
         "linear_window": LINEAR_WINDOW, "lco": lco_info,
         "alpha_gamma": alpha_gamma.to_dict(orient="records"),
         "findings": [f.as_dict() for f in found],
-        "damping_check": check,
+        "damping_check": check, "method": method, "hb": hb_info,
         "figures": {k: str(v) for k, v in paths.items()},
         "identification": res.identification,
     }
@@ -214,7 +245,8 @@ def _damping_check(cache: FileCache, cfg, main, quick: bool, out: Path, force: b
     model = res.model
     cfg_x = dataclasses.replace(cfg, cases=damping_check_cases(cfg), history=None)
     table, _, info = _lco_sweep(cache, cfg_x, model, model.content_hash(), device, dtype, log,
-                                name="lco_exact_damping")
+                                name="lco_exact_damping" + ("_hb" if cfg.method == "hb"
+                                                            else ""))
     found = fnd.fig10_acceptance(table)
     for f in found:
         log(f"  exact damping: {f.key}: {f.verdict} ({f.ours})")
@@ -250,6 +282,57 @@ def _dissipation_check(cache: FileCache, cfg, main, exact, log) -> dict[str, Any
     return out
 
 
+def _confirmation(cache: FileCache, cfg, model, model_hash: str, table: pd.DataFrame, device,
+                  log) -> tuple[pd.DataFrame, pd.DataFrame]:
+    """:func:`.hb.newmark_confirmation`, cached with the HB table it confirms."""
+    key = FileCache.key({"config": cfg.hash, "model": model_hash,
+                         "table": config_hash(table["case_id"].tolist()),
+                         "history": repr(cfg.history)})
+    names = ("sweeps/lco_hb/confirmation.csv", "sweeps/lco_hb/histories.parquet")
+    found = [cache.get(n, key) for n in names]
+    if all(p is not None for p in found):
+        return pd.read_csv(found[0]), pd.read_parquet(found[1])
+    log("Newmark confirmation: a subset from the HB orbits at the paper's step")
+    confirm, histories = newmark_confirmation(cfg, model, table, device)
+    if len(confirm):
+        worst = confirm["amplitude_diff_pct"].abs().max()
+        log(f"  {len(confirm)} cases, amplitude within {worst:.2f} % of HB, frequency within "
+            f"{confirm['frequency_diff_pct'].abs().max():.3f} %")
+
+    def write_csv(p):
+        from ..io import atomic_path
+
+        with atomic_path(p) as tmp:
+            confirm.to_csv(tmp, index=False)
+
+    cache.put(names[0], key, write_csv)
+    cache.put(names[1], key, lambda p: write_histories([histories], p))
+    return confirm, histories
+
+
+def _branches(cache: FileCache, cfg, model, model_hash: str, device, log) -> pd.DataFrame:
+    """:func:`.hb.goland_branches`, cached by the model."""
+    key = FileCache.key({"model": model_hash, "lco": repr(cfg.lco), "outputs": cfg.outputs,
+                         "branches": "altitude"})
+    name = "tables/lco_branches.csv"
+    found = cache.get(name, key)
+    if found is not None:
+        table = pd.read_csv(found)
+        table["stable"] = table["stable"].astype("boolean")
+        return table
+    log("LCO branches in altitude from the flutter point (gamma = 0 and 1e-3 s)")
+    table = goland_branches(cfg, model, device)
+
+    def write_csv(p):
+        from ..io import atomic_path
+
+        with atomic_path(p) as tmp:
+            table.to_csv(tmp, index=False)
+
+    cache.put(name, key, write_csv)
+    return table
+
+
 def _lco_sweep(cache: FileCache, cfg, model, model_hash: str, device, dtype, log,
                name: str = "lco"):
     """The LCO table and histories (cached by the configuration, the model and the precision)
@@ -265,8 +348,9 @@ def _lco_sweep(cache: FileCache, cfg, model, model_hash: str, device, dtype, log
         timing = json.loads(found[2].read_text())
         return (pd.read_parquet(found[0]), pd.read_parquet(found[1]),
                 {**timing, "reused": True, "reused_files": list(names)})
-    log(f"LCO sweep: {len(cfg.cases)} cases of '{cfg.title}', dt = {cfg.integrator.dt:g} s, "
-        f"up to {cfg.t_end:g} s")
+    how = ("harmonic balance" if cfg.method == "hb" else
+           f"dt = {cfg.integrator.dt:g} s, up to {cfg.t_end:g} s")
+    log(f"LCO sweep: {len(cfg.cases)} cases of '{cfg.title}', {how}")
     from tqdm import tqdm
 
     hist: list[pd.DataFrame] = []
@@ -280,7 +364,8 @@ def _lco_sweep(cache: FileCache, cfg, model, model_hash: str, device, dtype, log
     histories = pd.concat(hist, ignore_index=True) if hist else pd.DataFrame()
     counts = table["status"].value_counts().to_dict()
     log("  status: " + ", ".join(f"{k} {v}" for k, v in sorted(counts.items())) +
-        f"; {timing['us_per_case_step']:.0f} us per case-step")
+        (f"; {1e3 * timing['wall_time_s'] / max(len(table), 1):.1f} ms per case"
+         if cfg.method == "hb" else f"; {timing['us_per_case_step']:.0f} us per case-step"))
     info = {"cases": len(table), "case_steps": int(timing["case_steps"]),
             "wall_time_s": float(timing["wall_time_s"]),
             "us_per_case_step": float(timing["us_per_case_step"])}

@@ -30,11 +30,12 @@ import torch
 
 from ..sim.system import CaseSystem
 from .balance import HarmonicBalance
+from .fourier import basis_at, coefficients_from_samples
 
 Tensor = torch.Tensor
 
 #: default trapezoidal steps per period
-FLOQUET_STEPS = 128
+FLOQUET_STEPS = 64
 #: an orbit is stable when its critical multiplier is below 1 + this
 STABILITY_TOL = 1e-6
 
@@ -59,11 +60,17 @@ def monodromy(system: CaseSystem, X: Tensor, omega: Tensor,
     """(Φ (B, ns, ns), ẋ(0) (B, ns)) of the orbits X (B, 2H+1, n), ω (B,) (module docstring);
     state [q, q̇, ξ], ns = 2n + na."""
     H = (X.shape[1] - 1) // 2
-    hb = HarmonicBalance(system, H, n_samples=steps)
+    hb = HarmonicBalance(system, H)
     B, n, na = system.batch_size, system.n, system.n_lag
     ns = 2 * n + na
     q, v = hb.samples(X, omega)
-    _, Kn, Cn = hb.nonlinear_tangents(q, v)  # (B, S, n, n)
+    _, Kn, Cn = hb.nonlinear_tangents(q, v)  # (B, N, n, n) at the 4H + 1 AFT samples
+    # the tangents are quadratic in (q, q̇): trigonometric polynomials of degree 2H, which the
+    # 4H + 1 samples determine exactly, so they are interpolated to the trapezoidal steps
+    tau = 2 * math.pi * torch.arange(steps, device=X.device, dtype=X.dtype) / steps
+    fine = basis_at(tau, 2 * H)  # (S, 4H + 1)
+    Kn, Cn = ((fine @ coefficients_from_samples(T.reshape(B, -1, n * n), 2 * H)).view(
+        B, steps, n, n) for T in (Kn, Cn))
     Minv = torch.linalg.inv(hb.Mt)
     MK = Minv[:, None] @ (hb.Kl[:, None] + Kn)  # (B, S, n, n)
     MC = Minv[:, None] @ (hb.C0[:, None] + Cn)

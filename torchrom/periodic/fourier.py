@@ -136,3 +136,12 @@ def harmonic_magnitudes(x: Tensor) -> Tensor:
     """(..., H+1) magnitude of each harmonic of coefficient rows x (..., 2H+1)."""
     mags = torch.sqrt(x[..., 1::2] ** 2 + x[..., 2::2] ** 2)
     return torch.cat([x[..., :1].abs(), mags], dim=-1)
+
+
+def basis_at(tau: Tensor, H: int) -> Tensor:
+    """(..., 2H+1) values of [1, cos τ, sin τ, …, cos Hτ, sin Hτ] at phases τ (...,)."""
+    k = torch.arange(1, H + 1, device=tau.device, dtype=tau.dtype)
+    out = torch.ones(*tau.shape, 2 * H + 1, device=tau.device, dtype=tau.dtype)
+    out[..., 1::2] = torch.cos(k * tau[..., None])
+    out[..., 2::2] = torch.sin(k * tau[..., None])
+    return out

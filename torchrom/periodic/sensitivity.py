@@ -22,7 +22,7 @@ import torch
 
 from ..sim.system import CaseSystem
 from .balance import HarmonicBalance
-from .fourier import synthesis_matrix
+from .fourier import basis_at, synthesis_matrix
 
 Tensor = torch.Tensor
 
@@ -55,7 +55,7 @@ def amplitude_derivative(system: CaseSystem, plus: CaseSystem, minus: CaseSystem
     H = (X.shape[1] - 1) // 2
     Y, dY = X @ r, dX @ r  # (B, 2H+1)
     tau_max, tau_min = extreme_phases(Y, n_points)
-    dA = 0.5 * ((_basis_at(tau_max, H) * dY).sum(1) - (_basis_at(tau_min, H) * dY).sum(1))
+    dA = 0.5 * ((basis_at(tau_max, H) * dY).sum(1) - (basis_at(tau_min, H) * dY).sum(1))
     return dA, dw
 
 
@@ -77,12 +77,3 @@ def extreme_phases(Y: Tensor, n_points: int = 512) -> tuple[Tensor, Tensor]:
                                                                    torch.ones_like(den)), 0 * b)
         out.append(((i.to(Y.dtype) + shift) * step)[:, 0])
     return out[0], out[1]
-
-
-def _basis_at(tau: Tensor, H: int) -> Tensor:
-    """(B, 2H+1) values of [1, cos τ, sin τ, …, cos Hτ, sin Hτ] at τ (B,)."""
-    k = torch.arange(1, H + 1, device=tau.device, dtype=tau.dtype)
-    out = torch.ones(tau.shape[0], 2 * H + 1, device=tau.device, dtype=tau.dtype)
-    out[:, 1::2] = torch.cos(k[None] * tau[:, None])
-    out[:, 2::2] = torch.sin(k[None] * tau[:, None])
-    return out

@@ -162,6 +162,28 @@ class PeriodicOrbits:
             return (mags[..., 2:].norm(dim=-1) / mags[..., 1]).cpu().numpy()
 
 
+def orbit_state(system: CaseSystem, X: Tensor, omega: Tensor
+                ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(q, q̇, ξ) at τ = 0 of the orbits X (B, 2H+1, n), ω (B,): the initial state that puts a
+    time integration on the orbit (the lag states from their harmonics, ξ_k = (ikω − R)⁻¹ E
+    ikω q_k)."""
+    H = (X.shape[1] - 1) // 2
+    k = torch.arange(1, H + 1, dtype=X.dtype, device=X.device)
+    q = X[:, 0] + X[:, 1::2].sum(1)
+    v = omega[:, None] * (k[None, :, None] * X[:, 2::2]).sum(1)
+    B, na = X.shape[0], system.n_lag
+    xi = np.zeros((B, na))
+    if na:
+        Q = torch.complex(X[:, 1::2], -X[:, 2::2])  # (B, H, n)
+        s = 1j * (omega[:, None] * k[None]).to(torch.complex128)
+        A = s[:, :, None, None] * torch.eye(na, dtype=torch.complex128) - system.lag_R[
+            :, None].to(torch.complex128)
+        Xi = torch.linalg.solve(A, (system.lag_E[:, None].to(torch.complex128)
+                                    @ Q.to(torch.complex128)[..., None]) * s[:, :, None, None])
+        xi = Xi[..., 0].real.sum(1).cpu().numpy()
+    return q.cpu().numpy(), v.cpu().numpy(), xi
+
+
 def orbit_amplitude(Y: Tensor, status, n_points: int = 512) -> np.ndarray:
     """(B, O) half peak-to-peak of outputs with coefficients Y (B, 2H+1, O), from a fine grid
     refined by a parabola through each extreme sample (relative error ~1e-9 for n_points =
@@ -410,8 +432,9 @@ def cold_start(system: CaseSystem, r: Tensor, options: HBOptions,
             cc.abs() <= FINAL_STAGE_RTOL * c0[good])
         final[good[close]] = True
         status[good[(a_new > options.max_amplitude) & ~close].cpu().numpy()] = "diverged"
-        # c < 0 all the way down to the smallest orbits: nothing sustains an orbit
-        status[good[(a_new < A0 / MAX_STAGE_GROWTH) & ~close].cpu().numpy()] = "decay"
+        # c < 0 all the way down to the smallest orbits although the rest state is unstable:
+        # the stages lost the family (a decaying case never gets here)
+        status[good[(a_new < A0 / MAX_STAGE_GROWTH) & ~close].cpu().numpy()] = "unconverged"
     status[status == "running"] = "unconverged"
     amp = (X[:, 1] @ r).abs()
     status[(status == "lco") & (amp > options.max_amplitude).cpu().numpy()] = "diverged"
@@ -519,17 +542,47 @@ def _solve_cold(system: CaseSystem, r: Tensor, options: HBOptions) -> tuple[_Orb
         st["critical_root"]
 
 
+def _warm_newton(system: CaseSystem, r: Tensor, X: Tensor, omega: Tensor, H: int,
+                 options: HBOptions, act: Tensor):
+    """Newton (c = 0) from (X, ω) for the cases ``act``; a correction that falls onto q = 0
+    (always a solution) counts as failed."""
+    Xn, wn, conv, its, res = refine_harmonics(system, X, omega, r, H, options, act)
+    amp0 = (resize_harmonics(X, H)[:, 1] @ r).abs()
+    conv = conv & ((Xn[:, 1] @ r).abs() > COLLAPSE_RATIO * amp0)
+    return Xn, wn, conv, its, res
+
+
 def _solve_warm(system: CaseSystem, r: Tensor, X: Tensor, omega: Tensor, H: int,
-                options: HBOptions) -> _Orbits:
+                options: HBOptions, neighbours: CaseSystem | None = None) -> _Orbits:
     """Every case of ``system`` from a neighbour's orbit (X, ω at H harmonics): Newton with
-    c = 0, then the truncation check (raising H where it fails)."""
+    c = 0, then the truncation check (raising H where it fails). Where that fails and the
+    neighbours' own cases are given, the cases are reached along the straight path from the
+    neighbours' (:meth:`CaseSystem.blend`) in 2, then 4 sub-steps (a homotopy); failures
+    left start cold (:func:`solve_orbits`)."""
     B = system.batch_size
     act = torch.arange(B, device=X.device)
-    Xn, wn, conv, its, res = refine_harmonics(system, X, omega, r, H, options, act)
-    # a correction that falls onto q = 0 (always a solution) did not find the orbit
-    amp0 = (X[:, 1] @ r).abs()
-    amp = (Xn[:, 1] @ r).abs()
-    conv = conv & (amp > COLLAPSE_RATIO * amp0)  # failures start cold (solve_orbits)
+    Xn, wn, conv, its, res = _warm_newton(system, r, X, omega, H, options, act)
+    its = its.clone()
+    for parts in (2, 4) if neighbours is not None else ():
+        failed = torch.nonzero(~conv).reshape(-1)
+        if failed.numel() == 0:
+            break
+        Xs, ws = resize_harmonics(X, H)[failed], omega[failed]
+        sub, nb = system.select(failed), neighbours.select(failed)
+        ok = torch.ones(len(failed), dtype=torch.bool, device=X.device)
+        sub_act = torch.arange(len(failed), device=X.device)
+        for k in range(1, parts + 1):
+            step = nb.blend(sub, k / parts)
+            Xk, wk, ck, itk, rk = _warm_newton(step, r, Xs, ws, H, options, sub_act[ok])
+            its[failed] += itk
+            ok &= ck
+            Xs = torch.where(ok[:, None, None], Xk, Xs)
+            ws = torch.where(ok, wk, ws)
+            if not bool(ok.any()):
+                break
+        good = failed[ok]
+        Xn[good], wn[good], res[good] = Xs[ok], ws[ok], rk[ok]
+        conv[good] = True
     its = its.cpu().numpy()
     status = np.where(conv.cpu().numpy(), "lco", "unconverged").astype(object)
     amp = (Xn[:, 1] @ r).abs().cpu().numpy()
@@ -597,7 +650,8 @@ def solve_orbits(system: CaseSystem, output_row, options: HBOptions = HBOptions(
                     X0[t2] = resize_harmonics(Xa + f[:, None, None] * (Xa - Xb), H)
                     w0[t2] = out.omega[torch.as_tensor(a)] + f * (
                         out.omega[torch.as_tensor(a)] - out.omega[torch.as_tensor(b)])
-            w_orb = _solve_warm(sub, r, X0, w0, H, options)
+            w_orb = _solve_warm(sub, r, X0, w0, H, options,
+                                neighbours=system.select(torch.as_tensor(pidx)))
             failed = w_orb.status != "lco"
             out.put(idx[~failed], _subset(w_orb, ~failed))
             cold = np.concatenate([cold, idx[failed]])

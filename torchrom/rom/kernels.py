@@ -7,9 +7,10 @@ dense GEMMs per batch, which is what makes thousands of cases per second possibl
 - damping    D_T(q) = D1 + reshape([q, m2(q)] @ Dc, (n, n))          (Dc: (n + N2, n·n), Eq. 32)
              d = D_T(q) q̇
 - tangent    ∂f_K/∂q = K1 + reshape([q, m2(q)] @ Tc, (n, n))          (Tc: (n + N2, n·n))
-- damping-force tangent  ∂(D_T(q) q̇)/∂q = Σ_r ∂x_r/∂q · (q̇ @ DcV)_r   (DcV: (n, (n + N2)·n)),
-             x = [q, m2(q)]: the q-derivative of the nonlinear damping force (harmonic balance
-             and Floquet analysis need it; the time integrator's modified Newton does not)
+- damping-force tangent  ∂(D_T(q) q̇)/∂q = reshape([q̇, q ⊗ q̇] @ Gc, (n, n))
+             (Gc: (n + n², n·n)): the q-derivative of the nonlinear damping force (harmonic
+             balance and Floquet analysis need it; the time integrator's modified Newton does
+             not)
 
 All tensors live on one device/dtype; the kernel holds no state besides its coefficient matrices.
 Hand-written: no library implements ROM force evaluation on monomials.
@@ -38,7 +39,7 @@ class CompactForces:
     Kc: Tensor  # (N2 + N3, n): stiffness monomial coefficients, transposed for q-rows @ Kc
     Dc: Tensor  # (n + N2, n*n): damping-matrix coefficients of [q, m2]
     Tc: Tensor  # (n + N2, n*n): tangent-stiffness coefficients of [q, m2]
-    DcV: Tensor  # (n, (n + N2)*n): Dc with the q̇ index first, for the damping-force tangent
+    Gc: Tensor  # (n + n*n, n*n): damping-force tangent coefficients of [q̇, q ⊗ q̇]
     pair_i: Tensor
     pair_j: Tensor
     triple_pair: Tensor
@@ -70,7 +71,10 @@ class CompactForces:
             Kc=Kc.to(**kw),
             Dc=Dc.to(**kw),
             Tc=Tc.to(**kw),
-            DcV=Dc.view(-1, n, n).permute(2, 0, 1).reshape(n, -1).to(**kw).contiguous(),
+            # ∂/∂q_j of D2_mln q_l q̇_n + D3_mlpn q_l q_p q̇_n = D2_mjn q̇_n + 2 D3_mjpn q_p q̇_n
+            Gc=torch.cat([D2.permute(2, 0, 1).reshape(n, n * n),
+                          (2.0 * D3).permute(2, 3, 0, 1).reshape(n * n, n * n)]).to(**kw)
+            .contiguous(),
             pair_i=torch.as_tensor(idx.pairs[:, 0], **ikw),
             pair_j=torch.as_tensor(idx.pairs[:, 1], **ikw),
             triple_pair=torch.as_tensor(idx.triple_pair, **ikw),
@@ -104,13 +108,7 @@ class CompactForces:
 
     def damping_force_tangent(self, q: Tensor, qd: Tensor, m2: Tensor | None = None) -> Tensor:
         """∂/∂q [(D2(q) + D3(q,q)) q̇] as a (B, n, n) matrix: entry [b, m, j] is
-        D2_mjn q̇_n + 2 D3_mjpn q_p q̇_n (Eq. 32's damping force differentiated in q)."""
-        n = self.n
-        # G[b, r, m] = Σ_n Dc[r, (m, n)] q̇_n: the force of each feature x_r = [q, m2]_r
-        G = (qd @ self.DcV).view(q.shape[0], -1, n)
-        dT = G[:, :n, :].clone()  # ∂x_r/∂q_j = δ_rj for the linear features
-        Gp = G[:, n:, :]
-        # x_p = q_i q_l: ∂x_p/∂q_j = q_l δ_ij + q_i δ_lj
-        dT.index_add_(1, self.pair_i, Gp * q[:, self.pair_j, None])
-        dT.index_add_(1, self.pair_j, Gp * q[:, self.pair_i, None])
-        return dT.transpose(1, 2)
+        D2_mjn q̇_n + 2 D3_mjpn q_p q̇_n (Eq. 32's damping force differentiated in q; D3 is
+        symmetric in its middle two indices). ``m2`` is unused (same call as the others)."""
+        y = torch.cat([qd, (q[:, :, None] * qd[:, None, :]).reshape(q.shape[0], -1)], dim=1)
+        return (y @ self.Gc).view(-1, self.n, self.n)

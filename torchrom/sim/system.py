@@ -181,6 +181,25 @@ class CaseSystem:
             out[name] = torch.cat(parts, dim=0)
         return cls(rom, **out)
 
+    def blend(self, other: CaseSystem, weight) -> CaseSystem:
+        """(1 − w)·self + w·other, field by field (w scalar or (B,)): the cases on the straight
+        path between two sets of cases of the same ROM (a homotopy for continuation methods;
+        a field missing on one side counts as zero)."""
+        if other.rom is not self.rom or other.batch_size != self.batch_size:
+            raise InputError("CaseSystem.blend: expected the same ROM and batch size")
+        w = torch.as_tensor(weight, dtype=self.dtype, device=self.device).reshape(-1)
+        out = {}
+        for name, a in self.fields().items():
+            b = getattr(other, name)
+            if a is None and b is None:
+                out[name] = None
+                continue
+            a = torch.zeros_like(b) if a is None else a
+            b = torch.zeros_like(a) if b is None else b
+            ww = w.reshape(-1, *([1] * (a.dim() - 1)))
+            out[name] = (1 - ww) * a + ww * b
+        return dataclasses.replace(self, **out)
+
     def to(self, device=None, dtype=None) -> CaseSystem:
         return dataclasses.replace(
             self, **{k: None if t is None else t.to(device=device, dtype=dtype)
