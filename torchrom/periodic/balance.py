@@ -158,7 +158,8 @@ class HarmonicBalance:
         f = torch.zeros_like(q2)
         m2 = q2[:, k.pair_i] * q2[:, k.pair_j]
         if self.has_stiffness:
-            f = f + self.s.repeat_interleave(N)[:, None] * k.stiffness_nl(q2, m2)
+            fs, _ = k.stiffness_and_tangent(q2, m2)
+            f = f + self.s.repeat_interleave(N)[:, None] * fs
         if self.has_damping:
             Dm = k.damping_nl_matrix(q2, m2)
             f = f + self.g.repeat_interleave(N)[:, None] * (Dm @ v2[..., None])[..., 0]
@@ -176,8 +177,9 @@ class HarmonicBalance:
         Cn = q2.new_zeros(B * N, n, n)
         if self.has_stiffness:
             s = self.s.repeat_interleave(N)
-            f = f + s[:, None] * k.stiffness_nl(q2, m2)
-            Kn = Kn + s[:, None, None] * k.tangent_nl(q2, m2)
+            fs, T = k.stiffness_and_tangent(q2, m2)
+            f = f + s[:, None] * fs
+            Kn = Kn + s[:, None, None] * T
         if self.has_damping:
             g = self.g.repeat_interleave(N)
             Dm = k.damping_nl_matrix(q2, m2)
