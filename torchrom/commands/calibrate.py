@@ -56,6 +56,10 @@ def run(args: argparse.Namespace) -> int:
     from ..study.table import table_paths, write_table
 
     device, dtype, cfg = load_study(args)
+    if cfg.method == "hb":  # Newton on γ with dA/dγ from the implicit-function theorem
+        import dataclasses
+
+        cfg = dataclasses.replace(cfg, hb=dataclasses.replace(cfg.hb, sensitivity=True))
     bases = distinct_cases(cfg.cases, ("gamma", "sample"))
     if args.gamma is None:
         gammas = [float(c["gamma"]) for c in cfg.cases if float(c.get("gamma", 0.0)) > 0]

@@ -15,6 +15,9 @@ looks for the γ at which the LCO amplitude (or another table column) equals ``t
    bracket shrinks by a factor ``num + 1`` per round, until its relative width is below
    ``rtol`` (default 2e-3: finer is rarely meaningful, the LCO detection tolerance [lco] rtol
    limits the amplitudes).
+   With a derivative column in the table (``<column>_dgamma``: harmonic balance with
+   ``[hb] sensitivity``, dA/dγ by the implicit-function theorem), the refinement is Newton
+   on γ inside the bracket instead (:func:`_newton_rounds`): a few single-case rounds.
 3. **Root and sensitivity**: γ̂ by linear interpolation of the last bracket in ln γ; the
    sensitivity from a least-squares cubic in ln γ through the converged LCOs within half a
    scan step of γ̂ (the refinement points, spread over a finite width, so the LCO detection
@@ -101,6 +104,54 @@ def _slope(points: pd.DataFrame, gamma: float, width: float, column: str, target
     return c[1] / gamma, c[1] / target, len(sel)
 
 
+def _newton_rounds(run, points, active, target: float, rtol: float, max_rounds: int,
+                   derivative: str, log) -> tuple[list, int]:
+    """Newton on γ inside every bracket with the evaluated derivative column (harmonic balance
+    with ``[hb] sensitivity``: dA/dγ by the implicit-function theorem, one extra linear solve
+    per case): γ ← γ − (A − target) / (dA/dγ) from the bracket end closest to the target,
+    kept inside the bracket (else its log-midpoint), one batch per round. A bracket is done
+    when its point is within ``rtol``/10 of the target (Newton converges quadratically: one
+    more round costs little); it then collapses to that γ."""
+    rounds = 0
+    while rounds < max_rounds:
+        todo, requests = [], []
+        done = []
+        for b, gl, gh in active:
+            p = points(b)
+            p = p[(p["gamma"] >= gl) & (p["gamma"] <= gh) & (p["status"] == "lco")]
+            if p.empty:
+                done.append((b, gl, gh))
+                continue
+            best = p.iloc[int(np.argmin(np.abs(p["response"].to_numpy() - target)))]
+            if abs(best["response"] / target - 1) <= 0.1 * rtol:
+                done.append((b, float(best["gamma"]), float(best["gamma"])))
+                continue
+            slope = float(best[derivative])
+            g = float(best["gamma"]) - (float(best["response"]) - target) / slope \
+                if np.isfinite(slope) and slope != 0 else math.nan
+            if not (gl < g < gh):
+                g = math.sqrt(gl * gh)
+            todo.append((b, gl, gh))
+            requests.append((b, g))
+        if not requests:
+            return done, rounds
+        rounds += 1
+        log(f"calibrate: Newton round {rounds}: {len(requests)} case(s)")
+        run(requests, rounds)
+        for (b, gl, gh), (_, g) in zip(todo, requests):
+            p = points(b)
+            y = float(p.loc[p["gamma"] == g, "response"].iloc[0])
+            yl = float(p.loc[p["gamma"] == gl, "response"].iloc[0])
+            if not np.isfinite(y):
+                done.append((b, gl, gh))
+            elif (y - target) * (yl - target) <= 0:
+                done.append((b, gl, g))
+            else:
+                done.append((b, g, gh))
+        active = done
+    return active, rounds
+
+
 def calibrate_gamma(evaluate: Evaluate, base_cases: Sequence[dict[str, Any]], target: float, *,
                     gamma_range: tuple[float, float], column: str = "amplitude", num: int = 16,
                     rtol: float = 2e-3, max_rounds: int = 6,
@@ -160,6 +211,10 @@ def calibrate_gamma(evaluate: Evaluate, base_cases: Sequence[dict[str, Any]], ta
         g, y = p["gamma"].to_numpy(), p["response"].to_numpy()
         active += [(b, g[i], g[j]) for i, j in _brackets(g, y, target)]
     rounds = 0
+    derivative = f"{column}_dgamma"
+    if any(derivative in t.columns for t in evaluated):
+        active, rounds = _newton_rounds(run, points, active, target, rtol, max_rounds,
+                                        derivative, log)
     while rounds < max_rounds and any(gh / gl - 1 > rtol for _, gl, gh in active):
         rounds += 1
         requests = [(b, x) for b, gl, gh in active if gh / gl - 1 > rtol
@@ -196,6 +251,12 @@ def calibrate_gamma(evaluate: Evaluate, base_cases: Sequence[dict[str, Any]], ta
             yh = float(p.loc[p["gamma"] == gh, "response"].iloc[0])
             gamma = _interpolate(gl, gh, yl, yh, target)
             dadg, sens, used = _slope(p, gamma, 0.5 * step, column, target)
+            exact = p[(p["gamma"] == gl) | (p["gamma"] == gh)]
+            if derivative in p.columns and gl == gh and np.isfinite(
+                    exact[derivative].to_numpy(dtype=float)).all():
+                # a Newton root: the implicit-function derivative at the root itself
+                dadg = float(exact[derivative].iloc[0])
+                sens, used = dadg * gamma / target, 1
             alpha = float(alpha_for_gamma(gamma)) if alpha_for_gamma else base.get("alpha")
             rows.append({**base, "base_case": b, "target": target, "gamma": gamma,
                          "gamma_low": gl, "gamma_high": gh, "alpha": alpha,
