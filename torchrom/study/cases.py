@@ -118,6 +118,8 @@ def case_system(model, cases: list[dict[str, Any]], device=None, dtype=torch.flo
 # -- neighbour chains (harmonic balance warm starts) ----------------------------------------------
 #: longest neighbour chain: chains advance in lockstep, so longer ones mean smaller batches
 MAX_CHAIN = 16
+#: case keys that neither order nor separate neighbour chains
+CHAIN_IGNORED = ("sample", "q0")
 
 
 def neighbour_chains(cases: Sequence[Mapping[str, Any]], max_length: int = MAX_CHAIN
@@ -129,7 +131,8 @@ def neighbour_chains(cases: Sequence[Mapping[str, Any]], max_length: int = MAX_C
     chains of at most ``max_length``; positions are the chain parameter of every case (None
     when nothing varies). For :func:`torchrom.periodic.solve_orbits`."""
     B = len(cases)
-    keys = list(dict.fromkeys(k for c in cases for k in c))
+    # a sample number and an initial amplitude say nothing about how close two cases are
+    keys = [k for k in dict.fromkeys(k for c in cases for k in c) if k not in CHAIN_IGNORED]
     numeric = [k for k in keys if all(isinstance(c.get(k), (int, float))
                                       and not isinstance(c.get(k), bool) for c in cases)]
     counts = {k: len({float(c[k]) for c in cases}) for k in numeric}
@@ -139,8 +142,8 @@ def neighbour_chains(cases: Sequence[Mapping[str, Any]], max_length: int = MAX_C
     key = max(varying, key=lambda k: counts[k])
     groups: dict[str, list[int]] = {}
     for i, c in enumerate(cases):
-        groups.setdefault(repr(sorted((k, repr(v)) for k, v in c.items() if k != key)),
-                          []).append(i)
+        groups.setdefault(repr(sorted((k, repr(v)) for k, v in c.items()
+                                      if k != key and k not in CHAIN_IGNORED)), []).append(i)
     pos = np.array([float(c[key]) for c in cases])
     chains = []
     for members in groups.values():
