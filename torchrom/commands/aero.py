@@ -138,8 +138,9 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _progress():
-    """A tqdm bar over reduced frequencies (closed by calling it with None)."""
-    from tqdm import tqdm
+    """Progress over reduced frequencies (:class:`torchrom.progress.Progress`; closed by calling
+    it with None)."""
+    from ..progress import Progress
 
     state = {}
 
@@ -149,7 +150,7 @@ def _progress():
                 state["bar"].close()
             return
         if "bar" not in state:
-            state["bar"] = tqdm(total=n, desc="  DLM", unit="k", leave=False)
-        state["bar"].update(1)
+            state["bar"] = Progress(n, "  DLM", unit="reduced frequency")
+        state["bar"].update_to(state["bar"].done + 1)
 
     return update

@@ -17,10 +17,10 @@ status), ``DIR/calibration_runs.{parquet,csv}`` (every simulation) and ``DIR/cal
 from __future__ import annotations
 
 import argparse
-import sys
 from pathlib import Path
 
 from ..errors import InputError
+from ..progress import note
 from ._common import add_study_options, check_outputs, load_study, maybe_write_json
 
 NAME = "calibrate"
@@ -78,7 +78,7 @@ def run(args: argparse.Namespace) -> int:
         result = calibrate_gamma(evaluate, bases, args.target, gamma_range=tuple(args.gamma),
                                  column=args.column, num=args.num, rtol=args.rtol,
                                  max_rounds=args.rounds,
-                                 log=lambda m: print(m, file=sys.stderr))
+                                 log=note)
     table = result.table
     written = [*write_table(table, out, force=args.force, stem="calibration").values(),
                *write_table(result.evaluations, out, force=args.force,

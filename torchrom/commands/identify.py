@@ -14,7 +14,6 @@ relative residuals, smallest eigenvalues of the extended damping matrix), plus t
 
 from __future__ import annotations
 
-import sys
 import time
 from pathlib import Path
 
@@ -59,19 +58,18 @@ def add_arguments(parser) -> None:
 
 
 class _Progress:
-    """One tqdm bar per FE stage, on stderr."""
+    """Progress of each FE stage (:class:`torchrom.progress.Progress`)."""
 
     def __init__(self):
         self.bars = {}
 
     def __call__(self, stage, done, total):
-        from tqdm import tqdm
+        from ..progress import Progress
 
         bar = self.bars.get(stage)
         if bar is None:
-            bar = self.bars[stage] = tqdm(total=total, desc=f"  {stage}", unit="FE",
-                                          file=sys.stderr, leave=True)
-        bar.update(done - bar.n)
+            bar = self.bars[stage] = Progress(total, f"  {stage}", unit="FE solve")
+        bar.update_to(done)
         if done >= total:
             bar.close()
 

@@ -43,13 +43,14 @@ def run(args: argparse.Namespace) -> int:
     import time
 
     from ..paper.study import FIGURE_FILES, run_paper
+    from ..progress import info
     from ._common import torch_device
 
     out = args.out or Path("paper-quick" if args.quick else "paper")
     device = torch_device(args.device)
     t0 = time.perf_counter()
-    print(f"torchrom paper{' --quick' if args.quick else ''}: heavy Goland wing study into {out}")
-    summary = run_paper(out, quick=args.quick, force=args.force, device=str(device))
+    info(f"torchrom paper{' --quick' if args.quick else ''}: heavy Goland wing study into {out}")
+    summary = run_paper(out, quick=args.quick, force=args.force, device=str(device), log=info)
     verdicts = [f["verdict"] for f in summary["findings"]]
     print(f"findings: {verdicts.count('agree')} agree, {verdicts.count('differ')} differ, "
           f"{len(verdicts) - verdicts.count('agree') - verdicts.count('differ')} not assessable")

@@ -20,7 +20,6 @@ different configuration or model, or results it did not write, is refused unless
 from __future__ import annotations
 
 import argparse
-import sys
 from pathlib import Path
 
 from ._common import add_study_options, check_outputs, load_study, maybe_write_json
@@ -81,16 +80,15 @@ def run(args: argparse.Namespace) -> int:
                          *((hist_path,) if cfg.history else ())),
                   may_replace=args.force or resumable)
 
-    from tqdm import tqdm
+    from ..progress import Progress, info
 
     with open_executor(args.workers, args.scheduler) as executor:
-        print(f"torchrom sweep: {len(cfg.cases)} cases of '{cfg.title}' ({args.config}) on "
+        info(f"torchrom sweep: {len(cfg.cases)} cases of '{cfg.title}' ({args.config}) on "
               f"{device}/{args.dtype}, {executor.description}, dt = {cfg.integrator.dt:g} s, "
               f"t_end = {cfg.t_end:g} s")
-        with tqdm(total=len(cfg.cases), unit="case", desc="cases done", file=sys.stderr,
-                  disable=None) as bar:
+        with Progress(len(cfg.cases), "cases done") as bar:
             def progress(done: int, total: int) -> None:
-                bar.update(done - bar.n)
+                bar.update_to(done)
 
             histories = []
             try:

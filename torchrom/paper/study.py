@@ -19,7 +19,6 @@ from __future__ import annotations
 
 import dataclasses
 import json
-import sys
 import time
 from collections.abc import Callable
 from importlib import resources
@@ -267,13 +266,12 @@ def _lco_sweep(cache: FileCache, cfg, model, model_hash: str, device, dtype, log
                 {**timing, "reused": True, "reused_files": list(names)})
     log(f"LCO sweep: {len(cfg.cases)} cases of '{cfg.title}', dt = {cfg.integrator.dt:g} s, "
         f"up to {cfg.t_end:g} s")
-    from tqdm import tqdm
+    from ..progress import Progress
 
     hist: list[pd.DataFrame] = []
-    with tqdm(total=len(cfg.cases), unit="case", desc="  cases done", file=sys.stderr,
-              disable=None) as bar:
+    with Progress(len(cfg.cases), "  cases done") as bar:
         def progress(done: int, total: int) -> None:
-            bar.update(done - bar.n)
+            bar.update_to(done)
 
         table, timing = run_sweep(cfg, model=model, device=torch.device(device), dtype=dtype,
                                   progress=progress, on_history=hist.append)
