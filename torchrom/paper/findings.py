@@ -16,8 +16,10 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from ..reference import paper_reference
+
 #: the γ values (s) of the paper's Fig. 10 curves with both nonlinearities
-PAPER_GAMMAS = (0.0, 1e-5, 1e-4, 5e-4, 1e-3)
+PAPER_GAMMAS = paper_reference().gammas_s
 AGREE, DIFFER, NA = "agree", "differ", "not assessable"
 
 

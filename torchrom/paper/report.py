@@ -159,8 +159,8 @@ def render(summary: dict[str, Any], findings: list[Finding], table: pd.DataFrame
                       r.get("paper_kind") or "–"] for r in t2],
                     ["mode", "torchrom", "paper", "difference %", "torchrom kind",
                      "paper kind"])
-    lines += ["", "## Flutter point, Mach 0.70, baseline damping (α0 = 0.2565 1/s, "
-              "β0 = 1.338e-4 s)", ""]
+    lines += ["", f"## Flutter point, Mach {fl['mach']:.2f}, baseline damping "
+              f"(α0 = {fl['baseline_alpha']:g} 1/s, β0 = {fl['baseline_gamma']:g} s)", ""]
     lines += _table([
         ["state space (RFA, Eqs. 49–50)", _f(ss["altitude"], "{:,.0f}"),
          _f(ss["frequency_hz"], "{:.3f}"), _f(ss["velocity"], "{:.1f}"),

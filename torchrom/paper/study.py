@@ -110,7 +110,8 @@ def run_paper(out, *, quick: bool = False, force: bool = False, device: str = "c
     model = res.model
     fl = res.flutter
     log(f"flutter (state space): {fl['state_space']['altitude']:,.0f} ft, "
-        f"{fl['state_space']['frequency_hz']:.3f} Hz (paper 11,275 ft, 1.975 Hz)")
+        f"{fl['state_space']['frequency_hz']:.3f} Hz (paper {fl['paper']['altitude']:,.0f} ft, "
+        f"{fl['paper']['frequency_hz']:.3f} Hz)")
     model_hash = model.content_hash()
 
     # -- Fig. 9 -----------------------------------------------------------------------------------
