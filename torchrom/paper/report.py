@@ -20,7 +20,7 @@ CAUSES = {
     "model": "the FE model is a reconstruction: the paper does not give the density, the store's "
              "chordwise position or the shear-panel modelling; ours is calibrated to mode 1 "
              "(1.690 Hz) and the flutter altitude only, and its torsion mode is {torsion:+.0f} % "
-             "off Table 2 ({f2:.3f} vs 3.051 Hz), which changes the bending–torsion flutter "
+             "off Table 2 ({f2:.3f} vs {p2:.3f} Hz), which changes the bending–torsion flutter "
              "mechanism that the LCO grows from",
     "aero": "the aerodynamics are PanelAero's doublet-lattice GAFs on our modes (the paper used "
             "ZAERO on its modes): the flutter frequency is {fdiff:+.1f} % off the paper's",
@@ -131,9 +131,11 @@ def render(summary: dict[str, Any], findings: list[Finding], table: pd.DataFrame
     """The Markdown report."""
     fl = summary["flutter"]
     ss, pk, paper = fl["state_space"], fl["pk"], fl["paper"]
+    q4 = summary.get("paper_q4") or {"column": "ratio_q1_q4", "mode": 4, "note": None}
     t2 = fl["table2"]
     f2 = t2[1]["frequency_hz"] if len(t2) > 1 else float("nan")
-    causes = {k: v.format(torsion=100 * (f2 / 3.051 - 1), f2=f2,
+    p2 = t2[1]["paper_hz"] if len(t2) > 1 else float("nan")
+    causes = {k: v.format(torsion=100 * (f2 / p2 - 1), f2=f2, p2=p2,
                           fdiff=100 * (ss["frequency_hz"] / paper["frequency_hz"] - 1))
               for k, v in CAUSES.items()}
     lines = [f"# torchrom paper{' --quick' if summary['quick'] else ''}: heavy Goland wing "
@@ -201,7 +203,8 @@ def render(summary: dict[str, Any], findings: list[Finding], table: pd.DataFrame
                              "span)", "{:.2f}"),
                             ("frequency_hz", "Fig. 12: LCO frequency (Hz)", "{:.3f}"),
                             ("ratio_q1_q2", "Fig. 13a: q1/q2", "{:.2f}"),
-                            ("ratio_q1_q4", "Fig. 13b: q1/q4", "{:.1f}")):
+                            (q4["column"], f"Fig. 13b: q1/q{q4['mode']}"
+                             + (f" ({q4['note']})" if q4.get("note") else ""), "{:.1f}")):
         C = curve_table(table, col, lco_only=False)
         S = curve_table(table, "status", lco_only=False)
         lines += ["", f"## {title}", "", "Non-LCO cases are marked with their status."]
