@@ -59,11 +59,12 @@ class Progress:
     """Progress of ``total`` units of work (see the module docstring for what is shown where).
 
     Use as a context manager; call :meth:`update_to` with the units done so far (monotone) and
-    :meth:`write` for a message that must not break a bar. ``stream`` defaults to stderr; ``bar``
+    :meth:`write` for a message that must not break a bar. ``unit``: what is counted, plural
+    (e.g. "cases", "FE solves"). ``stream`` defaults to stderr; ``bar``
     forces (True) or forbids (False) the tqdm bar instead of asking whether the stream is a TTY.
     """
 
-    def __init__(self, total: int, desc: str, unit: str = "case", *, stream: IO | None = None,
+    def __init__(self, total: int, desc: str, unit: str = "cases", *, stream: IO | None = None,
                  bar: bool | None = None):
         self.total = max(int(total), 0)
         self.desc = desc
@@ -93,7 +94,7 @@ class Progress:
         pct = 100.0 * self.done / self.total if self.total else 100.0
         eta = elapsed * (self.total - self.done) / self.done if self.done else float("nan")
         eta_s = format_seconds(eta) if eta == eta else "?"
-        return (f"{self.desc}: {self.done}/{self.total} {self.unit}s ({pct:.0f} %), "
+        return (f"{self.desc}: {self.done}/{self.total} {self.unit} ({pct:.0f} %), "
                 f"elapsed {format_seconds(elapsed)}, ETA {eta_s}")
 
     def update_to(self, done: int) -> None:

@@ -150,7 +150,7 @@ def _progress():
                 state["bar"].close()
             return
         if "bar" not in state:
-            state["bar"] = Progress(n, "  DLM", unit="reduced frequency")
+            state["bar"] = Progress(n, "  DLM", unit="reduced frequencies")
         state["bar"].update_to(state["bar"].done + 1)
 
     return update

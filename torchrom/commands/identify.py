@@ -68,7 +68,7 @@ class _Progress:
 
         bar = self.bars.get(stage)
         if bar is None:
-            bar = self.bars[stage] = Progress(total, f"  {stage}", unit="FE solve")
+            bar = self.bars[stage] = Progress(total, f"  {stage}", unit="FE solves")
         bar.update_to(done)
         if done >= total:
             bar.close()

@@ -126,6 +126,11 @@ def findings_section(findings: list[Finding], causes: dict[str, str]) -> list[st
     return lines
 
 
+def _sci(x: float) -> str:
+    """A small number as the paper writes it, e.g. 1.338e-4."""
+    return np.format_float_scientific(x, trim="-", exp_digits=1)
+
+
 def render(summary: dict[str, Any], findings: list[Finding], table: pd.DataFrame,
            alpha_gamma: pd.DataFrame) -> str:
     """The Markdown report."""
@@ -162,7 +167,7 @@ def render(summary: dict[str, Any], findings: list[Finding], table: pd.DataFrame
                     ["mode", "torchrom", "paper", "difference %", "torchrom kind",
                      "paper kind"])
     lines += ["", f"## Flutter point, Mach {fl['mach']:.2f}, baseline damping "
-              f"(α0 = {fl['baseline_alpha']:g} 1/s, β0 = {fl['baseline_gamma']:g} s)", ""]
+              f"(α0 = {fl['baseline_alpha']:g} 1/s, β0 = {_sci(fl['baseline_gamma'])} s)", ""]
     lines += _table([
         ["state space (RFA, Eqs. 49–50)", _f(ss["altitude"], "{:,.0f}"),
          _f(ss["frequency_hz"], "{:.3f}"), _f(ss["velocity"], "{:.1f}"),

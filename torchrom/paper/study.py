@@ -165,7 +165,9 @@ def run_paper(out, *, quick: bool = False, force: bool = False, device: str = "c
                                     flutter_altitude_ft=h_f),
              "fig12": figures.fig12(table, fig_dir / FIGURE_FILES["fig12"], force=True,
                                     flutter_altitude_ft=h_f,
-                                    flutter_frequency_hz=float(fl["state_space"]["frequency_hz"])),
+                                    flutter_frequency_hz=float(fl["state_space"]["frequency_hz"]),
+                                    table3={float(r["altitude_ft"]): float(r["frequency_eig_hz"])
+                                            for r in lin["table3"]}),
              "fig13": figures.fig13(table, fig_dir / FIGURE_FILES["fig13"], force=True,
                                     q4_mode=q4["mode"], q4_note=q4["note"],
                                     flutter_altitude_ft=h_f)}

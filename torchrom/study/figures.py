@@ -99,9 +99,9 @@ def _status_legend(plt, statuses) -> list:
 
 
 def _legend_outside(ax, handles, **kw) -> None:
-    """The legend to the right of the axes, clear of the data."""
-    ax.legend(handles=handles, loc="upper left", bbox_to_anchor=(1.02, 1.0), borderaxespad=0.0,
-              fontsize=7.5, **kw)
+    """The figure's legend to the right of all its axes (a secondary axis included), clear of
+    the data (constrained layout makes room for it)."""
+    ax.figure.legend(handles=handles, loc="outside right upper", fontsize=7.5, **kw)
 
 
 def _curve_axes(ax, table: pd.DataFrame, y: str, x: str = "altitude_ft") -> set[str]:
@@ -211,16 +211,21 @@ def fig10(table: pd.DataFrame, path, *, force: bool = False,
 
 def fig12(table: pd.DataFrame, path, *, force: bool = False,
           flutter_altitude_ft: float | None = None, flutter_frequency_hz: float | None = None,
+          table3: dict[float, float] | None = None,
           reference: PaperReference | None = None) -> Path:
     """LCO frequency (Hz) vs altitude (Fig. 12), with the paper's flutter point and its Table 3
-    (frequency of the growing response of the linear system below flutter), and our flutter
-    point when given."""
+    (frequency of the growing response of the linear system below flutter), and, when given,
+    our flutter point and our Table 3 (``table3``: altitude ft → Hz)."""
     ref = reference or paper_reference()
 
     def paper_points(ax):
         alts = sorted(ref.table3_hz)
         ax.plot(alts, [ref.table3_hz[a] for a in alts], "kx", ms=7, mew=1.4, ls="none",
                 label="paper Table 3: growing response (linear)")
+        if table3:
+            ours = sorted(table3)
+            ax.plot(ours, [table3[a] for a in ours], "k+", ms=9, mew=1.4, ls="none",
+                    label="Table 3: growing response (linear)")
         ax.plot(ref.flutter_altitude_ft, ref.flutter_frequency_hz, "*", color="0.45", ms=12,
                 label=f"paper's flutter point ({ref.flutter_frequency_hz:g} Hz)")
         if flutter_altitude_ft is not None and flutter_frequency_hz is not None:
@@ -268,7 +273,7 @@ def fig13(table: pd.DataFrame, path, *, force: bool = False, q4_mode: int = 4,
         ax.set_ylabel(f"LCO amplitude ratio {what} (-)")
     _legend_outside(axes[1], axes[1].get_legend_handles_labels()[0] + _status_legend(plt, drawn))
     axes[0].set_title("a) q1/q2 (bending / torsion)", fontsize=10)
-    axes[1].set_title(f"b) q1/q{q4_mode}" + (f": {q4_note}" if q4_note else ""), fontsize=10)
+    axes[1].set_title(f"b) q1/q{q4_mode}" + (f"\n{q4_note}" if q4_note else ""), fontsize=10)
     fig.suptitle(_title(table, "Fig. 13: ratios of LCO generalized-coordinate amplitudes"),
                  fontsize=10)
     return _save(fig, path, force)
@@ -358,7 +363,7 @@ def fig11(table: pd.DataFrame, histories: pd.DataFrame, path, *, output: str = "
     for ax in (ax_a, ax_b):
         ax.set_ylabel(f"point A, {output.split('_')[-1]} (ft)")
         ax.grid(alpha=0.3)
-        _legend_outside(ax, ax.get_legend_handles_labels()[0])
+    _legend_outside(ax_b, ax_b.get_legend_handles_labels()[0])  # the same cases in a) and b)
     ax_a.set_xlabel("time (s)")
     ax_b.set_xlabel("time from an upward mean crossing near the end of each run (s)")
     ax_a.set_title(f"Fig. 11a: time history of point A at {where}", fontsize=10)

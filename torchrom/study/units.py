@@ -53,4 +53,6 @@ def column_units(table: pd.DataFrame) -> dict[str, str]:
 def axis_label(table: pd.DataFrame, column: str) -> str:
     """``column (unit)``; ``column`` alone when the unit is unknown."""
     unit = column_units(table).get(column)
-    return f"{column} ({unit})" if unit else column
+    if not unit or column.lower().endswith(f"_{unit.lower()}"):  # altitude_ft, frequency_hz
+        return column
+    return f"{column} ({unit})"
