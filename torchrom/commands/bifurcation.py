@@ -21,7 +21,7 @@ import argparse
 from pathlib import Path
 
 from ..errors import InputError
-from ..progress import note
+from ..progress import info, note
 from ._common import add_study_options, check_outputs, load_study, maybe_write_json
 
 NAME = "bifurcation"
@@ -90,7 +90,7 @@ def run(args: argparse.Namespace) -> int:
     check_outputs(args, paths.values())
 
     with open_executor(args.workers, args.scheduler) as executor:
-        print(f"torchrom bifurcation: {len(controls)} control case(s) of '{cfg.title}' x "
+        info(f"torchrom bifurcation: {len(controls)} control case(s) of '{cfg.title}' x "
               f"{args.num} initial amplitudes q0 in [{lo:g}, {hi:g}], {executor.description}")
         evaluate = case_evaluator(cfg, model, device=device, dtype=dtype, executor=executor,
                                   chunk_size=args.chunk_size)

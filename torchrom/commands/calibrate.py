@@ -20,7 +20,7 @@ import argparse
 from pathlib import Path
 
 from ..errors import InputError
-from ..progress import note
+from ..progress import info, note
 from ._common import add_study_options, check_outputs, load_study, maybe_write_json
 
 NAME = "calibrate"
@@ -70,7 +70,7 @@ def run(args: argparse.Namespace) -> int:
     check_outputs(args, paths.values())
 
     with open_executor(args.workers, args.scheduler) as executor:
-        print(f"torchrom calibrate: gamma for {args.column} = {args.target:g} in "
+        info(f"torchrom calibrate: gamma for {args.column} = {args.target:g} in "
               f"{len(bases)} base case(s) of '{cfg.title}', gamma in [{args.gamma[0]:g}, "
               f"{args.gamma[1]:g}] s, {executor.description}")
         evaluate = case_evaluator(cfg, device=device, dtype=dtype, executor=executor,

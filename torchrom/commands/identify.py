@@ -19,6 +19,7 @@ from pathlib import Path
 
 from ..errors import InputError
 from ..io import check_can_write
+from ..progress import info
 from ._common import add_force_option, add_json_option, maybe_write_json
 
 NAME = "identify"
@@ -89,17 +90,17 @@ def run(args) -> int:
 
     combinations = parse_combinations(args.combinations)
     t0 = time.perf_counter()
-    print(f"reading {args.model}")
+    info(f"reading {args.model}")
     fe = read_bdf(args.model)
     backend = as_backend(fe)
     if args.step_x is not None:
         backend.step_x = float(args.step_x)
-    print(f"  {backend.n_dof} DOFs, span {backend.reference_length:g}, "
+    info(f"  {backend.n_dof} DOFs, span {backend.reference_length:g}, "
           f"outputs {sorted(backend.outputs)}")
     opt = IdentifyOptions(n_linear=args.linear, n_dual=args.dual, damping=args.damping,
                           stiffness=args.stiffness, amplitude=args.amplitude,
                           dual=DualModeOptions(combinations=combinations))
-    print(f"identifying {args.linear}L{args.dual}D ROM: stiffness {args.stiffness}, damping "
+    info(f"identifying {args.linear}L{args.dual}D ROM: stiffness {args.stiffness}, damping "
           f"{args.damping}")
     res = identify(backend, opt, progress=_Progress())
     res.rom.save(args.out)
@@ -121,7 +122,7 @@ def run(args) -> int:
     if args.report is not None:
         from ..identify.report import write_report
 
-        print(f"validating against the FE -> {args.report}")
+        info(f"validating against the FE -> {args.report}")
         nums = write_report(res, backend, args.report, gamma=args.gamma,
                             decay_tip_fraction=args.decay_tip)
         s.update(nums)
