@@ -5,8 +5,9 @@
 
 Steps:
 
-1. ``torchrom paper --out DIR`` (the full study; DIR defaults to ``paper/``, which git ignores,
-   so a rerun reuses its cache and takes seconds once the study has been run);
+1. ``torchrom paper --out DIR`` (the full study, with one thread: the decomposition's D̄2, D̄3
+   depend on the summation order; DIR defaults to ``paper/``, which git ignores, so a rerun
+   reuses its cache and takes seconds once the study has been run);
 2. copy ``DIR/figures/*.png`` and ``DIR/report.md`` into ``docs/paper/``, and ``DIR/paper.json``
    into ``docs/paper/paper.json`` without the fields that depend on the run rather than on the
    results (wall/CPU seconds, which files came from the cache, the output folder), and with the
@@ -184,9 +185,12 @@ def deck_lines(cmd_extra: list[str]) -> list[str]:
 
 
 def _env() -> dict[str, str]:
+    """The environment of the commands: one BLAS/torch thread, because the optimum damping
+    decomposition's D̄2, D̄3 depend on the summation order
+    (experiments/results/decomposition_spread.md)."""
     import os
 
-    return dict(os.environ)
+    return {**os.environ, "OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"}
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -196,6 +200,9 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--no-run", action="store_true",
                     help="do not run `torchrom paper`; use the files already in --paper-dir")
     args = ap.parse_args(argv)
+    sys.path.insert(0, str(ROOT))
+    from torchrom.io import write_text_atomic
+
     if not args.no_run:
         subprocess.run([sys.executable, "-m", "torchrom", "paper", "--out", str(args.paper_dir)],
                        check=True, cwd=ROOT, env={**_env(), "PYTHONPATH": str(ROOT)})
@@ -207,15 +214,15 @@ def main(argv: list[str] | None = None) -> int:
     for png in sorted((args.paper_dir / "figures").glob("*.png")):
         shutil.copyfile(png, DOCS / png.name)
     summary = docs_summary(paper)
-    (DOCS / "paper.json").write_text(json.dumps(summary, indent=2) + "\n")
+    write_text_atomic(DOCS / "paper.json", json.dumps(summary, indent=2) + "\n")
     report = (args.paper_dir / "report.md").read_text()
-    (DOCS / "report.md").write_text(docs_report(report, bench))
+    write_text_atomic(DOCS / "report.md", docs_report(report, bench))
     deck = None
     if DECK.is_file():
         deck = {"plain": deck_lines([]), "symmetric": deck_lines(["--symxz", "1",
                                                                    "--length-unit", "in"])}
     text = README.read_text()
-    README.write_text(replace_blocks(text, render_blocks(summary, bench, deck)))
+    write_text_atomic(README, replace_blocks(text, render_blocks(summary, bench, deck)))
     print(f"wrote {DOCS} and the README's generated blocks")
     return 0
 
