@@ -95,3 +95,40 @@ def test_replace_blocks_is_idempotent_and_refuses_a_missing_marker():
     assert regen.replace_blocks(once, {"x": "new"}) == once
     with pytest.raises(SystemExit, match="generated:y"):
         regen.replace_blocks(text, {"y": "z"})
+
+
+def _commands(text: str, prompt_only: bool) -> list[str]:
+    """``torchrom …`` command lines of a Markdown text (``$ torchrom`` only when
+    ``prompt_only``; never the commands' own output such as ``torchrom sweep: 4 cases …``)."""
+    import shlex
+
+    out = []
+    for line in text.splitlines():
+        s = line.strip()
+        if s.startswith("$ "):
+            s = s[2:]
+        elif prompt_only or not line.startswith("    "):
+            continue
+        if not s.startswith("torchrom "):
+            continue
+        words = shlex.split(s.split("  #")[0])
+        if len(words) > 1 and not words[1].endswith(":"):
+            out.append(words)
+    return out
+
+
+@pytest.mark.parametrize("doc", ["README.md", "docs/quickstart.md"])
+def test_documented_commands_parse(doc):
+    """Every command line shown in the README and the quickstart is accepted by the CLI's
+    argument parser (options and choices as they are today)."""
+    from torchrom.cli import build_parser
+
+    text = (REPO / doc).read_text()
+    commands = _commands(text, prompt_only=doc != "README.md")
+    assert len(commands) >= 7
+    parser = build_parser()
+    for words in commands:
+        try:
+            parser.parse_args(words[1:])
+        except SystemExit:
+            pytest.fail(f"{doc}: `{' '.join(words)}` is not a valid command line")
