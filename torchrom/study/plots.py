@@ -247,11 +247,15 @@ def bifurcation_plot(runs: pd.DataFrame, summary: pd.DataFrame, path, *, x: str 
               "threshold (unstable LCO)": ("o", "C1", "none"), "unbounded": ("^", "C3", "C3")}
     ax_b.legend(handles=[plt.Line2D([], [], marker=m, ls="none", color=c, mfc=f, label=k)
                          for k, (m, c, f) in styles.items() if present[k]], fontsize=8)
-    ax_b.set_xlabel(x or "case")
-    ax_b.set_ylabel("amplitude (LCO; threshold: initial amplitude)")
+    from .units import axis_label, column_units
+
+    unit = column_units(runs).get("amplitude")
+    u = f" ({unit})" if unit else ""
+    ax_b.set_xlabel(axis_label(summary, x) if x else "case")
+    ax_b.set_ylabel(f"amplitude{u} (LCO; threshold: initial amplitude)")
     ax_r.set_xscale("log")
-    ax_r.set_xlabel("initial amplitude")
-    ax_r.set_ylabel("final amplitude (decay = 0, unbounded at the top)")
+    ax_r.set_xlabel(f"initial amplitude{u}")
+    ax_r.set_ylabel(f"final amplitude{u} (decay = 0, unbounded at the top)")
     if x:
         ax_r.legend(fontsize=7)
     for ax in (ax_b, ax_r):
