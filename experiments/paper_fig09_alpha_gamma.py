@@ -3,8 +3,9 @@
     PYTHONPATH=. python experiments/paper_fig09_alpha_gamma.py [--out DIR] [--quick]
 
 Reads the γ grid of ``configs/paper_fig09.toml`` (the built-in Goland pipeline, cached in
-``[model] cache`` / $TORCHROM_CACHE), writes ``DIR/alpha_gamma.csv`` and ``DIR/fig09.png``; the
-same figure from the table: ``torchrom plot DIR/alpha_gamma.csv --figure fig9 --out fig9.png``.
+``[model] cache`` / the cache root, ``torchrom cache info``), writes ``DIR/alpha_gamma.csv``
+and ``DIR/fig09.png``; the same figure from the table:
+``torchrom plot DIR/alpha_gamma.csv --figure fig9 --out fig9.png``.
 """
 
 from __future__ import annotations

@@ -98,6 +98,36 @@ def test_pt145_with_reflection_plane_matches_the_reference(tmp_path, pt145_text,
     assert p.k == pytest.approx(0.1314, rel=0.02)
 
 
+def test_symxz_override_and_unit_labels(tmp_path, pt145_text, shared, capsys):
+    """--symxz 1 on the deck as given is the deck with AERO SYMXZ = 1 (the same image wing);
+    the output names the symmetry's source and labels velocities in the deck's length unit
+    (DTI,UNITS when present, else --length-unit)."""
+    from torchrom.cli import main
+
+    deck = load_deck(shared / "nastran" / "pt145.bdf")
+    assert "from the deck's AERO card (field blank)" in deck.symmetry
+    assert deck.velocity_unit == "length/s"
+    over = load_deck(shared / "nastran" / "pt145.bdf", symxz=1, length_unit="in")
+    assert over.reference.symxz == 1 and over.aero_panels.n == 48
+    assert "from the command line (the deck's AERO SYMXZ is 0)" in over.symmetry
+    assert over.velocity_unit == "in/s"
+    with pytest.raises(InputError, match="--symxz: expected -1, 0 or 1"):
+        load_deck(shared / "nastran" / "pt145.bdf", symxz=2)
+    dti = _variant(tmp_path, pt145_text, "pt145_dti.bdf",
+                   ("PARAM   COUPMASS1", "PARAM   COUPMASS1\n" + _field8("DTI", "UNITS", 1, "LBF",
+                                                                          "LBF", "IN", "S")))
+    assert load_deck(dti, length_unit="ft").velocity_unit == "in/s"  # the deck's card wins
+    # the CLI line the README quotes (reflection plane: NASA test problem 10-2-1, 5,980 in/s,
+    # 121 Hz; values as in test_pt145_with_reflection_plane_matches_the_reference)
+    assert main(["flutter", str(shared / "nastran" / "pt145.bdf"), "--symxz", "1",
+                 "--length-unit", "in"]) == 0
+    out = capsys.readouterr().out
+    m = re.search(r"flutter speed ([\d.]+) in/s, frequency ([\d.]+) Hz", out)
+    assert m and float(m[1]) == pytest.approx(REF_SPEED_IN_S, rel=0.02)
+    assert float(m[2]) == pytest.approx(REF_FREQUENCY_HZ, rel=0.02)
+    assert "symmetry: SYMXZ = 1: symmetric image" in out and "units: velocity in/s" in out
+
+
 def test_pk_and_ke_agree_on_the_flutter_point(shared, tmp_path, pt145_text, pt145_fe):
     """KE and PK are both exact at zero damping: the same flutter point up to interpolation."""
     pk_deck = _variant(

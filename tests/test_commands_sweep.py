@@ -113,3 +113,40 @@ def test_demo_configuration_runs(tmp_path):
     assert main(["sweep", str(cfg), "--out", str(tmp_path / "demo"), "--dtype", "float32"]) == 0
     table = pd.read_csv(tmp_path / "demo" / "results.csv")
     assert len(table) == 12 and set(table["status"]) <= {"lco", "decay", "unconverged"}
+
+
+def test_sweep_logged_to_a_file_shows_progress_lines_and_no_bar(small_config, tmp_path):
+    """stdout and stderr redirected to a file (not a terminal): plain progress lines with
+    elapsed time and ETA, no tqdm bar (no carriage returns, no 'it/s')."""
+    import os
+    import subprocess
+    import sys
+
+    log = tmp_path / "sweep.log"
+    env = {**os.environ, "PYTHONPATH": str(REPO)}
+    with open(log, "w") as fh:
+        rc = subprocess.run([sys.executable, "-m", "torchrom", "sweep", str(small_config),
+                             "--out", str(tmp_path / "out"), "--chunk-size", "2"],
+                            stdout=fh, stderr=subprocess.STDOUT, env=env, cwd=tmp_path,
+                            timeout=300).returncode
+    text = log.read_text()
+    assert rc == 0, text
+    lines = [ln for ln in text.splitlines() if ln.startswith("cases done:")]
+    assert len(lines) >= 3 and lines[-1].startswith("cases done: 6/6 cases (100 %)")
+    assert all("elapsed" in ln and "ETA" in ln for ln in lines)
+    assert "\r" not in text and "it/s" not in text and "case/s" not in text
+    out = tmp_path / "out"
+    for name in ("results.parquet", "results.csv"):
+        assert (out / name).stat().st_mode & 0o777 == 0o666 & ~_umask()
+    quiet = subprocess.run([sys.executable, "-m", "torchrom", "sweep", str(small_config),
+                            "--out", str(tmp_path / "quiet"), "--quiet", "--chunk-size", "2"],
+                           capture_output=True,
+                           text=True, env=env, cwd=tmp_path, timeout=300)
+    assert quiet.returncode == 0 and "cases done" not in quiet.stdout + quiet.stderr
+    assert "wrote" in quiet.stdout  # results are still reported
+
+
+def _umask() -> int:
+    from torchrom.io import current_umask
+
+    return current_umask()

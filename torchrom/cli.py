@@ -32,6 +32,15 @@ def _command_modules():
     return mods
 
 
+def _add_verbosity_options(parser: argparse.ArgumentParser) -> None:
+    """--quiet / --verbose of every command (:mod:`torchrom.progress`)."""
+    group = parser.add_mutually_exclusive_group()
+    group.add_argument("-q", "--quiet", action="store_true",
+                       help="no progress output and no stage messages (results and errors only)")
+    group.add_argument("-v", "--verbose", action="store_true",
+                       help="a progress line at every update (instead of a bar or one per 10 %%)")
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="torchrom",
@@ -45,6 +54,7 @@ def build_parser() -> argparse.ArgumentParser:
     for mod in _command_modules():
         p = sub.add_parser(mod.NAME, help=mod.HELP, description=mod.HELP)
         mod.add_arguments(p)
+        _add_verbosity_options(p)
         p.set_defaults(_run=mod.run, _name=mod.NAME)
     return parser
 
@@ -55,6 +65,9 @@ def main(argv: list[str] | None = None) -> int:
     if not getattr(args, "command", None):
         parser.print_help()
         return 0
+    from .progress import NORMAL, QUIET, VERBOSE, set_verbosity
+
+    set_verbosity(QUIET if args.quiet else VERBOSE if args.verbose else NORMAL)
     try:
         rc = args._run(args)
     except TorchromError as exc:

@@ -1,7 +1,8 @@
 """Small file helpers shared by every writer: atomic writes and no silent overwrites.
 
 A result file is written to a temporary name in the same directory and renamed into place, so a
-crash or interrupt never leaves a half-written file under the final name.
+crash or interrupt never leaves a half-written file under the final name; it gets the permissions
+of any new file (0666 less the umask), not the temporary file's private 0600.
 """
 
 from __future__ import annotations
@@ -32,10 +33,21 @@ def atomic_path(path: str | os.PathLike, suffix: str | None = None) -> Iterator[
     tmp_path = Path(tmp)
     try:
         yield tmp_path
+        # mkstemp creates the file 0600; a result file gets the mode any new file would get
+        # (0666 less the umask, typically 0644) before it appears under its final name
+        if tmp_path.is_file():
+            os.chmod(tmp_path, 0o666 & ~current_umask())
         os.replace(tmp_path, path)
     finally:
         if tmp_path.exists():
             tmp_path.unlink()
+
+
+def current_umask() -> int:
+    """The process's file-creation mask (read by setting and restoring it)."""
+    mask = os.umask(0o022)
+    os.umask(mask)
+    return mask
 
 
 def write_text_atomic(path: str | os.PathLike, text: str) -> Path:

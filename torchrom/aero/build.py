@@ -16,6 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import InputError
+from ..reference import paper_reference
 from .dlm import BoxMotion, compute_gaf
 from .files import AeroData
 from .flutter import (
@@ -55,14 +56,15 @@ GOLAND_K_LIST = (
     1.0,
 )
 
+_PAPER = paper_reference()
 #: paper's baseline Rayleigh damping (Eq. 46): α0 (1/s), β0 = γ (s) with D̄1 = K1
-BASELINE_ALPHA = 0.2565
-BASELINE_GAMMA = 1.338e-4
+BASELINE_ALPHA = _PAPER.alpha0_per_s
+BASELINE_GAMMA = _PAPER.beta0_s
 
-#: paper's reference results at Mach 0.70 (Sec. III.C, Table 3)
-PAPER_FLUTTER_ALTITUDE_FT = 11275.0
-PAPER_FLUTTER_FREQUENCY_HZ = 1.975
-PAPER_TABLE3 = {4000.0: 1.851, 6000.0: 1.881, 8000.0: 1.911, 10000.0: 1.945, 11000.0: 1.962}
+#: paper's reference results at Mach 0.70 (Sec. III.C, Table 3; data/paper_reference.toml)
+PAPER_FLUTTER_ALTITUDE_FT = _PAPER.flutter_altitude_ft
+PAPER_FLUTTER_FREQUENCY_HZ = _PAPER.flutter_frequency_hz
+PAPER_TABLE3 = dict(_PAPER.table3_hz)
 
 
 @dataclass

@@ -8,7 +8,18 @@ checks with one-line errors, and the Nastran-style output (V-g table, flutter su
 Cards honoured: FLUTTER (methods PK, PKNL, KE, K), FLFACT (density ratios, Mach numbers,
 reduced frequencies or velocities; the ``THRU`` form is expanded by pyNastran), MKAERO1/MKAERO2,
 AERO (REFC, RHOREF, SYMXZ), AEROS, CAERO1/PAERO1 (+AEFACT), SPLINE1/SPLINE2/SET1, EIGR/EIGRL
-(ND, frequency range), PARAM LMODES and PARAM VREF; case control FMETHOD and METHOD.
+(ND, frequency range), PARAM LMODES, PARAM VREF and DTI,UNITS (the labels of the output); case
+control FMETHOD and METHOD.
+
+Symmetry: the reflection plane is the deck's AERO SYMXZ (AEROS when there is no AERO card):
++1 a symmetric image wing (a wall-mounted model), -1 antisymmetric, 0 or blank an isolated half
+wing. ``symxz`` of :func:`load_deck` (``torchrom flutter --symxz``) overrides it; the output says
+which was used and where it came from.
+
+Units: a Nastran deck has none of its own; results are in the deck's units (velocities in its
+length unit per second divided by PARAM VREF, densities in its mass per length cubed, frequencies
+in Hz). The length unit is labelled from DTI,UNITS when the deck has it, else from the caller
+(``--length-unit``), else as "length".
 
 Documented differences from Nastran: GAFs are computed directly at each FLFACT Mach number (on
 the reduced frequencies of the nearest MKAERO Mach for PK; at the FLFACT reduced frequencies
@@ -21,7 +32,7 @@ PARAM VREF.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -84,6 +95,21 @@ class FlutterDeck:
     vref: float = 1.0
     title: str = ""
     notes: list[str] = field(default_factory=list)
+    length_unit: str = "length"
+    symmetry_source: str = "AERO SYMXZ"
+
+    @property
+    def velocity_unit(self) -> str:
+        """Label of the output velocities (deck length unit per second, over PARAM VREF)."""
+        u = f"{self.length_unit}/s"
+        return u if self.vref == 1.0 else f"{u} / VREF ({self.vref:g})"
+
+    @property
+    def symmetry(self) -> str:
+        """One line: the reflection plane used and where it came from."""
+        what = {0: "none (isolated half wing)", 1: "symmetric image (reflection plane xz)",
+                -1: "antisymmetric image about xz"}[self.reference.symxz]
+        return f"SYMXZ = {self.reference.symxz}: {what}, from {self.symmetry_source}"
 
     @property
     def aero_panels(self) -> AeroPanels:
@@ -192,11 +218,13 @@ def _spline_defs(model, path: Path, panels: AeroPanels) -> list[SplineDef]:
     return defs
 
 
-def load_deck(path, require_flutter: bool = True) -> FlutterDeck:
+def load_deck(path, require_flutter: bool = True, *, symxz: int | None = None,
+              length_unit: str | None = None) -> FlutterDeck:
     """Read and check the aeroelastic part of a deck (everything except the modal solution).
 
     ``require_flutter=False`` accepts a deck with aerodynamic boxes and splines but no FLUTTER
-    cards (to build GAFs only).
+    cards (to build GAFs only). ``symxz`` (-1, 0, +1) overrides the deck's AERO/AEROS SYMXZ;
+    ``length_unit`` labels the output when the deck has no DTI,UNITS card.
     """
     path = Path(path)
     model = read_model(path)
@@ -204,6 +232,16 @@ def load_deck(path, require_flutter: bool = True) -> FlutterDeck:
         raise InputError(f"{path}: CAERO1: no aerodynamic panels in the deck")
     panels = read_caero1(model, str(path))
     ref = read_aero_reference(model, str(path))
+    card = "AERO" if model.aero is not None else "AEROS"
+    source = f"the deck's {card} card" + (" (field blank)" if ref.symxz == 0 else "")
+    if symxz is not None:
+        if symxz not in (-1, 0, 1):
+            raise InputError(f"--symxz: expected -1, 0 or 1, got {symxz}")
+        if symxz != ref.symxz:
+            source = f"the command line (the deck's {card} SYMXZ is {ref.symxz})"
+        ref = replace(ref, symxz=int(symxz))
+    units = model.dti.get("UNITS")
+    deck_length = (units.fields.get("length") if units is not None else None) or None
     splines = _spline_defs(model, path, panels)
     if not splines:
         raise InputError(f"{path}: SPLINE1/SPLINE2: no spline connects the structure to the boxes")
@@ -268,7 +306,9 @@ def load_deck(path, require_flutter: bool = True) -> FlutterDeck:
     if cc is not None and cc.subcases[0].has_parameter("TITLE")[0]:
         title = str(cc.subcases[0].get_parameter("TITLE")[0]).strip()
     return FlutterDeck(
-        path, panels, ref, splines, cases, sorted(set(mkaero)), n_modes, frange, vref, title, notes
+        path, panels, ref, splines, cases, sorted(set(mkaero)), n_modes, frange, vref, title, notes,
+        length_unit=str(deck_length or length_unit or "length").lower(),
+        symmetry_source=source,
     )
 
 
@@ -326,6 +366,10 @@ class DeckResult:
         return {
             "deck": str(self.deck.path),
             "title": self.deck.title,
+            "symxz": self.deck.reference.symxz,
+            "symmetry": self.deck.symmetry,
+            "units": {"velocity": self.deck.velocity_unit, "frequency": "Hz",
+                      "density": f"mass/{self.deck.length_unit}^3 (deck units)"},
             "modal_frequencies_hz": self.frequencies_hz.tolist(),
             "flutter": [
                 {
@@ -422,9 +466,12 @@ def run_deck(deck_or_path, fe=None, kernel: str = "quartic", log=print) -> DeckR
 def format_deck_result(res: DeckResult) -> str:
     """Nastran-like FLUTTER SUMMARY tables and the flutter points, in the deck's units."""
     vref = res.deck.vref
+    vu = res.deck.velocity_unit
     lines = []
     if res.deck.title:
         lines.append(res.deck.title)
+    lines.append(f"symmetry: {res.deck.symmetry}")
+    lines.append(f"units: velocity {vu} (the deck's), frequency Hz")
     lines.append("modal frequencies (Hz): " + "  ".join(f"{f:.5g}" for f in res.frequencies_hz))
     for r in res.results:
         sw = r.sweep
@@ -456,8 +503,8 @@ def format_deck_result(res: DeckResult) -> str:
             any_point = True
             lines.append(
                 f"FLUTTER {r.case.sid} ({r.case.method}) Mach {r.mach:g} density ratio "
-                f"{r.density_ratio:g}: mode {p.mode + 1} flutter speed {p.velocity / vref:.5g}, "
-                f"frequency {p.frequency_hz:.5g} Hz, k = {p.k:.4f}"
+                f"{r.density_ratio:g}: mode {p.mode + 1} flutter speed {p.velocity / vref:.5g} "
+                f"{vu}, frequency {p.frequency_hz:.5g} Hz, k = {p.k:.4f}"
             )
     if not any_point:
         lines.append("no flutter crossing (damping stays negative) in the requested range")

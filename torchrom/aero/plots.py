@@ -42,9 +42,9 @@ def plot_vg(
         ax_g.plot(xs[order, j], sweep.damping[order, j], marker=".", label=f"mode {j + 1}")
         ax_f.plot(xs[order, j], sweep.frequency_hz[order, j], marker=".")
     ax_g.axhline(0.0, color="k", lw=0.8)
-    ax_g.set_ylabel("damping g")
+    ax_g.set_ylabel("damping g (-)")
     ax_f.set_ylabel("frequency (Hz)")
-    ax_f.set_xlabel(velocity_label if x == "velocity" else "altitude")
+    ax_f.set_xlabel(velocity_label if x == "velocity" else "altitude (ft)")
     finite = sweep.damping[np.isfinite(sweep.damping)]
     if finite.size:
         lo, hi = np.percentile(finite, [1, 99])

@@ -3,5 +3,5 @@
 # Order in ``torchrom --help``; commands not listed come after, alphabetically.
 ORDER = [
     "paper", "goland", "modes", "identify", "aero", "flutter", "sweep", "plot",
-    "branch", "calibrate", "bifurcation",
+    "branch", "calibrate", "bifurcation", "cache",
 ]

@@ -83,14 +83,24 @@ def add_study_options(parser: argparse.ArgumentParser, outputs: str) -> None:
     add_executor_options(parser)
     add_json_option(parser)
     add_force_option(parser)
+    add_cache_option(parser)
+
+
+def add_cache_option(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--cache-dir", type=Path, default=None, metavar="DIR",
+                        help="cache root for built-in models (default: $TORCHROM_CACHE, else "
+                             "~/.cache/torchrom; see `torchrom cache info`)")
 
 
 def load_study(args: argparse.Namespace):
     """(torch device, torch dtype, SweepConfig) from --device, --dtype and the configuration."""
     import torch
 
+    from ..cache_dir import set_cache_root
     from ..study.config import load_sweep_config, with_method
 
+    if getattr(args, "cache_dir", None) is not None:
+        set_cache_root(args.cache_dir)
     cfg = with_method(load_sweep_config(args.config), getattr(args, "method", None))
     return torch_device(args.device), getattr(torch, args.dtype), cfg
 

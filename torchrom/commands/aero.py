@@ -9,6 +9,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from ..progress import info
 from ._common import add_force_option, add_json_option, maybe_write_json
 
 NAME = "aero"
@@ -80,14 +81,14 @@ def run(args: argparse.Namespace) -> int:
 
     check_can_write(args.out, args.force, "aero file")
     goland = args.model == "goland" or args.planform == "goland"
-    print(f"torchrom aero: {args.model}: modal analysis ({args.modes} modes)")
+    info(f"torchrom aero: {args.model}: modal analysis ({args.modes} modes)")
     fe = load_fe(args.model)
     bar = _progress()
     if goland:
         modes = modal_data(fe, args.modes)
         k_list = GOLAND_K_LIST if args.k is None else sorted({0.0, *args.k})
         panels = goland_panels(*args.boxes)
-        print(
+        info(
             f"  {panels.n} boxes (built-in Goland planform, full span), {len(k_list)} reduced "
             f"frequencies, Mach {args.mach:g}, {args.kernel} kernel"
         )
@@ -138,8 +139,9 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _progress():
-    """A tqdm bar over reduced frequencies (closed by calling it with None)."""
-    from tqdm import tqdm
+    """Progress over reduced frequencies (:class:`torchrom.progress.Progress`; closed by calling
+    it with None)."""
+    from ..progress import Progress
 
     state = {}
 
@@ -149,7 +151,7 @@ def _progress():
                 state["bar"].close()
             return
         if "bar" not in state:
-            state["bar"] = tqdm(total=n, desc="  DLM", unit="k", leave=False)
-        state["bar"].update(1)
+            state["bar"] = Progress(n, "  DLM", unit="reduced frequencies")
+        state["bar"].update_to(state["bar"].done + 1)
 
     return update

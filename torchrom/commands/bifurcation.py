@@ -18,10 +18,10 @@ threshold_amplitude in output units), ``DIR/bifurcation_runs.{parquet,csv}`` (ev
 from __future__ import annotations
 
 import argparse
-import sys
 from pathlib import Path
 
 from ..errors import InputError
+from ..progress import info, note
 from ._common import add_study_options, check_outputs, load_study, maybe_write_json
 
 NAME = "bifurcation"
@@ -90,14 +90,14 @@ def run(args: argparse.Namespace) -> int:
     check_outputs(args, paths.values())
 
     with open_executor(args.workers, args.scheduler) as executor:
-        print(f"torchrom bifurcation: {len(controls)} control case(s) of '{cfg.title}' x "
+        info(f"torchrom bifurcation: {len(controls)} control case(s) of '{cfg.title}' x "
               f"{args.num} initial amplitudes q0 in [{lo:g}, {hi:g}], {executor.description}")
         evaluate = case_evaluator(cfg, model, device=device, dtype=dtype, executor=executor,
                                   chunk_size=args.chunk_size)
         result = bifurcation_sweep(evaluate, controls, np.geomspace(lo, hi, args.num),
                                    refine=args.refine, points=args.points,
                                    same_rtol=args.same_rtol, initial_scale=scale,
-                                   log=lambda m: print(m, file=sys.stderr))
+                                   log=note)
     summary = result.summary
     written = [*write_table(summary, out, force=args.force, stem="bifurcation").values(),
                *write_table(result.runs, out, force=args.force,

@@ -17,10 +17,10 @@ status), ``DIR/calibration_runs.{parquet,csv}`` (every simulation) and ``DIR/cal
 from __future__ import annotations
 
 import argparse
-import sys
 from pathlib import Path
 
 from ..errors import InputError
+from ..progress import info, note
 from ._common import add_study_options, check_outputs, load_study, maybe_write_json
 
 NAME = "calibrate"
@@ -74,7 +74,7 @@ def run(args: argparse.Namespace) -> int:
     check_outputs(args, paths.values())
 
     with open_executor(args.workers, args.scheduler) as executor:
-        print(f"torchrom calibrate: gamma for {args.column} = {args.target:g} in "
+        info(f"torchrom calibrate: gamma for {args.column} = {args.target:g} in "
               f"{len(bases)} base case(s) of '{cfg.title}', gamma in [{args.gamma[0]:g}, "
               f"{args.gamma[1]:g}] s, {executor.description}")
         evaluate = case_evaluator(cfg, device=device, dtype=dtype, executor=executor,
@@ -82,7 +82,7 @@ def run(args: argparse.Namespace) -> int:
         result = calibrate_gamma(evaluate, bases, args.target, gamma_range=tuple(args.gamma),
                                  column=args.column, num=args.num, rtol=args.rtol,
                                  max_rounds=args.rounds,
-                                 log=lambda m: print(m, file=sys.stderr))
+                                 log=note)
     table = result.table
     written = [*write_table(table, out, force=args.force, stem="calibration").values(),
                *write_table(result.evaluations, out, force=args.force,

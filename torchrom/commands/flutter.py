@@ -78,6 +78,12 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         "given α, γ (paper Fig. 9)",
     )
     p.add_argument("--plot", type=Path, help="write a V-g / V-f figure (PNG/PDF)")
+    p.add_argument("--symxz", type=int, choices=(-1, 0, 1), default=None,
+                   help="deck form: override the deck's AERO/AEROS SYMXZ (1: reflection plane, "
+                        "e.g. a wall-mounted model; -1: antisymmetric; 0: isolated half wing)")
+    p.add_argument("--length-unit", default=None, metavar="UNIT",
+                   help="deck form: label of the deck's length unit (e.g. in) when it has no "
+                        "DTI,UNITS card; velocities are printed in UNIT/s")
     p.add_argument("--root-locus", type=Path, help="write a state-space root-locus figure")
     add_json_option(p)
 
@@ -101,7 +107,7 @@ def _run_deck(args, path: Path) -> int:
     from ..aero.nastran_flutter import format_deck_result, load_deck, run_deck
     from .aero import load_fe
 
-    deck = load_deck(path)
+    deck = load_deck(path, symxz=args.symxz, length_unit=args.length_unit)
     print(
         f"torchrom flutter: {path}: {len(deck.cases)} FLUTTER case(s), {deck.aero_panels.n} boxes"
     )
@@ -111,7 +117,9 @@ def _run_deck(args, path: Path) -> int:
         from ..aero.plots import plot_vg
 
         plot_vg(
-            res.results[0].sweep, args.plot, title=f"{path.name}: FLUTTER {res.results[0].case.sid}"
+            res.results[0].sweep, args.plot,
+            velocity_label=f"velocity ({deck.length_unit}/s)",
+            title=f"{path.name}: FLUTTER {res.results[0].case.sid}, {deck.symmetry}",
         )
         print(f"wrote {args.plot}")
     maybe_write_json(args, res.as_dict())

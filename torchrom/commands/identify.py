@@ -14,12 +14,12 @@ relative residuals, smallest eigenvalues of the extended damping matrix), plus t
 
 from __future__ import annotations
 
-import sys
 import time
 from pathlib import Path
 
 from ..errors import InputError
 from ..io import check_can_write
+from ..progress import info
 from ._common import add_force_option, add_json_option, maybe_write_json
 
 NAME = "identify"
@@ -59,19 +59,18 @@ def add_arguments(parser) -> None:
 
 
 class _Progress:
-    """One tqdm bar per FE stage, on stderr."""
+    """Progress of each FE stage (:class:`torchrom.progress.Progress`)."""
 
     def __init__(self):
         self.bars = {}
 
     def __call__(self, stage, done, total):
-        from tqdm import tqdm
+        from ..progress import Progress
 
         bar = self.bars.get(stage)
         if bar is None:
-            bar = self.bars[stage] = tqdm(total=total, desc=f"  {stage}", unit="FE",
-                                          file=sys.stderr, leave=True)
-        bar.update(done - bar.n)
+            bar = self.bars[stage] = Progress(total, f"  {stage}", unit="FE solves")
+        bar.update_to(done)
         if done >= total:
             bar.close()
 
@@ -91,17 +90,17 @@ def run(args) -> int:
 
     combinations = parse_combinations(args.combinations)
     t0 = time.perf_counter()
-    print(f"reading {args.model}")
+    info(f"reading {args.model}")
     fe = read_bdf(args.model)
     backend = as_backend(fe)
     if args.step_x is not None:
         backend.step_x = float(args.step_x)
-    print(f"  {backend.n_dof} DOFs, span {backend.reference_length:g}, "
+    info(f"  {backend.n_dof} DOFs, span {backend.reference_length:g}, "
           f"outputs {sorted(backend.outputs)}")
     opt = IdentifyOptions(n_linear=args.linear, n_dual=args.dual, damping=args.damping,
                           stiffness=args.stiffness, amplitude=args.amplitude,
                           dual=DualModeOptions(combinations=combinations))
-    print(f"identifying {args.linear}L{args.dual}D ROM: stiffness {args.stiffness}, damping "
+    info(f"identifying {args.linear}L{args.dual}D ROM: stiffness {args.stiffness}, damping "
           f"{args.damping}")
     res = identify(backend, opt, progress=_Progress())
     res.rom.save(args.out)
@@ -123,7 +122,7 @@ def run(args) -> int:
     if args.report is not None:
         from ..identify.report import write_report
 
-        print(f"validating against the FE -> {args.report}")
+        info(f"validating against the FE -> {args.report}")
         nums = write_report(res, backend, args.report, gamma=args.gamma,
                             decay_tip_fraction=args.decay_tip)
         s.update(nums)

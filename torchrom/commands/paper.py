@@ -51,15 +51,16 @@ def run(args: argparse.Namespace) -> int:
     import time
 
     from ..paper.study import FIGURE_FILES, run_paper
+    from ..progress import info
     from ._common import torch_device
 
     out = args.out or Path(("paper-quick" if args.quick else "paper")
                            + ("-hb" if args.method == "hb" else ""))
     device = torch_device(args.device)
     t0 = time.perf_counter()
-    print(f"torchrom paper{' --quick' if args.quick else ''} (method {args.method}): heavy "
-          f"Goland wing study into {out}")
-    summary = run_paper(out, quick=args.quick, force=args.force, device=str(device),
+    info(f"torchrom paper{' --quick' if args.quick else ''} (method {args.method}): heavy "
+         f"Goland wing study into {out}")
+    summary = run_paper(out, quick=args.quick, force=args.force, device=str(device), log=info,
                         method=args.method)
     verdicts = [f["verdict"] for f in summary["findings"]]
     print(f"findings: {verdicts.count('agree')} agree, {verdicts.count('differ')} differ, "

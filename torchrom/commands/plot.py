@@ -1,11 +1,24 @@
-"""``torchrom plot TABLE --figure figN --out FILE``: draw one of the paper's figures from a table.
+"""``torchrom plot TABLE``: a figure of any result table, or one of the paper's figures.
 
-TABLE is a results table written by ``torchrom sweep`` or ``torchrom paper`` (``.parquet`` or
-``.csv``). Figures (paper Sec. IV): ``fig9`` α vs γ (a table with columns gamma, alpha, e.g.
-``alpha_gamma.csv`` of ``torchrom paper``), ``fig10`` LCO amplitude vs altitude, ``fig11`` time
-histories of point A (needs ``histories.parquet``: ``--histories``, default beside TABLE),
-``fig12`` LCO frequency vs altitude, ``fig13`` amplitude ratios q1/q2 and q1/q4. The figure's
-format follows the suffix of FILE (png, pdf, svg). An existing FILE is kept unless ``--force``.
+TABLE is a table written by ``torchrom sweep``, ``paper``, ``calibrate``, ``bifurcation`` (or any
+``.parquet`` / ``.csv`` with one row per case).
+
+General form: ``--x COL --y COL [--hue COL] [--facet COL]``: y against x, one line per value of
+``hue``, one panel per value of ``facet``; status markers when the table has a ``status`` column.
+Axis labels carry units from the table's column metadata (parquet; the known columns are
+labelled from a CSV too, :mod:`torchrom.study.units`).
+
+Paper form: ``--figure NAME`` (paper Sec. IV): ``fig9`` α vs γ (a table with columns gamma,
+alpha, e.g. ``tables/alpha_gamma.csv`` of ``torchrom paper``), ``fig10`` LCO amplitude vs
+altitude, ``fig11`` time histories of point A (needs ``histories.parquet``: ``--histories``,
+default beside TABLE), ``fig12`` LCO frequency vs altitude (with the paper's Table 3 and flutter
+point), ``fig13`` amplitude ratios q1/q2 and q1/qN (``--q4-mode N``: our mode matched to the
+paper's mode 4, default 4), ``table2`` natural frequencies against the paper's Table 2 (a table
+with columns mode, frequency_hz[, kind]). ``--flutter-altitude FT`` marks our flutter altitude
+(the paper's is always marked).
+
+The figure's format follows the suffix of ``--out`` (png, pdf, svg). An existing file is kept
+unless ``--force``.
 """
 
 from __future__ import annotations
@@ -16,16 +29,26 @@ from pathlib import Path
 from ._common import add_force_option
 
 NAME = "plot"
-HELP = "draw a paper figure (fig9 .. fig13) from a results table"
-FIGURE_NAMES = ("fig9", "fig10", "fig11", "fig12", "fig13")
+HELP = "draw any result table (--x/--y/--hue/--facet) or a paper figure (--figure fig9..fig13)"
+FIGURE_NAMES = ("fig9", "fig10", "fig11", "fig12", "fig13", "table2")
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("table", type=Path, help="results table (.parquet or .csv)")
-    parser.add_argument("--figure", required=True, choices=FIGURE_NAMES, help="which figure")
     parser.add_argument("--out", type=Path, required=True, help="figure file (.png, .pdf, .svg)")
+    parser.add_argument("--x", help="general form: column on the x axis")
+    parser.add_argument("--y", default="amplitude",
+                        help="general form: column on the y axis (default amplitude)")
+    parser.add_argument("--hue", help="general form: one line per value of this column")
+    parser.add_argument("--facet", help="general form: one panel per value of this column")
+    parser.add_argument("--title", help="general form: figure title")
+    parser.add_argument("--figure", choices=FIGURE_NAMES, help="paper form: which figure")
     parser.add_argument("--histories", type=Path, default=None,
                         help="time histories for fig11 (default: histories.parquet beside TABLE)")
+    parser.add_argument("--q4-mode", type=int, default=4, metavar="N",
+                        help="fig13: our mode compared with the paper's mode 4 (default 4)")
+    parser.add_argument("--flutter-altitude", type=float, default=None, metavar="FT",
+                        help="fig10/12/13: mark our flutter altitude (ft)")
     add_force_option(parser)
 
 
@@ -44,13 +67,27 @@ def read_table(path: Path):
 
 
 def run(args: argparse.Namespace) -> int:
+    from ..errors import InputError
     from ..study import figures
+    from ..study.plots import parameter_plot
 
+    if (args.figure is None) == (args.x is None):
+        raise InputError("plot: give either --x (and --y, --hue, --facet) for any table or "
+                         "--figure NAME for a paper figure")
     table = read_table(args.table)
-    if args.figure == "fig11":
+    if args.figure is None:
+        path = parameter_plot(table, args.out, x=args.x, y=args.y, hue=args.hue,
+                              facet=args.facet, title=args.title, force=args.force)
+    elif args.figure == "fig11":
         hist = args.histories or args.table.parent / "histories.parquet"
         path = figures.fig11(table, read_table(hist), args.out, force=args.force)
     else:
-        path = figures.TABLE_FIGURES[args.figure](table, args.out, force=args.force)
+        kw = {}
+        if args.figure in ("fig10", "fig12", "fig13"):
+            kw["flutter_altitude_ft"] = args.flutter_altitude
+        if args.figure == "fig13":
+            kw["q4_mode"] = args.q4_mode
+        draw = figures.table2 if args.figure == "table2" else figures.TABLE_FIGURES[args.figure]
+        path = draw(table, args.out, force=args.force, **kw)
     print(f"wrote {path}")
     return 0

@@ -20,7 +20,6 @@ different configuration or model, or results it did not write, is refused unless
 from __future__ import annotations
 
 import argparse
-import sys
 from pathlib import Path
 
 from ._common import add_study_options, check_outputs, load_study, maybe_write_json
@@ -81,18 +80,17 @@ def run(args: argparse.Namespace) -> int:
                          *((hist_path,) if cfg.history else ())),
                   may_replace=args.force or resumable)
 
-    from tqdm import tqdm
+    from ..progress import Progress, info
 
     with open_executor(args.workers, args.scheduler) as executor:
         how = (f"harmonic balance (H {cfg.hb.options.harmonics}..{cfg.hb.options.max_harmonics}"
                f", {cfg.hb.start} starts)" if cfg.method == "hb" else
                f"dt = {cfg.integrator.dt:g} s, t_end = {cfg.t_end:g} s")
-        print(f"torchrom sweep: {len(cfg.cases)} cases of '{cfg.title}' ({args.config}) on "
-              f"{device}/{args.dtype}, {executor.description}, {how}")
-        with tqdm(total=len(cfg.cases), unit="case", desc="cases done", file=sys.stderr,
-                  disable=None) as bar:
+        info(f"torchrom sweep: {len(cfg.cases)} cases of '{cfg.title}' ({args.config}) on "
+             f"{device}/{args.dtype}, {executor.description}, {how}")
+        with Progress(len(cfg.cases), "cases done") as bar:
             def progress(done: int, total: int) -> None:
-                bar.update(done - bar.n)
+                bar.update_to(done)
 
             histories = []
             try:

@@ -26,7 +26,17 @@ def _savefig(fig, path: Path) -> None:
         fig.savefig(tmp, dpi=110, bbox_inches="tight")
 
 
-def _static_figure(curves: dict, path: Path) -> None:
+def _units(backend) -> tuple[str, str]:
+    """(length, pressure) unit labels of the FE model (its ``units``, e.g. ft and lbf/ft²);
+    "FE length" / "FE force/length²" when the deck does not say."""
+    units = dict(getattr(getattr(backend, "fe", None), "units", {}) or {})
+    length = units.get("length")
+    force = units.get("force")
+    pressure = f"{force}/{length}²" if force and length else "FE force/length²"
+    return (length or "FE length units"), pressure
+
+
+def _static_figure(curves: dict, path: Path, units: tuple[str, str]) -> None:
     import matplotlib
 
     matplotlib.use("Agg")
@@ -38,8 +48,8 @@ def _static_figure(curves: dict, path: Path) -> None:
             ax = axes[row, col]
             ax.plot(c.levels, c.fe[k], "ko-", ms=4, label="FE (Newton)")
             ax.plot(c.levels, c.rom[k], "r^--", ms=4, label="ROM (Newton)")
-            ax.set_xlabel("pressure")
-            ax.set_ylabel(f"{k} (length units)")
+            ax.set_xlabel(f"pressure ({units[1]})")
+            ax.set_ylabel(f"{k} ({units[0]})")
             ax.set_title(f"{shape} pressure: {k}")
             ax.grid(alpha=0.3)
         axes[row, 0].legend()
@@ -48,7 +58,7 @@ def _static_figure(curves: dict, path: Path) -> None:
     plt.close(fig)
 
 
-def _decay_figure(dec: v.FreeDecay, path: Path) -> None:
+def _decay_figure(dec: v.FreeDecay, path: Path, length: str) -> None:
     import matplotlib
 
     matplotlib.use("Agg")
@@ -58,7 +68,7 @@ def _decay_figure(dec: v.FreeDecay, path: Path) -> None:
     ax.plot(dec.t, dec.fe, "k-", lw=1.2, label="FE transient")
     ax.plot(dec.t, dec.rom, "r--", lw=1.0, label="ROM")
     ax.set_xlabel("t (s)")
-    ax.set_ylabel("A_Tz")
+    ax.set_ylabel(f"A_Tz ({length})")
     ax.set_title(f"free decay, Kelvin–Voigt γ = {dec.gamma:g} s")
     ax.grid(alpha=0.3)
     ax.legend()
@@ -132,7 +142,7 @@ def write_report(result, backend, directory, *, gamma: float = 1e-3, cycles: int
     if step_x is not None:
         numbers["static_step_midline_x"] = float(step_x)
     if curves:
-        _static_figure(curves, directory / "static.png")
+        _static_figure(curves, directory / "static.png", _units(backend))
     numbers["time_static_validation_s"] = time.perf_counter() - t0
     dec = None
     if dynamic and "uniform" in backend.load_shapes():
@@ -140,7 +150,7 @@ def write_report(result, backend, directory, *, gamma: float = 1e-3, cycles: int
         dec = v.free_decay_validation(backend, rom, Phi, backend.load_shapes()["uniform"],
                                       gamma=gamma, cycles=cycles,
                                       tip_fraction=decay_tip_fraction)
-        _decay_figure(dec, directory / "free_decay.png")
+        _decay_figure(dec, directory / "free_decay.png", _units(backend)[0])
         numbers.update({f"decay_{k}": val for k, val in dec.metrics.items()})
         numbers["time_free_decay_s"] = time.perf_counter() - t1
     other = _other_damping(result, backend)
@@ -174,6 +184,11 @@ def _fmt(x) -> str:
     if isinstance(x, float):
         return f"{x:.3e}" if (x != 0 and (abs(x) < 1e-2 or abs(x) >= 1e4)) else f"{x:.4g}"
     return str(x)
+
+
+def _err(x) -> str:
+    """A relative error, or – where none is defined (NaN: the FE value is ~0)."""
+    return "–" if isinstance(x, float) and x != x else _fmt(x)
 
 
 def _markdown(result, curves, dec, numbers, decay_tip_fraction) -> str:
@@ -213,8 +228,10 @@ def _markdown(result, curves, dec, numbers, decay_tip_fraction) -> str:
         for shape, c in curves.items():
             bands = [c.error_table(max_tip_pct=b) for b in BANDS_PCT]
             for k, e in c.errors.items():
-                lines.append(f"| {shape} | {k} | " + " | ".join(_fmt(t[k]) for t in bands)
-                             + f" | {_fmt(e)} | {c.tip_pct_span.max():.1f} |")
+                lines.append(f"| {shape} | {k} | " + " | ".join(_err(t[k]) for t in bands)
+                             + f" | {_err(e)} | {c.tip_pct_span.max():.1f} |")
+        lines += ["", "–: the FE response of that output stays below 1e-6 of A_Tz over the "
+                  "band (e.g. A_Tx of a symmetric load), so no relative error is defined."]
         if numbers.get("static_step_midline_x") is not None:
             lines += ["", f"Step pressure: +1 ahead of x = {numbers['static_step_midline_x']:g}"
                       ", −1 behind."]

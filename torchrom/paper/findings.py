@@ -16,8 +16,10 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from ..reference import paper_reference
+
 #: the γ values (s) of the paper's Fig. 10 curves with both nonlinearities
-PAPER_GAMMAS = (0.0, 1e-5, 1e-4, 5e-4, 1e-3)
+PAPER_GAMMAS = paper_reference().gammas_s
 AGREE, DIFFER, NA = "agree", "differ", "not assessable"
 
 
@@ -234,11 +236,14 @@ def frequency_trends(table: pd.DataFrame) -> Finding:
          "frequency_hz": _curves_dict(F)})
 
 
-def ratio_trends(table: pd.DataFrame, mode_kinds: list[str] | None = None) -> Finding:
+def ratio_trends(table: pd.DataFrame, mode_kinds: list[str] | None = None,
+                 q4_column: str = "ratio_q1_q4", q4_note: str | None = None) -> Finding:
     """Fig. 13: q1/q2 grows as altitude decreases and γ increases; at ~4,000 ft more mode 4 at
-    γ = 1e-3 than at 5e-4 (q1/q4 smaller)."""
+    γ = 1e-3 than at 5e-4 (q1/q4 smaller). ``q4_column``: the ratio of q1 to our mode matched
+    to the paper's mode 4 (:mod:`.modes`), ``q4_note`` says which."""
     R2 = curve_table(table, "ratio_q1_q2")
-    R4 = curve_table(table, "ratio_q1_q4")
+    R4 = curve_table(table, q4_column)
+    q4 = q4_column.replace("ratio_", "").replace("_", "/")
     alt_ok = [bool(np.all(np.diff(R2[g].dropna().to_numpy()) < 0))
               for g in PAPER_GAMMAS if R2[g].notna().sum() >= 2]
     gam_ok = [bool(np.all(np.diff(R2.loc[h, list(PAPER_GAMMAS)].dropna().to_numpy()) >= 0))
@@ -249,9 +254,11 @@ def ratio_trends(table: pd.DataFrame, mode_kinds: list[str] | None = None) -> Fi
     mode4 = None
     if low is not None:
         mode4 = bool(R4.loc[low, 1e-3] < R4.loc[low, 5e-4])
-        ours += (f"; at {low:,.0f} ft q1/q4 is {R4.loc[low, 1e-3]:.3g} (γ = 1e-3) vs "
+        ours += (f"; at {low:,.0f} ft {q4} is {R4.loc[low, 1e-3]:.3g} (γ = 1e-3) vs "
                  f"{R4.loc[low, 5e-4]:.3g} (5e-4)")
-    if mode_kinds is not None and len(mode_kinds) >= 4:
+    if q4_note:
+        ours += f" ({q4_note})"
+    elif mode_kinds is not None and len(mode_kinds) >= 4:
         ours += f" (our mode 4 is {mode_kinds[3]}; the paper's is bending–torsion)"
     ok = all(alt_ok) and all(gam_ok) and mode4 is not False
     return Finding(
@@ -354,8 +361,10 @@ def fig10_acceptance(table: pd.DataFrame) -> list[Finding]:
 
 
 def evaluate(table: pd.DataFrame, histories: pd.DataFrame | None, alpha_gamma: pd.DataFrame,
-             flutter_altitude: float, mode_kinds: list[str] | None = None) -> list[Finding]:
-    """Every finding, in the order of the report."""
+             flutter_altitude: float, mode_kinds: list[str] | None = None,
+             q4_column: str = "ratio_q1_q4", q4_note: str | None = None) -> list[Finding]:
+    """Every finding, in the order of the report (``q4_column``, ``q4_note``: see
+    :func:`ratio_trends`)."""
     out = [alpha_decreases_with_gamma(alpha_gamma),
            gamma_small_matches_zero(table),
            amplitude_not_increasing_with_gamma(table),
@@ -366,6 +375,6 @@ def evaluate(table: pd.DataFrame, histories: pd.DataFrame | None, alpha_gamma: p
            steps_to_converge(table)]
     if histories is not None and len(histories):
         out.append(harmonic_lco(histories, table))
-    out += [frequency_trends(table), ratio_trends(table, mode_kinds),
+    out += [frequency_trends(table), ratio_trends(table, mode_kinds, q4_column, q4_note),
             linear_statuses(table, flutter_altitude)]
     return out

@@ -47,14 +47,15 @@ from ..aero.files import AeroData
 from ..errors import InputError
 from ..identify.basis import BENDING_TORSION_COMBINATIONS
 from ..io import atomic_path, write_json_atomic
+from ..reference import paper_reference
 from ..rom import NonlinearROM
 from ..sim.aeroelastic import mode_outputs
 from ..study.models import ALTITUDE_RANGE_FT, AeroelasticModel
 from .cache import FileCache
 
 #: the paper's Table 2 natural frequencies (Hz) and what it says of the first five modes
-PAPER_TABLE2_HZ = (1.690, 3.051, 9.172, 10.834, 11.258, 16.260, 22.845, 26.318, 29.183)
-PAPER_MODE_KINDS = ("bending", "torsion", "transverse", "bending-torsion", "in-plane")
+PAPER_TABLE2_HZ = paper_reference().table2_hz
+PAPER_MODE_KINDS = paper_reference().table2_kinds
 DAMPING_METHODS = ("decomposition", "exact")
 
 

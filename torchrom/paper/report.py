@@ -21,7 +21,7 @@ CAUSES = {
     "model": "the FE model is a reconstruction: the paper does not give the density, the store's "
              "chordwise position or the shear-panel modelling; ours is calibrated to mode 1 "
              "(1.690 Hz) and the flutter altitude only, and its torsion mode is {torsion:+.0f} % "
-             "off Table 2 ({f2:.3f} vs 3.051 Hz), which changes the bending–torsion flutter "
+             "off Table 2 ({f2:.3f} vs {p2:.3f} Hz), which changes the bending–torsion flutter "
              "mechanism that the LCO grows from",
     "aero": "the aerodynamics are PanelAero's doublet-lattice GAFs on our modes (the paper used "
             "ZAERO on its modes): the flutter frequency is {fdiff:+.1f} % off the paper's",
@@ -181,14 +181,21 @@ def findings_section(findings: list[Finding], causes: dict[str, str]) -> list[st
     return lines
 
 
+def _sci(x: float) -> str:
+    """A small number as the paper writes it, e.g. 1.338e-4."""
+    return np.format_float_scientific(x, trim="-", exp_digits=1)
+
+
 def render(summary: dict[str, Any], findings: list[Finding], table: pd.DataFrame,
            alpha_gamma: pd.DataFrame) -> str:
     """The Markdown report."""
     fl = summary["flutter"]
     ss, pk, paper = fl["state_space"], fl["pk"], fl["paper"]
+    q4 = summary.get("paper_q4") or {"column": "ratio_q1_q4", "mode": 4, "note": None}
     t2 = fl["table2"]
     f2 = t2[1]["frequency_hz"] if len(t2) > 1 else float("nan")
-    causes = {k: v.format(torsion=100 * (f2 / 3.051 - 1), f2=f2,
+    p2 = t2[1]["paper_hz"] if len(t2) > 1 else float("nan")
+    causes = {k: v.format(torsion=100 * (f2 / p2 - 1), f2=f2, p2=p2,
                           fdiff=100 * (ss["frequency_hz"] / paper["frequency_hz"] - 1))
               for k, v in CAUSES.items()}
     lines = [f"# torchrom paper{' --quick' if summary['quick'] else ''}: heavy Goland wing "
@@ -222,8 +229,8 @@ def render(summary: dict[str, Any], findings: list[Finding], table: pd.DataFrame
                       r.get("paper_kind") or "–"] for r in t2],
                     ["mode", "torchrom", "paper", "difference %", "torchrom kind",
                      "paper kind"])
-    lines += ["", "## Flutter point, Mach 0.70, baseline damping (α0 = 0.2565 1/s, "
-              "β0 = 1.338e-4 s)", ""]
+    lines += ["", f"## Flutter point, Mach {fl['mach']:.2f}, baseline damping "
+              f"(α0 = {fl['baseline_alpha']:g} 1/s, β0 = {_sci(fl['baseline_gamma'])} s)", ""]
     lines += _table([
         ["state space (RFA, Eqs. 49–50)", _f(ss["altitude"], "{:,.0f}"),
          _f(ss["frequency_hz"], "{:.3f}"), _f(ss["velocity"], "{:.1f}"),
@@ -264,7 +271,8 @@ def render(summary: dict[str, Any], findings: list[Finding], table: pd.DataFrame
                              "span)", "{:.2f}"),
                             ("frequency_hz", "Fig. 12: LCO frequency (Hz)", "{:.3f}"),
                             ("ratio_q1_q2", "Fig. 13a: q1/q2", "{:.2f}"),
-                            ("ratio_q1_q4", "Fig. 13b: q1/q4", "{:.1f}")):
+                            (q4["column"], f"Fig. 13b: q1/q{q4['mode']}"
+                             + (f" ({q4['note']})" if q4.get("note") else ""), "{:.1f}")):
         C = curve_table(table, col, lco_only=False)
         S = curve_table(table, "status", lco_only=False)
         lines += ["", f"## {title}", "", "Non-LCO cases are marked with their status."]

@@ -19,7 +19,6 @@ from __future__ import annotations
 
 import dataclasses
 import json
-import sys
 import time
 from collections.abc import Callable
 from importlib import resources
@@ -32,6 +31,7 @@ import torch
 from .._version import __version__
 from ..errors import InputError
 from ..io import write_json_atomic, write_text_atomic
+from ..reference import paper_reference
 from ..study import figures
 from ..study.config import load_sweep_config, with_method
 from ..study.grid import config_hash
@@ -44,6 +44,7 @@ from .cache import MANIFEST, FileCache
 from .dissipation import dissipation_ratio, lco_cycle, scaled_min_eigenvalue
 from .hb import branch_summary, goland_branches, newmark_confirmation
 from .linear import linear_checks
+from .modes import paper_mode_map
 from .pipeline import GolandPipeline, goland_pipeline
 from .report import render
 
@@ -57,9 +58,10 @@ DAMPING_CHECK_ALTITUDES = (4000.0, 7000.0, 10000.0)
 #: the linear checks: run length (s) and the window (fraction of it) for Table 3
 LINEAR_T_END = {"full": 20.0, "quick": 12.0}
 LINEAR_WINDOW = 0.3
-FIGURE_FILES = {"fig9": "fig09_alpha_gamma.png", "fig10": "fig10_lco_amplitude.png",
-                "fig11": "fig11_time_histories.png", "fig12": "fig12_lco_frequency.png",
-                "fig13": "fig13_amplitude_ratios.png", "branches": "lco_branches.png"}
+FIGURE_FILES = {"table2": "table2_frequencies.png", "fig9": "fig09_alpha_gamma.png",
+                "fig10": "fig10_lco_amplitude.png", "fig11": "fig11_time_histories.png",
+                "fig12": "fig12_lco_frequency.png", "fig13": "fig13_amplitude_ratios.png",
+                "branches": "lco_branches.png"}
 
 
 def config_path(name: str) -> Path:
@@ -118,7 +120,8 @@ def run_paper(out, *, quick: bool = False, force: bool = False, device: str = "c
     model = res.model
     fl = res.flutter
     log(f"flutter (state space): {fl['state_space']['altitude']:,.0f} ft, "
-        f"{fl['state_space']['frequency_hz']:.3f} Hz (paper 11,275 ft, 1.975 Hz)")
+        f"{fl['state_space']['frequency_hz']:.3f} Hz (paper {fl['paper']['altitude']:,.0f} ft, "
+        f"{fl['paper']['frequency_hz']:.3f} Hz)")
     model_hash = model.content_hash()
 
     # -- Fig. 9 -----------------------------------------------------------------------------------
@@ -178,10 +181,22 @@ def run_paper(out, *, quick: bool = False, force: bool = False, device: str = "c
     # -- figures ---------------------------------------------------------------------------------
     watch.start()
     fig_dir = out / "figures"
-    paths = {"fig9": figures.fig9(alpha_gamma, fig_dir / FIGURE_FILES["fig9"], force=True)}
-    for name in ("fig10", "fig12", "fig13"):
-        paths[name] = figures.TABLE_FIGURES[name](table, fig_dir / FIGURE_FILES[name],
-                                                  force=True)
+    kinds = [r.get("kind") for r in fl["table2"]]
+    q4 = paper_q4(kinds)
+    h_f = float(fl["state_space"]["altitude"])
+    paths = {"table2": figures.table2(pd.DataFrame(fl["table2"]),
+                                      fig_dir / FIGURE_FILES["table2"], force=True),
+             "fig9": figures.fig9(alpha_gamma, fig_dir / FIGURE_FILES["fig9"], force=True),
+             "fig10": figures.fig10(table, fig_dir / FIGURE_FILES["fig10"], force=True,
+                                    flutter_altitude_ft=h_f),
+             "fig12": figures.fig12(table, fig_dir / FIGURE_FILES["fig12"], force=True,
+                                    flutter_altitude_ft=h_f,
+                                    flutter_frequency_hz=float(fl["state_space"]["frequency_hz"]),
+                                    table3={float(r["altitude_ft"]): float(r["frequency_eig_hz"])
+                                            for r in lin["table3"]}),
+             "fig13": figures.fig13(table, fig_dir / FIGURE_FILES["fig13"], force=True,
+                                    q4_mode=q4["mode"], q4_note=q4["note"],
+                                    flutter_altitude_ft=h_f)}
     if len(histories):
         paths["fig11"] = figures.fig11(table, histories, fig_dir / FIGURE_FILES["fig11"],
                                        force=True)
@@ -194,9 +209,10 @@ def run_paper(out, *, quick: bool = False, force: bool = False, device: str = "c
     watch.stop("figures")
 
     # -- findings and report ---------------------------------------------------------------------
-    kinds = [r.get("kind") for r in fl["table2"]]
-    found = fnd.evaluate(table, histories, alpha_gamma, float(fl["state_space"]["altitude"]),
-                         kinds)
+    table = table.copy()
+    ratio4 = figures.ratio_column(table, q4["mode"])
+    found = fnd.evaluate(table, histories, alpha_gamma, h_f, kinds, q4_column=ratio4,
+                         q4_note=q4["note"])
     watch.wall["total"] = time.perf_counter() - t_all
     watch.cpu["total"] = time.process_time() - c_all
     summary = {
@@ -210,11 +226,24 @@ def run_paper(out, *, quick: bool = False, force: bool = False, device: str = "c
         "findings": [f.as_dict() for f in found],
         "damping_check": check, "method": method, "hb": hb_info,
         "figures": {k: str(v) for k, v in paths.items()},
+        "paper_q4": {**q4, "column": ratio4},
         "identification": res.identification,
     }
     write_text_atomic(out / "report.md", render(summary, found, table, alpha_gamma))
     write_json_atomic(out / "paper.json", summary)
     return summary
+
+
+def paper_q4(kinds) -> dict[str, Any]:
+    """Our mode compared with the paper's mode 4 (Fig. 13b), matched by kind
+    (:func:`.modes.paper_mode_map`; our mode 4 when the kinds are unknown)."""
+    ref = paper_reference()
+    mapping = paper_mode_map(kinds, ref.table2_kinds) if any(kinds) else {}
+    ours = mapping.get(4, 4)
+    kind = kinds[ours - 1] if ours - 1 < len(kinds) and kinds[ours - 1] else "unknown kind"
+    note = (f"our mode {ours} ({kind}) for the paper's mode 4 ({ref.table2_kinds[3]})"
+            if ours != 4 else None)
+    return {"mode": ours, "kind": kind, "note": note}
 
 
 def _write_table(cache: FileCache, name: str, df: pd.DataFrame, key: str) -> Path:
@@ -351,13 +380,12 @@ def _lco_sweep(cache: FileCache, cfg, model, model_hash: str, device, dtype, log
     how = ("harmonic balance" if cfg.method == "hb" else
            f"dt = {cfg.integrator.dt:g} s, up to {cfg.t_end:g} s")
     log(f"LCO sweep: {len(cfg.cases)} cases of '{cfg.title}', {how}")
-    from tqdm import tqdm
+    from ..progress import Progress
 
     hist: list[pd.DataFrame] = []
-    with tqdm(total=len(cfg.cases), unit="case", desc="  cases done", file=sys.stderr,
-              disable=None) as bar:
+    with Progress(len(cfg.cases), "  cases done") as bar:
         def progress(done: int, total: int) -> None:
-            bar.update(done - bar.n)
+            bar.update_to(done)
 
         table, timing = run_sweep(cfg, model=model, device=torch.device(device), dtype=dtype,
                                   progress=progress, on_history=hist.append)

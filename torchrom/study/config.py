@@ -12,8 +12,9 @@ A sweep configuration has these tables (every key is checked; a bad one gives a 
                  sweep and optionally ``span`` (reference length of amplitudes in % of span);
                  or ``builtin = "goland"``: the built-in Goland pipeline (FE model, identified
                  9L12D ROM, aerodynamics; :class:`torchrom.paper.pipeline.GolandPipeline` keys,
-                 files cached in ``cache``, default ``$TORCHROM_CACHE`` or
-                 ``~/.cache/torchrom/goland``); or ``builtin = "van_der_pol_duffing"`` /
+                 files cached in ``cache``, default ``goland`` under the cache root:
+                 ``--cache-dir``, ``$TORCHROM_CACHE`` or ``~/.cache/torchrom``); or
+                 ``builtin = "van_der_pol_duffing"`` /
                  ``"touze_two_mode"`` with that function's keyword arguments
                  (:mod:`torchrom.rom.analytic`).
 ``[aeroelastic]`` (models with aerodynamics) :class:`~torchrom.study.models.AeroelasticModel`
@@ -233,14 +234,13 @@ def _aeroelastic_options(table: dict[str, Any] | None, source: Path) -> dict[str
 
 
 def goland_cache_folder(model: dict[str, Any], source: Path) -> Path:
-    """Cache folder of the built-in Goland pipeline: ``[model] cache``, else $TORCHROM_CACHE,
-    else ~/.cache/torchrom/goland."""
-    import os
+    """Cache folder of the built-in Goland pipeline: ``[model] cache``, else ``goland`` under the
+    cache root (--cache-dir, $TORCHROM_CACHE or ~/.cache/torchrom; :mod:`torchrom.cache_dir`)."""
+    from ..cache_dir import cache_folder
 
     if "cache" in model:
         return _relative(str(model["cache"]), source)
-    env = os.environ.get("TORCHROM_CACHE")
-    return Path(env) if env else Path.home() / ".cache" / "torchrom" / "goland"
+    return cache_folder("goland")
 
 
 def _goland_options(model: dict[str, Any], source: Path):

@@ -10,9 +10,15 @@ Each function takes the tables a sweep wrote and draws one figure of paper Sec. 
 - :func:`fig12` LCO frequency vs altitude;
 - :func:`fig13` amplitude ratios of the generalized coordinates q1/q2 and q1/q4 vs altitude.
 
+- :func:`table2` our natural frequencies against the paper's Table 2, mode by mode, with kinds.
+
 A *curve* is a group of cases with the same (γ, stiffness_nl, damping_nl); curves with a single
 altitude (e.g. the extra Fig. 11 cases) are left out of the altitude plots. Markers show each
-case's status (filled: converged LCO). Hand-written layout; drawing delegated to matplotlib.
+case's status (filled: converged LCO); the legend, outside the axes, lists only the curves and
+statuses drawn. Where the paper states a value (Table 2, the flutter point, Table 3) it is drawn
+from the package's reference data (:func:`torchrom.reference.paper_reference`), never typed
+here; the flutter altitude (ours when given, and the paper's) is marked on the altitude axes.
+Hand-written layout; drawing delegated to matplotlib.
 """
 
 from __future__ import annotations
@@ -25,6 +31,7 @@ import pandas as pd
 
 from ..errors import InputError
 from ..io import atomic_path, check_can_write
+from ..reference import PaperReference, paper_reference
 
 #: marker per status: settled LCOs filled, everything else hollow or crossed
 MARKERS = {"lco": ("o", True), "decay": ("v", False), "unconverged": ("s", False),
@@ -83,31 +90,52 @@ def curves(table: pd.DataFrame, x: str = "altitude_ft", min_points: int = 2):
     return [(label, grp) for _, label, grp in sorted(out, key=lambda c: c[0])]
 
 
-def _status_legend(plt, table: pd.DataFrame) -> list:
+def _status_legend(plt, statuses) -> list:
+    """Legend entries for the statuses actually drawn."""
     names = {"diverged": "diverged (drawn at the top)", "failed": "failed (drawn at the top)",
              "unconverged": "unconverged (value when stopped)", "lco": "converged LCO"}
     return [plt.Line2D([], [], marker=m, ls="none", color="0.3", mfc="0.3" if f else "none",
-                       label=names.get(s, s)) for s, (m, f) in MARKERS.items()
-            if (table["status"] == s).any()]
+                       label=names.get(s, s)) for s, (m, f) in MARKERS.items() if s in statuses]
 
 
-def _curve_axes(ax, table: pd.DataFrame, y: str, x: str = "altitude_ft"):
+def _legend_outside(ax, handles, **kw) -> None:
+    """The figure's legend to the right of all its axes (a secondary axis included), clear of
+    the data (constrained layout makes room for it)."""
+    ax.figure.legend(handles=handles, loc="outside right upper", fontsize=7.5, **kw)
+
+
+def _curve_axes(ax, table: pd.DataFrame, y: str, x: str = "altitude_ft") -> set[str]:
     """One line per curve through its converged LCOs, status markers on every case; cases that
-    diverged or failed are drawn at the top of the axis (their values are off any useful scale)."""
-    drawn = table[table["status"].isin(["lco", "unconverged", "decay"])][y]
-    drawn = drawn[np.isfinite(drawn)]
-    top = float(drawn.max()) * 1.08 if len(drawn) else 1.0
+    diverged or failed are drawn at the top of the axis (their values are off any useful scale).
+    Returns the statuses drawn."""
+    ys = table[y].astype(float)
+    shown = ys[table["status"].isin(["lco", "unconverged", "decay"]) & np.isfinite(ys)]
+    top = float(shown.max()) * 1.08 if len(shown) else 1.0
+    drawn: set[str] = set()
     for label, grp in curves(table, x):
         ok = grp[grp["status"] == "lco"]
         (line,) = ax.plot(ok[x], ok[y], "-", lw=1.4, label=label)
         for status, (marker, filled) in MARKERS.items():
             sel = grp[grp["status"] == status]
+            if status in ("lco", "unconverged", "decay"):
+                sel = sel[np.isfinite(sel[y].astype(float))]
             if len(sel):
+                drawn.add(status)
                 vals = sel[y] if status in ("lco", "unconverged", "decay") else np.full(
                     len(sel), top)
                 ax.plot(sel[x], vals, marker, ms=5, color=line.get_color(),
                         mfc=line.get_color() if filled else "none", ls="none")
     ax.grid(alpha=0.3)
+    return drawn
+
+
+def _flutter_lines(ax, flutter_altitude_ft: float | None, ref: PaperReference) -> None:
+    """Vertical lines at our flutter altitude (when known) and at the paper's."""
+    if flutter_altitude_ft is not None and np.isfinite(flutter_altitude_ft):
+        ax.axvline(flutter_altitude_ft, color="k", lw=0.9, ls="--",
+                   label=f"flutter altitude {flutter_altitude_ft:,.0f} ft")
+    ax.axvline(ref.flutter_altitude_ft, color="0.55", lw=0.9, ls=":",
+               label=f"paper's flutter altitude {ref.flutter_altitude_ft:,.0f} ft")
 
 
 def _title(table: pd.DataFrame, what: str) -> str:
@@ -115,8 +143,11 @@ def _title(table: pd.DataFrame, what: str) -> str:
     return f"{what}, Mach {mach:.2f}" if mach is not None and np.isfinite(mach) else what
 
 
-def fig9(table: pd.DataFrame, path, *, force: bool = False, reference_altitude=None) -> Path:
-    """α (1/s) vs γ (s) that keep the flutter altitude constant (paper Fig. 9)."""
+def fig9(table: pd.DataFrame, path, *, force: bool = False, reference_altitude=None,
+         reference: PaperReference | None = None) -> Path:
+    """α (1/s) vs γ (s) that keep the flutter altitude constant (paper Fig. 9), with the paper's
+    baseline Rayleigh damping (Eq. 46) that the curve must pass through."""
+    ref = reference or paper_reference()
     _require(table, ("gamma", "alpha"), "fig9")
     t = table.drop_duplicates(["gamma", "alpha"]).sort_values("gamma")
     plt = _plt()
@@ -126,38 +157,42 @@ def fig9(table: pd.DataFrame, path, *, force: bool = False, reference_altitude=N
         h = float(t["reference_altitude_ft"].iloc[0])
     label = "α(γ) keeping the flutter altitude" + (f" at {h:,.0f} ft" if h is not None else "")
     ax.plot(t["gamma"], t["alpha"], "o-", ms=4, lw=1.4, label=label)
-    if {"baseline_gamma", "baseline_alpha"} <= set(t.columns):
-        ax.plot(t["baseline_gamma"].iloc[0], t["baseline_alpha"].iloc[0], "k*", ms=11,
-                label=f"FE Rayleigh damping α0 = {t['baseline_alpha'].iloc[0]:g} 1/s, "
-                      f"β0 = {t['baseline_gamma'].iloc[0]:g} s")
+    ax.plot(ref.beta0_s, ref.alpha0_per_s, "k*", ms=11,
+            label=f"paper's FE Rayleigh damping (Eq. 46): α0 = {ref.alpha0_per_s:g} 1/s, "
+                  f"β0 = {ref.beta0_s:g} s")
     ax.set_xlabel("γ (s)")
     ax.set_ylabel("α (1/s)")
     ax.ticklabel_format(axis="x", style="sci", scilimits=(-3, -3))
     ax.grid(alpha=0.3)
-    ax.legend(fontsize=8)
+    ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.16), fontsize=8)
     ax.set_title(_title(table, "Fig. 9: damping parameter α vs γ"), fontsize=10)
     return _save(fig, path, force)
 
 
 def _altitude_figure(table: pd.DataFrame, path, y: str, ylabel: str, title: str, force: bool,
-                     decorate: Callable | None = None) -> Path:
-    """A Fig. 10 / 12-style figure: ``y`` of every curve against the altitude."""
+                     decorate: Callable | None = None, flutter_altitude_ft: float | None = None,
+                     reference: PaperReference | None = None) -> Path:
+    """A Fig. 10 / 12-style figure: ``y`` of every curve against the altitude, the flutter
+    altitudes marked, ``decorate(ax)`` adding the paper's values."""
     _require(table, ("altitude_ft", y, "status", *CURVE_KEYS), title.split(":")[0])
     plt = _plt()
-    fig, ax = plt.subplots(figsize=(7.0, 4.8), constrained_layout=True)
-    _curve_axes(ax, table, y)
+    fig, ax = plt.subplots(figsize=(9.0, 4.8), constrained_layout=True)
+    drawn = _curve_axes(ax, table, y)
+    _flutter_lines(ax, flutter_altitude_ft, reference or paper_reference())
     ax.set_xlabel("altitude (ft)")
     ax.set_ylabel(ylabel)
     if decorate is not None:
         decorate(ax)
-    ax.legend(handles=ax.get_legend_handles_labels()[0] + _status_legend(plt, table),
-              fontsize=7.5, framealpha=0.8)
+    _legend_outside(ax, ax.get_legend_handles_labels()[0] + _status_legend(plt, drawn))
     ax.set_title(_title(table, title), fontsize=10)
     return _save(fig, path, force)
 
 
-def fig10(table: pd.DataFrame, path, *, force: bool = False) -> Path:
-    """LCO amplitude of point A (half peak-to-peak, ft and % of span) vs altitude (Fig. 10)."""
+def fig10(table: pd.DataFrame, path, *, force: bool = False,
+          flutter_altitude_ft: float | None = None,
+          reference: PaperReference | None = None) -> Path:
+    """LCO amplitude of point A (half peak-to-peak, ft and % of span) vs altitude (Fig. 10); the
+    paper gives no amplitude numbers, only its flutter altitude is drawn."""
 
     def percent_axis(ax):
         pct = table["amplitude_pct_span"] if "amplitude_pct_span" in table else None
@@ -167,35 +202,111 @@ def fig10(table: pd.DataFrame, path, *, force: bool = False) -> Path:
         span = float(np.median(100.0 * table["amplitude"][ok] / pct[ok]))
         sec = ax.secondary_yaxis("right", functions=(lambda a: 100 * a / span,
                                                      lambda p: p * span / 100))
-        sec.set_ylabel(f"% of span ({span:g} ft)")
+        sec.set_ylabel(f"LCO amplitude (% of span, {span:g} ft)")
 
     return _altitude_figure(table, path, "amplitude", "LCO amplitude of point A, Tz (ft)",
-                            "Fig. 10: LCO amplitude vs altitude", force, percent_axis)
+                            "Fig. 10: LCO amplitude vs altitude", force, percent_axis,
+                            flutter_altitude_ft, reference)
 
 
-def fig12(table: pd.DataFrame, path, *, force: bool = False) -> Path:
-    """LCO frequency (Hz) vs altitude (Fig. 12)."""
+def fig12(table: pd.DataFrame, path, *, force: bool = False,
+          flutter_altitude_ft: float | None = None, flutter_frequency_hz: float | None = None,
+          table3: dict[float, float] | None = None,
+          reference: PaperReference | None = None) -> Path:
+    """LCO frequency (Hz) vs altitude (Fig. 12), with the paper's flutter point and its Table 3
+    (frequency of the growing response of the linear system below flutter), and, when given,
+    our flutter point and our Table 3 (``table3``: altitude ft → Hz)."""
+    ref = reference or paper_reference()
+
+    def paper_points(ax):
+        alts = sorted(ref.table3_hz)
+        ax.plot(alts, [ref.table3_hz[a] for a in alts], "kx", ms=7, mew=1.4, ls="none",
+                label="paper Table 3: growing response (linear)")
+        if table3:
+            ours = sorted(table3)
+            ax.plot(ours, [table3[a] for a in ours], "k+", ms=9, mew=1.4, ls="none",
+                    label="Table 3: growing response (linear)")
+        ax.plot(ref.flutter_altitude_ft, ref.flutter_frequency_hz, "*", color="0.45", ms=12,
+                label=f"paper's flutter point ({ref.flutter_frequency_hz:g} Hz)")
+        if flutter_altitude_ft is not None and flutter_frequency_hz is not None:
+            ax.plot(flutter_altitude_ft, flutter_frequency_hz, "k*", ms=12,
+                    label=f"flutter point ({flutter_frequency_hz:.3f} Hz)")
+
     return _altitude_figure(table, path, "frequency_hz", "LCO frequency (Hz)",
-                            "Fig. 12: LCO frequency vs altitude", force)
+                            "Fig. 12: LCO frequency vs altitude", force, paper_points,
+                            flutter_altitude_ft, ref)
 
 
-def fig13(table: pd.DataFrame, path, *, force: bool = False) -> Path:
-    """Amplitude ratios of the generalized coordinates q1/q2 and q1/q4 vs altitude (Fig. 13)."""
-    _require(table, ("altitude_ft", "ratio_q1_q2", "ratio_q1_q4", "status", *CURVE_KEYS),
-             "fig13")
+def ratio_column(table: pd.DataFrame, ours: int) -> str:
+    """The column of q1 / q``ours`` (made from the ``amplitude_q<j>`` columns when needed)."""
+    col = f"ratio_q1_q{ours}"
+    if col not in table.columns:
+        from ..sim.metrics import amplitude_ratio
+
+        _require(table, ("amplitude_q1", f"amplitude_q{ours}"), "fig13")
+        table[col] = amplitude_ratio(table["amplitude_q1"].to_numpy(),
+                                     table[f"amplitude_q{ours}"].to_numpy())
+    return col
+
+
+def fig13(table: pd.DataFrame, path, *, force: bool = False, q4_mode: int = 4,
+          q4_note: str | None = None, flutter_altitude_ft: float | None = None,
+          reference: PaperReference | None = None) -> Path:
+    """Amplitude ratios of the generalized coordinates q1/q2 and q1/q4 vs altitude (Fig. 13).
+
+    ``q4_mode``: our mode compared with the paper's mode 4 (matched by kind,
+    :func:`torchrom.paper.modes.paper_mode_map`; its ratio is made from the ``amplitude_q<j>``
+    columns), ``q4_note`` says why, e.g. "our mode 5 (torsion) for the paper's mode 4"."""
+    table = table.copy()
+    col4 = ratio_column(table, q4_mode)
+    _require(table, ("altitude_ft", "ratio_q1_q2", col4, "status", *CURVE_KEYS), "fig13")
+    ref = reference or paper_reference()
     plt = _plt()
-    fig, axes = plt.subplots(1, 2, figsize=(11.0, 4.4), constrained_layout=True)
-    for ax, col, what in ((axes[0], "ratio_q1_q2", "mode 1 / mode 2"),
-                          (axes[1], "ratio_q1_q4", "mode 1 / mode 4")):
-        _curve_axes(ax, table, col)
+    fig, axes = plt.subplots(1, 2, figsize=(12.5, 4.6), constrained_layout=True)
+    drawn: set[str] = set()
+    for ax, col, what in ((axes[0], "ratio_q1_q2", "q1 / q2"),
+                          (axes[1], col4, f"q1 / q{q4_mode}")):
+        drawn |= _curve_axes(ax, table, col)
+        _flutter_lines(ax, flutter_altitude_ft, ref)
         ax.set_yscale("log")
         ax.set_xlabel("altitude (ft)")
         ax.set_ylabel(f"LCO amplitude ratio {what} (-)")
-    axes[0].legend(fontsize=7.5)
+    _legend_outside(axes[1], axes[1].get_legend_handles_labels()[0] + _status_legend(plt, drawn))
     axes[0].set_title("a) q1/q2 (bending / torsion)", fontsize=10)
-    axes[1].set_title("b) q1/q4", fontsize=10)
+    axes[1].set_title(f"b) q1/q{q4_mode}" + (f"\n{q4_note}" if q4_note else ""), fontsize=10)
     fig.suptitle(_title(table, "Fig. 13: ratios of LCO generalized-coordinate amplitudes"),
                  fontsize=10)
+    return _save(fig, path, force)
+
+
+def table2(modes: pd.DataFrame, path, *, force: bool = False,
+           reference: PaperReference | None = None) -> Path:
+    """Our natural frequencies against the paper's Table 2, mode by mode (``modes``: columns
+    mode, frequency_hz and optionally kind), each bar labelled with the mode's kind."""
+    _require(modes, ("mode", "frequency_hz"), "table2")
+    ref = reference or paper_reference()
+    plt = _plt()
+    fig, ax = plt.subplots(figsize=(9.0, 4.4), constrained_layout=True)
+    n = min(len(modes), len(ref.table2_hz))
+    m = modes.sort_values("mode").iloc[:n]
+    x = np.arange(1, n + 1)
+    ax.bar(x - 0.2, m["frequency_hz"], 0.4, label="torchrom (FE reconstruction)")
+    ax.bar(x + 0.2, ref.table2_hz[:n], 0.4, color="0.6", label="paper Table 2")
+    kinds = list(m["kind"]) if "kind" in m else [None] * n
+    for xi, f, k in zip(x, m["frequency_hz"], kinds):
+        if k:
+            ax.annotate(str(k), (xi - 0.2, f), textcoords="offset points", xytext=(0, 3),
+                        ha="center", fontsize=6.5, rotation=90)
+    for xi, f, k in zip(x, ref.table2_hz[:n], ref.table2_kinds):
+        ax.annotate(k, (xi + 0.2, f), textcoords="offset points", xytext=(0, 3), ha="center",
+                    fontsize=6.5, rotation=90, color="0.35")
+    ax.set_xticks(x)
+    ax.set_xlabel("mode")
+    ax.set_ylabel("natural frequency (Hz)")
+    ax.set_ylim(0, 1.3 * max(float(m["frequency_hz"].max()), max(ref.table2_hz[:n])))
+    ax.grid(alpha=0.3, axis="y")
+    _legend_outside(ax, ax.get_legend_handles_labels()[0])
+    ax.set_title("Table 2: natural frequencies of the heavy Goland wing", fontsize=10)
     return _save(fig, path, force)
 
 
@@ -206,16 +317,29 @@ def history_cases(table: pd.DataFrame, histories: pd.DataFrame) -> pd.DataFrame:
     return table[table["case_id"].isin(set(histories["case_id"]))]
 
 
+def upward_crossing(t: np.ndarray, y: np.ndarray, before: float) -> float | None:
+    """The last time ≤ ``before`` at which ``y`` crosses its mean upwards (linear
+    interpolation), None when there is none."""
+    c = y - y.mean()
+    i = np.flatnonzero((c[:-1] < 0) & (c[1:] >= 0) & (t[1:] <= before))
+    if not len(i):
+        return None
+    j = i[-1]
+    return float(t[j] - c[j] * (t[j + 1] - t[j]) / (c[j + 1] - c[j]))
+
+
 def fig11(table: pd.DataFrame, histories: pd.DataFrame, path, *, output: str = "A_Tz",
           zoom_s: float = 2.0, force: bool = False) -> Path:
-    """Time histories of point A (Fig. 11): a) full, b) the last ``zoom_s`` seconds of each
-    (the converged LCO), one line per case with histories."""
+    """Time histories of point A (Fig. 11): a) full, b) the converged LCO, one line per case with
+    histories. In b) each case's time starts at an upward crossing of its mean in the last
+    ``zoom_s`` + one cycle of its run, so the phase is defined (0 at the crossing) and the cases'
+    shapes, amplitudes and periods compare directly."""
     rows = history_cases(table, histories)
     if rows.empty:
         raise InputError("plot fig11: no case of the results table has a time history")
     _require(histories, (output,), "fig11")
     plt = _plt()
-    fig, (ax_a, ax_b) = plt.subplots(2, 1, figsize=(7.5, 7.0), constrained_layout=True)
+    fig, (ax_a, ax_b) = plt.subplots(2, 1, figsize=(9.5, 7.0), constrained_layout=True)
     order = sorted(rows.itertuples(), key=lambda r: (-float(r.stiffness_nl) - float(r.damping_nl),
                                                      -float(r.stiffness_nl)))
     names = {(1.0, 1.0): "NL damp. & stiff.", (1.0, 0.0): "NL stiffness only",
@@ -224,24 +348,32 @@ def fig11(table: pd.DataFrame, histories: pd.DataFrame, path, *, output: str = "
         h = histories[histories["case_id"] == r.case_id].sort_values("t")
         key = (float(r.stiffness_nl), float(r.damping_nl))
         label = f"{names.get(key, curve_label(r.gamma, *key))} ({r.status}, {r.steps} steps)"
-        (line,) = ax_a.plot(h["t"], h[output], lw=0.6, label=label)
-        last = h[h["t"] >= h["t"].iloc[-1] - zoom_s]
-        ax_b.plot(last["t"] - last["t"].iloc[0], last[output], lw=1.2, color=line.get_color(),
-                  label=label)
+        t, y = h["t"].to_numpy(), h[output].to_numpy()
+        (line,) = ax_a.plot(t, y, lw=0.6, label=label)
+        period = 1.0 / float(r.frequency_hz) if np.isfinite(r.frequency_hz) and \
+            r.frequency_hz > 0 else 0.0
+        window = t >= t[-1] - zoom_s - 1.5 * period
+        t0 = upward_crossing(t[window], y[window], t[-1] - zoom_s)
+        if t0 is None:  # no oscillation to align on (e.g. a decay): the last zoom_s seconds
+            t0 = t[-1] - zoom_s
+        last = (t >= t0) & (t <= t0 + zoom_s)
+        ax_b.plot(t[last] - t0, y[last], lw=1.2, color=line.get_color(), label=label)
     first = order[0]
     where = f"{first.altitude_ft:,.0f} ft, γ = {first.gamma:g} s"
     for ax in (ax_a, ax_b):
         ax.set_ylabel(f"point A, {output.split('_')[-1]} (ft)")
         ax.grid(alpha=0.3)
+    _legend_outside(ax_b, ax_b.get_legend_handles_labels()[0])  # the same cases in a) and b)
     ax_a.set_xlabel("time (s)")
-    ax_b.set_xlabel(f"time within the last {zoom_s:g} s of each run (s)")
-    ax_a.legend(fontsize=7.5)
+    ax_b.set_xlabel("time from an upward mean crossing near the end of each run (s)")
     ax_a.set_title(f"Fig. 11a: time history of point A at {where}", fontsize=10)
-    ax_b.set_title("Fig. 11b: converged LCO (zoom)", fontsize=10)
+    ax_b.set_title(f"Fig. 11b: converged LCO, the last {zoom_s:g} s of each run, phase 0 at an "
+                   "upward crossing", fontsize=10)
     return _save(fig, path, force)
 
 
 #: figures drawn from the results table alone
 TABLE_FIGURES: dict[str, Callable] = {"fig9": fig9, "fig10": fig10, "fig12": fig12,
                                       "fig13": fig13}
-FIGURES = (*TABLE_FIGURES, "fig11")
+#: every figure: those above, Fig. 11 (results and histories) and Table 2 (a table of modes)
+FIGURES = (*TABLE_FIGURES, "fig11", "table2")

@@ -16,37 +16,82 @@ _MARKERS = {"lco": ("o", True), "decay": ("v", False), "unconverged": ("s", Fals
 
 
 def parameter_plot(table: pd.DataFrame, path, *, x: str, y: str = "amplitude",
-                   hue: str | None = None, title: str | None = None,
+                   hue: str | None = None, facet: str | None = None, title: str | None = None,
                    force: bool = False) -> Path:
-    """y against the swept parameter x, one line per value of ``hue``; markers show the status
-    (filled circle: converged LCO). Returns the path written (PNG/PDF by its suffix)."""
+    """y against x, one line per value of ``hue``, one panel per value of ``facet``; markers
+    show the status (filled circle: converged LCO) when the table has one. Axis labels carry the
+    units of the table's column metadata (:mod:`.units`); the legend sits outside the data and
+    lists only what is drawn. Returns the path written (PNG/PDF/SVG by its suffix)."""
+    import numpy as np
+
+    from .units import axis_label
+
     plt = _pyplot()
-    for col in (x, y) + ((hue,) if hue else ()):
+    for col in (x, y) + tuple(c for c in (hue, facet) if c):
         if col not in table.columns:
             raise InputError(f"plot: no column {col!r} in the results table; it has "
                              f"{list(table.columns)}")
     path = check_can_write(path, force, "figure")
-    fig, ax = plt.subplots(figsize=(6.4, 4.4), constrained_layout=True)
-    groups = table.groupby(hue, sort=True) if hue else [(None, table)]
-    for key, grp in groups:
-        grp = grp.sort_values(x)
-        label = f"{hue} = {key:g}" if hue else None
-        (line,) = ax.plot(grp[x], grp[y], "-", lw=1.2, label=label)
-        for status, (marker, filled) in _MARKERS.items():
-            sel = grp[grp["status"] == status]
-            if len(sel):
-                ax.plot(sel[x], sel[y], marker, ms=5, color=line.get_color(),
-                        mfc=line.get_color() if filled else "none", ls="none")
-    handles = [plt.Line2D([], [], marker=m, ls="none", color="0.3", mfc="0.3" if f else "none",
-                          label=s) for s, (m, f) in _MARKERS.items()
-               if (table["status"] == s).any()]
-    ax.legend(handles=ax.get_legend_handles_labels()[0] + handles, fontsize=8)
-    ax.set_xlabel(x)
-    ax.set_ylabel(y)
-    ax.grid(alpha=0.3)
+    panels = sorted(table[facet].dropna().unique()) if facet else [None]
+    ncol = min(len(panels), 3)
+    nrow = -(-len(panels) // ncol)
+    fig, axes = plt.subplots(nrow, ncol, figsize=(4.6 * ncol + 1.8, 3.8 * nrow), squeeze=False,
+                             sharex=True, sharey=True, constrained_layout=True)
+    has_status = "status" in table.columns
+    drawn: set[str] = set()
+    hue_values = sorted(table[hue].dropna().unique()) if hue else [None]
+    colors = plt.rcParams["axes.prop_cycle"].by_key()["color"]
+    for ax, value in zip(axes.flat, panels):
+        sub = table if facet is None else table[table[facet] == value]
+        for i, key in enumerate(hue_values):
+            grp = (sub if hue is None else sub[sub[hue] == key]).sort_values(x)
+            if grp.empty:
+                continue
+            color = colors[i % len(colors)]
+            label = _value_label(table, hue, key) if hue else None
+            ok = grp[grp["status"] == "lco"] if has_status else grp
+            ax.plot(ok[x], ok[y], "-", lw=1.2, color=color, label=label)
+            if not has_status:
+                ax.plot(grp[x], grp[y], "o", ms=4, color=color)
+                continue
+            for status, (marker, filled) in _MARKERS.items():
+                sel = grp[(grp["status"] == status) & np.isfinite(grp[y].astype(float))]
+                if len(sel):
+                    drawn.add(status)
+                    ax.plot(sel[x], sel[y], marker, ms=5, color=color,
+                            mfc=color if filled else "none", ls="none")
+        ax.grid(alpha=0.3)
+        if facet:
+            ax.set_title(_value_label(table, facet, value), fontsize=9)
+    for ax in axes.flat[len(panels):]:
+        ax.set_visible(False)
+    for ax in axes[-1, :]:
+        ax.set_xlabel(axis_label(table, x))
+    for ax in axes[:, 0]:
+        ax.set_ylabel(axis_label(table, y))
+    handles = [h for h in axes.flat[0].get_legend_handles_labels()[0]]
+    handles += [plt.Line2D([], [], marker=m, ls="none", color="0.3", mfc="0.3" if f else "none",
+                           label=STATUS_NAMES.get(s, s)) for s, (m, f) in _MARKERS.items()
+                if s in drawn]
+    if handles:
+        fig.legend(handles=handles, loc="outside right upper", fontsize=8)
     if title:
-        ax.set_title(title, fontsize=10)
+        fig.suptitle(title, fontsize=10)
     return _save(fig, path)
+
+
+#: legend text of each status
+STATUS_NAMES = {"lco": "converged LCO", "decay": "decay", "unconverged": "unconverged (value "
+                "when stopped)", "diverged": "diverged", "failed": "failed"}
+
+
+def _value_label(table: pd.DataFrame, column: str, value) -> str:
+    """``column = value unit`` for a legend or panel title."""
+    from .units import column_units
+
+    unit = column_units(table).get(column)
+    v = f"{value:g}" if isinstance(value, (int, float)) and not isinstance(value, bool) else value
+    return f"{column} = {v}" + (f" {unit}" if unit and unit != "-" else "")
 
 
 def _pyplot():
@@ -91,18 +136,21 @@ def distribution_plot(table: pd.DataFrame, path, *, by=(), value: str = "amplitu
         if not len(v):
             continue
         key = key if isinstance(key, tuple) else (key,)
-        label = ", ".join(f"{b} = {k:g}" for b, k in zip(by, key)) if by else None
+        label = ", ".join(_value_label(table, b, k) for b, k in zip(by, key)) if by else None
         label = f"{label} (n = {len(v)})" if label else f"n = {len(v)}"
         ax_h.hist(v, bins=edges, histtype="step", lw=1.4, label=label)
         ax_c.step(v, np.arange(1, len(v) + 1) / len(v), where="post", lw=1.4, label=label)
-    ax_h.set_xlabel(f"{value} (decay = 0)")
+    from .units import axis_label
+
+    ax_h.set_xlabel(f"{axis_label(table, value)}, decay = 0")
     ax_h.set_ylabel("cases")
-    ax_c.set_xlabel(f"{value} (decay = 0)")
+    ax_c.set_xlabel(f"{axis_label(table, value)}, decay = 0")
     ax_c.set_ylabel("cumulative probability")
     ax_c.set_ylim(0, 1.02)
     for ax in (ax_h, ax_c):
         ax.grid(alpha=0.3)
-        ax.legend(fontsize=8)
+    fig.legend(handles=ax_c.get_legend_handles_labels()[0], loc="outside right upper",
+               fontsize=8)
     if title:
         fig.suptitle(title, fontsize=10)
     return _save(fig, path)
@@ -138,8 +186,10 @@ def calibration_plot(evaluations: pd.DataFrame, result: pd.DataFrame, path, *,
             ax.axvline(g, color=line.get_color(), ls="--", lw=0.9)
     ax.axhline(target, color="0.3", lw=0.9, ls=":", label=f"target {column} = {target:g}")
     ax.set_xscale("log")
+    from .units import axis_label
+
     ax.set_xlabel("gamma (s)")
-    ax.set_ylabel(f"{column} (decay = 0)")
+    ax.set_ylabel(f"{axis_label(evaluations, column)}, decay = 0")
     ax.grid(alpha=0.3, which="both")
     ax.legend(fontsize=8)
     if title:
@@ -197,11 +247,15 @@ def bifurcation_plot(runs: pd.DataFrame, summary: pd.DataFrame, path, *, x: str 
               "threshold (unstable LCO)": ("o", "C1", "none"), "unbounded": ("^", "C3", "C3")}
     ax_b.legend(handles=[plt.Line2D([], [], marker=m, ls="none", color=c, mfc=f, label=k)
                          for k, (m, c, f) in styles.items() if present[k]], fontsize=8)
-    ax_b.set_xlabel(x or "case")
-    ax_b.set_ylabel("amplitude (LCO; threshold: initial amplitude)")
+    from .units import axis_label, column_units
+
+    unit = column_units(runs).get("amplitude")
+    u = f" ({unit})" if unit else ""
+    ax_b.set_xlabel(axis_label(summary, x) if x else "case")
+    ax_b.set_ylabel(f"amplitude{u} (LCO; threshold: initial amplitude)")
     ax_r.set_xscale("log")
-    ax_r.set_xlabel("initial amplitude")
-    ax_r.set_ylabel("final amplitude (decay = 0, unbounded at the top)")
+    ax_r.set_xlabel(f"initial amplitude{u}")
+    ax_r.set_ylabel(f"final amplitude{u} (decay = 0, unbounded at the top)")
     if x:
         ax_r.legend(fontsize=7)
     for ax in (ax_b, ax_r):

@@ -29,6 +29,7 @@ from .grid import case_id, config_hash
 from .models import AeroelasticModel, model_rom
 from .runner import ChunkResult, PartStore, run_cases
 from .table import result_rows
+from .units import sweep_units
 
 
 def initial_displacement(rom: NonlinearROM, initial: dict[str, Any],
@@ -195,7 +196,21 @@ def run_sweep(cfg: SweepConfig, *, device=None, dtype=torch.float64,
                              chunk_size=chunk_size or cfg.chunk_size, executor=executor,
                              store=store, force=force, progress=progress, log=log,
                              on_history=on_history)
+    table.attrs["units"] = sweep_units(list(table.columns), list(cfg.outputs or []),
+                                       model_length_unit(model))
     return table, stats.as_dict()
+
+
+def model_length_unit(model) -> str | None:
+    """Length unit of a model's physical outputs (ROM metadata ``units``, else the aerodynamic
+    data's, e.g. "ft, slug, s"), None when unknown."""
+    rom = model_rom(model)
+    units = rom.metadata.get("units")
+    if isinstance(units, dict) and units.get("length"):
+        return str(units["length"])
+    aero = getattr(model, "aero", None)
+    text = getattr(aero, "metadata", {}).get("units") if aero is not None else None
+    return str(text).split(",")[0].strip() or None if text else None
 
 
 def case_evaluator(cfg: SweepConfig, model=None, *, device=None,

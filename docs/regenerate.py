@@ -1,0 +1,231 @@
+"""Regenerate ``docs/paper/`` and the README's generated sections from the commands themselves.
+
+    PYTHONPATH=. python docs/regenerate.py                      # runs `torchrom paper --out paper`
+    PYTHONPATH=. python docs/regenerate.py --paper-dir DIR --no-run   # use an existing full run
+
+Steps:
+
+1. ``torchrom paper --out DIR`` (the full study, with one thread: the decomposition's D̄2, D̄3
+   depend on the summation order; DIR defaults to ``paper/``, which git ignores, so a rerun
+   reuses its cache and takes seconds once the study has been run);
+2. copy ``DIR/figures/*.png`` and ``DIR/report.md`` into ``docs/paper/``, and ``DIR/paper.json``
+   into ``docs/paper/paper.json`` without the fields that depend on the run rather than on the
+   results (wall/CPU seconds, which files came from the cache, the output folder), and with the
+   report's "Run" section pointing to the benchmark instead of that run's own timings;
+3. ``torchrom flutter ../shared/nastran/pt145.bdf`` as given and with ``--symxz 1`` (skipped,
+   keeping the README's block, when the shared deck is absent);
+4. rewrite every README block between ``<!-- generated:NAME -->`` and ``<!-- /generated:NAME -->``
+   from ``docs/paper/paper.json``, ``benchmarks/results/bench_paper.json`` and step 3.
+
+The README's numbers therefore come from files anyone can regenerate; ``tests/test_readme.py``
+checks that the README's blocks equal what :func:`render_blocks` makes of the committed
+``docs/paper/paper.json`` and benchmark file. Deterministic: the same results give the same
+files byte for byte, so running it twice changes nothing. Hand-written.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import re
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+from typing import Any
+
+ROOT = Path(__file__).resolve().parents[1]
+README = ROOT / "README.md"
+DOCS = ROOT / "docs" / "paper"
+BENCH = ROOT / "benchmarks" / "results" / "bench_paper.json"
+DECK = ROOT.parent / "shared" / "nastran" / "pt145.bdf"
+#: paper.json fields that describe the run, not its results
+VOLATILE = ("seconds", "cpu_seconds", "model_seconds", "reused", "out", "figures")
+BLOCK = re.compile(r"(<!-- generated:(?P<name>[\w-]+) -->\n)(?P<body>.*?)(<!-- /generated:"
+                   r"(?P=name) -->)", re.S)
+
+
+# -- formatting -----------------------------------------------------------------------------------
+def _ft(x: float, digits: int = 0) -> str:
+    return f"{x:,.{digits}f}"
+
+
+def _cell(text: str) -> str:
+    return str(text).replace("|", "\\|").replace("\n", " ")
+
+
+def _bench_runs(bench: dict[str, Any]) -> dict[str, dict[str, Any]]:
+    return {r["form"]: r for r in bench["runs"]}
+
+
+def block_commands(bench: dict[str, Any]) -> str:
+    runs = _bench_runs(bench)
+    full, quick = runs["full"], runs["quick"]
+    cached = runs.get("quick, cached rerun")
+    meta = bench.get("meta", {})
+    lines = [
+        f"    torchrom paper --out paper            # full study: {full['wall_s']:.0f} s",
+        f"    torchrom paper --quick --out quick    # coarser grids, shorter runs: "
+        f"{quick['wall_s']:.0f} s (CI runs it)",
+        "",
+        f"Times measured by `benchmarks/bench_paper.py` (`benchmarks/results/bench_paper.json`) "
+        f"on a {meta.get('cpus', '?')}-core {meta.get('machine', '')} machine, torch "
+        f"{meta.get('torch', '?')}, load average {full.get('load_average_1min_start', 0):.1f} at "
+        f"the start: full {full['wall_s']:.0f} s, quick {quick['wall_s']:.0f} s (limits "
+        f"{full['limit_s'] / 60:.0f} and {quick['limit_s'] / 60:.0f} min)."]
+    if cached is not None:
+        lines[-1] += (f" A rerun into the same folder reuses every cached file and spends "
+                      f"{cached['wall_s']:.1f} s in the study itself; the command adds the start "
+                      f"of Python and the imports of torch, pandas and matplotlib.")
+    return "\n".join(lines)
+
+
+def block_flutter(paper: dict[str, Any]) -> str:
+    fl, lin = paper["flutter"], paper["linear"]
+    ss, pk, ref = fl["state_space"], fl["pk"], fl["paper"]
+    return "\n".join([
+        f"| flutter, Mach {fl['mach']:.2f}, baseline damping | altitude ft | frequency Hz |",
+        "|---|---|---|",
+        f"| torchrom, state space on the RFA (Eqs. 49–50) | {_ft(ss['altitude'])} | "
+        f"{ss['frequency_hz']:.3f} |",
+        f"| torchrom, p-k on the GAF table | {_ft(pk['altitude'])} | {pk['frequency_hz']:.3f} |",
+        f"| batched simulator: sign change of the linear growth rate | "
+        f"{_ft(lin['flutter_altitude_sim_ft'], 1)} (eigenvalues "
+        f"{_ft(lin['flutter_altitude_eig_ft'], 1)}) | |",
+        f"| paper (ZAERO) | {_ft(ref['altitude'])} | {ref['frequency_hz']:.3f} |"])
+
+
+def block_findings(paper: dict[str, Any]) -> str:
+    rows = ["| | the paper | ours | verdict |", "|---|---|---|---|"]
+    for f in paper["findings"]:
+        rows.append(f"| {_cell(f['figure'])} | {_cell(f['paper'])} | {_cell(f['ours'])} | "
+                    f"{f['verdict']} |")
+    return "\n".join(rows)
+
+
+def block_cause_check(paper: dict[str, Any]) -> str:
+    check = paper["damping_check"]
+    diss = check["dissipation"]
+    lines = ["The report's *cause check* reruns the Fig. 10 cases at "
+             + ", ".join(f"{a:,.0f}" for a in sorted({r['altitude_ft'] for r in check['table']}))
+             + " ft with the exact Kelvin–Voigt tensors of the FE material in place of the "
+               "optimum decomposition:", ""]
+    for f in check["findings"]:
+        lines.append(f"- {_cell(f['paper'])}: {_cell(f['ours'])} ({f['verdict']});")
+    lines.append(
+        f"- on the γ = 0 LCO cycle at {diss['altitude_ft']:,.0f} ft the nonlinear damping terms "
+        f"dissipate {diss['decomposition_ratio']:+.3f} times the linear term's energy with our "
+        f"decomposition and {diss['exact_ratio']:+.3f} with the exact tensors (nonlinear / "
+        f"linear); the decomposition criterion (smallest scaled eigenvalue of the extended "
+        f"damping matrix) is {diss['decomposition_min_eigenvalue']:.2e} for the decomposition and "
+        f"{diss['exact_min_eigenvalue']:.2e} for the exact tensors.")
+    return "\n".join(lines)
+
+
+def block_deck(deck: dict[str, str]) -> str:
+    return "\n".join([
+        "    $ torchrom flutter ../shared/nastran/pt145.bdf",
+        *(f"    {ln}" for ln in deck["plain"]),
+        "    $ torchrom flutter ../shared/nastran/pt145.bdf --symxz 1 --length-unit in",
+        *(f"    {ln}" for ln in deck["symmetric"])])
+
+
+def render_blocks(paper: dict[str, Any], bench: dict[str, Any],
+                  deck: dict[str, list[str]] | None = None) -> dict[str, str]:
+    """Every generated README block (``deck``: the pt145 CLI lines; block left out if None)."""
+    blocks = {"paper-commands": block_commands(bench), "paper-flutter": block_flutter(paper),
+              "paper-findings": block_findings(paper),
+              "paper-cause-check": block_cause_check(paper)}
+    if deck is not None:
+        blocks["pt145-flutter"] = block_deck(deck)
+    return blocks
+
+
+def readme_blocks(text: str) -> dict[str, str]:
+    """The README's generated blocks (name: body without the trailing newline)."""
+    return {m["name"]: m["body"].rstrip("\n") for m in BLOCK.finditer(text)}
+
+
+def replace_blocks(text: str, blocks: dict[str, str]) -> str:
+    """``text`` with the body of each named block replaced (a missing marker is an error)."""
+    missing = set(blocks) - set(readme_blocks(text))
+    if missing:
+        raise SystemExit(f"README.md: no <!-- generated:{sorted(missing)[0]} --> block")
+
+    def sub(m: re.Match) -> str:
+        body = blocks.get(m["name"])
+        return m.group(0) if body is None else f"{m.group(1)}{body}\n{m.group(4)}"
+
+    return BLOCK.sub(sub, text)
+
+
+# -- files ----------------------------------------------------------------------------------------
+def docs_summary(paper: dict[str, Any]) -> dict[str, Any]:
+    """paper.json without the fields that depend on the run rather than its results."""
+    return {k: v for k, v in paper.items() if k not in VOLATILE}
+
+
+def docs_report(report: str, bench: dict[str, Any]) -> str:
+    """report.md with its "Run" section (this run's timings and cache hits) replaced by the
+    benchmark's timings."""
+    runs = _bench_runs(bench)
+    run = ("## Run\n\nThe timings of a run depend on the machine, its load and the cache; the "
+           "measured ones are in `benchmarks/results/bench_paper.json` (full "
+           f"{runs['full']['wall_s']:.0f} s, quick {runs['quick']['wall_s']:.0f} s).\n\n")
+    return re.sub(r"## Run\n.*?(?=\n## )", run.rstrip("\n") + "\n", report, count=1, flags=re.S)
+
+
+def deck_lines(cmd_extra: list[str]) -> list[str]:
+    """The symmetry, units and flutter-point lines ``torchrom flutter`` prints on pt145."""
+    out = subprocess.run([sys.executable, "-m", "torchrom", "flutter", str(DECK), *cmd_extra],
+                         capture_output=True, text=True, check=True, cwd=ROOT,
+                         env={**_env(), "PYTHONPATH": str(ROOT)}).stdout
+    keep = ("symmetry:", "units:", "FLUTTER 30 (KE)")
+    return [ln for ln in out.splitlines() if ln.startswith(keep) and "DLM" not in ln]
+
+
+def _env() -> dict[str, str]:
+    """The environment of the commands: one BLAS/torch thread, because the optimum damping
+    decomposition's D̄2, D̄3 depend on the summation order
+    (experiments/results/decomposition_spread.md)."""
+    import os
+
+    return {**os.environ, "OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"}
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--paper-dir", type=Path, default=ROOT / "paper",
+                    help="output folder of the full `torchrom paper` run (default: paper/)")
+    ap.add_argument("--no-run", action="store_true",
+                    help="do not run `torchrom paper`; use the files already in --paper-dir")
+    args = ap.parse_args(argv)
+    sys.path.insert(0, str(ROOT))
+    from torchrom.io import write_text_atomic
+
+    if not args.no_run:
+        subprocess.run([sys.executable, "-m", "torchrom", "paper", "--out", str(args.paper_dir)],
+                       check=True, cwd=ROOT, env={**_env(), "PYTHONPATH": str(ROOT)})
+    paper = json.loads((args.paper_dir / "paper.json").read_text())
+    if paper.get("quick"):
+        raise SystemExit(f"{args.paper_dir}: a --quick run; the docs need the full study")
+    bench = json.loads(BENCH.read_text())
+    DOCS.mkdir(parents=True, exist_ok=True)
+    for png in sorted((args.paper_dir / "figures").glob("*.png")):
+        shutil.copyfile(png, DOCS / png.name)
+    summary = docs_summary(paper)
+    write_text_atomic(DOCS / "paper.json", json.dumps(summary, indent=2) + "\n")
+    report = (args.paper_dir / "report.md").read_text()
+    write_text_atomic(DOCS / "report.md", docs_report(report, bench))
+    deck = None
+    if DECK.is_file():
+        deck = {"plain": deck_lines([]), "symmetric": deck_lines(["--symxz", "1",
+                                                                   "--length-unit", "in"])}
+    text = README.read_text()
+    write_text_atomic(README, replace_blocks(text, render_blocks(summary, bench, deck)))
+    print(f"wrote {DOCS} and the README's generated blocks")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,67 @@
+"""``torchrom plot``: the general form (any table: x, y, hue, facet; units from the column
+metadata) and its errors (the paper figures are tested in test_paper_findings.py)."""
+
+import pandas as pd
+
+from torchrom.cli import main
+
+
+def _table() -> pd.DataFrame:
+    rows = [{"altitude_ft": h, "gamma": g, "branch": b, "status": "lco" if h < 9000 else "decay",
+             "amplitude": (9000 - h) / 1000 * (1 + b) / (1 + 1e3 * g)}
+            for h in (4000.0, 6000.0, 8000.0, 10000.0) for g in (1e-4, 1e-3) for b in (0, 1)]
+    t = pd.DataFrame(rows)
+    t.attrs["units"] = {"amplitude": "ft", "branch": "-"}
+    return t
+
+
+def test_general_plot_with_hue_and_facet(tmp_path, capsys):
+    _table().to_parquet(tmp_path / "t.parquet")
+    out = tmp_path / "f.png"
+    assert main(["plot", str(tmp_path / "t.parquet"), "--x", "altitude_ft", "--y", "amplitude",
+                 "--hue", "gamma", "--facet", "branch", "--out", str(out)]) == 0
+    assert out.stat().st_size > 10_000 and "wrote" in capsys.readouterr().out
+    # labels carry units: check through the plotting function's axes
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from torchrom.study.plots import parameter_plot
+
+    captured = {}
+    orig = plt.Figure.savefig
+
+    def spy(fig, *a, **k):
+        captured["labels"] = [ax.get_ylabel() for ax in fig.axes if ax.get_visible()]
+        captured["titles"] = [ax.get_title() for ax in fig.axes if ax.get_visible()]
+        captured["legend"] = [t.get_text() for lg in fig.legends for t in lg.get_texts()]
+        return orig(fig, *a, **k)
+
+    plt.Figure.savefig = spy
+    try:
+        parameter_plot(pd.read_parquet(tmp_path / "t.parquet"), tmp_path / "g.png",
+                       x="altitude_ft", y="amplitude", hue="gamma", facet="branch")
+    finally:
+        plt.Figure.savefig = orig
+    assert captured["labels"][0] == "amplitude (ft)"
+    assert captured["titles"] == ["branch = 0", "branch = 1"]
+    assert "gamma = 0.0001 s" in captured["legend"] and "converged LCO" in captured["legend"]
+    assert "diverged" not in captured["legend"]  # only statuses that are drawn
+
+
+def test_plot_needs_x_or_figure_and_known_columns(tmp_path, capsys):
+    _table().to_parquet(tmp_path / "t.parquet")
+    assert main(["plot", str(tmp_path / "t.parquet"), "--out", str(tmp_path / "a.png")]) == 2
+    assert "give either --x" in capsys.readouterr().err
+    assert main(["plot", str(tmp_path / "t.parquet"), "--x", "nope", "--out",
+                 str(tmp_path / "a.png")]) == 2
+    assert "no column 'nope'" in capsys.readouterr().err
+
+
+def test_table2_figure_from_a_modes_table(tmp_path):
+    modes = pd.DataFrame({"mode": [1, 2, 3], "frequency_hz": [1.69, 3.99, 9.9],
+                          "kind": ["bending", "torsion", "bending"]})
+    modes.to_csv(tmp_path / "modes.csv", index=False)
+    assert main(["plot", str(tmp_path / "modes.csv"), "--figure", "table2", "--out",
+                 str(tmp_path / "t2.png")]) == 0

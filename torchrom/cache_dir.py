@@ -1,0 +1,42 @@
+"""Where torchrom keeps the models it builds for configurations: the cache folder.
+
+A configuration with ``[model] builtin = "goland"`` (``torchrom sweep``, ``calibrate``,
+``bifurcation``, ``experiments/``) builds the heavy Goland FE model, its ROM, aerodynamics and
+flutter point once (about two minutes) and keeps them, keyed by the hash of their inputs and the
+package version (:mod:`torchrom.paper.cache`), in ``<root>/goland``. The root is, in this order:
+
+1. ``--cache-dir DIR`` of the command (:func:`set_cache_root`);
+2. the environment variable ``TORCHROM_CACHE``;
+3. ``~/.cache/torchrom``.
+
+``[model] cache = "DIR"`` in a configuration names the Goland folder itself and bypasses the
+root. ``torchrom cache info`` lists what is kept; ``torchrom cache clear`` deletes it (only
+folders holding a torchrom manifest, ``cache.json``). ``torchrom paper`` keeps its own model files
+inside its output folder (``OUT/model``), not here. Hand-written.
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+ENV = "TORCHROM_CACHE"
+_override: dict[str, Path | None] = {"root": None}
+
+
+def set_cache_root(path: str | os.PathLike | None) -> None:
+    """Use ``path`` as the cache root for this process (None: back to the default)."""
+    _override["root"] = Path(path) if path is not None else None
+
+
+def cache_root() -> Path:
+    """The cache root (see the module docstring for the order)."""
+    if _override["root"] is not None:
+        return _override["root"]
+    env = os.environ.get(ENV)
+    return Path(env) if env else Path.home() / ".cache" / "torchrom"
+
+
+def cache_folder(name: str) -> Path:
+    """The folder of one cached model family, e.g. ``goland``."""
+    return cache_root() / name

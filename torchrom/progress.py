@@ -1,0 +1,127 @@
+"""Progress of long loops, suited to where the output goes: a terminal or a log file.
+
+Every long command (``sweep``, ``paper``, ``identify``, ``aero``, ``calibrate``,
+``bifurcation``) reports through :class:`Progress`:
+
+- on a terminal (stderr is a TTY) a tqdm bar;
+- otherwise (a log file, a pipe, CI) plain lines on stderr, one whenever the work crosses another
+  10 % of its total (so one per chunk when there are fewer than ten chunks), each with the
+  elapsed time and the estimated time left (linear in the work done), e.g.
+  ``  cases done: 24/59 (41 %), elapsed 0:42, ETA 1:01``;
+- ``--quiet`` (verbosity 0): nothing; ``--verbose`` (verbosity 2): a line at every update, also
+  on a terminal (instead of the bar).
+
+The verbosity is process-wide (:func:`set_verbosity`, set by the command line from
+``--quiet``/``--verbose``); :func:`info` prints a stage message unless quiet. Bars delegated to
+tqdm; the line format is hand-written.
+"""
+
+from __future__ import annotations
+
+import sys
+import time
+from typing import IO
+
+QUIET, NORMAL, VERBOSE = 0, 1, 2
+_state = {"verbosity": NORMAL}
+
+
+def set_verbosity(level: int) -> None:
+    """0 quiet, 1 normal, 2 verbose (see the module docstring)."""
+    _state["verbosity"] = int(level)
+
+
+def verbosity() -> int:
+    return _state["verbosity"]
+
+
+def info(message: str) -> None:
+    """A stage message on stdout (dropped when quiet)."""
+    if verbosity() > QUIET:
+        print(message, flush=True)
+
+
+def note(message: str) -> None:
+    """A progress message on stderr (dropped when quiet), e.g. a calibration round."""
+    if verbosity() > QUIET:
+        print(message, file=sys.stderr, flush=True)
+
+
+def format_seconds(seconds: float) -> str:
+    """``m:ss`` (or ``h:mm:ss``) of a non-negative duration."""
+    s = max(0, int(round(seconds)))
+    h, rest = divmod(s, 3600)
+    m, s = divmod(rest, 60)
+    return f"{h}:{m:02d}:{s:02d}" if h else f"{m}:{s:02d}"
+
+
+class Progress:
+    """Progress of ``total`` units of work (see the module docstring for what is shown where).
+
+    Use as a context manager; call :meth:`update_to` with the units done so far (monotone) and
+    :meth:`write` for a message that must not break a bar. ``unit``: what is counted, plural
+    (e.g. "cases", "FE solves"). ``stream`` defaults to stderr; ``bar``
+    forces (True) or forbids (False) the tqdm bar instead of asking whether the stream is a TTY.
+    """
+
+    def __init__(self, total: int, desc: str, unit: str = "cases", *, stream: IO | None = None,
+                 bar: bool | None = None):
+        self.total = max(int(total), 0)
+        self.desc = desc
+        self.unit = unit
+        self.stream = stream if stream is not None else sys.stderr
+        self.done = 0
+        self.level = verbosity()
+        self._t0 = time.perf_counter()
+        self._next_decile = 1
+        is_tty = bool(getattr(self.stream, "isatty", lambda: False)())
+        use_bar = (is_tty if bar is None else bar) and self.level == NORMAL
+        self._bar = None
+        if use_bar:
+            from tqdm import tqdm
+
+            self._bar = tqdm(total=self.total, desc=desc, unit=unit, file=self.stream)
+
+    def __enter__(self) -> Progress:
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+    def line(self) -> str:
+        """The plain progress line for the work done so far."""
+        elapsed = time.perf_counter() - self._t0
+        pct = 100.0 * self.done / self.total if self.total else 100.0
+        eta = elapsed * (self.total - self.done) / self.done if self.done else float("nan")
+        eta_s = format_seconds(eta) if eta == eta else "?"
+        return (f"{self.desc}: {self.done}/{self.total} {self.unit} ({pct:.0f} %), "
+                f"elapsed {format_seconds(elapsed)}, ETA {eta_s}")
+
+    def update_to(self, done: int) -> None:
+        """Record that ``done`` units are finished."""
+        done = min(int(done), self.total) if self.total else int(done)
+        step = done - self.done
+        self.done = done
+        if self.level == QUIET or step <= 0:
+            return
+        if self._bar is not None:
+            self._bar.update(step)
+            return
+        decile = int(10 * done / self.total) if self.total else 10
+        if self.level == VERBOSE or decile >= self._next_decile:
+            self._next_decile = decile + 1
+            print(self.line(), file=self.stream, flush=True)
+
+    def write(self, message: str) -> None:
+        """A message printed above the bar (or as a plain line); dropped when quiet."""
+        if self.level == QUIET:
+            return
+        if self._bar is not None:
+            self._bar.write(message, file=self.stream)
+        else:
+            print(message, file=self.stream, flush=True)
+
+    def close(self) -> None:
+        if self._bar is not None:
+            self._bar.close()
+            self._bar = None

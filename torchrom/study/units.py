@@ -1,0 +1,58 @@
+"""Units of result-table columns, kept with the table (``DataFrame.attrs["units"]``, which
+pandas stores in the parquet file's metadata) and used to label figure axes.
+
+:func:`sweep_units` gives the units of a sweep's columns: the known parameter and result
+columns (:data:`KNOWN`) and the amplitudes in the units of the decision output (the model's
+length unit for a physical output such as point A's ``A_Tz``, ``-`` for generalized coordinates).
+:func:`column_units` reads them back (a CSV has no metadata: the known columns are still
+labelled). Hand-written.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+
+import pandas as pd
+
+#: units of the columns every table of this package may hold ("-": dimensionless)
+KNOWN = {
+    "altitude_ft": "ft", "mach": "-", "alpha": "1/s", "gamma": "s", "stiffness_nl": "-",
+    "damping_nl": "-", "amplitude_pct_span": "% of span", "frequency_hz": "Hz",
+    "steps": "-", "t_end": "s", "amplitude_change": "-", "solver_error": "-",
+    "reference_altitude_ft": "ft", "flutter_frequency_hz": "Hz", "growth_rate": "1/s",
+    "initial_amplitude": None, "threshold_amplitude": None,
+}
+
+
+def sweep_units(columns: Sequence[str], outputs: Sequence[str], length_unit: str | None,
+                extra: Mapping[str, str] | None = None) -> dict[str, str]:
+    """Units of a sweep table's ``columns``: :data:`KNOWN`, amplitudes (``amplitude`` in the first
+    output's units, ``amplitude_<output>`` in each output's), ratios dimensionless."""
+
+    def output_unit(name: str) -> str:
+        generalized = name == "sum" or (name.startswith("q") and name[1:].isdigit())
+        return "-" if generalized or not length_unit else length_unit
+
+    units = {k: v for k, v in KNOWN.items() if k in columns and v is not None}
+    if "amplitude" in columns and outputs:
+        units["amplitude"] = output_unit(outputs[0])
+    for name in outputs:
+        if f"amplitude_{name}" in columns:
+            units[f"amplitude_{name}"] = output_unit(name)
+    units.update({c: "-" for c in columns if c.startswith("ratio_")})
+    units.update(extra or {})
+    return units
+
+
+def column_units(table: pd.DataFrame) -> dict[str, str]:
+    """Units of the table's columns: its metadata over :data:`KNOWN`."""
+    known = {k: v for k, v in KNOWN.items() if v is not None and k in table.columns}
+    return {**known, **dict(table.attrs.get("units", {}) or {})}
+
+
+def axis_label(table: pd.DataFrame, column: str) -> str:
+    """``column (unit)``; ``column`` alone when the unit is unknown."""
+    unit = column_units(table).get(column)
+    if not unit or column.lower().endswith(f"_{unit.lower()}"):  # altitude_ft, frequency_hz
+        return column
+    return f"{column} ({unit})"
