@@ -11,6 +11,7 @@ the causes) — it turns into an error as soon as the model agrees, so the mark 
 from __future__ import annotations
 
 import json
+import shutil
 
 import pandas as pd
 import pytest
@@ -124,6 +125,52 @@ def test_quick_second_run_reuses_the_cache(quick):
     summary = run_paper(quick, quick=True, log=lambda s: None)
     assert {"rom.npz", "aero.npz", "flutter.json"} <= set(summary["reused"])
     assert summary["lco"]["reused"]
+
+
+@pytest.fixture(scope="module")
+def quick_hb(quick, tmp_path_factory):
+    """``torchrom paper --quick --method hb`` from a copy of the quick study (its model cache
+    warm: the FE model, ROM and aerodynamics are reused, the LCOs come from harmonic balance)."""
+    out = tmp_path_factory.mktemp("paper_hb") / "quick"
+    shutil.copytree(quick, out)
+    assert main(["paper", "--quick", "--method", "hb", "--out", str(out)]) == 0
+    return out
+
+
+def test_quick_hb_agrees_with_newmark(quick, quick_hb):
+    """The Goland quick-study cases: every status as time marching decides it, LCO amplitudes
+    within 0.5 % and frequencies within 0.2 % of the paper-setting Newmark sweep (issue
+    acceptance; the Newmark LCOs are themselves converged to 0.1 % per cycle)."""
+    nm = pd.read_parquet(quick / "sweeps" / "lco" / "results.parquet")
+    hb = pd.read_parquet(quick_hb / "sweeps" / "lco_hb" / "results.parquet")
+    keys = ["altitude_ft", "gamma", "stiffness_nl", "damping_nl"]
+    both = nm.merge(hb, on=keys, suffixes=("_nm", "_hb"))
+    assert len(both) == len(nm) == len(hb)
+    assert (both["status_nm"] == both["status_hb"]).all()
+    lco = both[both["status_nm"] == "lco"]
+    assert len(lco) >= 15
+    amp = (lco["amplitude_hb"] / lco["amplitude_nm"] - 1).abs()
+    freq = (lco["frequency_hz_hb"] / lco["frequency_hz_nm"] - 1).abs()
+    assert amp.max() <= 5e-3, lco.loc[amp.idxmax(), keys].to_dict()
+    assert freq.max() <= 2e-3
+    assert lco["stable_hb"].all()
+    text = (quick_hb / "report.md").read_text()
+    assert "## Harmonic balance confirmed by time marching" in text
+    assert "## LCO branches from the flutter point" in text
+    summary = _summary(quick_hb)
+    assert summary["method"] == "hb"
+    confirm = pd.DataFrame(summary["hb"]["confirmation"])
+    assert (confirm["amplitude_diff_pct"].abs() <= 0.5).all()
+    assert (quick_hb / "figures" / FIGURE_FILES["branches"]).stat().st_size > 10_000
+
+
+def test_quick_branches_are_supercritical(quick):
+    """The branches from the flutter point in altitude (γ = 0 and 1e-3 s): both leave the Hopf
+    point stable, without folds, down to 4,000 ft (the paper's supercritical LCOs)."""
+    for row in _summary(quick)["hb"]["branches"]:
+        assert row["stable_from_hopf"] and not row["folds_ft"]
+        assert row["lowest_altitude_ft"] == pytest.approx(4000.0)
+        assert 0 < row["amplitude_pct_span_there"] < 50
 
 
 def test_paper_refuses_a_folder_it_did_not_write(tmp_path):

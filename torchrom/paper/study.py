@@ -165,13 +165,10 @@ def run_paper(out, *, quick: bool = False, force: bool = False, device: str = "c
         table, histories, lco_info = _lco_sweep(cache, cfg, model, model_hash, device, dtype,
                                                 log)
         watch.stop("LCO sweep (Figs. 10-13)")
-    if method == "hb" or not quick:
-        watch.start()
-        branches = _branches(cache, cfg, model, model_hash, device, log)
-        hb_info["branches"] = branch_summary(branches)
-        watch.stop("LCO branches in altitude (continuation)")
-    else:
-        branches = None
+    watch.start()
+    branches = _branches(cache, cfg, model, model_hash, device, log)
+    hb_info["branches"] = branch_summary(branches)
+    watch.stop("LCO branches in altitude (continuation)")
 
     # -- cause check: the Fig. 10 cases with the exact Kelvin-Voigt damping ------------------
     watch.start()
@@ -200,7 +197,7 @@ def run_paper(out, *, quick: bool = False, force: bool = False, device: str = "c
     if len(histories):
         paths["fig11"] = figures.fig11(table, histories, fig_dir / FIGURE_FILES["fig11"],
                                        force=True)
-    if branches is not None and len(branches):
+    if len(branches):
         paths["branches"] = branch_diagram(
             branches, fig_dir / FIGURE_FILES["branches"], parameter="altitude_ft", units="ft",
             y="amplitude_pct_span", y_label="LCO amplitude of point A (% of span)",

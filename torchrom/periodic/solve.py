@@ -484,11 +484,12 @@ class _Orbits:
 
 
 def _adapt_harmonics(system: CaseSystem, r: Tensor, orb: _Orbits, H: int,
-                     options: HBOptions, compare: bool) -> _Orbits:
+                     options: HBOptions) -> _Orbits:
     """Raise H (by 2) for the 'lco' cases of ``orb`` (all at H) until accepted: the amplitude
-    changed by at most ``amplitude_rtol`` from the previous H (when ``compare``; a warm start
-    has no previous H and relies on the truncation residual) and the truncation residual is at
-    most ``residual_tol``."""
+    changed by at most ``amplitude_rtol`` from the previous H and the truncation residual is
+    at most ``residual_tol`` (the first raise is always made: an amplitude change needs two
+    H). Convergence in H is not always monotone (a harmonic near a structural resonance), so
+    the change is the error estimate of the smaller H and the larger H's orbit is kept."""
     rows = r[None, :]
 
     def amp_of(Xc: Tensor) -> np.ndarray:
@@ -498,10 +499,6 @@ def _adapt_harmonics(system: CaseSystem, r: Tensor, orb: _Orbits, H: int,
     X, omega = orb.X, orb.omega
     prev_amp = amp_of(X)
     todo = np.flatnonzero(orb.status == "lco")
-    if not compare and todo.size:
-        trunc = truncation_residual(system.select(torch.as_tensor(todo)), X[todo],
-                                    omega[todo]).cpu().numpy()
-        todo = todo[(trunc > options.residual_tol) | (H < options.harmonics)]
     while todo.size and H < options.max_harmonics:
         H_new = min(H + 2, options.max_harmonics)
         act = torch.as_tensor(todo, device=X.device)
@@ -538,7 +535,7 @@ def _solve_cold(system: CaseSystem, r: Tensor, options: HBOptions) -> tuple[_Orb
                   np.where(st["status"] == "lco", options.start_harmonics, 0),
                   st["status"], st["residual"].cpu().numpy(), np.full(B, math.nan),
                   st["iterations"].cpu().numpy())
-    return _adapt_harmonics(system, r, orb, options.start_harmonics, options, True), \
+    return _adapt_harmonics(system, r, orb, options.start_harmonics, options), \
         st["critical_root"]
 
 
@@ -554,8 +551,8 @@ def _warm_newton(system: CaseSystem, r: Tensor, X: Tensor, omega: Tensor, H: int
 
 def _solve_warm(system: CaseSystem, r: Tensor, X: Tensor, omega: Tensor, H: int,
                 options: HBOptions, neighbours: CaseSystem | None = None) -> _Orbits:
-    """Every case of ``system`` from a neighbour's orbit (X, ω at H harmonics): Newton with
-    c = 0, then the truncation check (raising H where it fails). Where that fails and the
+    """Every case of ``system`` from a neighbour's orbit (X, ω truncated to H harmonics):
+    Newton with c = 0, then the adaptive H check as for a cold start. Where that fails and the
     neighbours' own cases are given, the cases are reached along the straight path from the
     neighbours' (:meth:`CaseSystem.blend`) in 2, then 4 sub-steps (a homotopy); failures
     left start cold (:func:`solve_orbits`)."""
@@ -589,7 +586,7 @@ def _solve_warm(system: CaseSystem, r: Tensor, X: Tensor, omega: Tensor, H: int,
     status[(status == "lco") & (amp > options.max_amplitude)] = "diverged"
     orb = _Orbits(Xn, wn, np.where(status == "lco", H, 0), status, res.cpu().numpy(),
                   np.full(B, math.nan), its)
-    return _adapt_harmonics(system, r, orb, H, options, False)
+    return _adapt_harmonics(system, r, orb, H, options)
 
 
 def solve_orbits(system: CaseSystem, output_row, options: HBOptions = HBOptions(),
@@ -632,8 +629,9 @@ def solve_orbits(system: CaseSystem, output_row, options: HBOptions = HBOptions(
         if warm.any():
             idx, pidx, p2 = here[warm], prev[warm], prev2[warm]
             sub = system.select(torch.as_tensor(idx))
-            # start every warm case at its neighbour's H (the largest in the group)
-            H = int(out.H[pidx].max())
+            # start every warm case one step below its neighbour's H (the largest in the
+            # group): the adaptive check raises it again, so H does not creep along a chain
+            H = max(options.start_harmonics, int(out.H[pidx].max()) - 2)
             X0 = resize_harmonics(out.X[torch.as_tensor(pidx)], H)
             w0 = out.omega[torch.as_tensor(pidx)].clone()
             if pos is not None:  # secant predictor through the two neighbours

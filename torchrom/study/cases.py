@@ -118,6 +118,8 @@ def case_system(model, cases: list[dict[str, Any]], device=None, dtype=torch.flo
 # -- neighbour chains (harmonic balance warm starts) ----------------------------------------------
 #: longest neighbour chain: chains advance in lockstep, so longer ones mean smaller batches
 MAX_CHAIN = 16
+#: ... and, where there are enough cases, at least this many chains side by side
+MIN_CHAINS = 16
 #: case keys that neither order nor separate neighbour chains
 CHAIN_IGNORED = ("sample", "q0")
 
@@ -145,6 +147,9 @@ def neighbour_chains(cases: Sequence[Mapping[str, Any]], max_length: int = MAX_C
         groups.setdefault(repr(sorted((k, repr(v)) for k, v in c.items()
                                       if k != key and k not in CHAIN_IGNORED)), []).append(i)
     pos = np.array([float(c[key]) for c in cases])
+    # chains advance in lockstep: keep at least MIN_CHAINS of them (batch width) when the
+    # cases allow, at the price of more cold starts (one per chain)
+    max_length = max(2, min(max_length, math.ceil(B / MIN_CHAINS)))
     chains = []
     for members in groups.values():
         members = sorted(members, key=lambda i: -pos[i])
