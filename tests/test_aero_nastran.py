@@ -177,3 +177,38 @@ def test_bad_decks_give_one_line_errors(tmp_path, pt145_text, name, replacement,
 def test_missing_deck_file(tmp_path):
     with pytest.raises(InputError, match="file not found"):
         load_deck(tmp_path / "nope.bdf")
+
+
+def test_aero_acsid_along_minus_x_basic_gives_the_same_flutter(tmp_path, pt145_text, pt145_fe):
+    """AERO ACSID: CAERO1 chords and the flow run along the aero x axis (MSC QRG, CAERO1/AERO).
+
+    pt145 turned by 180 degrees about z (its CORD2R 1, which places the grids, the CAERO1 and the
+    SPLINE2, is turned), with an aero system whose x points along -x basic: in that system the
+    deck is pt145 itself, so modes and flutter must be the same to round-off (before: the boxes
+    were laid along +x basic, ahead of the wing, and the flutter speed was far off, silently).
+    """
+    from torchrom.fe import read_bdf
+
+    path = _variant(
+        tmp_path,
+        pt145_text,
+        "pt145_acsid.bdf",
+        ("+C1     .96593  -.25882 .0", "+C1     -.96593 .25882  .0"),
+        (
+            "AERO    0               2.0706  1.145-7",
+            _field8("AERO", 2, "", "2.0706", "1.145-7")
+            + "\n"
+            + _field8("CORD2R", 2, "", ".0", ".0", ".0", ".0", ".0", "1.")
+            + "\n"
+            + _field8("", "-1.", ".0", ".0"),
+        ),
+    )
+    turned = read_bdf(path)
+    np.testing.assert_allclose(turned.grid_xyz[:, :2], -pt145_fe.grid_xyz[:, :2], atol=1e-12)
+    deck = load_deck(path)
+    assert np.all(deck.panels.corners[:, 1, 0] > deck.panels.corners[:, 0, 0])  # chord along +x
+    (p,) = run_deck(deck, fe=turned, log=lambda *_: None).results[0].points
+    ref = _variant(tmp_path, pt145_text, "pt145_ref.bdf")
+    (q,) = run_deck(ref, fe=pt145_fe, log=lambda *_: None).results[0].points
+    assert p.velocity == pytest.approx(q.velocity, rel=1e-6)
+    assert p.frequency_hz == pytest.approx(q.frequency_hz, rel=1e-6)

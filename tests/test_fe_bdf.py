@@ -123,7 +123,8 @@ def test_unsupported_cards_are_listed_with_counts(tmp_path):
         "CTRIA3  5       2       1       2       3\nCTRIA3  6       2       1       2       3\n"
         "FOOBAR  1       2\nENDDATA\n"
     )
-    with pytest.raises(InputError, match=r"unsupported cards: CTRIA3 \(2\), FOOBAR \(1\)"):
+    with pytest.raises(InputError, match=r"unsupported cards: CTRIA3 \(2\): triangular shell "
+                       r"not implemented.*; FOOBAR \(1\): not read by the FE reader\."):
         read_bdf(path)
     with pytest.warns(UnsupportedCardWarning, match="CTRIA3"):
         fe = read_bdf(path, unsupported="warn")
@@ -172,3 +173,40 @@ def test_writer_round_trip_gives_identical_matrices(tmp_path):
     assert p1.read_text() == p2.read_text()
     with pytest.raises(InputError, match="already exists"):
         write_bdf(fe1, p1)
+
+
+def _pt145_with_grdset(shared, tmp_path):
+    """pt145 with CP, CD and PS moved from every GRID onto one GRDSET (fields blank on GRID)."""
+    lines = []
+    for line in (shared / PT145).read_text().splitlines():
+        if line.startswith("GRID    "):
+            line = line[:16] + " " * 8 + line[24:48]  # CP (field 3) blank, CD/PS (7, 8) dropped
+        elif line.startswith("BEGIN BULK"):
+            line += "\nGRDSET          1                               1       126"
+        lines.append(line)
+    path = tmp_path / "pt145_grdset.bdf"
+    path.write_text("\n".join(lines) + "\n")
+    return path
+
+
+def test_grdset_defaults_apply_to_blank_grid_fields(shared, tmp_path):
+    """GRDSET CP, CD and PS are the defaults of blank GRID fields (MSC QRG, GRDSET): the deck
+    with them on GRDSET is the same model as pt145 (before: PS ignored, 60 free DOFs, CP lost)."""
+    ref = read_bdf(shared / PT145)
+    fe = read_bdf(_pt145_with_grdset(shared, tmp_path))
+    assert fe.n_dof == ref.n_dof == 30
+    np.testing.assert_allclose(fe.grid_xyz, ref.grid_xyz, atol=1e-12)
+    for name in ("stiffness_matrix", "mass_matrix"):
+        assert abs(getattr(fe, name)() - getattr(ref, name)()).max() <= 1e-12 * abs(
+            getattr(ref, name)()).max()
+    # an explicit PS on a GRID wins over GRDSET
+    m = new_deck()
+    m.add_grdset(0, 0, "345", 0)
+    m.add_grid(1, [0.0, 0.0, 0.0], ps="1")
+    m.add_grid(2, [1.0, 0.0, 0.0])
+    m.add_mat1(1, 1.0e7, None, 0.3, rho=0.1)
+    m.add_prod(1, 1, 0.5)
+    m.add_crod(1, 1, [1, 2])
+    fe = model_of(m, autospc=False)
+    assert fe.constraints.status.get((0, 0)) == "GRID 1 PS" and (0, 2) not in fe.constraints.status
+    assert fe.constraints.status.get((1, 2)) == "GRID 2 PS"

@@ -122,7 +122,7 @@ def test_modes_are_mass_normalised_and_solvers_agree():
     np.testing.assert_allclose(Phi.T @ (M @ Phi), np.eye(8), atol=1e-10)
     resid = K @ Phi - (M @ Phi) * modes.eigenvalues
     assert np.abs(resid).max() <= 1e-8 * np.abs(K @ Phi).max()
-    vals, _ = _dense_modes(K, M, 8)  # dense, massless rotations condensed
+    vals, _, _ = _dense_modes(K, M, 8)  # dense, massless rotations condensed
     np.testing.assert_allclose(vals, modes.eigenvalues, rtol=1e-9)
 
 
@@ -135,6 +135,31 @@ def _oscillator(k=4.0e4, mass=2.0):
     m.add_crod(1, 1, [1, 2])
     m.add_conm2(2, 2, mass)
     return model_of(m)
+
+
+def test_massless_dofs_without_stiffness_and_all_modes_of_a_small_model():
+    """A massless rod carrying a point mass, AUTOSPC off: the grid's rotations have neither
+    stiffness nor mass (a singular massless block: LinAlgError before) and its lateral
+    translations neither stiffness (two zero-frequency modes). Asking for every mode (6 > the 3
+    finite ones) returns the 3, as Nastran does: 0, 0 and the axial ω² = (EA/L)/m exactly."""
+    k, mass = 4.0e4, 2.0
+    m = new_deck()
+    m.add_grid(1, [0.0, 0.0, 0.0], ps="123456")
+    m.add_grid(2, [1.0, 0.0, 0.0])
+    m.add_mat1(1, k, None, 0.3, rho=0.0)
+    m.add_prod(1, 1, 1.0)
+    m.add_crod(1, 1, [1, 2])
+    m.add_conm2(2, 2, mass)
+    fe = model_of(m, autospc=False)
+    assert fe.n_dof == 6
+    modes = fe.modes(6)
+    assert len(modes.frequencies_hz) == 3
+    np.testing.assert_allclose(modes.eigenvalues, [0.0, 0.0, k / mass], atol=1e-6 * k / mass)
+    assert any("3 finite" in n for n in modes.notes)
+    assert any("neither stiffness nor mass" in n for n in modes.notes)
+    # with AUTOSPC only the axial DOF is left: asking for 10 modes gives it
+    one = _oscillator(k, mass).modes(10)
+    np.testing.assert_allclose(one.eigenvalues, [k / mass], rtol=1e-12)
 
 
 def test_newmark_damped_free_vibration():

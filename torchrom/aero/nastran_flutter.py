@@ -37,7 +37,15 @@ from .flutter import (
     pk_sweep,
     refine_pk_crossings,
 )
-from .panels import AeroPanels, AeroReference, read_aero_reference, read_caero1, read_model
+from .panels import (
+    AeroFrame,
+    AeroPanels,
+    AeroReference,
+    read_aero_frame,
+    read_aero_reference,
+    read_caero1,
+    read_model,
+)
 from .splines import BeamSpline, PlateSpline
 
 FLUTTER_METHODS = ("PK", "PKNL", "KE", "K")
@@ -74,7 +82,7 @@ class FlutterDeck:
     """Everything a SOL 145 run needs from the deck, checked, except the modes."""
 
     path: Path
-    panels: AeroPanels  # half model as given by the CAERO1 cards
+    panels: AeroPanels  # half model as given by the CAERO1 cards, in the aero frame
     reference: AeroReference
     splines: list[SplineDef]
     cases: list[FlutterCase]
@@ -84,6 +92,7 @@ class FlutterDeck:
     vref: float = 1.0
     title: str = ""
     notes: list[str] = field(default_factory=list)
+    frame: AeroFrame = field(default_factory=AeroFrame)  # AERO ACSID: flow along its +x
 
     @property
     def aero_panels(self) -> AeroPanels:
@@ -93,8 +102,11 @@ class FlutterDeck:
     def box_motion(self, grid_ids, grid_disp: np.ndarray) -> BoxMotion:
         """Modal box motion from grid displacements (n_modes, n_grid, 6) in basic axes."""
         grid_ids = np.asarray(grid_ids)
+        nm, ng = grid_disp.shape[:2]
+        # Translations and rotations in the aero frame, where the boxes and splines live.
+        grid_disp = self.frame.vectors(np.asarray(grid_disp, float).reshape(nm, ng, 2, 3))
+        grid_disp = grid_disp.reshape(nm, ng, 6)
         where = {int(g): i for i, g in enumerate(grid_ids)}
-        nm = grid_disp.shape[0]
         half = self.panels
         h_l = np.zeros((nm, half.n))
         h_c = np.zeros((nm, half.n))
@@ -145,7 +157,8 @@ def _flfact(model, sid: int, where: str, what: str) -> np.ndarray:
     return vals
 
 
-def _spline_defs(model, path: Path, panels: AeroPanels) -> list[SplineDef]:
+def _spline_defs(model, path: Path, panels: AeroPanels, frame: AeroFrame) -> list[SplineDef]:
+    """Splines in the aero frame (grid positions and SPLINE2 axes transformed to it)."""
     defs = []
     covered = np.zeros(panels.n, dtype=int)
     for eid in sorted(model.splines):
@@ -168,7 +181,7 @@ def _spline_defs(model, path: Path, panels: AeroPanels) -> list[SplineDef]:
         for gid in grid_ids:
             if gid not in model.nodes:
                 raise InputError(f"{path}: SET1 {sp.setg}: grid {gid} not found")
-        xyz = np.array([model.nodes[g].get_position() for g in grid_ids])
+        xyz = frame.points(np.array([model.nodes[g].get_position() for g in grid_ids]))
         if sp.type == "SPLINE1":
             normal = panels.normals[box_index].mean(axis=0)
             spline = PlateSpline(xyz, normal=normal, dz=float(sp.dz or 0.0))
@@ -180,8 +193,8 @@ def _spline_defs(model, path: Path, panels: AeroPanels) -> list[SplineDef]:
             axes = np.asarray(coord.beta(), dtype=float)
             spline = BeamSpline(
                 xyz,
-                origin=np.asarray(coord.origin, float),
-                axes=axes,
+                origin=frame.points(np.asarray(coord.origin, float)),
+                axes=frame.vectors(axes),
                 attach_slope=(sp.dthx is None or sp.dthx >= 0.0),
                 attach_torsion=(sp.dthy is None or sp.dthy >= 0.0),
             )
@@ -202,9 +215,10 @@ def load_deck(path, require_flutter: bool = True) -> FlutterDeck:
     model = read_model(path)
     if not model.caeros:
         raise InputError(f"{path}: CAERO1: no aerodynamic panels in the deck")
-    panels = read_caero1(model, str(path))
+    frame = read_aero_frame(model, str(path))
+    panels = read_caero1(model, str(path), frame)
     ref = read_aero_reference(model, str(path))
-    splines = _spline_defs(model, path, panels)
+    splines = _spline_defs(model, path, panels, frame)
     if not splines:
         raise InputError(f"{path}: SPLINE1/SPLINE2: no spline connects the structure to the boxes")
     notes = []
@@ -268,7 +282,8 @@ def load_deck(path, require_flutter: bool = True) -> FlutterDeck:
     if cc is not None and cc.subcases[0].has_parameter("TITLE")[0]:
         title = str(cc.subcases[0].get_parameter("TITLE")[0]).strip()
     return FlutterDeck(
-        path, panels, ref, splines, cases, sorted(set(mkaero)), n_modes, frange, vref, title, notes
+        path, panels, ref, splines, cases, sorted(set(mkaero)), n_modes, frange, vref, title, notes,
+        frame,
     )
 
 

@@ -41,5 +41,7 @@ def run(args: argparse.Namespace) -> int:
     is_goland = _title(fe.bdf).startswith(GOLAND_TITLE)
     records = modes.records(reference_hz=TABLE2_HZ if is_goland else None)
     print(mode_table(records))
+    for note in fe.notes + modes.notes:
+        print(f"note: {note}")
     maybe_write_json(args, records)
     return 0

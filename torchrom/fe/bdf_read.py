@@ -30,6 +30,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import InputError
+from .bdf_cards import NOTED_CARDS, apply_grdset, reason
 from .elements.quad4 import quad_frames, shape
 from .mesh import (
     BarSet,
@@ -186,7 +187,7 @@ def from_pynastran(
     fname = Path(source).name
     if unsupported not in ("error", "warn"):
         raise InputError(f"unsupported: expected 'error' or 'warn', got {unsupported!r}")
-    _check_cards(model, fname, unsupported)
+    notes = _check_cards(model, fname, unsupported)
     reader = _Reader(model, fname)
     mesh = reader.mesh(spc_id)
     loads = reader.loads(mesh)
@@ -212,26 +213,33 @@ def from_pynastran(
         autospc=autospc,
     )
     fe.wing_chord = wing_chord
+    fe.notes = notes + reader.notes + fe.notes
     return fe
 
 
 GOLAND_UNITS = {"length": "ft", "mass": "slug", "time": "s", "force": "lbf"}
 
 
-def _check_cards(model, fname: str, unsupported: str) -> None:
+def _check_cards(model, fname: str, unsupported: str) -> list[str]:
+    """Refuse (or with ``unsupported='warn'`` ignore) unknown cards; notes for the cards that
+    change nothing in a modes/flutter solution (:data:`~torchrom.fe.bdf_cards.NOTED_CARDS`)."""
     counts = Counter({k: v for k, v in model.card_count.items() if v})
-    bad = {k: v for k, v in counts.items() if k not in STRUCTURAL_CARDS | PASSIVE_CARDS}
+    notes = [f"{k} ({v}) accepted, ignored: {NOTED_CARDS[k]}"
+             for k, v in sorted(counts.items()) if k in NOTED_CARDS]
+    known = STRUCTURAL_CARDS | PASSIVE_CARDS | NOTED_CARDS.keys()
+    bad = {k: v for k, v in counts.items() if k not in known}
     if not bad:
-        return
-    listing = ", ".join(f"{k} ({v})" for k, v in sorted(bad.items()))
+        return notes
+    listing = "; ".join(f"{k} ({v}): {reason(k)}" for k, v in sorted(bad.items()))
     if unsupported == "error":
         raise InputError(
-            f"{fname}: unsupported cards: {listing}; the FE reader supports "
+            f"{fname}: unsupported cards: {listing}. The FE reader supports "
             f"{', '.join(sorted(STRUCTURAL_CARDS - {'ENDDATA', 'PARAM', 'GRDSET'}))} "
             "(unsupported='warn' or --unsupported warn ignores them)"
         )
     warnings.warn(f"{fname}: ignoring unsupported cards: {listing}", UnsupportedCardWarning,
                   stacklevel=3)
+    return notes + [f"ignored unsupported cards: {listing}"]
 
 
 def _comps(value, fname: str, where: str) -> list[int]:
@@ -271,6 +279,7 @@ class _Reader:
     def __init__(self, model, fname: str):
         self.m = model
         self.f = fname
+        self.notes: list[str] = []
 
     def err(self, msg: str) -> InputError:
         return InputError(f"{self.f}: {msg}")
@@ -278,6 +287,7 @@ class _Reader:
     # -- grids -------------------------------------------------------------------------------
     def grids(self):
         m = self.m
+        apply_grdset(m)
         for nid, node in m.nodes.items():
             for field, cid in (("CP", node.cp), ("CD", node.cd)):
                 if cid not in (0, None, -1) and cid not in m.coords:

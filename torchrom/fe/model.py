@@ -102,6 +102,7 @@ class FEModel:
         self.n_all = 6 * mesh.n_grid
         self._warned_linear = False
         self.wing_chord: tuple[float, float] | None = None
+        self.notes: list[str] = []  # cards accepted without effect, conditioning, ... (reader)
 
         # Nonlinear (Green-strain) integration points: rods (2 nodes, 1-D), quads+shear (4, 2-D).
         groups = []
