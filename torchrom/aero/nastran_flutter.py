@@ -402,7 +402,7 @@ def run_deck(deck_or_path, fe=None, kernel: str = "quartic", log=print) -> DeckR
     structure = ModalStructure(np.eye(len(freqs)), np.diag(omega**2))
     b = deck.reference.semichord
     panels = deck.aero_panels
-    results, notes = [], list(deck.notes)
+    results, notes = [], list(deck.notes) + list(getattr(fe, "notes", []))
     for case in deck.cases:
         for mach in case.machs:
             if case.method.startswith("PK"):

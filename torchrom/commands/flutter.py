@@ -77,6 +77,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         help="for each γ (s), the α (1/s) that keeps the state-space flutter altitude of the "
         "given α, γ (paper Fig. 9)",
     )
+    p.add_argument("--unsupported", choices=("error", "warn"), default="error",
+                   help="deck form: what to do with unsupported structural cards (default error)")
     p.add_argument("--plot", type=Path, help="write a V-g / V-f figure (PNG/PDF)")
     p.add_argument("--root-locus", type=Path, help="write a state-space root-locus figure")
     add_json_option(p)
@@ -99,13 +101,13 @@ def run(args: argparse.Namespace) -> int:
 
 def _run_deck(args, path: Path) -> int:
     from ..aero.nastran_flutter import format_deck_result, load_deck, run_deck
-    from .aero import load_fe
+    from ..fe import read_bdf
 
     deck = load_deck(path)
     print(
         f"torchrom flutter: {path}: {len(deck.cases)} FLUTTER case(s), {deck.aero_panels.n} boxes"
     )
-    res = run_deck(deck, fe=load_fe(str(path)), kernel=args.kernel)
+    res = run_deck(deck, fe=read_bdf(path, unsupported=args.unsupported), kernel=args.kernel)
     print(format_deck_result(res))
     if args.plot is not None and res.results:
         from ..aero.plots import plot_vg

@@ -62,8 +62,8 @@ REFUSED_REASONS: dict[str, str] = {
     "MAT9": "anisotropic solid material not implemented",
     "CELAS3": "scalar-point spring not implemented",
     "CELAS4": "scalar-point spring not implemented",
-    "CDAMP1": "dampers change complex modes only; not implemented",
-    "CDAMP2": "dampers change complex modes only; not implemented",
+    "CDAMP1": "viscous damper not implemented (no effect on real modes; flutter would need it)",
+    "CDAMP2": "viscous damper not implemented (no effect on real modes; flutter would need it)",
 }
 
 
