@@ -43,11 +43,12 @@ from .mesh import (
     ScalarMass,
     ShearSet,
 )
+from .sections import section
 
 STRUCTURAL_CARDS = frozenset(
     "GRID GRDSET CORD1R CORD1C CORD1S CORD2R CORD2C CORD2S SPC SPC1 SPCADD MAT1 CROD PROD "
-    "CONROD CQUAD4 PSHELL CSHEAR PSHEAR CBAR PBAR CONM2 CMASS2 RBE2 RBE3 EIGR EIGRL FORCE MOMENT "
-    "PLOAD2 PLOAD4 LOAD PARAM ENDDATA".split()
+    "CONROD CQUAD4 PSHELL CSHEAR PSHEAR CBAR PBAR PBARL CBEAM PBEAM PBEAML CONM2 CMASS2 RBE2 "
+    "RBE3 EIGR EIGRL FORCE MOMENT PLOAD2 PLOAD4 LOAD PARAM ENDDATA".split()
 )
 # Kept for the aerodynamics (and for Nastran itself when the deck is written back); no effect on
 # the structure.
@@ -110,7 +111,10 @@ def _read_pynastran(path: Path):
         text = "SOL 103\nCEND\n" + ("" if has_begin else "BEGIN BULK\n") + text
     sink = io.StringIO()
     try:
-        with contextlib.redirect_stdout(sink), warnings.catch_warnings():
+        # INCLUDE paths are relative to the deck (pyNastran reads a text stream relative to
+        # the working directory).
+        with contextlib.redirect_stdout(sink), warnings.catch_warnings(), \
+                contextlib.chdir(path.resolve().parent):
             warnings.simplefilter("ignore")
             model = pn_read_bdf(io.StringIO(text), xref=False, validate=False, log=_quiet_logger())
     except Exception as exc:  # pyNastran raises many types for bad cards
@@ -366,7 +370,7 @@ class _Reader:
                 quads.append(self._quad(e))
             elif e.type == "CSHEAR":
                 shears.append(self._shear(e))
-            elif e.type == "CBAR":
+            elif e.type in ("CBAR", "CBEAM"):
                 bars.append(self._bar(e))
         mesh.rods = _stack(RodSet, rods)
         mesh.quads = _stack(QuadSet, quads)
@@ -377,6 +381,7 @@ class _Reader:
         for sel in (mesh.rods, mesh.quads, mesh.shears, mesh.bars):
             sel.rho *= wtmass
             sel.nsm *= wtmass
+        mesh.bars.polar *= wtmass
         for eid in sorted(self.m.masses):
             c = self.m.masses[eid]
             if c.type == "CONM2":
@@ -496,24 +501,27 @@ class _Reader:
         return dict(eids=eid, nodes=nodes, t=float(p.t), G=G, rho=rho, nsm=float(p.nsm or 0.0))
 
     def _bar(self, e):
-        eid = e.eid
-        p = self.prop(e.pid, "CBAR", eid, ("PBAR",))
-        owner = f"PBAR {p.pid}"
-        E, G, _, rho = self.mat1(p.mid, owner, "MID")
-        n1, n2 = self.rows(e.nodes, "CBAR", eid)
+        """CBAR (PBAR, PBARL) or CBEAM (PBEAM, PBEAML, prismatic): the linear beam element."""
+        eid, card = e.eid, e.type
+        expected = ("PBAR", "PBARL") if card == "CBAR" else ("PBEAM", "PBEAML")
+        p = self.prop(e.pid, card, eid, expected)
+        owner = f"{p.type} {p.pid}"
+        sec = section(p, owner)
+        E, G, _, rho = self.mat1(sec.mid, owner, "MID")
+        n1, n2 = self.rows(e.nodes, card, eid)
         L = np.linalg.norm(self.xyz[n2] - self.xyz[n1])
         if L <= 1e-12 * (1 + np.abs(self.xyz).max()):
-            raise self.err(f"CBAR {eid}: zero length (grids {e.nodes[0]} and {e.nodes[1]} "
+            raise self.err(f"{card} {eid}: zero length (grids {e.nodes[0]} and {e.nodes[1]} "
                            "coincide)")
         if e.pa or e.pb:
-            raise self.err(f"CBAR {eid}: fields PA/PB: pin flags are not supported")
+            raise self.err(f"{card} {eid}: fields PA/PB: pin flags are not supported")
         for field, w in (("WA", e.wa), ("WB", e.wb)):
             if w is not None and np.any(np.abs(np.asarray(w, float)) > 0):
-                raise self.err(f"CBAR {eid}: field {field}: offsets are not supported")
-        if float(p.i12 or 0.0):
+                raise self.err(f"{card} {eid}: field {field}: offsets are not supported")
+        if sec.I12:
             raise self.err(f"{owner}: field I12: product of inertia is not supported")
         if e.g0 not in (None, 0):
-            (g0,) = self.rows([e.g0], "CBAR", eid, "G0")
+            (g0,) = self.rows([e.g0], card, eid, "G0")
             v = self.xyz[g0] - self.xyz[n1]
         else:
             x = np.asarray(e.x, dtype=float)
@@ -524,11 +532,14 @@ class _Reader:
             v = axes_at(self.m.coords[cd], self.xyz[n1]) @ x if offt[:1] == "G" and cd else x
         axis = (self.xyz[n2] - self.xyz[n1]) / L
         if np.linalg.norm(np.cross(axis, v)) <= 1e-9 * max(np.linalg.norm(v), 1e-300):
-            raise self.err(f"CBAR {eid}: fields X1-X3/G0: orientation vector is parallel to the "
-                           "bar axis or zero")
-        return dict(eids=eid, nodes=[n1, n2], v=v, A=float(p.A or 0.0), I1=float(p.i1 or 0.0),
-                    I2=float(p.i2 or 0.0), J=float(p.j or 0.0), E=E, G=G, rho=rho,
-                    nsm=float(p.nsm or 0.0))
+            raise self.err(f"{card} {eid}: fields X1-X3/G0: orientation vector is parallel to "
+                           "the bar axis or zero")
+        if p.type in ("PBARL", "PBEAML") and not sec.k1:
+            self.notes.append(f"{owner}: {p.beam_type} section without shear flexibility "
+                              "(its Nastran shear factor is not known here)")
+        polar = rho * (sec.I1 + sec.I2) if card == "CBEAM" else 0.0
+        return dict(eids=eid, nodes=[n1, n2], v=v, A=sec.A, I1=sec.I1, I2=sec.I2, J=sec.J, E=E,
+                    G=G, rho=rho, nsm=sec.nsm, k1=sec.k1, k2=sec.k2, polar=polar)
 
     def _conm2(self, c, wtmass: float) -> PointMass:
         (g,) = self.rows([c.nid], "CONM2", c.eid)

@@ -76,7 +76,9 @@ class ShearSet:
 
 @dataclass
 class BarSet:
-    """CBAR/PBAR: linear Euler–Bernoulli beam; ``v`` is the orientation vector in basic axes."""
+    """CBAR/CBEAM: linear beam; ``v`` is the orientation vector in basic axes; ``k1``/``k2``
+    the shear area factors of planes 1/2 (0: no shear flexibility, Euler–Bernoulli);
+    ``polar`` the torsional mass moment of inertia per length (CBEAM: ρ (I1 + I2); CBAR: 0)."""
 
     eids: np.ndarray = field(default_factory=lambda: _empty(0, dtype=int))
     nodes: np.ndarray = field(default_factory=lambda: _empty(0, 2, dtype=int))
@@ -89,6 +91,15 @@ class BarSet:
     G: np.ndarray = field(default_factory=lambda: _empty(0))
     rho: np.ndarray = field(default_factory=lambda: _empty(0))
     nsm: np.ndarray = field(default_factory=lambda: _empty(0))
+    k1: np.ndarray = field(default_factory=lambda: _empty(0))
+    k2: np.ndarray = field(default_factory=lambda: _empty(0))
+    polar: np.ndarray = field(default_factory=lambda: _empty(0))
+
+    def __post_init__(self):
+        n = len(self.eids)
+        for name in ("k1", "k2", "polar"):
+            if len(getattr(self, name)) != n:
+                setattr(self, name, np.zeros(n))
 
     def __len__(self) -> int:
         return len(self.eids)
