@@ -210,3 +210,34 @@ def test_grdset_defaults_apply_to_blank_grid_fields(shared, tmp_path):
     fe = model_of(m, autospc=False)
     assert fe.constraints.status.get((0, 0)) == "GRID 1 PS" and (0, 2) not in fe.constraints.status
     assert fe.constraints.status.get((1, 2)) == "GRID 2 PS"
+
+
+def test_scalar_springs_masses_conm1_and_rbar_give_exact_oscillators():
+    """CELAS1/PELAS, CELAS2, CMASS1/PMASS, CMASS2, CONM1 (in a rotated CID) and RBAR: each
+    component is a one-DOF oscillator ω² = k / m (AUTOSPC removes the rest)."""
+    m = new_deck()
+    m.add_grid(1, [0.0, 0.0, 0.0])
+    m.add_grid(2, [1.0, 0.0, 0.0])
+    m.add_grid(3, [1.0, 2.0, 0.0])
+    m.add_pelas(5, 400.0)
+    m.add_celas1(1, 5, [1, 0], "1", "")          # T1 of grid 1: k = 400
+    m.add_pmass(7, 4.0)
+    m.add_cmass1(2, 7, [1, 0], "1", "")          # m = 4: ω² = 100
+    m.add_celas2(3, 900.0, [1, 0], "2", "")      # T2 of grid 1: k = 900
+    m.add_cmass2(4, 1.0, [1, 0], "2", "")        # m = 1 + 8 (RBAR carries grid 3's T2)
+    c, s = np.cos(0.4), np.sin(0.4)
+    m.add_cord2r(9, [0, 0, 0], [0, 0, 1], [c, s, 0])
+    M6 = np.zeros((6, 6))
+    M6[0, 0] = M6[1, 1] = M6[2, 2] = 3.0         # isotropic 3: invariant under the rotation
+    M6[5, 5] = 2.0                               # R3 about z: also invariant
+    m.add_conm1(6, 2, M6, cid=9)
+    m.add_celas2(7, 75.0, [2, 0], "3", "")       # T3 of grid 2: ω² = 75 / 3 = 25
+    m.add_celas2(8, 50.0, [2, 0], "6", "")       # R3 of grid 2: ω² = 50 / 2 = 25
+    m.add_conm2(9, 3, 8.0)
+    m.add_rbar(10, [1, 3], "123456", "", "", "123456")
+    fe = model_of(m)
+    assert fe.summary()["CELAS"] == 4 and fe.summary()["CONM1"] == 1
+    w2 = np.sort(fe.modes(10).eigenvalues)
+    # grid 1: T1 100 + RBAR (grid 3 follows grid 1's rigid motion, its T1 mass 8 too):
+    # (400)/(4 + 8) in T1; T2: 900 / (1 + 8); T3 of grid 2: 25; R3 of grid 2: 25
+    np.testing.assert_allclose(w2, sorted([400 / 12, 900 / 9, 25.0, 25.0]), rtol=1e-9)

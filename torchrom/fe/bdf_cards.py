@@ -55,7 +55,6 @@ REFUSED_REASONS: dict[str, str] = {
     "PCOMPG": "composite laminate not implemented",
     "CBUSH": "bushing not implemented",
     "PBUSH": "bushing not implemented",
-    "CONM1": "general 6x6 mass not implemented",
     "MPC": "multipoint constraints not implemented",
     "MAT2": "anisotropic shell material not implemented",
     "MAT8": "orthotropic shell material not implemented",

@@ -8,8 +8,11 @@ properties/materials/constraints/loads into the plain arrays of :mod:`torchrom.f
 selection of the SPC set and eigenvalue method from the case control (or the only one present).
 
 Supported structural cards: GRID (CP, CD, PS), GRDSET, CORD1R/C/S, CORD2R/C/S, SPC, SPC1,
-SPCADD, MAT1, CROD/PROD, CONROD, CQUAD4/PSHELL, CSHEAR/PSHEAR, CBAR/PBAR, CONM2, CMASS2, RBE2,
-RBE3, EIGR, EIGRL, FORCE, MOMENT, PLOAD2, PLOAD4, LOAD, PARAM (COUPMASS, WTMASS are used).
+SPCADD, MAT1, CROD/PROD, CONROD, CQUAD4/PSHELL, CSHEAR/PSHEAR, CBAR/PBAR/PBARL,
+CBEAM/PBEAM/PBEAML (:mod:`torchrom.fe.sections`), CELAS1/PELAS, CELAS2, CONM1, CONM2,
+CMASS1/PMASS, CMASS2, RBE2, RBAR, RBE3, EIGR, EIGRL, FORCE, MOMENT, PLOAD2, PLOAD4, LOAD, PARAM
+(COUPMASS, WTMASS are used). Cards without effect on modes and flutter are accepted with a note
+(:data:`torchrom.fe.bdf_cards.NOTED_CARDS`).
 Aerodynamic and solution-control cards (CAERO1, PAERO1, SPLINE*, SET1, AERO, AEROS, MKAERO*,
 FLFACT, FLUTTER, ...) are kept in ``fe.bdf`` for :mod:`torchrom.aero` and ignored here. Any other
 card is an error listing the card names and counts (``unsupported="warn"`` demotes it to a
@@ -35,12 +38,14 @@ from .elements.quad4 import quad_frames, shape
 from .mesh import (
     BarSet,
     InterpRBE3,
+    MassMatrix6,
     Mesh,
     PointMass,
     QuadSet,
     RigidRBE2,
     RodSet,
     ScalarMass,
+    ScalarSpring,
     ShearSet,
 )
 from .sections import section
@@ -48,7 +53,8 @@ from .sections import section
 STRUCTURAL_CARDS = frozenset(
     "GRID GRDSET CORD1R CORD1C CORD1S CORD2R CORD2C CORD2S SPC SPC1 SPCADD MAT1 CROD PROD "
     "CONROD CQUAD4 PSHELL CSHEAR PSHEAR CBAR PBAR PBARL CBEAM PBEAM PBEAML CONM2 CMASS2 RBE2 "
-    "RBE3 EIGR EIGRL FORCE MOMENT PLOAD2 PLOAD4 LOAD PARAM ENDDATA".split()
+    "RBE3 RBAR CELAS1 CELAS2 PELAS CMASS1 PMASS CONM1 EIGR EIGRL FORCE MOMENT PLOAD2 PLOAD4 "
+    "LOAD PARAM ENDDATA".split()
 )
 # Kept for the aerodynamics (and for Nastran itself when the deck is written back); no effect on
 # the structure.
@@ -372,6 +378,8 @@ class _Reader:
                 shears.append(self._shear(e))
             elif e.type in ("CBAR", "CBEAM"):
                 bars.append(self._bar(e))
+            elif e.type in ("CELAS1", "CELAS2"):
+                mesh.celas.append(self._celas(e))
         mesh.rods = _stack(RodSet, rods)
         mesh.quads = _stack(QuadSet, quads)
         mesh.shears = _stack(ShearSet, shears)
@@ -386,8 +394,10 @@ class _Reader:
             c = self.m.masses[eid]
             if c.type == "CONM2":
                 mesh.conm2.append(self._conm2(c, wtmass))
-            elif c.type == "CMASS2":
-                mesh.cmass2.append(self._cmass2(c, wtmass))
+            elif c.type in ("CMASS1", "CMASS2"):
+                mesh.cmass2.append(self._cmass(c, wtmass))
+            elif c.type == "CONM1":
+                mesh.conm1.append(self._conm1(c, wtmass))
         for eid in sorted(self.m.rigid_elements):
             c = self.m.rigid_elements[eid]
             if c.type == "RBE2":
@@ -397,6 +407,8 @@ class _Reader:
                 mesh.rbe2.append(RigidRBE2(eid, nrow, comps, dep))
             elif c.type == "RBE3":
                 mesh.rbe3.append(self._rbe3(c))
+            elif c.type == "RBAR":
+                mesh.rbe2.append(self._rbar(c))
         self._spcs(mesh, spc_id)
         return mesh
 
@@ -564,21 +576,78 @@ class _Reader:
             inertia = Rb @ inertia @ Rb.T
         return PointMass(c.eid, g, float(c.mass) * wtmass, offset, inertia * wtmass)
 
-    def _cmass2(self, c, wtmass: float) -> ScalarMass:
+    def _scalar_pair(self, c) -> tuple[int, int, int, int]:
+        """(grid row, component 0..5) twice of a CMASS1/2 or CELAS1/2 (row -1: ground)."""
+        card = c.type
         n1, n2 = (list(c.nodes) + [None, None])[:2]
         if n1 in (None, 0):
             n1, n2, c1, c2 = n2, None, c.c2, c.c1
         else:
             c1, c2 = c.c1, c.c2
-        (g1,) = self.rows([n1], "CMASS2", c.eid)
-        comp1 = _comps(c1, self.f, f"CMASS2 {c.eid}: field C1")
+        (g1,) = self.rows([n1], card, c.eid)
+        comp1 = _comps(c1, self.f, f"{card} {c.eid}: field C1")
         g2, comp2 = -1, [0]
         if n2 not in (None, 0):
-            (g2,) = self.rows([n2], "CMASS2", c.eid)
-            comp2 = _comps(c2, self.f, f"CMASS2 {c.eid}: field C2")
+            (g2,) = self.rows([n2], card, c.eid)
+            comp2 = _comps(c2, self.f, f"{card} {c.eid}: field C2")
         if len(comp1) != 1 or len(comp2) != 1:
-            raise self.err(f"CMASS2 {c.eid}: fields C1/C2: expected one component each")
-        return ScalarMass(c.eid, float(c.mass) * wtmass, g1, comp1[0], g2, comp2[0])
+            raise self.err(f"{card} {c.eid}: fields C1/C2: expected one component each")
+        return g1, comp1[0], g2, comp2[0]
+
+    def _cmass(self, c, wtmass: float) -> ScalarMass:
+        if c.type == "CMASS1":
+            p = self.m.properties_mass.get(c.pid)
+            if p is None or p.type != "PMASS":
+                raise self.err(f"CMASS1 {c.eid}: field PID: PMASS {c.pid} not found")
+            mass = float(p.mass)
+        else:
+            mass = float(c.mass)
+        return ScalarMass(c.eid, mass * wtmass, *self._scalar_pair(c))
+
+    def _celas(self, e) -> ScalarSpring:
+        if e.type == "CELAS1":
+            p = self.m.properties.get(e.pid)
+            if p is None or p.type != "PELAS":
+                raise self.err(f"CELAS1 {e.eid}: field PID: PELAS {e.pid} not found")
+            k, ge = float(p.k), float(p.ge or 0.0)
+        else:
+            k, ge = float(e.k), float(e.ge or 0.0)
+        if ge:
+            self.notes.append(f"{e.type} {e.eid}: structural damping GE = {ge:g} ignored")
+        return ScalarSpring(e.eid, k, *self._scalar_pair(e))
+
+    def _conm1(self, c, wtmass: float) -> MassMatrix6:
+        (g,) = self.rows([c.nid], "CONM1", c.eid)
+        M = np.asarray(c.mass_matrix, dtype=float)
+        cid = int(c.cid or 0)
+        if cid:
+            coord = self.m.coords.get(cid)
+            if coord is None:
+                raise self.err(f"CONM1 {c.eid}: field CID: coordinate system {cid} not found")
+            R = axes_at(coord, self.xyz[g])
+            B = np.zeros((6, 6))
+            B[:3, :3] = B[3:, 3:] = R
+            M = B @ M @ B.T
+        return MassMatrix6(c.eid, g, M * wtmass)
+
+    def _rbar(self, c) -> RigidRBE2:
+        """RBAR as the rigid element it is when one end carries all six independent DOFs."""
+        eid = c.eid
+        ga, gb = self.rows([c.ga, c.gb], "RBAR", eid, "G")
+        cna = _comps(c.cna, self.f, f"RBAR {eid}: field CNA")
+        cnb = _comps(c.cnb, self.f, f"RBAR {eid}: field CNB")
+        cma = _comps(c.cma, self.f, f"RBAR {eid}: field CMA")
+        cmb = _comps(c.cmb, self.f, f"RBAR {eid}: field CMB")
+        if not cma and not cmb:  # MSC QRG RBAR: blank CMA, CMB: all DOFs not in CNA, CNB
+            cma = sorted(set(range(6)) - set(cna))
+            cmb = sorted(set(range(6)) - set(cnb))
+        if len(cna) == 6 and not cnb and not cma and cmb:
+            return RigidRBE2(eid, ga, cmb, [gb])
+        if len(cnb) == 6 and not cna and not cmb and cma:
+            return RigidRBE2(eid, gb, cma, [ga])
+        raise self.err(f"RBAR {eid}: fields CNA/CNB/CMA/CMB: only one end with all six "
+                       f"independent components is supported, got CNA={c.cna!r}, CNB={c.cnb!r}, "
+                       f"CMA={c.cma!r}, CMB={c.cmb!r}")
 
     def _rbe3(self, c) -> InterpRBE3:
         eid = c.eid

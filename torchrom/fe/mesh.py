@@ -129,6 +129,28 @@ class ScalarMass:
 
 
 @dataclass
+class ScalarSpring:
+    """CELAS1/CELAS2: scalar spring k (u1 − u2)² / 2 between (grid1, comp1) and (grid2, comp2);
+    grid2 = -1 is ground."""
+
+    eid: int
+    stiffness: float
+    grid1: int
+    comp1: int  # 0..5
+    grid2: int
+    comp2: int
+
+
+@dataclass
+class MassMatrix6:
+    """CONM1: a symmetric 6x6 mass matrix at a grid, in basic axes (T1..T3, R1..R3)."""
+
+    eid: int
+    grid: int  # row
+    matrix: np.ndarray
+
+
+@dataclass
 class RigidRBE2:
     """RBE2: components ``comps`` (0..5) of the ``dependent`` rows follow grid ``independent``."""
 
@@ -162,6 +184,8 @@ class Mesh:
     bars: BarSet = field(default_factory=BarSet)
     conm2: list[PointMass] = field(default_factory=list)
     cmass2: list[ScalarMass] = field(default_factory=list)
+    celas: list[ScalarSpring] = field(default_factory=list)
+    conm1: list[MassMatrix6] = field(default_factory=list)
     rbe2: list[RigidRBE2] = field(default_factory=list)
     rbe3: list[InterpRBE3] = field(default_factory=list)
     spc: list[tuple[int, int]] = field(default_factory=list)  # (grid row, comp 0..5)

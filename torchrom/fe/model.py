@@ -40,7 +40,7 @@ from .elements.quad4 import (
 )
 from .elements.rod import rod_mass_blocks, rod_points, rod_torsion_blocks
 from .elements.shear import shear_mass_blocks, shear_points
-from .mass import cmass2_blocks, conm2_blocks
+from .mass import celas_blocks, cmass2_blocks, conm1_blocks, conm2_blocks
 from .mesh import Mesh
 
 
@@ -125,6 +125,8 @@ class FEModel:
             lin.append(rod_torsion_blocks(mesh.rods, mesh.xyz))
         if len(mesh.bars):
             lin.append(bar_stiffness_blocks(mesh.bars, mesh.xyz))
+        if mesh.celas:
+            lin.append(celas_blocks(mesh.celas, mesh.cd_axes))
         self._lin_parts = [p for p in lin if len(p[0])]
 
         cons = build_constraints(mesh, source=self.source or self.name)
@@ -197,6 +199,8 @@ class FEModel:
             parts.append(conm2_blocks(mesh.conm2))
         if mesh.cmass2:
             parts.append(cmass2_blocks(mesh.cmass2, mesh.cd_axes))
+        if mesh.conm1:
+            parts.append(conm1_blocks(mesh.conm1))
         return assemble(parts, self.n_all)
 
     def _state(self, dtype=torch.float64, device=None) -> _TorchState:
@@ -480,7 +484,9 @@ class FEModel:
             "CSHEAR": len(m.shears),
             "CBAR": len(m.bars),
             "CONM2": len(m.conm2),
-            "CMASS2": len(m.cmass2),
+            "CMASS": len(m.cmass2),
+            "CONM1": len(m.conm1),
+            "CELAS": len(m.celas),
             "RBE2": len(m.rbe2),
             "RBE3": len(m.rbe3),
             "autospc": len(self.autospc),
