@@ -36,6 +36,7 @@ from .flutter import (
     ke_sweep,
     pk_sweep,
     refine_pk_crossings,
+    zero_crossings,
 )
 from .panels import (
     AeroFrame,
@@ -403,20 +404,51 @@ def run_deck(deck_or_path, fe=None, kernel: str = "quartic", log=print) -> DeckR
     b = deck.reference.semichord
     panels = deck.aero_panels
     results, notes = [], list(deck.notes) + list(getattr(fe, "notes", []))
+    def table_at(mach, k_list, case):
+        log(
+            f"FLUTTER {case.sid} ({case.method}): DLM at Mach {mach:g}, {len(k_list)} reduced "
+            f"frequencies, {panels.n} boxes"
+        )
+        gaf = compute_gaf(panels, motion, mach, k_list, b, kernel)
+        return AeroTable.from_gaf(gaf, interpolation="linear" if case.imeth == "L" else "cubic")
+
+    def pk_k_list(mach):
+        near = min({m for m, _ in deck.mkaero}, key=lambda m: abs(m - mach))
+        return sorted({k for m, k in deck.mkaero if m == near})
+
     for case in deck.cases:
+        if case.method == "PKNL":
+            # PKNL: the i-th density, Mach number and velocity form one flight condition (no
+            # loops over the lists, MSC QRG FLUTTER); one p-k path per Mach number.
+            n = len(case.values)
+            if len(case.densities) not in (1, n) or len(case.machs) not in (1, n):
+                raise InputError(
+                    f"{deck.path}: FLUTTER {case.sid}: PKNL needs density, Mach and velocity "
+                    f"lists of the same length (got {len(case.densities)}, {len(case.machs)}, {n})"
+                )
+            rho_all = np.broadcast_to(case.densities, (n,))
+            ratio_all = np.broadcast_to(case.density_ratios, (n,))
+            mach_all = np.broadcast_to(case.machs, (n,))
+            for mach in dict.fromkeys(mach_all.tolist()):
+                sel = mach_all == mach
+                aero = table_at(mach, pk_k_list(mach), case)
+                sweep = pk_sweep(structure, aero, np.abs(case.values[sel]), rho_all[sel],
+                                 mach=mach, eps=min(case.eps, 1e-4))
+                points = sweep.crossings()  # linear in the path, as Nastran's summary
+                for p in points:
+                    p.mach = float(mach)
+                notes += sweep.notes
+                ratio = ratio_all[sel]
+                results.append(CaseResult(case, float(mach), float(ratio[0]) if
+                                          np.ptp(ratio) == 0 else float("nan"),
+                                          float(rho_all[sel][0]), sweep, points))
+            continue
         for mach in case.machs:
             if case.method.startswith("PK"):
-                near = min({m for m, _ in deck.mkaero}, key=lambda m: abs(m - mach))
-                k_list = sorted({k for m, k in deck.mkaero if m == near})
+                k_list = pk_k_list(mach)
             else:
                 k_list = sorted(set(case.values.tolist()))
-            log(
-                f"FLUTTER {case.sid} ({case.method}): DLM at Mach {mach:g}, {len(k_list)} reduced "
-                f"frequencies, {panels.n} boxes"
-            )
-            gaf = compute_gaf(panels, motion, mach, k_list, b, kernel)
-            interp = "linear" if case.imeth == "L" else "cubic"
-            aero = AeroTable.from_gaf(gaf, interpolation=interp)
+            aero = table_at(mach, k_list, case)
             for ratio, rho in zip(case.density_ratios, case.densities):
                 if case.method.startswith("PK"):
                     v = np.sort(np.abs(case.values))
@@ -479,3 +511,113 @@ def format_deck_result(res: DeckResult) -> str:
     for n in res.notes:
         lines.append(f"note: {n}")
     return "\n".join(lines)
+
+
+# -- Nastran's f06 side by side ------------------------------------------------------------------
+@dataclass
+class F06Crossing:
+    """A flutter point read from the f06: the branch, velocity, frequency (Hz) and k."""
+
+    point: int
+    method: str
+    mach: float | None
+    density_ratio: float | None
+    velocity: float
+    frequency_hz: float
+    kfreq: float
+
+
+
+def f06_flutter_points(tables) -> list[F06Crossing]:
+    """Zero-damping crossings (upwards, beyond round-off) of every f06 FLUTTER SUMMARY point
+    (:func:`torchrom.f06.read_flutter_summary`), interpolated linearly in the printed order."""
+    out = []
+    for t in tables:
+        # PK/KE: along increasing velocity (KE prints by reduced frequency); PKNL: the path
+        order = np.arange(len(t.velocity)) if t.method == "PKNL" else np.argsort(
+            t.velocity, kind="stable")
+        g, vel, freq, kf = t.damping[order], t.velocity[order], t.frequency[order], t.kfreq[order]
+        for i in zero_crossings(g):
+            s = g[i] / (g[i] - g[i + 1])
+
+            def lerp(a, i=i, s=s):
+                return float(a[i] + s * (a[i + 1] - a[i]))
+
+            out.append(F06Crossing(t.point, t.method, t.mach, t.density_ratio, lerp(vel),
+                                   lerp(freq), lerp(kf)))
+    return out
+
+
+def compare_f06(res: DeckResult, f06_path) -> tuple[str, list[dict]]:
+    """torchrom's flutter points beside those of Nastran's FLUTTER SUMMARY (same method, Mach,
+    density ratio and mode/POINT), with the differences; plus the modes Nastran used."""
+    from ..f06 import read_flutter_summary, read_real_eigenvalues
+
+    vref = res.deck.vref
+    theirs = f06_flutter_points(read_flutter_summary(f06_path))
+    tables = read_real_eigenvalues(f06_path)
+    lines, records = [], []
+    if tables:
+        ref = tables[-1].cycles  # the last table: the modes used in the dynamic analysis
+        lines.append(f"{'mode':>5}{'torchrom Hz':>14}{'Nastran Hz':>14}{'diff %':>9}")
+        for i, f in enumerate(res.frequencies_hz):
+            if i < len(ref):
+                d = 100 * (f - ref[i]) / ref[i] if abs(ref[i]) > 1e-9 else float("nan")
+                lines.append(f"{i + 1:>5}{f:14.5g}{ref[i]:14.5g}{d:9.3f}")
+    lines.append(f"{'method':>7}{'Mach':>7}{'rho ratio':>11}{'mode':>5}{'V torchrom':>13}"
+                 f"{'V Nastran':>12}{'dV %':>8}{'f torchrom':>12}{'f Nastran':>11}{'df %':>8}")
+    used = set()
+    for r in res.results:
+        for p in r.points:
+            match, best = None, None
+            for k, t in enumerate(theirs):
+                if k in used or t.method != r.case.method:
+                    continue
+                if t.mach is not None and abs(t.mach - r.mach) > 1e-6:
+                    continue
+                if t.density_ratio is not None and not np.isnan(r.density_ratio) and abs(
+                        t.density_ratio - r.density_ratio) > 1e-6 * max(1.0, r.density_ratio):
+                    continue
+                # the same branch first, else the nearest speed (mode labels can swap where
+                # branches coalesce)
+                score = (t.point != p.mode + 1, abs(t.velocity - p.velocity / vref))
+                if best is None or score < best:
+                    match, best = k, score
+            v = p.velocity / vref
+            rec = {"flutter_id": r.case.sid, "method": r.case.method, "mach": r.mach,
+                   "density_ratio": r.density_ratio, "mode": p.mode + 1, "velocity": v,
+                   "frequency_hz": p.frequency_hz, "nastran_velocity": None,
+                   "nastran_frequency_hz": None, "velocity_diff_pct": None,
+                   "frequency_diff_pct": None}
+            if match is not None:
+                used.add(match)
+                t = theirs[match]
+                rec.update(nastran_velocity=t.velocity, nastran_frequency_hz=t.frequency_hz,
+                           velocity_diff_pct=100 * (v - t.velocity) / t.velocity,
+                           frequency_diff_pct=100 * (p.frequency_hz - t.frequency_hz)
+                           / t.frequency_hz)
+            records.append(rec)
+    for k, t in enumerate(theirs):
+        if k not in used:
+            records.append({"method": t.method, "mach": t.mach, "density_ratio": t.density_ratio,
+                            "mode": t.point, "velocity": None, "frequency_hz": None,
+                            "nastran_velocity": t.velocity,
+                            "nastran_frequency_hz": t.frequency_hz, "velocity_diff_pct": None,
+                            "frequency_diff_pct": None})
+
+    def fmt(x, spec):
+        return format(x, spec) if x is not None else "-".rjust(len(format(0.0, spec)))
+
+    for rec in records:
+        ratio = rec["density_ratio"]
+        lines.append(
+            f"{rec['method']:>7}{fmt(rec['mach'], '7.3f')}"
+            f"{fmt(None if ratio is None or np.isnan(ratio) else ratio, '11.4g')}"
+            f"{rec['mode']:>5}{fmt(rec['velocity'], '13.5g')}"
+            f"{fmt(rec['nastran_velocity'], '12.5g')}"
+            f"{fmt(rec['velocity_diff_pct'], '8.2f')}{fmt(rec['frequency_hz'], '12.5g')}"
+            f"{fmt(rec['nastran_frequency_hz'], '11.5g')}{fmt(rec['frequency_diff_pct'], '8.2f')}"
+        )
+    if not records:
+        lines.append("no flutter crossing in torchrom's run nor in the f06")
+    return "\n".join(lines), records

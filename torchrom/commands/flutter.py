@@ -79,6 +79,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     )
     p.add_argument("--unsupported", choices=("error", "warn"), default="error",
                    help="deck form: what to do with unsupported structural cards (default error)")
+    p.add_argument("--compare", type=Path, metavar="RUN.f06",
+                   help="deck form: print Nastran's flutter points and modes from this f06 beside "
+                   "torchrom's, with the differences")
     p.add_argument("--plot", type=Path, help="write a V-g / V-f figure (PNG/PDF)")
     p.add_argument("--root-locus", type=Path, help="write a state-space root-locus figure")
     add_json_option(p)
@@ -109,6 +112,14 @@ def _run_deck(args, path: Path) -> int:
     )
     res = run_deck(deck, fe=read_bdf(path, unsupported=args.unsupported), kernel=args.kernel)
     print(format_deck_result(res))
+    out = res.as_dict()
+    if args.compare is not None:
+        from ..aero.nastran_flutter import compare_f06
+
+        text, records = compare_f06(res, args.compare)
+        print(f"\ncompared with {args.compare}:")
+        print(text)
+        out["compare"] = records
     if args.plot is not None and res.results:
         from ..aero.plots import plot_vg
 
@@ -116,7 +127,7 @@ def _run_deck(args, path: Path) -> int:
             res.results[0].sweep, args.plot, title=f"{path.name}: FLUTTER {res.results[0].case.sid}"
         )
         print(f"wrote {args.plot}")
-    maybe_write_json(args, res.as_dict())
+    maybe_write_json(args, out)
     return 0
 
 

@@ -546,9 +546,10 @@ class _Reader:
         if np.linalg.norm(np.cross(axis, v)) <= 1e-9 * max(np.linalg.norm(v), 1e-300):
             raise self.err(f"{card} {eid}: fields X1-X3/G0: orientation vector is parallel to "
                            "the bar axis or zero")
-        if p.type in ("PBARL", "PBEAML") and not sec.k1:
-            self.notes.append(f"{owner}: {p.beam_type} section without shear flexibility "
-                              "(its Nastran shear factor is not known here)")
+        note = (f"{owner}: {getattr(p, 'beam_type', '')} section without shear "
+                "flexibility (its Nastran shear factor is not known here)")
+        if p.type in ("PBARL", "PBEAML") and not sec.k1 and note not in self.notes:
+            self.notes.append(note)
         polar = rho * (sec.I1 + sec.I2) if card == "CBEAM" else 0.0
         return dict(eids=eid, nodes=[n1, n2], v=v, A=sec.A, I1=sec.I1, I2=sec.I2, J=sec.J, E=E,
                     G=G, rho=rho, nsm=sec.nsm, k1=sec.k1, k2=sec.k2, polar=polar)
@@ -685,7 +686,13 @@ class _Reader:
         if spc_id is None:
             return
         if spc_id not in ids:
-            raise self.err(f"case control SPC = {spc_id}: no SPC/SPC1/SPCADD with that ID")
+            if ids:
+                raise self.err(f"case control SPC = {spc_id}: no SPC/SPC1/SPCADD with that ID "
+                               f"(the deck has {ids})")
+            # As Nastran (USER WARNING 2053, undefined SPC set): no SPC applied.
+            self.notes.append(f"case control SPC = {spc_id}: the deck has no SPC cards; none "
+                              "applied (Nastran: USER WARNING 2053)")
+            return
         for sid in self._spc_ids(spc_id, set()):
             for card in self.m.spcs.get(sid, []):
                 self._spc_card(card, sid, mesh)

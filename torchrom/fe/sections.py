@@ -45,10 +45,11 @@ class Section:
     k2: float = 0.0
 
 
-#: Shear area factors Nastran gives library sections (K = 0.9 for ROD reproduces MSC Nastran's
-#: CBAR/CBEAM modes of pyNastran's beam_modes deck to 1e-6; other sections: not known here,
-#: so shear flexibility is left out, with a note).
-LIBRARY_SHEAR_FACTOR = {"ROD": 0.9}
+#: Shear area factors Nastran gives library sections, found by matching MSC Nastran's f06:
+#: ROD 0.9 (pyNastran's beam_modes deck, CBAR and CBEAM, all 10 modes to 1e-6) and BAR 5/6
+#: (ExportNastranKM's test_case, 10 modes to 1e-5); other sections: not known here, so their
+#: shear flexibility is left out, with a note.
+LIBRARY_SHEAR_FACTOR = {"ROD": 0.9, "BAR": 5.0 / 6.0}
 
 
 def torsion_constant(kind: str, dim) -> float:
