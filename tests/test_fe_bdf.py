@@ -49,7 +49,7 @@ def test_nonlinear_analysis_with_cbar_warns(shared):
     from torchrom.fe import LinearElementWarning
 
     fe = read_bdf(shared / PT145)
-    with pytest.warns(LinearElementWarning, match="CBAR elements are linear"):
+    with pytest.warns(LinearElementWarning, match="CBAR/CBEAM/CELAS elements are linear"):
         f = fe.internal_force(np.full(fe.n_dof, 1e-3))
     np.testing.assert_allclose(f, fe.stiffness_matrix() @ np.full(fe.n_dof, 1e-3), rtol=1e-12)
 

@@ -45,7 +45,8 @@ from .mesh import Mesh
 
 
 class LinearElementWarning(UserWarning):
-    """A nonlinear analysis of a model whose CBAR elements are linear (small rotations)."""
+    """A nonlinear analysis of a model with linear elements (CBAR, CBEAM, CELAS: small
+    rotations, fixed directions)."""
 
 
 @dataclass
@@ -231,10 +232,11 @@ class FEModel:
         self._state(dtype, device)
 
     def _warn_linear(self) -> None:
-        if len(self.mesh.bars) and not self._warned_linear:
+        n_lin = len(self.mesh.bars) + len(self.mesh.celas)
+        if n_lin and not self._warned_linear:
             self._warned_linear = True
             warnings.warn(
-                f"{self.name}: {len(self.mesh.bars)} CBAR elements are linear (small rotations); "
+                f"{self.name}: {n_lin} CBAR/CBEAM/CELAS elements are linear (small rotations); "
                 "the nonlinear analysis includes them through their linear stiffness only",
                 LinearElementWarning,
                 stacklevel=3,
