@@ -120,13 +120,14 @@ def test_unsupported_cards_are_listed_with_counts(tmp_path):
         "GRID    3               1.0     1.0     0.0\nMAT1    1       1.0e7           0.3     0.1\n"
         "PROD    1       1       0.5\nCROD    1       1       1       2\n"
         "CROD    2       1       2       3\nPSHELL  2       1       0.1\n"
-        "CTRIA3  5       2       1       2       3\nCTRIA3  6       2       1       2       3\n"
+        "CHEXA   5       2       1       2       3       4       5       6\n        7       8\n"
+        "CHEXA   6       2       1       2       3       4       5       6\n        7       8\n"
         "FOOBAR  1       2\nENDDATA\n"
     )
-    with pytest.raises(InputError, match=r"unsupported cards: CTRIA3 \(2\): triangular shell "
-                       r"not implemented.*; FOOBAR \(1\): not read by the FE reader\."):
+    with pytest.raises(InputError, match=r"unsupported cards: CHEXA \(2\): solid elements "
+                       r"not implemented; FOOBAR \(1\): not read by the FE reader\."):
         read_bdf(path)
-    with pytest.warns(UnsupportedCardWarning, match="CTRIA3"):
+    with pytest.warns(UnsupportedCardWarning, match="CHEXA"):
         fe = read_bdf(path, unsupported="warn")
     assert len(fe.mesh.rods) == 2
 

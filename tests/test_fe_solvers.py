@@ -51,6 +51,22 @@ def test_cquad4_plate_cantilever_matches_euler_bernoulli():
         assert fb[k] == pytest.approx(exact, rel=0.02)
 
 
+def test_ctria3_plate_cantilever_matches_euler_bernoulli():
+    """The same strip meshed with CTRIA3 (DKT bending, CST membrane): tip deflection and the first
+    two bending modes within 2 % of Euler–Bernoulli (ν = 0: plate = beam)."""
+    L, b, t, E, rho = 1.0, 0.1, 0.01, 2.0e11, 7800.0
+    fe = model_of(plate_strip(20, 2, L, b, t, E, 0.0, rho, triangles=True))
+    EI, m = E * b * t**3 / 12, rho * b * t
+    F, tip = _tip_load(fe, L, 3, 1.0)
+    U = fe.expand(fe.linear_static(F))
+    w = np.mean([U[fe.mesh.grid_row()[g], 2] for g in tip])
+    assert w == pytest.approx(L**3 / (3 * EI), rel=0.02)
+    fb = _bending_freqs(fe)
+    for k in range(2):
+        exact = BETA[k] ** 2 / (2 * np.pi * L**2) * np.sqrt(EI / m)
+        assert fb[k] == pytest.approx(exact, rel=0.02)
+
+
 def test_cquad4_membrane_cantilever_in_plane_bending():
     """Membrane-only strip loaded in its plane: selective reduced integration removes shear
     locking; what remains is the bilinear field's Poisson stiffening (it cannot represent the

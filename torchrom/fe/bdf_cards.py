@@ -58,7 +58,6 @@ NOTED_CARDS: dict[str, str] = {
 }
 
 REFUSED_REASONS: dict[str, str] = {
-    "CTRIA3": "triangular shell not implemented (mesh with CQUAD4)",
     "CTRIA6": "quadratic shell not implemented",
     "CQUAD8": "quadratic shell not implemented",
     "CHEXA": "solid elements not implemented",

@@ -8,7 +8,7 @@ properties/materials/constraints/loads into the plain arrays of :mod:`torchrom.f
 selection of the SPC set and eigenvalue method from the case control (or the only one present).
 
 Supported structural cards: GRID (CP, CD, PS), GRDSET, CORD1R/C/S, CORD2R/C/S, SPC, SPC1,
-SPCADD, MAT1, CROD/PROD, CONROD, CQUAD4/PSHELL, CSHEAR/PSHEAR, CBAR/PBAR/PBARL,
+SPCADD, MAT1, CROD/PROD, CONROD, CQUAD4/PSHELL, CTRIA3/PSHELL, CSHEAR/PSHEAR, CBAR/PBAR/PBARL,
 CBEAM/PBEAM/PBEAML (:mod:`torchrom.fe.sections`), CELAS1/PELAS, CELAS2, CONM1, CONM2,
 CMASS1/PMASS, CMASS2, RBE2, RBAR, RBE3, EIGR, EIGRL, FORCE, MOMENT, PLOAD2, PLOAD4, LOAD, PARAM
 (COUPMASS, WTMASS are used). Cards without effect on modes and flutter are accepted with a note
@@ -47,13 +47,14 @@ from .mesh import (
     ScalarMass,
     ScalarSpring,
     ShearSet,
+    TriaSet,
 )
 from .sections import section
 
 STRUCTURAL_CARDS = frozenset(
     "GRID GRDSET CORD1R CORD1C CORD1S CORD2R CORD2C CORD2S SPC SPC1 SPCADD MAT1 CROD PROD "
-    "CONROD CQUAD4 PSHELL CSHEAR PSHEAR CBAR PBAR PBARL CBEAM PBEAM PBEAML CONM2 CMASS2 RBE2 "
-    "RBE3 RBAR CELAS1 CELAS2 PELAS CMASS1 PMASS CONM1 EIGR EIGRL FORCE MOMENT PLOAD2 PLOAD4 "
+    "CONROD CQUAD4 CTRIA3 PSHELL CSHEAR PSHEAR CBAR PBAR PBARL CBEAM PBEAM PBEAML CONM2 CMASS2 "
+    "RBE2 RBE3 RBAR CELAS1 CELAS2 PELAS CMASS1 PMASS CONM1 EIGR EIGRL FORCE MOMENT PLOAD2 PLOAD4 "
     "LOAD PARAM ENDDATA".split()
 )
 # Kept for the aerodynamics (and for Nastran itself when the deck is written back); no effect on
@@ -367,13 +368,13 @@ class _Reader:
         mesh = Mesh(grid_ids=ids, xyz=xyz, cd_axes=cd)
         mesh.coupled_mass = self._param("COUPMASS", -1) > 0
         wtmass = float(self._param("WTMASS", 1.0))
-        rods, quads, shears, bars = [], [], [], []
+        rods, quads, shears, bars, trias = [], [], [], [], []
         for eid in sorted(self.m.elements):
             e = self.m.elements[eid]
             if e.type in ("CROD", "CONROD"):
                 rods.append(self._rod(e))
-            elif e.type == "CQUAD4":
-                quads.append(self._quad(e))
+            elif e.type in ("CQUAD4", "CTRIA3"):
+                (quads if e.type == "CQUAD4" else trias).append(self._quad(e))
             elif e.type == "CSHEAR":
                 shears.append(self._shear(e))
             elif e.type in ("CBAR", "CBEAM"):
@@ -382,11 +383,13 @@ class _Reader:
                 mesh.celas.append(self._celas(e))
         mesh.rods = _stack(RodSet, rods)
         mesh.quads = _stack(QuadSet, quads)
+        mesh.trias = _stack(TriaSet, trias)
+        self._check_trias(mesh.trias)
         mesh.shears = _stack(ShearSet, shears)
         self._check_surfaces("CQUAD4", mesh.quads.eids, mesh.quads.nodes)
         self._check_surfaces("CSHEAR", mesh.shears.eids, mesh.shears.nodes)
         mesh.bars = _stack(BarSet, bars)
-        for sel in (mesh.rods, mesh.quads, mesh.shears, mesh.bars):
+        for sel in (mesh.rods, mesh.quads, mesh.trias, mesh.shears, mesh.bars):
             sel.rho *= wtmass
             sel.nsm *= wtmass
         mesh.bars.polar *= wtmass
@@ -437,9 +440,22 @@ class _Reader:
         return dict(eids=eid, nodes=[n1, n2], E=E, G=G, A=float(A), J=float(J or 0.0), rho=rho,
                     nsm=float(nsm or 0.0))
 
+    def _check_trias(self, trias) -> None:
+        """Triangles with a zero area (collinear or coincident grids) are refused."""
+        if not len(trias):
+            return
+        X = self.xyz[trias.nodes]
+        c = np.linalg.norm(np.cross(X[:, 1] - X[:, 0], X[:, 2] - X[:, 0]), axis=1)
+        edge = np.linalg.norm(X - np.roll(X, 1, axis=1), axis=2).max(axis=1)
+        bad = ~(c > 1e-10 * edge**2)
+        if bad.any():
+            k = int(np.argmax(bad))
+            grids = [int(g) for g in self.ids[trias.nodes[k]]]
+            raise self.err(f"CTRIA3 {int(trias.eids[k])}: zero-area element (grids {grids})")
+
     def _surface(self, e, card: str) -> list[int]:
         nodes = self.rows(e.nodes, card, e.eid)
-        if len(set(nodes)) < 4:
+        if len(set(nodes)) < len(nodes):
             raise self.err(f"{card} {e.eid}: repeated grid in {e.nodes}")
         return nodes
 
@@ -464,22 +480,24 @@ class _Reader:
                            f"(grids {grids})")
 
     def _quad(self, e):
-        eid = e.eid
-        p = self.prop(e.pid, "CQUAD4", eid, ("PSHELL",))
+        """CQUAD4 or CTRIA3 with PSHELL (the same property handling)."""
+        eid, card = e.eid, e.type
+        p = self.prop(e.pid, card, eid, ("PSHELL",))
         owner = f"PSHELL {p.pid}"
         if abs(float(e.zoffset or 0.0)) > 0.0:
-            raise self.err(f"CQUAD4 {eid}: field ZOFFS: offsets are not supported, got {e.zoffset}")
+            raise self.err(f"{card} {eid}: field ZOFFS: offsets are not supported, got {e.zoffset}")
         t = p.t
         if t is None or not float(t) > 0.0:
             raise self.err(f"{owner}: field T: expected a positive thickness, got {t}")
         t = float(t)
-        corner = [x for x in (e.T1, e.T2, e.T3, e.T4) if x is not None]
+        names = ("T1", "T2", "T3", "T4") if card == "CQUAD4" else ("T1", "T2", "T3")
+        corner = [x for x in (getattr(e, n) for n in names) if x is not None]
         if corner and (e.tflag or any(abs(x - t) > 1e-12 * t for x in corner)):
-            raise self.err(f"CQUAD4 {eid}: fields T1-T4: corner thicknesses differing from "
-                           "PSHELL T are not supported")
+            raise self.err(f"{card} {eid}: fields {names[0]}-{names[-1]}: corner thicknesses "
+                           "differing from PSHELL T are not supported")
         if p.mid4 not in (None, 0):
             raise self.err(f"{owner}: field MID4: membrane-bending coupling is not supported")
-        nodes = self._surface(e, "CQUAD4")
+        nodes = self._surface(e, card)
         E = G = nu = rho = 0.0
         if p.mid1 not in (None, 0):
             E, G, nu, rho = self.mat1(p.mid1, owner, "MID1")

@@ -60,6 +60,27 @@ class QuadSet:
 
 
 @dataclass
+class TriaSet:
+    """CTRIA3/PSHELL: Green-strain CST membrane, optional linear DKT bending, drilling spring
+    (fields as :class:`QuadSet`; ``shear_G`` is unused: DKT is a thin-plate element)."""
+
+    eids: np.ndarray = field(default_factory=lambda: _empty(0, dtype=int))
+    nodes: np.ndarray = field(default_factory=lambda: _empty(0, 3, dtype=int))
+    t: np.ndarray = field(default_factory=lambda: _empty(0))
+    E: np.ndarray = field(default_factory=lambda: _empty(0))
+    nu: np.ndarray = field(default_factory=lambda: _empty(0))
+    G: np.ndarray = field(default_factory=lambda: _empty(0))
+    rho: np.ndarray = field(default_factory=lambda: _empty(0))
+    nsm: np.ndarray = field(default_factory=lambda: _empty(0))
+    bend_E: np.ndarray = field(default_factory=lambda: _empty(0))
+    bend_nu: np.ndarray = field(default_factory=lambda: _empty(0))
+    shear_G: np.ndarray = field(default_factory=lambda: _empty(0))
+
+    def __len__(self) -> int:
+        return len(self.eids)
+
+
+@dataclass
 class ShearSet:
     """CSHEAR/PSHEAR: in-plane shear only (Green shear strain at the panel centre)."""
 
@@ -180,6 +201,7 @@ class Mesh:
     cd_axes: np.ndarray  # (n_grid, 3, 3): columns are the displacement-system axes in basic
     rods: RodSet = field(default_factory=RodSet)
     quads: QuadSet = field(default_factory=QuadSet)
+    trias: TriaSet = field(default_factory=TriaSet)
     shears: ShearSet = field(default_factory=ShearSet)
     bars: BarSet = field(default_factory=BarSet)
     conm2: list[PointMass] = field(default_factory=list)

@@ -40,6 +40,7 @@ from .elements.quad4 import (
 )
 from .elements.rod import rod_mass_blocks, rod_points, rod_torsion_blocks
 from .elements.shear import shear_mass_blocks, shear_points
+from .elements.tria3 import tria_bending_blocks, tria_mass_blocks, tria_points
 from .mass import celas_blocks, cmass2_blocks, conm1_blocks, conm2_blocks
 from .mesh import Mesh
 
@@ -116,12 +117,16 @@ class FEModel:
             quad_like.append(shear_points(mesh.shears, mesh.xyz))
         if quad_like:
             groups.append(GreenPoints.concat(quad_like))
+        if len(mesh.trias):
+            groups.append(tria_points(mesh.trias, mesh.xyz))
         self._points = groups
 
         # Linear stiffness parts (bending + drilling, rod torsion, CBAR).
         lin = []
         if len(mesh.quads):
             lin.append(bending_blocks(mesh.quads, mesh.xyz, drilling))
+        if len(mesh.trias):
+            lin.append(tria_bending_blocks(mesh.trias, mesh.xyz, drilling))
         if len(mesh.rods):
             lin.append(rod_torsion_blocks(mesh.rods, mesh.xyz))
         if len(mesh.bars):
@@ -192,6 +197,8 @@ class FEModel:
         if len(mesh.quads):
             q = mesh.quads
             parts.append(area_mass_blocks(xyz, q.nodes, q.rho * q.t + q.nsm, cm))
+        if len(mesh.trias):
+            parts.append(tria_mass_blocks(mesh.trias, xyz, cm))
         if len(mesh.shears):
             parts.append(shear_mass_blocks(mesh.shears, xyz, cm))
         if len(mesh.bars):
@@ -483,6 +490,7 @@ class FEModel:
             "free_dofs": int(self.n_dof),
             "CROD": len(m.rods),
             "CQUAD4": len(m.quads),
+            "CTRIA3": len(m.trias),
             "CSHEAR": len(m.shears),
             "CBAR": len(m.bars),
             "CONM2": len(m.conm2),
