@@ -49,7 +49,7 @@ def test_nonlinear_analysis_with_cbar_warns(shared):
     from torchrom.fe import LinearElementWarning
 
     fe = read_bdf(shared / PT145)
-    with pytest.warns(LinearElementWarning, match="CBAR/CBEAM/CELAS elements are linear"):
+    with pytest.warns(LinearElementWarning, match="CBAR/CBEAM/CELAS/solid elements are linear"):
         f = fe.internal_force(np.full(fe.n_dof, 1e-3))
     np.testing.assert_allclose(f, fe.stiffness_matrix() @ np.full(fe.n_dof, 1e-3), rtol=1e-12)
 
@@ -120,14 +120,14 @@ def test_unsupported_cards_are_listed_with_counts(tmp_path):
         "GRID    3               1.0     1.0     0.0\nMAT1    1       1.0e7           0.3     0.1\n"
         "PROD    1       1       0.5\nCROD    1       1       1       2\n"
         "CROD    2       1       2       3\nPSHELL  2       1       0.1\n"
-        "CHEXA   5       2       1       2       3       4       5       6\n        7       8\n"
-        "CHEXA   6       2       1       2       3       4       5       6\n        7       8\n"
+        "CQUAD8  5       2       1       2       3       4       5       6\n        7       8\n"
+        "CQUAD8  6       2       1       2       3       4       5       6\n        7       8\n"
         "FOOBAR  1       2\nENDDATA\n"
     )
-    with pytest.raises(InputError, match=r"unsupported cards: CHEXA \(2\): solid elements "
+    with pytest.raises(InputError, match=r"unsupported cards: CQUAD8 \(2\): quadratic shell "
                        r"not implemented; FOOBAR \(1\): not read by the FE reader\."):
         read_bdf(path)
-    with pytest.warns(UnsupportedCardWarning, match="CHEXA"):
+    with pytest.warns(UnsupportedCardWarning, match="CQUAD8"):
         fe = read_bdf(path, unsupported="warn")
     assert len(fe.mesh.rods) == 2
 

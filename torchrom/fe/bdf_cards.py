@@ -60,10 +60,6 @@ NOTED_CARDS: dict[str, str] = {
 REFUSED_REASONS: dict[str, str] = {
     "CTRIA6": "quadratic shell not implemented",
     "CQUAD8": "quadratic shell not implemented",
-    "CHEXA": "solid elements not implemented",
-    "CPENTA": "solid elements not implemented",
-    "CTETRA": "solid elements not implemented",
-    "PSOLID": "solid elements not implemented",
     "PCOMP": "composite laminate not implemented",
     "PCOMPG": "composite laminate not implemented",
     "CBUSH": "bushing not implemented",

@@ -8,7 +8,8 @@ properties/materials/constraints/loads into the plain arrays of :mod:`torchrom.f
 selection of the SPC set and eigenvalue method from the case control (or the only one present).
 
 Supported structural cards: GRID (CP, CD, PS), GRDSET, CORD1R/C/S, CORD2R/C/S, SPC, SPC1,
-SPCADD, MAT1, CROD/PROD, CONROD, CQUAD4/PSHELL, CTRIA3/PSHELL, CSHEAR/PSHEAR, CBAR/PBAR/PBARL,
+SPCADD, MAT1, CROD/PROD, CONROD, CQUAD4/PSHELL, CTRIA3/PSHELL, CHEXA/CPENTA/CTETRA/PSOLID
+(linear, corner grids only), CSHEAR/PSHEAR, CBAR/PBAR/PBARL,
 CBEAM/PBEAM/PBEAML (:mod:`torchrom.fe.sections`), CELAS1/PELAS, CELAS2, CONM1, CONM2,
 CMASS1/PMASS, CMASS2, RBE2, RBAR, RBE3, EIGR, EIGRL, FORCE, MOMENT, PLOAD2, PLOAD4, LOAD, PARAM
 (COUPMASS, WTMASS are used). Cards without effect on modes and flutter are accepted with a note
@@ -35,6 +36,7 @@ import numpy as np
 from ..errors import InputError
 from .bdf_cards import NOTED_CARDS, apply_grdset, reason
 from .elements.quad4 import quad_frames, shape
+from .elements.solid import solid_volumes
 from .mesh import (
     BarSet,
     InterpRBE3,
@@ -47,15 +49,18 @@ from .mesh import (
     ScalarMass,
     ScalarSpring,
     ShearSet,
+    SolidSet,
     TriaSet,
 )
 from .sections import section
 
+#: linear solid elements and their number of corner grids
+SOLID_GRIDS = {"CHEXA": 8, "CPENTA": 6, "CTETRA": 4}
 STRUCTURAL_CARDS = frozenset(
     "GRID GRDSET CORD1R CORD1C CORD1S CORD2R CORD2C CORD2S SPC SPC1 SPCADD MAT1 CROD PROD "
     "CONROD CQUAD4 CTRIA3 PSHELL CSHEAR PSHEAR CBAR PBAR PBARL CBEAM PBEAM PBEAML CONM2 CMASS2 "
-    "RBE2 RBE3 RBAR CELAS1 CELAS2 PELAS CMASS1 PMASS CONM1 EIGR EIGRL FORCE MOMENT PLOAD2 PLOAD4 "
-    "LOAD PARAM ENDDATA".split()
+    "CHEXA CPENTA CTETRA PSOLID RBE2 RBE3 RBAR CELAS1 CELAS2 PELAS CMASS1 PMASS CONM1 EIGR EIGRL "
+    "FORCE MOMENT PLOAD2 PLOAD4 LOAD PARAM ENDDATA".split()
 )
 # Kept for the aerodynamics (and for Nastran itself when the deck is written back); no effect on
 # the structure.
@@ -369,6 +374,7 @@ class _Reader:
         mesh.coupled_mass = self._param("COUPMASS", -1) > 0
         wtmass = float(self._param("WTMASS", 1.0))
         rods, quads, shears, bars, trias = [], [], [], [], []
+        solids: dict[int, list] = {8: [], 6: [], 4: []}
         for eid in sorted(self.m.elements):
             e = self.m.elements[eid]
             if e.type in ("CROD", "CONROD"):
@@ -381,14 +387,20 @@ class _Reader:
                 bars.append(self._bar(e))
             elif e.type in ("CELAS1", "CELAS2"):
                 mesh.celas.append(self._celas(e))
+            elif e.type in SOLID_GRIDS:
+                row = self._solid(e)
+                solids[len(row["nodes"])].append(row)
         mesh.rods = _stack(RodSet, rods)
         mesh.quads = _stack(QuadSet, quads)
         mesh.trias = _stack(TriaSet, trias)
+        mesh.solids = [_stack(SolidSet, rows) for rows in solids.values() if rows]
         self._check_trias(mesh.trias)
         mesh.shears = _stack(ShearSet, shears)
         self._check_surfaces("CQUAD4", mesh.quads.eids, mesh.quads.nodes)
         self._check_surfaces("CSHEAR", mesh.shears.eids, mesh.shears.nodes)
         mesh.bars = _stack(BarSet, bars)
+        for solid in mesh.solids:
+            solid.rho *= wtmass
         for sel in (mesh.rods, mesh.quads, mesh.trias, mesh.shears, mesh.bars):
             sel.rho *= wtmass
             sel.nsm *= wtmass
@@ -439,6 +451,23 @@ class _Reader:
                            "coincide)")
         return dict(eids=eid, nodes=[n1, n2], E=E, G=G, A=float(A), J=float(J or 0.0), rho=rho,
                     nsm=float(nsm or 0.0))
+
+    def _solid(self, e):
+        """CHEXA/CPENTA/CTETRA with the corner grids only (linear), PSOLID and MAT1."""
+        eid, card = e.eid, e.type
+        nodes = [n for n in e.nodes if n not in (None, 0)]
+        if len(nodes) != SOLID_GRIDS[card]:
+            raise self.err(f"{card} {eid}: {len(nodes)} grids: only the linear form "
+                           f"({SOLID_GRIDS[card]} corner grids) is supported")
+        p = self.prop(e.pid, card, eid, ("PSOLID",))
+        E, _, nu, rho = self.mat1(p.mid, f"PSOLID {p.pid}", "MID")
+        if not (E > 0 and -1.0 < nu < 0.5):
+            raise self.err(f"PSOLID {p.pid}: MAT1 {p.mid}: a solid needs E > 0 and -1 < NU < 0.5,"
+                           f" got E = {E}, NU = {nu}")
+        rows = self.rows(nodes, card, eid)
+        if not abs(solid_volumes(self.xyz[rows][None])[0]) > 0:
+            raise self.err(f"{card} {eid}: zero volume (grids {nodes})")
+        return dict(eids=eid, nodes=rows, E=E, nu=nu, rho=rho)
 
     def _check_trias(self, trias) -> None:
         """Triangles with a zero area (collinear or coincident grids) are refused."""

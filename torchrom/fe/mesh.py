@@ -81,6 +81,20 @@ class TriaSet:
 
 
 @dataclass
+class SolidSet:
+    """CHEXA/CPENTA/CTETRA (one family: 8, 6 or 4 grids) with PSOLID/MAT1: linear solids."""
+
+    eids: np.ndarray
+    nodes: np.ndarray  # (n, nn) grid rows
+    E: np.ndarray
+    nu: np.ndarray
+    rho: np.ndarray
+
+    def __len__(self) -> int:
+        return len(self.eids)
+
+
+@dataclass
 class ShearSet:
     """CSHEAR/PSHEAR: in-plane shear only (Green shear strain at the panel centre)."""
 
@@ -202,6 +216,7 @@ class Mesh:
     rods: RodSet = field(default_factory=RodSet)
     quads: QuadSet = field(default_factory=QuadSet)
     trias: TriaSet = field(default_factory=TriaSet)
+    solids: list[SolidSet] = field(default_factory=list)
     shears: ShearSet = field(default_factory=ShearSet)
     bars: BarSet = field(default_factory=BarSet)
     conm2: list[PointMass] = field(default_factory=list)

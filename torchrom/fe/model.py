@@ -40,6 +40,7 @@ from .elements.quad4 import (
 )
 from .elements.rod import rod_mass_blocks, rod_points, rod_torsion_blocks
 from .elements.shear import shear_mass_blocks, shear_points
+from .elements.solid import solid_blocks, solid_mass_blocks
 from .elements.tria3 import tria_bending_blocks, tria_mass_blocks, tria_points
 from .mass import celas_blocks, cmass2_blocks, conm1_blocks, conm2_blocks
 from .mesh import Mesh
@@ -133,6 +134,8 @@ class FEModel:
             lin.append(bar_stiffness_blocks(mesh.bars, mesh.xyz))
         if mesh.celas:
             lin.append(celas_blocks(mesh.celas, mesh.cd_axes))
+        for solids in mesh.solids:
+            lin.append(solid_blocks(solids, mesh.xyz))
         self._lin_parts = [p for p in lin if len(p[0])]
 
         cons = build_constraints(mesh, source=self.source or self.name)
@@ -199,6 +202,8 @@ class FEModel:
             parts.append(area_mass_blocks(xyz, q.nodes, q.rho * q.t + q.nsm, cm))
         if len(mesh.trias):
             parts.append(tria_mass_blocks(mesh.trias, xyz, cm))
+        for solids in mesh.solids:
+            parts.append(solid_mass_blocks(solids, xyz, cm))
         if len(mesh.shears):
             parts.append(shear_mass_blocks(mesh.shears, xyz, cm))
         if len(mesh.bars):
@@ -239,12 +244,14 @@ class FEModel:
         self._state(dtype, device)
 
     def _warn_linear(self) -> None:
-        n_lin = len(self.mesh.bars) + len(self.mesh.celas)
+        n_lin = (len(self.mesh.bars) + len(self.mesh.celas)
+                 + sum(len(s) for s in self.mesh.solids))
         if n_lin and not self._warned_linear:
             self._warned_linear = True
             warnings.warn(
-                f"{self.name}: {n_lin} CBAR/CBEAM/CELAS elements are linear (small rotations); "
-                "the nonlinear analysis includes them through their linear stiffness only",
+                f"{self.name}: {n_lin} CBAR/CBEAM/CELAS/solid elements are linear (small "
+                "rotations); the nonlinear analysis includes them through their linear stiffness "
+                "only",
                 LinearElementWarning,
                 stacklevel=3,
             )
@@ -491,6 +498,7 @@ class FEModel:
             "CROD": len(m.rods),
             "CQUAD4": len(m.quads),
             "CTRIA3": len(m.trias),
+            "solids": sum(len(x) for x in m.solids),
             "CSHEAR": len(m.shears),
             "CBAR": len(m.bars),
             "CONM2": len(m.conm2),
