@@ -159,6 +159,12 @@ BAD = [
         r"SPLINE2 100: CAERO1 102 not found",
     ),
     (
+        "aero_symxy.bdf",
+        ("AERO    0               2.0706  1.145-7", _field8("AERO", 0, "", "2.0706", "1.145-7", "",
+                                                          1)),
+        r"AERO: SYMXY: symmetry about the xy plane \(ground effect\) is not supported",
+    ),
+    (
         "method_missing_eigr.bdf",
         ("METHOD  = 10", "METHOD  = 11"),
         r"METHOD = 11: EIGR/EIGRL 11 not found",

@@ -404,6 +404,11 @@ def read_aero_reference(model, path: str = "deck") -> AeroReference:
         raise InputError(
             f"{path}: {card.type}: REFC: expected a positive reference chord, got {card.cref}"
         )
+    if int(getattr(card, "sym_xy", 0) or 0):
+        raise InputError(
+            f"{path}: {card.type}: SYMXY: symmetry about the xy plane (ground effect) is not "
+            f"supported, got {card.sym_xy}"
+        )
     if card.type == "AERO":
         return AeroReference(
             chord=float(card.cref),
