@@ -5,10 +5,14 @@ Delegated: reading the deck and its coordinate systems (pyNastran), the modal so
 (PanelAero, through :mod:`torchrom.aero.dlm`). Hand-written: the card semantics below, reference
 checks with one-line errors, and the Nastran-style output (V-g table, flutter summary).
 
-Cards honoured: FLUTTER (methods PK, PKNL, KE, K), FLFACT (density ratios, Mach numbers,
-reduced frequencies or velocities; the ``THRU`` form is expanded by pyNastran), MKAERO1/MKAERO2,
-AERO (REFC, RHOREF, SYMXZ), AEROS, CAERO1/PAERO1 (+AEFACT), SPLINE1/SPLINE2/SET1, EIGR/EIGRL
-(ND, frequency range), PARAM LMODES and PARAM VREF; case control FMETHOD and METHOD.
+Cards honoured: FLUTTER (methods PK, PKNL, KE, K; PKNL pairs the i-th density, Mach number and
+velocity into one flight condition, PK and KE loop over the lists), FLFACT (density ratios, Mach
+numbers, reduced frequencies or velocities, negative velocities taken by magnitude; the ``THRU``
+form is expanded by pyNastran), MKAERO1/MKAERO2, AERO (ACSID, REFC, RHOREF, SYMXZ; SYMXY
+refused), AEROS, CAERO1/PAERO1 (+AEFACT), SPLINE1/SPLINE2/SET1, EIGR/EIGRL (ND, frequency range),
+PARAM LMODES and PARAM VREF; case control FMETHOD and METHOD. The boxes, spline grids and grid
+motions are expressed in the aero frame (ACSID), where the flow runs along +x.
+:func:`compare_f06` puts Nastran's flutter points (FLUTTER SUMMARY of an f06) beside ours.
 
 Documented differences from Nastran: GAFs are computed directly at each FLFACT Mach number (on
 the reduced frequencies of the nearest MKAERO Mach for PK; at the FLFACT reduced frequencies
