@@ -139,3 +139,18 @@ def test_flutter_deck_unsupported_warn_and_noted_cards(pt145, tmp_path, capsys):
                      str(tmp_path / "w.json")]) == 0
     got = json.loads((tmp_path / "w.json").read_text())["flutter"][0]
     assert got["velocity"] == pytest.approx(ref["velocity"], rel=1e-12)
+
+
+def test_flutter_deck_compare_with_an_f06(tmp_path, capsys):
+    """`torchrom flutter DECK --compare RUN.f06`: the f06's flutter point and modes beside ours."""
+    from pathlib import Path
+
+    folder = Path(__file__).parent / "decks" / "pynastran_pt145"
+    out = tmp_path / "f.json"
+    assert main(["flutter", str(folder / "pt145.bdf"), "--compare", str(folder / "pt145.f06"),
+                 "--json", str(out)]) == 0
+    text = capsys.readouterr().out
+    assert "compared with" in text and "V Nastran" in text
+    (rec,) = json.loads(out.read_text())["compare"]
+    assert rec["nastran_velocity"] == pytest.approx(6004.2, rel=1e-4)
+    assert rec["velocity"] == pytest.approx(6091.6, rel=1e-3)

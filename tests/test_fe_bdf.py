@@ -242,3 +242,23 @@ def test_scalar_springs_masses_conm1_and_rbar_give_exact_oscillators():
     # grid 1: T1 100 + RBAR (grid 3 follows grid 1's rigid motion, its T1 mass 8 too):
     # (400)/(4 + 8) in T1; T2: 900 / (1 + 8); T3 of grid 2: 25; R3 of grid 2: 25
     np.testing.assert_allclose(w2, sorted([400 / 12, 900 / 9, 25.0, 25.0]), rtol=1e-9)
+
+
+def test_cli_modes_compare_with_an_f06(tmp_path, capsys):
+    """`torchrom modes DECK --compare RUN.f06`: Nastran's frequencies and the differences beside
+    ours (bah_plane: 2 rigid-body modes, flagged, and 6 elastic ones within 1e-3 %)."""
+    from pathlib import Path
+
+    folder = Path(__file__).parent / "decks" / "pynastran_bah_plane"
+    out = tmp_path / "m.json"
+    assert main(["modes", str(folder / "bah_plane.bdf"), "--compare",
+                 str(folder / "bah_plane.f06"), "--json", str(out)]) == 0
+    text = capsys.readouterr().out
+    assert "Nastran Hz" in text and "rigid" in text
+    recs = json.loads(out.read_text())
+    assert len(recs) == 8 and recs[0]["diff_pct"] is None and "diff_hz" in recs[0]
+    assert recs[2]["nastran_hz"] == pytest.approx(2.45402, rel=1e-5)
+    assert max(abs(r["diff_pct"]) for r in recs[2:]) < 1e-3
+    assert main(["modes", str(folder / "bah_plane.bdf"), "--compare",
+                 str(tmp_path / "none.f06")]) == 2
+    assert "no such f06 file" in capsys.readouterr().err
