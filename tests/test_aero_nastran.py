@@ -218,3 +218,40 @@ def test_aero_acsid_along_minus_x_basic_gives_the_same_flutter(tmp_path, pt145_t
     (q,) = run_deck(ref, fe=pt145_fe, log=lambda *_: None).results[0].points
     assert p.velocity == pytest.approx(q.velocity, rel=1e-6)
     assert p.frequency_hz == pytest.approx(q.frequency_hz, rel=1e-6)
+
+
+def test_spline4_and_spline5_on_aelists_equal_spline1_and_spline2(tmp_path, pt145_text):
+    """SPLINE5 (beam spline, boxes on an AELIST) over the same boxes, grids and CID as pt145's
+    SPLINE2 moves the boxes identically; SPLINE4 (IPS) likewise against the SPLINE1 of the
+    two-mode flutter deck (tests/decks)."""
+    import shutil
+    from pathlib import Path
+
+    rng = np.random.default_rng(3)
+    spline2 = "SPLINE2 100     101     101     124     100     .0      1.0     1       +SP\n"
+    spline2 += "+SP     .0      .0"
+    s5 = _variant(
+        tmp_path, pt145_text, "pt145_s5.bdf",
+        (spline2, _field8("SPLINE5", 100, 101, 77, "", 100, ".0", "1.0", 1) + "+SP\n"
+         + _field8("+SP", ".0", ".0") + "\n" + _field8("AELIST", 77, 101, "THRU", 124)),
+    )
+    base = _variant(tmp_path, pt145_text, "pt145_base.bdf")
+    pairs = [(load_deck(s5), load_deck(base), np.arange(1, 12))]
+    src = Path(__file__).parent / "decks" / "pynastran_2_mode_flutter"
+    work = tmp_path / "two_mode"
+    shutil.copytree(src, work)
+    inc = work / "aero_cards.inc"
+    text = inc.read_text()
+    assert "SPLINE1,1002,1,1,100,10000" in text
+    inc.write_text(text.replace("SPLINE1,1002,1,1,100,10000",
+                                "SPLINE4,1002,1,77,,10000,,IPS\nAELIST,77,1,THRU,100"))
+    s4 = load_deck(work / "0012_flutter.bdf")
+    s1 = load_deck(src / "0012_flutter.bdf")
+    assert s4.splines[0].kind == "SPLINE4" and s1.splines[0].kind == "SPLINE1"
+    pairs.append((s4, s1, np.asarray(sorted(s1.splines[0].grid_ids))))
+    for new, old, grid_ids in pairs:
+        disp = rng.standard_normal((2, len(grid_ids), 6))
+        a, b = new.box_motion(grid_ids, disp), old.box_motion(grid_ids, disp)
+        for name in ("h_load", "h_control", "slope_control"):
+            np.testing.assert_allclose(getattr(a, name), getattr(b, name), rtol=1e-12, atol=1e-12)
+        assert np.abs(a.h_load).max() > 0.1

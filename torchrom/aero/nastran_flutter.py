@@ -9,7 +9,8 @@ Cards honoured: FLUTTER (methods PK, PKNL, KE, K; PKNL pairs the i-th density, M
 velocity into one flight condition, PK and KE loop over the lists), FLFACT (density ratios, Mach
 numbers, reduced frequencies or velocities, negative velocities taken by magnitude; the ``THRU``
 form is expanded by pyNastran), MKAERO1/MKAERO2, AERO (ACSID, REFC, RHOREF, SYMXZ; SYMXY
-refused), AEROS, CAERO1/PAERO1 (+AEFACT), SPLINE1/SPLINE2/SET1, EIGR/EIGRL (ND, frequency range),
+refused), AEROS, CAERO1/PAERO1 (+AEFACT), SPLINE1/SPLINE2/SET1, SPLINE4 (IPS)/SPLINE5 with AELIST,
+EIGR/EIGRL (ND, frequency range),
 PARAM LMODES and PARAM VREF; case control FMETHOD and METHOD. The boxes, spline grids and grid
 motions are expressed in the aero frame (ACSID), where the flow runs along +x.
 :func:`compare_f06` puts Nastran's flutter points (FLUTTER SUMMARY of an f06) beside ours.
@@ -169,16 +170,29 @@ def _spline_defs(model, path: Path, panels: AeroPanels, frame: AeroFrame) -> lis
     for eid in sorted(model.splines):
         sp = model.splines[eid]
         where = f"{path}: {sp.type} {eid}"
-        if sp.type not in ("SPLINE1", "SPLINE2"):
-            raise InputError(f"{where}: only SPLINE1 and SPLINE2 are supported")
+        if sp.type not in ("SPLINE1", "SPLINE2", "SPLINE4", "SPLINE5"):
+            raise InputError(f"{where}: only SPLINE1, SPLINE2, SPLINE4 and SPLINE5 are supported")
         if sp.caero not in model.caeros:
             raise InputError(f"{where}: CAERO1 {sp.caero} not found")
-        b1, b2 = sp.box1, sp.box2
-        box_index = np.flatnonzero(
-            (panels.caero_ids == sp.caero) & (panels.box_ids >= b1) & (panels.box_ids <= b2)
-        )
-        if b2 < b1 or len(box_index) != b2 - b1 + 1:
-            raise InputError(f"{where}: boxes {b1}..{b2}: not all in CAERO1 {sp.caero}")
+        in_caero = panels.caero_ids == sp.caero
+        if sp.type in ("SPLINE4", "SPLINE5"):  # boxes listed on an AELIST
+            aelist = model.aelists.get(sp.aelist)
+            if aelist is None:
+                raise InputError(f"{where}: field AELIST: AELIST {sp.aelist} not found")
+            ids = np.asarray(aelist.elements, dtype=int)
+            box_index = np.flatnonzero(in_caero & np.isin(panels.box_ids, ids))
+            if len(box_index) != len(np.unique(ids)):
+                missing = sorted(set(ids.tolist()) - set(panels.box_ids[box_index].tolist()))
+                raise InputError(f"{where}: AELIST {sp.aelist}: box {missing[0]} not in "
+                                 f"CAERO1 {sp.caero}")
+            if sp.type == "SPLINE4" and str(sp.method or "IPS").upper() != "IPS":
+                raise InputError(f"{where}: field METH: only IPS (infinite plate) is supported, "
+                                 f"got {sp.method}")
+        else:
+            b1, b2 = sp.box1, sp.box2
+            box_index = np.flatnonzero(in_caero & (panels.box_ids >= b1) & (panels.box_ids <= b2))
+            if b2 < b1 or len(box_index) != b2 - b1 + 1:
+                raise InputError(f"{where}: boxes {b1}..{b2}: not all in CAERO1 {sp.caero}")
         setg = model.sets.get(sp.setg)
         if setg is None or setg.type != "SET1":
             raise InputError(f"{where}: SET1 {sp.setg} not found")
@@ -187,10 +201,11 @@ def _spline_defs(model, path: Path, panels: AeroPanels, frame: AeroFrame) -> lis
             if gid not in model.nodes:
                 raise InputError(f"{path}: SET1 {sp.setg}: grid {gid} not found")
         xyz = frame.points(np.array([model.nodes[g].get_position() for g in grid_ids]))
-        if sp.type == "SPLINE1":
+        if sp.type in ("SPLINE1", "SPLINE4"):
             normal = panels.normals[box_index].mean(axis=0)
             spline = PlateSpline(xyz, normal=normal, dz=float(sp.dz or 0.0))
-        else:
+        else:  # SPLINE2, SPLINE5: beam spline along the y axis of CID
+            dthx, dthy = (sp.dthx, sp.dthy) if sp.type == "SPLINE2" else (sp.thx, sp.thy)
             cid = sp.cid or 0
             if cid and cid not in model.coords:
                 raise InputError(f"{where}: coordinate system {cid} not found")
@@ -200,8 +215,8 @@ def _spline_defs(model, path: Path, panels: AeroPanels, frame: AeroFrame) -> lis
                 xyz,
                 origin=frame.points(np.asarray(coord.origin, float)),
                 axes=frame.vectors(axes),
-                attach_slope=(sp.dthx is None or sp.dthx >= 0.0),
-                attach_torsion=(sp.dthy is None or sp.dthy >= 0.0),
+                attach_slope=(dthx is None or dthx >= 0.0),
+                attach_torsion=(dthy is None or dthy >= 0.0),
             )
         covered[box_index] += 1
         defs.append(SplineDef(eid, sp.type, grid_ids, box_index, spline))
