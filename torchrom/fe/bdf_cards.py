@@ -60,13 +60,11 @@ NOTED_CARDS: dict[str, str] = {
 REFUSED_REASONS: dict[str, str] = {
     "CTRIA6": "quadratic shell not implemented",
     "CQUAD8": "quadratic shell not implemented",
-    "PCOMP": "composite laminate not implemented",
     "PCOMPG": "composite laminate not implemented",
     "CBUSH": "bushing not implemented",
     "PBUSH": "bushing not implemented",
     "MPC": "multipoint constraints not implemented",
     "MAT2": "anisotropic shell material not implemented",
-    "MAT8": "orthotropic shell material not implemented",
     "MAT9": "anisotropic solid material not implemented",
     "CELAS3": "scalar-point spring not implemented",
     "CELAS4": "scalar-point spring not implemented",

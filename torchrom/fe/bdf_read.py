@@ -8,7 +8,8 @@ properties/materials/constraints/loads into the plain arrays of :mod:`torchrom.f
 selection of the SPC set and eigenvalue method from the case control (or the only one present).
 
 Supported structural cards: GRID (CP, CD, PS), GRDSET, CORD1R/C/S, CORD2R/C/S, SPC, SPC1,
-SPCADD, MAT1, CROD/PROD, CONROD, CQUAD4/PSHELL, CTRIA3/PSHELL, CHEXA/CPENTA/CTETRA/PSOLID
+SPCADD, MAT1, CROD/PROD, CONROD, CQUAD4/CTRIA3 with PSHELL or PCOMP (MAT1/MAT8 plies,
+:mod:`torchrom.fe.laminate`), CHEXA/CPENTA/CTETRA/PSOLID
 (linear, corner grids only), CSHEAR/PSHEAR, CBAR/PBAR/PBARL,
 CBEAM/PBEAM/PBEAML (:mod:`torchrom.fe.sections`), CELAS1/PELAS, CELAS2, CONM1, CONM2,
 CMASS1/PMASS, CMASS2, RBE2, RBAR, RBE3, EIGR, EIGRL, FORCE, MOMENT, PLOAD2, PLOAD4, LOAD, PARAM
@@ -37,6 +38,7 @@ from ..errors import InputError
 from .bdf_cards import NOTED_CARDS, apply_grdset, reason
 from .elements.quad4 import quad_frames, shape
 from .elements.solid import solid_volumes
+from .laminate import laminate
 from .mesh import (
     BarSet,
     InterpRBE3,
@@ -58,9 +60,9 @@ from .sections import section
 SOLID_GRIDS = {"CHEXA": 8, "CPENTA": 6, "CTETRA": 4}
 STRUCTURAL_CARDS = frozenset(
     "GRID GRDSET CORD1R CORD1C CORD1S CORD2R CORD2C CORD2S SPC SPC1 SPCADD MAT1 CROD PROD "
-    "CONROD CQUAD4 CTRIA3 PSHELL CSHEAR PSHEAR CBAR PBAR PBARL CBEAM PBEAM PBEAML CONM2 CMASS2 "
-    "CHEXA CPENTA CTETRA PSOLID RBE2 RBE3 RBAR CELAS1 CELAS2 PELAS CMASS1 PMASS CONM1 EIGR EIGRL "
-    "FORCE MOMENT PLOAD2 PLOAD4 LOAD PARAM ENDDATA".split()
+    "CONROD CQUAD4 CTRIA3 PSHELL PCOMP MAT8 CSHEAR PSHEAR CBAR PBAR PBARL CBEAM PBEAM PBEAML "
+    "CONM2 CMASS2 CHEXA CPENTA CTETRA PSOLID RBE2 RBE3 RBAR CELAS1 CELAS2 PELAS CMASS1 PMASS "
+    "CONM1 EIGR EIGRL FORCE MOMENT PLOAD2 PLOAD4 LOAD PARAM ENDDATA".split()
 )
 # Kept for the aerodynamics (and for Nastran itself when the deck is written back); no effect on
 # the structure.
@@ -509,12 +511,14 @@ class _Reader:
                            f"(grids {grids})")
 
     def _quad(self, e):
-        """CQUAD4 or CTRIA3 with PSHELL (the same property handling)."""
+        """CQUAD4 or CTRIA3 with PSHELL (the same property handling) or PCOMP."""
         eid, card = e.eid, e.type
-        p = self.prop(e.pid, card, eid, ("PSHELL",))
-        owner = f"PSHELL {p.pid}"
+        p = self.prop(e.pid, card, eid, ("PSHELL", "PCOMP"))
+        owner = f"{p.type} {p.pid}"
         if abs(float(e.zoffset or 0.0)) > 0.0:
             raise self.err(f"{card} {eid}: field ZOFFS: offsets are not supported, got {e.zoffset}")
+        if p.type == "PCOMP":
+            return self._pcomp_shell(e, p)
         t = p.t
         if t is None or not float(t) > 0.0:
             raise self.err(f"{owner}: field T: expected a positive thickness, got {t}")
@@ -544,7 +548,31 @@ class _Reader:
             if p.mid1 in (None, 0):
                 rho = rho_b
         return dict(eids=eid, nodes=nodes, t=t, E=E, nu=nu, G=G, rho=rho,
-                    nsm=float(p.nsm or 0.0), bend_E=bend_E, bend_nu=bend_nu, shear_G=shear_G)
+                    nsm=float(p.nsm or 0.0), bend_E=bend_E, bend_nu=bend_nu, shear_G=shear_G,
+                    lam_A=np.zeros((3, 3)), lam_D=np.zeros((3, 3)), lam_shear=0.0)
+
+    def _pcomp_shell(self, e, p):
+        """CQUAD4/CTRIA3 with PCOMP: the equivalent laminate (:mod:`torchrom.fe.laminate`)."""
+        eid, card = e.eid, e.type
+        theta = e.theta_mcid
+        if isinstance(theta, int) and theta:
+            raise self.err(f"{card} {eid}: field MCID: a material coordinate system is not "
+                           "supported with PCOMP (give THETA)")
+        try:
+            lam = laminate(p, self.m.materials, float(theta or 0.0))
+        except InputError as exc:
+            raise self.err(str(exc)) from None
+        t = lam.thickness
+        if card == "CQUAD4" and np.abs(lam.A[:2, 2]).max() > 1e-9 * np.abs(lam.A).max():
+            raise self.err(f"PCOMP {p.pid}: unbalanced laminate (A16/A26 ≠ 0) on CQUAD4 {eid}: "
+                           "its membrane integrates the shear apart from the normal strains")
+        note = f"PCOMP {p.pid}: equivalent laminate stiffness (A, D of classical lamination theory)"
+        if note not in self.notes:
+            self.notes.append(note)
+        nodes = self._surface(e, card)
+        return dict(eids=eid, nodes=nodes, t=t, E=lam.A[0, 0] / t, nu=0.0, G=lam.A[2, 2] / t,
+                    rho=lam.mass_per_area / t, nsm=float(p.nsm or 0.0), bend_E=1.0, bend_nu=0.0,
+                    shear_G=lam.shear / t, lam_A=lam.A, lam_D=lam.D, lam_shear=lam.shear)
 
     def _shear(self, e):
         eid = e.eid

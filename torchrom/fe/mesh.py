@@ -55,6 +55,22 @@ class QuadSet:
     bend_nu: np.ndarray = field(default_factory=lambda: _empty(0))
     shear_G: np.ndarray = field(default_factory=lambda: _empty(0))
 
+    # PCOMP laminates (zeros elsewhere): membrane A, bending D, transverse shear (per element)
+    lam_A: np.ndarray = field(default_factory=lambda: _empty(0, 3, 3))
+    lam_D: np.ndarray = field(default_factory=lambda: _empty(0, 3, 3))
+    lam_shear: np.ndarray = field(default_factory=lambda: _empty(0))
+
+    def __post_init__(self):
+        n = len(self.eids)
+        if len(self.lam_A) != n:
+            self.lam_A, self.lam_D = np.zeros((n, 3, 3)), np.zeros((n, 3, 3))
+            self.lam_shear = np.zeros(n)
+
+    @property
+    def laminated(self) -> np.ndarray:
+        """(n,) True for PCOMP elements (stiffness from ``lam_A``/``lam_D``)."""
+        return np.any(self.lam_A != 0.0, axis=(1, 2))
+
     def __len__(self) -> int:
         return len(self.eids)
 
@@ -75,6 +91,22 @@ class TriaSet:
     bend_E: np.ndarray = field(default_factory=lambda: _empty(0))
     bend_nu: np.ndarray = field(default_factory=lambda: _empty(0))
     shear_G: np.ndarray = field(default_factory=lambda: _empty(0))
+
+    # PCOMP laminates (zeros elsewhere): membrane A, bending D, transverse shear (per element)
+    lam_A: np.ndarray = field(default_factory=lambda: _empty(0, 3, 3))
+    lam_D: np.ndarray = field(default_factory=lambda: _empty(0, 3, 3))
+    lam_shear: np.ndarray = field(default_factory=lambda: _empty(0))
+
+    def __post_init__(self):
+        n = len(self.eids)
+        if len(self.lam_A) != n:
+            self.lam_A, self.lam_D = np.zeros((n, 3, 3)), np.zeros((n, 3, 3))
+            self.lam_shear = np.zeros(n)
+
+    @property
+    def laminated(self) -> np.ndarray:
+        """(n,) True for PCOMP elements (stiffness from ``lam_A``/``lam_D``)."""
+        return np.any(self.lam_A != 0.0, axis=(1, 2))
 
     def __len__(self) -> int:
         return len(self.eids)

@@ -22,7 +22,7 @@ import numpy as np
 
 from ..mesh import TriaSet
 from .green import GreenPoints
-from .quad4 import plane_stress
+from .quad4 import bending_matrix, plane_stress
 
 # 3-point rule on the unit triangle (exact for quadratics), weights sum to 1/2
 GAUSS_TRI = ((1 / 6, 1 / 6), (2 / 3, 1 / 6), (1 / 6, 2 / 3))
@@ -63,6 +63,9 @@ def tria_points(trias: TriaSet, xyz: np.ndarray) -> GreenPoints:
     """One Green-strain point per triangle (constant strain)."""
     _, xy, area = tria_frames(xyz[trias.nodes])
     D = plane_stress(trias.E, trias.nu, trias.G)
+    lam = trias.laminated
+    if lam.any():  # PCOMP: the laminate's A per unit thickness
+        D[lam] = trias.lam_A[lam] / trias.t[lam, None, None]
     return GreenPoints("CTRIA3", trias.eids.copy(), trias.nodes.copy(), linear_gradients(xy),
                        D * (area * trias.t)[:, None, None])
 
@@ -109,14 +112,11 @@ def _dkt_coefficients(xy: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return Cx, Cy
 
 
-def dkt_local(xy: np.ndarray, Eb: np.ndarray, nub: np.ndarray, t: np.ndarray) -> np.ndarray:
+def dkt_local(xy: np.ndarray, Eb: np.ndarray, nub: np.ndarray, t: np.ndarray,
+              lam_D: np.ndarray | None = None) -> np.ndarray:
     """DKT bending stiffness (n, 9, 9) in local DOFs (w, θx, θy) per node."""
     n = len(xy)
-    Db = np.zeros((n, 3, 3))
-    dd = Eb * t**3 / (12.0 * (1.0 - nub**2))
-    Db[:, 0, 0] = Db[:, 1, 1] = dd
-    Db[:, 0, 1] = Db[:, 1, 0] = dd * nub
-    Db[:, 2, 2] = dd * (1.0 - nub) / 2.0
+    Db = bending_matrix(Eb, nub, t, lam_D)
     Cx, Cy = _dkt_coefficients(xy)
     inv = _inverse_jacobian(xy)
     area2 = 2.0 * tria_frames_area(xy)
@@ -149,7 +149,7 @@ def tria_bending_blocks(trias: TriaSet, xyz: np.ndarray, drilling: float = 1e-4)
         return np.zeros((0, 18), dtype=int), np.zeros((0, 18, 18))
     R, xy, area = tria_frames(xyz[nodes])
     t = trias.t[sel]
-    Kl = dkt_local(xy, trias.bend_E[sel], trias.bend_nu[sel], t)
+    Kl = dkt_local(xy, trias.bend_E[sel], trias.bend_nu[sel], t, trias.lam_D[sel])
     n = len(nodes)
     L = np.zeros((n, 9, 18))
     for a in range(3):
