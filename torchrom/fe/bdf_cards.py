@@ -63,7 +63,6 @@ REFUSED_REASONS: dict[str, str] = {
     "PCOMPG": "composite laminate not implemented",
     "CBUSH": "bushing not implemented",
     "PBUSH": "bushing not implemented",
-    "MPC": "multipoint constraints not implemented",
     "MAT2": "anisotropic shell material not implemented",
     "MAT9": "anisotropic solid material not implemented",
     "CELAS3": "scalar-point spring not implemented",

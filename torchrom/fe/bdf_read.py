@@ -8,7 +8,7 @@ properties/materials/constraints/loads into the plain arrays of :mod:`torchrom.f
 selection of the SPC set and eigenvalue method from the case control (or the only one present).
 
 Supported structural cards: GRID (CP, CD, PS), GRDSET, CORD1R/C/S, CORD2R/C/S, SPC, SPC1,
-SPCADD, MAT1, CROD/PROD, CONROD, CQUAD4/CTRIA3 with PSHELL or PCOMP (MAT1/MAT8 plies,
+SPCADD, MPC/MPCADD, MAT1, CROD/PROD, CONROD, CQUAD4/CTRIA3 with PSHELL or PCOMP (MAT1/MAT8 plies,
 :mod:`torchrom.fe.laminate`), CHEXA/CPENTA/CTETRA/PSOLID
 (linear, corner grids only), CSHEAR/PSHEAR, CBAR/PBAR/PBARL,
 CBEAM/PBEAM/PBEAML (:mod:`torchrom.fe.sections`), CELAS1/PELAS, CELAS2, CONM1, CONM2,
@@ -42,6 +42,7 @@ from .laminate import laminate
 from .mesh import (
     BarSet,
     InterpRBE3,
+    LinearMPC,
     MassMatrix6,
     Mesh,
     PointMass,
@@ -59,7 +60,8 @@ from .sections import section
 #: linear solid elements and their number of corner grids
 SOLID_GRIDS = {"CHEXA": 8, "CPENTA": 6, "CTETRA": 4}
 STRUCTURAL_CARDS = frozenset(
-    "GRID GRDSET CORD1R CORD1C CORD1S CORD2R CORD2C CORD2S SPC SPC1 SPCADD MAT1 CROD PROD "
+    "GRID GRDSET CORD1R CORD1C CORD1S CORD2R CORD2C CORD2S SPC SPC1 SPCADD MPC MPCADD MAT1 CROD "
+    "PROD "
     "CONROD CQUAD4 CTRIA3 PSHELL PCOMP MAT8 CSHEAR PSHEAR CBAR PBAR PBARL CBEAM PBEAM PBEAML "
     "CONM2 CMASS2 CHEXA CPENTA CTETRA PSOLID RBE2 RBE3 RBAR CELAS1 CELAS2 PELAS CMASS1 PMASS "
     "CONM1 EIGR EIGRL FORCE MOMENT PLOAD2 PLOAD4 LOAD PARAM ENDDATA".split()
@@ -427,6 +429,7 @@ class _Reader:
             elif c.type == "RBAR":
                 mesh.rbe2.append(self._rbar(c))
         self._spcs(mesh, spc_id)
+        self._mpcs(mesh)
         return mesh
 
     def _param(self, key: str, default):
@@ -771,6 +774,45 @@ class _Reader:
         for sid in self._spc_ids(spc_id, set()):
             for card in self.m.spcs.get(sid, []):
                 self._spc_card(card, sid, mesh)
+
+    def _mpcs(self, mesh: Mesh) -> None:
+        """MPC/MPCADD of the case control's MPC set (or the only one)."""
+        ids = sorted(set(self.m.mpcs) | set(self.m.mpcadds))
+        sid = self._case_value("MPC")
+        top = sorted(self.m.mpcadds) or ids  # without case control: the only MPCADD, or MPC
+        if sid is None and len(top) > 1:
+            raise self.err(f"several MPC sets {ids} and no MPC in the case control")
+        if sid is None and top:
+            sid = top[0]
+        if sid is None:
+            return
+        if sid not in ids:
+            raise self.err(f"case control MPC = {sid}: no MPC/MPCADD with that ID")
+        sets, stack = [], [sid]
+        while stack:
+            s = stack.pop()
+            if s in sets:
+                raise self.err(f"MPCADD {sid}: set {s} is referenced twice")
+            sets.append(s)
+            for add in self.m.mpcadds.get(s, []):
+                for x in add.sets:
+                    if x not in self.m.mpcs and x not in self.m.mpcadds:
+                        raise self.err(f"MPCADD {s}: field S: MPC set {x} not found")
+                    stack.append(x)
+        for s in sets:
+            for card in self.m.mpcs.get(s, []):
+                terms = []
+                for nid, comp, a in zip(card.nodes, card.components, card.coefficients):
+                    (g,) = self.rows([nid], "MPC", s, "G")
+                    cs = _comps(comp, self.f, f"MPC {s}: field C")
+                    if len(cs) != 1:
+                        raise self.err(f"MPC {s}: grid {nid}: field C: expected one component, "
+                                       f"got {comp!r}")
+                    terms.append((float(a), g, cs[0]))
+                if not terms or terms[0][0] == 0.0:
+                    raise self.err(f"MPC {s}: field A1: the dependent term needs a non-zero "
+                                   "coefficient")
+                mesh.mpc.append(LinearMPC(s, terms))
 
     def _spc_ids(self, sid: int, seen: set) -> list[int]:
         if sid in seen:

@@ -218,6 +218,15 @@ class MassMatrix6:
 
 
 @dataclass
+class LinearMPC:
+    """MPC: Σ a_i u_i = 0 over (grid row, component 0..5 in the grid's CD system); the first
+    term's DOF is the dependent one: u_0 = −Σ_(i>0) (a_i / a_0) u_i."""
+
+    sid: int
+    terms: list[tuple[float, int, int]]  # (coefficient, grid row, component)
+
+
+@dataclass
 class RigidRBE2:
     """RBE2: components ``comps`` (0..5) of the ``dependent`` rows follow grid ``independent``."""
 
@@ -257,6 +266,7 @@ class Mesh:
     conm1: list[MassMatrix6] = field(default_factory=list)
     rbe2: list[RigidRBE2] = field(default_factory=list)
     rbe3: list[InterpRBE3] = field(default_factory=list)
+    mpc: list[LinearMPC] = field(default_factory=list)
     spc: list[tuple[int, int]] = field(default_factory=list)  # (grid row, comp 0..5)
     spc_source: dict[tuple[int, int], str] = field(default_factory=dict)
     coupled_mass: bool = False
