@@ -262,3 +262,27 @@ def test_cli_modes_compare_with_an_f06(tmp_path, capsys):
     assert main(["modes", str(folder / "bah_plane.bdf"), "--compare",
                  str(tmp_path / "none.f06")]) == 2
     assert "no such f06 file" in capsys.readouterr().err
+
+
+def test_cbush_between_coincident_grids_in_a_rotated_system():
+    """CBUSH K1..K6 along a CORD2R turned 30° about z: a point mass on the bush has the six
+    oscillator frequencies ω² = K_i / m (translations) and K_i / I (rotations)."""
+    m = new_deck()
+    m.add_grid(1, [0.0, 0.0, 0.0], ps="123456")
+    m.add_grid(2, [0.0, 0.0, 0.0])
+    c, s = np.cos(np.pi / 6), np.sin(np.pi / 6)
+    m.add_cord2r(5, [0, 0, 0], [0, 0, 1], [c, s, 0])
+    m.add_pbush(3, [100.0, 400.0, 900.0, 16.0, 25.0, 36.0], [], [])
+    m.add_cbush(1, 3, [1, 2], None, None, cid=5)
+    m.add_conm2(2, 2, 4.0, X=[0.0, 0.0, 0.0], I=[1.0, 0.0, 1.0, 0.0, 0.0, 1.0])
+    fe = model_of(m)
+    assert fe.summary()["CBUSH"] == 1
+    np.testing.assert_allclose(np.sort(fe.modes(6).eigenvalues),
+                               np.sort([25.0, 100.0, 225.0, 16.0, 25.0, 36.0]), rtol=1e-10)
+    # a unit force along basic x: compliance c²/K1 + s²/K2 along x (the springs are turned)
+    u = fe.expand(fe.linear_static(fe.nodal_load({(2, 1): 1.0})))
+    assert u[1, 0] == pytest.approx(c * c / 100.0 + s * s / 400.0, rel=1e-12)
+    m.add_grid(3, [1.0, 0.0, 0.0])
+    m.add_cbush(4, 3, [1, 3], None, None, cid=5)
+    with pytest.raises(InputError, match="CBUSH 4: grids 1 and 3 are apart"):
+        model_of(m)

@@ -61,8 +61,6 @@ REFUSED_REASONS: dict[str, str] = {
     "CTRIA6": "quadratic shell not implemented",
     "CQUAD8": "quadratic shell not implemented",
     "PCOMPG": "composite laminate not implemented",
-    "CBUSH": "bushing not implemented",
-    "PBUSH": "bushing not implemented",
     "MAT2": "anisotropic shell material not implemented",
     "MAT9": "anisotropic solid material not implemented",
     "CELAS3": "scalar-point spring not implemented",

@@ -12,9 +12,9 @@ SPCADD, MPC/MPCADD, MAT1, CROD/PROD, CONROD, CQUAD4/CTRIA3 with PSHELL or PCOMP 
 :mod:`torchrom.fe.laminate`), CHEXA/CPENTA/CTETRA/PSOLID
 (linear, corner grids only), CSHEAR/PSHEAR, CBAR/PBAR/PBARL,
 CBEAM/PBEAM/PBEAML (:mod:`torchrom.fe.sections`), CELAS1/PELAS, CELAS2, CONM1, CONM2,
-CMASS1/PMASS, CMASS2, RBE2, RBAR, RBE3, EIGR, EIGRL, FORCE, MOMENT, PLOAD2, PLOAD4, LOAD, PARAM
-(COUPMASS, WTMASS are used). Cards without effect on modes and flutter are accepted with a note
-(:data:`torchrom.fe.bdf_cards.NOTED_CARDS`).
+CMASS1/PMASS, CMASS2, CBUSH/PBUSH (coincident grids), RBE2, RBAR, RBE3, EIGR, EIGRL, FORCE,
+MOMENT, PLOAD2, PLOAD4, LOAD, PARAM (COUPMASS, WTMASS are used). Cards without effect on modes
+and flutter are accepted with a note (:data:`torchrom.fe.bdf_cards.NOTED_CARDS`).
 Aerodynamic and solution-control cards (CAERO1, PAERO1, SPLINE*, SET1, AERO, AEROS, MKAERO*,
 FLFACT, FLUTTER, ...) are kept in ``fe.bdf`` for :mod:`torchrom.aero` and ignored here. Any other
 card is an error listing the card names and counts (``unsupported="warn"`` demotes it to a
@@ -41,6 +41,7 @@ from .elements.solid import solid_volumes
 from .laminate import laminate
 from .mesh import (
     BarSet,
+    Bush,
     InterpRBE3,
     LinearMPC,
     MassMatrix6,
@@ -64,7 +65,7 @@ STRUCTURAL_CARDS = frozenset(
     "PROD "
     "CONROD CQUAD4 CTRIA3 PSHELL PCOMP MAT8 CSHEAR PSHEAR CBAR PBAR PBARL CBEAM PBEAM PBEAML "
     "CONM2 CMASS2 CHEXA CPENTA CTETRA PSOLID RBE2 RBE3 RBAR CELAS1 CELAS2 PELAS CMASS1 PMASS "
-    "CONM1 EIGR EIGRL FORCE MOMENT PLOAD2 PLOAD4 LOAD PARAM ENDDATA".split()
+    "CONM1 CBUSH PBUSH EIGR EIGRL FORCE MOMENT PLOAD2 PLOAD4 LOAD PARAM ENDDATA".split()
 )
 # Kept for the aerodynamics (and for Nastran itself when the deck is written back); no effect on
 # the structure.
@@ -391,6 +392,8 @@ class _Reader:
                 bars.append(self._bar(e))
             elif e.type in ("CELAS1", "CELAS2"):
                 mesh.celas.append(self._celas(e))
+            elif e.type == "CBUSH":
+                mesh.bushes.append(self._cbush(e))
             elif e.type in SOLID_GRIDS:
                 row = self._solid(e)
                 solids[len(row["nodes"])].append(row)
@@ -694,6 +697,32 @@ class _Reader:
         if ge:
             self.notes.append(f"{e.type} {e.eid}: structural damping GE = {ge:g} ignored")
         return ScalarSpring(e.eid, k, *self._scalar_pair(e))
+
+    def _cbush(self, e) -> Bush:
+        """CBUSH/PBUSH between coincident grids or to ground, oriented by CID (stiffness only)."""
+        eid = e.eid
+        p = self.prop(e.pid, "CBUSH", eid, ("PBUSH",))
+        n1, n2 = (list(e.nodes) + [None])[:2]
+        (g1,) = self.rows([n1], "CBUSH", eid, "GA")
+        g2 = -1
+        if n2 not in (None, 0):
+            (g2,) = self.rows([n2], "CBUSH", eid, "GB")
+            if np.linalg.norm(self.xyz[g2] - self.xyz[g1]) > 1e-4:
+                raise self.err(f"CBUSH {eid}: grids {n1} and {n2} are apart: only coincident "
+                               "grids (or a grounded bush) are supported")
+        if e.cid is None or e.cid < 0:
+            raise self.err(f"CBUSH {eid}: field CID: expected a coordinate system for a bush "
+                           "between coincident grids, got blank")
+        if e.cid and e.cid not in self.m.coords:
+            raise self.err(f"CBUSH {eid}: field CID: coordinate system {e.cid} not found")
+        axes = axes_at(self.m.coords[e.cid], self.xyz[g1]) if e.cid else np.eye(3)
+        k = np.zeros(6)
+        k[: len(p.Ki)] = [float(x or 0.0) for x in p.Ki]
+        if any(float(x or 0.0) for x in list(p.Bi) + list(p.GEi)):
+            note = f"PBUSH {p.pid}: damping B/GE ignored (real modes and undamped flutter)"
+            if note not in self.notes:
+                self.notes.append(note)
+        return Bush(eid, g1, g2, k, axes)
 
     def _conm1(self, c, wtmass: float) -> MassMatrix6:
         (g,) = self.rows([c.nid], "CONM1", c.eid)

@@ -1,5 +1,6 @@
 """Concentrated masses and scalar springs: CONM2 (rigid mass with offset and inertia), CONM1 (a
-6x6 mass matrix), CMASS1/CMASS2 (scalar mass), CELAS1/CELAS2 (scalar spring).
+6x6 mass matrix), CMASS1/CMASS2 (scalar mass), CELAS1/CELAS2 (scalar spring), CBUSH (six
+springs between coincident grids).
 
 Hand-written. CONM2: a rigid body whose CG sits at ``offset`` r from its grid; with the grid's
 translation t and rotation θ (small rotations) the CG moves t + θ × r = t − [r×] θ, so
@@ -16,7 +17,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .mesh import MassMatrix6, PointMass, ScalarMass, ScalarSpring
+from .mesh import Bush, MassMatrix6, PointMass, ScalarMass, ScalarSpring
 
 
 def skew(r: np.ndarray) -> np.ndarray:
@@ -70,4 +71,22 @@ def celas_blocks(springs: list[ScalarSpring], cd_axes: np.ndarray):
 def conm1_blocks(masses: list[MassMatrix6]) -> tuple[np.ndarray, np.ndarray]:
     dofs = np.array([m.grid * 6 + np.arange(6) for m in masses], dtype=int).reshape(-1, 6)
     blocks = np.array([m.matrix for m in masses], dtype=float).reshape(-1, 6, 6)
+    return dofs, blocks
+
+
+def bush_blocks(bushes: list[Bush]) -> tuple[np.ndarray, np.ndarray]:
+    """CBUSH between coincident grids: k (u_A − u_B)² / 2 per axis of its system, (n, 12, 12)
+    on both grids' six DOFs (basic); a grounded bush acts on grid A alone."""
+    dofs = np.zeros((len(bushes), 12), dtype=int)
+    blocks = np.zeros((len(bushes), 12, 12))
+    for k, b in enumerate(bushes):
+        R = np.zeros((6, 6))
+        R[:3, :3] = R[3:, 3:] = b.axes
+        K6 = R @ np.diag(b.stiffness) @ R.T
+        g2 = b.grid1 if b.grid2 < 0 else b.grid2
+        dofs[k] = np.concatenate((b.grid1 * 6 + np.arange(6), g2 * 6 + np.arange(6)))
+        if b.grid2 < 0:
+            blocks[k, :6, :6] = K6
+        else:
+            blocks[k] = np.block([[K6, -K6], [-K6, K6]])
     return dofs, blocks

@@ -209,6 +209,18 @@ class ScalarSpring:
 
 
 @dataclass
+class Bush:
+    """CBUSH between coincident grids (or to ground, ``grid2`` = -1): six springs K1..K6 along
+    and about the axes (columns of ``axes``, basic) of its coordinate system."""
+
+    eid: int
+    grid1: int
+    grid2: int
+    stiffness: np.ndarray  # (6,)
+    axes: np.ndarray  # (3, 3)
+
+
+@dataclass
 class MassMatrix6:
     """CONM1: a symmetric 6x6 mass matrix at a grid, in basic axes (T1..T3, R1..R3)."""
 
@@ -263,6 +275,7 @@ class Mesh:
     conm2: list[PointMass] = field(default_factory=list)
     cmass2: list[ScalarMass] = field(default_factory=list)
     celas: list[ScalarSpring] = field(default_factory=list)
+    bushes: list[Bush] = field(default_factory=list)
     conm1: list[MassMatrix6] = field(default_factory=list)
     rbe2: list[RigidRBE2] = field(default_factory=list)
     rbe3: list[InterpRBE3] = field(default_factory=list)

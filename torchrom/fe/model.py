@@ -42,7 +42,7 @@ from .elements.rod import rod_mass_blocks, rod_points, rod_torsion_blocks
 from .elements.shear import shear_mass_blocks, shear_points
 from .elements.solid import solid_blocks, solid_mass_blocks
 from .elements.tria3 import tria_bending_blocks, tria_mass_blocks, tria_points
-from .mass import celas_blocks, cmass2_blocks, conm1_blocks, conm2_blocks
+from .mass import bush_blocks, celas_blocks, cmass2_blocks, conm1_blocks, conm2_blocks
 from .mesh import Mesh
 
 
@@ -134,6 +134,8 @@ class FEModel:
             lin.append(bar_stiffness_blocks(mesh.bars, mesh.xyz))
         if mesh.celas:
             lin.append(celas_blocks(mesh.celas, mesh.cd_axes))
+        if mesh.bushes:
+            lin.append(bush_blocks(mesh.bushes))
         for solids in mesh.solids:
             lin.append(solid_blocks(solids, mesh.xyz))
         self._lin_parts = [p for p in lin if len(p[0])]
@@ -244,7 +246,7 @@ class FEModel:
         self._state(dtype, device)
 
     def _warn_linear(self) -> None:
-        n_lin = (len(self.mesh.bars) + len(self.mesh.celas)
+        n_lin = (len(self.mesh.bars) + len(self.mesh.celas) + len(self.mesh.bushes)
                  + sum(len(s) for s in self.mesh.solids))
         if n_lin and not self._warned_linear:
             self._warned_linear = True
@@ -505,6 +507,7 @@ class FEModel:
             "CMASS": len(m.cmass2),
             "CONM1": len(m.conm1),
             "CELAS": len(m.celas),
+            "CBUSH": len(m.bushes),
             "RBE2": len(m.rbe2),
             "RBE3": len(m.rbe3),
             "autospc": len(self.autospc),
