@@ -816,7 +816,12 @@ class _Reader:
         if sid is None:
             return
         if sid not in ids:
-            raise self.err(f"case control MPC = {sid}: no MPC/MPCADD with that ID")
+            if ids:
+                raise self.err(f"case control MPC = {sid}: no MPC/MPCADD with that ID (the deck "
+                               f"has {ids})")
+            self.notes.append(f"case control MPC = {sid}: the deck has no MPC cards; none applied "
+                              "(as Nastran, which warns)")
+            return
         sets, stack = [], [sid]
         while stack:
             s = stack.pop()
