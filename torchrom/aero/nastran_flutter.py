@@ -20,7 +20,10 @@ the reduced frequencies of the nearest MKAERO Mach for PK; at the FLFACT reduced
 themselves for K/KE) instead of being interpolated between MKAERO points; K and KE use the same
 solver (KE without viscous damping, as in Nastran); structural damping tables (TABDMP1) are not
 read; splines interpolate exactly (see :mod:`torchrom.aero.splines`). Modal matrices are those of
-mass-normalised modes (M = I, K = diag ω²). Velocities are in the deck's units divided by
+mass-normalised modes (M = I, K = diag ω²). The modes are the lowest min(LMODES, ND) eigenmodes:
+Nastran may augment them with residual vectors (PARAM RESVEC, its "AFTER AUGMENTATION" table),
+which are not computed here (pyNastran's bah_plane uses 8 eigenmodes and 2 residual vectors).
+Velocities are in the deck's units divided by
 PARAM VREF.
 """
 
