@@ -582,10 +582,12 @@ def compare_f06(res: DeckResult, f06_path) -> tuple[str, list[dict]]:
     if tables:
         ref = tables[-1].cycles  # the last table: the modes used in the dynamic analysis
         lines.append(f"{'mode':>5}{'torchrom Hz':>14}{'Nastran Hz':>14}{'diff %':>9}")
+        floor = 1e-4 * float(np.abs(ref).max(initial=0.0))
         for i, f in enumerate(res.frequencies_hz):
             if i < len(ref):
-                d = 100 * (f - ref[i]) / ref[i] if abs(ref[i]) > 1e-9 else float("nan")
-                lines.append(f"{i + 1:>5}{f:14.5g}{ref[i]:14.5g}{d:9.3f}")
+                # rigid-body modes (zero up to round-off in both): no relative difference
+                d = f"{100 * (f - ref[i]) / ref[i]:9.3f}" if abs(ref[i]) > floor else "    rigid"
+                lines.append(f"{i + 1:>5}{f:14.5g}{ref[i]:14.5g}{d}")
     lines.append(f"{'method':>7}{'Mach':>7}{'rho ratio':>11}{'mode':>5}{'V torchrom':>13}"
                  f"{'V Nastran':>12}{'dV %':>8}{'f torchrom':>12}{'f Nastran':>11}{'df %':>8}")
     used = set()
