@@ -24,7 +24,8 @@ def rotation(axis, angle: float) -> np.ndarray:
 
 
 def single_element(kind: str) -> BDF:
-    """One unconstrained element of a Green-strain family: 'rod', 'membrane' or 'shear'.
+    """One unconstrained element of a Green-strain family: 'rod', 'membrane', 'shear' or 'tria'
+    (a CTRIA3 membrane).
 
     The quad is a slightly irregular (but planar) quadrilateral, tilted out of the x-y plane.
     """
@@ -40,7 +41,11 @@ def single_element(kind: str) -> BDF:
     pts = np.array([[0.0, 0.0, 0.0], [1.2, 0.1, 0.0], [1.0, 0.9, 0.0], [-0.1, 0.8, 0.0]]) @ R.T
     for k, p in enumerate(pts):
         m.add_grid(k + 1, list(p))
-    if kind == "membrane":
+    if kind == "tria":
+        m.nodes.pop(4)
+        m.add_pshell(1, mid1=1, t=0.01)
+        m.add_ctria3(1, 1, [1, 2, 3])
+    elif kind == "membrane":
         m.add_pshell(1, mid1=1, t=0.01)
         m.add_cquad4(1, 1, [1, 2, 3, 4])
     else:
@@ -50,8 +55,10 @@ def single_element(kind: str) -> BDF:
 
 
 def plate_strip(n_long: int, n_wide: int, L: float, b: float, t: float, E: float, nu: float,
-                rho: float, bending: bool = True, coupled: bool = False) -> BDF:
-    """Cantilever strip of CQUAD4s in the x-y plane, clamped at x = 0."""
+                rho: float, bending: bool = True, coupled: bool = False,
+                triangles: bool = False) -> BDF:
+    """Cantilever strip of CQUAD4s (or two CTRIA3s per cell, alternating diagonals) in the x-y
+    plane, clamped at x = 0."""
     m = new_deck()
     nid = lambda i, j: 1 + i * (n_wide + 1) + j  # noqa: E731
     for i in range(n_long + 1):
@@ -62,8 +69,15 @@ def plate_strip(n_long: int, n_wide: int, L: float, b: float, t: float, E: float
     eid = 1
     for i in range(n_long):
         for j in range(n_wide):
-            m.add_cquad4(eid, 1, [nid(i, j), nid(i + 1, j), nid(i + 1, j + 1), nid(i, j + 1)])
-            eid += 1
+            c = [nid(i, j), nid(i + 1, j), nid(i + 1, j + 1), nid(i, j + 1)]
+            if triangles:
+                a, b_, cc, d = c if (i + j) % 2 == 0 else c[1:] + c[:1]
+                m.add_ctria3(eid, 1, [a, b_, cc])
+                m.add_ctria3(eid + 1, 1, [a, cc, d])
+                eid += 2
+            else:
+                m.add_cquad4(eid, 1, c)
+                eid += 1
     m.add_spc1(1, "123456", [nid(0, j) for j in range(n_wide + 1)])
     if coupled:
         m.add_param("COUPMASS", [1])

@@ -109,3 +109,48 @@ def test_bad_deck_exit_code(shared, tmp_path, capsys):
     assert main(["flutter", str(bad)]) == 2
     err = capsys.readouterr().err.strip()
     assert err.count("\n") == 0 and "CAERO1 101: PAERO1 1 not found" in err
+
+
+def test_flutter_deck_unsupported_warn_and_noted_cards(pt145, tmp_path, capsys):
+    """Cards without effect on modes/flutter are accepted with a note; an unknown card refuses
+    the deck (exit 2, its name, count and reason) unless --unsupported warn."""
+    extra = (
+        "MDLPRM  QR6ROT  1\nMAT4    7       204.\nUSET    U1      1       3\n"
+        "DESVAR  1       AREA    7.175-2 1.-3    1.\n"
+        "DRESP1  30      FREQ1   FREQ                    1\nDCONSTR 40      30      10.\n"
+        "DCONADD 50      40\nDSCREEN FREQ    -0.5    10\n"
+    )
+    text = pt145.read_text().replace("PARAM   LMODES  3", "PARAM   LMODES  3\n" + extra, 1)
+    noted = tmp_path / "noted.bdf"
+    noted.write_text(text)
+    assert main(["flutter", str(noted), "--json", str(tmp_path / "n.json")]) == 0
+    out = capsys.readouterr().out
+    for card in ("MDLPRM (1)", "MAT4 (1)", "USET (1)", "DESVAR (1)", "DSCREEN (1)"):
+        assert f"note: {card} accepted" in out
+    ref = json.loads((tmp_path / "n.json").read_text())["flutter"][0]
+    bad = tmp_path / "bad.bdf"
+    damper = "CDAMP2  99      0.1     5       3"
+    bad.write_text(text.replace("PARAM   LMODES  3", "PARAM   LMODES  3\n" + damper, 1))
+    assert main(["flutter", str(bad)]) == 2
+    err = capsys.readouterr().err
+    assert "CDAMP2 (1): viscous damper not implemented" in err and err.count("\n") == 1
+    with pytest.warns(UserWarning, match="CDAMP2"):
+        assert main(["flutter", str(bad), "--unsupported", "warn", "--json",
+                     str(tmp_path / "w.json")]) == 0
+    got = json.loads((tmp_path / "w.json").read_text())["flutter"][0]
+    assert got["velocity"] == pytest.approx(ref["velocity"], rel=1e-12)
+
+
+def test_flutter_deck_compare_with_an_f06(tmp_path, capsys):
+    """`torchrom flutter DECK --compare RUN.f06`: the f06's flutter point and modes beside ours."""
+    from pathlib import Path
+
+    folder = Path(__file__).parent / "decks" / "pynastran_pt145"
+    out = tmp_path / "f.json"
+    assert main(["flutter", str(folder / "pt145.bdf"), "--compare", str(folder / "pt145.f06"),
+                 "--json", str(out)]) == 0
+    text = capsys.readouterr().out
+    assert "compared with" in text and "V Nastran" in text
+    (rec,) = json.loads(out.read_text())["compare"]
+    assert rec["nastran_velocity"] == pytest.approx(6004.2, rel=1e-4)
+    assert rec["velocity"] == pytest.approx(6091.6, rel=1e-3)

@@ -207,3 +207,21 @@ def test_modal_structure_from_rom_like_object():
     np.testing.assert_allclose(st.natural_frequencies_hz(), [1 / (2 * np.pi), 2 / (2 * np.pi)])
     with pytest.raises(InputError, match="positive definite"):
         ModalStructure(-np.eye(2), np.eye(2))
+
+
+def test_round_off_damping_is_not_flutter():
+    """A mode the aerodynamics do not touch has g ~ ±1e-15 from round-off: no crossing there;
+    a real crossing (g from -0.02 to +0.03) is found once, interpolated linearly."""
+    from torchrom.aero.flutter import G_ROUNDOFF, ModeSweep, zero_crossings
+
+    v = np.linspace(100.0, 500.0, 9)
+    noise = 1e-15 * np.array([-1, 1, -1, 1, -2, 3, -1, 1, 2])
+    real = np.linspace(-0.06, 0.02, 9)  # crosses zero between points 6 and 7 (at V = 400)
+    g = np.c_[noise, real]
+    w = 2 * np.pi * np.c_[np.full(9, 10.0), np.full(9, 20.0)]
+    s = 0.5 * g * w + 1j * w
+    sweep = ModeSweep("PK", v, np.full(9, 1.2), s, np.ones_like(g), g)
+    (p,) = sweep.crossings()
+    assert p.mode == 1 and p.velocity == pytest.approx(400.0, rel=1e-12)
+    assert zero_crossings(noise) == [] and zero_crossings([-1e-3, 5e-9, 2e-8]) == [0]
+    assert zero_crossings([-1e-3, 0.5 * G_ROUNDOFF, -1e-3, 1e-3]) == [2]

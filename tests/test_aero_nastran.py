@@ -189,6 +189,12 @@ BAD = [
         r"SPLINE2 100: CAERO1 102 not found",
     ),
     (
+        "aero_symxy.bdf",
+        ("AERO    0               2.0706  1.145-7", _field8("AERO", 0, "", "2.0706", "1.145-7", "",
+                                                          1)),
+        r"AERO: SYMXY: symmetry about the xy plane \(ground effect\) is not supported",
+    ),
+    (
         "method_missing_eigr.bdf",
         ("METHOD  = 10", "METHOD  = 11"),
         r"METHOD = 11: EIGR/EIGRL 11 not found",
@@ -207,3 +213,75 @@ def test_bad_decks_give_one_line_errors(tmp_path, pt145_text, name, replacement,
 def test_missing_deck_file(tmp_path):
     with pytest.raises(InputError, match="file not found"):
         load_deck(tmp_path / "nope.bdf")
+
+
+def test_aero_acsid_along_minus_x_basic_gives_the_same_flutter(tmp_path, pt145_text, pt145_fe):
+    """AERO ACSID: CAERO1 chords and the flow run along the aero x axis (MSC QRG, CAERO1/AERO).
+
+    pt145 turned by 180 degrees about z (its CORD2R 1, which places the grids, the CAERO1 and the
+    SPLINE2, is turned), with an aero system whose x points along -x basic: in that system the
+    deck is pt145 itself, so modes and flutter must be the same to round-off (before: the boxes
+    were laid along +x basic, ahead of the wing, and the flutter speed was far off, silently).
+    """
+    from torchrom.fe import read_bdf
+
+    path = _variant(
+        tmp_path,
+        pt145_text,
+        "pt145_acsid.bdf",
+        ("+C1     .96593  -.25882 .0", "+C1     -.96593 .25882  .0"),
+        (
+            "AERO    0               2.0706  1.145-7",
+            _field8("AERO", 2, "", "2.0706", "1.145-7")
+            + "\n"
+            + _field8("CORD2R", 2, "", ".0", ".0", ".0", ".0", ".0", "1.")
+            + "\n"
+            + _field8("", "-1.", ".0", ".0"),
+        ),
+    )
+    turned = read_bdf(path)
+    np.testing.assert_allclose(turned.grid_xyz[:, :2], -pt145_fe.grid_xyz[:, :2], atol=1e-12)
+    deck = load_deck(path)
+    assert np.all(deck.panels.corners[:, 1, 0] > deck.panels.corners[:, 0, 0])  # chord along +x
+    (p,) = run_deck(deck, fe=turned, log=lambda *_: None).results[0].points
+    ref = _variant(tmp_path, pt145_text, "pt145_ref.bdf")
+    (q,) = run_deck(ref, fe=pt145_fe, log=lambda *_: None).results[0].points
+    assert p.velocity == pytest.approx(q.velocity, rel=1e-6)
+    assert p.frequency_hz == pytest.approx(q.frequency_hz, rel=1e-6)
+
+
+def test_spline4_and_spline5_on_aelists_equal_spline1_and_spline2(tmp_path, pt145_text):
+    """SPLINE5 (beam spline, boxes on an AELIST) over the same boxes, grids and CID as pt145's
+    SPLINE2 moves the boxes identically; SPLINE4 (IPS) likewise against the SPLINE1 of the
+    two-mode flutter deck (tests/decks)."""
+    import shutil
+    from pathlib import Path
+
+    rng = np.random.default_rng(3)
+    spline2 = "SPLINE2 100     101     101     124     100     .0      1.0     1       +SP\n"
+    spline2 += "+SP     .0      .0"
+    s5 = _variant(
+        tmp_path, pt145_text, "pt145_s5.bdf",
+        (spline2, _field8("SPLINE5", 100, 101, 77, "", 100, ".0", "1.0", 1) + "+SP\n"
+         + _field8("+SP", ".0", ".0") + "\n" + _field8("AELIST", 77, 101, "THRU", 124)),
+    )
+    base = _variant(tmp_path, pt145_text, "pt145_base.bdf")
+    pairs = [(load_deck(s5), load_deck(base), np.arange(1, 12))]
+    src = Path(__file__).parent / "decks" / "pynastran_2_mode_flutter"
+    work = tmp_path / "two_mode"
+    shutil.copytree(src, work)
+    inc = work / "aero_cards.inc"
+    text = inc.read_text()
+    assert "SPLINE1,1002,1,1,100,10000" in text
+    inc.write_text(text.replace("SPLINE1,1002,1,1,100,10000",
+                                "SPLINE4,1002,1,77,,10000,,IPS\nAELIST,77,1,THRU,100"))
+    s4 = load_deck(work / "0012_flutter.bdf")
+    s1 = load_deck(src / "0012_flutter.bdf")
+    assert s4.splines[0].kind == "SPLINE4" and s1.splines[0].kind == "SPLINE1"
+    pairs.append((s4, s1, np.asarray(sorted(s1.splines[0].grid_ids))))
+    for new, old, grid_ids in pairs:
+        disp = rng.standard_normal((2, len(grid_ids), 6))
+        a, b = new.box_motion(grid_ids, disp), old.box_motion(grid_ids, disp)
+        for name in ("h_load", "h_control", "slope_control"):
+            np.testing.assert_allclose(getattr(a, name), getattr(b, name), rtol=1e-12, atol=1e-12)
+        assert np.abs(a.h_load).max() > 0.1

@@ -49,7 +49,7 @@ def test_nonlinear_analysis_with_cbar_warns(shared):
     from torchrom.fe import LinearElementWarning
 
     fe = read_bdf(shared / PT145)
-    with pytest.warns(LinearElementWarning, match="CBAR elements are linear"):
+    with pytest.warns(LinearElementWarning, match="CBAR/CBEAM/CELAS/solid elements are linear"):
         f = fe.internal_force(np.full(fe.n_dof, 1e-3))
     np.testing.assert_allclose(f, fe.stiffness_matrix() @ np.full(fe.n_dof, 1e-3), rtol=1e-12)
 
@@ -120,12 +120,14 @@ def test_unsupported_cards_are_listed_with_counts(tmp_path):
         "GRID    3               1.0     1.0     0.0\nMAT1    1       1.0e7           0.3     0.1\n"
         "PROD    1       1       0.5\nCROD    1       1       1       2\n"
         "CROD    2       1       2       3\nPSHELL  2       1       0.1\n"
-        "CTRIA3  5       2       1       2       3\nCTRIA3  6       2       1       2       3\n"
+        "CQUAD8  5       2       1       2       3       4       5       6\n        7       8\n"
+        "CQUAD8  6       2       1       2       3       4       5       6\n        7       8\n"
         "FOOBAR  1       2\nENDDATA\n"
     )
-    with pytest.raises(InputError, match=r"unsupported cards: CTRIA3 \(2\), FOOBAR \(1\)"):
+    with pytest.raises(InputError, match=r"unsupported cards: CQUAD8 \(2\): quadratic shell "
+                       r"not implemented; FOOBAR \(1\): not read by the FE reader\."):
         read_bdf(path)
-    with pytest.warns(UnsupportedCardWarning, match="CTRIA3"):
+    with pytest.warns(UnsupportedCardWarning, match="CQUAD8"):
         fe = read_bdf(path, unsupported="warn")
     assert len(fe.mesh.rods) == 2
 
@@ -172,3 +174,115 @@ def test_writer_round_trip_gives_identical_matrices(tmp_path):
     assert p1.read_text() == p2.read_text()
     with pytest.raises(InputError, match="already exists"):
         write_bdf(fe1, p1)
+
+
+def _pt145_with_grdset(shared, tmp_path):
+    """pt145 with CP, CD and PS moved from every GRID onto one GRDSET (fields blank on GRID)."""
+    lines = []
+    for line in (shared / PT145).read_text().splitlines():
+        if line.startswith("GRID    "):
+            line = line[:16] + " " * 8 + line[24:48]  # CP (field 3) blank, CD/PS (7, 8) dropped
+        elif line.startswith("BEGIN BULK"):
+            line += "\nGRDSET          1                               1       126"
+        lines.append(line)
+    path = tmp_path / "pt145_grdset.bdf"
+    path.write_text("\n".join(lines) + "\n")
+    return path
+
+
+def test_grdset_defaults_apply_to_blank_grid_fields(shared, tmp_path):
+    """GRDSET CP, CD and PS are the defaults of blank GRID fields (MSC QRG, GRDSET): the deck
+    with them on GRDSET is the same model as pt145 (before: PS ignored, 60 free DOFs, CP lost)."""
+    ref = read_bdf(shared / PT145)
+    fe = read_bdf(_pt145_with_grdset(shared, tmp_path))
+    assert fe.n_dof == ref.n_dof == 30
+    np.testing.assert_allclose(fe.grid_xyz, ref.grid_xyz, atol=1e-12)
+    for name in ("stiffness_matrix", "mass_matrix"):
+        assert abs(getattr(fe, name)() - getattr(ref, name)()).max() <= 1e-12 * abs(
+            getattr(ref, name)()).max()
+    # an explicit PS on a GRID wins over GRDSET
+    m = new_deck()
+    m.add_grdset(0, 0, "345", 0)
+    m.add_grid(1, [0.0, 0.0, 0.0], ps="1")
+    m.add_grid(2, [1.0, 0.0, 0.0])
+    m.add_mat1(1, 1.0e7, None, 0.3, rho=0.1)
+    m.add_prod(1, 1, 0.5)
+    m.add_crod(1, 1, [1, 2])
+    fe = model_of(m, autospc=False)
+    assert fe.constraints.status.get((0, 0)) == "GRID 1 PS" and (0, 2) not in fe.constraints.status
+    assert fe.constraints.status.get((1, 2)) == "GRID 2 PS"
+
+
+def test_scalar_springs_masses_conm1_and_rbar_give_exact_oscillators():
+    """CELAS1/PELAS, CELAS2, CMASS1/PMASS, CMASS2, CONM1 (in a rotated CID) and RBAR: each
+    component is a one-DOF oscillator ω² = k / m (AUTOSPC removes the rest)."""
+    m = new_deck()
+    m.add_grid(1, [0.0, 0.0, 0.0])
+    m.add_grid(2, [1.0, 0.0, 0.0])
+    m.add_grid(3, [1.0, 2.0, 0.0])
+    m.add_pelas(5, 400.0)
+    m.add_celas1(1, 5, [1, 0], "1", "")          # T1 of grid 1: k = 400
+    m.add_pmass(7, 4.0)
+    m.add_cmass1(2, 7, [1, 0], "1", "")          # m = 4: ω² = 100
+    m.add_celas2(3, 900.0, [1, 0], "2", "")      # T2 of grid 1: k = 900
+    m.add_cmass2(4, 1.0, [1, 0], "2", "")        # m = 1 + 8 (RBAR carries grid 3's T2)
+    c, s = np.cos(0.4), np.sin(0.4)
+    m.add_cord2r(9, [0, 0, 0], [0, 0, 1], [c, s, 0])
+    M6 = np.zeros((6, 6))
+    M6[0, 0] = M6[1, 1] = M6[2, 2] = 3.0         # isotropic 3: invariant under the rotation
+    M6[5, 5] = 2.0                               # R3 about z: also invariant
+    m.add_conm1(6, 2, M6, cid=9)
+    m.add_celas2(7, 75.0, [2, 0], "3", "")       # T3 of grid 2: ω² = 75 / 3 = 25
+    m.add_celas2(8, 50.0, [2, 0], "6", "")       # R3 of grid 2: ω² = 50 / 2 = 25
+    m.add_conm2(9, 3, 8.0)
+    m.add_rbar(10, [1, 3], "123456", "", "", "123456")
+    fe = model_of(m)
+    assert fe.summary()["CELAS"] == 4 and fe.summary()["CONM1"] == 1
+    w2 = np.sort(fe.modes(10).eigenvalues)
+    # grid 1: T1 100 + RBAR (grid 3 follows grid 1's rigid motion, its T1 mass 8 too):
+    # (400)/(4 + 8) in T1; T2: 900 / (1 + 8); T3 of grid 2: 25; R3 of grid 2: 25
+    np.testing.assert_allclose(w2, sorted([400 / 12, 900 / 9, 25.0, 25.0]), rtol=1e-9)
+
+
+def test_cli_modes_compare_with_an_f06(tmp_path, capsys):
+    """`torchrom modes DECK --compare RUN.f06`: Nastran's frequencies and the differences beside
+    ours (bah_plane: 2 rigid-body modes, flagged, and 6 elastic ones within 1e-3 %)."""
+    from pathlib import Path
+
+    folder = Path(__file__).parent / "decks" / "pynastran_bah_plane"
+    out = tmp_path / "m.json"
+    assert main(["modes", str(folder / "bah_plane.bdf"), "--compare",
+                 str(folder / "bah_plane.f06"), "--json", str(out)]) == 0
+    text = capsys.readouterr().out
+    assert "Nastran Hz" in text and "rigid" in text
+    recs = json.loads(out.read_text())
+    assert len(recs) == 8 and recs[0]["diff_pct"] is None and "diff_hz" in recs[0]
+    assert recs[2]["nastran_hz"] == pytest.approx(2.45402, rel=1e-5)
+    assert max(abs(r["diff_pct"]) for r in recs[2:]) < 1e-3
+    assert main(["modes", str(folder / "bah_plane.bdf"), "--compare",
+                 str(tmp_path / "none.f06")]) == 2
+    assert "no such f06 file" in capsys.readouterr().err
+
+
+def test_cbush_between_coincident_grids_in_a_rotated_system():
+    """CBUSH K1..K6 along a CORD2R turned 30° about z: a point mass on the bush has the six
+    oscillator frequencies ω² = K_i / m (translations) and K_i / I (rotations)."""
+    m = new_deck()
+    m.add_grid(1, [0.0, 0.0, 0.0], ps="123456")
+    m.add_grid(2, [0.0, 0.0, 0.0])
+    c, s = np.cos(np.pi / 6), np.sin(np.pi / 6)
+    m.add_cord2r(5, [0, 0, 0], [0, 0, 1], [c, s, 0])
+    m.add_pbush(3, [100.0, 400.0, 900.0, 16.0, 25.0, 36.0], [], [])
+    m.add_cbush(1, 3, [1, 2], None, None, cid=5)
+    m.add_conm2(2, 2, 4.0, X=[0.0, 0.0, 0.0], I=[1.0, 0.0, 1.0, 0.0, 0.0, 1.0])
+    fe = model_of(m)
+    assert fe.summary()["CBUSH"] == 1
+    np.testing.assert_allclose(np.sort(fe.modes(6).eigenvalues),
+                               np.sort([25.0, 100.0, 225.0, 16.0, 25.0, 36.0]), rtol=1e-10)
+    # a unit force along basic x: compliance c²/K1 + s²/K2 along x (the springs are turned)
+    u = fe.expand(fe.linear_static(fe.nodal_load({(2, 1): 1.0})))
+    assert u[1, 0] == pytest.approx(c * c / 100.0 + s * s / 400.0, rel=1e-12)
+    m.add_grid(3, [1.0, 0.0, 0.0])
+    m.add_cbush(4, 3, [1, 3], None, None, cid=5)
+    with pytest.raises(InputError, match="CBUSH 4: grids 1 and 3 are apart"):
+        model_of(m)

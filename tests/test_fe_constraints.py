@@ -140,3 +140,24 @@ def test_autospc_removes_dofs_without_stiffness():
     assert len(fe.autospc) == 4 * 4
     fe_all = model_of(m, autospc=False)
     assert fe_all.n_dof == 24
+
+
+def test_mpc_makes_the_first_term_dependent():
+    """MPC u2 − 2 u1 = 0 (T1 of two spring-mass grids): one DOF with k = k1 + 4 k2 and
+    m = m1 + 4 m2; MPCADD and the case control select the set."""
+    m = new_deck()
+    m.add_grid(1, [0.0, 0.0, 0.0])
+    m.add_grid(2, [1.0, 0.0, 0.0])
+    m.add_celas2(1, 300.0, [1, 0], "1", "")
+    m.add_celas2(2, 50.0, [2, 0], "1", "")
+    m.add_cmass2(3, 2.0, [1, 0], "1", "")
+    m.add_cmass2(4, 0.5, [2, 0], "1", "")
+    m.add_mpc(7, [2, 1], ["1", "1"], [1.0, -2.0])
+    m.add_mpcadd(8, [7])
+    fe = model_of(m)
+    assert fe.n_dof == 1 and fe.constraints.status[(1, 0)] == "MPC 7"
+    np.testing.assert_allclose(fe.modes(1).eigenvalues, [(300 + 4 * 50) / (2 + 4 * 0.5)],
+                               rtol=1e-12)
+    m.add_mpcadd(9, [7])
+    with pytest.raises(InputError, match="several MPC sets"):
+        model_of(m)

@@ -13,7 +13,7 @@ import torch
 
 from .fe_decks import model_of, new_deck, rotation, single_element
 
-KINDS = ["rod", "membrane", "shear"]
+KINDS = ["rod", "membrane", "shear", "tria"]
 
 
 def _rigid_displacement(fe, R, c):
@@ -197,3 +197,23 @@ def test_conm2_offset_rigid_body_kinetic_energy():
         q = np.concatenate((vel, om))
         ke = 0.5 * mass * np.sum((vel + np.cross(om, r)) ** 2) + 0.5 * om @ Icg @ om
         assert 0.5 * q @ M @ q == pytest.approx(ke, rel=1e-12)
+
+
+def test_dkt_bending_patch_test_and_rigid_modes():
+    """CTRIA3 bending (DKT): a quadratic w (constant curvature) gives the exact strain energy
+    ½ ∫ κᵀ D κ dA, and the element has exactly the three rigid modes of plate bending."""
+    from torchrom.fe.elements.tria3 import dkt_local
+
+    xy = np.array([[[0.0, 0.0], [1.3, 0.2], [0.4, 0.9]]])
+    E, nu, t = 7e10, 0.3, 0.01
+    K = dkt_local(xy, np.array([E]), np.array([nu]), np.array([t]))[0]
+    a, b, c = 0.3, -0.2, 0.5  # w = a x² + b x y + c y²; θx = ∂w/∂y, θy = −∂w/∂x
+    u = np.concatenate([[a * x * x + b * x * y + c * y * y, b * x + 2 * c * y,
+                         -(2 * a * x + b * y)] for x, y in xy[0]])
+    D = E * t**3 / (12 * (1 - nu**2))
+    kxx, kyy, kxy = -2 * a, -2 * c, -2 * b
+    area = 0.5 * abs(1.3 * 0.9 - 0.2 * 0.4)
+    W = 0.5 * D * (kxx**2 + kyy**2 + 2 * nu * kxx * kyy + 0.5 * (1 - nu) * kxy**2) * area
+    assert 0.5 * u @ K @ u == pytest.approx(W, rel=1e-12)
+    lam = np.linalg.eigvalsh(K)
+    assert np.all(np.abs(lam[:3]) <= 1e-12 * lam[-1]) and lam[3] > 1e-3 * lam[-1]

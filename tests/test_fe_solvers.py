@@ -51,6 +51,22 @@ def test_cquad4_plate_cantilever_matches_euler_bernoulli():
         assert fb[k] == pytest.approx(exact, rel=0.02)
 
 
+def test_ctria3_plate_cantilever_matches_euler_bernoulli():
+    """The same strip meshed with CTRIA3 (DKT bending, CST membrane): tip deflection and the first
+    two bending modes within 2 % of Euler–Bernoulli (ν = 0: plate = beam)."""
+    L, b, t, E, rho = 1.0, 0.1, 0.01, 2.0e11, 7800.0
+    fe = model_of(plate_strip(20, 2, L, b, t, E, 0.0, rho, triangles=True))
+    EI, m = E * b * t**3 / 12, rho * b * t
+    F, tip = _tip_load(fe, L, 3, 1.0)
+    U = fe.expand(fe.linear_static(F))
+    w = np.mean([U[fe.mesh.grid_row()[g], 2] for g in tip])
+    assert w == pytest.approx(L**3 / (3 * EI), rel=0.02)
+    fb = _bending_freqs(fe)
+    for k in range(2):
+        exact = BETA[k] ** 2 / (2 * np.pi * L**2) * np.sqrt(EI / m)
+        assert fb[k] == pytest.approx(exact, rel=0.02)
+
+
 def test_cquad4_membrane_cantilever_in_plane_bending():
     """Membrane-only strip loaded in its plane: selective reduced integration removes shear
     locking; what remains is the bilinear field's Poisson stiffening (it cannot represent the
@@ -122,7 +138,7 @@ def test_modes_are_mass_normalised_and_solvers_agree():
     np.testing.assert_allclose(Phi.T @ (M @ Phi), np.eye(8), atol=1e-10)
     resid = K @ Phi - (M @ Phi) * modes.eigenvalues
     assert np.abs(resid).max() <= 1e-8 * np.abs(K @ Phi).max()
-    vals, _ = _dense_modes(K, M, 8)  # dense, massless rotations condensed
+    vals, _, _ = _dense_modes(K, M, 8)  # dense, massless rotations condensed
     np.testing.assert_allclose(vals, modes.eigenvalues, rtol=1e-9)
 
 
@@ -135,6 +151,31 @@ def _oscillator(k=4.0e4, mass=2.0):
     m.add_crod(1, 1, [1, 2])
     m.add_conm2(2, 2, mass)
     return model_of(m)
+
+
+def test_massless_dofs_without_stiffness_and_all_modes_of_a_small_model():
+    """A massless rod carrying a point mass, AUTOSPC off: the grid's rotations have neither
+    stiffness nor mass (a singular massless block: LinAlgError before) and its lateral
+    translations neither stiffness (two zero-frequency modes). Asking for every mode (6 > the 3
+    finite ones) returns the 3, as Nastran does: 0, 0 and the axial ω² = (EA/L)/m exactly."""
+    k, mass = 4.0e4, 2.0
+    m = new_deck()
+    m.add_grid(1, [0.0, 0.0, 0.0], ps="123456")
+    m.add_grid(2, [1.0, 0.0, 0.0])
+    m.add_mat1(1, k, None, 0.3, rho=0.0)
+    m.add_prod(1, 1, 1.0)
+    m.add_crod(1, 1, [1, 2])
+    m.add_conm2(2, 2, mass)
+    fe = model_of(m, autospc=False)
+    assert fe.n_dof == 6
+    modes = fe.modes(6)
+    assert len(modes.frequencies_hz) == 3
+    np.testing.assert_allclose(modes.eigenvalues, [0.0, 0.0, k / mass], atol=1e-6 * k / mass)
+    assert any("3 finite" in n for n in modes.notes)
+    assert any("neither stiffness nor mass" in n for n in modes.notes)
+    # with AUTOSPC only the axial DOF is left: asking for 10 modes gives it
+    one = _oscillator(k, mass).modes(10)
+    np.testing.assert_allclose(one.eigenvalues, [k / mass], rtol=1e-12)
 
 
 def test_newmark_damped_free_vibration():

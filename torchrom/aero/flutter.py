@@ -36,6 +36,33 @@ from .rfa import RFA
 
 #: smallest reduced frequency used by p-k (the Q_I/k term is evaluated there for real roots)
 K_FLOOR = 1e-4
+#: Damping g (= 2σ/ω) within ±G_ROUNDOFF counts as zero when flutter crossings are detected: a
+#: mode that the aerodynamics do not touch (e.g. in-plane) has g of order 1e-15 of either sign
+#: from round-off, which is not flutter. A real crossing passes well beyond it (Nastran prints g
+#: to 1e-4..1e-5); a crossing whose damping stays below 1e-8 at the end of the sweep is missed.
+G_ROUNDOFF = 1e-8
+
+
+def zero_crossings(g, tol: float = G_ROUNDOFF) -> list[int]:
+    """Indices i where g crosses zero upwards between i and i+1, ignoring round-off.
+
+    A crossing needs g < −tol before and g > +tol after (points within ±tol, and non-finite
+    values, are skipped); it is placed at the last sign change g[i] < 0 ≤ g[i+1] in between.
+    """
+    g = np.asarray(g, dtype=float)
+    out, last_neg = [], None
+    for i, gi in enumerate(g):
+        if not np.isfinite(gi):
+            last_neg = None
+            continue
+        if gi < -tol:
+            last_neg = i
+        elif gi > tol and last_neg is not None:
+            seg = g[last_neg : i + 1]
+            flips = np.flatnonzero((seg[:-1] < 0) & (seg[1:] >= 0))
+            out.append(last_neg + int(flips[-1]))
+            last_neg = None
+    return out
 
 
 # -- structure ---------------------------------------------------------------------------------
@@ -233,31 +260,31 @@ class ModeSweep:
         return v if v.ndim == 2 else np.repeat(v[:, None], self.eigenvalues.shape[1], axis=1)
 
     def crossings(self) -> list[FlutterPoint]:
-        """Zero-damping crossings (negative → positive), interpolated linearly between points."""
+        """Zero-damping crossings (negative → positive beyond ±:data:`G_ROUNDOFF`), interpolated
+        linearly between points."""
         out = []
         g = self.damping
         vel = self.velocity_by_mode
         for j in range(g.shape[1]):
-            for i in range(len(g) - 1):
+            for i in zero_crossings(g[:, j]):
                 g0, g1 = g[i, j], g[i + 1, j]
-                if np.isfinite(g0) and np.isfinite(g1) and g0 < 0.0 <= g1:
-                    t = g0 / (g0 - g1)
+                t = g0 / (g0 - g1)
 
-                    def lerp(a, i=i, t=t):
-                        return float(a[i] + t * (a[i + 1] - a[i]))
+                def lerp(a, i=i, t=t):
+                    return float(a[i] + t * (a[i + 1] - a[i]))
 
-                    out.append(
-                        FlutterPoint(
-                            velocity=lerp(vel[:, j]),
-                            frequency_hz=lerp(self.frequency_hz[:, j]),
-                            density=lerp(self.density),
-                            mode=j,
-                            method=self.method,
-                            k=lerp(self.k[:, j]),
-                            altitude=None if self.altitude is None else lerp(self.altitude),
-                            mach=self.mach,
-                        )
+                out.append(
+                    FlutterPoint(
+                        velocity=lerp(vel[:, j]),
+                        frequency_hz=lerp(self.frequency_hz[:, j]),
+                        density=lerp(self.density),
+                        mode=j,
+                        method=self.method,
+                        k=lerp(self.k[:, j]),
+                        altitude=None if self.altitude is None else lerp(self.altitude),
+                        mach=self.mach,
                     )
+                )
         return sorted(out, key=lambda p: (p.dynamic_pressure, p.velocity))
 
     def table(self) -> list[dict]:
@@ -586,7 +613,7 @@ def flutter_altitude_pk(
     g = np.where(np.isfinite(sweep.damping), sweep.damping, np.nan)
     first = None
     for j in range(structure.n_modes):
-        idx = np.flatnonzero((g[:-1, j] < 0) & (g[1:, j] >= 0))
+        idx = zero_crossings(g[:, j])
         if len(idx) and (first is None or idx[0] < first[0]):
             first = (idx[0], j)
     if first is None:

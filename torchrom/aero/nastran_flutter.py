@@ -5,11 +5,15 @@ Delegated: reading the deck and its coordinate systems (pyNastran), the modal so
 (PanelAero, through :mod:`torchrom.aero.dlm`). Hand-written: the card semantics below, reference
 checks with one-line errors, and the Nastran-style output (V-g table, flutter summary).
 
-Cards honoured: FLUTTER (methods PK, PKNL, KE, K), FLFACT (density ratios, Mach numbers,
-reduced frequencies or velocities; the ``THRU`` form is expanded by pyNastran), MKAERO1/MKAERO2,
-AERO (REFC, RHOREF, SYMXZ), AEROS, CAERO1/PAERO1 (+AEFACT), SPLINE1/SPLINE2/SET1, EIGR/EIGRL
-(ND, frequency range), PARAM LMODES, PARAM VREF and DTI,UNITS (the labels of the output); case
-control FMETHOD and METHOD.
+Cards honoured: FLUTTER (methods PK, PKNL, KE, K; PKNL pairs the i-th density, Mach number and
+velocity into one flight condition, PK and KE loop over the lists), FLFACT (density ratios, Mach
+numbers, reduced frequencies or velocities, negative velocities taken by magnitude; the ``THRU``
+form is expanded by pyNastran), MKAERO1/MKAERO2, AERO (ACSID, REFC, RHOREF, SYMXZ; SYMXY
+refused), AEROS, CAERO1/PAERO1 (+AEFACT), SPLINE1/SPLINE2/SET1, SPLINE4 (IPS)/SPLINE5 with AELIST,
+EIGR/EIGRL (ND, frequency range),
+PARAM LMODES and PARAM VREF; case control FMETHOD and METHOD. The boxes, spline grids and grid
+motions are expressed in the aero frame (ACSID), where the flow runs along +x.
+:func:`compare_f06` puts Nastran's flutter points (FLUTTER SUMMARY of an f06) beside ours.
 
 Symmetry: the reflection plane is the deck's AERO SYMXZ (AEROS when there is no AERO card):
 +1 a symmetric image wing (a wall-mounted model), -1 antisymmetric, 0 or blank an isolated half
@@ -26,7 +30,10 @@ the reduced frequencies of the nearest MKAERO Mach for PK; at the FLFACT reduced
 themselves for K/KE) instead of being interpolated between MKAERO points; K and KE use the same
 solver (KE without viscous damping, as in Nastran); structural damping tables (TABDMP1) are not
 read; splines interpolate exactly (see :mod:`torchrom.aero.splines`). Modal matrices are those of
-mass-normalised modes (M = I, K = diag ω²). Velocities are in the deck's units divided by
+mass-normalised modes (M = I, K = diag ω²). The modes are the lowest min(LMODES, ND) eigenmodes:
+Nastran may augment them with residual vectors (PARAM RESVEC, its "AFTER AUGMENTATION" table),
+which are not computed here (pyNastran's bah_plane uses 8 eigenmodes and 2 residual vectors).
+Velocities are in the deck's units divided by
 PARAM VREF.
 """
 
@@ -47,8 +54,17 @@ from .flutter import (
     ke_sweep,
     pk_sweep,
     refine_pk_crossings,
+    zero_crossings,
 )
-from .panels import AeroPanels, AeroReference, read_aero_reference, read_caero1, read_model
+from .panels import (
+    AeroFrame,
+    AeroPanels,
+    AeroReference,
+    read_aero_frame,
+    read_aero_reference,
+    read_caero1,
+    read_model,
+)
 from .splines import BeamSpline, PlateSpline
 
 FLUTTER_METHODS = ("PK", "PKNL", "KE", "K")
@@ -85,7 +101,7 @@ class FlutterDeck:
     """Everything a SOL 145 run needs from the deck, checked, except the modes."""
 
     path: Path
-    panels: AeroPanels  # half model as given by the CAERO1 cards
+    panels: AeroPanels  # half model as given by the CAERO1 cards, in the aero frame
     reference: AeroReference
     splines: list[SplineDef]
     cases: list[FlutterCase]
@@ -95,6 +111,7 @@ class FlutterDeck:
     vref: float = 1.0
     title: str = ""
     notes: list[str] = field(default_factory=list)
+    frame: AeroFrame = field(default_factory=AeroFrame)  # AERO ACSID: flow along its +x
     length_unit: str = "length"
     symmetry_source: str = "AERO SYMXZ"
 
@@ -119,8 +136,11 @@ class FlutterDeck:
     def box_motion(self, grid_ids, grid_disp: np.ndarray) -> BoxMotion:
         """Modal box motion from grid displacements (n_modes, n_grid, 6) in basic axes."""
         grid_ids = np.asarray(grid_ids)
+        nm, ng = grid_disp.shape[:2]
+        # Translations and rotations in the aero frame, where the boxes and splines live.
+        grid_disp = self.frame.vectors(np.asarray(grid_disp, float).reshape(nm, ng, 2, 3))
+        grid_disp = grid_disp.reshape(nm, ng, 6)
         where = {int(g): i for i, g in enumerate(grid_ids)}
-        nm = grid_disp.shape[0]
         half = self.panels
         h_l = np.zeros((nm, half.n))
         h_c = np.zeros((nm, half.n))
@@ -171,22 +191,36 @@ def _flfact(model, sid: int, where: str, what: str) -> np.ndarray:
     return vals
 
 
-def _spline_defs(model, path: Path, panels: AeroPanels) -> list[SplineDef]:
+def _spline_defs(model, path: Path, panels: AeroPanels, frame: AeroFrame) -> list[SplineDef]:
+    """Splines in the aero frame (grid positions and SPLINE2 axes transformed to it)."""
     defs = []
     covered = np.zeros(panels.n, dtype=int)
     for eid in sorted(model.splines):
         sp = model.splines[eid]
         where = f"{path}: {sp.type} {eid}"
-        if sp.type not in ("SPLINE1", "SPLINE2"):
-            raise InputError(f"{where}: only SPLINE1 and SPLINE2 are supported")
+        if sp.type not in ("SPLINE1", "SPLINE2", "SPLINE4", "SPLINE5"):
+            raise InputError(f"{where}: only SPLINE1, SPLINE2, SPLINE4 and SPLINE5 are supported")
         if sp.caero not in model.caeros:
             raise InputError(f"{where}: CAERO1 {sp.caero} not found")
-        b1, b2 = sp.box1, sp.box2
-        box_index = np.flatnonzero(
-            (panels.caero_ids == sp.caero) & (panels.box_ids >= b1) & (panels.box_ids <= b2)
-        )
-        if b2 < b1 or len(box_index) != b2 - b1 + 1:
-            raise InputError(f"{where}: boxes {b1}..{b2}: not all in CAERO1 {sp.caero}")
+        in_caero = panels.caero_ids == sp.caero
+        if sp.type in ("SPLINE4", "SPLINE5"):  # boxes listed on an AELIST
+            aelist = model.aelists.get(sp.aelist)
+            if aelist is None:
+                raise InputError(f"{where}: field AELIST: AELIST {sp.aelist} not found")
+            ids = np.asarray(aelist.elements, dtype=int)
+            box_index = np.flatnonzero(in_caero & np.isin(panels.box_ids, ids))
+            if len(box_index) != len(np.unique(ids)):
+                missing = sorted(set(ids.tolist()) - set(panels.box_ids[box_index].tolist()))
+                raise InputError(f"{where}: AELIST {sp.aelist}: box {missing[0]} not in "
+                                 f"CAERO1 {sp.caero}")
+            if sp.type == "SPLINE4" and str(sp.method or "IPS").upper() != "IPS":
+                raise InputError(f"{where}: field METH: only IPS (infinite plate) is supported, "
+                                 f"got {sp.method}")
+        else:
+            b1, b2 = sp.box1, sp.box2
+            box_index = np.flatnonzero(in_caero & (panels.box_ids >= b1) & (panels.box_ids <= b2))
+            if b2 < b1 or len(box_index) != b2 - b1 + 1:
+                raise InputError(f"{where}: boxes {b1}..{b2}: not all in CAERO1 {sp.caero}")
         setg = model.sets.get(sp.setg)
         if setg is None or setg.type != "SET1":
             raise InputError(f"{where}: SET1 {sp.setg} not found")
@@ -194,11 +228,12 @@ def _spline_defs(model, path: Path, panels: AeroPanels) -> list[SplineDef]:
         for gid in grid_ids:
             if gid not in model.nodes:
                 raise InputError(f"{path}: SET1 {sp.setg}: grid {gid} not found")
-        xyz = np.array([model.nodes[g].get_position() for g in grid_ids])
-        if sp.type == "SPLINE1":
+        xyz = frame.points(np.array([model.nodes[g].get_position() for g in grid_ids]))
+        if sp.type in ("SPLINE1", "SPLINE4"):
             normal = panels.normals[box_index].mean(axis=0)
             spline = PlateSpline(xyz, normal=normal, dz=float(sp.dz or 0.0))
-        else:
+        else:  # SPLINE2, SPLINE5: beam spline along the y axis of CID
+            dthx, dthy = (sp.dthx, sp.dthy) if sp.type == "SPLINE2" else (sp.thx, sp.thy)
             cid = sp.cid or 0
             if cid and cid not in model.coords:
                 raise InputError(f"{where}: coordinate system {cid} not found")
@@ -206,10 +241,10 @@ def _spline_defs(model, path: Path, panels: AeroPanels) -> list[SplineDef]:
             axes = np.asarray(coord.beta(), dtype=float)
             spline = BeamSpline(
                 xyz,
-                origin=np.asarray(coord.origin, float),
-                axes=axes,
-                attach_slope=(sp.dthx is None or sp.dthx >= 0.0),
-                attach_torsion=(sp.dthy is None or sp.dthy >= 0.0),
+                origin=frame.points(np.asarray(coord.origin, float)),
+                axes=frame.vectors(axes),
+                attach_slope=(dthx is None or dthx >= 0.0),
+                attach_torsion=(dthy is None or dthy >= 0.0),
             )
         covered[box_index] += 1
         defs.append(SplineDef(eid, sp.type, grid_ids, box_index, spline))
@@ -230,7 +265,8 @@ def load_deck(path, require_flutter: bool = True, *, symxz: int | None = None,
     model = read_model(path)
     if not model.caeros:
         raise InputError(f"{path}: CAERO1: no aerodynamic panels in the deck")
-    panels = read_caero1(model, str(path))
+    frame = read_aero_frame(model, str(path))
+    panels = read_caero1(model, str(path), frame)
     ref = read_aero_reference(model, str(path))
     card = "AERO" if model.aero is not None else "AEROS"
     source = f"the deck's {card} card" + (" (field blank)" if ref.symxz == 0 else "")
@@ -242,7 +278,7 @@ def load_deck(path, require_flutter: bool = True, *, symxz: int | None = None,
         ref = replace(ref, symxz=int(symxz))
     units = model.dti.get("UNITS")
     deck_length = (units.fields.get("length") if units is not None else None) or None
-    splines = _spline_defs(model, path, panels)
+    splines = _spline_defs(model, path, panels, frame)
     if not splines:
         raise InputError(f"{path}: SPLINE1/SPLINE2: no spline connects the structure to the boxes")
     notes = []
@@ -307,6 +343,7 @@ def load_deck(path, require_flutter: bool = True, *, symxz: int | None = None,
         title = str(cc.subcases[0].get_parameter("TITLE")[0]).strip()
     return FlutterDeck(
         path, panels, ref, splines, cases, sorted(set(mkaero)), n_modes, frange, vref, title, notes,
+        frame,
         length_unit=str(deck_length or length_unit or "length").lower(),
         symmetry_source=source,
     )
@@ -431,21 +468,52 @@ def run_deck(deck_or_path, fe=None, kernel: str = "quartic", log=print) -> DeckR
     structure = ModalStructure(np.eye(len(freqs)), np.diag(omega**2))
     b = deck.reference.semichord
     panels = deck.aero_panels
-    results, notes = [], list(deck.notes)
+    results, notes = [], list(deck.notes) + list(getattr(fe, "notes", []))
+    def table_at(mach, k_list, case):
+        log(
+            f"FLUTTER {case.sid} ({case.method}): DLM at Mach {mach:g}, {len(k_list)} reduced "
+            f"frequencies, {panels.n} boxes"
+        )
+        gaf = compute_gaf(panels, motion, mach, k_list, b, kernel)
+        return AeroTable.from_gaf(gaf, interpolation="linear" if case.imeth == "L" else "cubic")
+
+    def pk_k_list(mach):
+        near = min({m for m, _ in deck.mkaero}, key=lambda m: abs(m - mach))
+        return sorted({k for m, k in deck.mkaero if m == near})
+
     for case in deck.cases:
+        if case.method == "PKNL":
+            # PKNL: the i-th density, Mach number and velocity form one flight condition (no
+            # loops over the lists, MSC QRG FLUTTER); one p-k path per Mach number.
+            n = len(case.values)
+            if len(case.densities) not in (1, n) or len(case.machs) not in (1, n):
+                raise InputError(
+                    f"{deck.path}: FLUTTER {case.sid}: PKNL needs density, Mach and velocity "
+                    f"lists of the same length (got {len(case.densities)}, {len(case.machs)}, {n})"
+                )
+            rho_all = np.broadcast_to(case.densities, (n,))
+            ratio_all = np.broadcast_to(case.density_ratios, (n,))
+            mach_all = np.broadcast_to(case.machs, (n,))
+            for mach in dict.fromkeys(mach_all.tolist()):
+                sel = mach_all == mach
+                aero = table_at(mach, pk_k_list(mach), case)
+                sweep = pk_sweep(structure, aero, np.abs(case.values[sel]), rho_all[sel],
+                                 mach=mach, eps=min(case.eps, 1e-4))
+                points = sweep.crossings()  # linear in the path, as Nastran's summary
+                for p in points:
+                    p.mach = float(mach)
+                notes += sweep.notes
+                ratio = ratio_all[sel]
+                results.append(CaseResult(case, float(mach), float(ratio[0]) if
+                                          np.ptp(ratio) == 0 else float("nan"),
+                                          float(rho_all[sel][0]), sweep, points))
+            continue
         for mach in case.machs:
             if case.method.startswith("PK"):
-                near = min({m for m, _ in deck.mkaero}, key=lambda m: abs(m - mach))
-                k_list = sorted({k for m, k in deck.mkaero if m == near})
+                k_list = pk_k_list(mach)
             else:
                 k_list = sorted(set(case.values.tolist()))
-            log(
-                f"FLUTTER {case.sid} ({case.method}): DLM at Mach {mach:g}, {len(k_list)} reduced "
-                f"frequencies, {panels.n} boxes"
-            )
-            gaf = compute_gaf(panels, motion, mach, k_list, b, kernel)
-            interp = "linear" if case.imeth == "L" else "cubic"
-            aero = AeroTable.from_gaf(gaf, interpolation=interp)
+            aero = table_at(mach, k_list, case)
             for ratio, rho in zip(case.density_ratios, case.densities):
                 if case.method.startswith("PK"):
                     v = np.sort(np.abs(case.values))
@@ -511,3 +579,115 @@ def format_deck_result(res: DeckResult) -> str:
     for n in res.notes:
         lines.append(f"note: {n}")
     return "\n".join(lines)
+
+
+# -- Nastran's f06 side by side ------------------------------------------------------------------
+@dataclass
+class F06Crossing:
+    """A flutter point read from the f06: the branch, velocity, frequency (Hz) and k."""
+
+    point: int
+    method: str
+    mach: float | None
+    density_ratio: float | None
+    velocity: float
+    frequency_hz: float
+    kfreq: float
+
+
+
+def f06_flutter_points(tables) -> list[F06Crossing]:
+    """Zero-damping crossings (upwards, beyond round-off) of every f06 FLUTTER SUMMARY point
+    (:func:`torchrom.f06.read_flutter_summary`), interpolated linearly in the printed order."""
+    out = []
+    for t in tables:
+        # PK/KE: along increasing velocity (KE prints by reduced frequency); PKNL: the path
+        order = np.arange(len(t.velocity)) if t.method == "PKNL" else np.argsort(
+            t.velocity, kind="stable")
+        g, vel, freq, kf = t.damping[order], t.velocity[order], t.frequency[order], t.kfreq[order]
+        for i in zero_crossings(g):
+            s = g[i] / (g[i] - g[i + 1])
+
+            def lerp(a, i=i, s=s):
+                return float(a[i] + s * (a[i + 1] - a[i]))
+
+            out.append(F06Crossing(t.point, t.method, t.mach, t.density_ratio, lerp(vel),
+                                   lerp(freq), lerp(kf)))
+    return out
+
+
+def compare_f06(res: DeckResult, f06_path) -> tuple[str, list[dict]]:
+    """torchrom's flutter points beside those of Nastran's FLUTTER SUMMARY (same method, Mach,
+    density ratio and mode/POINT), with the differences; plus the modes Nastran used."""
+    from ..f06 import read_flutter_summary, read_real_eigenvalues
+
+    vref = res.deck.vref
+    theirs = f06_flutter_points(read_flutter_summary(f06_path))
+    tables = read_real_eigenvalues(f06_path)
+    lines, records = [], []
+    if tables:
+        ref = tables[-1].cycles  # the last table: the modes used in the dynamic analysis
+        lines.append(f"{'mode':>5}{'torchrom Hz':>14}{'Nastran Hz':>14}{'diff %':>9}")
+        floor = 1e-4 * float(np.abs(ref).max(initial=0.0))
+        for i, f in enumerate(res.frequencies_hz):
+            if i < len(ref):
+                # rigid-body modes (zero up to round-off in both): no relative difference
+                d = f"{100 * (f - ref[i]) / ref[i]:9.3f}" if abs(ref[i]) > floor else "    rigid"
+                lines.append(f"{i + 1:>5}{f:14.5g}{ref[i]:14.5g}{d}")
+    lines.append(f"{'method':>7}{'Mach':>7}{'rho ratio':>11}{'mode':>5}{'V torchrom':>13}"
+                 f"{'V Nastran':>12}{'dV %':>8}{'f torchrom':>12}{'f Nastran':>11}{'df %':>8}")
+    used = set()
+    for r in res.results:
+        for p in r.points:
+            match, best = None, None
+            for k, t in enumerate(theirs):
+                if k in used or t.method != r.case.method:
+                    continue
+                if t.mach is not None and abs(t.mach - r.mach) > 1e-6:
+                    continue
+                if t.density_ratio is not None and not np.isnan(r.density_ratio) and abs(
+                        t.density_ratio - r.density_ratio) > 1e-6 * max(1.0, r.density_ratio):
+                    continue
+                # the same branch first, else the nearest speed (mode labels can swap where
+                # branches coalesce)
+                score = (t.point != p.mode + 1, abs(t.velocity - p.velocity / vref))
+                if best is None or score < best:
+                    match, best = k, score
+            v = p.velocity / vref
+            rec = {"flutter_id": r.case.sid, "method": r.case.method, "mach": r.mach,
+                   "density_ratio": r.density_ratio, "mode": p.mode + 1, "velocity": v,
+                   "frequency_hz": p.frequency_hz, "nastran_velocity": None,
+                   "nastran_frequency_hz": None, "velocity_diff_pct": None,
+                   "frequency_diff_pct": None}
+            if match is not None:
+                used.add(match)
+                t = theirs[match]
+                rec.update(nastran_velocity=t.velocity, nastran_frequency_hz=t.frequency_hz,
+                           velocity_diff_pct=100 * (v - t.velocity) / t.velocity,
+                           frequency_diff_pct=100 * (p.frequency_hz - t.frequency_hz)
+                           / t.frequency_hz)
+            records.append(rec)
+    for k, t in enumerate(theirs):
+        if k not in used:
+            records.append({"method": t.method, "mach": t.mach, "density_ratio": t.density_ratio,
+                            "mode": t.point, "velocity": None, "frequency_hz": None,
+                            "nastran_velocity": t.velocity,
+                            "nastran_frequency_hz": t.frequency_hz, "velocity_diff_pct": None,
+                            "frequency_diff_pct": None})
+
+    def fmt(x, spec):
+        return format(x, spec) if x is not None else "-".rjust(len(format(0.0, spec)))
+
+    for rec in records:
+        ratio = rec["density_ratio"]
+        lines.append(
+            f"{rec['method']:>7}{fmt(rec['mach'], '7.3f')}"
+            f"{fmt(None if ratio is None or np.isnan(ratio) else ratio, '11.4g')}"
+            f"{rec['mode']:>5}{fmt(rec['velocity'], '13.5g')}"
+            f"{fmt(rec['nastran_velocity'], '12.5g')}"
+            f"{fmt(rec['velocity_diff_pct'], '8.2f')}{fmt(rec['frequency_hz'], '12.5g')}"
+            f"{fmt(rec['nastran_frequency_hz'], '11.5g')}{fmt(rec['frequency_diff_pct'], '8.2f')}"
+        )
+    if not records:
+        lines.append("no flutter crossing in torchrom's run nor in the f06")
+    return "\n".join(lines), records

@@ -294,6 +294,42 @@ def goland_reference() -> AeroReference:
 
 
 # -- Nastran cards ---------------------------------------------------------------------------
+@dataclass(frozen=True)
+class AeroFrame:
+    """The aerodynamic coordinate system (AERO/AEROS ACSID): the flow runs along its +x axis.
+
+    ``axes`` rows are its x, y, z unit vectors in basic, ``origin`` its origin in basic. The
+    doublet-lattice method (PanelAero) assumes the flow along +x, so a deck's boxes, spline
+    grids and grid displacements are expressed in this frame before the DLM sees them.
+    """
+
+    origin: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    axes: np.ndarray = field(default_factory=lambda: np.eye(3))
+
+    def points(self, xyz) -> np.ndarray:
+        """Basic positions (..., 3) → aero-frame positions."""
+        return (np.asarray(xyz, dtype=float) - self.origin) @ self.axes.T
+
+    def vectors(self, v) -> np.ndarray:
+        """Basic vector components (..., 3) → aero-frame components."""
+        return np.asarray(v, dtype=float) @ self.axes.T
+
+
+def read_aero_frame(model, path: str = "deck") -> AeroFrame:
+    """ACSID of the AERO card (AEROS as a fallback); basic when blank or 0."""
+    card = model.aero if model.aero is not None else model.aeros
+    cid = int(getattr(card, "acsid", 0) or 0) if card is not None else 0
+    if not cid:
+        return AeroFrame()
+    coord = model.coords.get(cid)
+    if coord is None:
+        raise InputError(f"{path}: {card.type}: field ACSID: coordinate system {cid} not found")
+    if coord.type[-1] != "R":
+        raise InputError(f"{path}: {card.type}: field ACSID: expected a rectangular system, got "
+                         f"{coord.type} {cid}")
+    return AeroFrame(np.asarray(coord.origin, dtype=float), np.asarray(coord.beta(), dtype=float))
+
+
 def _to_basic(model, cid: int, xyz, where: str) -> np.ndarray:
     xyz = np.asarray(xyz, dtype=float)
     if not cid:
@@ -315,8 +351,10 @@ def _fractions(model, n_div: int, aefact_id: int, where: str, name: str) -> np.n
     return np.asarray(aefact.fractions, dtype=float)
 
 
-def read_caero1(model, path: str = "deck") -> AeroPanels:
-    """All CAERO1 boxes of a pyNastran model (coordinates already cross-referenced).
+def read_caero1(model, path: str = "deck", frame: AeroFrame | None = None) -> AeroPanels:
+    """All CAERO1 boxes of a pyNastran model (coordinates already cross-referenced), in the
+    aerodynamic frame ``frame`` (default: AERO/AEROS ACSID), where the chords X12, X43 run along
+    +x (MSC QRG, CAERO1).
 
     Checks that every CAERO1 has its PAERO1 and that box ids do not overlap; other CAERO
     types are refused with a one-line error.
@@ -324,6 +362,7 @@ def read_caero1(model, path: str = "deck") -> AeroPanels:
     others = sorted({c.type for c in model.caeros.values() if c.type != "CAERO1"})
     if others:
         raise InputError(f"{path}: {others[0]}: only CAERO1 (doublet-lattice boxes) is supported")
+    frame = read_aero_frame(model, path) if frame is None else frame
     parts = []
     for eid in sorted(model.caeros):
         c = model.caeros[eid]
@@ -335,13 +374,13 @@ def read_caero1(model, path: str = "deck") -> AeroPanels:
                 f"{where}: property {c.pid} is a {model.paeros[c.pid].type}, not PAERO1"
             )
         cp = c.cp if isinstance(c.cp, int) else c.cp.cid
-        p1 = _to_basic(model, cp, c.p1, where)
-        p4 = _to_basic(model, cp, c.p4, where)
+        p1 = frame.points(_to_basic(model, cp, c.p1, where))
+        p4 = frame.points(_to_basic(model, cp, c.p4, where))
         if c.x12 < 0 or c.x43 < 0 or (c.x12 == 0 and c.x43 == 0):
             raise InputError(
                 f"{where}: X12/X43: expected non-negative chords, got {c.x12}, {c.x43}"
             )
-        # Chords run along the x axis of the aerodynamic (basic) system.
+        # Chords run along the x axis of the aerodynamic system (ACSID).
         p2 = p1 + np.array([c.x12, 0.0, 0.0])
         p3 = p4 + np.array([c.x43, 0.0, 0.0])
         xc = _fractions(model, c.nchord, c.lchord, where, "chordwise divisions")
@@ -364,6 +403,11 @@ def read_aero_reference(model, path: str = "deck") -> AeroReference:
     if not card.cref or card.cref <= 0:
         raise InputError(
             f"{path}: {card.type}: REFC: expected a positive reference chord, got {card.cref}"
+        )
+    if int(getattr(card, "sym_xy", 0) or 0):
+        raise InputError(
+            f"{path}: {card.type}: SYMXY: symmetry about the xy plane (ground effect) is not "
+            f"supported, got {card.sym_xy}"
         )
     if card.type == "AERO":
         return AeroReference(
@@ -397,6 +441,9 @@ def read_model(path) -> object:
         model = read_bdf(str(path), xref=False, debug=None, validate=True)
     except Exception as exc:  # noqa: BLE001 - pyNastran raises many types; one line to the user
         raise InputError(f"{path}: cannot read the deck: {_first_line(exc)}") from None
+    from ..fe.bdf_cards import apply_grdset
+
+    apply_grdset(model)  # GRDSET CP before the grid positions are resolved
     try:
         model.cross_reference(
             xref=True,

@@ -77,6 +77,11 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         help="for each γ (s), the α (1/s) that keeps the state-space flutter altitude of the "
         "given α, γ (paper Fig. 9)",
     )
+    p.add_argument("--unsupported", choices=("error", "warn"), default="error",
+                   help="deck form: what to do with unsupported structural cards (default error)")
+    p.add_argument("--compare", type=Path, metavar="RUN.f06",
+                   help="deck form: print Nastran's flutter points and modes from this f06 beside "
+                   "torchrom's, with the differences")
     p.add_argument("--plot", type=Path, help="write a V-g / V-f figure (PNG/PDF)")
     p.add_argument("--symxz", type=int, choices=(-1, 0, 1), default=None,
                    help="deck form: override the deck's AERO/AEROS SYMXZ (1: reflection plane, "
@@ -105,14 +110,22 @@ def run(args: argparse.Namespace) -> int:
 
 def _run_deck(args, path: Path) -> int:
     from ..aero.nastran_flutter import format_deck_result, load_deck, run_deck
-    from .aero import load_fe
+    from ..fe import read_bdf
 
     deck = load_deck(path, symxz=args.symxz, length_unit=args.length_unit)
     print(
         f"torchrom flutter: {path}: {len(deck.cases)} FLUTTER case(s), {deck.aero_panels.n} boxes"
     )
-    res = run_deck(deck, fe=load_fe(str(path)), kernel=args.kernel)
+    res = run_deck(deck, fe=read_bdf(path, unsupported=args.unsupported), kernel=args.kernel)
     print(format_deck_result(res))
+    out = res.as_dict()
+    if args.compare is not None:
+        from ..aero.nastran_flutter import compare_f06
+
+        text, records = compare_f06(res, args.compare)
+        print(f"\ncompared with {args.compare}:")
+        print(text)
+        out["compare"] = records
     if args.plot is not None and res.results:
         from ..aero.plots import plot_vg
 
@@ -122,7 +135,7 @@ def _run_deck(args, path: Path) -> int:
             title=f"{path.name}: FLUTTER {res.results[0].case.sid}, {deck.symmetry}",
         )
         print(f"wrote {args.plot}")
-    maybe_write_json(args, res.as_dict())
+    maybe_write_json(args, out)
     return 0
 
 

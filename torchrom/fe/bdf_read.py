@@ -8,8 +8,13 @@ properties/materials/constraints/loads into the plain arrays of :mod:`torchrom.f
 selection of the SPC set and eigenvalue method from the case control (or the only one present).
 
 Supported structural cards: GRID (CP, CD, PS), GRDSET, CORD1R/C/S, CORD2R/C/S, SPC, SPC1,
-SPCADD, MAT1, CROD/PROD, CONROD, CQUAD4/PSHELL, CSHEAR/PSHEAR, CBAR/PBAR, CONM2, CMASS2, RBE2,
-RBE3, EIGR, EIGRL, FORCE, MOMENT, PLOAD2, PLOAD4, LOAD, PARAM (COUPMASS, WTMASS are used).
+SPCADD, MPC/MPCADD, MAT1, CROD/PROD, CONROD, CQUAD4/CTRIA3 with PSHELL or PCOMP (MAT1/MAT8 plies,
+:mod:`torchrom.fe.laminate`), CHEXA/CPENTA/CTETRA/PSOLID
+(linear, corner grids only), CSHEAR/PSHEAR, CBAR/PBAR/PBARL,
+CBEAM/PBEAM/PBEAML (:mod:`torchrom.fe.sections`), CELAS1/PELAS, CELAS2, CONM1, CONM2,
+CMASS1/PMASS, CMASS2, CBUSH/PBUSH (coincident grids), RBE2, RBAR, RBE3, EIGR, EIGRL, FORCE,
+MOMENT, PLOAD2, PLOAD4, LOAD, PARAM (COUPMASS, WTMASS are used). Cards without effect on modes
+and flutter are accepted with a note (:data:`torchrom.fe.bdf_cards.NOTED_CARDS`).
 Aerodynamic and solution-control cards (CAERO1, PAERO1, SPLINE*, SET1, AERO, AEROS, MKAERO*,
 FLFACT, FLUTTER, ...) are kept in ``fe.bdf`` for :mod:`torchrom.aero` and ignored here. Any other
 card is an error listing the card names and counts (``unsupported="warn"`` demotes it to a
@@ -30,6 +35,8 @@ from typing import Any
 import numpy as np
 
 from ..errors import InputError
+from .bdf_cards import NOTED_CARDS, apply_grdset, reason
+from .bdf_extra import SOLID_GRIDS, ExtraCards
 from .elements.quad4 import quad_frames, shape
 from .mesh import (
     BarSet,
@@ -41,12 +48,16 @@ from .mesh import (
     RodSet,
     ScalarMass,
     ShearSet,
+    SolidSet,
+    TriaSet,
 )
+from .sections import section
 
 STRUCTURAL_CARDS = frozenset(
-    "GRID GRDSET CORD1R CORD1C CORD1S CORD2R CORD2C CORD2S SPC SPC1 SPCADD MAT1 CROD PROD "
-    "CONROD CQUAD4 PSHELL CSHEAR PSHEAR CBAR PBAR CONM2 CMASS2 RBE2 RBE3 EIGR EIGRL FORCE MOMENT "
-    "PLOAD2 PLOAD4 LOAD PARAM ENDDATA".split()
+    "GRID GRDSET CORD1R CORD1C CORD1S CORD2R CORD2C CORD2S SPC SPC1 SPCADD MPC MPCADD MAT1 CROD "
+    "PROD CONROD CQUAD4 CTRIA3 PSHELL PCOMP MAT8 CSHEAR PSHEAR CBAR PBAR PBARL CBEAM PBEAM PBEAML "
+    "CONM2 CMASS2 CHEXA CPENTA CTETRA PSOLID RBE2 RBE3 RBAR CELAS1 CELAS2 PELAS CMASS1 PMASS "
+    "CONM1 CBUSH PBUSH EIGR EIGRL FORCE MOMENT PLOAD2 PLOAD4 LOAD PARAM ENDDATA".split()
 )
 # Kept for the aerodynamics (and for Nastran itself when the deck is written back); no effect on
 # the structure.
@@ -109,7 +120,10 @@ def _read_pynastran(path: Path):
         text = "SOL 103\nCEND\n" + ("" if has_begin else "BEGIN BULK\n") + text
     sink = io.StringIO()
     try:
-        with contextlib.redirect_stdout(sink), warnings.catch_warnings():
+        # INCLUDE paths are relative to the deck (pyNastran reads a text stream relative to
+        # the working directory).
+        with contextlib.redirect_stdout(sink), warnings.catch_warnings(), \
+                contextlib.chdir(path.resolve().parent):
             warnings.simplefilter("ignore")
             model = pn_read_bdf(io.StringIO(text), xref=False, validate=False, log=_quiet_logger())
     except Exception as exc:  # pyNastran raises many types for bad cards
@@ -186,7 +200,7 @@ def from_pynastran(
     fname = Path(source).name
     if unsupported not in ("error", "warn"):
         raise InputError(f"unsupported: expected 'error' or 'warn', got {unsupported!r}")
-    _check_cards(model, fname, unsupported)
+    notes = _check_cards(model, fname, unsupported)
     reader = _Reader(model, fname)
     mesh = reader.mesh(spc_id)
     loads = reader.loads(mesh)
@@ -212,26 +226,33 @@ def from_pynastran(
         autospc=autospc,
     )
     fe.wing_chord = wing_chord
+    fe.notes = notes + reader.notes + fe.notes
     return fe
 
 
 GOLAND_UNITS = {"length": "ft", "mass": "slug", "time": "s", "force": "lbf"}
 
 
-def _check_cards(model, fname: str, unsupported: str) -> None:
+def _check_cards(model, fname: str, unsupported: str) -> list[str]:
+    """Refuse (or with ``unsupported='warn'`` ignore) unknown cards; notes for the cards that
+    change nothing in a modes/flutter solution (:data:`~torchrom.fe.bdf_cards.NOTED_CARDS`)."""
     counts = Counter({k: v for k, v in model.card_count.items() if v})
-    bad = {k: v for k, v in counts.items() if k not in STRUCTURAL_CARDS | PASSIVE_CARDS}
+    notes = [f"{k} ({v}) accepted, ignored: {NOTED_CARDS[k]}"
+             for k, v in sorted(counts.items()) if k in NOTED_CARDS]
+    known = STRUCTURAL_CARDS | PASSIVE_CARDS | NOTED_CARDS.keys()
+    bad = {k: v for k, v in counts.items() if k not in known}
     if not bad:
-        return
-    listing = ", ".join(f"{k} ({v})" for k, v in sorted(bad.items()))
+        return notes
+    listing = "; ".join(f"{k} ({v}): {reason(k)}" for k, v in sorted(bad.items()))
     if unsupported == "error":
         raise InputError(
-            f"{fname}: unsupported cards: {listing}; the FE reader supports "
+            f"{fname}: unsupported cards: {listing}. The FE reader supports "
             f"{', '.join(sorted(STRUCTURAL_CARDS - {'ENDDATA', 'PARAM', 'GRDSET'}))} "
             "(unsupported='warn' or --unsupported warn ignores them)"
         )
     warnings.warn(f"{fname}: ignoring unsupported cards: {listing}", UnsupportedCardWarning,
                   stacklevel=3)
+    return notes + [f"ignored unsupported cards: {listing}"]
 
 
 def _comps(value, fname: str, where: str) -> list[int]:
@@ -265,12 +286,13 @@ def axes_at(coord, point: np.ndarray) -> np.ndarray:
     return beta.T @ local
 
 
-class _Reader:
+class _Reader(ExtraCards):
     """Turns a pyNastran model into a :class:`Mesh` with card-level checks."""
 
     def __init__(self, model, fname: str):
         self.m = model
         self.f = fname
+        self.notes: list[str] = []
 
     def err(self, msg: str) -> InputError:
         return InputError(f"{self.f}: {msg}")
@@ -278,6 +300,7 @@ class _Reader:
     # -- grids -------------------------------------------------------------------------------
     def grids(self):
         m = self.m
+        apply_grdset(m)
         for nid, node in m.nodes.items():
             for field, cid in (("CP", node.cp), ("CD", node.cd)):
                 if cid not in (0, None, -1) and cid not in m.coords:
@@ -347,32 +370,48 @@ class _Reader:
         mesh = Mesh(grid_ids=ids, xyz=xyz, cd_axes=cd)
         mesh.coupled_mass = self._param("COUPMASS", -1) > 0
         wtmass = float(self._param("WTMASS", 1.0))
-        rods, quads, shears, bars = [], [], [], []
+        rods, quads, shears, bars, trias = [], [], [], [], []
+        solids: dict[int, list] = {8: [], 6: [], 4: []}
         for eid in sorted(self.m.elements):
             e = self.m.elements[eid]
             if e.type in ("CROD", "CONROD"):
                 rods.append(self._rod(e))
-            elif e.type == "CQUAD4":
-                quads.append(self._quad(e))
+            elif e.type in ("CQUAD4", "CTRIA3"):
+                (quads if e.type == "CQUAD4" else trias).append(self._quad(e))
             elif e.type == "CSHEAR":
                 shears.append(self._shear(e))
-            elif e.type == "CBAR":
+            elif e.type in ("CBAR", "CBEAM"):
                 bars.append(self._bar(e))
+            elif e.type in ("CELAS1", "CELAS2"):
+                mesh.celas.append(self._celas(e))
+            elif e.type == "CBUSH":
+                mesh.bushes.append(self._cbush(e))
+            elif e.type in SOLID_GRIDS:
+                row = self._solid(e)
+                solids[len(row["nodes"])].append(row)
         mesh.rods = _stack(RodSet, rods)
         mesh.quads = _stack(QuadSet, quads)
+        mesh.trias = _stack(TriaSet, trias)
+        mesh.solids = [_stack(SolidSet, rows) for rows in solids.values() if rows]
+        self._check_trias(mesh.trias)
         mesh.shears = _stack(ShearSet, shears)
         self._check_surfaces("CQUAD4", mesh.quads.eids, mesh.quads.nodes)
         self._check_surfaces("CSHEAR", mesh.shears.eids, mesh.shears.nodes)
         mesh.bars = _stack(BarSet, bars)
-        for sel in (mesh.rods, mesh.quads, mesh.shears, mesh.bars):
+        for solid in mesh.solids:
+            solid.rho *= wtmass
+        for sel in (mesh.rods, mesh.quads, mesh.trias, mesh.shears, mesh.bars):
             sel.rho *= wtmass
             sel.nsm *= wtmass
+        mesh.bars.polar *= wtmass
         for eid in sorted(self.m.masses):
             c = self.m.masses[eid]
             if c.type == "CONM2":
                 mesh.conm2.append(self._conm2(c, wtmass))
-            elif c.type == "CMASS2":
-                mesh.cmass2.append(self._cmass2(c, wtmass))
+            elif c.type in ("CMASS1", "CMASS2"):
+                mesh.cmass2.append(self._cmass(c, wtmass))
+            elif c.type == "CONM1":
+                mesh.conm1.append(self._conm1(c, wtmass))
         for eid in sorted(self.m.rigid_elements):
             c = self.m.rigid_elements[eid]
             if c.type == "RBE2":
@@ -382,7 +421,10 @@ class _Reader:
                 mesh.rbe2.append(RigidRBE2(eid, nrow, comps, dep))
             elif c.type == "RBE3":
                 mesh.rbe3.append(self._rbe3(c))
+            elif c.type == "RBAR":
+                mesh.rbe2.append(self._rbar(c))
         self._spcs(mesh, spc_id)
+        self._mpcs(mesh)
         return mesh
 
     def _param(self, key: str, default):
@@ -412,7 +454,7 @@ class _Reader:
 
     def _surface(self, e, card: str) -> list[int]:
         nodes = self.rows(e.nodes, card, e.eid)
-        if len(set(nodes)) < 4:
+        if len(set(nodes)) < len(nodes):
             raise self.err(f"{card} {e.eid}: repeated grid in {e.nodes}")
         return nodes
 
@@ -437,22 +479,26 @@ class _Reader:
                            f"(grids {grids})")
 
     def _quad(self, e):
-        eid = e.eid
-        p = self.prop(e.pid, "CQUAD4", eid, ("PSHELL",))
-        owner = f"PSHELL {p.pid}"
+        """CQUAD4 or CTRIA3 with PSHELL (the same property handling) or PCOMP."""
+        eid, card = e.eid, e.type
+        p = self.prop(e.pid, card, eid, ("PSHELL", "PCOMP"))
+        owner = f"{p.type} {p.pid}"
         if abs(float(e.zoffset or 0.0)) > 0.0:
-            raise self.err(f"CQUAD4 {eid}: field ZOFFS: offsets are not supported, got {e.zoffset}")
+            raise self.err(f"{card} {eid}: field ZOFFS: offsets are not supported, got {e.zoffset}")
+        if p.type == "PCOMP":
+            return self._pcomp_shell(e, p)
         t = p.t
         if t is None or not float(t) > 0.0:
             raise self.err(f"{owner}: field T: expected a positive thickness, got {t}")
         t = float(t)
-        corner = [x for x in (e.T1, e.T2, e.T3, e.T4) if x is not None]
+        names = ("T1", "T2", "T3", "T4") if card == "CQUAD4" else ("T1", "T2", "T3")
+        corner = [x for x in (getattr(e, n) for n in names) if x is not None]
         if corner and (e.tflag or any(abs(x - t) > 1e-12 * t for x in corner)):
-            raise self.err(f"CQUAD4 {eid}: fields T1-T4: corner thicknesses differing from "
-                           "PSHELL T are not supported")
+            raise self.err(f"{card} {eid}: fields {names[0]}-{names[-1]}: corner thicknesses "
+                           "differing from PSHELL T are not supported")
         if p.mid4 not in (None, 0):
             raise self.err(f"{owner}: field MID4: membrane-bending coupling is not supported")
-        nodes = self._surface(e, "CQUAD4")
+        nodes = self._surface(e, card)
         E = G = nu = rho = 0.0
         if p.mid1 not in (None, 0):
             E, G, nu, rho = self.mat1(p.mid1, owner, "MID1")
@@ -470,7 +516,8 @@ class _Reader:
             if p.mid1 in (None, 0):
                 rho = rho_b
         return dict(eids=eid, nodes=nodes, t=t, E=E, nu=nu, G=G, rho=rho,
-                    nsm=float(p.nsm or 0.0), bend_E=bend_E, bend_nu=bend_nu, shear_G=shear_G)
+                    nsm=float(p.nsm or 0.0), bend_E=bend_E, bend_nu=bend_nu, shear_G=shear_G,
+                    lam_A=np.zeros((3, 3)), lam_D=np.zeros((3, 3)), lam_shear=0.0)
 
     def _shear(self, e):
         eid = e.eid
@@ -486,24 +533,27 @@ class _Reader:
         return dict(eids=eid, nodes=nodes, t=float(p.t), G=G, rho=rho, nsm=float(p.nsm or 0.0))
 
     def _bar(self, e):
-        eid = e.eid
-        p = self.prop(e.pid, "CBAR", eid, ("PBAR",))
-        owner = f"PBAR {p.pid}"
-        E, G, _, rho = self.mat1(p.mid, owner, "MID")
-        n1, n2 = self.rows(e.nodes, "CBAR", eid)
+        """CBAR (PBAR, PBARL) or CBEAM (PBEAM, PBEAML, prismatic): the linear beam element."""
+        eid, card = e.eid, e.type
+        expected = ("PBAR", "PBARL") if card == "CBAR" else ("PBEAM", "PBEAML")
+        p = self.prop(e.pid, card, eid, expected)
+        owner = f"{p.type} {p.pid}"
+        sec = section(p, owner)
+        E, G, _, rho = self.mat1(sec.mid, owner, "MID")
+        n1, n2 = self.rows(e.nodes, card, eid)
         L = np.linalg.norm(self.xyz[n2] - self.xyz[n1])
         if L <= 1e-12 * (1 + np.abs(self.xyz).max()):
-            raise self.err(f"CBAR {eid}: zero length (grids {e.nodes[0]} and {e.nodes[1]} "
+            raise self.err(f"{card} {eid}: zero length (grids {e.nodes[0]} and {e.nodes[1]} "
                            "coincide)")
         if e.pa or e.pb:
-            raise self.err(f"CBAR {eid}: fields PA/PB: pin flags are not supported")
+            raise self.err(f"{card} {eid}: fields PA/PB: pin flags are not supported")
         for field, w in (("WA", e.wa), ("WB", e.wb)):
             if w is not None and np.any(np.abs(np.asarray(w, float)) > 0):
-                raise self.err(f"CBAR {eid}: field {field}: offsets are not supported")
-        if float(p.i12 or 0.0):
+                raise self.err(f"{card} {eid}: field {field}: offsets are not supported")
+        if sec.I12:
             raise self.err(f"{owner}: field I12: product of inertia is not supported")
         if e.g0 not in (None, 0):
-            (g0,) = self.rows([e.g0], "CBAR", eid, "G0")
+            (g0,) = self.rows([e.g0], card, eid, "G0")
             v = self.xyz[g0] - self.xyz[n1]
         else:
             x = np.asarray(e.x, dtype=float)
@@ -514,11 +564,15 @@ class _Reader:
             v = axes_at(self.m.coords[cd], self.xyz[n1]) @ x if offt[:1] == "G" and cd else x
         axis = (self.xyz[n2] - self.xyz[n1]) / L
         if np.linalg.norm(np.cross(axis, v)) <= 1e-9 * max(np.linalg.norm(v), 1e-300):
-            raise self.err(f"CBAR {eid}: fields X1-X3/G0: orientation vector is parallel to the "
-                           "bar axis or zero")
-        return dict(eids=eid, nodes=[n1, n2], v=v, A=float(p.A or 0.0), I1=float(p.i1 or 0.0),
-                    I2=float(p.i2 or 0.0), J=float(p.j or 0.0), E=E, G=G, rho=rho,
-                    nsm=float(p.nsm or 0.0))
+            raise self.err(f"{card} {eid}: fields X1-X3/G0: orientation vector is parallel to "
+                           "the bar axis or zero")
+        note = (f"{owner}: {getattr(p, 'beam_type', '')} section without shear "
+                "flexibility (its Nastran shear factor is not known here)")
+        if p.type in ("PBARL", "PBEAML") and not sec.k1 and note not in self.notes:
+            self.notes.append(note)
+        polar = rho * (sec.I1 + sec.I2) if card == "CBEAM" else 0.0
+        return dict(eids=eid, nodes=[n1, n2], v=v, A=sec.A, I1=sec.I1, I2=sec.I2, J=sec.J, E=E,
+                    G=G, rho=rho, nsm=sec.nsm, k1=sec.k1, k2=sec.k2, polar=polar)
 
     def _conm2(self, c, wtmass: float) -> PointMass:
         (g,) = self.rows([c.nid], "CONM2", c.eid)
@@ -543,21 +597,33 @@ class _Reader:
             inertia = Rb @ inertia @ Rb.T
         return PointMass(c.eid, g, float(c.mass) * wtmass, offset, inertia * wtmass)
 
-    def _cmass2(self, c, wtmass: float) -> ScalarMass:
+    def _scalar_pair(self, c) -> tuple[int, int, int, int]:
+        """(grid row, component 0..5) twice of a CMASS1/2 or CELAS1/2 (row -1: ground)."""
+        card = c.type
         n1, n2 = (list(c.nodes) + [None, None])[:2]
         if n1 in (None, 0):
             n1, n2, c1, c2 = n2, None, c.c2, c.c1
         else:
             c1, c2 = c.c1, c.c2
-        (g1,) = self.rows([n1], "CMASS2", c.eid)
-        comp1 = _comps(c1, self.f, f"CMASS2 {c.eid}: field C1")
+        (g1,) = self.rows([n1], card, c.eid)
+        comp1 = _comps(c1, self.f, f"{card} {c.eid}: field C1")
         g2, comp2 = -1, [0]
         if n2 not in (None, 0):
-            (g2,) = self.rows([n2], "CMASS2", c.eid)
-            comp2 = _comps(c2, self.f, f"CMASS2 {c.eid}: field C2")
+            (g2,) = self.rows([n2], card, c.eid)
+            comp2 = _comps(c2, self.f, f"{card} {c.eid}: field C2")
         if len(comp1) != 1 or len(comp2) != 1:
-            raise self.err(f"CMASS2 {c.eid}: fields C1/C2: expected one component each")
-        return ScalarMass(c.eid, float(c.mass) * wtmass, g1, comp1[0], g2, comp2[0])
+            raise self.err(f"{card} {c.eid}: fields C1/C2: expected one component each")
+        return g1, comp1[0], g2, comp2[0]
+
+    def _cmass(self, c, wtmass: float) -> ScalarMass:
+        if c.type == "CMASS1":
+            p = self.m.properties_mass.get(c.pid)
+            if p is None or p.type != "PMASS":
+                raise self.err(f"CMASS1 {c.eid}: field PID: PMASS {c.pid} not found")
+            mass = float(p.mass)
+        else:
+            mass = float(c.mass)
+        return ScalarMass(c.eid, mass * wtmass, *self._scalar_pair(c))
 
     def _rbe3(self, c) -> InterpRBE3:
         eid = c.eid
@@ -595,7 +661,13 @@ class _Reader:
         if spc_id is None:
             return
         if spc_id not in ids:
-            raise self.err(f"case control SPC = {spc_id}: no SPC/SPC1/SPCADD with that ID")
+            if ids:
+                raise self.err(f"case control SPC = {spc_id}: no SPC/SPC1/SPCADD with that ID "
+                               f"(the deck has {ids})")
+            # As Nastran (USER WARNING 2053, undefined SPC set): no SPC applied.
+            self.notes.append(f"case control SPC = {spc_id}: the deck has no SPC cards; none "
+                              "applied (Nastran: USER WARNING 2053)")
+            return
         for sid in self._spc_ids(spc_id, set()):
             for card in self.m.spcs.get(sid, []):
                 self._spc_card(card, sid, mesh)

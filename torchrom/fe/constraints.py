@@ -1,9 +1,10 @@
-"""Constraint elimination: SPC/SPC1/GRID PS, RBE2, RBE3 and automatic SPC → u_all = T u_free.
+"""Constraint elimination: SPC/SPC1/GRID PS, MPC, RBE2, RBE3 and automatic SPC → u_all = T u_free.
 
 Hand-written. Every grid has six DOFs measured in its displacement system (CD). The independent
 ("free") DOFs are the CD components that are neither single-point constrained nor dependent on a
 rigid element. Dependent DOFs are eliminated by a **linear** transformation (small rotations):
 
+- MPC: Σ a_i u_i = 0 makes the first term's DOF dependent, u_0 = −Σ_(i>0) (a_i / a_0) u_i;
 - RBE2: the dependent components of each GM follow the rigid motion of GN,
   u_m = u_n + θ_n × (x_m − x_n), θ_m = θ_n;
 - RBE3: the reference grid's REFC components are the weighted least-squares rigid-body fit of the
@@ -70,6 +71,11 @@ def build_constraints(mesh: Mesh, source: str = "model") -> Constraints:
                 f"dependent in {owner[dof]}; a DOF can be dependent in one rigid element only"
             )
         owner[dof] = who
+
+    for mp in mesh.mpc:
+        a0, g0, c0 = mp.terms[0]
+        claim((g0, c0), f"MPC {mp.sid}")
+        deps[(g0, c0)] = [(-a / a0, g, c) for a, g, c in mp.terms[1:]]
 
     for rb in mesh.rbe2:
         who = f"RBE2 {rb.eid}"

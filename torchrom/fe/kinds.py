@@ -20,8 +20,8 @@ KINDS = ("bending", "torsion", "in-plane", "axial")
 
 def _structural_rows(fe) -> np.ndarray:
     m = fe.mesh
-    rows = [m.rods.nodes.ravel(), m.quads.nodes.ravel(), m.shears.nodes.ravel(),
-            m.bars.nodes.ravel()]
+    rows = [m.rods.nodes.ravel(), m.quads.nodes.ravel(), m.trias.nodes.ravel(),
+            m.shears.nodes.ravel(), m.bars.nodes.ravel()] + [x.nodes.ravel() for x in m.solids]
     rows = np.unique(np.concatenate([r.astype(int) for r in rows]))
     return rows if len(rows) else np.arange(m.n_grid)
 

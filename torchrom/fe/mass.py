@@ -1,4 +1,6 @@
-"""Concentrated masses: CONM2 (rigid mass with offset and inertia) and CMASS2 (scalar mass).
+"""Concentrated masses and scalar springs: CONM2 (rigid mass with offset and inertia), CONM1 (a
+6x6 mass matrix), CMASS1/CMASS2 (scalar mass), CELAS1/CELAS2 (scalar spring), CBUSH (six
+springs between coincident grids).
 
 Hand-written. CONM2: a rigid body whose CG sits at ``offset`` r from its grid; with the grid's
 translation t and rotation θ (small rotations) the CG moves t + θ × r = t − [r×] θ, so
@@ -7,15 +9,15 @@ translation t and rotation θ (small rotations) the CG moves t + θ × r = t −
          [ m [r×],   I_cg − m [r×][r×] ]]
 
 (I_cg the inertia tensor about the CG; Nastran's CONM2 products of inertia enter with a minus
-sign, handled by the reader). CMASS2: m (u1 − u2)² / 2 on two scalar DOFs, each a component of
-a grid in its displacement system (grid 2 may be ground).
+sign, handled by the reader). CMASS1/2: m (u1 − u2)² / 2 on two scalar DOFs, each a component of
+a grid in its displacement system (grid 2 may be ground); CELAS1/2 the same with k.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from .mesh import PointMass, ScalarMass
+from .mesh import Bush, MassMatrix6, PointMass, ScalarMass, ScalarSpring
 
 
 def skew(r: np.ndarray) -> np.ndarray:
@@ -37,13 +39,12 @@ def conm2_blocks(masses: list[PointMass]) -> tuple[np.ndarray, np.ndarray]:
     return dofs, blocks
 
 
-def cmass2_blocks(
-    masses: list[ScalarMass], cd_axes: np.ndarray
-) -> tuple[np.ndarray, np.ndarray]:
-    """(n, 6) DOFs (both grids' translation or rotation triplets) and (n, 6, 6) blocks."""
-    dofs = np.zeros((len(masses), 6), dtype=int)
-    blocks = np.zeros((len(masses), 6, 6))
-    for k, sm in enumerate(masses):
+def scalar_blocks(items, cd_axes: np.ndarray, values) -> tuple[np.ndarray, np.ndarray]:
+    """(n, 6) DOFs (both grids' translation or rotation triplets) and (n, 6, 6) blocks of
+    value · a aᵀ, a picking (grid1, comp1) minus (grid2, comp2) in basic axes."""
+    dofs = np.zeros((len(items), 6), dtype=int)
+    blocks = np.zeros((len(items), 6, 6))
+    for k, (sm, value) in enumerate(zip(items, values)):
         a = np.zeros(6)
         a[:3] = cd_axes[sm.grid1][:, sm.comp1 % 3]
         base1 = sm.grid1 * 6 + 3 * (sm.comp1 // 3)
@@ -53,5 +54,39 @@ def cmass2_blocks(
         else:
             base2 = base1  # ground: the second half of ``a`` is zero
         dofs[k] = np.concatenate((base1 + np.arange(3), base2 + np.arange(3)))
-        blocks[k] = sm.mass * np.outer(a, a)
+        blocks[k] = value * np.outer(a, a)
+    return dofs, blocks
+
+
+def cmass2_blocks(masses: list[ScalarMass], cd_axes: np.ndarray):
+    """Scalar masses (CMASS1/CMASS2)."""
+    return scalar_blocks(masses, cd_axes, [m.mass for m in masses])
+
+
+def celas_blocks(springs: list[ScalarSpring], cd_axes: np.ndarray):
+    """Scalar springs (CELAS1/CELAS2)."""
+    return scalar_blocks(springs, cd_axes, [s.stiffness for s in springs])
+
+
+def conm1_blocks(masses: list[MassMatrix6]) -> tuple[np.ndarray, np.ndarray]:
+    dofs = np.array([m.grid * 6 + np.arange(6) for m in masses], dtype=int).reshape(-1, 6)
+    blocks = np.array([m.matrix for m in masses], dtype=float).reshape(-1, 6, 6)
+    return dofs, blocks
+
+
+def bush_blocks(bushes: list[Bush]) -> tuple[np.ndarray, np.ndarray]:
+    """CBUSH between coincident grids: k (u_A − u_B)² / 2 per axis of its system, (n, 12, 12)
+    on both grids' six DOFs (basic); a grounded bush acts on grid A alone."""
+    dofs = np.zeros((len(bushes), 12), dtype=int)
+    blocks = np.zeros((len(bushes), 12, 12))
+    for k, b in enumerate(bushes):
+        R = np.zeros((6, 6))
+        R[:3, :3] = R[3:, 3:] = b.axes
+        K6 = R @ np.diag(b.stiffness) @ R.T
+        g2 = b.grid1 if b.grid2 < 0 else b.grid2
+        dofs[k] = np.concatenate((b.grid1 * 6 + np.arange(6), g2 * 6 + np.arange(6)))
+        if b.grid2 < 0:
+            blocks[k, :6, :6] = K6
+        else:
+            blocks[k] = np.block([[K6, -K6], [-K6, K6]])
     return dofs, blocks

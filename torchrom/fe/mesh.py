@@ -55,6 +55,73 @@ class QuadSet:
     bend_nu: np.ndarray = field(default_factory=lambda: _empty(0))
     shear_G: np.ndarray = field(default_factory=lambda: _empty(0))
 
+    # PCOMP laminates (zeros elsewhere): membrane A, bending D, transverse shear (per element)
+    lam_A: np.ndarray = field(default_factory=lambda: _empty(0, 3, 3))
+    lam_D: np.ndarray = field(default_factory=lambda: _empty(0, 3, 3))
+    lam_shear: np.ndarray = field(default_factory=lambda: _empty(0))
+
+    def __post_init__(self):
+        n = len(self.eids)
+        if len(self.lam_A) != n:
+            self.lam_A, self.lam_D = np.zeros((n, 3, 3)), np.zeros((n, 3, 3))
+            self.lam_shear = np.zeros(n)
+
+    @property
+    def laminated(self) -> np.ndarray:
+        """(n,) True for PCOMP elements (stiffness from ``lam_A``/``lam_D``)."""
+        return np.any(self.lam_A != 0.0, axis=(1, 2))
+
+    def __len__(self) -> int:
+        return len(self.eids)
+
+
+@dataclass
+class TriaSet:
+    """CTRIA3/PSHELL: Green-strain CST membrane, optional linear DKT bending, drilling spring
+    (fields as :class:`QuadSet`; ``shear_G`` is unused: DKT is a thin-plate element)."""
+
+    eids: np.ndarray = field(default_factory=lambda: _empty(0, dtype=int))
+    nodes: np.ndarray = field(default_factory=lambda: _empty(0, 3, dtype=int))
+    t: np.ndarray = field(default_factory=lambda: _empty(0))
+    E: np.ndarray = field(default_factory=lambda: _empty(0))
+    nu: np.ndarray = field(default_factory=lambda: _empty(0))
+    G: np.ndarray = field(default_factory=lambda: _empty(0))
+    rho: np.ndarray = field(default_factory=lambda: _empty(0))
+    nsm: np.ndarray = field(default_factory=lambda: _empty(0))
+    bend_E: np.ndarray = field(default_factory=lambda: _empty(0))
+    bend_nu: np.ndarray = field(default_factory=lambda: _empty(0))
+    shear_G: np.ndarray = field(default_factory=lambda: _empty(0))
+
+    # PCOMP laminates (zeros elsewhere): membrane A, bending D, transverse shear (per element)
+    lam_A: np.ndarray = field(default_factory=lambda: _empty(0, 3, 3))
+    lam_D: np.ndarray = field(default_factory=lambda: _empty(0, 3, 3))
+    lam_shear: np.ndarray = field(default_factory=lambda: _empty(0))
+
+    def __post_init__(self):
+        n = len(self.eids)
+        if len(self.lam_A) != n:
+            self.lam_A, self.lam_D = np.zeros((n, 3, 3)), np.zeros((n, 3, 3))
+            self.lam_shear = np.zeros(n)
+
+    @property
+    def laminated(self) -> np.ndarray:
+        """(n,) True for PCOMP elements (stiffness from ``lam_A``/``lam_D``)."""
+        return np.any(self.lam_A != 0.0, axis=(1, 2))
+
+    def __len__(self) -> int:
+        return len(self.eids)
+
+
+@dataclass
+class SolidSet:
+    """CHEXA/CPENTA/CTETRA (one family: 8, 6 or 4 grids) with PSOLID/MAT1: linear solids."""
+
+    eids: np.ndarray
+    nodes: np.ndarray  # (n, nn) grid rows
+    E: np.ndarray
+    nu: np.ndarray
+    rho: np.ndarray
+
     def __len__(self) -> int:
         return len(self.eids)
 
@@ -76,7 +143,9 @@ class ShearSet:
 
 @dataclass
 class BarSet:
-    """CBAR/PBAR: linear Euler–Bernoulli beam; ``v`` is the orientation vector in basic axes."""
+    """CBAR/CBEAM: linear beam; ``v`` is the orientation vector in basic axes; ``k1``/``k2``
+    the shear area factors of planes 1/2 (0: no shear flexibility, Euler–Bernoulli);
+    ``polar`` the torsional mass moment of inertia per length (CBEAM: ρ (I1 + I2); CBAR: 0)."""
 
     eids: np.ndarray = field(default_factory=lambda: _empty(0, dtype=int))
     nodes: np.ndarray = field(default_factory=lambda: _empty(0, 2, dtype=int))
@@ -89,6 +158,15 @@ class BarSet:
     G: np.ndarray = field(default_factory=lambda: _empty(0))
     rho: np.ndarray = field(default_factory=lambda: _empty(0))
     nsm: np.ndarray = field(default_factory=lambda: _empty(0))
+    k1: np.ndarray = field(default_factory=lambda: _empty(0))
+    k2: np.ndarray = field(default_factory=lambda: _empty(0))
+    polar: np.ndarray = field(default_factory=lambda: _empty(0))
+
+    def __post_init__(self):
+        n = len(self.eids)
+        for name in ("k1", "k2", "polar"):
+            if len(getattr(self, name)) != n:
+                setattr(self, name, np.zeros(n))
 
     def __len__(self) -> int:
         return len(self.eids)
@@ -115,6 +193,49 @@ class ScalarMass:
     comp1: int  # 0..5
     grid2: int
     comp2: int
+
+
+@dataclass
+class ScalarSpring:
+    """CELAS1/CELAS2: scalar spring k (u1 − u2)² / 2 between (grid1, comp1) and (grid2, comp2);
+    grid2 = -1 is ground."""
+
+    eid: int
+    stiffness: float
+    grid1: int
+    comp1: int  # 0..5
+    grid2: int
+    comp2: int
+
+
+@dataclass
+class Bush:
+    """CBUSH between coincident grids (or to ground, ``grid2`` = -1): six springs K1..K6 along
+    and about the axes (columns of ``axes``, basic) of its coordinate system."""
+
+    eid: int
+    grid1: int
+    grid2: int
+    stiffness: np.ndarray  # (6,)
+    axes: np.ndarray  # (3, 3)
+
+
+@dataclass
+class MassMatrix6:
+    """CONM1: a symmetric 6x6 mass matrix at a grid, in basic axes (T1..T3, R1..R3)."""
+
+    eid: int
+    grid: int  # row
+    matrix: np.ndarray
+
+
+@dataclass
+class LinearMPC:
+    """MPC: Σ a_i u_i = 0 over (grid row, component 0..5 in the grid's CD system); the first
+    term's DOF is the dependent one: u_0 = −Σ_(i>0) (a_i / a_0) u_i."""
+
+    sid: int
+    terms: list[tuple[float, int, int]]  # (coefficient, grid row, component)
 
 
 @dataclass
@@ -147,12 +268,18 @@ class Mesh:
     cd_axes: np.ndarray  # (n_grid, 3, 3): columns are the displacement-system axes in basic
     rods: RodSet = field(default_factory=RodSet)
     quads: QuadSet = field(default_factory=QuadSet)
+    trias: TriaSet = field(default_factory=TriaSet)
+    solids: list[SolidSet] = field(default_factory=list)
     shears: ShearSet = field(default_factory=ShearSet)
     bars: BarSet = field(default_factory=BarSet)
     conm2: list[PointMass] = field(default_factory=list)
     cmass2: list[ScalarMass] = field(default_factory=list)
+    celas: list[ScalarSpring] = field(default_factory=list)
+    bushes: list[Bush] = field(default_factory=list)
+    conm1: list[MassMatrix6] = field(default_factory=list)
     rbe2: list[RigidRBE2] = field(default_factory=list)
     rbe3: list[InterpRBE3] = field(default_factory=list)
+    mpc: list[LinearMPC] = field(default_factory=list)
     spc: list[tuple[int, int]] = field(default_factory=list)  # (grid row, comp 0..5)
     spc_source: dict[tuple[int, int], str] = field(default_factory=dict)
     coupled_mass: bool = False

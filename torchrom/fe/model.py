@@ -40,12 +40,15 @@ from .elements.quad4 import (
 )
 from .elements.rod import rod_mass_blocks, rod_points, rod_torsion_blocks
 from .elements.shear import shear_mass_blocks, shear_points
-from .mass import cmass2_blocks, conm2_blocks
+from .elements.solid import solid_blocks, solid_mass_blocks
+from .elements.tria3 import tria_bending_blocks, tria_mass_blocks, tria_points
+from .mass import bush_blocks, celas_blocks, cmass2_blocks, conm1_blocks, conm2_blocks
 from .mesh import Mesh
 
 
 class LinearElementWarning(UserWarning):
-    """A nonlinear analysis of a model whose CBAR elements are linear (small rotations)."""
+    """A nonlinear analysis of a model with linear elements (CBAR, CBEAM, CELAS: small
+    rotations, fixed directions)."""
 
 
 @dataclass
@@ -102,6 +105,7 @@ class FEModel:
         self.n_all = 6 * mesh.n_grid
         self._warned_linear = False
         self.wing_chord: tuple[float, float] | None = None
+        self.notes: list[str] = []  # cards accepted without effect, conditioning, ... (reader)
 
         # Nonlinear (Green-strain) integration points: rods (2 nodes, 1-D), quads+shear (4, 2-D).
         groups = []
@@ -114,16 +118,26 @@ class FEModel:
             quad_like.append(shear_points(mesh.shears, mesh.xyz))
         if quad_like:
             groups.append(GreenPoints.concat(quad_like))
+        if len(mesh.trias):
+            groups.append(tria_points(mesh.trias, mesh.xyz))
         self._points = groups
 
         # Linear stiffness parts (bending + drilling, rod torsion, CBAR).
         lin = []
         if len(mesh.quads):
             lin.append(bending_blocks(mesh.quads, mesh.xyz, drilling))
+        if len(mesh.trias):
+            lin.append(tria_bending_blocks(mesh.trias, mesh.xyz, drilling))
         if len(mesh.rods):
             lin.append(rod_torsion_blocks(mesh.rods, mesh.xyz))
         if len(mesh.bars):
             lin.append(bar_stiffness_blocks(mesh.bars, mesh.xyz))
+        if mesh.celas:
+            lin.append(celas_blocks(mesh.celas, mesh.cd_axes))
+        if mesh.bushes:
+            lin.append(bush_blocks(mesh.bushes))
+        for solids in mesh.solids:
+            lin.append(solid_blocks(solids, mesh.xyz))
         self._lin_parts = [p for p in lin if len(p[0])]
 
         cons = build_constraints(mesh, source=self.source or self.name)
@@ -188,6 +202,10 @@ class FEModel:
         if len(mesh.quads):
             q = mesh.quads
             parts.append(area_mass_blocks(xyz, q.nodes, q.rho * q.t + q.nsm, cm))
+        if len(mesh.trias):
+            parts.append(tria_mass_blocks(mesh.trias, xyz, cm))
+        for solids in mesh.solids:
+            parts.append(solid_mass_blocks(solids, xyz, cm))
         if len(mesh.shears):
             parts.append(shear_mass_blocks(mesh.shears, xyz, cm))
         if len(mesh.bars):
@@ -196,6 +214,8 @@ class FEModel:
             parts.append(conm2_blocks(mesh.conm2))
         if mesh.cmass2:
             parts.append(cmass2_blocks(mesh.cmass2, mesh.cd_axes))
+        if mesh.conm1:
+            parts.append(conm1_blocks(mesh.conm1))
         return assemble(parts, self.n_all)
 
     def _state(self, dtype=torch.float64, device=None) -> _TorchState:
@@ -226,11 +246,14 @@ class FEModel:
         self._state(dtype, device)
 
     def _warn_linear(self) -> None:
-        if len(self.mesh.bars) and not self._warned_linear:
+        n_lin = (len(self.mesh.bars) + len(self.mesh.celas) + len(self.mesh.bushes)
+                 + sum(len(s) for s in self.mesh.solids))
+        if n_lin and not self._warned_linear:
             self._warned_linear = True
             warnings.warn(
-                f"{self.name}: {len(self.mesh.bars)} CBAR elements are linear (small rotations); "
-                "the nonlinear analysis includes them through their linear stiffness only",
+                f"{self.name}: {n_lin} CBAR/CBEAM/CELAS/solid elements are linear (small "
+                "rotations); the nonlinear analysis includes them through their linear stiffness "
+                "only",
                 LinearElementWarning,
                 stacklevel=3,
             )
@@ -476,10 +499,15 @@ class FEModel:
             "free_dofs": int(self.n_dof),
             "CROD": len(m.rods),
             "CQUAD4": len(m.quads),
+            "CTRIA3": len(m.trias),
+            "solids": sum(len(x) for x in m.solids),
             "CSHEAR": len(m.shears),
             "CBAR": len(m.bars),
             "CONM2": len(m.conm2),
-            "CMASS2": len(m.cmass2),
+            "CMASS": len(m.cmass2),
+            "CONM1": len(m.conm1),
+            "CELAS": len(m.celas),
+            "CBUSH": len(m.bushes),
             "RBE2": len(m.rbe2),
             "RBE3": len(m.rbe3),
             "autospc": len(self.autospc),

@@ -27,13 +27,15 @@ from .kinds import classify
 class Modes:
     """Linear normal modes: ``frequencies_hz (n,)``, mass-normalised ``shapes (n_dof, n)``
     (Φᵀ M Φ = I, signs by :func:`orient_columns`), ``kinds`` (bending,
-    torsion, in-plane, axial), ``eigenvalues`` ω² (rad²/s²), ``fractions`` (content per kind)."""
+    torsion, in-plane, axial), ``eigenvalues`` ω² (rad²/s²), ``fractions`` (content per kind),
+    ``notes`` (fewer finite modes than asked, DOFs without stiffness or mass)."""
 
     frequencies_hz: np.ndarray
     shapes: np.ndarray
     kinds: list[str]
     eigenvalues: np.ndarray
     fractions: list[dict[str, float]] = field(default_factory=list)
+    notes: list[str] = field(default_factory=list)
 
     def records(self, reference_hz=None) -> list[dict]:
         """One dict per mode: mode, frequency_hz, kind (+ paper_hz, diff_pct when given)."""
@@ -55,29 +57,75 @@ def solve_linear(K: sp.spmatrix, r: np.ndarray) -> np.ndarray:
     return sla.splu(sp.csc_matrix(K)).solve(r)
 
 
+#: sparse eigensolver failures fall back to the dense solvers up to this many free DOFs
+DENSE_FALLBACK_DOFS = 3000
+
+
 def _massless(M: sp.csr_matrix) -> np.ndarray:
     return np.asarray(abs(M).sum(axis=1)).ravel() == 0.0
 
 
 def _dense_modes(K: sp.spmatrix, M: sp.spmatrix, n: int):
+    """Lowest ``n`` finite modes by dense solvers: ``(vals, vecs, notes)``.
+
+    First, static condensation of the massless DOFs (exact for the eigenproblem) and
+    ``eigh``; when the massless block is singular or the mass not positive definite on the
+    rest (DOFs with neither stiffness nor mass, a CMASS2 coupling two DOFs), the shifted form
+    :func:`_shifted_modes`. At most as many modes as there are finite eigenvalues (Nastran
+    returns all of them when asked for more)."""
     K = K.toarray()
     M = M.toarray()
     z = np.asarray(np.abs(M).sum(axis=1)).ravel() == 0.0
     m = ~z
-    if n > m.sum():
-        raise InputError(f"modes: asked for {n} modes but only {int(m.sum())} DOFs carry mass")
-    if z.any():
-        # Massless DOFs have no inertia: condense them statically (exact for the eigenproblem).
-        Kzz, Kzm = K[np.ix_(z, z)], K[np.ix_(z, m)]
-        X = la.solve(Kzz, Kzm, assume_a="sym")
-        Kc = K[np.ix_(m, m)] - Kzm.T @ X
-        vals, vm = la.eigh(Kc, M[np.ix_(m, m)], subset_by_index=[0, n - 1])
-        vecs = np.zeros((K.shape[0], n))
-        vecs[m] = vm
-        vecs[z] = -X @ vm
-    else:
-        vals, vecs = la.eigh(K, M, subset_by_index=[0, n - 1])
-    return vals, vecs
+    n_mass = int(m.sum())
+    try:
+        if n_mass == 0:
+            raise InputError("modes: no DOF carries mass")
+        k = min(n, n_mass)
+        if z.any():
+            # Massless DOFs have no inertia: condense them statically (exact for the eigenproblem).
+            Kzz, Kzm = K[np.ix_(z, z)], K[np.ix_(z, m)]
+            w = np.abs(la.eigvalsh(Kzz))
+            if w.min() <= 1e-12 * max(w.max(), 1e-300):
+                raise la.LinAlgError("singular massless block")
+            X = la.solve(Kzz, Kzm, assume_a="sym")
+            Kc = K[np.ix_(m, m)] - Kzm.T @ X
+            vals, vm = la.eigh(Kc, M[np.ix_(m, m)], subset_by_index=[0, k - 1])
+            vecs = np.zeros((K.shape[0], k))
+            vecs[m] = vm
+            vecs[z] = -X @ vm
+        else:
+            vals, vecs = la.eigh(K, M, subset_by_index=[0, k - 1])
+        notes = []
+    except la.LinAlgError:
+        vals, vecs, notes = _shifted_modes(K, M, n)
+    if len(vals) < n:
+        notes.append(f"asked for {n} modes: the model has {len(vals)} finite ones "
+                     f"({K.shape[0]} free DOFs), all returned")
+    return vals, vecs, notes
+
+
+def _shifted_modes(K: np.ndarray, M: np.ndarray, n: int):
+    """K φ = λ M φ through μ = 1/(λ − σ) of M φ = μ (K − σ M) φ, σ < 0 (dense).
+
+    A = K − σ M is positive semi-definite; its null space (combinations of DOFs with neither
+    stiffness nor mass, which take no part in any mode) is removed and reported; massless
+    combinations give μ = 0 (infinite frequency) and are not returned."""
+    dK = np.abs(np.diag(K))
+    dM = np.abs(np.diag(M))
+    ratio = (dK.mean() if dK.any() else 1.0) / (dM[dM > 0].mean() if dM.any() else 1.0)
+    sigma = -1e-6 * ratio
+    w, V = la.eigh(K - sigma * M)
+    keep = w > 1e-12 * max(w.max(), 1e-300)
+    Q = V[:, keep] / np.sqrt(w[keep])
+    mu, Y = la.eigh(Q.T @ M @ Q)
+    order = np.argsort(-mu)
+    finite = order[mu[order] > 1e-12 * max(mu.max(initial=0.0), 1e-300)][:n]
+    notes = []
+    if (~keep).any():
+        notes.append(f"{int((~keep).sum())} DOF combinations have neither stiffness nor mass: "
+                     "no part in any mode (like Nastran's AUTOSPC)")
+    return sigma + 1.0 / mu[finite], Q @ Y[:, finite], notes
 
 
 def modal_analysis(fe, n: int, sigma: float | None = None) -> Modes:
@@ -85,17 +133,17 @@ def modal_analysis(fe, n: int, sigma: float | None = None) -> Modes:
 
     Sparse shift-invert (ARPACK via ``eigsh``) about a small negative shift ``sigma`` (default
     −1e-6 × mean(diag K)/mean(diag M), safe for free-free models); small models (≤ 200 DOFs or
-    n close to n_dof) use a dense solver with static condensation of massless DOFs.
+    n close to n_dof) use dense solvers (:func:`_dense_modes`); asking for more modes than the
+    model has returns all its finite modes, with a note.
     """
     K = fe.stiffness_matrix()
     M = fe.mass_matrix()
     N = K.shape[0]
     if n < 1:
         raise InputError(f"modes: n: expected a positive number of modes, got {n}")
-    if n >= N:
-        raise InputError(f"modes: asked for {n} modes of a model with {N} free DOFs")
+    notes: list[str] = []
     if N <= 200 or n >= N - 1:
-        vals, vecs = _dense_modes(K, M, n)
+        vals, vecs, notes = _dense_modes(K, M, n)
     else:
         dK, dM = K.diagonal(), M.diagonal()
         if sigma is None:
@@ -106,7 +154,10 @@ def modal_analysis(fe, n: int, sigma: float | None = None) -> Modes:
             vals, vecs = sla.eigsh(K.tocsc(), k=n, M=M.tocsc(), sigma=sigma, which="LM",
                                    v0=arpack_start(N))
         except (RuntimeError, sla.ArpackNoConvergence) as exc:
-            raise ConvergenceError(f"modes: the eigensolver failed: {exc}") from None
+            if N > DENSE_FALLBACK_DOFS:
+                raise ConvergenceError(f"modes: the eigensolver failed: {exc}") from None
+            # e.g. K − σM exactly singular (DOFs with neither stiffness nor mass)
+            vals, vecs, notes = _dense_modes(K, M, n)
     order = np.argsort(vals)
     vals, vecs = vals[order], vecs[:, order]
     gen_mass = np.einsum("ik,ik->k", vecs, M @ vecs)
@@ -114,7 +165,7 @@ def modal_analysis(fe, n: int, sigma: float | None = None) -> Modes:
     vecs = orient_columns(vecs)
     freqs = np.sqrt(np.clip(vals, 0.0, None)) / (2 * np.pi)
     kinds, fractions = classify(fe, vecs)
-    return Modes(freqs, vecs, kinds, vals, fractions)
+    return Modes(freqs, vecs, kinds, vals, fractions, notes)
 
 
 @dataclass

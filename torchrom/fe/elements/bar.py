@@ -1,13 +1,20 @@
-"""CBAR/PBAR: linear Euler–Bernoulli beam with an orientation vector.
+"""CBAR/CBEAM: linear (Timoshenko) beam with an orientation vector.
 
 Hand-written. Element axes (Nastran): x from GA to GB, y in the plane of x and the orientation
 vector v (plane 1), z = x × y. Stiffness: axial E A / L, torsion G J / L, bending E I1 in plane 1
-(displacement along y, rotation about z) and E I2 in plane 2 (along z, about y); infinite shear
-stiffness (Euler–Bernoulli; PBAR K1/K2 are ignored). No offsets, pin flags or I12 (the reader
-rejects them). CBAR is **linear**: in a geometrically nonlinear analysis it contributes K u with
-its small-rotation stiffness (the model warns once, :class:`LinearElementWarning`).
-Mass: lumped (half of (ρA + NSM) L on each end's translations) or consistent (cubic Hermite
-transverse, linear axial; no rotary or torsional inertia, as Nastran's CBAR).
+(displacement along y, rotation about z) and E I2 in plane 2 (along z, about y), with shear
+flexibility when the shear area factor K of the plane is non-zero: the exact two-node Timoshenko
+stiffness (Przemieniecki, Theory of Matrix Structural Analysis, Eq. 5.116),
+
+    k = E I / ((1 + Φ) L³) [[12, 6L, −12, 6L], [6L, (4+Φ)L², −6L, (2−Φ)L²], ...],
+    Φ = 12 E I / (K G A L²),
+
+Φ = 0 (Euler–Bernoulli) when K = 0 (PBAR K1/K2 blank). No offsets, pin flags or I12 (the reader
+rejects them). CBAR/CBEAM are **linear**: in a geometrically nonlinear analysis they contribute
+K u with their small-rotation stiffness (the model warns once, :class:`LinearElementWarning`).
+Mass: lumped (half of (ρA + NSM) L on each end's translations, and for CBEAM half of
+ρ (I1 + I2) L on each end's torsional rotation, as Nastran's CBEAM) or consistent (cubic
+Hermite transverse, linear axial and torsional; no rotary inertia, as Nastran's CBAR).
 """
 
 from __future__ import annotations
@@ -70,21 +77,33 @@ def bar_stiffness_blocks(bars: BarSet, xyz: np.ndarray) -> tuple[np.ndarray, np.
     for i, j, s in ((0, 0, 1), (0, 6, -1), (6, 0, -1), (6, 6, 1)):
         K[:, i, j] = s * ka
         K[:, i + 3, j + 3] = s * kt
-    for plane, EI in zip(PLANES, (bars.E * bars.I1, bars.E * bars.I2)):
-        _add_hermite(K, EI / L**3, HERMITE_K, plane, L)
+    for plane, EI, kshear in zip(PLANES, (bars.E * bars.I1, bars.E * bars.I2),
+                                 (bars.k1, bars.k2)):
+        GAs = kshear * bars.G * bars.A
+        phi = np.divide(12.0 * EI, GAs * L**2, out=np.zeros_like(L), where=GAs > 0)
+        _add_hermite(K, EI / ((1.0 + phi) * L**3), HERMITE_K, plane, L)
+        # Timoshenko correction of the rotation-rotation terms: (4, 2) → (4 + Φ, 2 − Φ)
+        w, th, sgn = plane
+        c = EI / ((1.0 + phi) * L**3) * phi * L**2
+        for a, b, s in ((th, th, 1.0), (th + 6, th + 6, 1.0), (th, th + 6, -1.0),
+                        (th + 6, th, -1.0)):
+            K[:, a, b] += s * c
     return bar_dofs(bars.nodes), _to_basic(R, K)
 
 
 def bar_mass_blocks(bars: BarSet, xyz: np.ndarray, coupled: bool):
     L, R = bar_frames(bars, xyz)
     m = (bars.rho * bars.A + bars.nsm) * L
+    ip = bars.polar * L  # torsional inertia of the element (CBEAM)
     M = np.zeros((len(bars), 12, 12))
     if not coupled:
         for i in (0, 1, 2, 6, 7, 8):
             M[:, i, i] = m / 2.0
-        return bar_dofs(bars.nodes), M
+        M[:, 3, 3] = M[:, 9, 9] = ip / 2.0
+        return bar_dofs(bars.nodes), (_to_basic(R, M) if np.any(ip) else M)
     for i, j, s in ((0, 0, 2.0), (0, 6, 1.0), (6, 0, 1.0), (6, 6, 2.0)):
         M[:, i, j] = m * s / 6.0
+        M[:, i + 3, j + 3] = ip * s / 6.0
     for plane in PLANES:
         _add_hermite(M, m / 420.0, HERMITE_M, plane, L)
     return bar_dofs(bars.nodes), _to_basic(R, M)

@@ -105,6 +105,9 @@ def membrane_points(quads: QuadSet, xyz: np.ndarray) -> GreenPoints:
     """Five points per quad: 2×2 Gauss for the normal strains, the centre for the shear."""
     _, xy = quad_frames(xyz[quads.nodes])
     D = plane_stress(quads.E, quads.nu, quads.G)
+    lam = quads.laminated
+    if lam.any():  # PCOMP: the laminate's A per unit thickness
+        D[lam] = quads.lam_A[lam] / quads.t[lam, None, None]
     normal = D.copy()
     normal[:, 2, :] = normal[:, :, 2] = 0.0
     shear = np.zeros_like(D)
@@ -132,15 +135,27 @@ def quad_dofs(nodes: np.ndarray) -> np.ndarray:
     return (nodes[:, :, None] * 6 + np.arange(6)).reshape(len(nodes), 24)
 
 
-def _mitc4_local(xy, Eb, nub, t, Gs) -> np.ndarray:
-    """MITC4 bending + transverse shear stiffness (n, 12, 12), DOFs (w, θx, θy) per node."""
-    n = xy.shape[0]
-    Db = np.zeros((n, 3, 3))
+def bending_matrix(Eb, nub, t, lam_D=None) -> np.ndarray:
+    """Isotropic plate bending stiffness E t³/(12(1 − ν²)) [[1, ν, 0], [ν, 1, 0], [0, 0, (1−ν)/2]]
+    (n, 3, 3), or the laminate's D where given (non-zero)."""
+    Db = np.zeros((len(t), 3, 3))
     d = Eb * t**3 / (12.0 * (1.0 - nub**2))
     Db[:, 0, 0] = Db[:, 1, 1] = d
     Db[:, 0, 1] = Db[:, 1, 0] = d * nub
     Db[:, 2, 2] = d * (1.0 - nub) / 2.0
+    if lam_D is not None:
+        lam = np.any(lam_D != 0.0, axis=(1, 2))
+        Db[lam] = lam_D[lam]
+    return Db
+
+
+def _mitc4_local(xy, Eb, nub, t, Gs, lam_D=None, lam_shear=None) -> np.ndarray:
+    """MITC4 bending + transverse shear stiffness (n, 12, 12), DOFs (w, θx, θy) per node."""
+    n = xy.shape[0]
+    Db = bending_matrix(Eb, nub, t, lam_D)
     ds = Gs * t
+    if lam_shear is not None:
+        ds = np.where(lam_shear > 0, lam_shear, ds)
 
     def covariant_shear(r: int, xi: float, eta: float) -> np.ndarray:
         # γ_r = ∂w/∂r + βx ∂x/∂r + βy ∂y/∂r with βx = θy, βy = −θx, at a tying point.
@@ -181,7 +196,8 @@ def bending_blocks(
         return np.zeros((0, 24), dtype=int), np.zeros((0, 24, 24))
     R, xy = quad_frames(xyz[nodes])
     t = quads.t[sel]
-    Kl = _mitc4_local(xy, quads.bend_E[sel], quads.bend_nu[sel], t, quads.shear_G[sel])
+    Kl = _mitc4_local(xy, quads.bend_E[sel], quads.bend_nu[sel], t, quads.shear_G[sel],
+                      quads.lam_D[sel], quads.lam_shear[sel])
     n = len(nodes)
     L = np.zeros((n, 12, 24))
     for a in range(4):

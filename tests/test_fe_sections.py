@@ -1,0 +1,102 @@
+"""Beam sections (PBAR/PBARL/PBEAM/PBEAML) and the CBAR/CBEAM element against closed forms."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from pyNastran.bdf.cards.properties.bars import PBARL
+
+from torchrom.errors import InputError
+from torchrom.fe.sections import rectangles, section, torsion_constant
+
+from .fe_decks import model_of, new_deck
+
+
+def test_library_sections_match_closed_forms():
+    # ROD r = 0.5, TUBE (1, 0.8): exact π r⁴/4 and π r⁴/2
+    s = section(PBARL(1, 1, "ROD", [0.5]), "PBARL 1")
+    assert s.A == pytest.approx(np.pi * 0.25) and s.I1 == pytest.approx(np.pi * 0.5**4 / 4)
+    assert s.J == pytest.approx(np.pi * 0.5**4 / 2) and s.k1 == 0.9
+    s = section(PBARL(1, 1, "TUBE", [1.0, 0.8]), "PBARL 1")
+    assert s.I2 == pytest.approx(np.pi * (1 - 0.8**4) / 4)
+    assert s.J == pytest.approx(np.pi * (1 - 0.8**4) / 2)
+    # BAR b = 2 (z), h = 3 (y): b h³/12, h b³/12; J of a 2:3 rectangle: β a c³ with the series
+    # solution β(1.5) = 0.196 (Roark Table 10.7: 0.1958); the formula is within 0.5 %
+    s = section(PBARL(1, 1, "BAR", [2.0, 3.0]), "PBARL 1")
+    assert (s.A, s.I1, s.I2) == pytest.approx((6.0, 2 * 27 / 12, 3 * 8 / 12))
+    assert s.J == pytest.approx(0.1958 * 3 * 8, rel=5e-3)
+    # BOX 4 (z) x 3 (y), top/bottom t 0.2, sides 0.3: outer minus inner rectangle; Bredt J
+    s = section(PBARL(1, 1, "BOX", [4.0, 3.0, 0.2, 0.3]), "PBARL 1")
+    assert s.A == pytest.approx(12 - 3.4 * 2.6)
+    assert s.I1 == pytest.approx((4 * 27 - 3.4 * 2.6**3) / 12)
+    assert s.J == pytest.approx(4 * (3.7 * 2.8) ** 2 / (2 * 3.7 / 0.2 + 2 * 2.8 / 0.3))
+    # I: depth 10, flanges 6 x 0.8, web 0.5: Σ w h³/12 + a d², thin-walled J = Σ b t³/3
+    s = section(PBARL(1, 1, "I", [10.0, 6.0, 6.0, 0.5, 0.8, 0.8]), "PBARL 1")
+    web = 10 - 1.6
+    I1 = 2 * (6 * 0.8**3 / 12 + 6 * 0.8 * (5 - 0.4) ** 2) + 0.5 * web**3 / 12
+    assert s.A == pytest.approx(2 * 4.8 + 0.5 * web) and s.I1 == pytest.approx(I1)
+    assert s.I2 == pytest.approx(2 * 0.8 * 6**3 / 12 + web * 0.5**3 / 12)
+    assert s.J == pytest.approx((2 * 6 * 0.8**3 + (10 - 0.8) * 0.5**3) / 3)
+    # T and CHAN are symmetric about one axis: no product of inertia
+    assert section(PBARL(1, 1, "T", [6.0, 10.0, 0.8, 0.5]), "p").I12 == pytest.approx(0.0)
+    ch = section(PBARL(1, 1, "CHAN", [4.0, 10.0, 0.5, 0.8]), "p")
+    assert ch.I12 == pytest.approx(0.0, abs=1e-12)
+    assert ch.A == pytest.approx(10 * 0.5 + 2 * 3.5 * 0.8)
+
+
+def test_rectangles_and_torsion_errors():
+    # two squares side by side = one 1 x 2 rectangle
+    A, I1, I2, I12 = rectangles([(0.5, 0.5, 1, 1), (0.5, 1.5, 1, 1)])
+    assert (A, I1, I2, I12) == pytest.approx((2.0, 2 / 12, 8 / 12, 0.0))
+    with pytest.raises(InputError, match="HAT"):
+        torsion_constant("HAT", [1, 2, 3, 4])
+
+
+def _cantilever(kind: str, n: int = 4, L: float = 2.0):
+    m = new_deck()
+    for i in range(n + 1):
+        m.add_grid(i + 1, [L * i / n, 0.0, 0.0], ps="123456" if i == 0 else "")
+    m.add_mat1(1, 2.0e11, 8.0e10, None, rho=7800.0)
+    if kind == "CBEAM":
+        m.add_pbeam(1, 1, [0.0], ["C"], [0.01], [2e-5], [3e-5], [0.0], [4e-5], [0.0],
+                    k1=0.6, k2=0.7)
+    else:
+        m.add_pbarl(1, 1, "ROD", [0.05])
+    for i in range(n):
+        add = m.add_cbeam if kind == "CBEAM" else m.add_cbar
+        add(i + 1, 1, [i + 1, i + 2], [0.0, 0.0, 1.0], None)
+    return model_of(m)
+
+
+def test_cbeam_tip_deflection_includes_shear_exactly():
+    """Two-node Timoshenko element: tip deflection of a cantilever under a tip load is exact,
+    δ = P L³/(3 E I) + P L/(K G A), in both planes (PBEAM K1 = 0.6, K2 = 0.7)."""
+    fe = _cantilever("CBEAM")
+    E, G, A, L, P = 2.0e11, 8.0e10, 0.01, 2.0, 1000.0
+    # orientation vector along z: element y = basic z (plane 1: I1, K1), element z = -basic y
+    for comp, I, K in ((3, 2e-5, 0.6), (2, 3e-5, 0.7)):
+        u = fe.linear_static(fe.nodal_load({(5, comp): P}))
+        tip = fe.expand(u)[4, comp - 1]
+        assert tip == pytest.approx(P * L**3 / (3 * E * I) + P * L / (K * G * A), rel=1e-10)
+
+
+def test_cbeam_torsional_inertia_and_tapered_refused():
+    """CBEAM lumps ρ (I1 + I2) L / 2 of torsional inertia at each end (as Nastran's CBEAM;
+    CBAR has none): the first torsion mode of the 4-element cantilever equals the lumped chain's
+    ω_1 = 2 √(G J / (h I_p)) sin(π / (4N)) with end inertia half the interior one I_p."""
+    fe = _cantilever("CBEAM")
+    h, N, G, J = 0.5, 4, 8.0e10, 4e-5
+    Ip = 7800.0 * 5e-5 * h
+    modes = fe.modes(12)
+    torsion = [f for f, k in zip(modes.frequencies_hz, modes.kinds) if k == "torsion"]
+    w1 = 2 * np.sqrt(G * J / h / Ip) * np.sin(np.pi / (4 * N))
+    assert torsion[0] == pytest.approx(w1 / (2 * np.pi), rel=1e-10)
+    m = new_deck()
+    m.add_grid(1, [0.0, 0.0, 0.0])
+    m.add_grid(2, [1.0, 0.0, 0.0])
+    m.add_mat1(1, 2.0e11, 8.0e10, None, rho=7800.0)
+    m.add_pbeam(1, 1, [0.0, 1.0], ["C", "YES"], [0.01, 0.02], [2e-5, 2e-5], [3e-5, 3e-5],
+                [0.0, 0.0], [4e-5, 4e-5], [0.0, 0.0])
+    m.add_cbeam(1, 1, [1, 2], [0.0, 0.0, 1.0], None)
+    with pytest.raises(InputError, match="PBEAM 1: field A: tapered PBEAM"):
+        model_of(m)

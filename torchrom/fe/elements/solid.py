@@ -1,0 +1,137 @@
+"""CHEXA (8 grids), CPENTA (6), CTETRA (4) with PSOLID: linear isoparametric solids.
+
+Hand-written. Trilinear hexahedron, linear-triangle × linear-line wedge and linear tetrahedron,
+isotropic linear elasticity (MAT1: E, ν; G taken from E and ν), full Gauss integration (hexa
+2×2×2, penta 3 × 2, tetra 1 point). **Linear** (small strains and rotations): a geometrically
+nonlinear analysis includes them through their linear stiffness only (the model warns,
+:class:`~torchrom.fe.model.LinearElementWarning`). Fully integrated low-order solids are stiff
+in bending (shear locking): a bending-dominated part needs several elements through its
+thickness (Nastran's CHEXA adds bubble functions, so its answers differ on coarse meshes).
+Mass: consistent ∫ ρ N_a N_b dV, or lumped by row sums. The quadratic forms (CHEXA 20, CPENTA
+15, CTETRA 10 grids) are refused by the reader.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+_G = 1.0 / np.sqrt(3.0)
+_HEX_NODES = np.array([[-1, -1, -1], [1, -1, -1], [1, 1, -1], [-1, 1, -1],
+                       [-1, -1, 1], [1, -1, 1], [1, 1, 1], [-1, 1, 1]], dtype=float)
+
+
+def _hexa(p):
+    xi, eta, zeta = p
+    s = _HEX_NODES
+    N = 0.125 * (1 + xi * s[:, 0]) * (1 + eta * s[:, 1]) * (1 + zeta * s[:, 2])
+    d = np.stack((0.125 * s[:, 0] * (1 + eta * s[:, 1]) * (1 + zeta * s[:, 2]),
+                  0.125 * s[:, 1] * (1 + xi * s[:, 0]) * (1 + zeta * s[:, 2]),
+                  0.125 * s[:, 2] * (1 + xi * s[:, 0]) * (1 + eta * s[:, 1])))
+    return N, d
+
+
+def _penta(p):
+    r, s, z = p  # triangle (r, s), line z in [-1, 1]; nodes 1-3 at z = -1, 4-6 at z = +1
+    L = np.array([1 - r - s, r, s])
+    dL = np.array([[-1.0, 1.0, 0.0], [-1.0, 0.0, 1.0]])
+    lo, hi = 0.5 * (1 - z), 0.5 * (1 + z)
+    N = np.concatenate((L * lo, L * hi))
+    d = np.zeros((3, 6))
+    d[0] = np.concatenate((dL[0] * lo, dL[0] * hi))
+    d[1] = np.concatenate((dL[1] * lo, dL[1] * hi))
+    d[2] = np.concatenate((-0.5 * L, 0.5 * L))
+    return N, d
+
+
+def _tetra(p):
+    r, s, t = p
+    N = np.array([1 - r - s - t, r, s, t])
+    d = np.array([[-1.0, 1.0, 0.0, 0.0], [-1.0, 0.0, 1.0, 0.0], [-1.0, 0.0, 0.0, 1.0]])
+    return N, d
+
+
+_TRI3 = ((1 / 6, 1 / 6), (2 / 3, 1 / 6), (1 / 6, 2 / 3))
+#: shape functions and integration rules (points, weights) per number of grids
+RULES = {
+    8: (_hexa, [(a, b, c) for a in (-_G, _G) for b in (-_G, _G) for c in (-_G, _G)],
+        [1.0] * 8),
+    6: (_penta, [(r, s, z) for (r, s) in _TRI3 for z in (-_G, _G)], [1.0 / 6.0] * 6),
+    4: (_tetra, [(0.25, 0.25, 0.25)], [1.0 / 6.0]),
+}
+# Mass needs a higher rule for the tetrahedron (N_a N_b is quadratic): 4-point rule, degree 2.
+_A, _B = 0.5854101966249685, 0.1381966011250105
+MASS_RULES = {8: RULES[8][1:], 6: RULES[6][1:],
+              4: ([(_B, _B, _B), (_A, _B, _B), (_B, _A, _B), (_B, _B, _A)], [1.0 / 24.0] * 4)}
+
+
+def elasticity(E: np.ndarray, nu: np.ndarray) -> np.ndarray:
+    """Isotropic 3-D elasticity (n, 6, 6), Voigt [xx, yy, zz, xy, yz, zx] (engineering shear)."""
+    lam = E * nu / ((1 + nu) * (1 - 2 * nu))
+    mu = E / (2 * (1 + nu))
+    D = np.zeros((len(E), 6, 6))
+    D[:, :3, :3] = lam[:, None, None]
+    for i in range(3):
+        D[:, i, i] += 2 * mu
+        D[:, 3 + i, 3 + i] = mu
+    return D
+
+
+def _geometry(X: np.ndarray, dnat: np.ndarray):
+    J = np.einsum("ra,nai->nri", dnat, X)  # (n, 3, 3)
+    det = np.linalg.det(J)
+    dxyz = np.einsum("nir,ra->nai", np.linalg.inv(J), dnat)  # (n, nn, 3)
+    return det, dxyz
+
+
+def solid_dofs(nodes: np.ndarray) -> np.ndarray:
+    """Translational DOFs (n, 3 nn) of the grids."""
+    return (nodes[:, :, None] * 6 + np.arange(3)).reshape(len(nodes), -1)
+
+
+def solid_stiffness(X: np.ndarray, E: np.ndarray, nu: np.ndarray) -> np.ndarray:
+    """K (n, 3nn, 3nn) of elements with node coordinates X (n, nn, 3), basic axes."""
+    n, nn = X.shape[:2]
+    shape, points, weights = RULES[nn]
+    D = elasticity(E, nu)
+    K = np.zeros((n, 3 * nn, 3 * nn))
+    for p, w in zip(points, weights):
+        det, d = _geometry(X, shape(p)[1])
+        B = np.zeros((n, 6, 3 * nn))
+        for i in range(3):
+            B[:, i, i::3] = d[:, :, i]
+        B[:, 3, 0::3], B[:, 3, 1::3] = d[:, :, 1], d[:, :, 0]
+        B[:, 4, 1::3], B[:, 4, 2::3] = d[:, :, 2], d[:, :, 1]
+        B[:, 5, 2::3], B[:, 5, 0::3] = d[:, :, 0], d[:, :, 2]
+        K += w * np.abs(det)[:, None, None] * (B.transpose(0, 2, 1) @ D @ B)
+    return K
+
+
+def solid_volumes(X: np.ndarray) -> np.ndarray:
+    nn = X.shape[1]
+    shape, points, weights = RULES[nn]
+    return sum(w * _geometry(X, shape(p)[1])[0] for p, w in zip(points, weights))  # signed
+
+
+def solid_mass(X: np.ndarray, rho: np.ndarray, coupled: bool) -> np.ndarray:
+    """M (n, 3nn, 3nn): consistent ∫ ρ N_a N_b dV ⊗ I3, or lumped by row sums."""
+    n, nn = X.shape[:2]
+    shape = RULES[nn][0]
+    points, weights = MASS_RULES[nn]
+    pat = np.zeros((n, nn, nn))
+    for p, w in zip(points, weights):
+        N, dnat = shape(p)
+        det = _geometry(X, dnat)[0]
+        pat += w * np.abs(det)[:, None, None] * np.outer(N, N)[None]
+    if not coupled:
+        pat = np.einsum("na,ab->nab", pat.sum(axis=2), np.eye(nn))
+    pat *= rho[:, None, None]
+    return np.einsum("nab,ij->naibj", pat, np.eye(3)).reshape(n, 3 * nn, 3 * nn)
+
+
+def solid_blocks(solids, xyz: np.ndarray):
+    """(dofs, K) of a :class:`~torchrom.fe.mesh.SolidSet`."""
+    return solid_dofs(solids.nodes), solid_stiffness(xyz[solids.nodes], solids.E, solids.nu)
+
+
+def solid_mass_blocks(solids, xyz: np.ndarray, coupled: bool):
+    return solid_dofs(solids.nodes), solid_mass(xyz[solids.nodes], solids.rho, coupled)

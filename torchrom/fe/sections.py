@@ -1,0 +1,167 @@
+"""Beam section properties of PBAR, PBARL, PBEAM and PBEAML as the linear beam element uses them.
+
+Delegated to pyNastran: the area and the two area moments of the PBARL/PBEAML sections it
+computes (``PBARL.Area()``, ``I1()``, ``I2()``, ``I12()``: ROD, TUBE, BAR, BOX, L). Hand-written
+here: I, T and CHAN (pyNastran 1.4 raises NotImplementedError for their moments) as unions of
+rectangles (:func:`rectangles`), and the torsion constant J of every section, because pyNastran
+returns the polar moment I1 + I2 for solid rectangles and nothing for several sections, while
+Nastran uses the St Venant torsion constant:
+
+- ROD (r): J = π r⁴ / 2; TUBE (r_o, r_i): J = π (r_o⁴ − r_i⁴) / 2 (exact);
+- BAR (b, h): J = a c³ [1/3 − 0.21 (c/a)(1 − c⁴/(12 a⁴))], a = max(b, h), c = min(b, h)
+  (Roark, Table 10.7 case 4; 0.5 % of the series solution);
+- BOX (w, h, t_side, t_top): Bredt's thin-walled closed section J = 4 A_m² / ∮ ds/t on the
+  wall mid-line;
+- I, T, L, CHAN (thin-walled open): J = Σ b_i t_i³ / 3 over the flanges and the web (mid-line
+  lengths).
+
+PBEAM/PBEAML must have one section along the element (a tapered beam is refused: the element is
+prismatic). Shear flexibility: PBAR/PBEAM K1, K2 as given (PBAR blank: none; PBEAM default 1.0);
+library sections: :data:`LIBRARY_SHEAR_FACTOR`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..errors import InputError
+
+
+@dataclass(frozen=True)
+class Section:
+    """Prismatic section: area, I1 (plane 1), I2 (plane 2), I12, J, non-structural mass, and
+    the shear area factors K1, K2 (0: no shear flexibility)."""
+
+    A: float
+    I1: float
+    I2: float
+    I12: float
+    J: float
+    nsm: float
+    mid: int
+    k1: float = 0.0
+    k2: float = 0.0
+
+
+#: Shear area factors Nastran gives library sections, found by matching MSC Nastran's f06:
+#: ROD 0.9 (pyNastran's beam_modes deck, CBAR and CBEAM, all 10 modes to 1e-6) and BAR 5/6
+#: (ExportNastranKM's test_case, 10 modes to 1e-5); other sections: not known here, so their
+#: shear flexibility is left out, with a note.
+LIBRARY_SHEAR_FACTOR = {"ROD": 0.9, "BAR": 5.0 / 6.0}
+
+
+def torsion_constant(kind: str, dim) -> float:
+    """St Venant torsion constant of a PBARL/PBEAML section (see the module docstring)."""
+    d = [float(x) for x in dim]
+    if kind == "ROD":
+        return np.pi * d[0] ** 4 / 2.0
+    if kind == "TUBE":
+        return np.pi * (d[0] ** 4 - d[1] ** 4) / 2.0
+    if kind == "BAR":
+        a, c = max(d[0], d[1]), min(d[0], d[1])
+        return a * c**3 * (1.0 / 3.0 - 0.21 * (c / a) * (1.0 - c**4 / (12.0 * a**4)))
+    if kind == "BOX":  # width (z), height (y), top/bottom wall t, side wall t
+        w, h, t_tb, t_side = d[:4]
+        wm, hm = w - t_side, h - t_tb  # mid-line rectangle
+        return 4.0 * (wm * hm) ** 2 / (2.0 * wm / t_tb + 2.0 * hm / t_side)
+    if kind == "I":  # depth, bottom flange width, top flange width, web t, bottom t, top t
+        depth, b1, b2, tw, tf1, tf2 = d[:6]
+        web = depth - 0.5 * (tf1 + tf2)
+        return (b1 * tf1**3 + b2 * tf2**3 + web * tw**3) / 3.0
+    if kind == "T":  # flange width, depth, flange t, web t
+        b, depth, tf, tw = d[:4]
+        return (b * tf**3 + (depth - 0.5 * tf) * tw**3) / 3.0
+    if kind == "L":  # width, height, t (horizontal leg), t (vertical leg)
+        b, h, t1, t2 = d[:4]
+        return ((b - 0.5 * t2) * t1**3 + (h - 0.5 * t1) * t2**3) / 3.0
+    if kind == "CHAN":  # width, depth, web t, flange t
+        b, depth, tw, tf = d[:4]
+        return (2.0 * (b - 0.5 * tw) * tf**3 + (depth - tf) * tw**3) / 3.0
+    raise InputError(f"section {kind}: torsion constant not available (supported: ROD, TUBE, "
+                     "BAR, BOX, I, T, L, CHAN)")
+
+
+def rectangles(parts) -> tuple[float, float, float, float]:
+    """A, I1, I2, I12 about the centroid of a union of rectangles (y_c, z_c, height along y,
+    width along z): I1 = Σ (w h³/12 + a (y − ȳ)²) (plane 1, bending about z), I2 likewise about
+    y, I12 = Σ a (y − ȳ)(z − z̄) (parallel-axis theorem)."""
+    p = np.asarray(parts, dtype=float).reshape(-1, 4)
+    y, z, h, w = p.T
+    a = h * w
+    A = a.sum()
+    yc, zc = (a * y).sum() / A, (a * z).sum() / A
+    I1 = (w * h**3 / 12.0 + a * (y - yc) ** 2).sum()
+    I2 = (h * w**3 / 12.0 + a * (z - zc) ** 2).sum()
+    I12 = (a * (y - yc) * (z - zc)).sum()
+    return float(A), float(I1), float(I2), float(I12)
+
+
+def _open_section(kind: str, d) -> tuple[float, float, float, float]:
+    """I, T, CHAN of the MSC section library (dimension order of the MSC QRG, PBARL)."""
+    if kind == "I":  # depth, bottom flange width, top flange width, web t, bottom t, top t
+        depth, b1, b2, tw, tf1, tf2 = d[:6]
+        web = depth - tf1 - tf2
+        return rectangles([(tf1 / 2, 0.0, tf1, b1), (depth - tf2 / 2, 0.0, tf2, b2),
+                           (tf1 + web / 2, 0.0, web, tw)])
+    if kind == "T":  # flange width, depth, flange t, web t
+        b, depth, tf, tw = d[:4]
+        return rectangles([(depth - tf / 2, 0.0, tf, b), ((depth - tf) / 2, 0.0, depth - tf, tw)])
+    # CHAN: flange width, depth, web t, flange t
+    b, depth, tw, tf = d[:4]
+    fl = b - tw
+    return rectangles([(depth / 2, tw / 2, depth, tw), (tf / 2, tw + fl / 2, tf, fl),
+                       (depth - tf / 2, tw + fl / 2, tf, fl)])
+
+
+def _library(prop, kind: str, dim, owner: str) -> tuple[float, float, float, float]:
+    """A, I1, I2, I12 of a library section (pyNastran's PBARL, or :func:`_open_section`)."""
+    from pyNastran.bdf.cards.properties.bars import PBARL
+
+    if kind in ("I", "T", "CHAN"):
+        return _open_section(kind, [float(x) for x in dim])
+    try:
+        bar = PBARL(prop.pid, prop.mid, kind, list(dim))
+        return float(bar.Area()), float(bar.I1()), float(bar.I2()), float(bar.I12() or 0.0)
+    except (NotImplementedError, ValueError, TypeError, AssertionError) as exc:
+        raise InputError(f"{owner}: section {kind} {list(dim)}: {exc}") from None
+
+
+def section(prop, owner: str) -> Section:
+    """The prismatic section of a PBAR, PBARL, PBEAM or PBEAML card."""
+    t = prop.type
+    if t == "PBAR":
+        # PBAR K1, K2 blank: infinite shear stiffness (MSC QRG, PBAR)
+        return Section(float(prop.A or 0.0), float(prop.i1 or 0.0), float(prop.i2 or 0.0),
+                       float(prop.i12 or 0.0), float(prop.j or 0.0), float(prop.nsm or 0.0),
+                       prop.mid, float(prop.k1 or 0.0), float(prop.k2 or 0.0))
+    if t == "PBARL":
+        A, I1, I2, I12 = _library(prop, prop.beam_type, prop.dim, owner)
+        J = torsion_constant(prop.beam_type, prop.dim)
+        k = LIBRARY_SHEAR_FACTOR.get(prop.beam_type, 0.0)
+        return Section(A, I1, I2, I12, J, float(prop.nsm or 0.0), prop.mid, k, k)
+    if t == "PBEAML":
+        dims = [list(d) for d in prop.dim]
+        if any(not np.allclose(d, dims[0]) for d in dims):
+            raise InputError(f"{owner}: tapered PBEAML (stations with different dimensions) "
+                             "is not supported")
+        A, I1, I2, I12 = _library(prop, prop.beam_type, dims[0], owner)
+        J = torsion_constant(prop.beam_type, dims[0])
+        nsm = float(np.asarray(prop.nsm, float).reshape(-1)[0]) if prop.nsm is not None else 0.0
+        k = LIBRARY_SHEAR_FACTOR.get(prop.beam_type, 0.0)
+        return Section(A, I1, I2, I12, J, nsm, prop.mid, k, k)
+    if t == "PBEAM":
+        vals = {}
+        for name in ("A", "i1", "i2", "i12", "j", "nsm"):
+            v = np.asarray(getattr(prop, name), float).reshape(-1)
+            if len(v) and not np.allclose(v, v[0]):
+                raise InputError(f"{owner}: field {name.upper()}: tapered PBEAM (stations with "
+                                 "different properties) is not supported")
+            vals[name] = float(v[0]) if len(v) else 0.0
+        # PBEAM K1, K2: shear stiffness factors, default 1.0 (MSC QRG, PBEAM)
+        k1 = 1.0 if prop.k1 is None else float(prop.k1)
+        k2 = 1.0 if prop.k2 is None else float(prop.k2)
+        return Section(vals["A"], vals["i1"], vals["i2"], vals["i12"], vals["j"], vals["nsm"],
+                       prop.mid, k1, k2)
+    raise InputError(f"{owner}: expected PBAR, PBARL, PBEAM or PBEAML, got {t}")
