@@ -81,14 +81,22 @@ def _dense_modes(K: sp.spmatrix, M: sp.spmatrix, n: int):
 
 
 def modal_analysis(fe, n: int, sigma: float | None = None) -> Modes:
-    """Lowest ``n`` modes of K φ = ω² M φ on the free DOFs.
+    """Lowest ``n`` modes of K φ = ω² M φ on the free DOFs of ``fe`` (:func:`eigenpairs`),
+    classified by kind."""
+    vals, vecs = eigenpairs(fe.stiffness_matrix(), fe.mass_matrix(), n, sigma)
+    freqs = np.sqrt(np.clip(vals, 0.0, None)) / (2 * np.pi)
+    kinds, fractions = classify(fe, vecs)
+    return Modes(freqs, vecs, kinds, vals, fractions)
+
+
+def eigenpairs(K: sp.spmatrix, M: sp.spmatrix, n: int,
+               sigma: float | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """Lowest ``n`` eigenpairs (ω² ascending, mass-normalised oriented shapes) of K φ = ω² M φ.
 
     Sparse shift-invert (ARPACK via ``eigsh``) about a small negative shift ``sigma`` (default
     −1e-6 × mean(diag K)/mean(diag M), safe for free-free models); small models (≤ 200 DOFs or
     n close to n_dof) use a dense solver with static condensation of massless DOFs.
     """
-    K = fe.stiffness_matrix()
-    M = fe.mass_matrix()
     N = K.shape[0]
     if n < 1:
         raise InputError(f"modes: n: expected a positive number of modes, got {n}")
@@ -111,10 +119,7 @@ def modal_analysis(fe, n: int, sigma: float | None = None) -> Modes:
     vals, vecs = vals[order], vecs[:, order]
     gen_mass = np.einsum("ik,ik->k", vecs, M @ vecs)
     vecs = vecs / np.sqrt(np.abs(gen_mass))
-    vecs = orient_columns(vecs)
-    freqs = np.sqrt(np.clip(vals, 0.0, None)) / (2 * np.pi)
-    kinds, fractions = classify(fe, vecs)
-    return Modes(freqs, vecs, kinds, vals, fractions)
+    return vals, orient_columns(vecs)
 
 
 @dataclass
