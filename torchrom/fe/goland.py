@@ -101,6 +101,10 @@ class GolandOptions:
     skins: str = "bending"
     webs: str = "cquad4-membrane"
     coupled_mass: bool = False
+    #: give the trailing-edge spar caps and web their own properties (PROD 15, web 24; same
+    #: sections as the leading edge's 12 and 22) so that model updating can load the leading
+    #: and trailing edges with different non-structural mass
+    edge_groups: bool = False
 
     def check(self) -> None:
         if self.skins not in ("bending", "membrane"):
@@ -141,10 +145,16 @@ def goland_bdf(store_x: float = DEFAULT_STORE_X, density: float = 1.0,
 
     m.add_pshell(1, mid1=1, t=SKIN_T, mid2=1 if options.skins == "bending" else None,
                  mid3=1 if options.skins == "bending" else None, comment="skins")
-    for pid, key in ((11, "span_mid"), (12, "span_edge"), (13, "chord"), (14, "thick")):
+    rods = [(11, "span_mid"), (12, "span_edge"), (13, "chord"), (14, "thick")]
+    webs = [(21, "span_mid"), (22, "span_edge"), (23, "chord")]
+    te_rod, te_web = (15, 24) if options.edge_groups else (12, 22)
+    if options.edge_groups:
+        rods.append((15, "span_edge"))
+        webs.append((24, "span_edge"))
+    for pid, key in rods:
         m.add_prod(pid, 1, ROD_AREA[key], comment=f"rods: {key}")
     web_bending = options.webs == "cquad4"
-    for pid, key in ((21, "span_mid"), (22, "span_edge"), (23, "chord")):
+    for pid, key in webs:
         if options.webs == "cshear":
             m.add_pshear(pid, 1, WEB_T[key], comment=f"shear panels: {key}")
         else:
@@ -161,7 +171,7 @@ def goland_bdf(store_x: float = DEFAULT_STORE_X, density: float = 1.0,
     eid = 1001
     for s in (1, 2):
         for i in range(3):
-            pid = 11 if i == 1 else 12
+            pid = (12, 11, te_rod)[i]
             for j in range(N_BAYS):
                 m.add_crod(eid, pid, [grid_id(s, j, i), grid_id(s, j + 1, i)])
                 eid += 1
@@ -176,7 +186,7 @@ def goland_bdf(store_x: float = DEFAULT_STORE_X, density: float = 1.0,
     add_web = m.add_cshear if options.webs == "cshear" else m.add_cquad4
     eid = 2001
     for i in range(3):  # spanwise webs (spars) in the y-z plane at x_i
-        pid = 21 if i == 1 else 22
+        pid = (22, 21, te_web)[i]
         for j in range(N_BAYS):
             add_web(eid, pid, [grid_id(1, j, i), grid_id(1, j + 1, i), grid_id(2, j + 1, i),
                                grid_id(2, j, i)])
