@@ -175,3 +175,21 @@ def test_cli_goland_writes_deck_and_table(tmp_path, capsys):
     assert "already exists" in capsys.readouterr().err
     assert main(["modes", str(out / "goland.bdf"), "--n", "3"]) == 0
     assert "paper Hz" in capsys.readouterr().out
+
+
+def test_mass_groups_leave_the_matrices_unchanged(fe):
+    """mass_groups puts the trailing-edge caps and web on PROD 15 / PSHELL 24 with the leading
+    edge's sections and adds massless CONM2s at the edge grids: the stiffness and mass
+    matrices are unchanged (bit for bit)."""
+    from torchrom.fe.bdf_read import from_pynastran
+    from torchrom.fe.goland import MASS_GROUPS, GolandOptions, goland_bdf, grid_id
+
+    rho = CALIBRATED_DENSITY[("bending", "cquad4-membrane", False, DEFAULT_STORE_X)]
+    split = from_pynastran(goland_bdf(DEFAULT_STORE_X, rho, GolandOptions(mass_groups=True)),
+                           source="goland", name="goland")
+    assert {15, 24} <= set(split.bdf.properties) and 15 not in fe.bdf.properties
+    assert split.bdf.masses[MASS_GROUPS["te_out"][0]].nid == grid_id(1, 6, 2)
+    assert split.bdf.masses[MASS_GROUPS["le_in"][-1]].nid == grid_id(2, 5, 0)
+    assert sum(len(v) for v in MASS_GROUPS.values()) == 40
+    assert abs(split.stiffness_matrix() - fe.stiffness_matrix()).max() == 0.0
+    assert abs(split.mass_matrix() - fe.mass_matrix()).max() == 0.0
