@@ -100,6 +100,21 @@ def test_mac_tracking_follows_a_mode_swap():
     assert m.kinds == ["in-plane", "bending"]
 
 
+def test_pairing_by_kind_keeps_the_order():
+    """pairing = "kind": the same stiffening as in the swap test, but the targets are re-paired
+    in frequency order at every evaluation, so target 1 stays on the lowest mode: once the
+    bending mode passes the chordwise one, raising I1 no longer moves the lowest frequency and
+    the fit stops at the crossing, short of 45 Hz."""
+    fe = model_of(tip_mass_beam())
+    f0 = fe.modes(2).frequencies_hz
+    targets = (FrequencyTarget(45.0), FrequencyTarget(float(f0[1])))
+    par = (UpdateParameter("i1", "PBAR", (1, 2), "i1", 1e-7, 1e-4),)
+    _, res = update_model(fe, UpdateSpec(targets, par, UpdateOptions(pairing="kind")))
+    assert [t["mode"] for t in res.targets] == [1, 2]
+    assert res.targets[0]["final_hz"] < f0[1] * 1.001
+    assert res.targets[0]["final_diff_pct"] < -25.0
+
+
 def test_pairing_by_kind_and_reference_deck():
     """Targets by kind pick the lowest matching modes (torsion = mode 4); with a reference deck
     each target is paired with its reference mode by MAC."""

@@ -46,6 +46,7 @@ def test_good_file(tmp_path):
     ("lower = 0.0", "lower = -1.0", "must stay non-negative"),
     ("upper = 1.0", "upper = 0.0", "expected lower < upper"),
     ("n = 6", "n = 1", "[modes]: n: expected at least the 2 targets"),
+    ("n = 6", 'n = 6\npairing = "shape"', "[modes]: pairing: expected one of mac, kind"),
     ("frequency_hz = 1.69", "frequency_hz = -1.69", "frequency_hz: expected a positive"),
     ("regularization", "regularisation", "[optimizer]: unknown key(s) regularisation"),
 ])

@@ -21,7 +21,9 @@ Method (hand-written; the optimiser and the assignment are SciPy's):
   largest MAC against its reference mode (one-to-one, Hungarian); otherwise the initial model's
   modes are paired by ``mode`` or ``kind`` (:func:`~torchrom.fe.mac.pair_by_kind`) and then
   tracked by MAC against the shapes of the best point so far, so that a target follows its
-  shape when two modes swap order.
+  shape when two modes swap order; or (``pairing = "kind"``) re-paired by kind and frequency
+  order at every evaluation, so that the targets keep their order (a published table whose
+  mode shapes are unknown).
 """
 
 from __future__ import annotations
@@ -219,9 +221,14 @@ class ModelUpdater:
         if pair and ev.get("paired_with") is not self.ref_shapes:
             mac = mac_matrix(self.ref_shapes, ev["phi"], ev["M"])
             ev["mac"] = mac
-            ev["pairs"] = pair_by_mac(mac)
+            ev["pairs"] = (self._pair_by_kind(ev) if self.options.pairing == "kind"
+                           else pair_by_mac(mac))
             ev["paired_with"] = self.ref_shapes
         return ev
+
+    def _pair_by_kind(self, ev) -> np.ndarray:
+        fixed = [None if t.mode is None else t.mode - 1 for t in self.targets]
+        return pair_by_kind(ev["kinds"], [t.kind for t in self.targets], fixed)
 
     def _initial_pairing(self, ev) -> np.ndarray:
         if self.reference is not None:
@@ -236,14 +243,11 @@ class ModelUpdater:
                                      "deck every target needs 'mode' (its reference mode)")
                 idx.append(t.mode - 1)
             return ref.shapes[:, idx]
-        fixed = []
         for i, t in enumerate(self.targets):
             if t.mode is not None and t.mode > self.n_modes:
                 raise InputError(f"update: target {i + 1} ({t.name}): mode {t.mode} but only "
                                  f"{self.n_modes} modes are computed")
-            fixed.append(None if t.mode is None else t.mode - 1)
-        idx = pair_by_kind(ev["kinds"], [t.kind for t in self.targets], fixed)
-        return ev["phi"][:, idx]
+        return ev["phi"][:, self._pair_by_kind(ev)]
 
     # -- residuals and Jacobian ------------------------------------------------------------------
     def _scale(self, x):

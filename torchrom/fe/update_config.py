@@ -4,6 +4,8 @@ Parsing by tomllib; validation hand-written (each error names the file, table an
 
     [modes]
     n = 12                  # modes computed at each evaluation (default 2 × targets + 2)
+    pairing = "mac"         # "mac" (default): pair once, then track the shapes by MAC;
+                            # "kind": re-pair by kind and frequency order at every evaluation
 
     [reference]             # optional: reference shapes (modes of a deck on the same grids)
     deck = "reference.bdf"  # relative to the targets file
@@ -59,6 +61,7 @@ FIELDS: dict[str, dict[str, tuple[str, int | None, bool]]] = {
               "x3": ("X", 2, False), "i11": ("I", 0, False), "i22": ("I", 2, False),
               "i33": ("I", 5, False)},
 }
+PAIRINGS = ("mac", "kind")
 #: Fields that must stay positive (a dimension) or non-negative (a mass or density).
 _POSITIVE = {"t", "a", "i1", "i2"}
 _NON_NEGATIVE = {"nsm", "rho", "mass", "i11", "i22", "i33", "j"}
@@ -96,12 +99,15 @@ class FrequencyTarget:
 
 @dataclass(frozen=True)
 class UpdateOptions:
-    """``n_modes`` computed per evaluation (None: 2 × targets + 2); optimiser limits;
+    """``n_modes`` computed per evaluation (None: 2 × targets + 2); ``pairing`` "mac" (track
+    the initially paired shapes by MAC) or "kind" (re-pair by kind and frequency order at every
+    evaluation: the targets keep their order, e.g. a published table); optimiser limits;
     ``regularization`` weight of ‖x − x0‖² on the bound-scaled parameters; ``fd_step``:
     relative step of the central differences of the matrices (exact for the mass fields, which
     enter M affinely, or quadratically for CONM2 offsets)."""
 
     n_modes: int | None = None
+    pairing: str = "mac"
     max_evaluations: int = 200
     tolerance: float = 1e-10
     regularization: float = 0.0
@@ -224,7 +230,11 @@ def load_update_spec(path) -> UpdateSpec:
     if dup:
         raise _err(source, "[[parameter]]", f"duplicate name(s) {', '.join(dup)}")
     modes = raw.get("modes", {})
-    _keys(source, "[modes]", modes, ("n",))
+    _keys(source, "[modes]", modes, ("n", "pairing"))
+    pairing = modes.get("pairing", "mac")
+    if pairing not in PAIRINGS:
+        raise _err(source, "[modes]: pairing", f"expected one of {', '.join(PAIRINGS)}, got "
+                                               f"{pairing!r}")
     opt = raw.get("optimizer", {})
     _keys(source, "[optimizer]", opt, ("max_evaluations", "tolerance", "regularization",
                                        "fd_step"))
@@ -236,6 +246,7 @@ def load_update_spec(path) -> UpdateSpec:
                                              f"got {n}")
     options = UpdateOptions(
         n_modes=n,
+        pairing=pairing,
         max_evaluations=int(_number(source, "[optimizer]: max_evaluations",
                                     opt.get("max_evaluations", 200), positive=True,
                                     integer=True)),
