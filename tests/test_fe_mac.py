@@ -38,3 +38,4 @@ def test_pair_by_kind():
     assert list(pair_by_kind(kinds, ["any", "bending"], fixed=[2, None])) == [2, 0]
     with pytest.raises(InputError, match="target 2: no axial mode"):
         pair_by_kind(kinds, ["bending", "axial"])
+    assert list(pair_by_kind(kinds, ["bending", "axial"], strict=False)) == [0, 1]

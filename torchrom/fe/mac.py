@@ -49,10 +49,12 @@ def kind_matches(kind: str, wanted: str) -> bool:
     return kind == wanted
 
 
-def pair_by_kind(kinds: list[str], wanted: list[str | None], fixed=None) -> np.ndarray:
+def pair_by_kind(kinds: list[str], wanted: list[str | None], fixed=None,
+                 strict: bool = True) -> np.ndarray:
     """Pair targets with modes by kind: in target order, each takes the lowest-frequency mode
     not yet taken whose kind matches (``kinds`` in ascending frequency). ``fixed[i]``, when not
-    None, is a mode index already chosen for target i (taken first)."""
+    None, is a mode index already chosen for target i (taken first). A target without a mode
+    of its kind left is an error if ``strict``, else it takes the lowest free mode."""
     fixed = list(fixed) if fixed is not None else [None] * len(wanted)
     taken = {m for m in fixed if m is not None}
     out = []
@@ -63,6 +65,8 @@ def pair_by_kind(kinds: list[str], wanted: list[str | None], fixed=None) -> np.n
         want = want or "any"
         choice = next((k for k, kind in enumerate(kinds)
                        if k not in taken and kind_matches(kind, want)), None)
+        if choice is None and not strict:
+            choice = next(k for k in range(len(kinds)) if k not in taken)
         if choice is None:
             have = ", ".join(f"{k + 1}:{kind}" for k, kind in enumerate(kinds))
             raise InputError(f"update: target {i + 1}: no {want} mode left among the "

@@ -226,9 +226,12 @@ class ModelUpdater:
             ev["paired_with"] = self.ref_shapes
         return ev
 
-    def _pair_by_kind(self, ev) -> np.ndarray:
+    def _pair_by_kind(self, ev, strict: bool = False) -> np.ndarray:
+        # not strict during the iterations: a trial point without a mode of a wanted kind (say
+        # the in-plane mode pushed above the computed ones) gets a poor pairing, hence a large
+        # residual, and the step is rejected; the final pairing is reported with kind_ok
         fixed = [None if t.mode is None else t.mode - 1 for t in self.targets]
-        return pair_by_kind(ev["kinds"], [t.kind for t in self.targets], fixed)
+        return pair_by_kind(ev["kinds"], [t.kind for t in self.targets], fixed, strict)
 
     def _initial_pairing(self, ev) -> np.ndarray:
         if self.reference is not None:
@@ -247,7 +250,7 @@ class ModelUpdater:
             if t.mode is not None and t.mode > self.n_modes:
                 raise InputError(f"update: target {i + 1} ({t.name}): mode {t.mode} but only "
                                  f"{self.n_modes} modes are computed")
-        return ev["phi"][:, self._pair_by_kind(ev)]
+        return ev["phi"][:, self._pair_by_kind(ev, strict=True)]
 
     # -- residuals and Jacobian ------------------------------------------------------------------
     def _scale(self, x):
