@@ -39,6 +39,16 @@ Not given by the paper (REFERENCE Sec. 6) and therefore chosen here:
   :data:`CALIBRATED_DENSITY` and re-checked by the tests);
 - the store's chordwise position ``store_x`` (:data:`DEFAULT_STORE_X`, ft from the leading
   edge; change it here, in one place);
+- the "updated" variant (``goland(variant="updated")``, REFERENCE Sec. 6 second pass): the
+  declared non-structural mass groups (:attr:`GolandOptions.mass_groups`: skins, spar caps and
+  webs at the leading edge, mid-box and trailing edge, ribs, and concentrated masses on the
+  leading- and trailing-edge grids inboard and outboard, the latter up to the 6 ft chord), the
+  structural density (at least aluminium's) and the store's vertical offset are fitted to all
+  nine Table 2 frequencies in the paper's order by ``torchrom update``
+  (torchrom/data/goland_update.toml), and the store's chordwise position to the p-k flutter
+  altitude (experiments/goland_update.py; :data:`UPDATED_STORE_X`,
+  :data:`UPDATED_PARAMETERS`). Element sizes, E, ν and the store's mass and inertias are the
+  paper's;
 - point A, the output point of every response: the upper-skin tip grid at x = 2 ft (mid-box,
   on the elastic axis at 33 % of the 6 ft chord), grid 1102; outputs ``A_Tx``, ``A_Ty``,
   ``A_Tz`` (its basic translations).
@@ -92,8 +102,24 @@ UPDATE_SPEC = Path(__file__).resolve().parents[1] / "data" / "goland_update.toml
 #: Store position (ft from the leading edge) and parameter values (names of
 #: :data:`UPDATE_SPEC`; model units) of the updated variant, written by
 #: experiments/goland_update.py and re-checked by the tests.
-UPDATED_STORE_X = float("nan")
-UPDATED_PARAMETERS: dict[str, float] = {}
+UPDATED_STORE_X = 2.273264272
+UPDATED_PARAMETERS: dict[str, float] = {
+    "density": 5.24,
+    "nsm_skins": 0.0,
+    "nsm_caps_mid": 0.07457845695,
+    "nsm_caps_le": 0.0,
+    "nsm_caps_te": 1.780730298,
+    "nsm_spar_mid": 0.0117153024,
+    "nsm_spar_le": 0.0,
+    "nsm_spar_te": 0.5844882298,
+    "nsm_ribs": 0.0,
+    "store_z": -0.7017268068,
+    "te_mass_x": 1.474,
+    "mass_le_in": 1.017714269,
+    "mass_le_out": 3.522150909,
+    "mass_te_in": 0.0,
+    "mass_te_out": 0.0,
+}
 
 STORE_GRID = 3000
 POINT_A_GRID = 1102
