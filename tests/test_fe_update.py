@@ -55,6 +55,7 @@ def test_update_recovers_perturbed_parameters():
     assert new.modes(8).frequencies_hz == pytest.approx([t["target_hz"] for t in res.targets],
                                                         rel=1e-6)
     # rigid-body mass: beam 2 m × (ρA = 2.7 + NSM) + tip mass
+    assert res.total_mass_initial == pytest.approx(2.7 * 2 + 1.3 + 0.4 + 3.5, rel=1e-6)
     assert res.total_mass_final == pytest.approx(1.0 * (2.7 + 1.0) + 1.0 * (2.7 + 0.5) + 4.0,
                                                  rel=1e-6)
 

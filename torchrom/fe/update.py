@@ -174,10 +174,13 @@ class ModelUpdater:
                 raise InputError("update: the free DOFs changed with the parameters (a dimension "
                                  "reached zero?); tighten the bounds")
             return fe.stiffness_matrix(), fe.mass_matrix()
+        return self.K0, project(assemble_mass(self._mesh()), self.fe.T)
+
+    def _mesh(self):
+        """The mesh of the deck's current values (cards re-read; grids unchanged)."""
         from .bdf_read import _Reader
 
-        mesh = _Reader(self.bdf, self.fe.source or self.fe.name).mesh(None)
-        return self.K0, project(assemble_mass(mesh), self.fe.T)
+        return _Reader(self.bdf, self.fe.source or self.fe.name).mesh(None)
 
     def matrices(self, values):
         """(K, M) on the free DOFs at parameter ``values`` (the deck keeps them)."""
@@ -318,7 +321,8 @@ class ModelUpdater:
 
         ev0 = self.evaluate(self.p0)
         f0 = ev0["freq"][ev0["pairs"]]
-        mass0 = total_mass(self.fe)
+        self._model_at(self.p0)
+        mass0 = total_mass(self.fe, self._mesh())
         self.x0 = self._x(self.p0)
         tol = self.options.tolerance
         sol = least_squares(self.residuals, self.x0, jac=self.jacobian, bounds=(0.0, 1.0),
@@ -327,9 +331,7 @@ class ModelUpdater:
         values = self._scale(np.clip(sol.x, 0.0, 1.0))
         ev = self.evaluate(values)
         self._record(ev, sol.x)
-        from .bdf_read import _Reader
-
-        mesh = _Reader(self.bdf, self.fe.source or self.fe.name).mesh(None)
+        mesh = self._mesh()
         pairs = ev["pairs"]
         f = ev["freq"][pairs]
         targets = []

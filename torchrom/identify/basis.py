@@ -10,8 +10,8 @@ of α (half positive, half negative) and solved nonlinearly. The parts of the re
 span of the linear modes (residuals, removed by M-orthogonal projection) are decomposed by proper
 orthogonal decomposition (POD); the dominant POD vectors, mass-orthonormalised against the linear
 modes, are the dual modes. The paper's nine combinations (1-based) are the default of
-:class:`DualModeOptions`; ``torchrom identify`` chooses the combinations by a rule from the modes' kinds
-(:func:`transverse_combinations`).
+:class:`DualModeOptions`; ``torchrom identify`` chooses the combinations by a rule from the
+modes' kinds (:func:`transverse_combinations`).
 
 Choices (each an option of :class:`DualModeOptions`), measured on the heavy Goland wing, 9L12D,
 as the largest A_Tz / A_Ty errors at point A up to a 25 % span tip deflection under the uniform
