@@ -8,10 +8,11 @@ kind or by MAC (:mod:`torchrom.fe.update`; the targets file format:
 JSON (``--json FILE``): ``parameters`` (name → card, ids, field, initial, final, lower, upper,
 at_bound; model units), ``targets`` (name, target_hz, initial_hz, final_hz, initial_diff_pct,
 final_diff_pct (100 (model − target)/target), mode (1-based, of the updated model), kind,
-kind_wanted, kind_ok, mac against the target's reference shape), ``history`` (per iteration:
-cost, rms_diff_pct, max_abs_diff_pct, frequencies_hz, parameters), ``mac`` (targets × computed
-modes), ``final_modes``, ``total_mass_initial``/``total_mass_final`` (rigid-body mass of the
-whole model, mass units of the deck), ``rms_diff_pct``, ``max_abs_diff_pct``, ``converged``,
+kind_wanted, kind_ok, mac: of the final mode against the initially paired mode or the reference
+mode), ``history`` (per iteration: cost, rms_diff_pct, max_abs_diff_pct, frequencies_hz,
+parameters), ``mac`` (targets × computed modes, the same MAC), ``final_modes``,
+``total_mass_initial``/``total_mass_final`` (rigid-body mass of the whole model, mass units of
+the deck), ``rms_diff_pct``, ``max_abs_diff_pct``, ``converged``,
 ``message``, ``n_iterations``, ``n_evaluations``.
 """
 

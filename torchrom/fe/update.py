@@ -89,9 +89,10 @@ def total_mass(fe, mesh=None) -> float:
 class UpdateResult:
     """Outcome of :func:`update_model`: ``parameters`` (name → initial, final, bounds,
     at_bound), ``targets`` (per target: frequencies initial/final, residual %, paired mode,
-    kind, MAC against its reference shape), ``history`` (per iteration: cost, rms and max |%|
-    residual, parameter values), ``mac`` (targets × computed modes at the end, against the
-    reference shapes), mass totals (model units) and the optimiser's status."""
+    kind, MAC of the final mode against the initially paired or reference shape), ``history``
+    (per iteration: cost, rms and max |%| residual, parameter values), ``mac`` (targets ×
+    computed modes at the end, against the initially paired or reference shapes), mass totals
+    (model units) and the optimiser's status."""
 
     parameters: dict[str, dict]
     targets: list[dict]
@@ -159,6 +160,7 @@ class ModelUpdater:
         self.reference = reference
         ev0 = self.evaluate(self.p0, pair=False)
         self.ref_shapes = self._initial_pairing(ev0)
+        self.initial_shapes = self.ref_shapes
         self.best = (np.inf, self.ref_shapes)
 
     # -- matrices --------------------------------------------------------------------------------
@@ -334,6 +336,9 @@ class ModelUpdater:
         mesh = self._mesh()
         pairs = ev["pairs"]
         f = ev["freq"][pairs]
+        # MAC of the final modes against the initially paired (or reference) shapes: how far
+        # each target's shape moved
+        mac = mac_matrix(self.initial_shapes, ev["phi"], ev["M"])
         targets = []
         for i, t in enumerate(self.targets):
             k = int(pairs[i])
@@ -345,7 +350,7 @@ class ModelUpdater:
                 "final_diff_pct": float(100 * (f[i] - t.frequency_hz) / t.frequency_hz),
                 "mode": k + 1, "kind": ev["kinds"][k],
                 "kind_ok": kind_matches(ev["kinds"][k], t.kind),
-                "mac": float(ev["mac"][i, k]),
+                "mac": float(mac[i, k]),
             })
         params = {}
         for p, a, b in zip(self.params, self.p0, values):
@@ -360,7 +365,7 @@ class ModelUpdater:
                  for k in range(len(ev["freq"]))]
         return UpdateResult(
             parameters=params, targets=targets, history=self.history,
-            mac=[[float(v) for v in row] for row in ev["mac"]],
+            mac=[[float(v) for v in row] for row in mac],
             total_mass_initial=mass0, total_mass_final=total_mass(self.fe, mesh),
             converged=bool(sol.success), message=str(sol.message), n_evaluations=self.n_eval,
             n_iterations=len(self.history) - 1, final_modes=modes)
