@@ -7,7 +7,7 @@ boxes, 9 modes) is the paper's 11,275 ft. Writes goland_update.json / .md in ``-
 experiments/results) with the updated parameters, Table 2, the flutter point, the wing mass
 and the box's GJ against the classic Goland wing's.
 
-    PYTHONPATH=$PWD python experiments/goland_update.py [--bracket 1.95 2.15] [--store-x X]
+    PYTHONPATH=$PWD python experiments/goland_update.py [--bracket 2.2 2.5] [--store-x X]
 """
 
 from __future__ import annotations
@@ -52,7 +52,7 @@ def flutter(fe):
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--out", type=Path, default=Path("experiments/results"))
-    ap.add_argument("--bracket", type=float, nargs=2, default=(1.95, 2.15))
+    ap.add_argument("--bracket", type=float, nargs=2, default=(2.2, 2.5))
     ap.add_argument("--xtol", type=float, default=2e-3)
     ap.add_argument("--store-x", type=float, default=None,
                     help="skip the search: update at this store position only")
