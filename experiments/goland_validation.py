@@ -8,7 +8,8 @@ free decay (γ = 1e-3 s) from a 10 % and a 15 % span tip deflection. Prints Mark
 ``--out FILE`` writes them (and a JSON beside it).
 
     PYTHONPATH=$PWD python experiments/goland_validation.py [--variants default,mass,...]
-        [--n-dual 12] [--box-step] [--decay] [--out experiments/results/goland_validation.md]
+        [--n-dual 12] [--box-step] [--decay] [--wing updated]
+        [--out experiments/results/goland_validation.md]
 """
 
 from __future__ import annotations
@@ -60,8 +61,10 @@ def main(argv=None) -> int:
                     help="also the step pressure about the box mid-line x = 2 ft (up to 6 %)")
     ap.add_argument("--decay", action="store_true", help="free decays from 10 % and 15 % span")
     ap.add_argument("--out", type=Path, default=None)
+    ap.add_argument("--wing", choices=("calibrated", "updated"), default="calibrated",
+                    help="heavy Goland wing variant (torchrom.fe.goland)")
     args = ap.parse_args(argv)
-    fe = goland()
+    fe = goland(variant=args.wing)
     head = ("| variant | load | output | " + " | ".join(f"≤{b:g} %" for b in BANDS)
             + " | max tip % |")
     lines = ["Largest |ROM − FE| / |FE| (%) at point A over the load levels with a tip deflection "

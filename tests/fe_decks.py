@@ -118,3 +118,22 @@ def two_bar_truss(a: float, h: float, EA: float) -> BDF:
     m.add_spc1(1, "123456", [1, 2])
     m.add_spc1(1, "12456", [3])
     return m
+
+
+def tip_mass_beam(n: int = 8, I1: float = 2e-6, I2: float = 8e-6, nsm=(1.0, 0.5),
+                  tip_mass: float = 4.0, tip_x: float = 0.05) -> BDF:
+    """Cantilever CBAR wing along y (L = 2 m, clamped at y = 0): PBAR 1 inboard, PBAR 2
+    outboard (same section, NSM ``nsm``), vertical bending I1, chordwise bending I2; a tip
+    CONM2 (eid 100) offset ``tip_x`` chordwise with a pitch inertia."""
+    m = new_deck()
+    L = 2.0
+    for i in range(n + 1):
+        m.add_grid(i + 1, [0.0, L * i / n, 0.0])
+    m.add_mat1(1, 7.0e10, 2.7e10, None, rho=2700.0)
+    for pid, ns in ((1, nsm[0]), (2, nsm[1])):
+        m.add_pbar(pid, 1, A=1e-3, i1=I1, i2=I2, j=4e-6, nsm=ns)
+    for i in range(n):
+        m.add_cbar(i + 1, 1 if i < n // 2 else 2, [i + 1, i + 2], [0.0, 0.0, 1.0], None)
+    m.add_conm2(100, n + 1, tip_mass, X=[tip_x, 0.0, 0.0], I=[0.0, 0.0, 0.02, 0.0, 0.0, 0.0])
+    m.add_spc1(1, "123456", [1])
+    return m

@@ -190,3 +190,26 @@ def test_parse_combinations_names_pairs_and_errors():
     assert parse_combinations("1:1,2:3") == ((1, 1), (2, 3))
     with pytest.raises(InputError, match="--combinations: expected one of"):
         parse_combinations("1-2")
+
+
+def test_transverse_rule_chooses_combinations_from_mode_kinds():
+    """The rule loads the first two transverse modes with the first three, skipping in-plane and
+    axial modes; on the heavy Goland wing (both variants: modes 1-3 transverse) it is the
+    validated bending-torsion set of the pipeline."""
+    from torchrom.fe import goland
+    from torchrom.identify.basis import (
+        BENDING_TORSION_COMBINATIONS,
+        parse_combinations,
+        transverse_combinations,
+    )
+
+    kinds = ["bending", "in-plane", "torsion", "axial", "bending", "torsion"]
+    assert transverse_combinations(kinds) == ((1, 1), (1, 3), (1, 5), (3, 3), (3, 5))
+    assert transverse_combinations(["in-plane", "bending"]) == ((2, 2),)
+    with pytest.raises(InputError, match="no transverse"):
+        transverse_combinations(["in-plane", "axial"])
+    with pytest.raises(InputError, match="needs the mode kinds"):
+        parse_combinations("transverse")
+    for variant in ("calibrated", "updated"):
+        kinds = goland(variant=variant).modes(9).kinds
+        assert parse_combinations("transverse", kinds=kinds) == BENDING_TORSION_COMBINATIONS

@@ -60,6 +60,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         "--aero", type=Path, help="goland form: use this aero.npz instead of building one"
     )
     p.add_argument("--lags", type=int, default=13, help="goland form: RFA lag states (default 13)")
+    p.add_argument("--variant", choices=("calibrated", "updated"), default="calibrated",
+                   help="goland form: the heavy Goland wing variant (see torchrom goland)")
     p.add_argument(
         "--boxes",
         type=int,
@@ -160,12 +162,13 @@ def _run_goland(args) -> int:
     )
     from ..aero.files import load_aero
     from ..aero.panels import goland_panels
-    from .aero import load_fe
 
     alpha = BASELINE_ALPHA if args.alpha is None else args.alpha
     gamma = BASELINE_GAMMA if args.gamma is None else args.gamma
     mach = 0.7 if args.mach is None else args.mach
-    fe = load_fe("goland")
+    from ..fe import goland
+
+    fe = goland(variant=args.variant)
     if args.aero is not None:
         aero = load_aero(args.aero)
         modes = modal_data(fe, aero.n_modes)

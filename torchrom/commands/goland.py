@@ -18,6 +18,13 @@ HELP = "write the heavy Goland wing BDF (goland.bdf) and print its modes against
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--variant", choices=("calibrated", "updated"), default="calibrated",
+                        help="'calibrated' (uniform density for mode 1, store position for the "
+                             "flutter altitude) or 'updated' (non-structural mass groups "
+                             "updated to Table 2: torchrom/data/goland_update.toml)")
+    parser.add_argument("--mass-groups", action="store_true",
+                        help="calibrated variant: declare the non-structural mass groups of "
+                             "torchrom/data/goland_update.toml (massless until updated)")
     parser.add_argument("--out", type=Path, default=Path("."),
                         help="output directory for goland.bdf (default: current directory)")
     # the default is resolved in run(): importing torchrom.fe here would slow down --help
@@ -46,17 +53,27 @@ def run(args: argparse.Namespace) -> int:
 
     out = Path(args.out) / "goland.bdf"
     check_can_write(out, args.force, "deck")
-    if args.store_x is None:
+    if args.variant == "updated":
+        print("building the heavy Goland wing, updated variant")
+        fe = goland(variant="updated", store_x=args.store_x, density=args.density,
+                    skins=args.skins, webs=args.webs, coupled_mass=args.coupled_mass,
+                    n_modes=args.n)
+    else:
         from ..fe.goland import DEFAULT_STORE_X
 
-        args.store_x = DEFAULT_STORE_X
-    print(f"building the heavy Goland wing (store_x = {args.store_x:g} ft, skins {args.skins}, "
-          f"webs {args.webs}, {'consistent' if args.coupled_mass else 'lumped'} mass)")
-    fe = goland(store_x=args.store_x, density=args.density, skins=args.skins, webs=args.webs,
-                coupled_mass=args.coupled_mass, n_modes=args.n)
+        store_x = DEFAULT_STORE_X if args.store_x is None else args.store_x
+        print(f"building the heavy Goland wing (store_x = {store_x:g} ft, skins {args.skins}, "
+              f"webs {args.webs}, {'consistent' if args.coupled_mass else 'lumped'} mass"
+              + (", mass groups" if args.mass_groups else "") + ")")
+        fe = goland(store_x=store_x, density=args.density, skins=args.skins, webs=args.webs,
+                    coupled_mass=args.coupled_mass, n_modes=args.n,
+                    mass_groups=args.mass_groups)
+    from ..fe.update import total_mass
+
     rho = fe.mesh.rods.rho[0]
     stiff = goland_stiffness(fe)
-    print(f"{fe.n_dof} free DOFs; density {rho:.10g} slug/ft^3; EI {stiff['EI']:.4g} lbf ft^2; "
+    print(f"{fe.n_dof} free DOFs; density {rho:.10g} slug/ft^3; total mass "
+          f"{total_mass(fe):.6g} slug; EI {stiff['EI']:.4g} lbf ft^2; "
           f"GJ {stiff['GJ']:.4g} lbf ft^2; elastic axis x = {stiff['elastic_axis_x']:.3f} ft")
     write_bdf(fe, out, force=args.force)
     print(f"wrote {out}")

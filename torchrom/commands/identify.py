@@ -30,10 +30,11 @@ def add_arguments(parser) -> None:
     parser.add_argument("model", type=Path, help="Nastran BDF of the structure")
     parser.add_argument("--linear", type=int, default=9, help="number of linear modes (9)")
     parser.add_argument("--dual", type=int, default=12, help="number of dual modes (12)")
-    parser.add_argument("--combinations", default="paper", metavar="SET",
-                        help="linear-mode pairs loaded for the dual modes: 'paper' (the paper's "
-                             "nine, default), 'bending-torsion' ((1,1),(1,2),(1,3),(2,2),(2,3): "
-                             "the validated set for the Goland wing) or J:L,J:L,...")
+    parser.add_argument("--combinations", default="transverse", metavar="SET",
+                        help="linear-mode pairs loaded for the dual modes: 'transverse' "
+                             "(default: the first two transverse modes with the first three, "
+                             "from the modes' kinds), 'paper' (the paper's nine), "
+                             "'bending-torsion' ((1,1),(1,2),(1,3),(2,2),(2,3)) or J:L,J:L,...")
     parser.add_argument("--damping", choices=("decomposition", "exact"),
                         default="decomposition",
                         help="damping identification: the paper's optimum decomposition, or "
@@ -88,10 +89,16 @@ def run(args) -> int:
     from ..identify import DualModeOptions
     from ..identify.basis import parse_combinations
 
-    combinations = parse_combinations(args.combinations)
+    if args.combinations != "transverse":
+        parse_combinations(args.combinations)  # bad input before the work
     t0 = time.perf_counter()
     info(f"reading {args.model}")
     fe = read_bdf(args.model)
+    kinds = fe.modes(args.linear).kinds if args.combinations == "transverse" else None
+    combinations = parse_combinations(args.combinations, kinds=kinds)
+    if kinds is not None:
+        print(f"  dual-mode combinations from the mode kinds ({', '.join(kinds)}): "
+              f"{', '.join(f'{j}:{l}' for j, l in combinations)}")
     backend = as_backend(fe)
     if args.step_x is not None:
         backend.step_x = float(args.step_x)

@@ -29,6 +29,12 @@ def write_bdf(fe, path, *, force: bool = False) -> Path:
         ln.strip().upper().startswith("SOL") for ln in model.executive_control_lines
     ):
         model.executive_control_lines = ["SOL 103", "CEND"]
+    if model.case_control_deck is None:
+        from pyNastran.bdf.case_control_deck import CaseControlDeck
+
+        lines = [f"SPC = {sid}" for sid in sorted(model.spcs)[:1] if len(model.spcs) == 1]
+        lines += [f"METHOD = {sid}" for sid in sorted(model.methods)[:1]]
+        model.case_control_deck = CaseControlDeck(lines + ["BEGIN BULK"], log=model.log)
     with atomic_path(path) as tmp, contextlib.redirect_stdout(io.StringIO()), \
             warnings.catch_warnings():
         warnings.simplefilter("ignore")

@@ -39,6 +39,16 @@ Not given by the paper (REFERENCE Sec. 6) and therefore chosen here:
   :data:`CALIBRATED_DENSITY` and re-checked by the tests);
 - the store's chordwise position ``store_x`` (:data:`DEFAULT_STORE_X`, ft from the leading
   edge; change it here, in one place);
+- the "updated" variant (``goland(variant="updated")``, REFERENCE Sec. 6 second pass): the
+  declared non-structural mass groups (:attr:`GolandOptions.mass_groups`: skins, spar caps and
+  webs at the leading edge, mid-box and trailing edge, ribs, and concentrated masses on the
+  leading- and trailing-edge grids inboard and outboard, the latter up to the 6 ft chord), the
+  structural density (at least aluminium's) and the store's vertical offset are fitted to all
+  nine Table 2 frequencies in the paper's order by ``torchrom update``
+  (torchrom/data/goland_update.toml), and the store's chordwise position to the p-k flutter
+  altitude (experiments/goland_update.py; :data:`UPDATED_STORE_X`,
+  :data:`UPDATED_PARAMETERS`). Element sizes, E, ν and the store's mass and inertias are the
+  paper's;
 - point A, the output point of every response: the upper-skin tip grid at x = 2 ft (mid-box,
   on the elastic axis at 33 % of the 6 ft chord), grid 1102; outputs ``A_Tx``, ``A_Ty``,
   ``A_Tz`` (its basic translations).
@@ -47,6 +57,7 @@ Not given by the paper (REFERENCE Sec. 6) and therefore chosen here:
 from __future__ import annotations
 
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 
@@ -81,8 +92,56 @@ DEFAULT_STORE_X = 2.6888
 #: Keyed by (skins, webs, coupled_mass, store_x); the test suite re-calibrates and compares.
 CALIBRATED_DENSITY = {("bending", "cquad4-membrane", False, DEFAULT_STORE_X): 13.94723614}
 
+#: Model variants: "calibrated" (first pass: uniform density for mode 1, store_x for the
+#: flutter altitude) and "updated" (second pass: the declared non-structural mass groups fitted
+#: to Table 2 by ``torchrom update``, the store position to the flutter altitude;
+#: experiments/goland_update.py, results in experiments/results/goland_update.md).
+GOLAND_VARIANTS = ("calibrated", "updated")
+#: Targets and parameters of the updated variant (a ``torchrom update`` targets file)
+UPDATE_SPEC = Path(__file__).resolve().parents[1] / "data" / "goland_update.toml"
+#: Store position (ft from the leading edge) and parameter values (names of
+#: :data:`UPDATE_SPEC`; model units) of the updated variant, written by
+#: experiments/goland_update.py and re-checked by the tests.
+UPDATED_STORE_X = 2.273264272
+UPDATED_PARAMETERS: dict[str, float] = {
+    "density": 5.24,
+    "nsm_skins": 0.0,
+    "nsm_caps_mid": 0.07457845695,
+    "nsm_caps_le": 0.0,
+    "nsm_caps_te": 1.780730298,
+    "nsm_spar_mid": 0.0117153024,
+    "nsm_spar_le": 0.0,
+    "nsm_spar_te": 0.5844882298,
+    "nsm_ribs": 0.0,
+    "store_z": -0.7017268068,
+    "te_mass_x": 1.474,
+    "mass_le_in": 1.017714269,
+    "mass_le_out": 3.522150909,
+    "mass_te_in": 0.0,
+    "mass_te_out": 0.0,
+}
+
 STORE_GRID = 3000
 POINT_A_GRID = 1102
+
+
+def _mass_group_eid(edge: int, surface: int, station: int) -> int:
+    return 9100 + 200 * edge + 20 * (surface - 1) + station
+
+
+def _mass_group_grid(eid: int) -> tuple[int, int, int]:
+    """(surface, station, chord index) of a mass-group CONM2."""
+    k = eid - 9100
+    return k % 200 // 20 + 1, k % 20, 2 * (k // 200)
+
+
+#: CONM2 ids of the non-structural mass groups (``GolandOptions.mass_groups``): leading edge
+#: (x = 0) and trailing edge (x = 4 ft) grids, upper and lower, inboard and outboard
+MASS_GROUPS = {
+    f"{edge}_{part}": tuple(_mass_group_eid(e, s, j) for s in (1, 2) for j in js)
+    for e, edge in ((0, "le"), (1, "te"))
+    for part, js in (("in", range(1, 6)), ("out", range(6, 11)))
+}
 
 
 def grid_id(surface: int, station: int, chord: int) -> int:
@@ -101,6 +160,12 @@ class GolandOptions:
     skins: str = "bending"
     webs: str = "cquad4-membrane"
     coupled_mass: bool = False
+    #: declare the non-structural mass groups of model updating (REFERENCE Sec. 6): the
+    #: trailing-edge spar caps and web on their own properties (PROD 15, web 24; the leading
+    #: edge's sections) and massless CONM2 lines on the leading- and trailing-edge grids,
+    #: inboard (stations 1-5) and outboard (6-10) (:data:`MASS_GROUPS`); the matrices are
+    #: unchanged until updating gives them mass
+    mass_groups: bool = False
 
     def check(self) -> None:
         if self.skins not in ("bending", "membrane"):
@@ -141,10 +206,16 @@ def goland_bdf(store_x: float = DEFAULT_STORE_X, density: float = 1.0,
 
     m.add_pshell(1, mid1=1, t=SKIN_T, mid2=1 if options.skins == "bending" else None,
                  mid3=1 if options.skins == "bending" else None, comment="skins")
-    for pid, key in ((11, "span_mid"), (12, "span_edge"), (13, "chord"), (14, "thick")):
+    rods = [(11, "span_mid"), (12, "span_edge"), (13, "chord"), (14, "thick")]
+    webs = [(21, "span_mid"), (22, "span_edge"), (23, "chord")]
+    te_rod, te_web = (15, 24) if options.mass_groups else (12, 22)
+    if options.mass_groups:
+        rods.append((15, "span_edge"))
+        webs.append((24, "span_edge"))
+    for pid, key in rods:
         m.add_prod(pid, 1, ROD_AREA[key], comment=f"rods: {key}")
     web_bending = options.webs == "cquad4"
-    for pid, key in ((21, "span_mid"), (22, "span_edge"), (23, "chord")):
+    for pid, key in webs:
         if options.webs == "cshear":
             m.add_pshear(pid, 1, WEB_T[key], comment=f"shear panels: {key}")
         else:
@@ -161,7 +232,7 @@ def goland_bdf(store_x: float = DEFAULT_STORE_X, density: float = 1.0,
     eid = 1001
     for s in (1, 2):
         for i in range(3):
-            pid = 11 if i == 1 else 12
+            pid = (12, 11, te_rod)[i]
             for j in range(N_BAYS):
                 m.add_crod(eid, pid, [grid_id(s, j, i), grid_id(s, j + 1, i)])
                 eid += 1
@@ -176,7 +247,7 @@ def goland_bdf(store_x: float = DEFAULT_STORE_X, density: float = 1.0,
     add_web = m.add_cshear if options.webs == "cshear" else m.add_cquad4
     eid = 2001
     for i in range(3):  # spanwise webs (spars) in the y-z plane at x_i
-        pid = 21 if i == 1 else 22
+        pid = (22, 21, te_web)[i]
         for j in range(N_BAYS):
             add_web(eid, pid, [grid_id(1, j, i), grid_id(1, j + 1, i), grid_id(2, j + 1, i),
                                grid_id(2, j, i)])
@@ -191,6 +262,13 @@ def goland_bdf(store_x: float = DEFAULT_STORE_X, density: float = 1.0,
     m.add_conm2(9001, STORE_GRID, STORE_MASS, I=[0.0, 0.0, STORE_IYY, 0.0, 0.0, 0.0],
                 comment="tip store")
     m.add_rbe3(9002, STORE_GRID, "123456", [1.0], ["123"], [tip])
+    if options.mass_groups:
+        for name, eids in MASS_GROUPS.items():
+            for eid in eids:
+                surf, j, i = _mass_group_grid(eid)
+                m.add_conm2(eid, grid_id(surf, j, i), 0.0, X=[0.0, 0.0, 0.0],
+                            comment=f"non-structural mass group {name}" if eid == eids[0]
+                            else "")
     root = [grid_id(s, 0, i) for s in (1, 2) for i in range(3)]
     m.add_spc1(1, "123456", root, comment="clamped root")
     m.add_eigrl(1, nd=int(n_modes))
@@ -217,17 +295,55 @@ def _key(options: GolandOptions, store_x: float):
     return (options.skins, options.webs, bool(options.coupled_mass), float(store_x))
 
 
-def goland(store_x: float = DEFAULT_STORE_X, density: float | None = None, *,
+def updated_goland_bdf(n_modes: int = 10):
+    """The deck of the updated variant: the mass groups of :class:`GolandOptions` with the
+    values :data:`UPDATED_PARAMETERS` of the parameters of :data:`UPDATE_SPEC`."""
+    from .update import set_value
+    from .update_config import load_update_spec
+
+    spec = load_update_spec(UPDATE_SPEC)
+    missing = [p.name for p in spec.parameters if p.name not in UPDATED_PARAMETERS]
+    if missing:
+        raise InputError(f"goland: the updated variant has no value for {', '.join(missing)} "
+                         "(run experiments/goland_update.py)")
+    bdf = goland_bdf(UPDATED_STORE_X, 1.0, GolandOptions(mass_groups=True), n_modes)
+    for p in spec.parameters:
+        set_value(bdf, p, UPDATED_PARAMETERS[p.name], f"goland: updated variant: {p.name}")
+    return bdf
+
+
+def goland(store_x: float | None = None, density: float | None = None, *,
            skins: str = "bending", webs: str = "cquad4-membrane", coupled_mass: bool = False,
-           n_modes: int = 10, drilling: float = 1e-4):
+           n_modes: int = 10, drilling: float = 1e-4, variant: str = "calibrated",
+           mass_groups: bool = False):
     """Build the heavy Goland wing FE model (ft, slug, s, lbf).
 
-    ``density`` None uses the calibrated uniform density (mode 1 = 1.690 Hz): the cached value
-    for the default variant and store position, otherwise it is calibrated now
-    (:func:`calibrate_density`, about a second). ``store_x``: store reference grid, ft from
-    the leading edge. ``skins``/``webs``/``coupled_mass``: see :class:`GolandOptions`.
+    ``variant`` "calibrated" (:data:`GOLAND_VARIANTS`): ``density`` None uses the calibrated
+    uniform density (mode 1 = 1.690 Hz): the cached value for the default options and store
+    position, otherwise it is calibrated now (:func:`calibrate_density`, about a second).
+    ``store_x``: store reference grid, ft from the leading edge (None: the default).
+    ``skins``/``webs``/``coupled_mass``/``mass_groups``: see :class:`GolandOptions`.
+    ``variant`` "updated":
+    the model-updated wing (:func:`updated_goland_bdf`; store_x, density and the options are
+    those of the update and cannot be changed).
     """
-    options = GolandOptions(skins, webs, coupled_mass)
+    if variant not in GOLAND_VARIANTS:
+        raise InputError(f"goland: variant: expected one of {', '.join(GOLAND_VARIANTS)}, "
+                         f"got {variant!r}")
+    if variant == "updated":
+        changed = [k for k, v, d in (("store_x", store_x, None), ("density", density, None),
+                                     ("skins", skins, "bending"),
+                                     ("webs", webs, "cquad4-membrane"),
+                                     ("coupled_mass", coupled_mass, False),
+                                     ("mass_groups", mass_groups, False)) if v != d]
+        if changed:
+            raise InputError(f"goland: the updated variant fixes {', '.join(changed)}; use "
+                             "the calibrated variant to change them")
+        return from_pynastran(updated_goland_bdf(n_modes), source="goland",
+                              name="heavy Goland wing (updated)", units=GOLAND_UNITS,
+                              drilling=drilling)
+    store_x = DEFAULT_STORE_X if store_x is None else store_x
+    options = GolandOptions(skins, webs, coupled_mass, mass_groups)
     options.check()
     if density is None:
         density = CALIBRATED_DENSITY.get(_key(options, store_x))

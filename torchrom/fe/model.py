@@ -67,6 +67,35 @@ def _coo_parts(M: sp.spmatrix):
     return c.row.astype(np.int64), c.col.astype(np.int64), c.data
 
 
+def assemble_mass(mesh: Mesh) -> sp.csr_matrix:
+    """Mass matrix of a mesh on all its grid DOFs (basic axes, 6 per grid): elements'
+    structural and non-structural mass (lumped, or consistent with PARAM COUPMASS > 0), CONM1s,
+    CONM2s and CMASS2s. Model updating re-assembles it for changed mass cards (the grids, and so the
+    constraints, unchanged)."""
+    xyz, cm = mesh.xyz, mesh.coupled_mass
+    parts = []
+    if len(mesh.rods):
+        parts.append(rod_mass_blocks(mesh.rods, xyz, cm))
+    if len(mesh.quads):
+        q = mesh.quads
+        parts.append(area_mass_blocks(xyz, q.nodes, q.rho * q.t + q.nsm, cm))
+    if len(mesh.trias):
+        parts.append(tria_mass_blocks(mesh.trias, xyz, cm))
+    for solids in mesh.solids:
+        parts.append(solid_mass_blocks(solids, xyz, cm))
+    if len(mesh.shears):
+        parts.append(shear_mass_blocks(mesh.shears, xyz, cm))
+    if len(mesh.bars):
+        parts.append(bar_mass_blocks(mesh.bars, xyz, cm))
+    if mesh.conm2:
+        parts.append(conm2_blocks(mesh.conm2))
+    if mesh.cmass2:
+        parts.append(cmass2_blocks(mesh.cmass2, mesh.cd_axes))
+    if mesh.conm1:
+        parts.append(conm1_blocks(mesh.conm1))
+    return assemble(parts, 6 * mesh.n_grid)
+
+
 class FEModel:
     """A structural model with geometrically nonlinear internal forces on its free DOFs.
 
@@ -195,28 +224,7 @@ class FEModel:
         return assemble(parts + self._lin_parts, self.n_all)
 
     def _mass_all(self) -> sp.csr_matrix:
-        mesh, xyz, cm = self.mesh, self.mesh.xyz, self.mesh.coupled_mass
-        parts = []
-        if len(mesh.rods):
-            parts.append(rod_mass_blocks(mesh.rods, xyz, cm))
-        if len(mesh.quads):
-            q = mesh.quads
-            parts.append(area_mass_blocks(xyz, q.nodes, q.rho * q.t + q.nsm, cm))
-        if len(mesh.trias):
-            parts.append(tria_mass_blocks(mesh.trias, xyz, cm))
-        for solids in mesh.solids:
-            parts.append(solid_mass_blocks(solids, xyz, cm))
-        if len(mesh.shears):
-            parts.append(shear_mass_blocks(mesh.shears, xyz, cm))
-        if len(mesh.bars):
-            parts.append(bar_mass_blocks(mesh.bars, xyz, cm))
-        if mesh.conm2:
-            parts.append(conm2_blocks(mesh.conm2))
-        if mesh.cmass2:
-            parts.append(cmass2_blocks(mesh.cmass2, mesh.cd_axes))
-        if mesh.conm1:
-            parts.append(conm1_blocks(mesh.conm1))
-        return assemble(parts, self.n_all)
+        return assemble_mass(self.mesh)
 
     def _state(self, dtype=torch.float64, device=None) -> _TorchState:
         device = torch.device(device if device is not None else "cpu")

@@ -129,21 +129,30 @@ def _shifted_modes(K: np.ndarray, M: np.ndarray, n: int):
 
 
 def modal_analysis(fe, n: int, sigma: float | None = None) -> Modes:
-    """Lowest ``n`` modes of K φ = ω² M φ on the free DOFs.
+    """Lowest ``n`` modes of K φ = ω² M φ on the free DOFs of ``fe`` (:func:`eigenpairs`),
+    classified by kind."""
+    notes: list[str] = []
+    vals, vecs = eigenpairs(fe.stiffness_matrix(), fe.mass_matrix(), n, sigma, notes)
+    freqs = np.sqrt(np.clip(vals, 0.0, None)) / (2 * np.pi)
+    kinds, fractions = classify(fe, vecs)
+    return Modes(freqs, vecs, kinds, vals, fractions, notes)
+
+
+def eigenpairs(K: sp.spmatrix, M: sp.spmatrix, n: int, sigma: float | None = None,
+               notes: list[str] | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """Lowest ``n`` eigenpairs (ω² ascending, mass-normalised oriented shapes) of K φ = ω² M φ.
 
     Sparse shift-invert (ARPACK via ``eigsh``) about a small negative shift ``sigma`` (default
     −1e-6 × mean(diag K)/mean(diag M), safe for free-free models); small models (≤ 200 DOFs or
     n close to n_dof) use dense solvers (:func:`_dense_modes`); asking for more modes than the
-    model has returns all its finite modes, with a note.
+    model has returns all its finite modes, with a note (appended to ``notes`` when given).
     """
-    K = fe.stiffness_matrix()
-    M = fe.mass_matrix()
     N = K.shape[0]
     if n < 1:
         raise InputError(f"modes: n: expected a positive number of modes, got {n}")
-    notes: list[str] = []
+    found: list[str] = []
     if N <= 200 or n >= N - 1:
-        vals, vecs, notes = _dense_modes(K, M, n)
+        vals, vecs, found = _dense_modes(K, M, n)
     else:
         dK, dM = K.diagonal(), M.diagonal()
         if sigma is None:
@@ -157,15 +166,14 @@ def modal_analysis(fe, n: int, sigma: float | None = None) -> Modes:
             if N > DENSE_FALLBACK_DOFS:
                 raise ConvergenceError(f"modes: the eigensolver failed: {exc}") from None
             # e.g. K − σM exactly singular (DOFs with neither stiffness nor mass)
-            vals, vecs, notes = _dense_modes(K, M, n)
+            vals, vecs, found = _dense_modes(K, M, n)
     order = np.argsort(vals)
     vals, vecs = vals[order], vecs[:, order]
     gen_mass = np.einsum("ik,ik->k", vecs, M @ vecs)
     vecs = vecs / np.sqrt(np.abs(gen_mass))
-    vecs = orient_columns(vecs)
-    freqs = np.sqrt(np.clip(vals, 0.0, None)) / (2 * np.pi)
-    kinds, fractions = classify(fe, vecs)
-    return Modes(freqs, vecs, kinds, vals, fractions, notes)
+    if notes is not None:
+        notes.extend(found)
+    return vals, orient_columns(vecs)
 
 
 @dataclass

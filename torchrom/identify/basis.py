@@ -9,7 +9,9 @@ a large transverse deflection drags along. For each combination (j, l) of linear
 of α (half positive, half negative) and solved nonlinearly. The parts of the responses outside the
 span of the linear modes (residuals, removed by M-orthogonal projection) are decomposed by proper
 orthogonal decomposition (POD); the dominant POD vectors, mass-orthonormalised against the linear
-modes, are the dual modes. The paper's nine combinations (1-based) are the default.
+modes, are the dual modes. The paper's nine combinations (1-based) are the default of
+:class:`DualModeOptions`; ``torchrom identify`` chooses the combinations by a rule from the
+modes' kinds (:func:`transverse_combinations`).
 
 Choices (each an option of :class:`DualModeOptions`), measured on the heavy Goland wing, 9L12D,
 as the largest A_Tz / A_Ty errors at point A up to a 25 % span tip deflection under the uniform
@@ -85,16 +87,41 @@ NAMED_COMBINATIONS = {"paper": PAPER_COMBINATIONS,
                       "bending-torsion": BENDING_TORSION_COMBINATIONS}
 
 
-def parse_combinations(text: str, where: str = "--combinations") -> tuple[tuple[int, int], ...]:
-    """A named set (``paper``, ``bending-torsion``) or pairs ``J:L,J:L,...`` (1-based)."""
+#: the rule :func:`transverse_combinations` (``torchrom identify --combinations transverse``)
+TRANSVERSE_RULE = "transverse"
+
+
+def transverse_combinations(kinds: Sequence[str]) -> tuple[tuple[int, int], ...]:
+    """Dual-mode combinations chosen from the linear modes' kinds (:mod:`torchrom.fe.kinds`):
+    the first two transverse (bending or torsion) modes, each loaded alone and together with
+    the next transverse modes up to the third — (t1,t1), (t1,t2), (t1,t3), (t2,t2), (t2,t3).
+    In-plane and axial modes are left out: the loads along them push a wing box towards its
+    lateral–torsional instability (module docstring, "Combinations"). On the heavy Goland wing
+    (calibrated and updated) this is :data:`BENDING_TORSION_COMBINATIONS`."""
+    t = [i + 1 for i, k in enumerate(kinds) if k in ("bending", "torsion")]
+    if not t:
+        raise InputError("dual modes: no transverse (bending or torsion) linear mode to load; "
+                         "give the combinations explicitly")
+    return tuple((t[a], t[b]) for a in range(min(2, len(t))) for b in range(a, min(3, len(t))))
+
+
+def parse_combinations(text: str, where: str = "--combinations",
+                       kinds: Sequence[str] | None = None) -> tuple[tuple[int, int], ...]:
+    """A named set (``paper``, ``bending-torsion``), the rule ``transverse`` (needs the linear
+    modes' ``kinds``) or pairs ``J:L,J:L,...`` (1-based)."""
     if text in NAMED_COMBINATIONS:
         return NAMED_COMBINATIONS[text]
+    if text == TRANSVERSE_RULE:
+        if kinds is None:
+            raise InputError(f"{where}: the rule {TRANSVERSE_RULE!r} needs the mode kinds")
+        return transverse_combinations(kinds)
     pairs = []
     for item in text.split(","):
         try:
             j, l = (int(x) for x in item.split(":"))
         except ValueError:
-            raise InputError(f"{where}: expected one of {sorted(NAMED_COMBINATIONS)} or pairs "
+            raise InputError(f"{where}: expected one of "
+                             f"{sorted(NAMED_COMBINATIONS) + [TRANSVERSE_RULE]} or pairs "
                              f"J:L,J:L,... of 1-based mode numbers, got {text!r}") from None
         pairs.append((j, l))
     return tuple(pairs)
