@@ -50,7 +50,7 @@ from ..io import atomic_path, write_json_atomic
 from ..reference import paper_reference
 from ..rom import NonlinearROM
 from ..sim.aeroelastic import mode_outputs
-from ..study.models import ALTITUDE_RANGE_FT, AeroelasticModel
+from ..study.models import ALTITUDE_RANGE_FT, AeroelasticModel, ModelProvider
 from .cache import FileCache
 
 #: the paper's Table 2 natural frequencies (Hz) and what it says of the first five modes
@@ -310,3 +310,16 @@ def flutter_summary(model: AeroelasticModel, mode_kinds=None) -> dict[str, Any]:
                    for i, (f, p) in enumerate(zip(freqs, PAPER_TABLE2_HZ))],
         "rfa_fit_error": model.aero.rfa.fit_error,
     }
+
+
+# -- the built-in model of sweep configurations ([model] builtin = "goland") --------------------
+def _check_goland_table(table: dict[str, Any]) -> GolandPipeline:
+    return GolandPipeline.from_table(table)
+
+
+def _build_goland(table: dict[str, Any], folder: Path) -> AeroelasticModel:
+    return goland_pipeline(GolandPipeline.from_table(table), folder).model
+
+
+#: registered as the ``goland`` entry point of ``torchrom.models`` (pyproject.toml)
+GOLAND_MODEL = ModelProvider(check=_check_goland_table, build=_build_goland)

@@ -11,7 +11,8 @@ A sweep configuration has these tables (every key is checked; a bad one gives a 
                  ``aero = "aero.npz"`` (GAFs + RFA on the ROM's first modes) for an aeroelastic
                  sweep and optionally ``span`` (reference length of amplitudes in % of span);
                  or ``builtin = "goland"``: the built-in Goland pipeline (FE model, identified
-                 9L12D ROM, aerodynamics; :class:`torchrom.paper.pipeline.GolandPipeline` keys,
+                 9L12D ROM, aerodynamics; a :class:`~torchrom.study.models.ModelProvider` found
+                 through the ``torchrom.models`` entry points; GolandPipeline keys,
                  files cached in ``cache``, default ``goland`` under the cache root:
                  ``--cache-dir``, ``$TORCHROM_CACHE`` or ``~/.cache/torchrom``); or
                  ``builtin = "van_der_pol_duffing"`` /
@@ -78,7 +79,7 @@ from .cases import (
     check_case_values,
 )
 from .grid import config_hash, expand_cases
-from .models import AeroelasticModel, model_rom
+from .models import AeroelasticModel, model_provider, model_rom, provider_names
 
 SECTIONS = ("title", "method", "model", "aeroelastic", "initial", "integrator", "hb", "lco",
             "cases", "history", "plot", "run", "branch", "variants")
@@ -175,7 +176,7 @@ def _positive(table: dict, key: str, source: Path, where: str, default=None) -> 
 
 def is_aeroelastic(model: dict[str, Any]) -> bool:
     """Whether a ``[model]`` table describes a model with aerodynamics."""
-    return "aero" in model or model.get("builtin") == "goland"
+    return "aero" in model or model.get("builtin") in provider_names()
 
 
 def build_model(model: dict[str, Any], source: Path, aeroelastic: dict[str, Any] | None = None):
@@ -184,8 +185,8 @@ def build_model(model: dict[str, Any], source: Path, aeroelastic: dict[str, Any]
     where = "[model]"
     if ("rom" in model) == ("builtin" in model):
         raise _err(source, where, "give exactly one of rom = 'file.npz' or builtin = 'name'")
-    if model.get("builtin") == "goland":
-        return _goland_model(model, source, aeroelastic or {})
+    if model.get("builtin") in provider_names():
+        return _provided_model(model, source, aeroelastic or {})
     if "rom" in model:
         _check_keys(model, ("rom", "aero", "span"), source, where)
         rom = NonlinearROM.load(_relative(model["rom"], source))
@@ -203,7 +204,8 @@ def build_model(model: dict[str, Any], source: Path, aeroelastic: dict[str, Any]
             raise _err(source, where, str(exc)) from None
     name = model["builtin"]
     if name not in BUILTIN:
-        raise _err(source, f"{where} builtin", f"expected one of {sorted([*BUILTIN, 'goland'])}, "
+        raise _err(source, f"{where} builtin", f"expected one of "
+                   f"{sorted([*BUILTIN, *provider_names()])}, "
                    f"got {name!r}")
     fn = BUILTIN[name]
     kwargs = {k: v for k, v in model.items() if k != "builtin"}
@@ -234,31 +236,34 @@ def _aeroelastic_options(table: dict[str, Any] | None, source: Path) -> dict[str
 
 
 def goland_cache_folder(model: dict[str, Any], source: Path) -> Path:
-    """Cache folder of the built-in Goland pipeline: ``[model] cache``, else ``goland`` under the
-    cache root (--cache-dir, $TORCHROM_CACHE or ~/.cache/torchrom; :mod:`torchrom.cache_dir`)."""
+    """Cache folder of a built-in model with aerodynamics (e.g. the Goland pipeline):
+    ``[model] cache``, else its name under the cache root (--cache-dir, $TORCHROM_CACHE or
+    ~/.cache/torchrom; :mod:`torchrom.cache_dir`)."""
     from ..cache_dir import cache_folder
 
     if "cache" in model:
         return _relative(str(model["cache"]), source)
-    return cache_folder("goland")
+    return cache_folder(str(model.get("builtin", "goland")))
 
 
-def _goland_options(model: dict[str, Any], source: Path):
-    from ..paper.pipeline import GolandPipeline
+def _provider_table(model: dict[str, Any]) -> dict[str, Any]:
+    return {k: v for k, v in model.items() if k not in ("builtin", "cache")}
 
-    table = {k: v for k, v in model.items() if k not in ("builtin", "cache")}
+
+def _check_provided(model: dict[str, Any], source: Path) -> None:
     try:
-        return GolandPipeline.from_table(table)
+        model_provider(model["builtin"]).check(_provider_table(model))
     except InputError as exc:
         raise InputError(f"{source}: {exc}") from None
 
 
-def _goland_model(model: dict[str, Any], source: Path, aeroelastic: dict[str, Any]):
-    from ..paper.pipeline import goland_pipeline
-
-    res = goland_pipeline(_goland_options(model, source), goland_cache_folder(model, source))
+def _provided_model(model: dict[str, Any], source: Path, aeroelastic: dict[str, Any]):
+    """The built-in model with aerodynamics named by ``[model] builtin`` (a
+    :class:`~torchrom.study.models.ModelProvider`), with the ``[aeroelastic]`` options."""
+    _check_provided(model, source)
+    m = model_provider(model["builtin"]).build(_provider_table(model),
+                                               goland_cache_folder(model, source))
     opts = _aeroelastic_options(aeroelastic, source)
-    m = res.model
     return AeroelasticModel(m.rom, m.aero, **{"baseline_alpha": m.baseline_alpha,
                                               "baseline_gamma": m.baseline_gamma,
                                               "altitude_range_ft": m.altitude_range_ft, **opts})
@@ -380,8 +385,8 @@ def load_sweep_config(path, variant: str | None = None) -> SweepConfig:
                       plot=plot, batch_size=batch, chunk_size=run_t.get("chunk_size"), raw=raw,
                       aeroelastic=aero_t,
                       history=history, method=method, hb=hb)
-    if model.get("builtin") == "goland":
-        _goland_options(model, source)  # checked now; built (or reused) when the sweep runs
+    if model.get("builtin") in provider_names():
+        _check_provided(model, source)  # checked now; built (or reused) when the sweep runs
     else:
         build_model(model, source, aero_t)  # fail now, not after a long run
     return cfg

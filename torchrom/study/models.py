@@ -17,7 +17,11 @@ Hand-written glue over :mod:`torchrom.aero.flutter` (eigenvalues, Brent's method
 from __future__ import annotations
 
 import hashlib
+from collections.abc import Callable
 from dataclasses import dataclass, field
+from importlib import metadata
+from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -125,6 +129,45 @@ class AeroelasticModel:
                      float(self.baseline_alpha), float(self.baseline_gamma),
                      self.reference_altitude_ft, tuple(self.altitude_range_ft)))
         return hashlib.sha256(text.encode()).hexdigest()[:16]
+
+
+@dataclass(frozen=True)
+class ModelProvider:
+    """A built-in model with aerodynamics that a configuration names by ``[model] builtin =
+    NAME`` (the heavy Goland wing is one). Providers are found through the package entry point
+    group :data:`PROVIDER_GROUP` (``torchrom.models``), so that this layer needs no import of
+    the packages that build them (and another package can add its own wing).
+
+    Attributes:
+        check: ``check(table)`` validates the ``[model]`` keys (all but ``builtin`` and
+            ``cache``), InputError naming a bad one.
+        build: ``build(table, cache_folder)`` -> :class:`AeroelasticModel`, the model's files
+            cached in ``cache_folder``.
+    """
+
+    check: Callable[[dict[str, Any]], Any]
+    build: Callable[[dict[str, Any], Path], AeroelasticModel]
+
+
+#: entry point group of the model providers
+PROVIDER_GROUP = "torchrom.models"
+
+
+def provider_names() -> list[str]:
+    """Names of the installed model providers (without importing them)."""
+    return sorted({ep.name for ep in metadata.entry_points(group=PROVIDER_GROUP)})
+
+
+def model_provider(name: str) -> ModelProvider:
+    """The provider ``name`` (InputError naming the installed ones otherwise)."""
+    for ep in metadata.entry_points(group=PROVIDER_GROUP):
+        if ep.name == name:
+            provider = ep.load()
+            if not isinstance(provider, ModelProvider):
+                raise InputError(f"model provider {name!r} ({ep.value}) is not a ModelProvider")
+            return provider
+    raise InputError(f"builtin model {name!r}: not installed; model providers: "
+                     f"{provider_names()}")
 
 
 def model_rom(model) -> NonlinearROM:
