@@ -45,7 +45,7 @@ class NewtonOptions:
     """
 
     max_iterations: int = 25
-    tol: float = 1e-9
+    tol: float = 1e-7
     max_step: float = 0.5
 
 

@@ -119,7 +119,7 @@ def case_system(model, cases: list[dict[str, Any]], device=None, dtype=torch.flo
 #: longest neighbour chain: chains advance in lockstep, so longer ones mean smaller batches
 MAX_CHAIN = 16
 #: ... and, where there are enough cases, at least this many chains side by side
-MIN_CHAINS = 16
+MIN_CHAINS = 4
 #: case keys that neither order nor separate neighbour chains
 CHAIN_IGNORED = ("sample", "q0")
 
