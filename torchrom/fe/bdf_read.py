@@ -30,6 +30,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import InputError
+from .bdf_checks import check_complete, check_fields, duplicate_message
 from .elements.quad4 import quad_frames, shape
 from .mesh import (
     BarSet,
@@ -79,6 +80,9 @@ _CARD_MSG = re.compile(r"card=\[(.*?)\]", re.S)
 def _pynastran_error(fname: str, exc: Exception) -> InputError:
     """One line from a pyNastran parsing error: file, card, id, field and what was wrong."""
     text = str(exc)
+    duplicate = duplicate_message(fname, text)
+    if duplicate is not None:
+        return InputError(duplicate)
     first = text.strip().splitlines()[0] if text.strip() else type(exc).__name__
     card = ""
     m = _CARD_MSG.search(text)
@@ -101,6 +105,7 @@ def _read_pynastran(path: Path):
         text = path.read_text(errors="replace")
     except OSError as exc:
         raise InputError(f"{path}: cannot read the deck: {exc.strerror or exc}") from None
+    check_complete(text, path.name)
     upper = [ln.split("$")[0].strip().upper() for ln in text.splitlines()]
     has_cend = any(ln == "CEND" for ln in upper)
     has_begin = any(ln.startswith("BEGIN") and "BULK" in ln for ln in upper)
@@ -187,6 +192,7 @@ def from_pynastran(
     if unsupported not in ("error", "warn"):
         raise InputError(f"unsupported: expected 'error' or 'warn', got {unsupported!r}")
     _check_cards(model, fname, unsupported)
+    check_fields(model, fname)
     reader = _Reader(model, fname)
     mesh = reader.mesh(spc_id)
     loads = reader.loads(mesh)

@@ -22,24 +22,51 @@ from ..eigen import arpack_start, orient_columns
 from ..errors import ConvergenceError, InputError
 from .kinds import classify
 
+#: An eigenvalue ω² at or below this fraction of the model's stiffness-to-mass scale
+#: (mean |diag K| / mean |diag M|) is a rigid-body (zero-energy) mode. Rigid-body eigenvalues
+#: come out at rounding level, ≈ ε·cond ≈ 1e-14 of that scale (measured: ≤ 1e-15 on the
+#: free-free pt145 and the free-free test bar), while the lowest elastic mode of a free structure
+#: is ≥ 1e-7 of it (pt145, whose bars have 1e-5 of their translational inertia in rotation):
+#: 1e-8 separates the two by decades on both sides.
+RIGID_BODY_TOL = 1e-8
+
 
 @dataclass
 class Modes:
     """Linear normal modes: ``frequencies_hz (n,)``, mass-normalised ``shapes (n_dof, n)``
     (Φᵀ M Φ = I, signs by :func:`orient_columns`), ``kinds`` (bending,
-    torsion, in-plane, axial), ``eigenvalues`` ω² (rad²/s²), ``fractions`` (content per kind)."""
+    torsion, in-plane, axial), ``eigenvalues`` ω² (rad²/s²), ``fractions`` (content per kind).
+
+    These are the *elastic* modes. An unconstrained or under-constrained model also has
+    rigid-body (zero-energy) modes: their eigenvalues (near zero, of either sign; never clipped)
+    are ``rigid_eigenvalues`` and their shapes ``rigid_shapes``; ``n_rigid`` counts them.
+    """
 
     frequencies_hz: np.ndarray
     shapes: np.ndarray
     kinds: list[str]
     eigenvalues: np.ndarray
     fractions: list[dict[str, float]] = field(default_factory=list)
+    rigid_eigenvalues: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    rigid_shapes: np.ndarray | None = None
+
+    @property
+    def n_rigid(self) -> int:
+        return len(self.rigid_eigenvalues)
 
     def records(self, reference_hz=None) -> list[dict]:
-        """One dict per mode: mode, frequency_hz, kind (+ paper_hz, diff_pct when given)."""
+        """One dict per mode: mode, frequency_hz, kind (+ paper_hz, diff_pct when given).
+
+        Rigid-body modes come first (kind ``rigid-body``, ``frequency_hz`` = sign(ω²)·√|ω²|/2π,
+        ``eigenvalue`` ω²), numbered like Nastran's; the elastic modes follow."""
         out = []
+        for i, lam in enumerate(self.rigid_eigenvalues):
+            f = float(np.sign(lam) * np.sqrt(abs(lam)) / (2 * np.pi))
+            out.append({"mode": i + 1, "frequency_hz": f, "kind": "rigid-body",
+                        "eigenvalue": float(lam)})
+        r = self.n_rigid
         for i, f in enumerate(self.frequencies_hz):
-            rec = {"mode": i + 1, "frequency_hz": float(f), "kind": self.kinds[i]}
+            rec = {"mode": r + i + 1, "frequency_hz": float(f), "kind": self.kinds[i]}
             if reference_hz is not None:
                 ref = reference_hz[i] if i < len(reference_hz) else None
                 rec["paper_hz"] = ref
@@ -47,6 +74,19 @@ class Modes:
             rec.update({f"content_{k}": v for k, v in self.fractions[i].items()})
             out.append(rec)
         return out
+
+
+def require_restrained(modes: Modes, where: str) -> Modes:
+    """``modes`` unchanged, or InputError when the model has rigid-body modes: an analysis that
+    needs a restrained structure (flutter, aerodynamics on the modes) would otherwise mix
+    zero-frequency modes into its basis."""
+    if modes.n_rigid:
+        raise InputError(f"{where}: the structure has {modes.n_rigid} rigid-body mode(s) "
+                         f"(unconstrained or under-constrained; ω² = "
+                         f"{', '.join(f'{x:.2g}' for x in modes.rigid_eigenvalues)}); free-free "
+                         f"flutter (SUPORT) is not supported: constrain it with SPC/SPC1 or "
+                         f"GRID PS")
+    return modes
 
 
 def solve_linear(K: sp.spmatrix, r: np.ndarray) -> np.ndarray:
@@ -59,6 +99,21 @@ def _massless(M: sp.csr_matrix) -> np.ndarray:
     return np.asarray(abs(M).sum(axis=1)).ravel() == 0.0
 
 
+def _condense(K: np.ndarray, M: np.ndarray, z: np.ndarray):
+    """Static condensation of the massless coordinates ``z`` (exact for the eigenproblem):
+    (K_c, M_c, X) with the massless part of a mode = −X (massive part). A massless mechanism
+    (K_zz singular, e.g. an unconstrained rotation without inertia) is condensed by least squares:
+    for a positive semi-definite K its null vectors do not couple to the rest."""
+    m = ~z
+    Kzz, Kzm = K[np.ix_(z, z)], K[np.ix_(z, m)]
+    try:
+        with np.errstate(all="raise"):
+            X = la.solve(Kzz, Kzm, assume_a="sym")
+    except (la.LinAlgError, FloatingPointError, la.LinAlgWarning):
+        X = la.lstsq(Kzz, Kzm)[0]
+    return K[np.ix_(m, m)] - Kzm.T @ X, M[np.ix_(m, m)], X
+
+
 def _dense_modes(K: sp.spmatrix, M: sp.spmatrix, n: int):
     K = K.toarray()
     M = M.toarray()
@@ -66,55 +121,100 @@ def _dense_modes(K: sp.spmatrix, M: sp.spmatrix, n: int):
     m = ~z
     if n > m.sum():
         raise InputError(f"modes: asked for {n} modes but only {int(m.sum())} DOFs carry mass")
+    T = None
     if z.any():
-        # Massless DOFs have no inertia: condense them statically (exact for the eigenproblem).
-        Kzz, Kzm = K[np.ix_(z, z)], K[np.ix_(z, m)]
-        X = la.solve(Kzz, Kzm, assume_a="sym")
-        Kc = K[np.ix_(m, m)] - Kzm.T @ X
-        vals, vm = la.eigh(Kc, M[np.ix_(m, m)], subset_by_index=[0, n - 1])
-        vecs = np.zeros((K.shape[0], n))
-        vecs[m] = vm
-        vecs[z] = -X @ vm
+        Kc, Mc, X = _condense(K, M, z)
     else:
-        vals, vecs = la.eigh(K, M, subset_by_index=[0, n - 1])
+        Kc, Mc = K, M
+    mu, U = la.eigh(Mc)
+    if mu.min() <= 1e-12 * mu.max():
+        # A mass matrix singular without massless DOFs (e.g. a coupled bar mass with no rotary
+        # inertia): the massless combinations are condensed the same way in M's eigenbasis.
+        zz = mu <= 1e-12 * mu.max()
+        if n > (~zz).sum():
+            raise InputError(f"modes: asked for {n} modes but the mass matrix has rank "
+                             f"{int((~zz).sum())}")
+        T = U
+        Kc, Mc, Xt = _condense(U.T @ Kc @ U, np.diag(np.where(zz, 0.0, mu)), zz)
+    vals, vm = la.eigh(Kc, Mc, subset_by_index=[0, n - 1])
+    if T is not None:
+        full = np.zeros((T.shape[0], n))
+        full[~zz] = vm
+        full[zz] = -Xt @ vm
+        vm = T @ full
+    if not z.any():
+        return vals, vm
+    vecs = np.zeros((K.shape[0], n))
+    vecs[m] = vm
+    vecs[z] = -X @ vm
     return vals, vecs
 
 
-def modal_analysis(fe, n: int, sigma: float | None = None) -> Modes:
-    """Lowest ``n`` modes of K φ = ω² M φ on the free DOFs.
+def stiffness_mass_scale(K: sp.spmatrix, M: sp.spmatrix) -> float:
+    """mean |diag K| / mean |diag M| over the DOFs with mass (rad²/s²): the scale of ω²."""
+    dK, dM = np.abs(K.diagonal()), np.abs(M.diagonal())
+    massive = dM != 0
+    return float(np.mean(dK) / max(np.mean(dM[massive]) if massive.any() else 1.0, 1e-300))
 
-    Sparse shift-invert (ARPACK via ``eigsh``) about a small negative shift ``sigma`` (default
-    −1e-6 × mean(diag K)/mean(diag M), safe for free-free models); small models (≤ 200 DOFs or
-    n close to n_dof) use a dense solver with static condensation of massless DOFs.
-    """
-    K = fe.stiffness_matrix()
-    M = fe.mass_matrix()
+
+def _lowest(K, M, k: int, sigma: float | None, scale: float):
+    """The lowest ``k`` eigenpairs, ascending (dense or shift-invert Lanczos)."""
     N = K.shape[0]
-    if n < 1:
-        raise InputError(f"modes: n: expected a positive number of modes, got {n}")
-    if n >= N:
-        raise InputError(f"modes: asked for {n} modes of a model with {N} free DOFs")
-    if N <= 200 or n >= N - 1:
-        vals, vecs = _dense_modes(K, M, n)
+    if N <= 200 or k >= N - 1:
+        vals, vecs = _dense_modes(K, M, k)
     else:
-        dK, dM = K.diagonal(), M.diagonal()
-        if sigma is None:
-            ratio = np.mean(np.abs(dK)) / max(np.mean(np.abs(dM[dM != 0])) if (dM != 0).any()
-                                               else 1.0, 1e-300)
-            sigma = -1e-6 * ratio
+        sigma = -1e-6 * scale if sigma is None else sigma
         try:
-            vals, vecs = sla.eigsh(K.tocsc(), k=n, M=M.tocsc(), sigma=sigma, which="LM",
+            vals, vecs = sla.eigsh(K.tocsc(), k=k, M=M.tocsc(), sigma=sigma, which="LM",
                                    v0=arpack_start(N))
         except (RuntimeError, sla.ArpackNoConvergence) as exc:
             raise ConvergenceError(f"modes: the eigensolver failed: {exc}") from None
     order = np.argsort(vals)
-    vals, vecs = vals[order], vecs[:, order]
+    return vals[order], vecs[:, order]
+
+
+def modal_analysis(fe, n: int, sigma: float | None = None) -> Modes:
+    """Lowest ``n`` elastic modes of K φ = ω² M φ on the free DOFs, and the rigid-body modes.
+
+    Sparse shift-invert (ARPACK via ``eigsh``) about a small negative shift ``sigma`` (default
+    −1e-6 × the stiffness-to-mass scale, so that a singular K — a free-free model — is still
+    factorised); small models (≤ 200 DOFs or n close to n_dof) use a dense solver with static
+    condensation of massless DOFs (and of massless combinations of DOFs). Eigenvalues at or below
+    ``RIGID_BODY_TOL`` × scale are rigid-body modes: counted and returned apart, and ``n`` more
+    elastic modes are computed past them.
+    """
+    K = fe.stiffness_matrix()
+    M = fe.mass_matrix()
+    N = K.shape[0]
+    if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 1:
+        raise InputError(f"modes: n: expected a positive number of modes, got {n!r}")
+    if n >= N:
+        raise InputError(f"modes: asked for {n} modes of a model with {N} free DOFs")
+    scale = stiffness_mass_scale(K, M)
+    tol = RIGID_BODY_TOL * scale
+    k_max = min(N - 1, int((~_massless(M)).sum()))
+    k = n
+    while True:
+        vals, vecs = _lowest(K, M, k, sigma, scale)
+        rigid = vals <= tol
+        r = int(rigid.sum())
+        if k - r >= n or k >= k_max:
+            break
+        k = min(n + r + 6, k_max)  # room for the rigid-body modes (a free body has six)
+    if not np.all(np.isfinite(vals)):
+        raise ConvergenceError("modes: the eigensolver returned non-finite eigenvalues")
+    if k - r < n:
+        raise InputError(f"modes: asked for {n} elastic modes but the model has {r} rigid-body "
+                         f"modes and only {k - r} elastic ones")
     gen_mass = np.einsum("ik,ik->k", vecs, M @ vecs)
     vecs = vecs / np.sqrt(np.abs(gen_mass))
     vecs = orient_columns(vecs)
-    freqs = np.sqrt(np.clip(vals, 0.0, None)) / (2 * np.pi)
-    kinds, fractions = classify(fe, vecs)
-    return Modes(freqs, vecs, kinds, vals, fractions)
+    elastic = np.nonzero(~rigid)[0][:n]
+    vals_e, vecs_e = vals[elastic], vecs[:, elastic]
+    freqs = np.sqrt(vals_e) / (2 * np.pi)
+    kinds, fractions = classify(fe, vecs_e)
+    return Modes(freqs, vecs_e, kinds, vals_e, fractions, rigid_eigenvalues=vals[rigid],
+                 rigid_shapes=vecs[:, rigid])
 
 
 @dataclass
