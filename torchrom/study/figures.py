@@ -94,7 +94,9 @@ def _status_legend(plt, table: pd.DataFrame) -> list:
 def _curve_axes(ax, table: pd.DataFrame, y: str, x: str = "altitude_ft"):
     """One line per curve through its converged LCOs, status markers on every case; cases that
     diverged or failed are drawn at the top of the axis (their values are off any useful scale)."""
-    drawn = table[table["status"].isin(["lco", "unconverged", "decay"])][y]
+    last = f"last_{y}" if f"last_{y}" in table else y  # an unconverged case's value when stopped
+    drawn = pd.concat([table[table["status"].isin(["lco", "decay"])][y],
+                       table[table["status"] == "unconverged"][last]])
     drawn = drawn[np.isfinite(drawn)]
     top = float(drawn.max()) * 1.08 if len(drawn) else 1.0
     for label, grp in curves(table, x):
@@ -103,8 +105,8 @@ def _curve_axes(ax, table: pd.DataFrame, y: str, x: str = "altitude_ft"):
         for status, (marker, filled) in MARKERS.items():
             sel = grp[grp["status"] == status]
             if len(sel):
-                vals = sel[y] if status in ("lco", "unconverged", "decay") else np.full(
-                    len(sel), top)
+                vals = (sel[y] if status in ("lco", "decay") else sel[last]
+                        if status == "unconverged" else np.full(len(sel), top))
                 ax.plot(sel[x], vals, marker, ms=5, color=line.get_color(),
                         mfc=line.get_color() if filled else "none", ls="none")
     ax.grid(alpha=0.3)
