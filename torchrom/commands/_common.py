@@ -41,6 +41,17 @@ def cpu_workers(value: str) -> int:
     return n
 
 
+def positive_int(value: str) -> int:
+    """An argparse type: a positive integer (argparse prints the error and exits with 2)."""
+    try:
+        n = int(value)
+    except ValueError:
+        n = 0
+    if n < 1:
+        raise argparse.ArgumentTypeError(f"expected a positive integer, got {value!r}")
+    return n
+
+
 def add_executor_options(parser: argparse.ArgumentParser) -> None:
     """--workers N | --scheduler ADDR and --chunk-size (commands that run many cases; see
     :mod:`torchrom.study.runner`). Default: in-process."""
@@ -51,7 +62,7 @@ def add_executor_options(parser: argparse.ArgumentParser) -> None:
     group.add_argument("--scheduler", default=None, metavar="ADDR",
                        help="run chunks on the existing Dask cluster at ADDR "
                             "(e.g. tcp://host:8786)")
-    parser.add_argument("--chunk-size", type=int, default=None, metavar="N",
+    parser.add_argument("--chunk-size", type=positive_int, default=None, metavar="N",
                         help="cases per chunk of work (default: [run] chunk_size, else about 8 "
                              "chunks)")
 
@@ -92,15 +103,39 @@ def load_study(args: argparse.Namespace):
 
 
 def check_outputs(args: argparse.Namespace, paths, may_replace: bool | None = None) -> None:
-    """Refuse (InputError) before any work when an output or the --json file exists, unless
-    --force (``may_replace`` overrides --force for ``paths``, e.g. a sweep resuming its own)."""
-    from ..io import check_can_write
+    """The output policy of every command, applied before any work: refuse (InputError) when an
+    output or the --json file exists, unless --force (``may_replace`` overrides --force for
+    ``paths``, e.g. a sweep resuming its own), or when --out / a folder of an output is a file
+    or not writable (:func:`torchrom.io.check_can_write`)."""
+    from ..io import check_can_write, check_folder
 
+    out = getattr(args, "out", None)
+    if out is not None and not Path(out).suffix:
+        check_folder(out, "--out")
     force = bool(getattr(args, "force", False))
     for p in paths:
         check_can_write(p, force if may_replace is None else may_replace, "output")
     if getattr(args, "json", None) is not None:
         check_can_write(args.json, force, "JSON output")
+
+
+def write_figure(draw, *args, **kwargs):
+    """Draw a figure after the tables are safe: a failure of the plotting library (e.g. a value
+    it cannot place) is a warning, and the command then ends with status 1 — the tables written
+    before stay. Returns the path, or None when the figure failed."""
+    import sys
+
+    from ..errors import InputError
+
+    try:
+        return draw(*args, **kwargs)
+    except InputError:
+        raise
+    except Exception as exc:  # noqa: BLE001 - any plotting failure must not lose the tables
+        first = str(exc).strip().splitlines()[0] if str(exc).strip() else ""
+        print(f"warning: figure not written ({type(exc).__name__}: {first[:200]}); the tables "
+              f"are written", file=sys.stderr)
+        return None
 
 
 def maybe_write_json(args: argparse.Namespace, obj: Any) -> None:

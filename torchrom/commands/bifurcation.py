@@ -22,7 +22,13 @@ import sys
 from pathlib import Path
 
 from ..errors import InputError
-from ._common import add_study_options, check_outputs, load_study, maybe_write_json
+from ._common import (
+    add_study_options,
+    check_outputs,
+    load_study,
+    maybe_write_json,
+    write_figure,
+)
 
 NAME = "bifurcation"
 HELP = "classify LCOs as supercritical or subcritical by a batched sweep of initial amplitudes"
@@ -102,15 +108,17 @@ def run(args: argparse.Namespace) -> int:
     written = [*write_table(summary, out, force=args.force, stem="bifurcation").values(),
                *write_table(result.runs, out, force=args.force,
                             stem="bifurcation_runs").values(),
-               bifurcation_plot(result.runs, summary, paths["figure"], x=x,
-                                title=f"{cfg.title}: {result.character}", force=args.force)]
+               write_figure(bifurcation_plot, result.runs, summary, paths["figure"], x=x,
+                            title=f"{cfg.title}: {result.character}", force=args.force)]
     for _, row in summary.iterrows():
         label = case_label(row, varying, empty="case")
         print(f"[{label}] {row['local']}: {row['attractors']}")
     print(f"character: {result.character}")
     print(f"evidence: {result.evidence}")
+    figures_ok = written[-1] is not None
+    written = [p for p in written if p is not None]
     for p in written:
         print(f"wrote {p}")
     maybe_write_json(args, {"character": result.character, "evidence": result.evidence,
                             "controls": summary.to_dict(orient="records")})
-    return 0
+    return 0 if figures_ok else 1

@@ -21,7 +21,13 @@ import sys
 from pathlib import Path
 
 from ..errors import InputError
-from ._common import add_study_options, check_outputs, load_study, maybe_write_json
+from ._common import (
+    add_study_options,
+    check_outputs,
+    load_study,
+    maybe_write_json,
+    write_figure,
+)
 
 NAME = "calibrate"
 HELP = "find the Kelvin-Voigt factor gamma that produces a target LCO amplitude (batched)"
@@ -83,8 +89,9 @@ def run(args: argparse.Namespace) -> int:
     written = [*write_table(table, out, force=args.force, stem="calibration").values(),
                *write_table(result.evaluations, out, force=args.force,
                             stem="calibration_runs").values(),
-               calibration_plot(result.evaluations, table, paths["figure"], column=args.column,
-                                target=args.target, title=cfg.title, force=args.force)]
+               write_figure(calibration_plot, result.evaluations, table, paths["figure"],
+                            column=args.column, target=args.target, title=cfg.title,
+                            force=args.force)]
     for _, row in table.iterrows():
         base = case_label(row, bases[int(row["base_case"])])
         if row["status"] != "ok":
@@ -95,7 +102,9 @@ def run(args: argparse.Namespace) -> int:
               f"{row['damplitude_dgamma']:.4g} per s, dln/dln = {row['sensitivity']:.4g}; "
               f"check: {row['check_status']} {row['check_value']:.6g} "
               f"({100 * row['check_error']:+.3f} %)")
+    figures_ok = written[-1] is not None
+    written = [p for p in written if p is not None]
     for p in written:
         print(f"wrote {p}")
     maybe_write_json(args, table.to_dict(orient="records"))
-    return 0 if (table["status"] == "ok").all() else 1
+    return 0 if figures_ok and (table["status"] == "ok").all() else 1

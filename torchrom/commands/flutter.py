@@ -22,7 +22,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ._common import add_json_option, maybe_write_json
+from ._common import add_force_option, add_json_option, check_outputs, maybe_write_json
 
 NAME = "flutter"
 HELP = (
@@ -80,11 +80,13 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--plot", type=Path, help="write a V-g / V-f figure (PNG/PDF)")
     p.add_argument("--root-locus", type=Path, help="write a state-space root-locus figure")
     add_json_option(p)
+    add_force_option(p)
 
 
 def run(args: argparse.Namespace) -> int:
     from ..errors import InputError
 
+    check_outputs(args, [p for p in (args.plot, args.root_locus) if p is not None])
     inputs = args.inputs
     if len(inputs) == 1 and inputs[0] != "goland":
         return _run_deck(args, Path(inputs[0]))

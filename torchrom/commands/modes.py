@@ -10,7 +10,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from ._common import add_json_option, maybe_write_json
+from ._common import add_force_option, add_json_option, check_outputs, maybe_write_json
 
 NAME = "modes"
 HELP = "linear modal analysis table of a Nastran deck (MODEL.bdf)"
@@ -23,6 +23,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--unsupported", choices=("error", "warn"), default="error",
                         help="what to do with unsupported structural cards (default error)")
     add_json_option(parser)
+    add_force_option(parser)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -30,7 +31,9 @@ def run(args: argparse.Namespace) -> int:
     from ..fe.bdf_read import GOLAND_TITLE, _title
     from ..fe.goland import TABLE2_HZ
     from ..fe.report import mode_table
+    from ..fe.solvers import RIGID_BODY_TOL
 
+    check_outputs(args, [])
     fe = read_bdf(args.model, unsupported=args.unsupported)
     s = fe.summary()
     elements = ", ".join(f"{k} {v}" for k, v in s.items()
@@ -40,6 +43,9 @@ def run(args: argparse.Namespace) -> int:
     modes = fe.modes(args.n)
     is_goland = _title(fe.bdf).startswith(GOLAND_TITLE)
     records = modes.records(reference_hz=TABLE2_HZ if is_goland else None)
+    if modes.n_rigid:
+        print(f"{modes.n_rigid} rigid-body mode(s) (ω² at or below {RIGID_BODY_TOL:g} of the "
+              f"stiffness-to-mass scale), then the elastic modes:")
     print(mode_table(records))
     maybe_write_json(args, records)
     return 0

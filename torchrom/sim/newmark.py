@@ -361,6 +361,8 @@ class Newmark:
             history: cases whose decimated output histories are kept.
             progress: called as progress(cases_done, cases_total) at every check.
         """
+        if not isinstance(system, CaseSystem):
+            raise InputError(f"system: expected a CaseSystem, got {type(system).__name__}")
         threads = self._threads(system)
         before = torch.get_num_threads()
         try:
