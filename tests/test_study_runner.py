@@ -128,6 +128,8 @@ def test_case_ids_depend_on_the_model(tmp_path):
 
     out = tmp_path / "out"
     PartStore(out, run_a).open()
+    assert PartStore(out, run_b).check() is False  # a manifest alone (no results) never blocks
+    (out / "parts" / "part-0000.parquet").write_bytes(b"a stored chunk")
     with pytest.raises(InputError, match="different configuration .model changed.*--force"):
         PartStore(out, run_b).open()
     assert main(["sweep", str(path), "--out", str(out)]) == 2  # the CLI refuses it too
