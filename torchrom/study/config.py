@@ -395,7 +395,7 @@ def check_initial(cfg: SweepConfig, model) -> None:
     """InputError unless the ``[initial]`` state (q0 / v0 sizes, mode number) and the ``[lco]``
     outputs fit the model."""
     from ..sim import output_matrix
-    from .sweep import initial_displacement, initial_velocity
+    from .cases import initial_displacement, initial_velocity
 
     rom = model_rom(model)
     try:
