@@ -211,3 +211,35 @@ def test_free_free_flutter_is_a_clear_error(shared, tmp_path, capsys):
     rc = main(["flutter", str(_free_free_pt145(shared, tmp_path))])
     err = capsys.readouterr().err
     assert rc == 2 and "4 rigid-body mode(s)" in err and "SUPORT" in err
+
+
+def test_point_mass_on_a_massless_plate():
+    """Density 0 and one point mass at the tip of a clamped plate strip (300 DOFs: the sparse
+    solver): the mass matrix has rank 3, so there are exactly three modes — the tip mass on the
+    plate's tip flexibility. Lanczos returns pseudo-pairs here (relative residual ≈ 1); they are
+    detected and the dense solver condenses the massless DOFs. Independent check: ω² are the
+    eigenvalues of (m F)⁻¹, F the 3 x 3 tip flexibility from three static solves (to 1e-8:
+    both are exact linear algebra on the same K). A fourth mode does not exist: an error."""
+    from torchrom.errors import InputError
+    from torchrom.fe.solvers import solve_linear
+
+    from .fe_decks import model_of, plate_strip
+
+    deck = plate_strip(10, 4, 1.0, 0.2, 0.01, 7e10, 0.3, rho=0.0)
+    mass = 2.0
+    deck.add_conm2(999, 55, mass)
+    fe = model_of(deck)
+    assert fe.n_dof > 200
+    modes = fe.modes(3)
+    assert modes.n_rigid == 0
+    K = fe.stiffness_matrix()
+    dofs = [fe.dof_index(55, c) for c in (1, 2, 3)]
+    F = np.zeros((3, 3))
+    for j, d in enumerate(dofs):
+        e = np.zeros(fe.n_dof)
+        e[d] = 1.0
+        F[:, j] = solve_linear(K, e)[dofs]
+    expected = np.sort(1.0 / np.linalg.eigvalsh(mass * F))
+    np.testing.assert_allclose(modes.eigenvalues, expected, rtol=1e-8)
+    with pytest.raises(InputError, match="only 3 DOFs carry mass|rank 3"):
+        fe.modes(4)
