@@ -80,7 +80,7 @@ def require_restrained(modes: Modes, where: str) -> Modes:
     """``modes`` unchanged, or InputError when the model has rigid-body modes: an analysis that
     needs a restrained structure (flutter, aerodynamics on the modes) would otherwise mix
     zero-frequency modes into its basis."""
-    if modes.n_rigid:
+    if getattr(modes, "n_rigid", 0):  # modes of another source (e.g. closed form) have none
         raise InputError(f"{where}: the structure has {modes.n_rigid} rigid-body mode(s) "
                          f"(unconstrained or under-constrained; ω² = "
                          f"{', '.join(f'{x:.2g}' for x in modes.rigid_eigenvalues)}); free-free "
