@@ -389,3 +389,62 @@ def test_nan_case_never_changes_its_neighbours():
                                 t_end=20.0, lco=crit)
     assert (good.status == run.status[[0, 3]]).all()
     np.testing.assert_array_equal(good.q, run.q[[0, 3]])
+
+
+def test_changed_case_grid_does_not_replace_a_finished_table(tmp_path, capsys):
+    """A finished sweep, then the same configuration with another case grid into the same
+    folder: refused (the table of the first grid stays) unless --force."""
+    cfg = tmp_path / "sweep.toml"
+    cfg.write_text(CONFIG)
+    out = tmp_path / "out"
+    assert _cli(capsys, ["sweep", cfg, "--out", out])[0] == 0
+    before = _snapshot(out)
+    cfg.write_text(CONFIG.replace("alpha = [0.0, 0.3]", "alpha = [0.0, 0.3, 0.6]"))
+    rc, err = _cli(capsys, ["sweep", cfg, "--out", out])
+    assert rc == 2
+    _one_line_error(err, "results.parquet", "another case grid", "--force")
+    assert _snapshot(out) == before
+
+
+def test_permission_denied_while_writing(tmp_path, capsys, monkeypatch):
+    """The file system refusing a write (EACCES, as for a read-only folder when not root):
+    exit 2, one line, the deck not half-written."""
+    import torchrom.io as tio
+
+    def denied(*a, **k):
+        raise PermissionError(errno.EACCES, os.strerror(errno.EACCES), str(tmp_path / "g"))
+
+    monkeypatch.setattr(tio.tempfile, "mkstemp", denied)
+    rc, err = _cli(capsys, ["goland", "--out", tmp_path / "g"])
+    assert rc == 2
+    _one_line_error(err, "goland.bdf", os.strerror(errno.EACCES))
+    assert not (tmp_path / "g" / "goland.bdf").exists()
+
+
+def test_extreme_alpha_is_no_traceback(tmp_path, capsys):
+    """α = 1e308 (finite, so a valid case value): the cases are decided or marked, the table is
+    written, and whatever the figure makes of it is at most a warning (exit 0 or 1)."""
+    cfg = tmp_path / "sweep.toml"
+    cfg.write_text(CONFIG.replace("alpha = [0.0, 0.3]", "alpha = [0.0, 1e308]"))
+    out = tmp_path / "out"
+    rc, err = _cli(capsys, ["sweep", cfg, "--out", out])
+    assert rc in (0, 1) and "Traceback" not in err
+    assert (out / "results.csv").exists()
+
+
+@pytest.mark.parametrize("command", ["goland", "aero", "identify", "paper"])
+def test_json_of_every_command_is_not_replaced(command, tmp_path, capsys):
+    """The --json file of every command is checked with the other outputs, before any work."""
+    js = tmp_path / "old.json"
+    js.write_text("mine\n")
+    deck = tmp_path / "wing.bdf"
+    deck.write_text(DECK)
+    argv = {"goland": ["goland", "--out", tmp_path / "g"],
+            "aero": ["aero", deck, "--mach", "0.5", "--out", tmp_path / "aero.npz"],
+            "identify": ["identify", deck, "--out", tmp_path / "rom.npz"],
+            "paper": ["paper", "--out", tmp_path / "p", "--quick"]}[command]
+    rc, err = _cli(capsys, [*argv, "--json", js])
+    assert rc == 2
+    _one_line_error(err, "old.json", "--force")
+    assert js.read_text() == "mine\n"
+    assert not (tmp_path / "g").exists() and not (tmp_path / "aero.npz").exists()

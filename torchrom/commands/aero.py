@@ -9,7 +9,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from ._common import add_force_option, add_json_option, maybe_write_json
+from ._common import add_force_option, add_json_option, check_outputs, maybe_write_json
 
 NAME = "aero"
 HELP = "unsteady aerodynamics: DLM generalized forces Q(k) on the modes and their RFA (aero.npz)"
@@ -76,9 +76,7 @@ def load_fe(model: str):
 def run(args: argparse.Namespace) -> int:
     from ..aero.build import GOLAND_K_LIST, build_from_deck, build_from_modes, modal_data
     from ..aero.panels import goland_panels
-    from ..io import check_can_write
-
-    check_can_write(args.out, args.force, "aero file")
+    check_outputs(args, [args.out])
     goland = args.model == "goland" or args.planform == "goland"
     print(f"torchrom aero: {args.model}: modal analysis ({args.modes} modes)")
     fe = load_fe(args.model)

@@ -11,7 +11,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from ._common import add_force_option, add_json_option, maybe_write_json
+from ._common import add_force_option, add_json_option, check_outputs, maybe_write_json
 
 NAME = "goland"
 HELP = "write the heavy Goland wing BDF (goland.bdf) and print its modes against Table 2"
@@ -42,10 +42,9 @@ def run(args: argparse.Namespace) -> int:
     from ..fe import goland, goland_stiffness, write_bdf
     from ..fe.goland import table2_records
     from ..fe.report import mode_table
-    from ..io import check_can_write
 
     out = Path(args.out) / "goland.bdf"
-    check_can_write(out, args.force, "deck")
+    check_outputs(args, [out])
     if args.store_x is None:
         from ..fe.goland import DEFAULT_STORE_X
 

@@ -19,8 +19,7 @@ import time
 from pathlib import Path
 
 from ..errors import InputError
-from ..io import check_can_write
-from ._common import add_force_option, add_json_option, maybe_write_json
+from ._common import add_force_option, add_json_option, check_outputs, maybe_write_json
 
 NAME = "identify"
 HELP = "identify the nonlinear ROM (stiffness + Kelvin-Voigt damping) of an FE model"
@@ -79,10 +78,7 @@ class _Progress:
 def run(args) -> int:
     from ..identify.build import IdentifyOptions, as_backend, identify
 
-    check_can_write(args.out, args.force, "ROM file")
-    if args.report is not None and (args.report / "report.md").exists() and not args.force:
-        raise InputError(f"report {args.report / 'report.md'} already exists; pass --force to "
-                         "overwrite it")
+    check_outputs(args, [args.out, *([args.report / "report.md"] if args.report else [])])
     if not args.model.is_file():
         raise InputError(f"{args.model}: no such model file")
     from ..fe import read_bdf

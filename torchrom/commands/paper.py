@@ -23,7 +23,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from ._common import add_force_option, add_json_option, maybe_write_json
+from ._common import add_force_option, add_json_option, check_outputs, maybe_write_json
 
 NAME = "paper"
 HELP = "the paper's whole post-flutter LCO study: model, flutter, sweeps, figures, report.md"
@@ -46,6 +46,7 @@ def run(args: argparse.Namespace) -> int:
     from ._common import torch_device
 
     out = args.out or Path("paper-quick" if args.quick else "paper")
+    check_outputs(args, [])  # --json; the folder itself is checked by run_paper
     device = torch_device(args.device)
     t0 = time.perf_counter()
     print(f"torchrom paper{' --quick' if args.quick else ''}: heavy Goland wing study into {out}")

@@ -31,7 +31,7 @@ import torch
 
 from .._version import __version__
 from ..errors import InputError
-from ..io import write_json_atomic, write_text_atomic
+from ..io import check_folder, write_json_atomic, write_text_atomic
 from ..study import figures
 from ..study.config import load_sweep_config
 from ..study.grid import config_hash
@@ -86,8 +86,7 @@ class Stopwatch:
 
 def _check_folder(out: Path, force: bool) -> None:
     """Refuse a non-empty folder that this command did not write (unless ``force``)."""
-    if out.exists() and not out.is_dir():
-        raise InputError(f"--out {out}: exists and is not a folder")
+    check_folder(out, "--out")  # a file, or a folder that cannot be written
     if out.is_dir() and any(out.iterdir()) and not (out / MANIFEST).is_file() and not force:
         raise InputError(f"--out {out}: the folder holds files that torchrom paper did not "
                          f"write; choose another folder or pass --force")
