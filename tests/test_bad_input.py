@@ -448,3 +448,20 @@ def test_json_of_every_command_is_not_replaced(command, tmp_path, capsys):
     _one_line_error(err, "old.json", "--force")
     assert js.read_text() == "mine\n"
     assert not (tmp_path / "g").exists() and not (tmp_path / "aero.npz").exists()
+
+
+@pytest.mark.parametrize("command", ["aero", "identify"])
+def test_free_free_deck_needs_constraints(command, tmp_path, capsys):
+    """An unconstrained deck where the analysis needs a restrained structure: a clear error
+    naming the rigid-body modes and what to add, never a singular matrix or a 0 Hz basis
+    (flutter of the free-free pt145: tests/test_fe_solvers.py)."""
+    deck = tmp_path / "free.bdf"
+    deck.write_text(DECK.replace("SPC1    1       123456  1\n", "").replace("SPC = 1\n", ""))
+    argv = {"aero": ["aero", deck, "--mach", "0.5", "--planform", "goland", "--modes", "2",
+                     "--out", tmp_path / "aero.npz"],
+            "identify": ["identify", deck, "--linear", "2", "--dual", "1", "--combinations",
+                         "1:1", "--out", tmp_path / "rom.npz"]}[command]
+    rc, err = _cli(capsys, argv)
+    assert rc == 2
+    _one_line_error(err, "free", "rigid-body mode", "SPC")
+    assert not (tmp_path / "aero.npz").exists() and not (tmp_path / "rom.npz").exists()

@@ -81,11 +81,11 @@ def require_restrained(modes: Modes, where: str) -> Modes:
     needs a restrained structure (flutter, aerodynamics on the modes) would otherwise mix
     zero-frequency modes into its basis."""
     if getattr(modes, "n_rigid", 0):  # modes of another source (e.g. closed form) have none
+        values = ", ".join(f"{x:.2g}" for x in modes.rigid_eigenvalues)
         raise InputError(f"{where}: the structure has {modes.n_rigid} rigid-body mode(s) "
-                         f"(unconstrained or under-constrained; ω² = "
-                         f"{', '.join(f'{x:.2g}' for x in modes.rigid_eigenvalues)}); free-free "
-                         f"flutter (SUPORT) is not supported: constrain it with SPC/SPC1 or "
-                         f"GRID PS")
+                         f"(unconstrained or under-constrained; ω² = {values}); this analysis "
+                         f"needs a restrained structure (free-free analysis with SUPORT is not "
+                         f"supported): constrain it with SPC/SPC1 or GRID PS")
     return modes
 
 
