@@ -465,3 +465,22 @@ def test_free_free_deck_needs_constraints(command, tmp_path, capsys):
     assert rc == 2
     _one_line_error(err, "free", "rigid-body mode", "SPC")
     assert not (tmp_path / "aero.npz").exists() and not (tmp_path / "rom.npz").exists()
+
+
+@pytest.mark.parametrize("damage", ["nan density", "no enddata"])
+def test_bad_flutter_deck(damage, shared, tmp_path, capsys):
+    """pt145 with a NaN in its FLFACT densities or cut before ENDDATA: exit 2, card named."""
+    text = (shared / "nastran" / "pt145.bdf").read_text()
+    if damage == "nan density":
+        text, words = text.replace("FLFACT  1       0.967 ", "FLFACT  1       nan   "), (
+            "FLFACT 1", "finite")
+    else:
+        text, words = text.replace("ENDDATA", ""), ("ENDDATA",)
+    deck = tmp_path / "pt145.bdf"
+    deck.write_text(text)
+    js = tmp_path / "flutter.json"
+    js.write_text("old\n")
+    rc, err = _cli(capsys, ["flutter", deck, "--json", js, "--force"])
+    assert rc == 2
+    _one_line_error(err, "pt145.bdf", *words)
+    assert js.read_text() == "old\n"

@@ -66,14 +66,22 @@ FIELD_RULES: dict[str, list[tuple[str, str, tuple[Callable[[float], bool], str]]
 _CONTAINERS = ("nodes", "coords", "elements", "properties", "materials", "masses",
                "rigid_elements", "methods", "params")
 _LISTS = ("spcs", "spcadds", "loads")
+# the aerodynamic cards (read by torchrom.aero): finiteness only
+AERO_CONTAINERS = ("caeros", "paeros", "splines", "flfacts", "flutters", "aefacts", "sets")
 
 
-def _cards(model) -> Iterable:
-    for name in _CONTAINERS:
+def _cards(model, containers=_CONTAINERS, lists=_LISTS) -> Iterable:
+    for name in containers:
         yield from getattr(model, name, {}).values()
-    for name in _LISTS:
+    for name in lists:
         for cards in getattr(model, name, {}).values():
             yield from cards
+    if containers is AERO_CONTAINERS:
+        yield from getattr(model, "mkaeros", [])
+        for single in ("aero", "aeros"):
+            card = getattr(model, single, None)
+            if card is not None:
+                yield card
 
 
 def _card_id(card) -> str:
@@ -96,10 +104,12 @@ def _numbers(value) -> list[float]:
         return []
 
 
-def check_fields(model, fname: str) -> None:
+def check_fields(model, fname: str, aero: bool = False) -> None:
     """InputError naming file, card, ID and field for the first non-finite field or rule
-    violation (:data:`FIELD_RULES`) in the structural cards of a pyNastran model."""
-    for card in _cards(model):
+    violation (:data:`FIELD_RULES`) in the structural cards of a pyNastran model (``aero``:
+    in its aerodynamic cards instead)."""
+    cards = _cards(model, AERO_CONTAINERS, ()) if aero else _cards(model)
+    for card in cards:
         try:
             fields = card.raw_fields()
         except Exception:  # noqa: BLE001 - a card pyNastran cannot list is checked by the reader
