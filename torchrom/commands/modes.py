@@ -1,8 +1,11 @@
 """``torchrom modes MODEL.bdf``: linear modal analysis of a Nastran deck.
 
-JSON (``--json FILE``): a list of records, one per mode: ``mode``, ``frequency_hz`` (Hz),
-``kind`` (bending/torsion/in-plane/axial), ``content_*`` fractions; for a deck written by
-``torchrom goland`` also ``paper_hz`` and ``diff_pct`` (Table 2).
+JSON (``--json FILE``, refused when it exists unless ``--force``): a list of records, one per
+mode: ``mode``, ``frequency_hz`` (Hz), ``kind`` (bending/torsion/in-plane/axial), ``content_*``
+fractions; for a deck written by ``torchrom goland`` also ``paper_hz`` and ``diff_pct`` (Table 2).
+An unconstrained or under-constrained deck's rigid-body modes come first, with ``kind``
+``rigid-body``, their ``eigenvalue`` ω² (rad²/s², near zero, either sign) and ``frequency_hz`` =
+sign(ω²)·√|ω²|/2π; the ``--n`` elastic modes follow.
 """
 
 from __future__ import annotations

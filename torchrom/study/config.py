@@ -1,7 +1,12 @@
 """Sweep configurations in TOML (hand-written validation; parsing by tomllib / tomli).
 
 A sweep configuration has these tables (every key is checked; a bad one gives a one-line
-:class:`~torchrom.errors.InputError` naming the file, the table and the key):
+:class:`~torchrom.errors.InputError` naming the file, the table and the key). Everything is
+checked when the file is read, before any output is written: the keys of each table
+(:data:`TABLE_KEYS`) and their values (:data:`VALUE_CHECKS`, the Newmark and LCO options'
+own checks, dt ≤ t_end and at most :data:`torchrom.sim.newmark.MAX_STEPS` steps, finite case
+values), and the ``[initial]`` state and ``[lco]`` outputs against the model. A new key is one
+entry in each table:
 
 ``title``        a string shown in figures.
 ``[model]``      ``rom = "path/to/rom.npz"`` (relative to the configuration file), with
