@@ -343,12 +343,19 @@ def _api_cases():
         "run without system": (lambda: Newmark().run(None, [0.1, 0.0], t_end=1.0), "system"),
         "lco cycles string": (lambda: LCOCriteria(cycles="4"), "lco.cycles"),
         "lco rtol nan": (lambda: LCOCriteria(rtol=math.nan), "lco.rtol"),
+        "q0 wrong size": (lambda: Newmark().run(CaseSystem.build(rom), [0.1, 0.0, 0.3],
+                                                t_end=1.0), "q0"),
+        "v0 string": (lambda: Newmark().run(CaseSystem.build(rom), [0.1, 0.0], "fast",
+                                            t_end=1.0), "v0"),
+        "rom frequencies string": (lambda: __import__(
+            "torchrom.rom.analytic", fromlist=["x"]).van_der_pol_duffing("x"), "frequencies_hz"),
     }
 
 
 API_NAMES = ["dt string", "dt bool", "dt nan", "iterations float", "build None", "batch 0",
              "alpha nan", "gamma string", "t_end below dt", "dt tiny", "run without system",
-             "lco cycles string", "lco rtol nan"]
+             "lco cycles string", "lco rtol nan", "q0 wrong size", "v0 string",
+             "rom frequencies string"]
 
 
 @pytest.mark.parametrize("name", API_NAMES)

@@ -36,3 +36,16 @@ def integer(name: str, value, *, minimum: int | None = None) -> int:
     if minimum is not None and value < minimum:
         raise InputError(f"{name}: expected an integer >= {minimum}, got {value!r}")
     return int(value)
+
+
+def real_array(name: str, value):
+    """``value`` (a number, sequence or array) as a float64 numpy array; InputError naming the
+    parameter when it holds something that is not a number (a string, a ragged list)."""
+    import numpy as np
+
+    if isinstance(value, (str, bytes)):
+        raise InputError(f"{name}: expected numbers, got {value!r}")
+    try:
+        return np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError) as exc:
+        raise InputError(f"{name}: expected numbers ({exc})") from None

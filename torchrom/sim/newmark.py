@@ -64,7 +64,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import torch
 
-from ..checks import integer, real
+from ..checks import integer, real, real_array
 from ..errors import InputError
 from ..rom import NonlinearROM
 from .forces import NonlinearForces
@@ -72,7 +72,7 @@ from .lco import DECAY, FAILED, LCO, RUNNING, STATUS_NAMES, LCOCriteria, PeakTra
 from .metrics import window_metrics
 from .result import History, SimulationResult
 from .schemes import SchemeParameters
-from .system import CaseSystem, as_float_tensor
+from .system import CaseSystem
 
 Tensor = torch.Tensor
 
@@ -439,8 +439,9 @@ class _Run:
         def per_case(x, width, name):
             if x is None:
                 return torch.zeros(B, width, **self.kw)
-            t = as_float_tensor(x, **self.kw)
-            if t.dim() == 1:
+            t = x if isinstance(x, torch.Tensor) else torch.as_tensor(real_array(name, x))
+            t = t.to(**self.kw)
+            if tuple(t.shape) == (width,):
                 t = t.expand(B, width)
             if tuple(t.shape) != (B, width):
                 raise InputError(f"{name}: expected shape ({B}, {width}) or ({width},), got "
