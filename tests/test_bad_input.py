@@ -103,6 +103,10 @@ DECK_CASES = {
     "negative mass": (("CONM2   10      4               1.0",
                        "CONM2   10      4               -1.0"), ("CONM2 10", "field M")),
     "duplicate grid": (("GRID    3  ", "GRID    2  "), ("GRID 2", "duplicate")),
+    "duplicate element": (("CBAR    3       1       3", "CBAR    2       1       3"),
+                          ("CBAR 2", "duplicate")),
+    "duplicate material": (("CONM2", "MAT1    1       7.+10           0.3     2600.\nCONM2"),
+                           ("MAT1 1", "duplicate")),
     "no enddata": (("ENDDATA\n", ""), ("ENDDATA",)),
     "cut mid-way": (("PBAR    1", "\x00CUT"), ("ENDDATA",)),
     "missing property": (("CBAR    3       1", "CBAR    3       7"), ("CBAR 3", "PID")),
@@ -491,3 +495,30 @@ def test_bad_flutter_deck(damage, shared, tmp_path, capsys):
     assert rc == 2
     _one_line_error(err, "pt145.bdf", *words)
     assert js.read_text() == "old\n"
+
+
+OPTION_CASES = {
+    "calibrate --rtol": (["calibrate", "{cfg}", "--target", "0.1", "--rtol", "-1"], "--rtol"),
+    "calibrate --target": (["calibrate", "{cfg}", "--target", "nan"], "--target"),
+    "bifurcation --refine": (["bifurcation", "{cfg}", "--refine", "-1"], "--refine"),
+    "bifurcation --q0": (["bifurcation", "{cfg}", "--q0", "0", "1"], "--q0"),
+    "modes --n": (["modes", "{deck}", "--n", "0"], "--n"),
+    "goland --density": (["goland", "--density", "nan"], "--density"),
+    "aero --mach": (["aero", "{deck}", "--mach", "-0.5"], "--mach"),
+    "identify --amplitude": (["identify", "{deck}", "--amplitude", "0"], "--amplitude"),
+}
+
+
+@pytest.mark.parametrize("name", sorted(OPTION_CASES))
+def test_bad_option_value(name, tmp_path, capsys):
+    """A numeric option out of range is refused by the parser (exit 2, the option named)
+    before anything is read or written."""
+    cfg, deck, out = tmp_path / "sweep.toml", tmp_path / "wing.bdf", tmp_path / "out"
+    cfg.write_text(CONFIG)
+    deck.write_text(DECK)
+    argv, option = OPTION_CASES[name]
+    argv = [a.format(cfg=cfg, deck=deck) for a in argv] + ["--out", out]
+    rc, err = _cli(capsys, argv)
+    assert rc == 2
+    _one_line_error(err, f"argument {option}")
+    assert not out.exists()

@@ -41,15 +41,47 @@ def cpu_workers(value: str) -> int:
     return n
 
 
-def positive_int(value: str) -> int:
-    """An argparse type: a positive integer (argparse prints the error and exits with 2)."""
+def _integer(value: str, minimum: int, what: str) -> int:
     try:
         n = int(value)
     except ValueError:
-        n = 0
-    if n < 1:
-        raise argparse.ArgumentTypeError(f"expected a positive integer, got {value!r}")
+        n = minimum - 1
+    if n < minimum:
+        raise argparse.ArgumentTypeError(f"expected {what}, got {value!r}")
     return n
+
+
+def _number(value: str, ok, what: str) -> float:
+    import math
+
+    try:
+        x = float(value)
+    except ValueError:
+        x = math.nan
+    if not (math.isfinite(x) and ok(x)):
+        raise argparse.ArgumentTypeError(f"expected {what}, got {value!r}")
+    return x
+
+
+# argparse types of the numeric options (argparse names the option, exits with 2)
+def positive_int(value: str) -> int:
+    return _integer(value, 1, "a positive integer")
+
+
+def nonnegative_int(value: str) -> int:
+    return _integer(value, 0, "an integer >= 0")
+
+
+def positive_float(value: str) -> float:
+    return _number(value, lambda x: x > 0, "a positive finite number")
+
+
+def nonnegative_float(value: str) -> float:
+    return _number(value, lambda x: x >= 0, "a finite number >= 0")
+
+
+def finite_float(value: str) -> float:
+    return _number(value, lambda x: True, "a finite number")
 
 
 def add_executor_options(parser: argparse.ArgumentParser) -> None:

@@ -9,7 +9,15 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from ._common import add_force_option, add_json_option, check_outputs, maybe_write_json
+from ._common import (
+    add_force_option,
+    add_json_option,
+    check_outputs,
+    maybe_write_json,
+    nonnegative_float,
+    nonnegative_int,
+    positive_int,
+)
 
 NAME = "aero"
 HELP = "unsteady aerodynamics: DLM generalized forces Q(k) on the modes and their RFA (aero.npz)"
@@ -19,10 +27,11 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument(
         "model", help="Nastran deck (.bdf) or 'goland' for the built-in heavy Goland wing"
     )
-    p.add_argument("--mach", type=float, required=True, help="Mach number (subsonic)")
+    p.add_argument("--mach", type=nonnegative_float, required=True, help="Mach number (subsonic)")
     p.add_argument("--out", type=Path, required=True, help="output aero.npz")
-    p.add_argument("--modes", type=int, default=9, help="number of structural modes m (default 9)")
-    p.add_argument("--lags", type=int, default=13, help="RFA lag states (default 13)")
+    p.add_argument("--modes", type=positive_int, default=9,
+                   help="number of structural modes m (default 9)")
+    p.add_argument("--lags", type=nonnegative_int, default=13, help="RFA lag states (default 13)")
     p.add_argument("--rfa", choices=["minimum-state", "roger"], default="minimum-state")
     p.add_argument(
         "--kernel",
@@ -32,7 +41,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     )
     p.add_argument(
         "--k",
-        type=float,
+        type=nonnegative_float,
         nargs="+",
         metavar="K",
         help="reduced frequencies k = ω b / V (default: the deck's MKAERO list or the "
@@ -40,7 +49,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     )
     p.add_argument(
         "--boxes",
-        type=int,
+        type=positive_int,
         nargs=2,
         metavar=("NCHORD", "NSPAN"),
         default=(8, 20),

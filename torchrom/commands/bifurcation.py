@@ -27,6 +27,9 @@ from ._common import (
     check_outputs,
     load_study,
     maybe_write_json,
+    nonnegative_int,
+    positive_float,
+    positive_int,
     write_figure,
 )
 
@@ -37,16 +40,16 @@ HELP = "classify LCOs as supercritical or subcritical by a batched sweep of init
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("config", type=Path, help="sweep configuration (TOML); its cases are "
                         "the control values (their q0 is replaced)")
-    parser.add_argument("--q0", type=float, nargs=2, metavar=("LO", "HI"), default=None,
+    parser.add_argument("--q0", type=positive_float, nargs=2, metavar=("LO", "HI"), default=None,
                         help="range of initial amplitudes (scale of the [initial] pattern; "
                              "default: [initial] q0 / 100 to x 10)")
-    parser.add_argument("--num", type=int, default=12,
+    parser.add_argument("--num", type=positive_int, default=12,
                         help="initial amplitudes of the first batch, log-spaced (default 12)")
-    parser.add_argument("--refine", type=int, default=2,
+    parser.add_argument("--refine", type=nonnegative_int, default=2,
                         help="refinement rounds of the basin boundaries (default 2)")
-    parser.add_argument("--points", type=int, default=8,
+    parser.add_argument("--points", type=positive_int, default=8,
                         help="new initial amplitudes per boundary and round (default 8)")
-    parser.add_argument("--same-rtol", type=float, default=0.02,
+    parser.add_argument("--same-rtol", type=positive_float, default=0.02,
                         help="LCO amplitudes closer than this (relative) are one attractor")
     parser.add_argument("--x", default=None, metavar="PARAM",
                         help="control parameter on the diagram's axis (default: the first "

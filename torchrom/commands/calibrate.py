@@ -26,6 +26,9 @@ from ._common import (
     check_outputs,
     load_study,
     maybe_write_json,
+    nonnegative_int,
+    positive_float,
+    positive_int,
     write_figure,
 )
 
@@ -36,18 +39,18 @@ HELP = "find the Kelvin-Voigt factor gamma that produces a target LCO amplitude 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("config", type=Path, help="sweep configuration (TOML); its cases are "
                         "the base cases (their gamma is ignored)")
-    parser.add_argument("--target", type=float, required=True,
+    parser.add_argument("--target", type=positive_float, required=True,
                         help="target LCO amplitude (units of --column)")
     parser.add_argument("--column", default="amplitude",
                         help="table column to match (default amplitude: the first output)")
-    parser.add_argument("--gamma", type=float, nargs=2, metavar=("LO", "HI"), default=None,
+    parser.add_argument("--gamma", type=positive_float, nargs=2, metavar=("LO", "HI"), default=None,
                         help="gamma range scanned (s; default: the configuration's gamma / 10 "
                              "to x 10)")
-    parser.add_argument("--num", type=int, default=16,
+    parser.add_argument("--num", type=positive_int, default=16,
                         help="values of gamma per bracket and round (default 16)")
-    parser.add_argument("--rtol", type=float, default=2e-3,
+    parser.add_argument("--rtol", type=positive_float, default=2e-3,
                         help="relative width of the final bracket (default 2e-3)")
-    parser.add_argument("--rounds", type=int, default=6,
+    parser.add_argument("--rounds", type=nonnegative_int, default=6,
                         help="largest number of refinement rounds (default 6)")
     add_study_options(parser, "calibration.parquet/.csv/.png")
 

@@ -22,7 +22,16 @@ from pathlib import Path
 
 import numpy as np
 
-from ._common import add_force_option, add_json_option, check_outputs, maybe_write_json
+from ._common import (
+    add_force_option,
+    add_json_option,
+    check_outputs,
+    finite_float,
+    maybe_write_json,
+    nonnegative_float,
+    nonnegative_int,
+    positive_int,
+)
 
 NAME = "flutter"
 HELP = (
@@ -34,23 +43,25 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument(
         "inputs", nargs="+", metavar="INPUT", help="DECK.bdf | ROM.npz AERO.npz | goland"
     )
-    p.add_argument("--mach", type=float, help="Mach number (default: the aero file's)")
+    p.add_argument("--mach", type=nonnegative_float, help="Mach number (default: the aero file's)")
     p.add_argument(
         "--alt-range",
-        type=float,
+        type=finite_float,
         nargs=2,
         metavar=("LO", "HI"),
         default=(0.0, 40000.0),
         help="altitude range searched for the flutter point (ft; default 0 40000)",
     )
-    p.add_argument("--alpha", type=float, help="mass-proportional damping α (1/s; default 0.2565)")
+    p.add_argument("--alpha", type=finite_float,
+                   help="mass-proportional damping α (1/s; default 0.2565)")
     p.add_argument(
-        "--gamma", type=float, help="stiffness-proportional damping γ (s; default 1.338e-4)"
+        "--gamma", type=nonnegative_float,
+        help="stiffness-proportional damping γ (s; default 1.338e-4)",
     )
     p.add_argument("--method", choices=["both", "pk", "state-space"], default="both")
     p.add_argument(
         "--at",
-        type=float,
+        type=finite_float,
         nargs="+",
         metavar="ALT",
         help="altitudes (ft) at which to report the growing-response frequency "
@@ -59,10 +70,11 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument(
         "--aero", type=Path, help="goland form: use this aero.npz instead of building one"
     )
-    p.add_argument("--lags", type=int, default=13, help="goland form: RFA lag states (default 13)")
+    p.add_argument("--lags", type=nonnegative_int, default=13,
+                   help="goland form: RFA lag states (default 13)")
     p.add_argument(
         "--boxes",
-        type=int,
+        type=positive_int,
         nargs=2,
         default=(8, 20),
         metavar=("NCHORD", "NSPAN"),
@@ -71,7 +83,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--kernel", choices=["quartic", "parabolic"], default="quartic")
     p.add_argument(
         "--alpha-for-gamma",
-        type=float,
+        type=nonnegative_float,
         nargs="+",
         metavar="GAMMA",
         help="for each γ (s), the α (1/s) that keeps the state-space flutter altitude of the "

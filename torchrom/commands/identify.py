@@ -19,7 +19,17 @@ import time
 from pathlib import Path
 
 from ..errors import InputError
-from ._common import add_force_option, add_json_option, check_outputs, maybe_write_json
+from ._common import (
+    add_force_option,
+    add_json_option,
+    check_outputs,
+    finite_float,
+    maybe_write_json,
+    nonnegative_float,
+    nonnegative_int,
+    positive_float,
+    positive_int,
+)
 
 NAME = "identify"
 HELP = "identify the nonlinear ROM (stiffness + Kelvin-Voigt damping) of an FE model"
@@ -27,8 +37,9 @@ HELP = "identify the nonlinear ROM (stiffness + Kelvin-Voigt damping) of an FE m
 
 def add_arguments(parser) -> None:
     parser.add_argument("model", type=Path, help="Nastran BDF of the structure")
-    parser.add_argument("--linear", type=int, default=9, help="number of linear modes (9)")
-    parser.add_argument("--dual", type=int, default=12, help="number of dual modes (12)")
+    parser.add_argument("--linear", type=positive_int, default=9, help="number of linear modes (9)")
+    parser.add_argument("--dual", type=nonnegative_int, default=12,
+                        help="number of dual modes (12)")
     parser.add_argument("--combinations", default="paper", metavar="SET",
                         help="linear-mode pairs loaded for the dual modes: 'paper' (the paper's "
                              "nine, default), 'bending-torsion' ((1,1),(1,2),(1,3),(2,2),(2,3): "
@@ -39,17 +50,17 @@ def add_arguments(parser) -> None:
                              "exact from the FE material tangent")
     parser.add_argument("--stiffness", choices=("tangent", "step"), default="tangent",
                         help="stiffness identification: tangent matrices (Eqs. 37-41) or STEP")
-    parser.add_argument("--amplitude", type=float, default=0.01,
+    parser.add_argument("--amplitude", type=positive_float, default=0.01,
                         help="identification amplitude, fraction of the span (0.01)")
     parser.add_argument("--out", type=Path, required=True, help="ROM file to write (rom.npz)")
     parser.add_argument("--report", type=Path, metavar="DIR",
                         help="also validate the ROM against the FE and write DIR/report.md")
-    parser.add_argument("--gamma", type=float, default=1e-3,
+    parser.add_argument("--gamma", type=nonnegative_float, default=1e-3,
                         help="Kelvin-Voigt gamma (s) of the report's free decay (1e-3)")
-    parser.add_argument("--decay-tip", type=float, default=0.15,
+    parser.add_argument("--decay-tip", type=positive_float, default=0.15,
                         help="initial tip deflection of the report's free decay, fraction of "
                              "the span (0.15)")
-    parser.add_argument("--step-x", type=float, default=None,
+    parser.add_argument("--step-x", type=finite_float, default=None,
                         help="chordwise mid-line (basic x) of the report's step pressure "
                              "(default: the wing's mid-chord when the deck is known, e.g. 3 ft "
                              "for the Goland deck, else the middle of the grid)")

@@ -13,7 +13,13 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from ._common import add_force_option, add_json_option, check_outputs, maybe_write_json
+from ._common import (
+    add_force_option,
+    add_json_option,
+    check_outputs,
+    maybe_write_json,
+    positive_int,
+)
 
 NAME = "modes"
 HELP = "linear modal analysis table of a Nastran deck (MODEL.bdf)"
@@ -21,7 +27,7 @@ HELP = "linear modal analysis table of a Nastran deck (MODEL.bdf)"
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("model", type=Path, help="Nastran bulk data deck")
-    parser.add_argument("--n", type=int, default=None,
+    parser.add_argument("--n", type=positive_int, default=None,
                         help="number of modes (default: EIGR/EIGRL ND of the deck, else 10)")
     parser.add_argument("--unsupported", choices=("error", "warn"), default="error",
                         help="what to do with unsupported structural cards (default error)")

@@ -28,6 +28,7 @@ from ._common import (
     check_outputs,
     load_study,
     maybe_write_json,
+    positive_int,
     write_figure,
 )
 
@@ -41,7 +42,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     add_study_options(parser, "results.parquet, results.csv, figures, parts/")
     parser.add_argument("--compile", action="store_true",
                         help="compile the time step with torch.compile (pays off for long runs)")
-    parser.add_argument("--threads", type=int, default=None,
+    parser.add_argument("--threads", type=positive_int, default=None,
                         help="torch intra-op threads (default: automatic)")
 
 

@@ -142,14 +142,18 @@ def _last_line(text: str) -> str:
     return lines[-1][:40] if lines else ""
 
 
-_DUPLICATE = re.compile(r"^(\w+)=(\d+)\s*\n\s*old_\w+=\s*\n\s*(\w+)", re.M)
+# pyNastran's duplicate-ID reports: "nid=2 / old_node= / GRID ..." (an assertion) and
+# "self.elements IDs are not unique=[2] / old_element= / CBAR ..." (DuplicateIDsError)
+_DUPLICATE = re.compile(r"^(?:\w+=(\d+)|.*IDs are not unique=\[([\d, ]+)\])\s*\n\s*old_\w+="
+                        r"\s*\n\s*(\w+)", re.M)
 
 
 def duplicate_message(fname: str, text: str) -> str | None:
-    """The one-line message of pyNastran's duplicate-ID assertion ("nid=2 old_node= GRID ..."),
-    or None when ``text`` is not one."""
+    """The one-line message of pyNastran's duplicate-ID errors (the card and the ID named), or
+    None when ``text`` is not one."""
     m = _DUPLICATE.search(text)
     if not m:
         return None
-    _, ident, card = m.groups()
+    ident = m.group(1) or m.group(2).split(",")[0].strip()
+    card = m.group(3)
     return f"{fname}: {card} {ident}: duplicate ID (two {card} cards with ID {ident})"
