@@ -110,3 +110,21 @@ def check_folder(folder: str | os.PathLike, what: str = "output") -> Path:
     if probe.exists() and not os.access(probe, os.W_OK | os.X_OK):
         raise InputError(f"{what} folder {folder}: {probe} is not writable")
     return folder
+
+
+def write_figure(draw, *args, **kwargs):
+    """Draw a figure after the tables are safe: a failure of the plotting library (e.g. a value
+    it cannot place) is a warning on stderr, not an exception, so that nothing computed is lost;
+    the caller ends with a non-zero status. Returns the path, or None when the figure failed.
+    Bad input (an :class:`InputError`, e.g. an existing file without --force) still raises."""
+    import sys
+
+    try:
+        return draw(*args, **kwargs)
+    except InputError:
+        raise
+    except Exception as exc:  # noqa: BLE001 - any plotting failure must not lose the tables
+        first = str(exc).strip().splitlines()[0] if str(exc).strip() else ""
+        print(f"warning: figure not written ({type(exc).__name__}: {first[:200]}); the tables "
+              f"are written", file=sys.stderr)
+        return None

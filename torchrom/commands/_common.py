@@ -6,6 +6,7 @@ import argparse
 from pathlib import Path
 from typing import Any
 
+from ..io import write_figure as write_figure  # noqa: F401 - the commands' name for it
 from ..io import write_json_atomic
 
 
@@ -149,25 +150,6 @@ def check_outputs(args: argparse.Namespace, paths, may_replace: bool | None = No
         check_can_write(p, force if may_replace is None else may_replace, "output")
     if getattr(args, "json", None) is not None:
         check_can_write(args.json, force, "JSON output")
-
-
-def write_figure(draw, *args, **kwargs):
-    """Draw a figure after the tables are safe: a failure of the plotting library (e.g. a value
-    it cannot place) is a warning, and the command then ends with status 1 — the tables written
-    before stay. Returns the path, or None when the figure failed."""
-    import sys
-
-    from ..errors import InputError
-
-    try:
-        return draw(*args, **kwargs)
-    except InputError:
-        raise
-    except Exception as exc:  # noqa: BLE001 - any plotting failure must not lose the tables
-        first = str(exc).strip().splitlines()[0] if str(exc).strip() else ""
-        print(f"warning: figure not written ({type(exc).__name__}: {first[:200]}); the tables "
-              f"are written", file=sys.stderr)
-        return None
 
 
 def maybe_write_json(args: argparse.Namespace, obj: Any) -> None:

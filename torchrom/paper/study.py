@@ -31,7 +31,7 @@ import torch
 
 from .._version import __version__
 from ..errors import InputError
-from ..io import check_folder, write_json_atomic, write_text_atomic
+from ..io import check_folder, write_figure, write_json_atomic, write_text_atomic
 from ..study import figures
 from ..study.config import load_sweep_config
 from ..study.grid import config_hash
@@ -152,13 +152,17 @@ def run_paper(out, *, quick: bool = False, force: bool = False, device: str = "c
     # -- figures ---------------------------------------------------------------------------------
     watch.start()
     fig_dir = out / "figures"
-    paths = {"fig9": figures.fig9(alpha_gamma, fig_dir / FIGURE_FILES["fig9"], force=True)}
+    # a figure that fails is a warning (missing from "figures"): the tables and the report stay
+    paths = {"fig9": write_figure(figures.fig9, alpha_gamma, fig_dir / FIGURE_FILES["fig9"],
+                                  force=True)}
     for name in ("fig10", "fig12", "fig13"):
-        paths[name] = figures.TABLE_FIGURES[name](table, fig_dir / FIGURE_FILES[name],
-                                                  force=True)
+        paths[name] = write_figure(figures.TABLE_FIGURES[name], table,
+                                   fig_dir / FIGURE_FILES[name], force=True)
     if len(histories):
-        paths["fig11"] = figures.fig11(table, histories, fig_dir / FIGURE_FILES["fig11"],
-                                       force=True)
+        paths["fig11"] = write_figure(figures.fig11, table, histories,
+                                      fig_dir / FIGURE_FILES["fig11"], force=True)
+    failed = sorted(k for k, v in paths.items() if v is None)
+    paths = {k: v for k, v in paths.items() if v is not None}
     watch.stop("figures")
 
     # -- findings and report ---------------------------------------------------------------------
@@ -178,6 +182,7 @@ def run_paper(out, *, quick: bool = False, force: bool = False, device: str = "c
         "findings": [f.as_dict() for f in found],
         "damping_check": check,
         "figures": {k: str(v) for k, v in paths.items()},
+        "figures_failed": failed,
         "identification": res.identification,
     }
     write_text_atomic(out / "report.md", render(summary, found, table, alpha_gamma))
