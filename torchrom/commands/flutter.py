@@ -31,6 +31,7 @@ from ._common import (
     nonnegative_float,
     nonnegative_int,
     positive_int,
+    write_figure,
 )
 
 NAME = "flutter"
@@ -121,15 +122,22 @@ def _run_deck(args, path: Path) -> int:
     )
     res = run_deck(deck, fe=load_fe(str(path)), kernel=args.kernel)
     print(format_deck_result(res))
+    maybe_write_json(args, res.as_dict())  # the numbers first: a figure failure cannot lose them
+    ok = True
     if args.plot is not None and res.results:
         from ..aero.plots import plot_vg
 
-        plot_vg(
-            res.results[0].sweep, args.plot, title=f"{path.name}: FLUTTER {res.results[0].case.sid}"
-        )
-        print(f"wrote {args.plot}")
-    maybe_write_json(args, res.as_dict())
-    return 0
+        ok = _figure(plot_vg, res.results[0].sweep, args.plot,
+                     title=f"{path.name}: FLUTTER {res.results[0].case.sid}")
+    return 0 if ok else 1
+
+
+def _figure(draw, *a, **k) -> bool:
+    """Draw one figure (a failure is a warning: :func:`torchrom.io.write_figure`)."""
+    path = write_figure(draw, *a, **k)
+    if path is not None:
+        print(f"wrote {a[1]}")
+    return path is not None
 
 
 def _run_rom(args, rom_path: Path, aero_path: Path) -> int:
@@ -247,20 +255,6 @@ def _matched(args, structure, aero, compare_paper: bool) -> int:
             a = alpha_for_gamma(structure, aero.rfa, g, mach, ref.altitude)
             print(f"    gamma = {g:10.4g} s   alpha = {a:10.5g} 1/s")
             pairs.append({"gamma": g, "alpha": a, "altitude": ref.altitude})
-    if args.plot is not None:
-        from ..aero.plots import plot_vg
-
-        sweep = next((r.sweep for r in results if r.method == "p-k"), None)
-        if sweep is not None:
-            plot_vg(sweep, args.plot, x="altitude", title=f"p-k, Mach {mach:g}")
-            print(f"wrote {args.plot}")
-    if args.root_locus is not None:
-        from ..aero.plots import plot_root_locus
-
-        sweep = next((r.sweep for r in results if r.method == "state-space"), None)
-        if sweep is not None:
-            plot_root_locus(sweep, args.root_locus, title=f"state space, Mach {mach:g}")
-            print(f"wrote {args.root_locus}")
     out = {
         "mach": mach,
         "alpha": structure.alpha,
@@ -276,5 +270,19 @@ def _matched(args, structure, aero, compare_paper: bool) -> int:
             "frequency_hz": PAPER_FLUTTER_FREQUENCY_HZ,
             "table3": {str(int(k)): v for k, v in PAPER_TABLE3.items()},
         }
-    maybe_write_json(args, out)
-    return 0
+    maybe_write_json(args, out)  # the numbers first: a figure failure cannot lose them
+    ok = True
+    if args.plot is not None:
+        from ..aero.plots import plot_vg
+
+        sweep = next((r.sweep for r in results if r.method == "p-k"), None)
+        if sweep is not None:
+            ok &= _figure(plot_vg, sweep, args.plot, x="altitude", title=f"p-k, Mach {mach:g}")
+    if args.root_locus is not None:
+        from ..aero.plots import plot_root_locus
+
+        sweep = next((r.sweep for r in results if r.method == "state-space"), None)
+        if sweep is not None:
+            ok &= _figure(plot_root_locus, sweep, args.root_locus,
+                          title=f"state space, Mach {mach:g}")
+    return 0 if ok else 1

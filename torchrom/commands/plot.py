@@ -13,7 +13,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from ._common import add_force_option
+from ._common import add_force_option, write_figure
 
 NAME = "plot"
 HELP = "draw a paper figure (fig9 .. fig13) from a results table"
@@ -49,8 +49,11 @@ def run(args: argparse.Namespace) -> int:
     table = read_table(args.table)
     if args.figure == "fig11":
         hist = args.histories or args.table.parent / "histories.parquet"
-        path = figures.fig11(table, read_table(hist), args.out, force=args.force)
+        path = write_figure(figures.fig11, table, read_table(hist), args.out, force=args.force)
     else:
-        path = figures.TABLE_FIGURES[args.figure](table, args.out, force=args.force)
+        path = write_figure(figures.TABLE_FIGURES[args.figure], table, args.out,
+                            force=args.force)
+    if path is None:
+        return 1  # warned: the plotting library failed on this table
     print(f"wrote {path}")
     return 0
