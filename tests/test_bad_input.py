@@ -522,3 +522,18 @@ def test_bad_option_value(name, tmp_path, capsys):
     assert rc == 2
     _one_line_error(err, f"argument {option}")
     assert not out.exists()
+
+
+def test_flutter_figure_failure_keeps_the_json(shared, tmp_path, capsys, monkeypatch):
+    """The V-g figure failing after the pt145 flutter solution: warning, exit 1, JSON written."""
+    import torchrom.aero.plots as aero_plots
+
+    def broken(*a, **k):
+        raise ValueError("Image size of 1e308 pixels is too large")
+
+    monkeypatch.setattr(aero_plots, "plot_vg", broken)
+    js = tmp_path / "flutter.json"
+    rc, err = _cli(capsys, ["flutter", shared / "nastran" / "pt145.bdf", "--json", js, "--plot",
+                            tmp_path / "vg.png"])
+    assert rc == 1 and "warning: figure not written" in err and "Traceback" not in err
+    assert js.exists() and not (tmp_path / "vg.png").exists()
