@@ -290,6 +290,7 @@ def test_disk_full_keeps_previous_outputs(tmp_path, capsys, monkeypatch):
     _one_line_error(err, "results.parquet", os.strerror(errno.ENOSPC))
     assert (out / "results.parquet").read_bytes() == b"previous"
     assert not list(out.glob(".results.parquet.*"))
+    assert len(list((out / "parts").glob("part-*.parquet"))) == 2  # computed chunks kept: resume
 
 
 def test_figure_failure_keeps_the_tables(tmp_path, capsys, monkeypatch):

@@ -138,13 +138,10 @@ def load_study(args: argparse.Namespace):
 def check_outputs(args: argparse.Namespace, paths, may_replace: bool | None = None) -> None:
     """The output policy of every command, applied before any work: refuse (InputError) when an
     output or the --json file exists, unless --force (``may_replace`` overrides --force for
-    ``paths``, e.g. a sweep resuming its own), or when --out / a folder of an output is a file
-    or not writable (:func:`torchrom.io.check_can_write`)."""
-    from ..io import check_can_write, check_folder
+    ``paths``, e.g. a sweep resuming its own), or when the folder of an output (e.g. --out) is a
+    file or not writable (:func:`torchrom.io.check_can_write`)."""
+    from ..io import check_can_write
 
-    out = getattr(args, "out", None)
-    if out is not None and not Path(out).suffix:
-        check_folder(out, "--out")
     force = bool(getattr(args, "force", False))
     for p in paths:
         check_can_write(p, force if may_replace is None else may_replace, "output")
