@@ -34,8 +34,10 @@ def parameter_plot(table: pd.DataFrame, path, *, x: str, y: str = "amplitude",
         (line,) = ax.plot(grp[x], grp[y], "-", lw=1.2, label=label)
         for status, (marker, filled) in _MARKERS.items():
             sel = grp[grp["status"] == status]
+            # an unconverged case at its value when stopped (hollow): its amplitude is NaN
+            col = f"last_{y}" if status == "unconverged" and f"last_{y}" in sel else y
             if len(sel):
-                ax.plot(sel[x], sel[y], marker, ms=5, color=line.get_color(),
+                ax.plot(sel[x], sel[col], marker, ms=5, color=line.get_color(),
                         mfc=line.get_color() if filled else "none", ls="none")
     handles = [plt.Line2D([], [], marker=m, ls="none", color="0.3", mfc="0.3" if f else "none",
                           label=s) for s, (m, f) in _MARKERS.items()
