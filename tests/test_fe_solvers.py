@@ -210,3 +210,78 @@ def test_newmark_kelvin_voigt_energy_balance():
     assert np.ptp(res.u[:, 0]) > h  # really nonlinear: goes through the flat position
     assert E[-1] < 0.8 * E[0]  # and really damped
     assert np.abs(E[0] - E - dissipated).max() <= 2e-3 * E[0]  # measured 1.7e-4
+
+
+def _free_free_pt145(shared, tmp_path):
+    """pt145 with its root SPC1 and the GRID PS constraints dropped (CD kept)."""
+    lines = []
+    for ln in (shared / "nastran" / "pt145.bdf").read_text().splitlines():
+        if ln.startswith("SPC1") or ln.replace(" ", "") == "SPC=1":
+            continue
+        lines.append(ln[:56] if ln.startswith("GRID") else ln)  # fields up to CD
+    path = tmp_path / "pt145_free.bdf"
+    path.write_text("\n".join(lines) + "\n")
+    return path
+
+
+def test_free_free_pt145_rigid_body_and_elastic_modes(shared, tmp_path):
+    """Free-free pt145: the bars have no in-plane bending stiffness (I2 = 0), so AUTOSPC removes
+    the in-plane translation and rotation of every grid and the rigid-body modes are the four
+    left (translation along and normal to the span, roll and pitch): counted, never reported as
+    0 Hz elastic modes. The first elastic mode is the free-free bending mode: for a uniform
+    Euler–Bernoulli beam its frequency is (4.7300/1.8751)² = 6.3627 times the clamped-free one
+    (closed form; pt145's coupled bar mass is uniform, the CMASS2 are rotary inertia about the
+    span and do not enter bending), to 0.5 % (10 elements; measured 0.005 %). The rigid-body
+    eigenvalues come out at 5e-5 rad²/s², 2e-11 of the first elastic one."""
+    from torchrom.fe import read_bdf
+
+    free = read_bdf(_free_free_pt145(shared, tmp_path)).modes(4)
+    clamped = read_bdf(shared / "nastran" / "pt145.bdf").modes(1)
+    assert free.n_rigid == 4 and clamped.n_rigid == 0
+    assert np.all(np.abs(free.rigid_eigenvalues) < 1e-8 * free.eigenvalues[0])
+    assert len(free.frequencies_hz) == 4 and free.frequencies_hz[0] > 100.0
+    ratio = free.frequencies_hz[0] / clamped.frequencies_hz[0]
+    assert abs(ratio / (4.7300 / 1.8751) ** 2 - 1) < 5e-3, ratio
+    records = free.records()
+    assert [r["kind"] for r in records[:4]] == ["rigid-body"] * 4
+    assert records[4]["mode"] == 5 and records[4]["kind"] == "bending"
+
+
+def test_free_free_flutter_is_a_clear_error(shared, tmp_path, capsys):
+    from torchrom.cli import main
+
+    rc = main(["flutter", str(_free_free_pt145(shared, tmp_path))])
+    err = capsys.readouterr().err
+    assert rc == 2 and "4 rigid-body mode(s)" in err and "SUPORT" in err
+
+
+def test_point_mass_on_a_massless_plate():
+    """Density 0 and one point mass at the tip of a clamped plate strip (300 DOFs: the sparse
+    solver): the mass matrix has rank 3, so there are exactly three modes — the tip mass on the
+    plate's tip flexibility. Lanczos returns pseudo-pairs here (relative residual ≈ 1); they are
+    detected and the dense solver condenses the massless DOFs. Independent check: ω² are the
+    eigenvalues of (m F)⁻¹, F the 3 x 3 tip flexibility from three static solves (to 1e-8:
+    both are exact linear algebra on the same K). A fourth mode does not exist: an error."""
+    from torchrom.errors import InputError
+    from torchrom.fe.solvers import solve_linear
+
+    from .fe_decks import model_of, plate_strip
+
+    deck = plate_strip(10, 4, 1.0, 0.2, 0.01, 7e10, 0.3, rho=0.0)
+    mass = 2.0
+    deck.add_conm2(999, 55, mass)
+    fe = model_of(deck)
+    assert fe.n_dof > 200
+    modes = fe.modes(3)
+    assert modes.n_rigid == 0
+    K = fe.stiffness_matrix()
+    dofs = [fe.dof_index(55, c) for c in (1, 2, 3)]
+    F = np.zeros((3, 3))
+    for j, d in enumerate(dofs):
+        e = np.zeros(fe.n_dof)
+        e[d] = 1.0
+        F[:, j] = solve_linear(K, e)[dofs]
+    expected = np.sort(1.0 / np.linalg.eigvalsh(mass * F))
+    np.testing.assert_allclose(modes.eigenvalues, expected, rtol=1e-8)
+    with pytest.raises(InputError, match="only 3 DOFs carry mass|rank 3"):
+        fe.modes(4)

@@ -5,7 +5,8 @@ Each sub-command lives in its own module under :mod:`torchrom.commands` and expo
 Modules are discovered automatically, so adding a command never touches this file.
 
 Bad input raises :class:`torchrom.errors.TorchromError`; it is printed as one line
-(``torchrom <cmd>: error: ...``) and the exit status is 2.
+(``torchrom <cmd>: error: ...``) and the exit status is 2; so is an ``OSError`` of the file
+system (a full disk, no permission), which is not a bug either.
 """
 
 from __future__ import annotations
@@ -72,6 +73,11 @@ def main(argv: list[str] | None = None) -> int:
         rc = args._run(args)
     except TorchromError as exc:
         print(f"torchrom {args._name}: error: {exc}", file=sys.stderr)
+        return 2
+    except OSError as exc:
+        # the file system refused (disk full, permission, a folder that is a file): not a bug
+        where = f"{exc.filename}: " if exc.filename else ""
+        print(f"torchrom {args._name}: error: {where}{exc.strerror or exc}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
         print(f"torchrom {args._name}: interrupted; finished results were kept", file=sys.stderr)

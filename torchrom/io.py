@@ -26,20 +26,26 @@ def atomic_path(path: str | os.PathLike, suffix: str | None = None) -> Iterator[
     it is missing).
     """
     path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
     suffix = path.suffix if suffix is None else suffix
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=f".part{suffix}", dir=path.parent)
-    os.close(fd)
-    tmp_path = Path(tmp)
+    tmp_path = None
     try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=f".part{suffix}",
+                                   dir=path.parent)
+        os.close(fd)
+        tmp_path = Path(tmp)
         yield tmp_path
         # mkstemp creates the file 0600; a result file gets the mode any new file would get
         # (0666 less the umask, typically 0644) before it appears under its final name
         if tmp_path.is_file():
             os.chmod(tmp_path, 0o666 & ~current_umask())
         os.replace(tmp_path, path)
+    except OSError as exc:
+        # a full disk, a folder that is a file, no permission: one line, and the previous file
+        # (if any) is left as it was
+        raise write_error(path, exc) from None
     finally:
-        if tmp_path.exists():
+        if tmp_path is not None and tmp_path.exists():
             tmp_path.unlink()
 
 
@@ -48,6 +54,13 @@ def current_umask() -> int:
     mask = os.umask(0o022)
     os.umask(mask)
     return mask
+
+
+def write_error(path, exc: OSError) -> InputError:
+    """The one-line InputError of a failed write of ``path``."""
+    return InputError(f"{path}: cannot write: {exc.strerror or exc}"
+                      + (f" ({exc.filename})" if exc.filename and str(exc.filename) != str(path)
+                         else ""))
 
 
 def write_text_atomic(path: str | os.PathLike, text: str) -> Path:
@@ -84,8 +97,46 @@ def _json_safe(obj: Any) -> Any:
 
 
 def check_can_write(path: str | os.PathLike, force: bool, what: str = "output") -> Path:
-    """Refuse to overwrite an existing file unless ``force`` is set."""
+    """The output policy of every writer, checked before any work: refuse (InputError) to
+    replace an existing file unless ``force``, a path that is a folder, a path below a file,
+    and a folder that cannot be written."""
     path = Path(path)
+    if path.is_dir():
+        raise InputError(f"{what} {path} is a folder; expected a file name")
     if path.exists() and not force:
         raise InputError(f"{what} {path} already exists; pass --force to overwrite it")
+    check_folder(path.parent, what)
     return path
+
+
+def check_folder(folder: str | os.PathLike, what: str = "output") -> Path:
+    """InputError unless ``folder`` is (or can be created as) a writable folder."""
+    folder = Path(folder)
+    probe = folder
+    while not probe.exists():
+        if probe.parent == probe:
+            break
+        probe = probe.parent
+    if probe.exists() and not probe.is_dir():
+        raise InputError(f"{what} folder {folder}: {probe} is a file, not a folder")
+    if probe.exists() and not os.access(probe, os.W_OK | os.X_OK):
+        raise InputError(f"{what} folder {folder}: {probe} is not writable")
+    return folder
+
+
+def write_figure(draw, *args, **kwargs):
+    """Draw a figure after the tables are safe: a failure of the plotting library (e.g. a value
+    it cannot place) is a warning on stderr, not an exception, so that nothing computed is lost;
+    the caller ends with a non-zero status. Returns the path, or None when the figure failed.
+    Bad input (an :class:`InputError`, e.g. an existing file without --force) still raises."""
+    import sys
+
+    try:
+        return draw(*args, **kwargs)
+    except InputError:
+        raise
+    except Exception as exc:  # noqa: BLE001 - any plotting failure must not lose the tables
+        first = str(exc).strip().splitlines()[0] if str(exc).strip() else ""
+        print(f"warning: figure not written ({type(exc).__name__}: {first[:200]}); the tables "
+              f"are written", file=sys.stderr)
+        return None

@@ -89,7 +89,10 @@ class ModalData:
 
 
 def modal_data(fe, n_modes: int) -> ModalData:
-    modes = fe.modes(int(n_modes))
+    from ..fe.solvers import require_restrained
+
+    modes = require_restrained(fe.modes(int(n_modes)),
+                               f"{getattr(fe, 'name', 'model')}: modes for aerodynamics")
     shapes = np.asarray(modes.shapes, dtype=float)
     grid_ids = np.asarray(fe.grid_ids)
     return ModalData(

@@ -435,15 +435,18 @@ class DeckResult:
 
 
 def _modes(deck: FlutterDeck, fe):
+    from ..fe.solvers import require_restrained
+
     n_dof = fe.n_dof
     n = deck.n_modes
+    where = f"{deck.path.name}: flutter"
     if n is None:  # frequency range only
-        probe = fe.modes(min(n_dof, 100))
+        probe = require_restrained(fe.modes(min(n_dof, 100)), where)
         f = np.asarray(probe.frequencies_hz)
         lo, hi = deck.frequency_range
         keep = np.flatnonzero((f >= lo) & (f <= hi))
         return f[keep], np.asarray(probe.shapes)[:, keep]
-    modes = fe.modes(min(n, n_dof))
+    modes = require_restrained(fe.modes(min(n, n_dof)), where)
     f = np.asarray(modes.frequencies_hz)
     shapes = np.asarray(modes.shapes)
     lo = deck.frequency_range[0]

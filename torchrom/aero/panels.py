@@ -434,9 +434,12 @@ def read_model(path) -> object:
 
     from pyNastran.bdf.bdf import read_bdf
 
+    from ..fe.bdf_checks import check_complete, check_fields
+
     path = Path(path)
     if not path.is_file():
         raise InputError(f"{path}: file not found")
+    check_complete(path.read_text(errors="replace"), path.name)
     try:
         model = read_bdf(str(path), xref=False, debug=None, validate=True)
     except Exception as exc:  # noqa: BLE001 - pyNastran raises many types; one line to the user
@@ -460,6 +463,7 @@ def read_model(path) -> object:
         )
     except Exception as exc:  # noqa: BLE001
         raise InputError(f"{path}: GRID/coordinate systems: {_first_line(exc)}") from None
+    check_fields(model, path.name, aero=True)
     return model
 
 

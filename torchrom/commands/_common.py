@@ -6,6 +6,7 @@ import argparse
 from pathlib import Path
 from typing import Any
 
+from ..io import write_figure as write_figure  # noqa: F401 - the commands' name for it
 from ..io import write_json_atomic
 
 
@@ -41,6 +42,49 @@ def cpu_workers(value: str) -> int:
     return n
 
 
+def _integer(value: str, minimum: int, what: str) -> int:
+    try:
+        n = int(value)
+    except ValueError:
+        n = minimum - 1
+    if n < minimum:
+        raise argparse.ArgumentTypeError(f"expected {what}, got {value!r}")
+    return n
+
+
+def _number(value: str, ok, what: str) -> float:
+    import math
+
+    try:
+        x = float(value)
+    except ValueError:
+        x = math.nan
+    if not (math.isfinite(x) and ok(x)):
+        raise argparse.ArgumentTypeError(f"expected {what}, got {value!r}")
+    return x
+
+
+# argparse types of the numeric options (argparse names the option, exits with 2)
+def positive_int(value: str) -> int:
+    return _integer(value, 1, "a positive integer")
+
+
+def nonnegative_int(value: str) -> int:
+    return _integer(value, 0, "an integer >= 0")
+
+
+def positive_float(value: str) -> float:
+    return _number(value, lambda x: x > 0, "a positive finite number")
+
+
+def nonnegative_float(value: str) -> float:
+    return _number(value, lambda x: x >= 0, "a finite number >= 0")
+
+
+def finite_float(value: str) -> float:
+    return _number(value, lambda x: True, "a finite number")
+
+
 def add_executor_options(parser: argparse.ArgumentParser) -> None:
     """--workers N | --scheduler ADDR and --chunk-size (commands that run many cases; see
     :mod:`torchrom.study.runner`). Default: in-process."""
@@ -51,7 +95,7 @@ def add_executor_options(parser: argparse.ArgumentParser) -> None:
     group.add_argument("--scheduler", default=None, metavar="ADDR",
                        help="run chunks on the existing Dask cluster at ADDR "
                             "(e.g. tcp://host:8786)")
-    parser.add_argument("--chunk-size", type=int, default=None, metavar="N",
+    parser.add_argument("--chunk-size", type=positive_int, default=None, metavar="N",
                         help="cases per chunk of work (default: [run] chunk_size, else about 8 "
                              "chunks)")
 
@@ -106,8 +150,10 @@ def load_study(args: argparse.Namespace):
 
 
 def check_outputs(args: argparse.Namespace, paths, may_replace: bool | None = None) -> None:
-    """Refuse (InputError) before any work when an output or the --json file exists, unless
-    --force (``may_replace`` overrides --force for ``paths``, e.g. a sweep resuming its own)."""
+    """The output policy of every command, applied before any work: refuse (InputError) when an
+    output or the --json file exists, unless --force (``may_replace`` overrides --force for
+    ``paths``, e.g. a sweep resuming its own), or when the folder of an output (e.g. --out) is a
+    file or not writable (:func:`torchrom.io.check_can_write`)."""
     from ..io import check_can_write
 
     force = bool(getattr(args, "force", False))

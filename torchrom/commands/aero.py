@@ -10,7 +10,15 @@ import argparse
 from pathlib import Path
 
 from ..progress import info
-from ._common import add_force_option, add_json_option, maybe_write_json
+from ._common import (
+    add_force_option,
+    add_json_option,
+    check_outputs,
+    maybe_write_json,
+    nonnegative_float,
+    nonnegative_int,
+    positive_int,
+)
 
 NAME = "aero"
 HELP = "unsteady aerodynamics: DLM generalized forces Q(k) on the modes and their RFA (aero.npz)"
@@ -20,10 +28,11 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument(
         "model", help="Nastran deck (.bdf) or 'goland' for the built-in heavy Goland wing"
     )
-    p.add_argument("--mach", type=float, required=True, help="Mach number (subsonic)")
+    p.add_argument("--mach", type=nonnegative_float, required=True, help="Mach number (subsonic)")
     p.add_argument("--out", type=Path, required=True, help="output aero.npz")
-    p.add_argument("--modes", type=int, default=9, help="number of structural modes m (default 9)")
-    p.add_argument("--lags", type=int, default=13, help="RFA lag states (default 13)")
+    p.add_argument("--modes", type=positive_int, default=9,
+                   help="number of structural modes m (default 9)")
+    p.add_argument("--lags", type=nonnegative_int, default=13, help="RFA lag states (default 13)")
     p.add_argument("--rfa", choices=["minimum-state", "roger"], default="minimum-state")
     p.add_argument(
         "--kernel",
@@ -33,7 +42,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     )
     p.add_argument(
         "--k",
-        type=float,
+        type=nonnegative_float,
         nargs="+",
         metavar="K",
         help="reduced frequencies k = ω b / V (default: the deck's MKAERO list or the "
@@ -41,7 +50,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     )
     p.add_argument(
         "--boxes",
-        type=int,
+        type=positive_int,
         nargs=2,
         metavar=("NCHORD", "NSPAN"),
         default=(8, 20),
@@ -77,9 +86,7 @@ def load_fe(model: str):
 def run(args: argparse.Namespace) -> int:
     from ..aero.build import GOLAND_K_LIST, build_from_deck, build_from_modes, modal_data
     from ..aero.panels import goland_panels
-    from ..io import check_can_write
-
-    check_can_write(args.out, args.force, "aero file")
+    check_outputs(args, [args.out])
     goland = args.model == "goland" or args.planform == "goland"
     info(f"torchrom aero: {args.model}: modal analysis ({args.modes} modes)")
     fe = load_fe(args.model)

@@ -22,7 +22,16 @@ from pathlib import Path
 
 from ..errors import InputError
 from ..progress import info, note
-from ._common import add_study_options, check_outputs, load_study, maybe_write_json
+from ._common import (
+    add_study_options,
+    check_outputs,
+    load_study,
+    maybe_write_json,
+    nonnegative_int,
+    positive_float,
+    positive_int,
+    write_figure,
+)
 
 NAME = "bifurcation"
 HELP = "classify LCOs as supercritical or subcritical by a batched sweep of initial amplitudes"
@@ -31,16 +40,16 @@ HELP = "classify LCOs as supercritical or subcritical by a batched sweep of init
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("config", type=Path, help="sweep configuration (TOML); its cases are "
                         "the control values (their q0 is replaced)")
-    parser.add_argument("--q0", type=float, nargs=2, metavar=("LO", "HI"), default=None,
+    parser.add_argument("--q0", type=positive_float, nargs=2, metavar=("LO", "HI"), default=None,
                         help="range of initial amplitudes (scale of the [initial] pattern; "
                              "default: [initial] q0 / 100 to x 10)")
-    parser.add_argument("--num", type=int, default=12,
+    parser.add_argument("--num", type=positive_int, default=12,
                         help="initial amplitudes of the first batch, log-spaced (default 12)")
-    parser.add_argument("--refine", type=int, default=2,
+    parser.add_argument("--refine", type=nonnegative_int, default=2,
                         help="refinement rounds of the basin boundaries (default 2)")
-    parser.add_argument("--points", type=int, default=8,
+    parser.add_argument("--points", type=positive_int, default=8,
                         help="new initial amplitudes per boundary and round (default 8)")
-    parser.add_argument("--same-rtol", type=float, default=0.02,
+    parser.add_argument("--same-rtol", type=positive_float, default=0.02,
                         help="LCO amplitudes closer than this (relative) are one attractor")
     parser.add_argument("--x", default=None, metavar="PARAM",
                         help="control parameter on the diagram's axis (default: the first "
@@ -102,15 +111,17 @@ def run(args: argparse.Namespace) -> int:
     written = [*write_table(summary, out, force=args.force, stem="bifurcation").values(),
                *write_table(result.runs, out, force=args.force,
                             stem="bifurcation_runs").values(),
-               bifurcation_plot(result.runs, summary, paths["figure"], x=x,
-                                title=f"{cfg.title}: {result.character}", force=args.force)]
+               write_figure(bifurcation_plot, result.runs, summary, paths["figure"], x=x,
+                            title=f"{cfg.title}: {result.character}", force=args.force)]
     for _, row in summary.iterrows():
         label = case_label(row, varying, empty="case")
         print(f"[{label}] {row['local']}: {row['attractors']}")
     print(f"character: {result.character}")
     print(f"evidence: {result.evidence}")
+    figures_ok = written[-1] is not None
+    written = [p for p in written if p is not None]
     for p in written:
         print(f"wrote {p}")
     maybe_write_json(args, {"character": result.character, "evidence": result.evidence,
                             "controls": summary.to_dict(orient="records")})
-    return 0
+    return 0 if figures_ok else 1

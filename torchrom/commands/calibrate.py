@@ -21,7 +21,16 @@ from pathlib import Path
 
 from ..errors import InputError
 from ..progress import info, note
-from ._common import add_study_options, check_outputs, load_study, maybe_write_json
+from ._common import (
+    add_study_options,
+    check_outputs,
+    load_study,
+    maybe_write_json,
+    nonnegative_int,
+    positive_float,
+    positive_int,
+    write_figure,
+)
 
 NAME = "calibrate"
 HELP = "find the Kelvin-Voigt factor gamma that produces a target LCO amplitude (batched)"
@@ -30,18 +39,18 @@ HELP = "find the Kelvin-Voigt factor gamma that produces a target LCO amplitude 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("config", type=Path, help="sweep configuration (TOML); its cases are "
                         "the base cases (their gamma is ignored)")
-    parser.add_argument("--target", type=float, required=True,
+    parser.add_argument("--target", type=positive_float, required=True,
                         help="target LCO amplitude (units of --column)")
     parser.add_argument("--column", default="amplitude",
                         help="table column to match (default amplitude: the first output)")
-    parser.add_argument("--gamma", type=float, nargs=2, metavar=("LO", "HI"), default=None,
+    parser.add_argument("--gamma", type=positive_float, nargs=2, metavar=("LO", "HI"), default=None,
                         help="gamma range scanned (s; default: the configuration's gamma / 10 "
                              "to x 10)")
-    parser.add_argument("--num", type=int, default=16,
+    parser.add_argument("--num", type=positive_int, default=16,
                         help="values of gamma per bracket and round (default 16)")
-    parser.add_argument("--rtol", type=float, default=2e-3,
+    parser.add_argument("--rtol", type=positive_float, default=2e-3,
                         help="relative width of the final bracket (default 2e-3)")
-    parser.add_argument("--rounds", type=int, default=6,
+    parser.add_argument("--rounds", type=nonnegative_int, default=6,
                         help="largest number of refinement rounds (default 6)")
     add_study_options(parser, "calibration.parquet/.csv/.png")
 
@@ -87,8 +96,9 @@ def run(args: argparse.Namespace) -> int:
     written = [*write_table(table, out, force=args.force, stem="calibration").values(),
                *write_table(result.evaluations, out, force=args.force,
                             stem="calibration_runs").values(),
-               calibration_plot(result.evaluations, table, paths["figure"], column=args.column,
-                                target=args.target, title=cfg.title, force=args.force)]
+               write_figure(calibration_plot, result.evaluations, table, paths["figure"],
+                            column=args.column, target=args.target, title=cfg.title,
+                            force=args.force)]
     for _, row in table.iterrows():
         base = case_label(row, bases[int(row["base_case"])])
         if row["status"] != "ok":
@@ -99,7 +109,9 @@ def run(args: argparse.Namespace) -> int:
               f"{row['damplitude_dgamma']:.4g} per s, dln/dln = {row['sensitivity']:.4g}; "
               f"check: {row['check_status']} {row['check_value']:.6g} "
               f"({100 * row['check_error']:+.3f} %)")
+    figures_ok = written[-1] is not None
+    written = [p for p in written if p is not None]
     for p in written:
         print(f"wrote {p}")
     maybe_write_json(args, table.to_dict(orient="records"))
-    return 0 if (table["status"] == "ok").all() else 1
+    return 0 if figures_ok and (table["status"] == "ok").all() else 1

@@ -22,7 +22,17 @@ from pathlib import Path
 
 import numpy as np
 
-from ._common import add_json_option, maybe_write_json
+from ._common import (
+    add_force_option,
+    add_json_option,
+    check_outputs,
+    finite_float,
+    maybe_write_json,
+    nonnegative_float,
+    nonnegative_int,
+    positive_int,
+    write_figure,
+)
 
 NAME = "flutter"
 HELP = (
@@ -34,23 +44,25 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument(
         "inputs", nargs="+", metavar="INPUT", help="DECK.bdf | ROM.npz AERO.npz | goland"
     )
-    p.add_argument("--mach", type=float, help="Mach number (default: the aero file's)")
+    p.add_argument("--mach", type=nonnegative_float, help="Mach number (default: the aero file's)")
     p.add_argument(
         "--alt-range",
-        type=float,
+        type=finite_float,
         nargs=2,
         metavar=("LO", "HI"),
         default=(0.0, 40000.0),
         help="altitude range searched for the flutter point (ft; default 0 40000)",
     )
-    p.add_argument("--alpha", type=float, help="mass-proportional damping α (1/s; default 0.2565)")
+    p.add_argument("--alpha", type=finite_float,
+                   help="mass-proportional damping α (1/s; default 0.2565)")
     p.add_argument(
-        "--gamma", type=float, help="stiffness-proportional damping γ (s; default 1.338e-4)"
+        "--gamma", type=nonnegative_float,
+        help="stiffness-proportional damping γ (s; default 1.338e-4)",
     )
     p.add_argument("--method", choices=["both", "pk", "state-space"], default="both")
     p.add_argument(
         "--at",
-        type=float,
+        type=finite_float,
         nargs="+",
         metavar="ALT",
         help="altitudes (ft) at which to report the growing-response frequency "
@@ -59,12 +71,13 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument(
         "--aero", type=Path, help="goland form: use this aero.npz instead of building one"
     )
-    p.add_argument("--lags", type=int, default=13, help="goland form: RFA lag states (default 13)")
+    p.add_argument("--lags", type=nonnegative_int, default=13,
+                   help="goland form: RFA lag states (default 13)")
     p.add_argument("--variant", choices=("calibrated", "updated"), default="calibrated",
                    help="goland form: the heavy Goland wing variant (see torchrom goland)")
     p.add_argument(
         "--boxes",
-        type=int,
+        type=positive_int,
         nargs=2,
         default=(8, 20),
         metavar=("NCHORD", "NSPAN"),
@@ -73,7 +86,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--kernel", choices=["quartic", "parabolic"], default="quartic")
     p.add_argument(
         "--alpha-for-gamma",
-        type=float,
+        type=nonnegative_float,
         nargs="+",
         metavar="GAMMA",
         help="for each γ (s), the α (1/s) that keeps the state-space flutter altitude of the "
@@ -93,11 +106,13 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                         "DTI,UNITS card; velocities are printed in UNIT/s")
     p.add_argument("--root-locus", type=Path, help="write a state-space root-locus figure")
     add_json_option(p)
+    add_force_option(p)
 
 
 def run(args: argparse.Namespace) -> int:
     from ..errors import InputError
 
+    check_outputs(args, [p for p in (args.plot, args.root_locus) if p is not None])
     inputs = args.inputs
     if len(inputs) == 1 and inputs[0] != "goland":
         return _run_deck(args, Path(inputs[0]))
@@ -128,17 +143,23 @@ def _run_deck(args, path: Path) -> int:
         print(f"\ncompared with {args.compare}:")
         print(text)
         out["compare"] = records
+    maybe_write_json(args, out)  # the numbers first: a figure failure cannot lose them
+    ok = True
     if args.plot is not None and res.results:
         from ..aero.plots import plot_vg
 
-        plot_vg(
-            res.results[0].sweep, args.plot,
-            velocity_label=f"velocity ({deck.length_unit}/s)",
-            title=f"{path.name}: FLUTTER {res.results[0].case.sid}, {deck.symmetry}",
-        )
-        print(f"wrote {args.plot}")
-    maybe_write_json(args, out)
-    return 0
+        ok = _figure(plot_vg, res.results[0].sweep, args.plot,
+                     velocity_label=f"velocity ({deck.length_unit}/s)",
+                     title=f"{path.name}: FLUTTER {res.results[0].case.sid}, {deck.symmetry}")
+    return 0 if ok else 1
+
+
+def _figure(draw, *a, **k) -> bool:
+    """Draw one figure (a failure is a warning: :func:`torchrom.io.write_figure`)."""
+    path = write_figure(draw, *a, **k)
+    if path is not None:
+        print(f"wrote {a[1]}")
+    return path is not None
 
 
 def _run_rom(args, rom_path: Path, aero_path: Path) -> int:
@@ -257,20 +278,6 @@ def _matched(args, structure, aero, compare_paper: bool) -> int:
             a = alpha_for_gamma(structure, aero.rfa, g, mach, ref.altitude)
             print(f"    gamma = {g:10.4g} s   alpha = {a:10.5g} 1/s")
             pairs.append({"gamma": g, "alpha": a, "altitude": ref.altitude})
-    if args.plot is not None:
-        from ..aero.plots import plot_vg
-
-        sweep = next((r.sweep for r in results if r.method == "p-k"), None)
-        if sweep is not None:
-            plot_vg(sweep, args.plot, x="altitude", title=f"p-k, Mach {mach:g}")
-            print(f"wrote {args.plot}")
-    if args.root_locus is not None:
-        from ..aero.plots import plot_root_locus
-
-        sweep = next((r.sweep for r in results if r.method == "state-space"), None)
-        if sweep is not None:
-            plot_root_locus(sweep, args.root_locus, title=f"state space, Mach {mach:g}")
-            print(f"wrote {args.root_locus}")
     out = {
         "mach": mach,
         "alpha": structure.alpha,
@@ -286,5 +293,19 @@ def _matched(args, structure, aero, compare_paper: bool) -> int:
             "frequency_hz": PAPER_FLUTTER_FREQUENCY_HZ,
             "table3": {str(int(k)): v for k, v in PAPER_TABLE3.items()},
         }
-    maybe_write_json(args, out)
-    return 0
+    maybe_write_json(args, out)  # the numbers first: a figure failure cannot lose them
+    ok = True
+    if args.plot is not None:
+        from ..aero.plots import plot_vg
+
+        sweep = next((r.sweep for r in results if r.method == "p-k"), None)
+        if sweep is not None:
+            ok &= _figure(plot_vg, sweep, args.plot, x="altitude", title=f"p-k, Mach {mach:g}")
+    if args.root_locus is not None:
+        from ..aero.plots import plot_root_locus
+
+        sweep = next((r.sweep for r in results if r.method == "state-space"), None)
+        if sweep is not None:
+            ok &= _figure(plot_root_locus, sweep, args.root_locus,
+                          title=f"state space, Mach {mach:g}")
+    return 0 if ok else 1

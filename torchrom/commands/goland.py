@@ -11,7 +11,15 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from ._common import add_force_option, add_json_option, maybe_write_json
+from ._common import (
+    add_force_option,
+    add_json_option,
+    check_outputs,
+    finite_float,
+    maybe_write_json,
+    positive_float,
+    positive_int,
+)
 
 NAME = "goland"
 HELP = "write the heavy Goland wing BDF (goland.bdf) and print its modes against Table 2"
@@ -28,10 +36,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--out", type=Path, default=Path("."),
                         help="output directory for goland.bdf (default: current directory)")
     # the default is resolved in run(): importing torchrom.fe here would slow down --help
-    parser.add_argument("--store-x", type=float, default=None,
+    parser.add_argument("--store-x", type=finite_float, default=None,
                         help="chordwise store position, ft from the leading edge (default: the "
                              "calibrated torchrom.fe.goland.DEFAULT_STORE_X)")
-    parser.add_argument("--density", type=float, default=None,
+    parser.add_argument("--density", type=positive_float, default=None,
                         help="uniform density, slug/ft^3 (default: calibrated, mode 1 = 1.690 Hz)")
     parser.add_argument("--skins", choices=("bending", "membrane"), default="bending",
                         help="CQUAD4 skins with plate bending (default) or membrane only")
@@ -40,7 +48,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="shear-panel modelling (default membrane-only CQUAD4)")
     parser.add_argument("--coupled-mass", action="store_true",
                         help="consistent mass (PARAM COUPMASS 1) instead of lumped")
-    parser.add_argument("--n", type=int, default=9, help="number of modes (default 9)")
+    parser.add_argument("--n", type=positive_int, default=9, help="number of modes (default 9)")
     add_json_option(parser)
     add_force_option(parser)
 
@@ -49,10 +57,9 @@ def run(args: argparse.Namespace) -> int:
     from ..fe import goland, goland_stiffness, write_bdf
     from ..fe.goland import table2_records
     from ..fe.report import mode_table
-    from ..io import check_can_write
 
     out = Path(args.out) / "goland.bdf"
-    check_can_write(out, args.force, "deck")
+    check_outputs(args, [out])
     if args.variant == "updated":
         print("building the heavy Goland wing, updated variant")
         fe = goland(variant="updated", store_x=args.store_x, density=args.density,

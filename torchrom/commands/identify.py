@@ -18,9 +18,18 @@ import time
 from pathlib import Path
 
 from ..errors import InputError
-from ..io import check_can_write
 from ..progress import info
-from ._common import add_force_option, add_json_option, maybe_write_json
+from ._common import (
+    add_force_option,
+    add_json_option,
+    check_outputs,
+    finite_float,
+    maybe_write_json,
+    nonnegative_float,
+    nonnegative_int,
+    positive_float,
+    positive_int,
+)
 
 NAME = "identify"
 HELP = "identify the nonlinear ROM (stiffness + Kelvin-Voigt damping) of an FE model"
@@ -28,8 +37,9 @@ HELP = "identify the nonlinear ROM (stiffness + Kelvin-Voigt damping) of an FE m
 
 def add_arguments(parser) -> None:
     parser.add_argument("model", type=Path, help="Nastran BDF of the structure")
-    parser.add_argument("--linear", type=int, default=9, help="number of linear modes (9)")
-    parser.add_argument("--dual", type=int, default=12, help="number of dual modes (12)")
+    parser.add_argument("--linear", type=positive_int, default=9, help="number of linear modes (9)")
+    parser.add_argument("--dual", type=nonnegative_int, default=12,
+                        help="number of dual modes (12)")
     parser.add_argument("--combinations", default="transverse", metavar="SET",
                         help="linear-mode pairs loaded for the dual modes: 'transverse' "
                              "(default: the first two transverse modes with the first three, "
@@ -41,17 +51,17 @@ def add_arguments(parser) -> None:
                              "exact from the FE material tangent")
     parser.add_argument("--stiffness", choices=("tangent", "step"), default="tangent",
                         help="stiffness identification: tangent matrices (Eqs. 37-41) or STEP")
-    parser.add_argument("--amplitude", type=float, default=0.01,
+    parser.add_argument("--amplitude", type=positive_float, default=0.01,
                         help="identification amplitude, fraction of the span (0.01)")
     parser.add_argument("--out", type=Path, required=True, help="ROM file to write (rom.npz)")
     parser.add_argument("--report", type=Path, metavar="DIR",
                         help="also validate the ROM against the FE and write DIR/report.md")
-    parser.add_argument("--gamma", type=float, default=1e-3,
+    parser.add_argument("--gamma", type=nonnegative_float, default=1e-3,
                         help="Kelvin-Voigt gamma (s) of the report's free decay (1e-3)")
-    parser.add_argument("--decay-tip", type=float, default=0.15,
+    parser.add_argument("--decay-tip", type=positive_float, default=0.15,
                         help="initial tip deflection of the report's free decay, fraction of "
                              "the span (0.15)")
-    parser.add_argument("--step-x", type=float, default=None,
+    parser.add_argument("--step-x", type=finite_float, default=None,
                         help="chordwise mid-line (basic x) of the report's step pressure "
                              "(default: the wing's mid-chord when the deck is known, e.g. 3 ft "
                              "for the Goland deck, else the middle of the grid)")
@@ -79,10 +89,7 @@ class _Progress:
 def run(args) -> int:
     from ..identify.build import IdentifyOptions, as_backend, identify
 
-    check_can_write(args.out, args.force, "ROM file")
-    if args.report is not None and (args.report / "report.md").exists() and not args.force:
-        raise InputError(f"report {args.report / 'report.md'} already exists; pass --force to "
-                         "overwrite it")
+    check_outputs(args, [args.out, *([args.report / "report.md"] if args.report else [])])
     if not args.model.is_file():
         raise InputError(f"{args.model}: no such model file")
     from ..fe import read_bdf

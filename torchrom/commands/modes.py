@@ -1,10 +1,14 @@
 """``torchrom modes MODEL.bdf``: linear modal analysis of a Nastran deck.
 
-JSON (``--json FILE``): a list of records, one per mode: ``mode``, ``frequency_hz`` (Hz),
-``kind`` (bending/torsion/in-plane/axial), ``content_*`` fractions; for a deck written by
-``torchrom goland`` also ``paper_hz`` and ``diff_pct`` (Table 2); with ``--compare RUN.f06``
-also ``nastran_hz`` (the f06's first REAL EIGENVALUES table) and ``diff_pct`` (None for
-rigid-body modes, whose frequency is zero up to round-off: ``diff_hz`` is given instead).
+JSON (``--json FILE``, refused when it exists unless ``--force``): a list of records, one per
+mode: ``mode``, ``frequency_hz`` (Hz), ``kind`` (bending/torsion/in-plane/axial), ``content_*``
+fractions; for a deck written by ``torchrom goland`` also ``paper_hz`` and ``diff_pct`` (Table 2).
+An unconstrained or under-constrained deck's rigid-body modes come first, with ``kind``
+``rigid-body``, their ``eigenvalue`` ω² (rad²/s², near zero, either sign) and ``frequency_hz`` =
+sign(ω²)·√|ω²|/2π; the ``--n`` elastic modes follow.
+With ``--compare RUN.f06`` also ``nastran_hz`` (the f06's first REAL EIGENVALUES table) and
+``diff_pct`` (None for rigid-body modes, whose frequency is zero up to round-off: ``diff_hz``
+is given instead).
 """
 
 from __future__ import annotations
@@ -14,7 +18,13 @@ from pathlib import Path
 
 import numpy as np
 
-from ._common import add_json_option, maybe_write_json
+from ._common import (
+    add_force_option,
+    add_json_option,
+    check_outputs,
+    maybe_write_json,
+    positive_int,
+)
 
 NAME = "modes"
 HELP = "linear modal analysis table of a Nastran deck (MODEL.bdf)"
@@ -22,7 +32,7 @@ HELP = "linear modal analysis table of a Nastran deck (MODEL.bdf)"
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("model", type=Path, help="Nastran bulk data deck")
-    parser.add_argument("--n", type=int, default=None,
+    parser.add_argument("--n", type=positive_int, default=None,
                         help="number of modes (default: EIGR/EIGRL ND of the deck, else 10)")
     parser.add_argument("--unsupported", choices=("error", "warn"), default="error",
                         help="what to do with unsupported structural cards (default error)")
@@ -30,6 +40,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="print Nastran's frequencies from this f06 beside torchrom's, with "
                         "the differences (default --n: as many modes as the f06 lists)")
     add_json_option(parser)
+    add_force_option(parser)
 
 
 def compare_records(records: list[dict], nastran_hz) -> list[dict]:
@@ -59,7 +70,9 @@ def run(args: argparse.Namespace) -> int:
     from ..fe.bdf_read import GOLAND_TITLE, _title
     from ..fe.goland import TABLE2_HZ
     from ..fe.report import mode_table
+    from ..fe.solvers import RIGID_BODY_TOL
 
+    check_outputs(args, [])
     fe = read_bdf(args.model, unsupported=args.unsupported)
     s = fe.summary()
     elements = ", ".join(f"{k} {v}" for k, v in s.items()
@@ -78,6 +91,9 @@ def run(args: argparse.Namespace) -> int:
     modes = fe.modes(n)
     is_goland = _title(fe.bdf).startswith(GOLAND_TITLE)
     records = modes.records(reference_hz=TABLE2_HZ if is_goland else None)
+    if modes.n_rigid:
+        print(f"{modes.n_rigid} rigid-body mode(s) (ω² at or below {RIGID_BODY_TOL:g} of the "
+              f"stiffness-to-mass scale), then the elastic modes:")
     if nastran_hz is not None:
         records = compare_records(records, nastran_hz)
     print(mode_table(records))

@@ -26,7 +26,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from ._common import add_force_option
+from ._common import add_force_option, write_figure
 
 NAME = "plot"
 HELP = "draw any result table (--x/--y/--hue/--facet) or a paper figure (--figure fig9..fig13)"
@@ -80,7 +80,7 @@ def run(args: argparse.Namespace) -> int:
                               facet=args.facet, title=args.title, force=args.force)
     elif args.figure == "fig11":
         hist = args.histories or args.table.parent / "histories.parquet"
-        path = figures.fig11(table, read_table(hist), args.out, force=args.force)
+        path = write_figure(figures.fig11, table, read_table(hist), args.out, force=args.force)
     else:
         kw = {}
         if args.figure in ("fig10", "fig12", "fig13"):
@@ -88,6 +88,8 @@ def run(args: argparse.Namespace) -> int:
         if args.figure == "fig13":
             kw["q4_mode"] = args.q4_mode
         draw = figures.table2 if args.figure == "table2" else figures.TABLE_FIGURES[args.figure]
-        path = draw(table, args.out, force=args.force, **kw)
+        path = write_figure(draw, table, args.out, force=args.force, **kw)
+    if path is None:
+        return 1  # warned: the plotting library failed on this table
     print(f"wrote {path}")
     return 0

@@ -22,7 +22,14 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from ._common import add_study_options, check_outputs, load_study, maybe_write_json
+from ._common import (
+    add_study_options,
+    check_outputs,
+    load_study,
+    maybe_write_json,
+    positive_int,
+    write_figure,
+)
 
 NAME = "sweep"
 DISTRIBUTION = "amplitude_distribution"
@@ -34,7 +41,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     add_study_options(parser, "results.parquet, results.csv, figures, parts/")
     parser.add_argument("--compile", action="store_true",
                         help="compile the time step with torch.compile (pays off for long runs)")
-    parser.add_argument("--threads", type=int, default=None,
+    parser.add_argument("--threads", type=positive_int, default=None,
                         help="torch intra-op threads (default: automatic)")
 
 
@@ -48,17 +55,37 @@ def _write_distribution(table, cfg, sampled: list[str], paths: dict[str, Path]) 
     by = group_parameters(cfg.cases, sampled)
     summary = amplitude_distribution(table, by)
     written = write_table(summary, paths["parquet"].parent, force=True, stem=DISTRIBUTION)
-    figure = distribution_plot(table, paths["figure"], by=by, force=True,
-                               title=f"{cfg.title}: {', '.join(sampled)} sampled")
+    figure = write_figure(distribution_plot, table, paths["figure"], by=by, force=True,
+                          title=f"{cfg.title}: {', '.join(sampled)} sampled")
     print(f"amplitude distribution ({', '.join(sampled)} sampled; decay counts as 0):")
     print(summary.to_string(index=False, float_format=lambda x: f"{x:.4g}"))
-    return [*written.values(), figure]
+    return [*written.values(), *([figure] if figure else [None])]
+
+
+def _check_same_cases(table_path: Path, cfg, run: dict) -> None:
+    """A finished table of this run is replaced only by the same case grid (else --force)."""
+    if not table_path.exists():
+        return
+    import pandas as pd
+
+    from ..errors import InputError
+    from ..study.grid import case_id
+
+    try:
+        old = set(pd.read_parquet(table_path, columns=["case_id"])["case_id"])
+    except Exception:  # noqa: BLE001 - an unreadable table is not ours to replace
+        old = None
+    new = {case_id(c, context=run["run_key"]) for c in cfg.cases}
+    if old != new:
+        raise InputError(f"{table_path} holds the results of another case grid "
+                         f"({len(old or ())} cases, {len(new)} now); pass --force to replace "
+                         f"it or choose another output folder")
 
 
 def run(args: argparse.Namespace) -> int:
     # heavy imports here, not at module level: `torchrom --help` must stay fast
 
-    from ..study.config import with_overrides
+    from ..study.config import check_initial, with_overrides
     from ..study.plots import parameter_plot
     from ..study.runner import PartStore, open_executor
     from ..study.sampling import sampled_parameters
@@ -68,6 +95,7 @@ def run(args: argparse.Namespace) -> int:
     device, dtype, cfg = load_study(args)
     cfg = with_overrides(cfg, compile=True if args.compile else None, threads=args.threads)
     model = cfg.build_model()
+    check_initial(cfg, model)
     out = Path(args.out)
     # outputs of this very run (same run key) may be rewritten: that is how a sweep resumes
     resumable = PartStore(out, run_description(cfg, model, dtype)).check(args.force)
@@ -76,6 +104,8 @@ def run(args: argparse.Namespace) -> int:
     hist_path = out / "histories.parquet"
     sampled = sampled_parameters(cfg.raw.get("cases", {}))
     uq_paths = {**table_paths(out, DISTRIBUTION), "figure": out / f"{DISTRIBUTION}.png"}
+    if resumable and not args.force:
+        _check_same_cases(paths["parquet"], cfg, run_description(cfg, model, dtype))
     check_outputs(args, (*paths.values(), figure, *(uq_paths.values() if sampled else ()),
                          *((hist_path,) if cfg.history else ())),
                   may_replace=args.force or resumable)
@@ -106,9 +136,11 @@ def run(args: argparse.Namespace) -> int:
     written = write_table(table, out, force=True)
     if histories:
         written["histories"] = write_histories(histories, hist_path)
-    parameter_plot(table, figure, x=cfg.plot.x, y=cfg.plot.y, hue=cfg.plot.hue,
-                   title=cfg.title, force=True)
+    drawn = write_figure(parameter_plot, table, figure, x=cfg.plot.x, y=cfg.plot.y,
+                         hue=cfg.plot.hue, title=cfg.title, force=True)
     extra = _write_distribution(table, cfg, sampled, uq_paths) if sampled else []
+    figures_ok = drawn is not None and None not in extra
+    extra = [p for p in extra if p is not None]
     counts = table["status"].value_counts().to_dict()
     print("status: " + ", ".join(f"{k} {v}" for k, v in sorted(counts.items())))
     confirmed = (int((table["precision"] == "float64 (confirmed)").sum())
@@ -126,7 +158,7 @@ def run(args: argparse.Namespace) -> int:
         print(f"time: {timing['elapsed_s']:.1f} s elapsed, {timing['wall_time_s']:.1f} s "
               f"integrating, {timing['case_steps']} case-steps, "
               f"{timing['us_per_case_step']:.2f} us per case-step")
-    for p in (*written.values(), figure, *extra):
+    for p in (*written.values(), *([figure] if drawn else []), *extra):
         print(f"wrote {p}")
     maybe_write_json(args, table.to_dict(orient="records"))
-    return 0
+    return 0 if figures_ok else 1

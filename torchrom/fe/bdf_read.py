@@ -36,8 +36,16 @@ import numpy as np
 
 from ..errors import InputError
 from .bdf_cards import NOTED_CARDS, apply_grdset, reason
+from .bdf_checks import check_complete, check_fields, duplicate_message
 from .bdf_extra import SOLID_GRIDS, ExtraCards
+from .coords import axes_at
 from .elements.quad4 import quad_frames, shape
+from .goland_geometry import (  # noqa: F401 - GOLAND_* re-exported (public names of this module)
+    GOLAND_TITLE,
+    GOLAND_UNITS,
+    WING_CHORD,
+    goland_output_points,
+)
 from .mesh import (
     BarSet,
     InterpRBE3,
@@ -67,7 +75,6 @@ PASSIVE_CARDS = frozenset(
     "AEFACT AELIST AESURF AESURFS AESTAT AELINK AEPARM TRIM DIVERG CSSCHD EIGC TABDMP1 MONPNT1 "
     "GUST NLPARM TSTEP DMI".split()
 )
-GOLAND_TITLE = "torchrom heavy Goland wing"
 CORNERS = ((-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0))
 
 
@@ -90,6 +97,9 @@ _CARD_MSG = re.compile(r"card=\[(.*?)\]", re.S)
 def _pynastran_error(fname: str, exc: Exception) -> InputError:
     """One line from a pyNastran parsing error: file, card, id, field and what was wrong."""
     text = str(exc)
+    duplicate = duplicate_message(fname, text)
+    if duplicate is not None:
+        return InputError(duplicate)
     first = text.strip().splitlines()[0] if text.strip() else type(exc).__name__
     card = ""
     m = _CARD_MSG.search(text)
@@ -112,6 +122,7 @@ def _read_pynastran(path: Path):
         text = path.read_text(errors="replace")
     except OSError as exc:
         raise InputError(f"{path}: cannot read the deck: {exc.strerror or exc}") from None
+    check_complete(text, path.name)
     upper = [ln.split("$")[0].strip().upper() for ln in text.splitlines()]
     has_cend = any(ln == "CEND" for ln in upper)
     has_begin = any(ln.startswith("BEGIN") and "BULK" in ln for ln in upper)
@@ -201,14 +212,13 @@ def from_pynastran(
     if unsupported not in ("error", "warn"):
         raise InputError(f"unsupported: expected 'error' or 'warn', got {unsupported!r}")
     notes = _check_cards(model, fname, unsupported)
+    check_fields(model, fname)
     reader = _Reader(model, fname)
     mesh = reader.mesh(spc_id)
     loads = reader.loads(mesh)
     title = _title(model)
     wing_chord = None
     if title.startswith(GOLAND_TITLE):
-        from .goland import WING_CHORD, goland_output_points
-
         wing_chord = WING_CHORD
         if output_points is None:
             output_points = goland_output_points(mesh)
@@ -228,9 +238,6 @@ def from_pynastran(
     fe.wing_chord = wing_chord
     fe.notes = notes + reader.notes + fe.notes
     return fe
-
-
-GOLAND_UNITS = {"length": "ft", "mass": "slug", "time": "s", "force": "lbf"}
 
 
 def _check_cards(model, fname: str, unsupported: str) -> list[str]:
@@ -263,27 +270,6 @@ def _comps(value, fname: str, where: str) -> list[int]:
     if not s.isdigit() or any(ch not in "123456" for ch in s):
         raise InputError(f"{fname}: {where}: expected components from 1..6, got {value!r}")
     return sorted({int(ch) - 1 for ch in s})
-
-
-def axes_at(coord, point: np.ndarray) -> np.ndarray:
-    """Unit axes (columns, basic) of a coordinate system at a basic point (curvilinear too)."""
-    beta = np.asarray(coord.beta(), dtype=float)  # rows: local x, y, z in basic
-    kind = coord.type[-1]
-    if coord.cid == 0 or kind == "R":
-        return beta.T
-    p = beta @ (np.asarray(point, float) - np.asarray(coord.origin, float))
-    th = np.arctan2(p[1], p[0])
-    c, s = np.cos(th), np.sin(th)
-    if kind == "C":
-        local = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
-    else:  # spherical (R, θ from z, φ about z)
-        r_xy = np.hypot(p[0], p[1])
-        ph = np.arctan2(r_xy, p[2])
-        cp, sp_ = np.cos(ph), np.sin(ph)
-        local = np.array(
-            [[sp_ * c, cp * c, -s], [sp_ * s, cp * s, c], [cp, -sp_, 0.0]]
-        )
-    return beta.T @ local
 
 
 class _Reader(ExtraCards):

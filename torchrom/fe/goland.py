@@ -63,22 +63,27 @@ import numpy as np
 
 from ..eigen import arpack_start
 from ..errors import InputError
-from .bdf_read import GOLAND_TITLE, GOLAND_UNITS, from_pynastran
+from .bdf_read import from_pynastran
+from .goland_geometry import (  # noqa: F401 - re-exported (public names of this module)
+    DEPTH,
+    GOLAND_TITLE,
+    GOLAND_UNITS,
+    SPAN,
+    WING_CHORD,
+    goland_output_points,
+)
 
 TABLE2_HZ = (1.690, 3.051, 9.172, 10.834, 11.258, 16.260, 22.845, 26.318, 29.183)
 TARGET_MODE1_HZ = TABLE2_HZ[0]
 
 E_PSF = 1.4976e9
 NU = 0.3333
-SPAN = 20.0
-DEPTH = 0.33334
 X_STATIONS = (0.0, 2.0, 4.0)
 N_BAYS = 10
 SKIN_T = 0.0155
 ROD_AREA = {"span_mid": 0.1496, "span_edge": 0.0416, "chord": 0.0422, "thick": 8e-4}
 WEB_T = {"span_mid": 0.0889, "span_edge": 6e-4, "chord": 0.0347}
 #: x of the leading and trailing edges of the aerodynamic chord (6 ft, classic Goland planform)
-WING_CHORD = (0.0, 6.0)
 STORE_MASS = 22.498
 STORE_IYY = 50.3396
 
@@ -275,14 +280,6 @@ def goland_bdf(store_x: float = DEFAULT_STORE_X, density: float = 1.0,
     if options.coupled_mass:
         m.add_param("COUPMASS", [1])
     return m
-
-
-def goland_output_points(mesh) -> dict[str, tuple[int, int]]:
-    """Point A: the grid nearest (2, 20, +0.16667) ft (upper skin, tip, mid-box)."""
-    target = np.array([2.0, SPAN, DEPTH / 2.0])
-    k = int(np.argmin(np.linalg.norm(mesh.xyz - target, axis=1)))
-    gid = int(mesh.grid_ids[k])
-    return {"A_Tx": (gid, 1), "A_Ty": (gid, 2), "A_Tz": (gid, 3)}
 
 
 def _model(store_x, density, options, n_modes=10, drilling=1e-4):

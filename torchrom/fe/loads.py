@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .bdf_read import axes_at
+from .coords import axes_at
 from .elements.quad4 import pressure_forces
 from .mesh import Mesh
 

@@ -22,13 +22,26 @@ from ..eigen import arpack_start, orient_columns
 from ..errors import ConvergenceError, InputError
 from .kinds import classify
 
+#: An eigenvalue ω² at or below this fraction of the model's stiffness-to-mass scale
+#: (mean |diag K| / mean |diag M|) is a rigid-body (zero-energy) mode. Rigid-body eigenvalues
+#: come out at rounding level (measured ≤ 1.4e-15 of that scale on the free-free pt145 variants
+#: and the free-free test bar), the lowest elastic ones far above it (measured 3.7e-6 for the
+#: clamped Goland wing, 1.7e-5 for the free-free pt145): 1e-8 separates the two by more than
+#: two decades on either side.
+RIGID_BODY_TOL = 1e-8
+
 
 @dataclass
 class Modes:
     """Linear normal modes: ``frequencies_hz (n,)``, mass-normalised ``shapes (n_dof, n)``
     (Φᵀ M Φ = I, signs by :func:`orient_columns`), ``kinds`` (bending,
     torsion, in-plane, axial), ``eigenvalues`` ω² (rad²/s²), ``fractions`` (content per kind),
-    ``notes`` (fewer finite modes than asked, DOFs without stiffness or mass)."""
+    ``notes`` (fewer finite modes than asked, DOFs without stiffness or mass).
+
+    These are the *elastic* modes. An unconstrained or under-constrained model also has
+    rigid-body (zero-energy) modes: their eigenvalues (near zero, of either sign; never clipped)
+    are ``rigid_eigenvalues`` and their shapes ``rigid_shapes``; ``n_rigid`` counts them.
+    """
 
     frequencies_hz: np.ndarray
     shapes: np.ndarray
@@ -36,12 +49,26 @@ class Modes:
     eigenvalues: np.ndarray
     fractions: list[dict[str, float]] = field(default_factory=list)
     notes: list[str] = field(default_factory=list)
+    rigid_eigenvalues: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    rigid_shapes: np.ndarray | None = None
+
+    @property
+    def n_rigid(self) -> int:
+        return len(self.rigid_eigenvalues)
 
     def records(self, reference_hz=None) -> list[dict]:
-        """One dict per mode: mode, frequency_hz, kind (+ paper_hz, diff_pct when given)."""
+        """One dict per mode: mode, frequency_hz, kind (+ paper_hz, diff_pct when given).
+
+        Rigid-body modes come first (kind ``rigid-body``, ``frequency_hz`` = sign(ω²)·√|ω²|/2π,
+        ``eigenvalue`` ω²), numbered like Nastran's; the elastic modes follow."""
         out = []
+        for i, lam in enumerate(self.rigid_eigenvalues):
+            f = float(np.sign(lam) * np.sqrt(abs(lam)) / (2 * np.pi))
+            out.append({"mode": i + 1, "frequency_hz": f, "kind": "rigid-body",
+                        "eigenvalue": float(lam)})
+        r = self.n_rigid
         for i, f in enumerate(self.frequencies_hz):
-            rec = {"mode": i + 1, "frequency_hz": float(f), "kind": self.kinds[i]}
+            rec = {"mode": r + i + 1, "frequency_hz": float(f), "kind": self.kinds[i]}
             if reference_hz is not None:
                 ref = reference_hz[i] if i < len(reference_hz) else None
                 rec["paper_hz"] = ref
@@ -49,6 +76,19 @@ class Modes:
             rec.update({f"content_{k}": v for k, v in self.fractions[i].items()})
             out.append(rec)
         return out
+
+
+def require_restrained(modes: Modes, where: str) -> Modes:
+    """``modes`` unchanged, or InputError when the model has rigid-body modes: an analysis that
+    needs a restrained structure (flutter, aerodynamics on the modes) would otherwise mix
+    zero-frequency modes into its basis."""
+    if getattr(modes, "n_rigid", 0):  # modes of another source (e.g. closed form) have none
+        values = ", ".join(f"{x:.2g}" for x in modes.rigid_eigenvalues)
+        raise InputError(f"{where}: the structure has {modes.n_rigid} rigid-body mode(s) "
+                         f"(unconstrained or under-constrained; ω² = {values}); this analysis "
+                         f"needs a restrained structure (free-free analysis with SUPORT is not "
+                         f"supported): constrain it with SPC/SPC1 or GRID PS")
+    return modes
 
 
 def solve_linear(K: sp.spmatrix, r: np.ndarray) -> np.ndarray:
@@ -65,6 +105,21 @@ def _massless(M: sp.csr_matrix) -> np.ndarray:
     return np.asarray(abs(M).sum(axis=1)).ravel() == 0.0
 
 
+def _condense(K: np.ndarray, M: np.ndarray, z: np.ndarray):
+    """Static condensation of the massless coordinates ``z`` (exact for the eigenproblem):
+    (K_c, M_c, X) with the massless part of a mode = −X (massive part). A massless mechanism
+    (K_zz singular, e.g. an unconstrained rotation without inertia) is condensed by least squares:
+    for a positive semi-definite K its null vectors do not couple to the rest."""
+    m = ~z
+    Kzz, Kzm = K[np.ix_(z, z)], K[np.ix_(z, m)]
+    try:
+        with np.errstate(all="raise"):
+            X = la.solve(Kzz, Kzm, assume_a="sym")
+    except (la.LinAlgError, FloatingPointError, la.LinAlgWarning):
+        X = la.lstsq(Kzz, Kzm)[0]
+    return K[np.ix_(m, m)] - Kzm.T @ X, M[np.ix_(m, m)], X
+
+
 def _dense_modes(K: sp.spmatrix, M: sp.spmatrix, n: int):
     """Lowest ``n`` finite modes by dense solvers: ``(vals, vecs, notes)``.
 
@@ -77,32 +132,51 @@ def _dense_modes(K: sp.spmatrix, M: sp.spmatrix, n: int):
     M = M.toarray()
     z = np.asarray(np.abs(M).sum(axis=1)).ravel() == 0.0
     m = ~z
-    n_mass = int(m.sum())
+    notes: list[str] = []
     try:
-        if n_mass == 0:
-            raise InputError("modes: no DOF carries mass")
-        k = min(n, n_mass)
-        if z.any():
-            # Massless DOFs have no inertia: condense them statically (exact for the eigenproblem).
-            Kzz, Kzm = K[np.ix_(z, z)], K[np.ix_(z, m)]
-            w = np.abs(la.eigvalsh(Kzz))
-            if w.min() <= 1e-12 * max(w.max(), 1e-300):
-                raise la.LinAlgError("singular massless block")
-            X = la.solve(Kzz, Kzm, assume_a="sym")
-            Kc = K[np.ix_(m, m)] - Kzm.T @ X
-            vals, vm = la.eigh(Kc, M[np.ix_(m, m)], subset_by_index=[0, k - 1])
-            vecs = np.zeros((K.shape[0], k))
-            vecs[m] = vm
-            vecs[z] = -X @ vm
-        else:
-            vals, vecs = la.eigh(K, M, subset_by_index=[0, k - 1])
-        notes = []
+        vals, vecs = _condensed_modes(K, M, z, min(n, int(m.sum())))
     except la.LinAlgError:
         vals, vecs, notes = _shifted_modes(K, M, n)
     if len(vals) < n:
         notes.append(f"asked for {n} modes: the model has {len(vals)} finite ones "
                      f"({K.shape[0]} free DOFs), all returned")
     return vals, vecs, notes
+
+
+def _condensed_modes(K: np.ndarray, M: np.ndarray, z: np.ndarray, n: int):
+    """Lowest ``n`` modes with the massless DOFs ``z`` condensed (and massless combinations of
+    DOFs, in M's eigenbasis); LinAlgError where that fails (DOFs with neither stiffness nor
+    mass)."""
+    m = ~z
+    if n < 1:
+        raise la.LinAlgError("no DOF carries mass")
+    T = None
+    if z.any():
+        Kc, Mc, X = _condense(K, M, z)
+    else:
+        Kc, Mc = K, M
+    mu, U = la.eigh(Mc)
+    if mu.min() <= 1e-12 * mu.max():
+        # A mass matrix singular without massless DOFs (e.g. a coupled bar mass with no rotary
+        # inertia): the massless combinations are condensed the same way in M's eigenbasis.
+        zz = mu <= 1e-12 * mu.max()
+        n = min(n, int((~zz).sum()))
+        T = U
+        Kc, Mc, Xt = _condense(U.T @ Kc @ U, np.diag(np.where(zz, 0.0, mu)), zz)
+    vals, vm = la.eigh(Kc, Mc, subset_by_index=[0, n - 1])
+    if not np.all(np.isfinite(vals)):
+        raise la.LinAlgError("non-finite eigenvalues")
+    if T is not None:
+        full = np.zeros((T.shape[0], n))
+        full[~zz] = vm
+        full[zz] = -Xt @ vm
+        vm = T @ full
+    if not z.any():
+        return vals, vm
+    vecs = np.zeros((K.shape[0], n))
+    vecs[m] = vm
+    vecs[z] = -X @ vm
+    return vals, vecs
 
 
 def _shifted_modes(K: np.ndarray, M: np.ndarray, n: int):
@@ -128,52 +202,115 @@ def _shifted_modes(K: np.ndarray, M: np.ndarray, n: int):
     return sigma + 1.0 / mu[finite], Q @ Y[:, finite], notes
 
 
-def modal_analysis(fe, n: int, sigma: float | None = None) -> Modes:
-    """Lowest ``n`` modes of K φ = ω² M φ on the free DOFs of ``fe`` (:func:`eigenpairs`),
-    classified by kind."""
+def stiffness_mass_scale(K: sp.spmatrix, M: sp.spmatrix) -> float:
+    """mean |diag K| / mean |diag M| over the DOFs with mass (rad²/s²): the scale of ω²."""
+    dK, dM = np.abs(K.diagonal()), np.abs(M.diagonal())
+    massive = dM != 0
+    return float(np.mean(dK) / max(np.mean(dM[massive]) if massive.any() else 1.0, 1e-300))
+
+
+def _lowest(K, M, k: int, sigma: float | None, scale: float):
+    """The lowest ``k`` eigenpairs, ascending, and notes (dense or shift-invert Lanczos)."""
+    N = K.shape[0]
     notes: list[str] = []
-    vals, vecs = eigenpairs(fe.stiffness_matrix(), fe.mass_matrix(), n, sigma, notes)
-    freqs = np.sqrt(np.clip(vals, 0.0, None)) / (2 * np.pi)
+    if N <= 200 or k >= N - 1:
+        vals, vecs, notes = _dense_modes(K, M, k)
+    else:
+        sigma = -1e-6 * scale if sigma is None else sigma
+        try:
+            vals, vecs = sla.eigsh(K.tocsc(), k=k, M=M.tocsc(), sigma=sigma, which="LM",
+                                   v0=arpack_start(N))
+            problem = None
+            worst = _residual(K, M, vals, vecs).max()
+            if worst > EIGEN_RESIDUAL_TOL:
+                problem = f"eigen-residual {worst:.1e}"
+        except (RuntimeError, sla.ArpackNoConvergence) as exc:
+            problem = f"{exc}"
+        if problem is not None:
+            # Lanczos on a (nearly) singular mass matrix fails or returns pairs that are not
+            # eigenpairs (e.g. density 0): the dense solver condenses the massless part exactly
+            if N > DENSE_FALLBACK_DOFS:
+                raise ConvergenceError(f"modes: the sparse eigensolver failed ({problem}) on "
+                                       f"{N} DOFs; a singular mass matrix? check the densities "
+                                       f"and masses (MAT1 RHO, CONM2, CMASS2)")
+            vals, vecs, notes = _dense_modes(K, M, k)
+    order = np.argsort(vals)
+    return vals[order], vecs[:, order], notes
+
+
+#: largest relative residual ‖K φ − ω² M φ‖ / (‖K φ‖ + |ω²| ‖M φ‖) of an accepted sparse
+#: eigenpair (measured ≤ 5e-10 on the Goland wing; 1 for the pseudo-pairs of a singular M)
+EIGEN_RESIDUAL_TOL = 1e-6
+#: largest model solved densely when the sparse solver cannot be trusted (360 DOFs: 0.1 s)
+DENSE_FALLBACK_DOFS = 3000
+
+
+def _residual(K, M, vals: np.ndarray, vecs: np.ndarray) -> np.ndarray:
+    Kv, Mv = K @ vecs, M @ vecs
+    num = np.linalg.norm(Kv - Mv * vals, axis=0)
+    return num / np.maximum(np.linalg.norm(Kv, axis=0) + np.abs(vals) * np.linalg.norm(Mv, axis=0),
+                            1e-300)
+
+
+def modal_analysis(fe, n: int, sigma: float | None = None) -> Modes:
+    """Lowest ``n`` elastic modes of K φ = ω² M φ on the free DOFs of ``fe``, classified by
+    kind, and its rigid-body modes (:func:`eigenpairs`)."""
+    notes: list[str] = []
+    vals, vecs, rigid_vals, rigid_vecs = _elastic_and_rigid(fe.stiffness_matrix(),
+                                                            fe.mass_matrix(), n, sigma, notes)
+    freqs = np.sqrt(vals) / (2 * np.pi)
     kinds, fractions = classify(fe, vecs)
-    return Modes(freqs, vecs, kinds, vals, fractions, notes)
+    return Modes(freqs, vecs, kinds, vals, fractions, notes, rigid_eigenvalues=rigid_vals,
+                 rigid_shapes=rigid_vecs)
 
 
 def eigenpairs(K: sp.spmatrix, M: sp.spmatrix, n: int, sigma: float | None = None,
                notes: list[str] | None = None) -> tuple[np.ndarray, np.ndarray]:
-    """Lowest ``n`` eigenpairs (ω² ascending, mass-normalised oriented shapes) of K φ = ω² M φ.
+    """Lowest ``n`` elastic eigenpairs (ω² ascending, mass-normalised oriented shapes) of
+    K φ = ω² M φ (rigid-body modes skipped; :func:`_elastic_and_rigid`)."""
+    vals, vecs, _, _ = _elastic_and_rigid(K, M, n, sigma, notes)
+    return vals, vecs
+
+
+def _elastic_and_rigid(K: sp.spmatrix, M: sp.spmatrix, n: int, sigma: float | None,
+                       notes: list[str] | None):
+    """(elastic ω², shapes, rigid-body ω², shapes).
 
     Sparse shift-invert (ARPACK via ``eigsh``) about a small negative shift ``sigma`` (default
-    −1e-6 × mean(diag K)/mean(diag M), safe for free-free models); small models (≤ 200 DOFs or
-    n close to n_dof) use dense solvers (:func:`_dense_modes`); asking for more modes than the
-    model has returns all its finite modes, with a note (appended to ``notes`` when given).
+    −1e-6 × the stiffness-to-mass scale, so that a singular K — a free-free model — is still
+    factorised); small models (≤ 200 DOFs or n close to n_dof) use a dense solver with static
+    condensation of massless DOFs (and of massless combinations of DOFs). Eigenvalues at or below
+    ``RIGID_BODY_TOL`` × scale are rigid-body modes: counted and returned apart, and ``n`` more
+    elastic modes are computed past them. Asking for more modes than the model has returns all
+    its finite ones, with a note (appended to ``notes``), as Nastran does.
     """
     N = K.shape[0]
-    if n < 1:
-        raise InputError(f"modes: n: expected a positive number of modes, got {n}")
+    if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 1:
+        raise InputError(f"modes: n: expected a positive number of modes, got {n!r}")
     found: list[str] = []
-    if N <= 200 or n >= N - 1:
-        vals, vecs, found = _dense_modes(K, M, n)
-    else:
-        dK, dM = K.diagonal(), M.diagonal()
-        if sigma is None:
-            ratio = np.mean(np.abs(dK)) / max(np.mean(np.abs(dM[dM != 0])) if (dM != 0).any()
-                                               else 1.0, 1e-300)
-            sigma = -1e-6 * ratio
-        try:
-            vals, vecs = sla.eigsh(K.tocsc(), k=n, M=M.tocsc(), sigma=sigma, which="LM",
-                                   v0=arpack_start(N))
-        except (RuntimeError, sla.ArpackNoConvergence) as exc:
-            if N > DENSE_FALLBACK_DOFS:
-                raise ConvergenceError(f"modes: the eigensolver failed: {exc}") from None
-            # e.g. K − σM exactly singular (DOFs with neither stiffness nor mass)
-            vals, vecs, found = _dense_modes(K, M, n)
-    order = np.argsort(vals)
-    vals, vecs = vals[order], vecs[:, order]
+    scale = stiffness_mass_scale(K, M)
+    tol = RIGID_BODY_TOL * scale
+    k_max = max(1, min(N, int((~_massless(M)).sum())))
+    k = min(n, k_max)
+    while True:
+        vals, vecs, found = _lowest(K, M, k, sigma, scale)
+        rigid = vals <= tol
+        r = int(rigid.sum())
+        if len(vals) - r >= n or k >= k_max or len(vals) < k:
+            break
+        k = min(n + r + 6, k_max)  # room for the rigid-body modes (a free body has six)
+    if not np.all(np.isfinite(vals)):
+        raise ConvergenceError("modes: the eigensolver returned non-finite eigenvalues")
     gen_mass = np.einsum("ik,ik->k", vecs, M @ vecs)
     vecs = vecs / np.sqrt(np.abs(gen_mass))
+    vecs = orient_columns(vecs)
+    elastic = np.nonzero(~rigid)[0][:n]
+    if len(elastic) < n and not any(f.startswith("asked for") for f in found):
+        found.append(f"asked for {n} elastic modes: the model has {r} rigid-body modes and "
+                     f"{len(elastic)} elastic ones, all returned")
     if notes is not None:
         notes.extend(found)
-    return vals, orient_columns(vecs)
+    return vals[elastic], vecs[:, elastic], vals[rigid], vecs[:, rigid]
 
 
 @dataclass

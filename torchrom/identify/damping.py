@@ -100,7 +100,7 @@ def damping_from_material_tangents(plan: TangentPlan, Kmat: np.ndarray) -> Dampi
     K_E = cv.energy_extended_matrix(torch.as_tensor(D1), G, H)
     report["min_eigenvalue"] = float(torch.linalg.eigvalsh(K_E).min())
     report["min_eigenvalue_scaled"] = float(torch.linalg.eigvalsh(
-        _scale_matrix(K_E, D1, H.numpy())).min())
+        scale_matrix(K_E, D1, H.numpy())).min())
     return DampingIdentification(D1, D2, D3, "exact", report, G.numpy(), H.numpy())
 
 
@@ -224,7 +224,10 @@ def _scales(st: _Structure, K1: np.ndarray, H0: np.ndarray) -> tuple[np.ndarray,
     return s[st.rows] * s[st.cols], s
 
 
-def _scale_matrix(K_E: torch.Tensor, K1, H) -> torch.Tensor:
+def scale_matrix(K_E: torch.Tensor, K1, H) -> torch.Tensor:
+    """The extended damping matrix K_E scaled symmetrically, S K_E S, with the scales of the
+    decomposition (from K1 and H): the matrix whose smallest eigenvalue the decomposition and the
+    damping checks report (dimensionless)."""
     n = np.shape(K1)[0]
     _, s = _scales(_structure(n), np.asarray(K1), np.asarray(H))
     s = torch.as_tensor(s, dtype=K_E.dtype)

@@ -103,5 +103,8 @@ class BuiltinFEBackend(FEBackend):
         return np.asarray(res.t), np.asarray(res.u)
 
     def modes(self, n: int):
-        m = self.fe.modes(n)
+        from ..fe.solvers import require_restrained
+
+        # the identification's static solves need a restrained structure (K invertible)
+        m = require_restrained(self.fe.modes(n), f"{getattr(self.fe, 'name', 'model')}: identify")
         return np.asarray(m.frequencies_hz, float), np.asarray(m.shapes, float)

@@ -37,7 +37,7 @@ def scaled_min_eigenvalue(rom: NonlinearROM) -> float:
     quantity the optimum decomposition maximises; ≥ 0 means dissipative for every motion)."""
     G, H = rom.gram()
     K_E = cv.energy_extended_matrix(rom.D1, G, H)
-    return float(torch.linalg.eigvalsh(dmp._scale_matrix(K_E, rom.D1.numpy(), H.numpy())).min())
+    return float(torch.linalg.eigvalsh(dmp.scale_matrix(K_E, rom.D1.numpy(), H.numpy())).min())
 
 
 #: samples of one period when the cycle comes from a harmonic balance orbit

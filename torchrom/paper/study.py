@@ -30,7 +30,7 @@ import torch
 
 from .._version import __version__
 from ..errors import InputError
-from ..io import write_json_atomic, write_text_atomic
+from ..io import check_folder, write_figure, write_json_atomic, write_text_atomic
 from ..reference import paper_reference
 from ..study import figures
 from ..study.config import load_sweep_config, with_method
@@ -90,8 +90,7 @@ class Stopwatch:
 
 def _check_folder(out: Path, force: bool) -> None:
     """Refuse a non-empty folder that this command did not write (unless ``force``)."""
-    if out.exists() and not out.is_dir():
-        raise InputError(f"--out {out}: exists and is not a folder")
+    check_folder(out, "--out")  # a file, or a folder that cannot be written
     if out.is_dir() and any(out.iterdir()) and not (out / MANIFEST).is_file() and not force:
         raise InputError(f"--out {out}: the folder holds files that torchrom paper did not "
                          f"write; choose another folder or pass --force")
@@ -181,28 +180,34 @@ def run_paper(out, *, quick: bool = False, force: bool = False, device: str = "c
     kinds = [r.get("kind") for r in fl["table2"]]
     q4 = paper_q4(kinds)
     h_f = float(fl["state_space"]["altitude"])
-    paths = {"table2": figures.table2(pd.DataFrame(fl["table2"]),
-                                      fig_dir / FIGURE_FILES["table2"], force=True),
-             "fig9": figures.fig9(alpha_gamma, fig_dir / FIGURE_FILES["fig9"], force=True),
-             "fig10": figures.fig10(table, fig_dir / FIGURE_FILES["fig10"], force=True,
-                                    flutter_altitude_ft=h_f),
-             "fig12": figures.fig12(table, fig_dir / FIGURE_FILES["fig12"], force=True,
-                                    flutter_altitude_ft=h_f,
-                                    flutter_frequency_hz=float(fl["state_space"]["frequency_hz"]),
-                                    table3={float(r["altitude_ft"]): float(r["frequency_eig_hz"])
-                                            for r in lin["table3"]}),
-             "fig13": figures.fig13(table, fig_dir / FIGURE_FILES["fig13"], force=True,
-                                    q4_mode=q4["mode"], q4_note=q4["note"],
-                                    flutter_altitude_ft=h_f)}
+    # a figure that fails is a warning (missing from "figures"): the tables and the report stay
+    paths = {"table2": write_figure(figures.table2, pd.DataFrame(fl["table2"]),
+                                    fig_dir / FIGURE_FILES["table2"], force=True),
+             "fig9": write_figure(figures.fig9, alpha_gamma, fig_dir / FIGURE_FILES["fig9"],
+                                  force=True),
+             "fig10": write_figure(figures.fig10, table, fig_dir / FIGURE_FILES["fig10"],
+                                   force=True, flutter_altitude_ft=h_f),
+             "fig12": write_figure(
+                 figures.fig12, table, fig_dir / FIGURE_FILES["fig12"], force=True,
+                 flutter_altitude_ft=h_f,
+                 flutter_frequency_hz=float(fl["state_space"]["frequency_hz"]),
+                 table3={float(r["altitude_ft"]): float(r["frequency_eig_hz"])
+                         for r in lin["table3"]}),
+             "fig13": write_figure(figures.fig13, table, fig_dir / FIGURE_FILES["fig13"],
+                                   force=True, q4_mode=q4["mode"], q4_note=q4["note"],
+                                   flutter_altitude_ft=h_f)}
     if len(histories):
-        paths["fig11"] = figures.fig11(table, histories, fig_dir / FIGURE_FILES["fig11"],
-                                       force=True)
+        paths["fig11"] = write_figure(figures.fig11, table, histories,
+                                      fig_dir / FIGURE_FILES["fig11"], force=True)
     if len(branches):
-        paths["branches"] = branch_diagram(
-            branches, fig_dir / FIGURE_FILES["branches"], parameter="altitude_ft", units="ft",
-            y="amplitude_pct_span", y_label="LCO amplitude of point A (% of span)",
+        paths["branches"] = write_figure(
+            branch_diagram, branches, fig_dir / FIGURE_FILES["branches"],
+            parameter="altitude_ft", units="ft", y="amplitude_pct_span",
+            y_label="LCO amplitude of point A (% of span)",
             title="LCO branches from the flutter point (harmonic balance, matched α)",
             label_of=lambda row: f"γ = {row['gamma']:g} s", force=True)
+    failed = sorted(k for k, v in paths.items() if v is None)
+    paths = {k: v for k, v in paths.items() if v is not None}
     watch.stop("figures")
 
     # -- findings and report ---------------------------------------------------------------------
@@ -224,6 +229,7 @@ def run_paper(out, *, quick: bool = False, force: bool = False, device: str = "c
         "damping_check": check, "method": method, "hb": hb_info,
         "figures": {k: str(v) for k, v in paths.items()},
         "paper_q4": {**q4, "column": ratio4},
+        "figures_failed": failed,
         "identification": res.identification,
     }
     write_text_atomic(out / "report.md", render(summary, found, table, alpha_gamma))

@@ -3,7 +3,9 @@
 from . import conventions
 from .model import NonlinearROM
 from .monomials import MonomialIndex, monomial_index
-from .storage import FORMAT_VERSION, load_rom, save_rom
+from .storage import FORMAT_VERSION, save_rom
+
+load_rom = NonlinearROM.load
 
 __all__ = [
     "NonlinearROM",

@@ -24,12 +24,13 @@ from collections.abc import Mapping, Sequence
 import numpy as np
 import torch
 
+from ..checks import real_array
 from ..errors import InputError
 from .model import NonlinearROM
 
 
 def _vector(x, n: int, name: str) -> np.ndarray:
-    arr = np.asarray(x, dtype=float).reshape(-1)
+    arr = real_array(name, x).reshape(-1)
     if arr.size == 1:
         arr = np.full(n, float(arr[0]))
     if arr.shape != (n,) or not np.all(np.isfinite(arr)):
@@ -51,7 +52,7 @@ def van_der_pol_duffing(frequencies_hz: Sequence[float] | float = 1.0, c1=0.0, d
         coupling: symmetric (n, n) linear stiffness coupling added to diag(ω²), or None.
         outputs: output rows; default {"sum": all ones} (the sum of the coordinates).
     """
-    f = np.asarray(frequencies_hz, dtype=float).reshape(-1)
+    f = real_array("frequencies_hz", frequencies_hz).reshape(-1)
     n = f.size
     if n == 0 or not np.all(f > 0):
         raise InputError(f"frequencies_hz: expected positive frequencies, got {f.tolist()}")
@@ -60,7 +61,7 @@ def van_der_pol_duffing(frequencies_hz: Sequence[float] | float = 1.0, c1=0.0, d
                                                            (k3, "k3")))
     K1 = np.diag(w2)
     if coupling is not None:
-        cpl = np.asarray(coupling, dtype=float)
+        cpl = real_array("coupling", coupling)
         if cpl.shape != (n, n) or not np.allclose(cpl, cpl.T):
             raise InputError(f"coupling: expected a symmetric ({n}, {n}) matrix, got shape "
                              f"{cpl.shape}")

@@ -332,7 +332,7 @@ class NonlinearROM:
         """Read ``rom.npz``; a corrupt or mismatched file gives an InputError naming it."""
         from .storage import load_rom
 
-        return load_rom(path)
+        return load_rom(path, cls)
 
     def __repr__(self) -> str:
         kinds = {k: self.mode_kinds.count(k) for k in dict.fromkeys(self.mode_kinds)}

@@ -41,9 +41,9 @@ def save_rom(rom, path) -> Path:
     return path
 
 
-def load_rom(path):
-    from .model import NonlinearROM
-
+def load_rom(path, cls):
+    """The ROM stored in ``path``, built by ``cls`` (:meth:`NonlinearROM.load` passes itself:
+    this module never imports the model, so the two have no import circle)."""
     path = Path(path)
     if not path.is_file():
         raise InputError(f"{path}: no such ROM file")
@@ -73,8 +73,8 @@ def load_rom(path):
     except json.JSONDecodeError as exc:
         raise InputError(f"{path}: metadata_json is not valid JSON ({exc})") from None
     try:
-        return NonlinearROM(
-            *(data[name] for name in NonlinearROM.TENSORS),
+        return cls(
+            *(data[name] for name in cls.TENSORS),
             mode_kinds=[str(s) for s in data["mode_kinds"].tolist()] if "mode_kinds" in data
             else None,
             frequencies_hz=data.get("frequencies_hz"),

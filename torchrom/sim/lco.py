@@ -32,6 +32,7 @@ from dataclasses import dataclass
 
 import torch
 
+from ..checks import integer, real
 from ..errors import InputError
 
 Tensor = torch.Tensor
@@ -66,6 +67,13 @@ class LCOCriteria:
     ring: int = 16
 
     def __post_init__(self):
+        real("lco.rtol", self.rtol)
+        integer("lco.cycles", self.cycles)
+        real("lco.decay_ratio", self.decay_ratio)
+        real("lco.max_amplitude", self.max_amplitude, finite=False)
+        integer("lco.ring", self.ring)
+        for k in self.decision_outputs:
+            integer("lco.decision_outputs", k, minimum=0)
         if not self.rtol > 0:
             raise InputError(f"lco.rtol: expected a positive number, got {self.rtol}")
         if int(self.cycles) < 1:

@@ -57,7 +57,6 @@ neighbours.
 
 from __future__ import annotations
 
-import math
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
@@ -65,14 +64,15 @@ from dataclasses import dataclass, field
 import numpy as np
 import torch
 
+from ..checks import integer, real, real_array
 from ..errors import InputError
 from ..rom import NonlinearROM
 from .forces import NonlinearForces
-from .lco import FAILED, RUNNING, STATUS_NAMES, LCOCriteria, PeakTracker
+from .lco import DECAY, FAILED, LCO, RUNNING, STATUS_NAMES, LCOCriteria, PeakTracker
 from .metrics import window_metrics
 from .result import History, SimulationResult
 from .schemes import SchemeParameters
-from .system import CaseSystem, as_float_tensor
+from .system import CaseSystem
 
 Tensor = torch.Tensor
 
@@ -153,6 +153,11 @@ def _inverse(A: Tensor) -> tuple[Tensor, Tensor]:
     return torch.where(ok.view(-1, 1, 1), Ainv, torch.nan), ok
 
 
+#: Largest number of time steps of one case (t_end / dt): 1e8 steps take minutes to hours even
+#: batched; a larger count is a unit slip in dt or t_end (e.g. dt = 1e-12 s), refused up front.
+MAX_STEPS = 100_000_000
+
+
 @dataclass
 class Newmark:
     """Batched implicit integrator (see the module docstring).
@@ -210,8 +215,16 @@ class Newmark:
     params: SchemeParameters = field(init=False, repr=False)
 
     def __post_init__(self):
-        if not (self.dt > 0 and math.isfinite(self.dt)):
-            raise InputError(f"integrator.dt: expected a positive time step, got {self.dt}")
+        self.dt = real("integrator.dt", self.dt, positive=True)
+        self.rho_inf = real("integrator.rho_inf", self.rho_inf)
+        for name in ("iterations", "check_every"):
+            integer(f"integrator.{name}", getattr(self, name))
+        if self.startup_iterations is not None:
+            integer("integrator.startup_iterations", self.startup_iterations)
+        if self.tol is not None:
+            self.tol = real("integrator.tol", self.tol, positive=True)
+        if not isinstance(self.compile, bool):
+            raise InputError(f"integrator.compile: expected true or false, got {self.compile!r}")
         if self.solver not in SOLVERS:
             raise InputError(f"integrator.solver: expected one of {SOLVERS}, got {self.solver!r}")
         if self.predictor not in PREDICTORS:
@@ -238,6 +251,19 @@ class Newmark:
         if self.tol is not None and not self.tol > 0:
             raise InputError(f"integrator.tol: expected a positive number, got {self.tol}")
         self.params = SchemeParameters.from_name(self.scheme, self.rho_inf)
+
+    def step_count(self, t_end) -> int:
+        """Number of time steps to ``t_end`` (InputError unless 1 ≤ steps ≤ MAX_STEPS)."""
+        t_end = real("t_end", t_end, positive=True)
+        steps = int(round(t_end / self.dt))
+        if steps < 1:
+            raise InputError(f"t_end: expected at least one time step of dt = {self.dt:g} s, got "
+                             f"t_end = {t_end:g} s (dt <= t_end)")
+        if steps > MAX_STEPS:
+            raise InputError(f"integrator.dt: t_end / dt = {t_end:g} / {self.dt:g} = {steps:.3g} "
+                             f"steps per case, more than the {MAX_STEPS:.0e} accepted; expected "
+                             f"dt >= {t_end / MAX_STEPS:.3g} s")
+        return steps
 
     def tolerance(self, dtype: torch.dtype) -> float:
         return self.tol if self.tol is not None else DEFAULT_TOL.get(dtype, 1e-6)
@@ -335,6 +361,8 @@ class Newmark:
             history: cases whose decimated output histories are kept.
             progress: called as progress(cases_done, cases_total) at every check.
         """
+        if not isinstance(system, CaseSystem):
+            raise InputError(f"system: expected a CaseSystem, got {type(system).__name__}")
         threads = self._threads(system)
         before = torch.get_num_threads()
         try:
@@ -384,8 +412,9 @@ class _Run:
 
     def __init__(self, integ: Newmark, system: CaseSystem, q0, v0, xi0, t_end, outputs, crit,
                  history, progress):
-        if not (t_end > 0 and math.isfinite(t_end)):
-            raise InputError(f"t_end: expected a positive time, got {t_end}")
+        steps_total = integ.step_count(t_end)
+        if not isinstance(system, CaseSystem):
+            raise InputError(f"system: expected a CaseSystem, got {type(system).__name__}")
         system.validate()
         self.integ, self.crit, self.progress = integ, crit, progress
         self.rom = system.rom
@@ -402,7 +431,7 @@ class _Run:
         if max(crit.decision_outputs) >= len(self.names) or min(crit.decision_outputs) < 0:
             raise InputError(f"lco.decision_outputs: indices must be in 0..{len(self.names) - 1}")
         self.C = torch.as_tensor(C, **self.kw)
-        self.steps_total = int(round(t_end / integ.dt))
+        self.steps_total = steps_total
         self.history = history
         p = integ.params
         self.p = p
@@ -410,8 +439,9 @@ class _Run:
         def per_case(x, width, name):
             if x is None:
                 return torch.zeros(B, width, **self.kw)
-            t = as_float_tensor(x, **self.kw)
-            if t.dim() == 1:
+            t = x if isinstance(x, torch.Tensor) else torch.as_tensor(real_array(name, x))
+            t = t.to(**self.kw)
+            if tuple(t.shape) == (width,):
                 t = t.expand(B, width)
             if tuple(t.shape) != (B, width):
                 raise InputError(f"{name}: expected shape ({B}, {width}) or ({width},), got "
@@ -479,6 +509,7 @@ class _Run:
             "status": np.full(B, "", dtype=object), "steps": np.zeros(B, dtype=np.int64),
             "time": np.zeros(B), "amplitude": np.full((B, O), np.nan),
             "frequency_hz": np.full(B, np.nan), "amplitude_change": np.full(B, np.nan),
+            "last_amplitude": np.full((B, O), np.nan), "last_frequency_hz": np.full(B, np.nan),
             "solver_error": np.full(B, np.nan), "q": np.full((B, n), np.nan),
             "v": np.full((B, n), np.nan), "xi": np.full((B, na), np.nan),
         }
@@ -718,6 +749,7 @@ class _Run:
             output_names=self.names, status=res["status"].astype(str), steps=res["steps"],
             time=res["time"], amplitude=res["amplitude"], frequency_hz=res["frequency_hz"],
             amplitude_change=res["amplitude_change"], solver_error=res["solver_error"],
+            last_amplitude=res["last_amplitude"], last_frequency_hz=res["last_frequency_hz"],
             q=res["q"], v=res["v"],
             histories={c: History(np.array([s[0] for s in h]), np.stack([s[1] for s in h]),
                                   self.names) for c, h in self.hist.items()},
@@ -774,8 +806,15 @@ class _Run:
             r["status"][c] = STATUS_NAMES[int(codes[k])]
             r["steps"][c] = self.step_no
             r["time"][c] = self.step_no * self.integ.dt
-            r["amplitude"][c] = met["amplitude"]
-            r["frequency_hz"][c] = met["frequency_hz"]
+            # an LCO's amplitude and frequency; a decay has amplitude 0 and no frequency; any
+            # other status has neither (NaN: never plotted as a value) — what the last cycle
+            # measured is kept apart, in last_amplitude / last_frequency_hz
+            code = int(codes[k])
+            r["last_amplitude"][c] = met["amplitude"]
+            r["last_frequency_hz"][c] = met["frequency_hz"]
+            r["amplitude"][c] = met["amplitude"] if code == LCO else (0.0 if code == DECAY
+                                                                      else np.nan)
+            r["frequency_hz"][c] = met["frequency_hz"] if code == LCO else np.nan
             r["amplitude_change"][c] = met["amplitude_change"]
             r["solver_error"][c] = rel[k]
             r["q"][c], r["v"][c], r["xi"][c] = q[k], v[k], xi[k]

@@ -27,8 +27,11 @@ class SimulationResult:
         output_names: names of the tracked outputs (columns of ``amplitude``).
         status: (B,) 'lco', 'decay', 'diverged', 'unconverged' or 'failed'.
         steps: (B,) time steps taken; time: (B,) simulated time reached (s).
-        amplitude: (B, O) half peak-to-peak amplitude of each output over the converged window.
-        frequency_hz: (B,) LCO frequency of the first decision output.
+        amplitude: (B, O) half peak-to-peak amplitude of each output over the converged window
+            of an LCO; 0 for a decay; NaN for every other status (diverged, unconverged, failed).
+        frequency_hz: (B,) LCO frequency of the first decision output (NaN unless 'lco').
+        last_amplitude, last_frequency_hz: the same measured on the last cycles whatever the
+            status (the value when a case stopped; NaN where no cycle was seen).
         amplitude_change: (B,) relative change of that amplitude over its last cycle.
         solver_error: (B,) largest relative acceleration correction of the last nonlinear
             iteration (relative to the largest acceleration), over the check intervals.
@@ -50,6 +53,8 @@ class SimulationResult:
     solver_error: np.ndarray
     q: np.ndarray
     v: np.ndarray
+    last_amplitude: np.ndarray | None = None
+    last_frequency_hz: np.ndarray | None = None
     histories: dict[int, History] = field(default_factory=dict)
     wall_time_s: float = 0.0
     case_steps: int = 0

@@ -21,6 +21,7 @@ from dataclasses import dataclass
 import numpy as np
 import torch
 
+from ..checks import integer
 from ..errors import InputError
 from ..rom import NonlinearROM
 
@@ -78,11 +79,32 @@ class CaseSystem:
         ``batch`` defaults to the first per-case dimension found among the inputs (else 1).
         Booleans are accepted for the nonlinearity switches.
         """
+        if not isinstance(rom, NonlinearROM):
+            raise InputError(f"CaseSystem.build: rom: expected a NonlinearROM, got "
+                             f"{type(rom).__name__}")
+        if batch is not None:
+            batch = integer("CaseSystem.build: batch", batch, minimum=1)
         given = {"alpha": alpha, "gamma": gamma, "stiffness_nl": stiffness_nl,
                  "damping_nl": damping_nl, "M_add": M_add, "C_add": C_add, "K_add": K_add,
                  "lag_D": lag_D, "lag_E": lag_E, "lag_R": lag_R, "load": load}
         kw = {"device": device, "dtype": dtype}
-        tensors = {k: None if v is None else as_float_tensor(v, **kw) for k, v in given.items()}
+        tensors = {}
+        for k, v in given.items():
+            if v is None:
+                tensors[k] = None
+                continue
+            if isinstance(v, (str, bytes)):
+                raise InputError(f"CaseSystem.build: {k}: expected numbers, got {v!r}")
+            try:
+                tensors[k] = as_float_tensor(v, **kw)
+            except (TypeError, ValueError, RuntimeError) as exc:
+                raise InputError(f"CaseSystem.build: {k}: expected numbers ({exc})") from None
+            # the case parameters must be finite; a non-finite per-case matrix only marks its
+            # own case 'failed' (the other cases are never affected)
+            if k in _PER_CASE_SCALARS and bool((~torch.isfinite(tensors[k])).any()):
+                bad = torch.nonzero(~torch.isfinite(tensors[k].reshape(-1)))[0].item()
+                raise InputError(f"CaseSystem.build: {k}: expected finite values, got "
+                                 f"{float(tensors[k].reshape(-1)[bad])} (case {bad})")
         if batch is None:
             batch = 1
             for name, t in tensors.items():

@@ -211,3 +211,37 @@ def history_table(result: SimulationResult, case_ids: Sequence[str]) -> pd.DataF
     if not frames:
         return pd.DataFrame(columns=["case_id", "t", *result.output_names])
     return pd.concat(frames, ignore_index=True)
+
+
+def initial_displacement(rom: NonlinearROM, initial: dict[str, Any],
+                         cases: list[dict[str, Any]], where: str = "[initial]") -> np.ndarray:
+    """(B, n) initial displacements: the ``[initial]`` pattern, scaled by each case's ``q0``."""
+    n = rom.n
+    q0 = initial.get("q0", 1e-3)
+    mode = initial.get("mode", 1)
+    if isinstance(mode, bool) or not isinstance(mode, int) or not 1 <= mode <= n:
+        raise InputError(f"{where} mode: expected a basis function number 1..{n}, got {mode!r}")
+    if isinstance(q0, list):
+        base = np.asarray(q0, dtype=float)
+        if base.shape != (n,):
+            raise InputError(f"{where} q0: expected {n} values, got {len(q0)}")
+        amp = 1.0
+    elif isinstance(q0, (int, float)) and not isinstance(q0, bool):
+        base = np.zeros(n)
+        base[mode - 1] = 1.0
+        amp = float(q0)
+    else:
+        raise InputError(f"{where} q0: expected a number or a list of {n} numbers, got {q0!r}")
+    scale = np.array([float(c.get("q0", amp)) for c in cases])
+    return scale[:, None] * base[None, :]
+
+
+def initial_velocity(rom: NonlinearROM, initial: dict[str, Any], batch: int,
+                     where: str = "[initial]") -> np.ndarray:
+    v0 = initial.get("v0", 0.0)
+    arr = np.asarray(v0, dtype=float)
+    if arr.ndim == 0:
+        arr = np.full(rom.n, float(arr))
+    if arr.shape != (rom.n,):
+        raise InputError(f"{where} v0: expected a number or {rom.n} values, got {v0!r}")
+    return np.broadcast_to(arr, (batch, rom.n)).copy()

@@ -1,7 +1,12 @@
 """Sweep configurations in TOML (hand-written validation; parsing by tomllib / tomli).
 
 A sweep configuration has these tables (every key is checked; a bad one gives a one-line
-:class:`~torchrom.errors.InputError` naming the file, the table and the key):
+:class:`~torchrom.errors.InputError` naming the file, the table and the key). Everything is
+checked when the file is read, before any output is written: the keys of each table
+(:data:`TABLE_KEYS`) and their values (:data:`VALUE_CHECKS`, the Newmark and LCO options'
+own checks, dt ≤ t_end and at most :data:`torchrom.sim.newmark.MAX_STEPS` steps, finite case
+values), and the ``[initial]`` state and ``[lco]`` outputs against the model. A new key is one
+entry in each table:
 
 ``title``        a string shown in figures.
 ``method``       ``"newmark"`` (default: batched time marching, :class:`torchrom.sim.Newmark`)
@@ -96,6 +101,48 @@ _NEWMARK_KEYS = ("scheme", "rho_inf", "solver", "iterations", "startup_iteration
                  "predictor", "check_every", "refresh_every", "sample_every", "compile", "threads",
                  "cuda_graphs")
 _LCO_KEYS = ("rtol", "cycles", "decay_ratio", "max_amplitude", "ring")
+#: the keys each table accepts (add a new key here, and its value check to VALUE_CHECKS)
+TABLE_KEYS = {
+    "initial": ("q0", "v0", "mode"),
+    "integrator": ("dt", "t_end", *_NEWMARK_KEYS),
+    "lco": ("outputs", *_LCO_KEYS),
+    "plot": ("x", "y", "hue"),
+    "run": ("batch_size", "chunk_size"),
+}
+
+
+def _finite_numbers(value) -> bool:
+    """A finite number or a non-empty list of finite numbers (not bools)."""
+    items = value if isinstance(value, list) and value else [value]
+    return all(not isinstance(v, bool) and isinstance(v, (int, float)) and math.isfinite(v)
+               for v in items)
+
+
+def _positive_integer(value) -> bool:
+    return not isinstance(value, bool) and isinstance(value, int) and value >= 1
+
+
+#: (table, key) -> (check, what is expected): the value checks done when the file is read,
+#: before anything is built or written (the Newmark and LCO options check themselves)
+VALUE_CHECKS = {
+    ("initial", "q0"): (_finite_numbers, "a finite number or a list of finite numbers"),
+    ("initial", "v0"): (_finite_numbers, "a finite number or a list of finite numbers"),
+    ("initial", "mode"): (_positive_integer, "a basis function number >= 1"),
+    ("run", "batch_size"): (_positive_integer, "a positive integer"),
+    ("run", "chunk_size"): (_positive_integer, "a positive integer"),
+}
+
+
+def _checked_table(raw: dict, name: str, source: Path) -> dict:
+    """Table ``name`` with its keys (:data:`TABLE_KEYS`) and values (:data:`VALUE_CHECKS`)
+    checked."""
+    table = _table(raw, name, source)
+    _check_keys(table, TABLE_KEYS[name], source, f"[{name}]")
+    for key, value in table.items():
+        check = VALUE_CHECKS.get((name, key))
+        if check is not None and not check[0](value):
+            raise _err(source, f"[{name}] {key}", f"expected {check[1]}, got {value!r}")
+    return table
 
 
 @dataclass
@@ -313,14 +360,12 @@ def load_sweep_config(path, variant: str | None = None) -> SweepConfig:
         raise _err(source, "title", f"expected a string, got {title!r}")
 
     model = _table(raw, "model", source)
-    initial = _table(raw, "initial", source)
-    _check_keys(initial, ("q0", "v0", "mode"), source, "[initial]")
+    initial = _checked_table(raw, "initial", source)
 
     method = raw.get("method", "newmark")
     if method not in METHODS:
         raise _err(source, "method", f"expected one of {list(METHODS)}, got {method!r}")
-    integ = _table(raw, "integrator", source)
-    _check_keys(integ, ("dt", "t_end", *_NEWMARK_KEYS), source, "[integrator]")
+    integ = _checked_table(raw, "integrator", source)
     dt = _positive(integ, "dt", source, "[integrator]", 1e-3)
     # harmonic balance simulates no time: t_end is needed by time marching only
     t_end = _positive(integ, "t_end", source, "[integrator]",
@@ -328,13 +373,14 @@ def load_sweep_config(path, variant: str | None = None) -> SweepConfig:
     hb = hb_method(_table(raw, "hb", source), source)
     try:
         newmark = Newmark(dt=dt, **{k: integ[k] for k in _NEWMARK_KEYS if k in integ})
+        if method == "newmark":
+            newmark.step_count(t_end)
     except InputError as exc:
         raise _err(source, "[integrator]", str(exc)) from None
     except TypeError as exc:
         raise _err(source, "[integrator]", f"bad value ({exc})") from None
 
-    lco_t = _table(raw, "lco", source)
-    _check_keys(lco_t, ("outputs", *_LCO_KEYS), source, "[lco]")
+    lco_t = _checked_table(raw, "lco", source)
     outputs = lco_t.get("outputs")
     if outputs is not None and (not isinstance(outputs, list) or not outputs
                                 or not all(isinstance(o, str) for o in outputs)):
@@ -361,8 +407,7 @@ def load_sweep_config(path, variant: str | None = None) -> SweepConfig:
     except InputError as exc:
         raise InputError(f"{source}: {exc}") from None
 
-    plot_t = _table(raw, "plot", source)
-    _check_keys(plot_t, ("x", "y", "hue"), source, "[plot]")
+    plot_t = _checked_table(raw, "plot", source)
     swept = [k for k in parameters if len({repr(c.get(k)) for c in cases}) > 1]
     x = plot_t.get("x", swept[0] if swept else "alpha")
     hue = plot_t.get("hue")
@@ -372,12 +417,7 @@ def load_sweep_config(path, variant: str | None = None) -> SweepConfig:
                        f"{parameters}, got {value!r}")
     plot = PlotSpec(x=x, y=plot_t.get("y", "amplitude"), hue=hue)
 
-    run_t = _table(raw, "run", source)
-    _check_keys(run_t, ("batch_size", "chunk_size"), source, "[run]")
-    for key in ("batch_size", "chunk_size"):
-        value = run_t.get(key, 1)
-        if isinstance(value, bool) or not isinstance(value, int) or value < 1:
-            raise _err(source, f"[run] {key}", f"expected a positive integer, got {value!r}")
+    run_t = _checked_table(raw, "run", source)
     batch = run_t.get("batch_size", 512)
 
     cfg = SweepConfig(source=source, title=title, model=model, initial=initial,
@@ -388,7 +428,7 @@ def load_sweep_config(path, variant: str | None = None) -> SweepConfig:
     if model.get("builtin") in provider_names():
         _check_provided(model, source)  # checked now; built (or reused) when the sweep runs
     else:
-        build_model(model, source, aero_t)  # fail now, not after a long run
+        check_initial(cfg, build_model(model, source, aero_t))  # fail now, not after a long run
     return cfg
 
 
@@ -415,6 +455,25 @@ def with_method(cfg: SweepConfig, method: str | None) -> SweepConfig:
     if method == "newmark" and not math.isfinite(cfg.t_end):
         raise InputError(f"{cfg.source}: [integrator] t_end: missing (time marching needs it)")
     return dataclasses.replace(cfg, method=method, raw={**cfg.raw, "method": method})
+
+
+def check_initial(cfg: SweepConfig, model) -> None:
+    """InputError unless the ``[initial]`` state (q0 / v0 sizes, mode number) and the ``[lco]``
+    outputs fit the model."""
+    from ..sim import output_matrix
+    from .cases import initial_displacement, initial_velocity
+
+    rom = model_rom(model)
+    try:
+        initial_displacement(rom, cfg.initial, cfg.cases[:1])
+        initial_velocity(rom, cfg.initial, 1)
+        if cfg.outputs is not None:
+            try:
+                output_matrix(rom, cfg.outputs)
+            except InputError as exc:
+                raise InputError(f"[lco] outputs: {exc}") from None
+    except InputError as exc:
+        raise InputError(f"{cfg.source}: {exc}") from None
 
 
 def with_overrides(cfg: SweepConfig, **integrator_options) -> SweepConfig:

@@ -108,8 +108,10 @@ def _curve_axes(ax, table: pd.DataFrame, y: str, x: str = "altitude_ft") -> set[
     """One line per curve through its converged LCOs, status markers on every case; cases that
     diverged or failed are drawn at the top of the axis (their values are off any useful scale).
     Returns the statuses drawn."""
-    ys = table[y].astype(float)
-    shown = ys[table["status"].isin(["lco", "unconverged", "decay"]) & np.isfinite(ys)]
+    last = f"last_{y}" if f"last_{y}" in table else y  # an unconverged case's value when stopped
+    ys = pd.concat([table[table["status"].isin(["lco", "decay"])][y],
+                    table[table["status"] == "unconverged"][last]]).astype(float)
+    shown = ys[np.isfinite(ys)]
     top = float(shown.max()) * 1.08 if len(shown) else 1.0
     drawn: set[str] = set()
     for label, grp in curves(table, x):
@@ -121,8 +123,8 @@ def _curve_axes(ax, table: pd.DataFrame, y: str, x: str = "altitude_ft") -> set[
                 sel = sel[np.isfinite(sel[y].astype(float))]
             if len(sel):
                 drawn.add(status)
-                vals = sel[y] if status in ("lco", "unconverged", "decay") else np.full(
-                    len(sel), top)
+                vals = (sel[y] if status in ("lco", "decay") else sel[last]
+                        if status == "unconverged" else np.full(len(sel), top))
                 ax.plot(sel[x], vals, marker, ms=5, color=line.get_color(),
                         mfc=line.get_color() if filled else "none", ls="none")
     ax.grid(alpha=0.3)

@@ -55,10 +55,12 @@ def parameter_plot(table: pd.DataFrame, path, *, x: str, y: str = "amplitude",
                 ax.plot(grp[x], grp[y], "o", ms=4, color=color)
                 continue
             for status, (marker, filled) in _MARKERS.items():
-                sel = grp[(grp["status"] == status) & np.isfinite(grp[y].astype(float))]
+                # an unconverged case at its value when stopped (hollow): its amplitude is NaN
+                col = f"last_{y}" if status == "unconverged" and f"last_{y}" in grp else y
+                sel = grp[(grp["status"] == status) & np.isfinite(grp[col].astype(float))]
                 if len(sel):
                     drawn.add(status)
-                    ax.plot(sel[x], sel[y], marker, ms=5, color=color,
+                    ax.plot(sel[x], sel[col], marker, ms=5, color=color,
                             mfc=color if filled else "none", ls="none")
         ax.grid(alpha=0.3)
         if facet:

@@ -165,6 +165,8 @@ class PartStore:
         old = self.previous_run()
         if old is None:
             return False
+        if old.get("run_key") != self.run_key and not any(self.parts.glob("part-*")):
+            return False  # a manifest without results (a run stopped before its first chunk)
         if old.get("run_key") == self.run_key:
             return True
         if not force:

@@ -19,10 +19,11 @@ import numpy as np
 import pandas as pd
 import torch
 
-from ..errors import InputError
 from ..rom import NonlinearROM
 from ..sim import HistoryRequest
 from .cases import case_system, history_table, neighbour_chains
+from .cases import initial_displacement as initial_displacement  # noqa: F401 - public name
+from .cases import initial_velocity as initial_velocity  # noqa: F401 - public name
 from .cases import structural_system as structural_system  # noqa: F401 - public name
 from .config import SweepConfig
 from .grid import case_id, config_hash
@@ -30,41 +31,6 @@ from .models import AeroelasticModel, model_rom
 from .runner import ChunkResult, PartStore, run_cases
 from .table import result_rows
 from .units import sweep_units
-
-
-def initial_displacement(rom: NonlinearROM, initial: dict[str, Any],
-                         cases: list[dict[str, Any]], where: str = "[initial]") -> np.ndarray:
-    """(B, n) initial displacements: the ``[initial]`` pattern, scaled by each case's ``q0``."""
-    n = rom.n
-    q0 = initial.get("q0", 1e-3)
-    mode = initial.get("mode", 1)
-    if isinstance(mode, bool) or not isinstance(mode, int) or not 1 <= mode <= n:
-        raise InputError(f"{where} mode: expected a basis function number 1..{n}, got {mode!r}")
-    if isinstance(q0, list):
-        base = np.asarray(q0, dtype=float)
-        if base.shape != (n,):
-            raise InputError(f"{where} q0: expected {n} values, got {len(q0)}")
-        amp = 1.0
-    elif isinstance(q0, (int, float)) and not isinstance(q0, bool):
-        base = np.zeros(n)
-        base[mode - 1] = 1.0
-        amp = float(q0)
-    else:
-        raise InputError(f"{where} q0: expected a number or a list of {n} numbers, got {q0!r}")
-    scale = np.array([float(c.get("q0", amp)) for c in cases])
-    return scale[:, None] * base[None, :]
-
-
-def initial_velocity(rom: NonlinearROM, initial: dict[str, Any], batch: int,
-                     where: str = "[initial]") -> np.ndarray:
-    v0 = initial.get("v0", 0.0)
-    arr = np.asarray(v0, dtype=float)
-    if arr.ndim == 0:
-        arr = np.full(rom.n, float(arr))
-    if arr.shape != (rom.n,):
-        raise InputError(f"{where} v0: expected a number or {rom.n} values, got {v0!r}")
-    return np.broadcast_to(arr, (batch, rom.n)).copy()
-
 
 #: statuses of a float32 case that a float64 run confirms or corrects (the solver's error
 #: estimate above the tolerance, or a non-finite state)

@@ -4,8 +4,11 @@ Columns (DESIGN "Files"; those that apply to the sweep at hand):
 ``case_id`` (stable hash of the case parameters), the case parameters (``alpha`` 1/s,
 ``gamma`` s, ``stiffness_nl``, ``damping_nl``, ... plus any other swept parameter), ``status``
 (lco, decay, diverged, unconverged, failed), ``amplitude`` (half peak-to-peak of the first
-output over the converged window, output units), ``amplitude_pct_span`` (when the model knows its
-span), ``frequency_hz``, ``ratio_q1_q2`` / ``ratio_q1_q4`` (generalized-coordinate amplitude
+output over the converged window, output units; 0 for a decay, NaN for diverged, unconverged and
+failed cases), ``amplitude_pct_span`` (when the model knows its span), ``frequency_hz`` (NaN
+unless lco), ``last_amplitude`` / ``last_amplitude_pct_span`` / ``last_frequency_hz`` (the same
+measured on the last cycles whatever the status: the value when the case stopped),
+``ratio_q1_q2`` / ``ratio_q1_q4`` (generalized-coordinate amplitude
 ratios, when tracked), ``steps``, ``t_end`` (simulated time reached, s), ``amplitude_<output>``
 for every tracked output, ``amplitude_change`` (relative change over the last cycle),
 ``solver_error`` (estimated relative acceleration error of the nonlinear iterations),
@@ -60,6 +63,12 @@ def result_rows(cases: Sequence[Mapping[str, Any]], result: SimulationResult, *,
     if span:
         cols["amplitude_pct_span"] = 100.0 * amp[:, 0] / span
     cols["frequency_hz"] = result.frequency_hz
+    if result.last_amplitude is not None:
+        # the value when the case stopped, whatever its status (amplitude is NaN unless lco)
+        cols["last_amplitude"] = result.last_amplitude[:, 0]
+        if span:
+            cols["last_amplitude_pct_span"] = 100.0 * result.last_amplitude[:, 0] / span
+        cols["last_frequency_hz"] = result.last_frequency_hz
     for a, b in (("q1", "q2"), ("q1", "q4")):
         if a in names and b in names:
             cols[f"ratio_{a}_{b}"] = amplitude_ratio(amp[:, names.index(a)],

@@ -1,0 +1,540 @@
+"""Bad input never gets a traceback or a silently wrong answer (issue 16).
+
+Every case feeds one damaged input — a deck field, a configuration key, a ROM/aero file, a file
+system fault or a misused API parameter — and checks: exit status 2 and a one-line message naming
+the file, card/key and field (command line), or an :class:`InputError` naming the parameter
+(API); and that the outputs that existed before are unchanged (nothing half-written, nothing
+replaced). All inputs are tiny, so the module runs in seconds.
+"""
+
+from __future__ import annotations
+
+import errno
+import math
+import os
+
+import numpy as np
+import pytest
+
+from torchrom.cli import main
+from torchrom.errors import InputError
+
+DECK = """SOL 103
+CEND
+SPC = 1
+METHOD = 10
+BEGIN BULK
+GRID    1               0.0     0.0     0.0
+GRID    2               1.0     0.0     0.0
+GRID    3               2.0     0.0     0.0
+GRID    4               3.0     0.0     0.0
+CBAR    1       1       1       2       0.0     0.0     1.0
+CBAR    2       1       2       3       0.0     0.0     1.0
+CBAR    3       1       3       4       0.0     0.0     1.0
+PBAR    1       1       0.01    1.-5    2.-5    3.-5
+MAT1    1       7.+10           0.3     2700.
+CONM2   10      4               1.0
+SPC1    1       123456  1
+EIGRL   10                      4
+ENDDATA
+"""
+
+CONFIG = """title = "bad input"
+[model]
+builtin = "van_der_pol_duffing"
+frequencies_hz = [1.0, 2.3]
+c1 = [-0.6, 0.05]
+d3 = [1.0, 1.0]
+k3 = [8.0, 0.0]
+[initial]
+q0 = 0.05
+mode = 1
+[integrator]
+dt = 0.01
+t_end = 4.0
+[lco]
+outputs = ["q1", "q2"]
+[cases]
+alpha = [0.0, 0.3]
+gamma = 1.0
+[run]
+chunk_size = 1
+"""
+
+
+def _cli(capsys, argv):
+    """(exit status, stderr) of ``torchrom argv`` run in-process."""
+    try:
+        rc = main([str(a) for a in argv])
+    except SystemExit as exc:  # argparse errors
+        rc = exc.code
+    return rc, capsys.readouterr().err
+
+
+def _one_line_error(err: str, *words: str) -> None:
+    lines = [ln for ln in err.strip().splitlines() if ln.strip()]
+    assert lines, "no message"
+    assert "Traceback" not in err
+    last = lines[-1]
+    assert "error" in last, err
+    for w in words:
+        assert w in last, (w, last)
+
+
+def _snapshot(folder):
+    return {p.relative_to(folder): p.read_bytes() for p in sorted(folder.rglob("*"))
+            if p.is_file()}
+
+
+# -- decks (torchrom modes) --
+DECK_CASES = {
+    # name: (replace old -> new, words the message must name)
+    "negative area": (("0.01    1.-5", "-0.01   1.-5"), ("PBAR 1", "field A")),
+    "negative density": (("2700.", "-2700."), ("MAT1 1", "field RHO")),
+    "zero modulus": (("7.+10", "0.0  "), ("MAT1 1", "field E")),
+    "poisson out of range": (("0.3 ", "0.7 "), ("MAT1 1", "field NU")),
+    "nan coordinate": (("GRID    2               1.0", "GRID    2               nan"),
+                       ("GRID 2", "finite")),
+    "inf coordinate": (("GRID    2               1.0", "GRID    2               1.+400"),
+                       ("GRID 2", "finite")),
+    "huge coordinate": (("GRID    2               1.0", "GRID    2               1.+200"),
+                        ("GRID 2", "X1-X3")),
+    "nan inertia": (("1.-5", "nan "), ("PBAR 1", "finite")),
+    "negative mass": (("CONM2   10      4               1.0",
+                       "CONM2   10      4               -1.0"), ("CONM2 10", "field M")),
+    "duplicate grid": (("GRID    3  ", "GRID    2  "), ("GRID 2", "duplicate")),
+    "duplicate element": (("CBAR    3       1       3", "CBAR    2       1       3"),
+                          ("CBAR 2", "duplicate")),
+    "duplicate material": (("CONM2", "MAT1    1       7.+10           0.3     2600.\nCONM2"),
+                           ("MAT1 1", "duplicate")),
+    "no enddata": (("ENDDATA\n", ""), ("ENDDATA",)),
+    "cut mid-way": (("PBAR    1", "\x00CUT"), ("ENDDATA",)),
+    "missing property": (("CBAR    3       1", "CBAR    3       7"), ("CBAR 3", "PID")),
+    "missing grid": (("CBAR    3       1       3       4", "CBAR    3       1       3       9"),
+                     ("CBAR 3", "G2")),
+    "missing material": (("PBAR    1       1 ", "PBAR    1       5 "), ("PBAR 1", "MID")),
+    "bad spc component": (("SPC1    1       123456", "SPC1    1       123789"), ("SPC1",)),
+}
+
+
+def _deck(tmp_path, name: str) -> str:
+    (old, new), _ = DECK_CASES[name]
+    assert old in DECK
+    text = DECK.replace(old, new)
+    if new.startswith("\x00CUT"):
+        text = DECK.split(old)[0]
+    return text
+
+
+@pytest.mark.parametrize("name", sorted(DECK_CASES))
+def test_bad_deck(name, tmp_path, capsys):
+    path = tmp_path / "wing.bdf"
+    path.write_text(_deck(tmp_path, name))
+    js = tmp_path / "modes.json"
+    js.write_text("previous results\n")
+    rc, err = _cli(capsys, ["modes", path, "--json", js, "--force"])
+    assert rc == 2
+    _one_line_error(err, "wing.bdf", *DECK_CASES[name][1])
+    assert js.read_text() == "previous results\n"
+
+
+def test_good_deck_reference(tmp_path, capsys):
+    """The undamaged deck runs (so every failure above is the damage's)."""
+    path = tmp_path / "wing.bdf"
+    path.write_text(DECK)
+    assert _cli(capsys, ["modes", path])[0] == 0
+
+
+# -- configurations (torchrom sweep) --
+CONFIG_CASES = {
+    "dt above t_end": (("dt = 0.01", "dt = 10.0"), ("[integrator]", "t_end")),
+    "step count": (("dt = 0.01", "dt = 1e-12"), ("[integrator]", "dt")),
+    "nan q0": (("q0 = 0.05", "q0 = nan"), ("[initial] q0", "finite")),
+    "q0 wrong size": (("q0 = 0.05", "q0 = [0.1, 0.2, 0.3]"), ("[initial] q0", "2 values")),
+    "mode out of range": (("mode = 1", "mode = 5"), ("[initial] mode",)),
+    "inf case value": (("gamma = 1.0", "gamma = inf"), ("[cases] gamma",)),
+    "chunk size 0": (("chunk_size = 1", "chunk_size = 0"), ("[run] chunk_size",)),
+    "unknown key": (("mode = 1", "mode = 1\nstart = 2"), ("[initial]", "start")),
+    "string dt": (("dt = 0.01", 'dt = "0.01"'), ("[integrator] dt",)),
+    "bad toml": (("[cases]", "[cases"), ("invalid TOML",)),
+    "negative rtol": (('outputs = ["q1", "q2"]', 'outputs = ["q1", "q2"]\nrtol = -1.0'),
+                      ("[lco]", "rtol")),
+    "unknown output": (('outputs = ["q1", "q2"]', 'outputs = ["q1", "q9"]'), ("q9",)),
+    "rom file missing": (('builtin = "van_der_pol_duffing"\nfrequencies_hz = [1.0, 2.3]\n'
+                          'c1 = [-0.6, 0.05]\nd3 = [1.0, 1.0]\nk3 = [8.0, 0.0]',
+                          'rom = "nowhere.npz"'), ("nowhere.npz",)),
+    "rom file junk": (('builtin = "van_der_pol_duffing"\nfrequencies_hz = [1.0, 2.3]\n'
+                       'c1 = [-0.6, 0.05]\nd3 = [1.0, 1.0]\nk3 = [8.0, 0.0]',
+                       'rom = "junk.npz"'), ("junk.npz",)),
+}
+
+
+@pytest.mark.parametrize("name", sorted(CONFIG_CASES))
+def test_bad_config(name, tmp_path, capsys):
+    (old, new), words = CONFIG_CASES[name]
+    assert old in CONFIG
+    cfg = tmp_path / "sweep.toml"
+    cfg.write_text(CONFIG.replace(old, new))
+    (tmp_path / "junk.npz").write_text("not a zip file")
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "results.csv").write_text("previous table\n")
+    before = _snapshot(out)
+    rc, err = _cli(capsys, ["sweep", cfg, "--out", out])
+    assert rc == 2
+    _one_line_error(err, *words)
+    assert _snapshot(out) == before  # no manifest, no part, nothing replaced
+
+
+def test_chunk_size_option_zero_is_refused(tmp_path, capsys):
+    cfg = tmp_path / "sweep.toml"
+    cfg.write_text(CONFIG)
+    rc, err = _cli(capsys, ["sweep", cfg, "--out", tmp_path / "out", "--chunk-size", "0"])
+    assert rc == 2 and "--chunk-size" in err
+    assert not (tmp_path / "out").exists()
+
+
+# -- ROM and aero files (torchrom flutter ROM AERO) --
+@pytest.mark.parametrize("damage", ["truncated", "missing"])
+def test_bad_aero_file(damage, tmp_path, capsys):
+    from torchrom.rom.analytic import van_der_pol_duffing
+
+    rom = tmp_path / "rom.npz"
+    van_der_pol_duffing([1.0, 2.0]).save(rom)
+    aero = tmp_path / "aero.npz"
+    if damage == "truncated":
+        aero.write_bytes(b"PK\x03\x04 truncated zip")
+    js = tmp_path / "flutter.json"
+    js.write_text("old\n")
+    rc, err = _cli(capsys, ["flutter", rom, aero, "--json", js, "--force"])
+    assert rc == 2
+    _one_line_error(err, "aero.npz")
+    assert js.read_text() == "old\n"
+
+
+# -- file system faults --
+def test_json_not_replaced_without_force(tmp_path, capsys):
+    path = tmp_path / "wing.bdf"
+    path.write_text(DECK)
+    js = tmp_path / "modes.json"
+    js.write_text("mine\n")
+    rc, err = _cli(capsys, ["modes", path, "--json", js])
+    assert rc == 2
+    _one_line_error(err, "modes.json", "--force")
+    assert js.read_text() == "mine\n"
+
+
+def test_out_is_a_file(tmp_path, capsys):
+    cfg = tmp_path / "sweep.toml"
+    cfg.write_text(CONFIG)
+    out = tmp_path / "out"
+    out.write_text("a file\n")
+    rc, err = _cli(capsys, ["sweep", cfg, "--out", out])
+    assert rc == 2
+    _one_line_error(err, "out")
+    assert out.read_text() == "a file\n"
+
+
+def test_parts_is_a_file(tmp_path, capsys):
+    cfg = tmp_path / "sweep.toml"
+    cfg.write_text(CONFIG)
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "parts").write_text("not a folder\n")
+    rc, err = _cli(capsys, ["sweep", cfg, "--out", out])
+    assert rc == 2
+    _one_line_error(err, "parts")
+    assert (out / "parts").read_text() == "not a folder\n"
+    assert not (out / "results.csv").exists()
+
+
+@pytest.mark.skipif(hasattr(os, "geteuid") and os.geteuid() == 0, reason="root writes anywhere")
+def test_unwritable_out_folder(tmp_path, capsys):
+    path = tmp_path / "wing.bdf"
+    path.write_text(DECK)
+    locked = tmp_path / "locked"
+    locked.mkdir()
+    locked.chmod(0o500)
+    try:
+        rc, err = _cli(capsys, ["goland", "--out", locked / "sub"])
+    finally:
+        locked.chmod(0o700)
+    assert rc == 2
+    _one_line_error(err, "locked", "not writable")
+    assert not (locked / "sub").exists()
+
+
+def test_disk_full_keeps_previous_outputs(tmp_path, capsys, monkeypatch):
+    """A full disk while the tables are written (ENOSPC from the parquet writer): one line,
+    exit 2, the previous table untouched and no temporary file left."""
+    import pandas as pd
+
+    cfg = tmp_path / "sweep.toml"
+    cfg.write_text(CONFIG)
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "results.parquet").write_bytes(b"previous")
+
+    original = pd.DataFrame.to_parquet
+
+    def full(self, path, *a, **k):
+        if "results" not in str(path):  # part files (and in-memory buffers) are written
+            return original(self, path, *a, **k)
+        with open(path, "wb") as f:
+            f.write(b"half")
+        raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC), str(path))
+
+    monkeypatch.setattr(pd.DataFrame, "to_parquet", full)
+    rc, err = _cli(capsys, ["sweep", cfg, "--out", out, "--force"])
+    assert rc == 2
+    _one_line_error(err, "results.parquet", os.strerror(errno.ENOSPC))
+    assert (out / "results.parquet").read_bytes() == b"previous"
+    assert not list(out.glob(".results.parquet.*"))
+    assert len(list((out / "parts").glob("part-*.parquet"))) == 2  # computed chunks kept: resume
+
+
+def test_figure_failure_keeps_the_tables(tmp_path, capsys, monkeypatch):
+    """matplotlib failing after the table is written: a warning, exit 1, tables kept."""
+    import torchrom.study.plots as plots
+
+    def broken(*a, **k):
+        raise OverflowError("cannot place 1e308")
+
+    monkeypatch.setattr(plots, "parameter_plot", broken)
+    cfg = tmp_path / "sweep.toml"
+    cfg.write_text(CONFIG)
+    out = tmp_path / "out"
+    rc, err = _cli(capsys, ["sweep", cfg, "--out", out])
+    assert rc == 1
+    assert "warning: figure not written" in err and "Traceback" not in err
+    assert (out / "results.parquet").exists() and (out / "results.csv").exists()
+
+
+def test_plot_out_not_replaced(tmp_path, capsys):
+    table = tmp_path / "t.csv"
+    table.write_text("gamma,alpha\n1e-4,0.1\n2e-4,0.2\n")
+    fig = tmp_path / "fig.png"
+    fig.write_bytes(b"mine")
+    rc, err = _cli(capsys, ["plot", table, "--figure", "fig9", "--out", fig])
+    assert rc == 2
+    _one_line_error(err, "fig.png", "--force")
+    assert fig.read_bytes() == b"mine"
+
+
+# -- API misuse --
+def _rom():
+    from torchrom.rom.analytic import van_der_pol_duffing
+
+    return van_der_pol_duffing([1.0, 2.0])
+
+
+def _api_cases():
+    from torchrom.sim import CaseSystem, LCOCriteria, Newmark
+
+    rom = _rom()
+    return {
+        "dt string": (lambda: Newmark(dt="0.1"), "integrator.dt"),
+        "dt bool": (lambda: Newmark(dt=True), "integrator.dt"),
+        "dt nan": (lambda: Newmark(dt=math.nan), "integrator.dt"),
+        "iterations float": (lambda: Newmark(iterations=2.5), "integrator.iterations"),
+        "build None": (lambda: CaseSystem.build(None), "rom"),
+        "batch 0": (lambda: CaseSystem.build(rom, 0), "batch"),
+        "alpha nan": (lambda: CaseSystem.build(rom, alpha=[0.1, math.nan]), "alpha"),
+        "gamma string": (lambda: CaseSystem.build(rom, gamma="big"), "gamma"),
+        "t_end below dt": (lambda: Newmark(dt=1.0).run(CaseSystem.build(rom), [0.1, 0.0],
+                                                       t_end=0.1), "t_end"),
+        "dt tiny": (lambda: Newmark(dt=1e-12).run(CaseSystem.build(rom), [0.1, 0.0],
+                                                  t_end=200.0), "dt"),
+        "run without system": (lambda: Newmark().run(None, [0.1, 0.0], t_end=1.0), "system"),
+        "lco cycles string": (lambda: LCOCriteria(cycles="4"), "lco.cycles"),
+        "lco rtol nan": (lambda: LCOCriteria(rtol=math.nan), "lco.rtol"),
+        "q0 wrong size": (lambda: Newmark().run(CaseSystem.build(rom), [0.1, 0.0, 0.3],
+                                                t_end=1.0), "q0"),
+        "v0 string": (lambda: Newmark().run(CaseSystem.build(rom), [0.1, 0.0], "fast",
+                                            t_end=1.0), "v0"),
+        "rom frequencies string": (lambda: __import__(
+            "torchrom.rom.analytic", fromlist=["x"]).van_der_pol_duffing("x"), "frequencies_hz"),
+    }
+
+
+API_NAMES = ["dt string", "dt bool", "dt nan", "iterations float", "build None", "batch 0",
+             "alpha nan", "gamma string", "t_end below dt", "dt tiny", "run without system",
+             "lco cycles string", "lco rtol nan", "q0 wrong size", "v0 string",
+             "rom frequencies string"]
+
+
+@pytest.mark.parametrize("name", API_NAMES)
+def test_api_misuse(name):
+    call, parameter = _api_cases()[name]
+    with pytest.raises(InputError, match=parameter.replace(".", r"\.")) as info:
+        call()
+    assert "\n" not in str(info.value)
+
+
+def test_modes_count_validated():
+    from tests.fe_decks import model_of, two_bar_truss
+    from torchrom.fe.solvers import modal_analysis
+
+    fe = model_of(two_bar_truss(1.0, 0.5, 1.0))
+    for n in (0, 2.5, True):
+        with pytest.raises(InputError, match="modes: n: expected a positive number"):
+            modal_analysis(fe, n)
+
+
+def test_nan_case_never_changes_its_neighbours():
+    """A case with a non-finite load and a diverging one beside good cases: marked failed /
+    diverged with NaN amplitude, and the good cases bitwise equal to a batch without them."""
+    import torch
+
+    from torchrom.sim import CaseSystem, LCOCriteria, Newmark
+
+    rom = _rom()
+    load = torch.zeros(4, 2, dtype=torch.float64)
+    load[1, 0] = math.nan
+    alpha = [0.1, 0.1, -5.0, 0.2]
+    crit = LCOCriteria(max_amplitude=50.0)
+    run = Newmark(dt=0.01).run(CaseSystem.build(rom, 4, alpha=alpha, load=load),
+                               [[0.1, 0.0]] * 4, t_end=20.0, lco=crit)
+    assert run.status[1] == "failed" and run.status[2] == "diverged"
+    assert np.isnan(run.amplitude[[1, 2]]).all() and np.isnan(run.frequency_hz[[1, 2]]).all()
+    good = Newmark(dt=0.01).run(CaseSystem.build(rom, 2, alpha=[0.1, 0.2]), [[0.1, 0.0]] * 2,
+                                t_end=20.0, lco=crit)
+    assert (good.status == run.status[[0, 3]]).all()
+    np.testing.assert_array_equal(good.q, run.q[[0, 3]])
+
+
+def test_changed_case_grid_does_not_replace_a_finished_table(tmp_path, capsys):
+    """A finished sweep, then the same configuration with another case grid into the same
+    folder: refused (the table of the first grid stays) unless --force."""
+    cfg = tmp_path / "sweep.toml"
+    cfg.write_text(CONFIG)
+    out = tmp_path / "out"
+    assert _cli(capsys, ["sweep", cfg, "--out", out])[0] == 0
+    before = _snapshot(out)
+    cfg.write_text(CONFIG.replace("alpha = [0.0, 0.3]", "alpha = [0.0, 0.3, 0.6]"))
+    rc, err = _cli(capsys, ["sweep", cfg, "--out", out])
+    assert rc == 2
+    _one_line_error(err, "results.parquet", "another case grid", "--force")
+    assert _snapshot(out) == before
+
+
+def test_permission_denied_while_writing(tmp_path, capsys, monkeypatch):
+    """The file system refusing a write (EACCES, as for a read-only folder when not root):
+    exit 2, one line, the deck not half-written."""
+    import torchrom.io as tio
+
+    def denied(*a, **k):
+        raise PermissionError(errno.EACCES, os.strerror(errno.EACCES), str(tmp_path / "g"))
+
+    monkeypatch.setattr(tio.tempfile, "mkstemp", denied)
+    rc, err = _cli(capsys, ["goland", "--out", tmp_path / "g"])
+    assert rc == 2
+    _one_line_error(err, "goland.bdf", os.strerror(errno.EACCES))
+    assert not (tmp_path / "g" / "goland.bdf").exists()
+
+
+def test_extreme_alpha_is_no_traceback(tmp_path, capsys):
+    """α = 1e308 (finite, so a valid case value): the cases are decided or marked, the table is
+    written, and whatever the figure makes of it is at most a warning (exit 0 or 1)."""
+    cfg = tmp_path / "sweep.toml"
+    cfg.write_text(CONFIG.replace("alpha = [0.0, 0.3]", "alpha = [0.0, 1e308]"))
+    out = tmp_path / "out"
+    rc, err = _cli(capsys, ["sweep", cfg, "--out", out])
+    assert rc in (0, 1) and "Traceback" not in err
+    assert (out / "results.csv").exists()
+
+
+@pytest.mark.parametrize("command", ["goland", "aero", "identify", "paper"])
+def test_json_of_every_command_is_not_replaced(command, tmp_path, capsys):
+    """The --json file of every command is checked with the other outputs, before any work."""
+    js = tmp_path / "old.json"
+    js.write_text("mine\n")
+    deck = tmp_path / "wing.bdf"
+    deck.write_text(DECK)
+    argv = {"goland": ["goland", "--out", tmp_path / "g"],
+            "aero": ["aero", deck, "--mach", "0.5", "--out", tmp_path / "aero.npz"],
+            "identify": ["identify", deck, "--out", tmp_path / "rom.npz"],
+            "paper": ["paper", "--out", tmp_path / "p", "--quick"]}[command]
+    rc, err = _cli(capsys, [*argv, "--json", js])
+    assert rc == 2
+    _one_line_error(err, "old.json", "--force")
+    assert js.read_text() == "mine\n"
+    assert not (tmp_path / "g").exists() and not (tmp_path / "aero.npz").exists()
+
+
+@pytest.mark.parametrize("command", ["aero", "identify"])
+def test_free_free_deck_needs_constraints(command, tmp_path, capsys):
+    """An unconstrained deck where the analysis needs a restrained structure: a clear error
+    naming the rigid-body modes and what to add, never a singular matrix or a 0 Hz basis
+    (flutter of the free-free pt145: tests/test_fe_solvers.py)."""
+    deck = tmp_path / "free.bdf"
+    deck.write_text(DECK.replace("SPC1    1       123456  1\n", "").replace("SPC = 1\n", ""))
+    argv = {"aero": ["aero", deck, "--mach", "0.5", "--planform", "goland", "--modes", "2",
+                     "--out", tmp_path / "aero.npz"],
+            "identify": ["identify", deck, "--linear", "2", "--dual", "1", "--combinations",
+                         "1:1", "--out", tmp_path / "rom.npz"]}[command]
+    rc, err = _cli(capsys, argv)
+    assert rc == 2
+    _one_line_error(err, "free", "rigid-body mode", "SPC")
+    assert not (tmp_path / "aero.npz").exists() and not (tmp_path / "rom.npz").exists()
+
+
+@pytest.mark.parametrize("damage", ["nan density", "no enddata"])
+def test_bad_flutter_deck(damage, shared, tmp_path, capsys):
+    """pt145 with a NaN in its FLFACT densities or cut before ENDDATA: exit 2, card named."""
+    text = (shared / "nastran" / "pt145.bdf").read_text()
+    if damage == "nan density":
+        text, words = text.replace("FLFACT  1       0.967 ", "FLFACT  1       nan   "), (
+            "FLFACT 1", "finite")
+    else:
+        text, words = text.replace("ENDDATA", ""), ("ENDDATA",)
+    deck = tmp_path / "pt145.bdf"
+    deck.write_text(text)
+    js = tmp_path / "flutter.json"
+    js.write_text("old\n")
+    rc, err = _cli(capsys, ["flutter", deck, "--json", js, "--force"])
+    assert rc == 2
+    _one_line_error(err, "pt145.bdf", *words)
+    assert js.read_text() == "old\n"
+
+
+OPTION_CASES = {
+    "calibrate --rtol": (["calibrate", "{cfg}", "--target", "0.1", "--rtol", "-1"], "--rtol"),
+    "calibrate --target": (["calibrate", "{cfg}", "--target", "nan"], "--target"),
+    "bifurcation --refine": (["bifurcation", "{cfg}", "--refine", "-1"], "--refine"),
+    "bifurcation --q0": (["bifurcation", "{cfg}", "--q0", "0", "1"], "--q0"),
+    "modes --n": (["modes", "{deck}", "--n", "0"], "--n"),
+    "goland --density": (["goland", "--density", "nan"], "--density"),
+    "aero --mach": (["aero", "{deck}", "--mach", "-0.5"], "--mach"),
+    "identify --amplitude": (["identify", "{deck}", "--amplitude", "0"], "--amplitude"),
+}
+
+
+@pytest.mark.parametrize("name", sorted(OPTION_CASES))
+def test_bad_option_value(name, tmp_path, capsys):
+    """A numeric option out of range is refused by the parser (exit 2, the option named)
+    before anything is read or written."""
+    cfg, deck, out = tmp_path / "sweep.toml", tmp_path / "wing.bdf", tmp_path / "out"
+    cfg.write_text(CONFIG)
+    deck.write_text(DECK)
+    argv, option = OPTION_CASES[name]
+    argv = [a.format(cfg=cfg, deck=deck) for a in argv] + ["--out", out]
+    rc, err = _cli(capsys, argv)
+    assert rc == 2
+    _one_line_error(err, f"argument {option}")
+    assert not out.exists()
+
+
+def test_flutter_figure_failure_keeps_the_json(shared, tmp_path, capsys, monkeypatch):
+    """The V-g figure failing after the pt145 flutter solution: warning, exit 1, JSON written."""
+    import torchrom.aero.plots as aero_plots
+
+    def broken(*a, **k):
+        raise ValueError("Image size of 1e308 pixels is too large")
+
+    monkeypatch.setattr(aero_plots, "plot_vg", broken)
+    js = tmp_path / "flutter.json"
+    rc, err = _cli(capsys, ["flutter", shared / "nastran" / "pt145.bdf", "--json", js, "--plot",
+                            tmp_path / "vg.png"])
+    assert rc == 1 and "warning: figure not written" in err and "Traceback" not in err
+    assert js.exists() and not (tmp_path / "vg.png").exists()

@@ -1,0 +1,159 @@
+"""Field checks of a Nastran deck before it becomes a mesh (hand-written; no library does them).
+
+pyNastran parses the fields but accepts any number, NaN and ±inf included, and Nastran itself
+only rejects some signs at run time. Here every numeric field of every card is checked to be
+finite, and the fields whose sign or range the physics fixes (areas, thicknesses, densities,
+masses ≥ 0; E > 0; −1 < ν ≤ 0.5; coordinates below :data:`MAX_COORDINATE`) follow the table
+:data:`FIELD_RULES`, so that a bad value is reported on its own card and field — never as a
+singular matrix, an "infs or NaNs" error or a misleading complaint about another card.
+
+Also here: the truncation check of a deck's text (a bulk data section without ``ENDDATA``, the way
+Nastran reports a file cut off) and the one-line message of pyNastran's duplicate-ID error.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from collections.abc import Callable, Iterable
+
+from ..errors import InputError
+
+#: Largest coordinate magnitude accepted: beyond it, element lengths of order 1 are lost to the
+#: rounding of float64 (ε ≈ 1.1e-16) — a deck there is a typo (1.+20 for 1.+2), not a model.
+MAX_COORDINATE = 1e15
+
+
+def _positive(x: float) -> bool:
+    return x > 0
+
+
+def _nonnegative(x: float) -> bool:
+    return x >= 0
+
+
+def _poisson(x: float) -> bool:
+    return -1.0 < x <= 0.5
+
+
+def _coordinate(x: float) -> bool:
+    return abs(x) <= MAX_COORDINATE
+
+
+POSITIVE = (_positive, "a positive number")
+NONNEGATIVE = (_nonnegative, "a number >= 0")
+POISSON = (_poisson, "a Poisson ratio in (-1, 0.5]")
+COORDINATE = (_coordinate, f"a coordinate of magnitude <= {MAX_COORDINATE:g}")
+
+#: card type -> [(attribute, Nastran field name, (rule, what is expected))]; a blank (None)
+#: field is left to the reader (its default applies). Add a row to check a new field.
+FIELD_RULES: dict[str, list[tuple[str, str, tuple[Callable[[float], bool], str]]]] = {
+    "GRID": [("xyz", "X1-X3", COORDINATE)],
+    "MAT1": [("e", "E", POSITIVE), ("g", "G", NONNEGATIVE), ("nu", "NU", POISSON),
+             ("rho", "RHO", NONNEGATIVE)],
+    "PROD": [("A", "A", POSITIVE), ("j", "J", NONNEGATIVE)],
+    "CONROD": [("A", "A", POSITIVE), ("j", "J", NONNEGATIVE)],
+    "PBAR": [("A", "A", NONNEGATIVE), ("i1", "I1", NONNEGATIVE), ("i2", "I2", NONNEGATIVE),
+             ("j", "J", NONNEGATIVE)],
+    "PSHELL": [("t", "T", POSITIVE), ("twelveIt3", "12I/T**3", NONNEGATIVE),
+               ("tst", "TS/T", NONNEGATIVE)],
+    "PSHEAR": [("t", "T", POSITIVE)],
+    "CONM2": [("mass", "M", NONNEGATIVE)],
+    "CMASS2": [("mass", "M", NONNEGATIVE)],
+}
+
+# the dictionaries of a pyNastran BDF holding cards with an ID (name used in messages)
+_CONTAINERS = ("nodes", "coords", "elements", "properties", "materials", "masses",
+               "rigid_elements", "methods", "params")
+_LISTS = ("spcs", "spcadds", "loads")
+# the aerodynamic cards (read by torchrom.aero): finiteness only
+AERO_CONTAINERS = ("caeros", "paeros", "splines", "flfacts", "flutters", "aefacts", "sets")
+
+
+def _cards(model, containers=_CONTAINERS, lists=_LISTS) -> Iterable:
+    for name in containers:
+        yield from getattr(model, name, {}).values()
+    for name in lists:
+        for cards in getattr(model, name, {}).values():
+            yield from cards
+    if containers is AERO_CONTAINERS:
+        yield from getattr(model, "mkaeros", [])
+        for single in ("aero", "aeros"):
+            card = getattr(model, single, None)
+            if card is not None:
+                yield card
+
+
+def _card_id(card) -> str:
+    for attr in ("eid", "nid", "pid", "mid", "cid", "sid", "conid", "key"):
+        value = getattr(card, attr, None)
+        if value is not None and not callable(value):
+            return f"{card.type} {value}"
+    return card.type
+
+
+def _numbers(value) -> list[float]:
+    """The floats in a field value (a number, or a vector of them); [] for a blank/text."""
+    if value is None or isinstance(value, (str, bool)):
+        return []
+    if isinstance(value, (int, float)):
+        return [float(value)]
+    try:
+        return [float(v) for v in value]
+    except (TypeError, ValueError):
+        return []
+
+
+def check_fields(model, fname: str, aero: bool = False) -> None:
+    """InputError naming file, card, ID and field for the first non-finite field or rule
+    violation (:data:`FIELD_RULES`) in the structural cards of a pyNastran model (``aero``:
+    in its aerodynamic cards instead)."""
+    cards = _cards(model, AERO_CONTAINERS, ()) if aero else _cards(model)
+    for card in cards:
+        try:
+            fields = card.raw_fields()
+        except Exception:  # noqa: BLE001 - a card pyNastran cannot list is checked by the reader
+            continue
+        for k, value in enumerate(fields[1:], start=2):
+            if isinstance(value, float) and not math.isfinite(value):
+                # small-field numbering on the first line; after it, continuation fields shift
+                where = f"field #{k}" if k <= 9 else f"value #{k - 1} after the card name"
+                raise InputError(f"{fname}: {_card_id(card)}: {where}: expected a finite "
+                                 f"number, got {value}")
+        for attr, field, (rule, expected) in FIELD_RULES.get(card.type, ()):
+            for x in _numbers(getattr(card, attr, None)):
+                if not math.isfinite(x) or not rule(x):
+                    raise InputError(f"{fname}: {_card_id(card)}: field {field}: expected "
+                                     f"{expected}, got {x:g}")
+
+
+def check_complete(text: str, fname: str) -> None:
+    """InputError when a deck's bulk data has no ENDDATA (a file cut off; Nastran's fatal
+    "ENDDATA card missing")."""
+    for line in text.splitlines():
+        if line.split("$")[0].strip().upper().startswith("ENDDATA"):
+            return
+    raise InputError(f"{fname}: no ENDDATA card: the deck is truncated or incomplete (the last "
+                     f"line is {_last_line(text)!r})")
+
+
+def _last_line(text: str) -> str:
+    lines = [ln.rstrip() for ln in text.splitlines() if ln.strip()]
+    return lines[-1][:40] if lines else ""
+
+
+# pyNastran's duplicate-ID reports: "nid=2 / old_node= / GRID ..." (an assertion) and
+# "self.elements IDs are not unique=[2] / old_element= / CBAR ..." (DuplicateIDsError)
+_DUPLICATE = re.compile(r"^(?:\w+=(\d+)|.*IDs are not unique=\[([\d, ]+)\])\s*\n\s*old_\w+="
+                        r"\s*\n\s*(\w+)", re.M)
+
+
+def duplicate_message(fname: str, text: str) -> str | None:
+    """The one-line message of pyNastran's duplicate-ID errors (the card and the ID named), or
+    None when ``text`` is not one."""
+    m = _DUPLICATE.search(text)
+    if not m:
+        return None
+    ident = m.group(1) or m.group(2).split(",")[0].strip()
+    card = m.group(3)
+    return f"{fname}: {card} {ident}: duplicate ID (two {card} cards with ID {ident})"
