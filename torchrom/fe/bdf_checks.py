@@ -62,6 +62,10 @@ FIELD_RULES: dict[str, list[tuple[str, str, tuple[Callable[[float], bool], str]]
     "CMASS2": [("mass", "M", NONNEGATIVE)],
 }
 
+#: cards whose blank optional fields pyNastran lists as NaN (PBEAM's stations): only an
+#: infinite value is an error there
+NAN_IS_BLANK = frozenset({"PBEAM"})
+
 # the dictionaries of a pyNastran BDF holding cards with an ID (name used in messages)
 _CONTAINERS = ("nodes", "coords", "elements", "properties", "materials", "masses",
                "rigid_elements", "methods", "params")
@@ -114,8 +118,10 @@ def check_fields(model, fname: str, aero: bool = False) -> None:
             fields = card.raw_fields()
         except Exception:  # noqa: BLE001 - a card pyNastran cannot list is checked by the reader
             continue
+        blank_nan = card.type in NAN_IS_BLANK
         for k, value in enumerate(fields[1:], start=2):
-            if isinstance(value, float) and not math.isfinite(value):
+            if isinstance(value, float) and not math.isfinite(value) and not (
+                    blank_nan and math.isnan(value)):
                 # small-field numbering on the first line; after it, continuation fields shift
                 where = f"field #{k}" if k <= 9 else f"value #{k - 1} after the card name"
                 raise InputError(f"{fname}: {_card_id(card)}: {where}: expected a finite "

@@ -12,26 +12,14 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import InputError
+from .coords import axes_at as _axes_at
+from .coords import components as _comps
 from .elements.solid import solid_volumes
 from .laminate import laminate
 from .mesh import Bush, LinearMPC, MassMatrix6, Mesh, RigidRBE2, ScalarSpring
 
 #: linear solid elements and their number of corner grids
 SOLID_GRIDS = {"CHEXA": 8, "CPENTA": 6, "CTETRA": 4}
-
-
-# The component and coordinate helpers live in bdf_read, which imports this module: imported
-# at call time.
-def _comps(value, fname: str, where: str) -> list[int]:
-    from .bdf_read import _comps as comps
-
-    return comps(value, fname, where)
-
-
-def _axes_at(coord, point) -> np.ndarray:
-    from .bdf_read import axes_at
-
-    return axes_at(coord, point)
 
 
 class ExtraCards:

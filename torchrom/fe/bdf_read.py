@@ -39,6 +39,7 @@ from .bdf_cards import NOTED_CARDS, apply_grdset, reason
 from .bdf_checks import check_complete, check_fields, duplicate_message
 from .bdf_extra import SOLID_GRIDS, ExtraCards
 from .coords import axes_at
+from .coords import components as _comps
 from .elements.quad4 import quad_frames, shape
 from .goland_geometry import (  # noqa: F401 - GOLAND_* re-exported (public names of this module)
     GOLAND_TITLE,
@@ -260,16 +261,6 @@ def _check_cards(model, fname: str, unsupported: str) -> list[str]:
     warnings.warn(f"{fname}: ignoring unsupported cards: {listing}", UnsupportedCardWarning,
                   stacklevel=3)
     return notes + [f"ignored unsupported cards: {listing}"]
-
-
-def _comps(value, fname: str, where: str) -> list[int]:
-    """Nastran component string ('123456' subset) → sorted 0-based list."""
-    if value in (None, "", 0, "0"):
-        return []
-    s = str(value)
-    if not s.isdigit() or any(ch not in "123456" for ch in s):
-        raise InputError(f"{fname}: {where}: expected components from 1..6, got {value!r}")
-    return sorted({int(ch) - 1 for ch in s})
 
 
 class _Reader(ExtraCards):

@@ -1,4 +1,5 @@
-"""Axes of Nastran coordinate systems at a point (rectangular, cylindrical, spherical).
+"""Axes of Nastran coordinate systems at a point (rectangular, cylindrical, spherical), and
+Nastran component strings.
 
 Delegated to pyNastran: the systems' rotation (``Coord.beta()``) and origin. Hand-written: the
 local axes of the curvilinear systems at a basic point (used for GRID CD, CBAR orientation, CONM2
@@ -8,6 +9,8 @@ offsets and FORCE/MOMENT directions).
 from __future__ import annotations
 
 import numpy as np
+
+from ..errors import InputError
 
 
 def axes_at(coord, point: np.ndarray) -> np.ndarray:
@@ -29,3 +32,13 @@ def axes_at(coord, point: np.ndarray) -> np.ndarray:
             [[sp_ * c, cp * c, -s], [sp_ * s, cp * s, c], [cp, -sp_, 0.0]]
         )
     return beta.T @ local
+
+
+def components(value, fname: str, where: str) -> list[int]:
+    """Nastran component string ('123456' subset) → sorted 0-based list."""
+    if value in (None, "", 0, "0"):
+        return []
+    s = str(value)
+    if not s.isdigit() or any(ch not in "123456" for ch in s):
+        raise InputError(f"{fname}: {where}: expected components from 1..6, got {value!r}")
+    return sorted({int(ch) - 1 for ch in s})

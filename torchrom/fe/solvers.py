@@ -135,6 +135,10 @@ def _dense_modes(K: sp.spmatrix, M: sp.spmatrix, n: int):
     notes: list[str] = []
     try:
         vals, vecs = _condensed_modes(K, M, z, min(n, int(m.sum())))
+        idle = int((z & ~np.abs(K).any(axis=1)).sum())
+        if idle:  # condensed by least squares: they take no part in any mode
+            notes.append(f"{idle} DOFs have neither stiffness nor mass: no part in any mode "
+                         f"(like Nastran's AUTOSPC)")
     except la.LinAlgError:
         vals, vecs, notes = _shifted_modes(K, M, n)
     if len(vals) < n:
@@ -305,9 +309,10 @@ def _elastic_and_rigid(K: sp.spmatrix, M: sp.spmatrix, n: int, sigma: float | No
     vecs = vecs / np.sqrt(np.abs(gen_mass))
     vecs = orient_columns(vecs)
     elastic = np.nonzero(~rigid)[0][:n]
-    if len(elastic) < n and not any(f.startswith("asked for") for f in found):
-        found.append(f"asked for {n} elastic modes: the model has {r} rigid-body modes and "
-                     f"{len(elastic)} elastic ones, all returned")
+    if len(elastic) < n:
+        found = [f for f in found if not f.startswith("asked for")]
+        found.append(f"asked for {n} modes: the model has {r + len(elastic)} finite ones "
+                     f"({r} rigid-body, {len(elastic)} elastic; {N} free DOFs), all returned")
     if notes is not None:
         notes.extend(found)
     return vals[elastic], vecs[:, elastic], vals[rigid], vecs[:, rigid]

@@ -108,23 +108,9 @@ def newton(evaluate: Evaluate, X: Tensor, omega: Tensor, mu: Tensor, phase_row: 
         z = torch.cat([Xa.reshape(Ba, -1), wa[:, None], ma[:, None]], dim=1)
         rhs = torch.cat([R.reshape(Ba, -1), (Xa[:, 2] @ phase_row)[:, None],
                          ((w[todo] * z).sum(1) - d[todo])[:, None]], dim=1)
-        # equilibrate rows: force rows of stiff coordinates are orders above the others
-        row = A.abs().amax(dim=2).clamp_min(torch.finfo(A.dtype).tiny)
-        finite = torch.isfinite(A).all(dim=(1, 2)) & torch.isfinite(rhs).all(dim=1)
-        A = torch.where(finite[:, None, None], A / row[..., None], torch.eye(nz, dtype=A.dtype,
-                                                                            device=A.device))
-        rhs = torch.where(finite[:, None], rhs / row, torch.zeros_like(rhs))
-        # ... and columns: coefficients of stiff dual coordinates are orders below the others
-        col = A.abs().amax(dim=1).clamp_min(torch.finfo(A.dtype).tiny)
-        A = A / col[:, None, :]
-        lu, piv, info = torch.linalg.lu_factor_ex(A)
-        step = -torch.linalg.lu_solve(lu, piv, rhs[..., None])[..., 0] / col
-        # the equilibration factors are positive: sign(det A) = Π sign(U_ii) · (−1)^swaps
-        swaps = (piv != torch.arange(1, nz + 1, device=piv.device, dtype=piv.dtype)).sum(1)
-        det_sign[todo] = (torch.sign(lu.diagonal(dim1=1, dim2=2)).prod(1)
-                          * (1.0 - 2.0 * (swaps % 2)).to(lu.dtype))
+        sol, ok, det_sign[todo] = equilibrated_solve(A, rhs)
+        step = -sol
         solves += 1
-        ok = finite & (info == 0) & torch.isfinite(step).all(dim=1)
         size = torch.maximum(Xa.abs().amax(dim=(1, 2)), scale[todo])
         dX = step[:, : nh * n]
         dxmax = dX.abs().amax(dim=1)
@@ -159,16 +145,40 @@ def _resolve_slaved(residual: Residual, J: Tensor, X: Tensor, omega: Tensor, mu:
     rows = (torch.arange(nh, device=X.device)[:, None] * n + slaved[None, :]).reshape(-1)
     R = residual(X, omega, mu, active).reshape(B, -1)[:, rows]
     Jd = J[:, rows][:, :, rows]
-    fine = ok & torch.isfinite(R).all(dim=1)
-    row = Jd.abs().amax(dim=2).clamp_min(torch.finfo(J.dtype).tiny)
-    Jd = Jd / row[..., None]
-    col = Jd.abs().amax(dim=1).clamp_min(torch.finfo(J.dtype).tiny)
-    Jd = torch.where(fine[:, None, None], Jd / col[:, None, :],
-                     torch.eye(len(rows), dtype=J.dtype, device=J.device))
-    lu, piv, info = torch.linalg.lu_factor_ex(Jd)
-    rhs = torch.where(fine[:, None], R / row, torch.zeros_like(R))
-    dx = -torch.linalg.lu_solve(lu, piv, rhs[..., None])[..., 0] / col
-    good = fine & (info == 0) & torch.isfinite(dx).all(dim=1)
+    sol, solved, _ = equilibrated_solve(Jd, R)
+    dx = -sol
+    good = ok & solved
     Xf = X.reshape(B, -1).clone()
     Xf[:, rows] = torch.where(good[:, None], Xf[:, rows] + dx, Xf[:, rows])
     return Xf.view(B, nh, n)
+
+
+def equilibrated_solve(A: Tensor, b: Tensor) -> tuple[Tensor, Tensor, Tensor]:
+    """(x, ok, sign det A) of the batched systems A x = b (A (B, m, m), b (B, m)), with rows and
+    then columns scaled to unit largest entry before the LU (the force rows of stiff dual
+    coordinates are orders above the others, their unknowns orders below). A case whose system
+    is not finite, singular or whose LU fails gets x = 0 and ok = False, and never disturbs
+    the others (its matrix is replaced by the identity before the batched factorisation)."""
+    m = A.shape[-1]
+    eye = torch.eye(m, dtype=A.dtype, device=A.device)
+    tiny = torch.finfo(A.dtype).tiny
+    finite = torch.isfinite(A).all(dim=(1, 2)) & torch.isfinite(b).all(dim=1)
+    A = torch.where(finite[:, None, None], A, eye)
+    b = torch.where(finite[:, None], b, torch.zeros_like(b))
+    row = A.abs().amax(dim=2).clamp_min(tiny)
+    A, b = A / row[..., None], b / row
+    col = A.abs().amax(dim=1).clamp_min(tiny)
+    A = A / col[:, None, :]
+    lu, piv, info = torch.linalg.lu_factor_ex(A)
+    valid = (piv >= 1).all(dim=1) & (info == 0) & torch.isfinite(lu).all(dim=(1, 2))
+    if not bool(valid.all()):  # refactor with the failed cases replaced
+        A = torch.where(valid[:, None, None], A, eye)
+        lu, piv, info = torch.linalg.lu_factor_ex(A)
+    x = torch.linalg.lu_solve(lu, piv, b[..., None])[..., 0] / col
+    ok = finite & valid & torch.isfinite(x).all(dim=1)
+    x = torch.where(ok[:, None], x, torch.zeros_like(x))
+    # the equilibration factors are positive: sign(det A) = Π sign(U_ii) · (−1)^swaps
+    swaps = (piv != torch.arange(1, m + 1, device=piv.device, dtype=piv.dtype)).sum(1)
+    sign = torch.sign(lu.diagonal(dim1=1, dim2=2)).prod(1) * (1.0 - 2.0 * (swaps % 2)).to(
+        lu.dtype)
+    return x, ok, sign

@@ -23,6 +23,7 @@ import torch
 from ..sim.system import CaseSystem
 from .balance import HarmonicBalance
 from .fourier import basis_at, synthesis_matrix
+from .newton import equilibrated_solve
 
 Tensor = torch.Tensor
 
@@ -42,8 +43,7 @@ def orbit_derivative(system: CaseSystem, plus: CaseSystem, minus: CaseSystem, dp
     A[:, :m, m] = R_w.reshape(B, -1)
     A[:, m, 2 * n: 3 * n] = r
     rhs = torch.cat([-R_p.reshape(B, -1), X.new_zeros(B, 1)], dim=1)
-    row = A.abs().amax(dim=2).clamp_min(torch.finfo(A.dtype).tiny)
-    sol = torch.linalg.solve(A / row[..., None], (rhs / row)[..., None])[..., 0]
+    sol, _, _ = equilibrated_solve(A, rhs)
     return sol[:, :m].view(B, nh, n), sol[:, m]
 
 
