@@ -18,7 +18,11 @@ A sweep configuration has these tables (every key is checked; a bad one gives a 
                  altitude ``alpha = "matched"`` keeps), ``reference_altitude_ft``,
                  ``altitude_range_ft``.
 ``[initial]``    ``q0``: a number (the displacement of basis function ``mode``, 1-based, default
-                 1) or a list of n numbers; ``v0``: a number or a list (default 0).
+                 1) or a list of n numbers; ``v0``: a number or a list (default 0);
+                 ``start = "small" | "neighbour"`` (default "small"; "neighbour": warm starts
+                 along the parameter ``along``), ``static_manifold`` (default true: the dual
+                 coordinates of a start at their nonlinear static values); see
+                 :mod:`torchrom.study.starts`.
 ``[integrator]`` ``dt``, ``t_end`` (s) and the options of :class:`torchrom.sim.Newmark`
                  (scheme, rho_inf, solver, iterations, startup_iterations, tol, predictor,
                  check_every, refresh_every, sample_every, compile, threads, cuda_graphs).
@@ -68,6 +72,7 @@ from .cases import (
 )
 from .grid import config_hash, expand_cases
 from .models import AeroelasticModel, model_rom
+from .starts import check_start
 
 SECTIONS = ("title", "model", "aeroelastic", "initial", "integrator", "lco", "cases", "history",
             "plot", "run", "variants")
@@ -285,7 +290,8 @@ def load_sweep_config(path, variant: str | None = None) -> SweepConfig:
 
     model = _table(raw, "model", source)
     initial = _table(raw, "initial", source)
-    _check_keys(initial, ("q0", "v0", "mode"), source, "[initial]")
+    _check_keys(initial, ("q0", "v0", "mode", "start", "along", "static_manifold"), source,
+                "[initial]")
 
     integ = _table(raw, "integrator", source)
     _check_keys(integ, ("dt", "t_end", *_NEWMARK_KEYS), source, "[integrator]")
@@ -318,6 +324,10 @@ def load_sweep_config(path, variant: str | None = None) -> SweepConfig:
                    "'aero.npz' or builtin = 'goland')")
     _aeroelastic_options(aero_t, source)
     parameters = case_parameters(aeroelastic)
+    try:
+        check_start(initial, parameters)
+    except InputError as exc:
+        raise InputError(f"{source}: {exc}") from None
     cases_t = _table(raw, "cases", source)
     try:
         cases = expand_cases(cases_t, "[cases]", allowed=parameters)

@@ -15,11 +15,9 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-import numpy as np
 import pandas as pd
 import torch
 
-from ..errors import InputError
 from ..rom import NonlinearROM
 from ..sim import HistoryRequest
 from .cases import case_system, history_table
@@ -28,42 +26,10 @@ from .config import SweepConfig
 from .grid import case_id, config_hash
 from .models import AeroelasticModel, model_rom
 from .runner import ChunkResult, PartStore, run_cases
+from .starts import initial_displacement as initial_displacement  # noqa: F401 - public name
+from .starts import initial_velocity as initial_velocity  # noqa: F401 - public name
+from .starts import march
 from .table import result_rows
-
-
-def initial_displacement(rom: NonlinearROM, initial: dict[str, Any],
-                         cases: list[dict[str, Any]], where: str = "[initial]") -> np.ndarray:
-    """(B, n) initial displacements: the ``[initial]`` pattern, scaled by each case's ``q0``."""
-    n = rom.n
-    q0 = initial.get("q0", 1e-3)
-    mode = initial.get("mode", 1)
-    if isinstance(mode, bool) or not isinstance(mode, int) or not 1 <= mode <= n:
-        raise InputError(f"{where} mode: expected a basis function number 1..{n}, got {mode!r}")
-    if isinstance(q0, list):
-        base = np.asarray(q0, dtype=float)
-        if base.shape != (n,):
-            raise InputError(f"{where} q0: expected {n} values, got {len(q0)}")
-        amp = 1.0
-    elif isinstance(q0, (int, float)) and not isinstance(q0, bool):
-        base = np.zeros(n)
-        base[mode - 1] = 1.0
-        amp = float(q0)
-    else:
-        raise InputError(f"{where} q0: expected a number or a list of {n} numbers, got {q0!r}")
-    scale = np.array([float(c.get("q0", amp)) for c in cases])
-    return scale[:, None] * base[None, :]
-
-
-def initial_velocity(rom: NonlinearROM, initial: dict[str, Any], batch: int,
-                     where: str = "[initial]") -> np.ndarray:
-    v0 = initial.get("v0", 0.0)
-    arr = np.asarray(v0, dtype=float)
-    if arr.ndim == 0:
-        arr = np.full(rom.n, float(arr))
-    if arr.shape != (rom.n,):
-        raise InputError(f"{where} v0: expected a number or {rom.n} values, got {v0!r}")
-    return np.broadcast_to(arr, (batch, rom.n)).copy()
-
 
 #: statuses of a float32 case that a float64 run confirms or corrects (the solver's error
 #: estimate above the tolerance, or a non-finite state)
@@ -112,12 +78,23 @@ class SweepTask:
     def _run(self, cases, case_ids, dtype, progress=None):
         cfg, rom = self.cfg, model_rom(self.model)
         system, extra = case_system(self.model, cases, torch.device(self.device), dtype)
-        q0 = initial_displacement(rom, cfg.initial, cases)
-        v0 = initial_velocity(rom, cfg.initial, len(cases))
         keep = cfg.history.indices(cases) if cfg.history is not None else []
-        history = HistoryRequest(tuple(keep), cfg.history.every) if keep else None
-        res = cfg.integrator.run(system, q0, v0, t_end=cfg.t_end, outputs=cfg.outputs,
-                                 lco=cfg.lco, history=history, progress=progress)
+        done = [0]  # cases finished in earlier waves (progress over the whole chunk)
+
+        def wave_progress(k, _n):
+            if progress is not None:
+                progress(done[0] + k, len(cases))
+
+        def run(sub, q0, v0, xi0, index):
+            # histories of the kept cases among these (positions within this run)
+            mine = tuple(j for j, i in enumerate(index) if i in keep)
+            history = HistoryRequest(mine, cfg.history.every) if mine else None
+            res = cfg.integrator.run(sub, q0, v0, xi0, t_end=cfg.t_end, outputs=cfg.outputs,
+                                     lco=cfg.lco, history=history, progress=wave_progress)
+            done[0] += len(index)
+            return res
+
+        res = march(system, rom, cases, cfg.initial, run)
         span = getattr(self.model, "span", None) or rom.metadata.get("span")
         rows = result_rows(cases, res, config_hash=cfg.hash, span=span, case_ids=case_ids,
                            extra=extra, precision=str(dtype).replace("torch.", ""))
