@@ -83,6 +83,8 @@ def gather_results(parts: list[tuple[np.ndarray, SimulationResult]], batch: int
         shape = (batch, *a.shape[1:])
         if a.dtype.kind in "fc":
             return np.full(shape, np.nan, dtype=a.dtype)
+        if a.dtype.kind in "UO":  # statuses: the parts' string lengths differ
+            return np.full(shape, "", dtype=object)
         return np.zeros(shape, dtype=a.dtype)
 
     arrays = ("status", "steps", "time", "amplitude", "frequency_hz", "amplitude_change",
