@@ -22,8 +22,8 @@ seconds of the whole method):
 
 **Reference** (:func:`reference`, a function so that another one can replace it): fixed-step
 Newmark at dt = 0.25 ms, Newton with 3 iterations refreshed every step, started from the
-``newmark-reference`` final states and run until the amplitude changes by less than 1e-5 per
-cycle (LCO rtol 1e-5).
+``newmark-reference`` final states and run until the amplitude changes by less than 1e-4 per
+cycle (LCO rtol 1e-4).
 
 Reported per method: ``cpu_s_per_lco`` (CPU seconds of the method / cases that reached an LCO;
 one torch thread), ``max_amplitude_error_pct`` and ``max_frequency_error_pct`` (largest over
@@ -122,16 +122,28 @@ def newmark_reference(bench: Bench) -> MethodRun:
     return _marched(bench, integ, {**PAPER_START, "start": "small", "static_manifold": False})
 
 
+#: the new time marching: error-controlled steps from 1 ms (Goland: 4-8 ms on the LCO)
+ADAPTIVE = {"dt": 1e-3, "iterations": 2, "refresh_every": 1, "tol": 1e-3, "threads": 1,
+            "adaptive": True, "step_tol": 1e-4, "check_every": 250}
+
+
 def newmark_default(bench: Bench) -> MethodRun:
-    """Warm starts along the altitude (neighbour), static-manifold first starts."""
-    integ = Newmark(dt=1e-3, iterations=2, refresh_every=1, tol=1e-3, threads=1)
-    return _marched(bench, integ, {**PAPER_START, "start": "neighbour",
-                                   "along": "altitude_ft"})
+    """Warm starts along the altitude (neighbour; static-manifold first starts) and
+    error-controlled steps."""
+    return _marched(bench, Newmark(**ADAPTIVE), {**PAPER_START, "start": "neighbour",
+                                                 "along": "altitude_ft"})
+
+
+def newmark_large(bench: Bench) -> MethodRun:
+    """Every case from a 10 %-of-span start on the static manifold, error-controlled steps."""
+    q0 = 0.1 * bench.model.span / bench.model.rom.outputs[OUTPUT][0]
+    return _marched(bench, Newmark(**ADAPTIVE), {"q0": q0, "mode": 1, "start": "small"})
 
 
 METHODS: dict[str, Callable[[Bench], MethodRun]] = {
     "newmark-reference": newmark_reference,
     "newmark": newmark_default,
+    "newmark-large-start": newmark_large,
 }
 
 
@@ -141,7 +153,7 @@ def reference(bench: Bench, runs: dict[str, MethodRun]) -> tuple[np.ndarray, np.
     start = runs["newmark-reference"]
     integ = Newmark(dt=2.5e-4, iterations=3, refresh_every=1, tol=1e-3, threads=1,
                     check_every=2000)
-    lco = LCOCriteria(rtol=1e-5, cycles=4, max_amplitude=10.0)
+    lco = LCOCriteria(rtol=1e-4, cycles=4, max_amplitude=10.0)
     res = integ.run(bench.system(), start.q, start.v, start.xi, t_end=60.0, outputs=[OUTPUT],
                     lco=lco)
     ok = res.status == "lco"
@@ -212,7 +224,7 @@ def main(argv=None) -> int:
               f"{m['max_frequency_error_pct']:.3f} %")
     meta = machine_meta(quick=args.quick, device=args.device, threads=1, output=OUTPUT,
                         cases=len(bench.cases), reference="fixed-step Newmark dt 0.25 ms, "
-                        "LCO rtol 1e-5, from the newmark-reference states",
+                        "LCO rtol 1e-4, from the newmark-reference states",
                         wall_s=time.perf_counter() - t0)
     args.out.mkdir(parents=True, exist_ok=True)
     path = args.out / "bench_lco.json"

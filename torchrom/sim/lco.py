@@ -16,7 +16,9 @@ check interval (a chunk of steps, on the device). At the end of each chunk :clas
                 remaining change extrapolated geometrically (Aitken: |δ0| r/(1−r), r = |δ0/δ1|)
                 also ≤ rtol·A_0 — so a slowly creeping amplitude is not taken for converged;
   ``decay``     A_0 ≤ decay_ratio · (largest amplitude seen) and falling, or the amplitudes fall
-                geometrically over ``cycles`` cycles toward a limit (Aitken) below that level;
+                geometrically over ``cycles`` cycles toward a limit (Aitken) within ± that level
+                of zero (a limit far below zero is an unreliable extrapolation of a slow fall,
+                e.g. toward an LCO from above);
   ``diverged``  |y| of a decision output above ``max_amplitude``, or the state turned non-finite
                 while the amplitude was growing;
   ``failed``    the state turned non-finite otherwise.
@@ -229,8 +231,10 @@ class PeakTracker:
             rj = delta[..., j] / delta[..., j + 1].clamp(max=-tiny)
             rj = torch.where(mono & (rj > 0) & (rj < 1), rj, torch.nan)
             limits.append(A[..., j] + delta[..., j] * rj / (1.0 - rj))
-        geometric = mono & (limits[0] <= crit.decay_ratio * ref) & (
-            limits[1] <= crit.decay_ratio * ref)
+        # |limit|: an amplitude falling slowly toward an LCO (a start above it) has r near 1,
+        # where the extrapolated limit is far below zero and meaningless — not a decay
+        geometric = mono & (limits[0].abs() <= crit.decay_ratio * ref) & (
+            limits[1].abs() <= crit.decay_ratio * ref)
         decay = (low | geometric).all(-1)
 
         big = (self.y_abs_max[:, outs] > crit.max_amplitude).any(-1)

@@ -44,6 +44,18 @@ step iterates twice and its measured contraction ratio r turns the single correc
 other steps into the estimate |Δa| r/(1−r) (an upper bound that overstates the effect on the
 amplitude by one to three orders of magnitude on the Goland cases).
 
+**Error-controlled steps** (``adaptive=True``). Every case takes its own step dt_c (the step
+coefficients become (1, B) rows of the per-case matrices; all cases still advance the same
+number of steps per check interval, so each reaches its own time). Per step the local
+displacement error of the Newmark family is estimated as e = (β − 1/6) dt² (a_{n+1} − a_n)
+(Zienkiewicz & Xie 1991, the difference between the corrector and a third-order Taylor
+predictor), read on the tracked outputs C e and kept as its interval maximum relative to the
+largest |C q|. At each check the step becomes dt · clip(0.9 (step_tol/err)^(1/3), ½, 2) within
+[dt_min, dt_max] (a change below 20 % is ignored: each rebuilds the per-case matrices), and a
+case whose nonlinear iteration missed ``tol`` halves its step instead of being flagged (until
+dt_min), no LCO being accepted on that interval. The peak tracker and histories use each case's
+own times.
+
 **CUDA graphs.** On a CUDA device the steps of a check interval are captured once as a CUDA graph
 (state tensors updated in place) and replayed, which removes the per-kernel launch cost that
 dominates small batches; ``cuda_graphs=True`` on a CPU runs the captured code eagerly.
@@ -68,7 +80,7 @@ import torch
 from ..errors import InputError
 from ..rom import NonlinearROM
 from .forces import NonlinearForces
-from .lco import FAILED, RUNNING, STATUS_NAMES, LCOCriteria, PeakTracker
+from .lco import FAILED, LCO, RUNNING, STATUS_NAMES, LCOCriteria, PeakTracker
 from .metrics import window_metrics
 from .result import History, SimulationResult
 from .schemes import SchemeParameters
@@ -191,6 +203,11 @@ class Newmark:
             setting) or 'auto' (default: one thread when a nonlinear force evaluation is below
             ~4M multiply-adds — the per-step kernels are then too small to share, and waiting on
             a second thread costs more than it saves, badly so on a busy machine — else keep).
+        adaptive: error-controlled per-case steps (see the module docstring): ``dt`` is the
+            first step, each case then takes its own step within [dt_min, dt_max].
+        step_tol: with ``adaptive``, the local error per step of the tracked outputs, relative
+            to their largest magnitude, that the step aims at (default 1e-5).
+        dt_min, dt_max: bounds of the adaptive step (default dt/16 and 16 dt).
     """
 
     dt: float = 1e-3
@@ -562,7 +579,7 @@ class _Run:
                 "e_dt2": abs(p.beta - 1.0 / 6.0) * dt * dt}
         return {k: v.to(self.kw["dtype"]).unsqueeze(0).contiguous() for k, v in coef.items()}
 
-    def _adapt_steps(self) -> None:
+    def _adapt_steps(self, shrink: Tensor) -> None:
         """New per-case steps from the interval's local error estimate (adaptive runs).
 
         Per step the displacement error of the Newmark family is estimated as
@@ -570,7 +587,8 @@ class _Run:
         corrector and a third-order Taylor predictor); the step reads it on the tracked outputs,
         y = C e, relative to the interval's largest |y|. The new step is
         dt · clip(0.9 (step_tol/err)^(1/3), ½, 2) within [dt_min, dt_max]; steps changing by less
-        than 20 % are kept (each change rebuilds the per-case matrices)."""
+        than 20 % are kept (each change rebuilds the per-case matrices). ``shrink``: (B,) cases
+        whose nonlinear iteration missed its tolerance; their step is at least halved."""
         integ = self.integ
         lo, hi = integ.step_bounds
         f64 = torch.float64
@@ -578,8 +596,9 @@ class _Run:
         ymax = self.state["ymax"].to(f64).clamp_min(torch.finfo(f64).tiny)
         rel = (err / ymax).clamp_min(1e-300)
         factor = (0.9 * (integ.step_tol / rel) ** (1.0 / 3.0)).clamp(0.5, 2.0)
+        factor = torch.where(shrink, factor.clamp(max=0.5), factor)
         new = (self.dtc * factor).clamp(lo, hi)
-        change = (new / self.dtc - 1.0).abs() > 0.2
+        change = ((new / self.dtc - 1.0).abs() > 0.2) | (shrink & (new < self.dtc))
         if not bool(change.any()):
             return
         self.dtc = torch.where(change, new, self.dtc)
@@ -812,12 +831,21 @@ class _Run:
                 final = self.step_no >= self.steps_total
             # per-case checks: one host synchronisation per chunk
             rel = self._solver_error(st)
+            shrink = None
+            if adaptive:
+                # a nonlinear iteration that did not meet its tolerance asks for a smaller step
+                # (until dt_min): such a case is judged from its next interval on, and no LCO
+                # is accepted on this one
+                shrink = (rel > tol) & (self.dtc > integ.step_bounds[0] * (1 + 1e-9))
+                rel = torch.where(shrink, 0.0, rel)
             self.solver_rel = torch.maximum(self.solver_rel, rel)
             solver_ok = rel <= tol
             finite = torch.isfinite(st["q"]).all(0) & torch.isfinite(st["v"]).all(0)
-            status = self.tracker.decide(crit, finite, solver_ok, final).cpu().numpy()
+            status = self.tracker.decide(crit, finite, solver_ok, final)
             if adaptive:
-                self._adapt_steps()
+                status = torch.where(shrink & (status == LCO), RUNNING, status)
+                self._adapt_steps(shrink)
+            status = status.cpu().numpy()
             self._reset_error()
             done = np.nonzero(status != RUNNING)[0]
             if len(done):
