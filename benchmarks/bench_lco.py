@@ -124,7 +124,7 @@ def newmark_reference(bench: Bench) -> MethodRun:
 
 #: the new time marching: error-controlled steps from 1 ms (Goland: 4-8 ms on the LCO)
 ADAPTIVE = {"dt": 1e-3, "iterations": 2, "refresh_every": 1, "tol": 1e-3, "threads": 1,
-            "adaptive": True, "step_tol": 1e-4, "check_every": 250}
+            "adaptive": True, "step_tol": 1e-4, "check_every": 250, "extrapolate": 3}
 
 
 def newmark_default(bench: Bench) -> MethodRun:

@@ -56,6 +56,16 @@ case whose nonlinear iteration missed ``tol`` halves its step instead of being f
 dt_min), no LCO being accepted on that interval. The peak tracker and histories use each case's
 own times.
 
+**Amplitude jumps** (``extrapolate=K``). Near the flutter boundary an LCO attracts slowly: the
+amplitude of a case approaches its limit geometrically, A_j = A* + c r^j with r close to 1,
+over tens of cycles. When the last three per-cycle changes of the decision output's amplitude
+have one sign and two consistent ratios (r ∈ (0.2, 0.98), agreeing within 15 %) and the
+extrapolated remainder δ0 r/(1−r) exceeds 10 rtol·A0, the case's state is scaled toward the
+limit — the linear coordinates, velocities, accelerations and lag states by λ = A*/A0, the
+dual coordinates (``mode_kinds`` "dual", quadratic in the linear ones on the static manifold)
+by λ², λ ∈ [½, 2] — and its extrema are forgotten, at most K times per case. This only changes
+the path: an LCO is still accepted only after ``cycles`` cycles that meet the LCO criteria.
+
 **CUDA graphs.** On a CUDA device the steps of a check interval are captured once as a CUDA graph
 (state tensors updated in place) and replayed, which removes the per-kernel launch cost that
 dominates small batches; ``cuda_graphs=True`` on a CPU runs the captured code eagerly.
@@ -208,6 +218,9 @@ class Newmark:
         step_tol: with ``adaptive``, the local error per step of the tracked outputs, relative
             to their largest magnitude, that the step aims at (default 1e-5).
         dt_min, dt_max: bounds of the adaptive step (default dt/16 and 16 dt).
+        extrapolate: amplitude jumps per case (0: none; see the module docstring): a case
+            whose amplitude approaches its limit geometrically is moved to the extrapolated
+            limit, at most this many times.
     """
 
     dt: float = 1e-3
@@ -228,6 +241,7 @@ class Newmark:
     step_tol: float = 1e-5
     dt_min: float | None = None
     dt_max: float | None = None
+    extrapolate: int = 0
     params: SchemeParameters = field(init=False, repr=False)
 
     def __post_init__(self):
@@ -258,6 +272,10 @@ class Newmark:
                              f"got {self.threads!r}")
         if self.tol is not None and not self.tol > 0:
             raise InputError(f"integrator.tol: expected a positive number, got {self.tol}")
+        if isinstance(self.extrapolate, bool) or not (isinstance(self.extrapolate, int)
+                                                      and self.extrapolate >= 0):
+            raise InputError(f"integrator.extrapolate: expected an integer >= 0, got "
+                             f"{self.extrapolate!r}")
         if not isinstance(self.adaptive, bool):
             raise InputError(f"integrator.adaptive: expected true or false, got "
                              f"{self.adaptive!r}")
@@ -518,6 +536,10 @@ class _Run:
         self.state = {k: _fm(t) for k, t in state.items()}
         # per-case simulated time and steps (the adaptive step moves cases apart in time)
         self.t = torch.zeros(B, device=dev, dtype=torch.float64)
+        self.jumps = torch.zeros(B, device=dev, dtype=torch.long)
+        power = torch.ones(n, 1, **self.kw)
+        power[[i for i, k in enumerate(self.rom.mode_kinds) if k == "dual"]] = 2.0
+        self.jump_power = power
         self.case_step_count = np.zeros(B, dtype=np.int64)
         self._reset_error()
         self.solver_rel = torch.zeros(B, device=dev, dtype=torch.float64)
@@ -610,6 +632,42 @@ class _Run:
         if self.iterative:
             self.state["Z"] = _fm(mats64["Z"].to(self.kw["dtype"]))
         self._graph = None
+
+    def _jump(self, status: Tensor) -> None:
+        """Amplitude jumps of the running cases that approach their limit geometrically (see
+        the module docstring; in place, so a captured CUDA graph keeps its addresses)."""
+        crit, tr = self.crit, self.tracker
+        out = crit.decision_outputs[0]
+        A, valid = tr.amplitudes([out], 4)
+        A, valid = A[:, 0], valid[:, 0, 3]
+        d = A[:, :-1] - A[:, 1:]  # newer minus older
+        tiny = torch.finfo(torch.float64).tiny
+        r0 = d[:, 0] / torch.where(d[:, 1] != 0, d[:, 1], tiny)
+        r1 = d[:, 1] / torch.where(d[:, 2] != 0, d[:, 2], tiny)
+        one_sign = (d[:, 0] * d[:, 1] > 0) & (d[:, 1] * d[:, 2] > 0)
+        steady = (r0 > 0.2) & (r0 < 0.98) & ((r0 - r1).abs() <= 0.15 * r0)
+        A0 = A[:, 0]
+        remaining = d[:, 0] * r0 / (1.0 - r0)
+        jump = (valid & one_sign & steady & (A0 > 0) & (status == RUNNING)
+                & (remaining.abs() > 10 * crit.rtol * A0) & (self.jumps < self.integ.extrapolate))
+        if not bool(jump.any()):
+            return
+        lam = torch.where(jump, ((A0 + remaining) / A0.clamp_min(tiny)).clamp(0.5, 2.0), 1.0)
+        lam = lam.to(self.kw["dtype"]).unsqueeze(0)
+        factor = lam ** self.jump_power  # (n, B): λ linear, λ² dual
+        st = self.state
+        for k in ("q", "v", "a", "a1", "a2", "fint"):
+            if k in st:
+                st[k].mul_(factor)
+        for k in ("xi", "xid"):
+            if k in st:
+                st[k].mul_(lam)
+        self.jumps += jump.long()
+        tr.count[jump] = 0
+        tr.amp_max = torch.where(jump, A0 * lam[0].double(), tr.amp_max)
+        y, yd = (self.C @ st["q"]).T.double(), (self.C @ st["v"]).T.double()
+        tr.last_y = torch.where(jump.unsqueeze(1), y, tr.last_y)
+        tr.last_yd = torch.where(jump.unsqueeze(1), yd, tr.last_yd)
 
     def _reset_error(self):
         """Zero the per-interval solver accumulators (in place: a captured graph reads them)."""
@@ -845,6 +903,8 @@ class _Run:
             if adaptive:
                 status = torch.where(shrink & (status == LCO), RUNNING, status)
                 self._adapt_steps(shrink)
+            if integ.extrapolate:
+                self._jump(status)
             status = status.cpu().numpy()
             self._reset_error()
             done = np.nonzero(status != RUNNING)[0]
@@ -932,6 +992,7 @@ class _Run:
         self.mats = {k: t.index_select(-1, ki) for k, t in self.mats.items()}
         self.solver_rel = self.solver_rel.index_select(0, ki)
         self.t, self.dtc = self.t.index_select(0, ki), self.dtc.index_select(0, ki)
+        self.jumps = self.jumps.index_select(0, ki)
         self.system = self.system.select(ki)
         self._graph = None
         tr.select(ki)

@@ -26,7 +26,8 @@ A sweep configuration has these tables (every key is checked; a bad one gives a 
 ``[integrator]`` ``dt``, ``t_end`` (s) and the options of :class:`torchrom.sim.Newmark`
                  (scheme, rho_inf, solver, iterations, startup_iterations, tol, predictor,
                  check_every, refresh_every, sample_every, compile, threads, cuda_graphs,
-                 adaptive, step_tol, dt_min, dt_max: error-controlled per-case steps).
+                 adaptive, step_tol, dt_min, dt_max: error-controlled per-case steps;
+                 extrapolate: amplitude jumps toward a slowly approached LCO).
 ``[lco]``        ``outputs`` (ROM outputs or generalized coordinates "q1"…; the first decides)
                  and the options of :class:`torchrom.sim.LCOCriteria` (rtol, cycles, decay_ratio,
                  max_amplitude, ring).
@@ -82,7 +83,7 @@ AEROELASTIC_KEYS = ("baseline_alpha", "baseline_gamma", "reference_altitude_ft",
                     "altitude_range_ft")
 _NEWMARK_KEYS = ("scheme", "rho_inf", "solver", "iterations", "startup_iterations", "tol",
                  "predictor", "check_every", "refresh_every", "sample_every", "compile", "threads",
-                 "cuda_graphs", "adaptive", "step_tol", "dt_min", "dt_max")
+                 "cuda_graphs", "adaptive", "step_tol", "dt_min", "dt_max", "extrapolate")
 _LCO_KEYS = ("rtol", "cycles", "decay_ratio", "max_amplitude", "ring")
 
 

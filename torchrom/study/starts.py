@@ -159,6 +159,10 @@ def neighbour_start(ctx: StartContext) -> InitialState:
             target[k, dual] = lam * lam * source[dual]
         if near.xi is not None and na:
             xi[k] = lam * near.xi
+    if ctx.initial.get("static_manifold", True):
+        # the neighbour's dual coordinates carry its own stiff-mode motion; their static values
+        # for the scaled linear coordinates start the case without exciting them
+        start.q, _ = static_manifold(ctx.system, start.q)
     return InitialState(start.q, start.v, xi)
 
 
