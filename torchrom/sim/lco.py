@@ -15,8 +15,7 @@ check interval (a chunk of steps, on the device). At the end of each chunk :clas
   ``lco``       every per-cycle change |A_j − A_{j+1}| ≤ rtol·A_0 over ``cycles`` cycles, and the
                 remaining change extrapolated geometrically (Aitken: |δ0| r/(1−r), r = |δ0/δ1|)
                 also ≤ rtol·A_0 — so a slowly creeping amplitude is not taken for converged;
-  ``decay``     A_0 ≤ decay_ratio · (largest amplitude seen) and falling over the last two
-                cycles, or the amplitudes fall
+  ``decay``     A_0 ≤ decay_ratio · (largest amplitude seen) and falling, or the amplitudes fall
                 geometrically over ``cycles`` cycles toward a limit (Aitken) within ± that level
                 of zero (a limit far below zero is an unreliable extrapolation of a slow fall,
                 e.g. toward an LCO from above);
@@ -223,9 +222,7 @@ class PeakTracker:
         seen = torch.where(ok, A, 0.0).amax(-1).amax(-1)
         self.amp_max = torch.maximum(self.amp_max, seen)
         ref = self.amp_max.unsqueeze(-1)
-        # falling over two cycles: one tiny "amplitude" can be a wiggle (a maximum and a minimum
-        # a few steps apart, e.g. the start transient of stiff modes), not a decay
-        falling = ok[..., 2] & (delta[..., 0] < 0) & (delta[..., 1] < 0)
+        falling = ok[..., 1] & (delta[..., 0] < 0)
         low = falling & (A0 <= crit.decay_ratio * ref)
         # geometric fall toward a limit below the decay level (two successive Aitken estimates)
         mono = have & (delta[..., :c] < 0).all(-1)

@@ -13,10 +13,12 @@ that share every other parameter; the first case of each line starts small, and 
 case starts from the final state [q, q̇, ξ] of the previous case of its line when that case
 settled on an LCO (else small). The state is scaled toward the amplitude predicted by a linear
 extrapolation of the last two LCO amplitudes of the line (the linear coordinates, their
-velocities and the lag states by λ, the dual coordinates and their velocities by λ² — the dual
-coordinates follow the linear ones quadratically on the static manifold; λ clipped to
-[½, 2]). The lines run in *waves* (the k-th case of every line together, one batched
-integration per wave), so a chunk takes as many batched runs as its longest line.
+velocities and the lag states by λ, the dual velocities by λ² — the dual coordinates follow the
+linear ones quadratically — and the dual coordinates put on the static manifold of the scaled
+linear ones unless ``static_manifold = false``, so that the neighbour's stiff-mode motion is
+not carried over; λ clipped to [½, 2]). The lines run in *waves* (the k-th case of every line
+together, one batched integration per wave), so a chunk takes as many batched runs as its
+longest line.
 
 A supercritical LCO is the same whatever the start (the attracting orbit; tested within the
 LCO tolerance). For a **subcritical** system the start decides which attractor a case reaches
@@ -27,9 +29,12 @@ rest position wherever it is stable.
 **Default: ``small``.** With it a case's result depends on its own parameters only — not on
 which other cases share its chunk (a calibration batch, a resumed subset) — and a subcritical
 system gives the small-disturbance answer the bifurcation study (:mod:`.bifurcation`, which
-sweeps the start amplitude itself) relies on. Sweeps of supercritical LCOs ask for
-``start = "neighbour"``: on the Goland wing it reaches the LCOs in about half the simulated
-time (``benchmarks/bench_lco.py``).
+sweeps the start amplitude itself) relies on. For supercritical LCO sweeps the cheaper start is
+usually a *large* one — ``q0`` near the expected amplitude with ``static_manifold = true``, all
+cases in one batch (``benchmarks/bench_lco.py``, method ``newmark``). ``neighbour`` reaches the
+Goland LCOs in fewer simulated seconds than a small start, but its waves are batches of one case
+per line, where a step costs several times more per case: it pays with many lines (or on a
+device where small batches cost little).
 
 A start kind is one function ``start(context) -> InitialState`` in :data:`START_KINDS` with a
 flag saying whether it continues from finished cases (runs in waves).
