@@ -98,3 +98,44 @@ def test_start_options_are_checked():
         check_start({"along": "mach_number"}, params)
     with pytest.raises(InputError, match=r"\[initial\] static_manifold: expected true or false"):
         check_start({"static_manifold": "yes"}, params)
+
+
+SWEEP = """
+title = "starts"
+[model]
+builtin = "van_der_pol_duffing"
+c1 = -1.0
+d3 = 1.0
+[initial]
+q0 = 1.5
+{initial}
+[integrator]
+dt = 0.01
+t_end = 30.0
+iterations = 3
+{integrator}
+[cases]
+alpha = [0.1, 0.2, 0.3, 0.4]
+gamma = 1.0
+"""
+
+
+def test_sweep_config_takes_the_start_and_step_options(tmp_path):
+    from torchrom.study.config import load_sweep_config
+    from torchrom.study.sweep import run_sweep
+
+    path = tmp_path / "s.toml"
+    path.write_text(SWEEP.format(initial='start = "neighbour"',
+                                 integrator="adaptive = true\nstep_tol = 1e-4\nextrapolate = 2"))
+    cfg = load_sweep_config(path)
+    assert cfg.integrator.adaptive and cfg.integrator.extrapolate == 2
+    table = run_sweep(cfg)[0]
+    assert (table["status"] == "lco").all()
+    # averaging: A = 2√(−(c1 + α)/d3) — the structural α adds to c1 = −1
+    np.testing.assert_allclose(table["amplitude"], 2 * np.sqrt(1.0 - table["alpha"]), rtol=0.02)
+    path.write_text(SWEEP.format(initial='start = "warm"', integrator=""))
+    with pytest.raises(InputError, match=r"s\.toml: \[initial\] start: expected one of"):
+        load_sweep_config(path)
+    path.write_text(SWEEP.format(initial="", integrator="step_tol = -1.0"))
+    with pytest.raises(InputError, match=r"s\.toml: \[integrator\].*step_tol"):
+        load_sweep_config(path)
