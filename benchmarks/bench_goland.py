@@ -19,6 +19,9 @@ RFA (aerodynamics on the first 9 modes, 13 lag states), as the paper study build
      predictor (converges on every paper case);
    - ``fast``: one correction, Jacobian refreshed every 16 steps, quadratic predictor (accurate
      up to moderate amplitudes; where it is not, its error estimate flags the case).
+   In the same run, the per-case time of one K3-sized GEMM (the (n, N3) cubic coefficients
+   times B monomial vectors, N3 = 1771) and the ratio of the ``paper`` step to it
+   (``kind = "k3_gemm"`` rows).
 2. Accuracy and SciPy: the hardest and a typical paper case are first brought near their LCO
    (``paper`` setting); from that common state [q, q̇, ξ] every setting integrates the same
    window and the amplitude of the tip deflection A_Tz over its last 3 s is compared with SciPy
@@ -102,6 +105,25 @@ def throughput(model, B: int, dtype, steps: int, setting: str, compile_=False,
     integ.run(system, t_end=min(steps, 50) * DT, **run)  # warm-up (and compilation)
     return min(integ.run(system, t_end=steps * DT, **run).us_per_case_step
                for _ in range(repeat))
+
+
+def k3_gemm_us_per_case(n: int, B: int, dtype, repeat: int = 20) -> float:
+    """µs per case of one K3-sized GEMM: the (n, N3) cubic coefficient matrix (N3 = n(n+1)(n+2)/6
+    monomials) times B monomial vectors — the unit the step's cost is compared with; the best
+    of ``repeat``."""
+    import time
+
+    n3 = n * (n + 1) * (n + 2) // 6
+    gen = torch.Generator().manual_seed(0)
+    A = torch.randn(n, n3, generator=gen, dtype=torch.float64).to(dtype)
+    X = torch.randn(n3, B, generator=gen, dtype=torch.float64).to(dtype)
+    A @ X  # warm-up
+    best = float("inf")
+    for _ in range(repeat):
+        t0 = time.perf_counter()
+        A @ X
+        best = min(best, time.perf_counter() - t0)
+    return 1e6 * best / B
 
 
 def window_amplitude(res, case: int, window: float) -> float:
@@ -216,6 +238,9 @@ def main(argv=None) -> int:
                 us[setting, B, name] = throughput(model, B, dtype, steps[B], setting)
                 record(kind="throughput", B=B, dtype=name, setting=setting,
                        us_per_case_step=us[setting, B, name])
+            gemm = k3_gemm_us_per_case(model.rom.n, B, dtype)
+            record(kind="k3_gemm", B=B, dtype=name, us_per_case=gemm,
+                   paper_over_gemm=us["paper", B, name] / gemm)
         if args.compile:
             v = throughput(model, 512, dtype, steps[512], "newton-1", compile_=True)
             record(kind="throughput", B=512, dtype=name, setting="newton-1, torch.compile",

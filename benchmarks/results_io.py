@@ -11,6 +11,13 @@ from pathlib import Path
 import torch
 
 
+def machine_meta(**meta) -> dict:
+    """The machine, torch, date and 1/5/15-min load average, plus ``meta``."""
+    return {"machine": platform.processor() or platform.machine(), "cpus": os.cpu_count(),
+            "torch": torch.__version__, "date": time.strftime("%Y-%m-%d %H:%M"),
+            "load_average": os.getloadavg(), **meta}
+
+
 def write_results(out: Path, name: str, throughput: list[dict], runs: list[dict],
                   runs_key: str, runs_kind: str, **meta) -> None:
     """JSON with the machine, torch, date and load average plus ``meta``; CSV with the
@@ -19,9 +26,7 @@ def write_results(out: Path, name: str, throughput: list[dict], runs: list[dict]
     import pandas as pd
 
     out.mkdir(parents=True, exist_ok=True)
-    meta = {"machine": platform.processor() or platform.machine(), "cpus": os.cpu_count(),
-            "torch": torch.__version__, "date": time.strftime("%Y-%m-%d %H:%M"),
-            "load_average": os.getloadavg(), **meta}
+    meta = machine_meta(**meta)
     (out / f"{name}.json").write_text(json.dumps(
         {"meta": meta, "throughput": throughput, runs_key: runs}, indent=2, default=float)
         + "\n")

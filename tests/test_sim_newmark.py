@@ -314,3 +314,64 @@ def test_compiled_step_matches_eager():
     eager = Newmark(dt=0.01).run(system, [0.3, 0.0], **kw)
     compiled = Newmark(dt=0.01, compile=True).run(system, [0.3, 0.0], **kw)
     assert np.abs(compiled.q - eager.q).max() < 1e-12 * np.abs(eager.q).max()
+
+
+# -- error-controlled steps and amplitude jumps ------------------------------------------------
+def _vdp_cases():
+    """Van der Pol oscillators at 1 Hz: LCO amplitude 2√(−c1/d3) by first-order averaging
+    (observed within 2e-4 for these |c1|/ω ≤ 0.05), started at half of it."""
+    c1 = -np.array([0.05, 0.1, 0.2, 0.3])
+    d3 = np.array([0.5, 1.0, 2.0, 1.0])
+    rom = van_der_pol_duffing(1.0, c1=0.0, d3=1.0, k3=1.0)
+    return CaseSystem.build(rom, alpha=c1, gamma=d3, stiffness_nl=0.0), 2 * np.sqrt(-c1 / d3)
+
+
+def _adaptive_run(step_tol):
+    system, amp = _vdp_cases()
+    integ = Newmark(dt=0.002, iterations=3, tol=1e-6, adaptive=True, step_tol=step_tol,
+                    check_every=100, dt_max=0.1)
+    res = integ.run(system, q0=amp[:, None] * 0.5, t_end=300.0, outputs=["q1"],
+                    lco=LCOCriteria(rtol=1e-4, cycles=4))
+    assert (res.status == "lco").all()
+    return res, amp
+
+
+def test_error_controlled_steps_keep_the_closed_form_amplitude():
+    res, amp = _adaptive_run(1e-4)
+    # tolerance: averaging (2e-4) + the LCO criterion (rtol 1e-4 per cycle, extrapolated)
+    np.testing.assert_allclose(res.amplitude[:, 0], amp, rtol=1e-3)
+    # the average-acceleration period error (ω dt)²/12 at the chosen steps: below 0.1 %
+    np.testing.assert_allclose(res.frequency_hz, 1.0, rtol=1e-3)
+    # the step grew from 2 ms (fewer than a fifth of the steps at 2 ms), and each case took
+    # its own: equal step counts per interval, different simulated times
+    assert (res.steps < 0.2 * res.time / 0.002).all()
+    assert len(np.unique(np.round(res.time / res.steps, 6))) > 1
+
+
+def test_step_tolerance_controls_the_frequency_error():
+    # the weakest case (c1 = −0.05: its own frequency shift by averaging, −(c1/ω)²/16 ≈ 4e-6,
+    # is far below the integration error)
+    errors = [abs(_adaptive_run(tol)[0].frequency_hz[0] - 1.0) for tol in (1e-4, 1e-5)]
+    # local error ∝ dt³: 10x tighter -> dt / 10^(1/3), period error (∝ dt²) / 4.6
+    assert errors[1] < errors[0] / 3
+
+
+def test_adaptive_options_are_checked():
+    with pytest.raises(InputError, match="integrator.step_tol"):
+        Newmark(adaptive=True, step_tol=0.0)
+    with pytest.raises(InputError, match="integrator.dt_min, dt_max"):
+        Newmark(dt=1e-3, dt_min=2e-3)
+    with pytest.raises(InputError, match="integrator.extrapolate"):
+        Newmark(extrapolate=-1)
+
+
+def test_amplitude_jumps_reach_the_same_lco_sooner():
+    # weakly attracting LCOs (the amplitude approaches its limit by a factor of about e^(c1)
+    # per cycle: 0.95 at c1 = −0.05) started at half their amplitude
+    system, amp = _vdp_cases()
+    lco = LCOCriteria(rtol=1e-4, cycles=4)
+    runs = [Newmark(dt=0.005, iterations=3, tol=1e-6, check_every=200, extrapolate=k).run(
+        system, q0=amp[:, None] * 0.5, t_end=300.0, outputs=["q1"], lco=lco) for k in (0, 3)]
+    assert all((r.status == "lco").all() for r in runs)
+    np.testing.assert_allclose(runs[1].amplitude[:, 0], amp, rtol=1e-3)
+    assert runs[1].time.sum() < 0.5 * runs[0].time.sum()

@@ -16,7 +16,9 @@ check interval (a chunk of steps, on the device). At the end of each chunk :clas
                 remaining change extrapolated geometrically (Aitken: |δ0| r/(1−r), r = |δ0/δ1|)
                 also ≤ rtol·A_0 — so a slowly creeping amplitude is not taken for converged;
   ``decay``     A_0 ≤ decay_ratio · (largest amplitude seen) and falling, or the amplitudes fall
-                geometrically over ``cycles`` cycles toward a limit (Aitken) below that level;
+                geometrically over ``cycles`` cycles toward a limit (Aitken) within ± that level
+                of zero (a limit far below zero is an unreliable extrapolation of a slow fall,
+                e.g. toward an LCO from above);
   ``diverged``  |y| of a decision output above ``max_amplitude``, or the state turned non-finite
                 while the amplitude was growing;
   ``failed``    the state turned non-finite otherwise.
@@ -132,9 +134,15 @@ class PeakTracker:
             setattr(self, name, getattr(self, name).index_select(0, index))
 
     # ------------------------------------------------------------------------------------------
-    def update(self, Y: Tensor, Yd: Tensor, step0: int, dt: float) -> None:
-        """Add the extrema of a chunk: Y, Yd (N, B, O) at steps step0+1 .. step0+N."""
+    def update(self, Y: Tensor, Yd: Tensor, step0: int | Tensor, dt: float | Tensor) -> None:
+        """Add the extrema of a chunk: Y, Yd (N, B, O) at steps step0+1 .. step0+N of a fixed
+        step dt; or, with per-case steps (adaptive), ``step0`` the (B,) times at the chunk's
+        start and ``dt`` the (B,) steps."""
         N = Y.shape[0]
+        per_case = isinstance(dt, Tensor)
+        if per_case:
+            t_start = step0.to(torch.float64).view(1, -1, 1)
+            dt = dt.to(torch.float64).view(1, -1, 1)
         y = torch.cat([self.last_y.unsqueeze(0), Y.to(torch.float64)], dim=0)
         yd = torch.cat([self.last_yd.unsqueeze(0), Yd.to(torch.float64)], dim=0)
         d0, d1 = yd[:-1], yd[1:]
@@ -153,7 +161,7 @@ class PeakTracker:
         th = (th - step).clamp(0.0, 1.0)
         val = hermite(y0, s0, y1, s1, th)
         steps = torch.arange(N, device=Y.device, dtype=torch.float64).view(N, 1, 1)
-        t = (steps + float(step0) + th) * dt
+        t = t_start + (steps + th) * dt if per_case else (steps + float(step0) + th) * dt
         self._push(0, is_max, val, t)
         self._push(1, is_min, val, t)
         self.last_y = y[-1]
@@ -203,7 +211,8 @@ class PeakTracker:
         """(B,) status codes: RUNNING or a final status (see the module docstring).
 
         ``state_finite``/``solver_ok``: (B,) bool from the integrator. With ``final`` (t_end
-        reached) every case gets a status: those not settled become UNCONVERGED.
+        reached; a bool or a (B,) bool tensor of the cases that reached it) those cases get a
+        status: the ones not settled become UNCONVERGED.
         """
         c = int(crit.cycles)
         outs = list(crit.decision_outputs)
@@ -230,8 +239,10 @@ class PeakTracker:
             rj = delta[..., j] / delta[..., j + 1].clamp(max=-tiny)
             rj = torch.where(mono & (rj > 0) & (rj < 1), rj, torch.nan)
             limits.append(A[..., j] + delta[..., j] * rj / (1.0 - rj))
-        geometric = mono & (limits[0] <= crit.decay_ratio * ref) & (
-            limits[1] <= crit.decay_ratio * ref)
+        # |limit|: an amplitude falling slowly toward an LCO (a start above it) has r near 1,
+        # where the extrapolated limit is far below zero and meaningless — not a decay
+        geometric = mono & (limits[0].abs() <= crit.decay_ratio * ref) & (
+            limits[1].abs() <= crit.decay_ratio * ref)
         decay = (low | geometric).all(-1)
 
         big = (self.y_abs_max[:, outs] > crit.max_amplitude).any(-1)
@@ -240,17 +251,18 @@ class PeakTracker:
         # precedence (lowest first, later assignments win): lco/decay < unconverged < diverged
         status = torch.where(decay, DECAY, status)
         status = torch.where(lco, LCO, status)
-        if final:
+        fin = torch.as_tensor(final, device=status.device).expand_as(status)
+        if bool(fin.any()):
             # no extremum ever (a case at rest, or a monotone drift): decided by the final value
             never = self.count[:, outs].sum((-1, -2)) == 0
             last = self.last_y[:, outs].abs()
             at_rest = (last <= crit.decay_ratio * self.y_abs_max[:, outs]).all(-1)
-            status = torch.where((status == RUNNING) & never & at_rest, DECAY, status)
-            status = torch.where(status == RUNNING, UNCONVERGED, status)
+            status = torch.where(fin & (status == RUNNING) & never & at_rest, DECAY, status)
+            status = torch.where(fin & (status == RUNNING), UNCONVERGED, status)
         status = torch.where(~solver_ok, UNCONVERGED, status)
         status = torch.where(big, DIVERGED, status)
         status = torch.where(~state_finite, torch.where(growing | big, DIVERGED, FAILED), status)
-        if not crit.stop and not final:
-            keep_running = (status == LCO) | (status == DECAY)
+        if not crit.stop:
+            keep_running = ~fin & ((status == LCO) | (status == DECAY))
             status = torch.where(keep_running, RUNNING, status)
         return status

@@ -44,6 +44,28 @@ step iterates twice and its measured contraction ratio r turns the single correc
 other steps into the estimate |Δa| r/(1−r) (an upper bound that overstates the effect on the
 amplitude by one to three orders of magnitude on the Goland cases).
 
+**Error-controlled steps** (``adaptive=True``). Every case takes its own step dt_c (the step
+coefficients become (1, B) rows of the per-case matrices; all cases still advance the same
+number of steps per check interval, so each reaches its own time). Per step the local
+displacement error of the Newmark family is estimated as e = (β − 1/6) dt² (a_{n+1} − a_n)
+(Zienkiewicz & Xie 1991, the difference between the corrector and a third-order Taylor
+predictor), read on the tracked outputs C e and kept as its interval maximum relative to the
+largest |C q|. At each check the step becomes dt · clip(0.9 (step_tol/err)^(1/3), ½, 2) within
+[dt_min, dt_max] (a change below 20 % is ignored: each rebuilds the per-case matrices), and a
+case whose nonlinear iteration missed ``tol`` halves its step instead of being flagged (until
+dt_min), no LCO being accepted on that interval. The peak tracker and histories use each case's
+own times.
+
+**Amplitude jumps** (``extrapolate=K``). Near the flutter boundary an LCO attracts slowly: the
+amplitude of a case approaches its limit geometrically, A_j = A* + c r^j with r close to 1,
+over tens of cycles. When the last three per-cycle changes of the decision output's amplitude
+have one sign and two consistent ratios (r ∈ (0.2, 0.98), agreeing within 15 %) and the
+extrapolated remainder δ0 r/(1−r) exceeds 10 rtol·A0, the case's state is scaled toward the
+limit — the linear coordinates, velocities, accelerations and lag states by λ = A*/A0, the
+dual coordinates (``mode_kinds`` "dual", quadratic in the linear ones on the static manifold)
+by λ², λ ∈ [½, 2] — and its extrema are forgotten, at most K times per case. This only changes
+the path: an LCO is still accepted only after ``cycles`` cycles that meet the LCO criteria.
+
 **CUDA graphs.** On a CUDA device the steps of a check interval are captured once as a CUDA graph
 (state tensors updated in place) and replayed, which removes the per-kernel launch cost that
 dominates small batches; ``cuda_graphs=True`` on a CPU runs the captured code eagerly.
@@ -57,6 +79,7 @@ neighbours.
 
 from __future__ import annotations
 
+import math
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
@@ -196,6 +219,14 @@ class Newmark:
             setting) or 'auto' (default: one thread when a nonlinear force evaluation is below
             ~4M multiply-adds — the per-step kernels are then too small to share, and waiting on
             a second thread costs more than it saves, badly so on a busy machine — else keep).
+        adaptive: error-controlled per-case steps (see the module docstring): ``dt`` is the
+            first step, each case then takes its own step within [dt_min, dt_max].
+        step_tol: with ``adaptive``, the local error per step of the tracked outputs, relative
+            to their largest magnitude, that the step aims at (default 1e-5).
+        dt_min, dt_max: bounds of the adaptive step (default dt/16 and 16 dt).
+        extrapolate: amplitude jumps per case (0: none; see the module docstring): a case
+            whose amplitude approaches its limit geometrically is moved to the extrapolated
+            limit, at most this many times.
     """
 
     dt: float = 1e-3
@@ -212,6 +243,11 @@ class Newmark:
     compile: bool = False
     threads: int | str = "auto"
     cuda_graphs: bool | str = "auto"
+    adaptive: bool = False
+    step_tol: float = 1e-5
+    dt_min: float | None = None
+    dt_max: float | None = None
+    extrapolate: int = 0
     params: SchemeParameters = field(init=False, repr=False)
 
     def __post_init__(self):
@@ -250,6 +286,20 @@ class Newmark:
                              f"got {self.threads!r}")
         if self.tol is not None and not self.tol > 0:
             raise InputError(f"integrator.tol: expected a positive number, got {self.tol}")
+        if isinstance(self.extrapolate, bool) or not (isinstance(self.extrapolate, int)
+                                                      and self.extrapolate >= 0):
+            raise InputError(f"integrator.extrapolate: expected an integer >= 0, got "
+                             f"{self.extrapolate!r}")
+        if not isinstance(self.adaptive, bool):
+            raise InputError(f"integrator.adaptive: expected true or false, got "
+                             f"{self.adaptive!r}")
+        if not (self.step_tol > 0 and math.isfinite(self.step_tol)):
+            raise InputError(f"integrator.step_tol: expected a positive number, got "
+                             f"{self.step_tol}")
+        lo, hi = self.step_bounds
+        if not (0 < lo <= self.dt <= hi and math.isfinite(hi)):
+            raise InputError(f"integrator.dt_min, dt_max: expected 0 < dt_min <= dt = {self.dt}"
+                             f" <= dt_max, got {lo}, {hi}")
         self.params = SchemeParameters.from_name(self.scheme, self.rho_inf)
 
     def step_count(self, t_end) -> int:
@@ -265,18 +315,28 @@ class Newmark:
                              f"dt >= {t_end / MAX_STEPS:.3g} s")
         return steps
 
+    @property
+    def step_bounds(self) -> tuple[float, float]:
+        """(dt_min, dt_max) of the adaptive step (default dt/16 and 16 dt)."""
+        lo = self.dt / 16 if self.dt_min is None else float(self.dt_min)
+        hi = self.dt * 16 if self.dt_max is None else float(self.dt_max)
+        return lo, hi
+
     def tolerance(self, dtype: torch.dtype) -> float:
         return self.tol if self.tol is not None else DEFAULT_TOL.get(dtype, 1e-6)
 
     # ------------------------------------------------------------------------------------------
     # per-case matrices
     # ------------------------------------------------------------------------------------------
-    def case_matrices(self, system: CaseSystem) -> tuple[dict[str, Tensor], Tensor]:
+    def case_matrices(self, system: CaseSystem, dt: Tensor | None = None
+                      ) -> tuple[dict[str, Tensor], Tensor]:
         """The per-case constant matrices of the step and a (B,) flag of the cases where they
-        exist (float64 on the system's device; cast by the caller)."""
-        p, dt = self.params, self.dt
+        exist (float64 on the system's device; cast by the caller); ``dt``: (B,) per-case
+        steps (default the scalar ``self.dt``)."""
         dev = system.device
         f64 = {"device": dev, "dtype": torch.float64}
+        p = self.params
+        dt = self.dt if dt is None else dt.to(**f64).view(-1, 1, 1)
         rom = system.rom
         B, n, na = system.batch_size, system.n, system.n_lag
         sysd = system.to(dtype=torch.float64)
@@ -394,6 +454,13 @@ def _fm(t: Tensor) -> Tensor:
     return view.clone(memory_format=torch.contiguous_format)  # never aliases another tensor
 
 
+def _axpy(x: Tensor, y: Tensor, c: float | Tensor) -> Tensor:
+    """x + c y for a scalar c (one kernel, bit-identical to torch.add) or per-case (1, B) c."""
+    if isinstance(c, Tensor):
+        return torch.addcmul(x, y, c)
+    return torch.add(x, y, alpha=c)
+
+
 def _cmv(A: Tensor, x: Tensor) -> Tensor:
     """Per-case matrix-vector product, feature-major: A (k, m, B), x (k, B) -> (m, B).
 
@@ -432,6 +499,7 @@ class _Run:
             raise InputError(f"lco.decision_outputs: indices must be in 0..{len(self.names) - 1}")
         self.C = torch.as_tensor(C, **self.kw)
         self.steps_total = steps_total
+        self.t_end = float(t_end)
         self.history = history
         p = integ.params
         self.p = p
@@ -459,7 +527,10 @@ class _Run:
         self.forces = NonlinearForces(self.rom, dev, dtype, stiffness=s_on, damping=d_on)
         self.nonlinear = self.forces.active
 
-        mats64, ok = integ.case_matrices(system)
+        self.adaptive = bool(integ.adaptive)
+        self.system = system
+        self.dtc = torch.full((B,), float(integ.dt), device=dev, dtype=torch.float64)
+        mats64, ok = integ.case_matrices(system, self.dtc if self.adaptive else None)
         ok &= torch.isfinite(q).all(1) & torch.isfinite(v).all(1) & torch.isfinite(xi).all(1)
         mats = {k: t.to(dtype) for k, t in mats64.items()}
         s = system.stiffness_nl if self.forces.has_stiffness else None
@@ -485,18 +556,22 @@ class _Run:
         # linear Newton path needs only the premultiplied Z L
         self.iterative = self.nonlinear or integ.solver == "fixed_point"
         if self.iterative:
-            mats["LS"] = torch.cat([mats["L"], -mats["S"]], dim=2)
             state["Z"] = mats["Z"]
-            keep = ["LS", "S"]
-        else:
-            keep = ["ZL", "uF"]
-        keep += ["F", "Q", "W"] + ([] if p.is_newmark else ["MT"])
-        mats = {k: mats[k] for k in keep if k in mats}
+        mats = self._kept(mats)
         # (1−αf) f_nl enters the equation: scale the per-case nonlinearity scales once
         mats["s"] = None if s is None else (1.0 - p.alpha_f) * s
         mats["g"] = None if g is None else (1.0 - p.alpha_f) * g
         self.mats = {k: _fm(t) for k, t in mats.items() if t is not None}
+        if self.adaptive:
+            self.mats.update(self._dt_coefficients(self.dtc))
         self.state = {k: _fm(t) for k, t in state.items()}
+        # per-case simulated time and steps (the adaptive step moves cases apart in time)
+        self.t = torch.zeros(B, device=dev, dtype=torch.float64)
+        self.jumps = torch.zeros(B, device=dev, dtype=torch.long)
+        power = torch.ones(n, 1, **self.kw)
+        power[[i for i, k in enumerate(self.rom.mode_kinds) if k == "dual"]] = 2.0
+        self.jump_power = power
+        self.case_step_count = np.zeros(B, dtype=np.int64)
         self._reset_error()
         self.solver_rel = torch.zeros(B, device=dev, dtype=torch.float64)
         y0, yd0 = q @ self.C.T, v @ self.C.T
@@ -536,10 +611,100 @@ class _Run:
         if bool(bad.any()):
             self._finish(np.nonzero(bad.cpu().numpy())[0], np.full(int(bad.sum()), FAILED))
 
+    def _kept(self, mats: dict[str, Tensor]) -> dict[str, Tensor]:
+        """The per-case matrices the step reads (batch-major, from :meth:`Newmark.case_matrices`).
+
+        The iterative path works on b − S a (correction form, any iteration matrix Z); the
+        linear Newton path needs only the premultiplied Z L."""
+        if self.iterative:
+            mats["LS"] = torch.cat([mats["L"], -mats["S"]], dim=2)
+            keep = ["LS", "S"]
+        else:
+            keep = ["ZL", "uF"]
+        keep += ["F", "Q", "W"] + ([] if self.p.is_newmark else ["MT"])
+        return {k: mats[k] for k in keep if k in mats}
+
+    def _dt_coefficients(self, dt: Tensor) -> dict[str, Tensor]:
+        """The step's dt-dependent coefficients per case, (1, B) in the run's dtype, and the
+        constant |β − 1/6| dt² of the local error estimate (see :meth:`_adapt_steps`)."""
+        p = self.p
+        coef = {"dt": dt, "c_qa": dt * dt * (0.5 - p.beta), "c_va": dt * (1.0 - p.gamma),
+                "bdt2": p.beta * dt * dt, "gdt": p.gamma * dt,
+                "e_dt2": abs(p.beta - 1.0 / 6.0) * dt * dt}
+        return {k: v.to(self.kw["dtype"]).unsqueeze(0).contiguous() for k, v in coef.items()}
+
+    def _adapt_steps(self, shrink: Tensor) -> None:
+        """New per-case steps from the interval's local error estimate (adaptive runs).
+
+        Per step the displacement error of the Newmark family is estimated as
+        e = (β − 1/6) dt² (a_{n+1} − a_n) (Zienkiewicz & Xie 1991: the difference between the
+        corrector and a third-order Taylor predictor); the step reads it on the tracked outputs,
+        y = C e, relative to the interval's largest |y|. The new step is
+        dt · clip(0.9 (step_tol/err)^(1/3), ½, 2) within [dt_min, dt_max]; steps changing by less
+        than 20 % are kept (each change rebuilds the per-case matrices). ``shrink``: (B,) cases
+        whose nonlinear iteration missed its tolerance; their step is at least halved."""
+        integ = self.integ
+        lo, hi = integ.step_bounds
+        f64 = torch.float64
+        err = self.state["lerr"].to(f64)
+        ymax = self.state["ymax"].to(f64).clamp_min(torch.finfo(f64).tiny)
+        rel = (err / ymax).clamp_min(1e-300)
+        factor = (0.9 * (integ.step_tol / rel) ** (1.0 / 3.0)).clamp(0.5, 2.0)
+        factor = torch.where(shrink, factor.clamp(max=0.5), factor)
+        new = (self.dtc * factor).clamp(lo, hi)
+        change = ((new / self.dtc - 1.0).abs() > 0.2) | (shrink & (new < self.dtc))
+        if not bool(change.any()):
+            return
+        self.dtc = torch.where(change, new, self.dtc)
+        mats64, ok = integ.case_matrices(self.system, self.dtc)
+        mats = self._kept({k: t.to(self.kw["dtype"]) for k, t in mats64.items()})
+        for k, t in mats.items():
+            self.mats[k] = _fm(t)
+        self.mats.update(self._dt_coefficients(self.dtc))
+        if self.iterative:
+            self.state["Z"] = _fm(mats64["Z"].to(self.kw["dtype"]))
+        self._graph = None
+
+    def _jump(self, status: Tensor) -> None:
+        """Amplitude jumps of the running cases that approach their limit geometrically (see
+        the module docstring; in place, so a captured CUDA graph keeps its addresses)."""
+        crit, tr = self.crit, self.tracker
+        out = crit.decision_outputs[0]
+        A, valid = tr.amplitudes([out], 4)
+        A, valid = A[:, 0], valid[:, 0, 3]
+        d = A[:, :-1] - A[:, 1:]  # newer minus older
+        tiny = torch.finfo(torch.float64).tiny
+        r0 = d[:, 0] / torch.where(d[:, 1] != 0, d[:, 1], tiny)
+        r1 = d[:, 1] / torch.where(d[:, 2] != 0, d[:, 2], tiny)
+        one_sign = (d[:, 0] * d[:, 1] > 0) & (d[:, 1] * d[:, 2] > 0)
+        steady = (r0 > 0.2) & (r0 < 0.98) & ((r0 - r1).abs() <= 0.15 * r0)
+        A0 = A[:, 0]
+        remaining = d[:, 0] * r0 / (1.0 - r0)
+        jump = (valid & one_sign & steady & (A0 > 0) & (status == RUNNING)
+                & (remaining.abs() > 10 * crit.rtol * A0) & (self.jumps < self.integ.extrapolate))
+        if not bool(jump.any()):
+            return
+        lam = torch.where(jump, ((A0 + remaining) / A0.clamp_min(tiny)).clamp(0.5, 2.0), 1.0)
+        lam = lam.to(self.kw["dtype"]).unsqueeze(0)
+        factor = lam ** self.jump_power  # (n, B): λ linear, λ² dual
+        st = self.state
+        for k in ("q", "v", "a", "a1", "a2", "fint"):
+            if k in st:
+                st[k].mul_(factor)
+        for k in ("xi", "xid"):
+            if k in st:
+                st[k].mul_(lam)
+        self.jumps += jump.long()
+        tr.count[jump] = 0
+        tr.amp_max = torch.where(jump, A0 * lam[0].double(), tr.amp_max)
+        y, yd = (self.C @ st["q"]).T.double(), (self.C @ st["v"]).T.double()
+        tr.last_y = torch.where(jump.unsqueeze(1), y, tr.last_y)
+        tr.last_yd = torch.where(jump.unsqueeze(1), yd, tr.last_yd)
+
     def _reset_error(self):
         """Zero the per-interval solver accumulators (in place: a captured graph reads them)."""
         B = self.state["q"].shape[1]
-        for k in ("err", "amax", "c1", "rho"):
+        for k in ("err", "amax", "c1", "rho") + (("lerr", "ymax") if self.adaptive else ()):
             if k in self.state:
                 self.state[k].zero_()
             else:
@@ -556,6 +721,7 @@ class _Run:
         integ, p, dt = self.integ, self.p, self.integ.dt
         c_qa, c_va = dt * dt * (0.5 - p.beta), dt * (1.0 - p.gamma)
         bdt2, gdt = p.beta * dt * dt, p.gamma * dt
+        adaptive = self.adaptive
         am, af = p.alpha_m, p.alpha_f
         lag, newmark, nonlinear = self.na > 0, p.is_newmark, self.nonlinear
         predictor, forces, C = integ.predictor, self.forces, self.C
@@ -567,14 +733,19 @@ class _Run:
             # written for a small number of kernels per step: eager CPU time is op overhead
             # for small batches
             q, v, a = st["q"], st["v"], st["a"]
-            qh = torch.add(q, v, alpha=dt).add_(a, alpha=c_qa)
-            vh = torch.add(v, a, alpha=c_va)
+            if adaptive:
+                # per-case steps: the coefficients are (1, B) rows of the per-case matrices
+                h, h_qa, h_va, h_b, h_g = (m[k] for k in ("dt", "c_qa", "c_va", "bdt2", "gdt"))
+            else:
+                h, h_qa, h_va, h_b, h_g = dt, c_qa, c_va, bdt2, gdt
+            qh = _axpy(_axpy(q, v, h), a, h_qa)
+            vh = _axpy(v, a, h_va)
             parts = [vh, qh]
             if lag:
-                xih = torch.add(st["xi"], st["xid"], alpha=c_va)
+                xih = _axpy(st["xi"], st["xid"], h_va)
                 lag_in = xih if newmark else torch.cat([xih, st["xi"], st["xid"], v])
                 xid_star = _cmv(m["Q"], lag_in)
-                parts.append(torch.add(xih, xid_star, alpha=gdt))
+                parts.append(_axpy(xih, xid_star, h_g))
             if not newmark:
                 parts += [a, st["fint"]]
             new = dict(st)
@@ -600,10 +771,10 @@ class _Run:
                 for it in range(iters):
                     r = res_lin if it == 0 else res_lin - _cmv(m["S"], ak - a_p)
                     if nonlinear:
-                        qk, vk = torch.add(qh, ak, alpha=bdt2), torch.add(vh, ak, alpha=gdt)
+                        qk, vk = _axpy(qh, ak, h_b), _axpy(vh, ak, h_g)
                         if refresh and it == 0:
                             f, K, D = forces.evaluate_T(qk, vk, s, g, jacobian=True)
-                            Z = _refreshed_inverse(m["S"], K, D, s, g, bdt2, gdt, Z)
+                            Z = _refreshed_inverse(m["S"], K, D, s, g, h_b, h_g, Z)
                             new["Z"] = Z
                         else:
                             f = forces.evaluate_T(qk, vk, s, g)
@@ -623,14 +794,14 @@ class _Run:
                     new["err"] = torch.maximum(st["err"], err)
                     if rho:
                         new["rho"] = torch.maximum(st["rho"], last / prev.clamp_min(tiny))
-            q1 = torch.add(qh, ak, alpha=bdt2)
-            v1 = torch.add(vh, ak, alpha=gdt)
+            q1 = _axpy(qh, ak, h_b)
+            v1 = _axpy(vh, ak, h_g)
             new.update(q=q1, v=v1, a=ak, a1=a, a2=st["a1"],
                        amax=torch.maximum(st["amax"], ak.abs().amax(0)))
             if lag:
                 xid1 = xid_star + _cmv(m["W"], v1)
                 new["xid"] = xid1
-                new["xi"] = torch.add(xih, xid1, alpha=gdt)
+                new["xi"] = _axpy(xih, xid1, h_g)
             if not newmark:
                 # internal force at t_{n+1} recovered from the equation of motion (exact at
                 # convergence; an error in it is multiplied by αf/(1−αf) ≤ ½ per step)
@@ -639,7 +810,13 @@ class _Run:
                 if has_load:
                     fint = fint.add_(m["F"])
                 new["fint"] = fint.div_(1.0 - af)
-            return new, C @ q1, C @ v1
+            y = C @ q1
+            if adaptive:
+                # local error estimate on the outputs (see _Run._adapt_steps)
+                e = (C @ (ak - a)).abs().amax(0) * m["e_dt2"][0]
+                new["lerr"] = torch.maximum(st["lerr"], e)
+                new["ymax"] = torch.maximum(st["ymax"], y.abs().amax(0))
+            return new, y, C @ v1
 
         return step
 
@@ -720,8 +897,10 @@ class _Run:
         dt = integ.dt
         case_steps = 0
         tol = integ.tolerance(self.kw["dtype"])
-        while len(self.active) and self.step_no < self.steps_total:
-            N = min(integ.check_every, self.steps_total - self.step_no)
+        adaptive = self.adaptive
+        while len(self.active) and (adaptive or self.step_no < self.steps_total):
+            N = (integ.check_every if adaptive
+                 else min(integ.check_every, self.steps_total - self.step_no))
             Bc = len(self.active)
             step0 = self.step_no
             Y, Yd = self._advance(step0, N)
@@ -729,15 +908,36 @@ class _Run:
             self.step_no += N
             case_steps += N * Bc
             Y, Yd = Y.transpose(1, 2), Yd.transpose(1, 2)  # (N, B, O) for the tracker
-            self.tracker.update(Y, Yd, step0, dt)
-            self._record_history(Y, step0)
+            if adaptive:
+                # each case at its own time and step: the tracker times its extrema per case
+                t_start = self.t.clone()
+                self.t += N * self.dtc
+                self.tracker.update(Y, Yd, t_start, self.dtc)
+                self._record_history(Y, step0, t_start)
+                final = self.t >= self.t_end * (1.0 - 1e-12)
+            else:
+                self.tracker.update(Y, Yd, step0, dt)
+                self._record_history(Y, step0)
+                final = self.step_no >= self.steps_total
             # per-case checks: one host synchronisation per chunk
             rel = self._solver_error(st)
+            shrink = None
+            if adaptive:
+                # a nonlinear iteration that did not meet its tolerance asks for a smaller step
+                # (until dt_min): such a case is judged from its next interval on, and no LCO
+                # is accepted on this one
+                shrink = (rel > tol) & (self.dtc > integ.step_bounds[0] * (1 + 1e-9))
+                rel = torch.where(shrink, 0.0, rel)
             self.solver_rel = torch.maximum(self.solver_rel, rel)
             solver_ok = rel <= tol
             finite = torch.isfinite(st["q"]).all(0) & torch.isfinite(st["v"]).all(0)
-            final = self.step_no >= self.steps_total
-            status = self.tracker.decide(crit, finite, solver_ok, final).cpu().numpy()
+            status = self.tracker.decide(crit, finite, solver_ok, final)
+            if adaptive:
+                status = torch.where(shrink & (status == LCO), RUNNING, status)
+                self._adapt_steps(shrink)
+            if integ.extrapolate:
+                self._jump(status)
+            status = status.cpu().numpy()
             self._reset_error()
             done = np.nonzero(status != RUNNING)[0]
             if len(done):
@@ -768,7 +968,9 @@ class _Run:
         amax = st["amax"].to(f64)
         return torch.where(err > 0, err / amax.clamp_min(tiny), 0.0)
 
-    def _record_history(self, Y: Tensor, step0: int) -> None:
+    def _record_history(self, Y: Tensor, step0: int, t_start: Tensor | None = None) -> None:
+        """Keep the requested cases' outputs every ``every`` steps; ``t_start``: (B,) times at
+        the chunk's start of an adaptive run (else the fixed step gives the times)."""
         if not self.hist:
             return
         every = self.history.every
@@ -780,7 +982,11 @@ class _Run:
         for c, h in self.hist.items():
             if c in pos:
                 ys = Y.index_select(0, idx)[:, pos[c]].double().cpu().numpy()
-                ts = (step0 + 1 + idx.cpu().numpy()) * self.integ.dt
+                if t_start is None:
+                    ts = (step0 + 1 + idx.cpu().numpy()) * self.integ.dt
+                else:
+                    k = pos[c]
+                    ts = (float(t_start[k]) + (1 + idx.cpu().numpy()) * float(self.dtc[k]))
                 h.extend(zip(ts.tolist(), ys))
 
     def _finish(self, done: np.ndarray, codes: np.ndarray) -> None:
@@ -799,13 +1005,14 @@ class _Run:
         q, v = rows("q"), rows("v")
         xi = rows("xi") if "xi" in self.state else np.zeros((len(done), 0))
         rel = self.solver_rel.index_select(0, di).cpu().numpy()
+        times_end = self.t.index_select(0, di).cpu().numpy()
         primary = self.crit.decision_outputs[0]
         for k, c in enumerate(cases):
             met = window_metrics(vals[k], times[k], count[k], self.crit.cycles, primary)
             r = self.res
             r["status"][c] = STATUS_NAMES[int(codes[k])]
             r["steps"][c] = self.step_no
-            r["time"][c] = self.step_no * self.integ.dt
+            r["time"][c] = times_end[k] if self.adaptive else self.step_no * self.integ.dt
             # an LCO's amplitude and frequency; a decay has amplitude 0 and no frequency; any
             # other status has neither (NaN: never plotted as a value) — what the last cycle
             # measured is kept apart, in last_amplitude / last_frequency_hz
@@ -824,5 +1031,8 @@ class _Run:
         self.state = {k: t.index_select(-1, ki) for k, t in self.state.items()}
         self.mats = {k: t.index_select(-1, ki) for k, t in self.mats.items()}
         self.solver_rel = self.solver_rel.index_select(0, ki)
+        self.t, self.dtc = self.t.index_select(0, ki), self.dtc.index_select(0, ki)
+        self.jumps = self.jumps.index_select(0, ki)
+        self.system = self.system.select(ki)
         self._graph = None
         tr.select(ki)

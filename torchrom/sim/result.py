@@ -76,3 +76,40 @@ class SimulationResult:
     @property
     def us_per_case_step(self) -> float:
         return 1e6 * self.wall_time_s / max(self.case_steps, 1)
+
+
+def gather_results(parts: list[tuple[np.ndarray, SimulationResult]], batch: int
+                   ) -> SimulationResult:
+    """One result of ``batch`` cases from runs of some of them: ``parts`` lists (indices of the
+    run's cases in the whole batch, its result); every case must be covered exactly once."""
+    if not parts:
+        raise ValueError("gather_results: no parts")
+    first = parts[0][1]
+    seen = np.zeros(batch, dtype=int)
+
+    def empty(a: np.ndarray) -> np.ndarray:
+        shape = (batch, *a.shape[1:])
+        if a.dtype.kind in "fc":
+            return np.full(shape, np.nan, dtype=a.dtype)
+        if a.dtype.kind in "UO":  # statuses: the parts' string lengths differ
+            return np.full(shape, "", dtype=object)
+        return np.zeros(shape, dtype=a.dtype)
+
+    arrays = ("status", "steps", "time", "amplitude", "frequency_hz", "amplitude_change",
+              "solver_error", "q", "v", "xi")
+    out = {k: empty(getattr(first, k)) for k in arrays if getattr(first, k) is not None}
+    histories: dict[int, History] = {}
+    wall, steps = 0.0, 0
+    for idx, res in parts:
+        idx = np.asarray(idx, dtype=np.int64)
+        seen[idx] += 1
+        for k in out:
+            out[k][idx] = getattr(res, k)
+        histories.update({int(idx[c]): h for c, h in res.histories.items()})
+        wall += res.wall_time_s
+        steps += res.case_steps
+    if not (seen == 1).all():
+        raise ValueError("gather_results: the parts must cover every case exactly once")
+    return SimulationResult(output_names=first.output_names, histories=dict(sorted(
+        histories.items())), wall_time_s=wall, case_steps=steps,
+        **{k: v for k, v in out.items()}, **({} if "xi" in out else {"xi": None}))

@@ -28,10 +28,16 @@ entry in each table:
                  altitude ``alpha = "matched"`` keeps), ``reference_altitude_ft``,
                  ``altitude_range_ft``.
 ``[initial]``    ``q0``: a number (the displacement of basis function ``mode``, 1-based, default
-                 1) or a list of n numbers; ``v0``: a number or a list (default 0).
+                 1) or a list of n numbers; ``v0``: a number or a list (default 0);
+                 ``start = "small" | "neighbour"`` (default "small"; "neighbour": warm starts
+                 along the parameter ``along``), ``static_manifold`` (default true: the dual
+                 coordinates of a start at their nonlinear static values); see
+                 :mod:`torchrom.study.starts`.
 ``[integrator]`` ``dt``, ``t_end`` (s) and the options of :class:`torchrom.sim.Newmark`
                  (scheme, rho_inf, solver, iterations, startup_iterations, tol, predictor,
-                 check_every, refresh_every, sample_every, compile, threads, cuda_graphs).
+                 check_every, refresh_every, sample_every, compile, threads, cuda_graphs,
+                 adaptive, step_tol, dt_min, dt_max: error-controlled per-case steps;
+                 extrapolate: amplitude jumps toward a slowly approached LCO).
 ``[hb]``         (method "hb") :class:`torchrom.periodic.HBOptions` keys (start_harmonics,
                  harmonics, max_harmonics, amplitude_rtol, residual_tol, start_amplitude,
                  amplitude_scale, max_stages, metric_points) and ``stability``,
@@ -85,6 +91,7 @@ from .cases import (
 )
 from .grid import config_hash, expand_cases
 from .models import AeroelasticModel, model_provider, model_rom, provider_names
+from .starts import check_start
 
 SECTIONS = ("title", "method", "model", "aeroelastic", "initial", "integrator", "hb", "lco",
             "cases", "history", "plot", "run", "branch", "variants")
@@ -99,11 +106,11 @@ AEROELASTIC_KEYS = ("baseline_alpha", "baseline_gamma", "reference_altitude_ft",
                     "altitude_range_ft")
 _NEWMARK_KEYS = ("scheme", "rho_inf", "solver", "iterations", "startup_iterations", "tol",
                  "predictor", "check_every", "refresh_every", "sample_every", "compile", "threads",
-                 "cuda_graphs")
+                 "cuda_graphs", "adaptive", "step_tol", "dt_min", "dt_max", "extrapolate")
 _LCO_KEYS = ("rtol", "cycles", "decay_ratio", "max_amplitude", "ring")
 #: the keys each table accepts (add a new key here, and its value check to VALUE_CHECKS)
 TABLE_KEYS = {
-    "initial": ("q0", "v0", "mode"),
+    "initial": ("q0", "v0", "mode", "start", "along", "static_manifold"),
     "integrator": ("dt", "t_end", *_NEWMARK_KEYS),
     "lco": ("outputs", *_LCO_KEYS),
     "plot": ("x", "y", "hue"),
@@ -399,6 +406,10 @@ def load_sweep_config(path, variant: str | None = None) -> SweepConfig:
                    "'aero.npz' or builtin = 'goland')")
     _aeroelastic_options(aero_t, source)
     parameters = case_parameters(aeroelastic)
+    try:
+        check_start(initial, parameters)
+    except InputError as exc:
+        raise InputError(f"{source}: {exc}") from None
     cases_t = _table(raw, "cases", source)
     try:
         cases = expand_cases(cases_t, "[cases]", allowed=parameters)

@@ -18,11 +18,12 @@ small. Large clusters want more chunks: set ``[run] chunk_size`` or ``--chunk-si
 **Executors** (:func:`open_executor`). In-process by default (a plain loop, Dask is not even
 imported; progress is reported within a chunk); ``workers=N`` starts a LocalCluster of N
 single-threaded worker processes (torch intra-op threads = 1 in each: on a CPU one process per
-core beats one process with threads); ``scheduler=ADDR`` uses an existing cluster. The task is
-submitted once as a computed future (not scattered data), so a worker that dies is replaced by
-its nanny and everything it held — the task and the chunk it was integrating — is recomputed
-elsewhere by the scheduler; a finished chunk's future is released as soon as its rows have been
-stored, so finished work is never redone.
+core beats one process with threads; without Dask's default ``MALLOC_TRIM_THRESHOLD_``, which
+made a chunk run 2x slower in a worker than in-process); ``scheduler=ADDR`` uses an existing
+cluster. The task is submitted once as a computed future (not scattered data), so a worker
+that dies is replaced by its nanny and everything it held — the task and the chunk it was
+integrating — is recomputed elsewhere by the scheduler; a finished chunk's future is released
+as soon as its rows have been stored, so finished work is never redone.
 
 **Part files** (:class:`PartStore`). With an output folder, each finished chunk is written at
 once as ``parts/part-<hash>.parquet`` (atomically: temporary file, then rename), followed by
@@ -388,9 +389,15 @@ def open_executor(workers: int | None = None, scheduler: str | None = None
         with client:
             yield DaskExecutor(client, f"Dask cluster at {scheduler}")
         return
+    import dask
+
     # one single-threaded worker process per core; the nanny's pre-spawn environment sets
-    # OMP/MKL_NUM_THREADS = 1, and each chunk also sets torch's intra-op threads to 1
-    with _sigint_ignored_in_children():
+    # OMP/MKL_NUM_THREADS = 1, and each chunk also sets torch's intra-op threads to 1.
+    # Dask's default MALLOC_TRIM_THRESHOLD_ is unset (None removes it): setting it fixes glibc's
+    # mmap threshold at 128 KB, so every per-step temporary above that (the (n, n, B) per-case
+    # matrices) is mmap'ed, page-faulted and unmapped again — a chunk ran 2x slower in a worker
+    with _sigint_ignored_in_children(), dask.config.set(
+            {"distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_": None}):
         cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
                                dashboard_address=None, silence_logs=logging.ERROR)
     with cluster, Client(cluster) as client:

@@ -29,6 +29,7 @@ from .config import SweepConfig
 from .grid import case_id, config_hash
 from .models import AeroelasticModel, model_rom
 from .runner import ChunkResult, PartStore, run_cases
+from .starts import march
 from .table import result_rows
 from .units import sweep_units
 
@@ -79,18 +80,32 @@ class SweepTask:
     def _run(self, cases, case_ids, dtype, progress=None):
         cfg, rom = self.cfg, model_rom(self.model)
         system, extra = case_system(self.model, cases, torch.device(self.device), dtype)
-        q0 = initial_displacement(rom, cfg.initial, cases)
-        v0 = initial_velocity(rom, cfg.initial, len(cases))
         keep = cfg.history.indices(cases) if cfg.history is not None else []
-        history = HistoryRequest(tuple(keep), cfg.history.every) if keep else None
-        kw = {}
-        if cfg.method == "hb":  # neighbours start from each other's orbits
+        if cfg.method == "hb":  # periodic orbits: neighbours start from each other's orbits
+            kw = {}
             kw["chains"], kw["positions"] = neighbour_chains(cases)
             if cfg.hb.sensitivity:
                 kw["parameter_systems"] = gamma_perturbed_systems(self.model, cases,
                                                                   torch.device(self.device))
-        res = cfg.solver.run(system, q0, v0, t_end=cfg.t_end, outputs=cfg.outputs,
-                             lco=cfg.lco, history=history, progress=progress, **kw)
+            res = cfg.solver.run(system, t_end=cfg.t_end, outputs=cfg.outputs, lco=cfg.lco,
+                                 progress=progress, **kw)
+        else:
+            done = [0]  # cases finished in earlier waves (progress over the whole chunk)
+
+            def wave_progress(k, _n):
+                if progress is not None:
+                    progress(done[0] + k, len(cases))
+
+            def run(sub, q0, v0, xi0, index):
+                # histories of the kept cases among these (positions within this run)
+                mine = tuple(j for j, i in enumerate(index) if i in keep)
+                history = HistoryRequest(mine, cfg.history.every) if mine else None
+                res = cfg.integrator.run(sub, q0, v0, xi0, t_end=cfg.t_end, outputs=cfg.outputs,
+                                         lco=cfg.lco, history=history, progress=wave_progress)
+                done[0] += len(index)
+                return res
+
+            res = march(system, rom, cases, cfg.initial, run)
         span = getattr(self.model, "span", None) or rom.metadata.get("span")
         rows = result_rows(cases, res, config_hash=cfg.hash, span=span, case_ids=case_ids,
                            extra=extra, precision=str(dtype).replace("torch.", ""))

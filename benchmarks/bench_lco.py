@@ -1,0 +1,256 @@
+"""Benchmark: CPU seconds per converged Goland LCO, by method, against an accurate reference.
+
+    PYTHONPATH=. python benchmarks/bench_lco.py [--quick] [--model DIR] [--device cpu|cuda]
+        [--out benchmarks/results]
+
+Model: the paper's heavy Goland wing 9L12D ROM with its RFA aerodynamics (Mach 0.70), from the
+paper pipeline's model cache (``--model``, default ``$TORCHROM_CACHE`` or
+``~/.cache/torchrom/goland``; built there first if absent, ~30 s). Cases: altitudes × γ with the
+matched α (paper Fig. 9), all post-flutter (flutter at ~11,300 ft), LCOs from ~5 % to ~25 % of
+span: the full set 4000–10000 ft every 1000 ft × γ ∈ {0, 1e-4, 1e-3} (21 cases), ``--quick``
+4000–10000 ft every 1500 ft × γ ∈ {0, 1e-3} (10 cases).
+
+**Methods** (:data:`METHODS`, one function each: ``method(bench) -> MethodRun`` with the
+per-case amplitude of the tip deflection A_Tz, frequency, status and final state, and the CPU
+seconds of the whole method):
+
+- ``newmark-reference``: the paper's setting — dt = 1 ms, the paper's small start (mode 1
+  displaced by 0.1, tip ≈ 0.06 % of span), Newton refreshed every step with 2 iterations, every
+  case from its own start in one batch;
+- ``newmark``: the new time marching — every case from a start with the tip at 10 % of span
+  and the dual coordinates on the static manifold (:func:`torchrom.sim.initial.static_manifold`),
+  error-controlled per-case steps from 1 ms (``step_tol`` 5e-5, 3 Newton iterations refreshed
+  every step), amplitude jumps toward slowly
+  approached LCOs (``extrapolate``), all cases in one batch;
+- ``newmark-neighbour`` (``--methods``): the same steps with warm starts along the altitude
+  (:mod:`torchrom.study.starts`); fewer simulated seconds per LCO, but the waves are batches of
+  one case per γ, where a step costs several times more per case.
+
+**Reference** (:func:`reference`, a function so that another one can replace it): fixed-step
+Newmark at dt = 0.25 ms, Newton with 3 iterations refreshed every step, started from the
+``newmark-reference`` final states and run until the amplitude changes by less than 1e-4 per
+cycle (LCO rtol 1e-4).
+
+Reported per method: ``cpu_s_per_lco`` (CPU seconds of the method / cases that reached an LCO;
+one torch thread), ``max_amplitude_error_pct`` and ``max_frequency_error_pct`` (largest over
+the cases against the reference; a case that did not reach an LCO counts as an infinite
+error) and the per-case table. Writes ``bench_lco.json`` shaped
+``{"meta": {...}, "methods": [{"method", "cpu_s_per_lco", "max_amplitude_error_pct",
+"max_frequency_error_pct", "cases"}]}``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import sys
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import torch
+
+HERE = Path(__file__).resolve().parent
+sys.path.insert(0, str(HERE))
+sys.path.insert(0, str(HERE.parent))
+
+from results_io import machine_meta  # noqa: E402
+
+from torchrom.sim import LCOCriteria, Newmark  # noqa: E402
+from torchrom.study.cases import case_system  # noqa: E402
+from torchrom.study.starts import march  # noqa: E402
+
+OUTPUT = "A_Tz"
+#: the paper's LCO criteria (configs/paper_lco.toml)
+PAPER_LCO = LCOCriteria(rtol=1e-3, cycles=4, max_amplitude=10.0)
+#: the paper's start: mode 1 displaced by 0.1 (tip ≈ 0.06 % of span)
+PAPER_START = {"q0": 0.1, "mode": 1}
+T_END = 200.0
+
+
+@dataclass
+class Bench:
+    """The benchmark's model, cases and device (what every method receives)."""
+
+    model: object
+    cases: list[dict]
+    device: str = "cpu"
+    dtype: torch.dtype = torch.float64
+
+    def system(self, cases=None):
+        return case_system(self.model, self.cases if cases is None else cases,
+                           torch.device(self.device), self.dtype)[0]
+
+
+@dataclass
+class MethodRun:
+    """Per-case results of a method (case order) and its CPU seconds."""
+
+    amplitude: np.ndarray
+    frequency_hz: np.ndarray
+    status: np.ndarray
+    steps: np.ndarray
+    time_s: np.ndarray
+    cpu_s: float
+    q: np.ndarray
+    v: np.ndarray
+    xi: np.ndarray | None
+
+
+def _timed(fn: Callable[[], object]) -> tuple[object, float]:
+    c0 = time.process_time()
+    out = fn()
+    return out, time.process_time() - c0
+
+
+def _marched(bench: Bench, integ: Newmark, initial: dict, lco: LCOCriteria = PAPER_LCO
+             ) -> MethodRun:
+    """The cases through :func:`torchrom.study.starts.march` (the sweep's code path)."""
+    rom = bench.model.rom
+
+    def run(sub, q0, v0, xi0, _index):
+        return integ.run(sub, q0, v0, xi0, t_end=T_END, outputs=[OUTPUT], lco=lco)
+
+    res, cpu = _timed(lambda: march(bench.system(), rom, bench.cases, initial, run))
+    return MethodRun(res.amplitude[:, 0], res.frequency_hz, res.status, res.steps, res.time,
+                     cpu, res.q, res.v, res.xi)
+
+
+# ----------------------------------------------------------------------------------------------
+# methods
+# ----------------------------------------------------------------------------------------------
+def newmark_reference(bench: Bench) -> MethodRun:
+    """The paper's setting: dt 1 ms, small start, Newton refreshed every step, 2 iterations."""
+    integ = Newmark(dt=1e-3, iterations=2, refresh_every=1, tol=1e-3, threads=1)
+    return _marched(bench, integ, {**PAPER_START, "start": "small", "static_manifold": False})
+
+
+#: the new time marching: error-controlled steps from 1 ms (4-8 ms on most Goland LCOs) and
+#: amplitude jumps; step_tol 5e-5 keeps the amplitudes near 0.5 % (1e-4: 0.6 % at 8,500 ft);
+#: 3 Newton iterations: with 2 the large steps fail (and halve) more often on the largest LCOs
+ADAPTIVE = {"dt": 1e-3, "iterations": 3, "refresh_every": 1, "tol": 1e-3, "threads": 1,
+            "adaptive": True, "step_tol": 5e-5, "check_every": 250, "extrapolate": 3}
+#: the start of ``newmark``: mode 1 with the tip at 10 % of span, dual coordinates on the
+#: static manifold (the LCOs lie between 5 % and 25 % of span)
+START_SPAN_FRACTION = 0.10
+
+
+def _large_start(bench: Bench) -> dict:
+    q0 = START_SPAN_FRACTION * bench.model.span / bench.model.rom.outputs[OUTPUT][0]
+    return {"q0": q0, "mode": 1, "start": "small", "static_manifold": True}
+
+
+def newmark_default(bench: Bench) -> MethodRun:
+    """Every case from a 10 %-of-span start on the static manifold, error-controlled steps,
+    amplitude jumps; all cases in one batch."""
+    return _marched(bench, Newmark(**ADAPTIVE), _large_start(bench))
+
+
+def newmark_neighbour(bench: Bench) -> MethodRun:
+    """The same steps, warm starts along the altitude (waves of one case per γ)."""
+    return _marched(bench, Newmark(**ADAPTIVE), {**_large_start(bench), "start": "neighbour",
+                                                 "along": "altitude_ft"})
+
+
+METHODS: dict[str, Callable[[Bench], MethodRun]] = {
+    "newmark-reference": newmark_reference,
+    "newmark": newmark_default,
+    "newmark-neighbour": newmark_neighbour,
+}
+#: run by default (``--methods`` adds others)
+DEFAULT_METHODS = ("newmark-reference", "newmark")
+
+
+def reference(bench: Bench, runs: dict[str, MethodRun]) -> tuple[np.ndarray, np.ndarray]:
+    """(amplitude, frequency) per case: fixed-step Newmark at dt = 0.25 ms from the
+    ``newmark-reference`` final states, LCO rtol 1e-5 (module docstring)."""
+    start = runs["newmark-reference"]
+    integ = Newmark(dt=2.5e-4, iterations=3, refresh_every=1, tol=1e-3, threads=1,
+                    check_every=2000)
+    lco = LCOCriteria(rtol=1e-4, cycles=4, max_amplitude=10.0)
+    res = integ.run(bench.system(), start.q, start.v, start.xi, t_end=60.0, outputs=[OUTPUT],
+                    lco=lco)
+    ok = res.status == "lco"
+    return (np.where(ok, res.amplitude[:, 0], np.nan), np.where(ok, res.frequency_hz, np.nan))
+
+
+# ----------------------------------------------------------------------------------------------
+def case_set(quick: bool) -> list[dict]:
+    alts = np.arange(4000.0, 10001.0, 1500.0 if quick else 1000.0)
+    gammas = (0.0, 1e-3) if quick else (0.0, 1e-4, 1e-3)
+    return [{"altitude_ft": float(a), "gamma": g, "alpha": "matched"} for g in gammas
+            for a in alts]
+
+
+def summarize(name: str, run: MethodRun, cases: list[dict], ref_amp: np.ndarray,
+              ref_freq: np.ndarray) -> dict:
+    lco = run.status == "lco"
+    amp_err = np.where(lco, 100 * np.abs(run.amplitude / ref_amp - 1), np.inf)
+    freq_err = np.where(lco, 100 * np.abs(run.frequency_hz / ref_freq - 1), np.inf)
+    rows = [{**{k: v for k, v in c.items() if k != "alpha"}, "status": str(run.status[i]),
+             "amplitude": float(run.amplitude[i]), "frequency_hz": float(run.frequency_hz[i]),
+             "reference_amplitude": float(ref_amp[i]), "reference_frequency_hz":
+             float(ref_freq[i]), "amplitude_error_pct": float(amp_err[i]),
+             "frequency_error_pct": float(freq_err[i]), "steps": int(run.steps[i]),
+             "simulated_s": float(run.time_s[i])} for i, c in enumerate(cases)]
+    n_lco = int(lco.sum())
+    return {"method": name, "cpu_s": run.cpu_s, "lco_cases": n_lco,
+            "cpu_s_per_lco": run.cpu_s / n_lco if n_lco else float("inf"),
+            "steps_per_lco": float(run.steps.sum() / n_lco) if n_lco else float("inf"),
+            "max_amplitude_error_pct": float(np.nanmax(amp_err)),
+            "max_frequency_error_pct": float(np.nanmax(freq_err)), "cases": rows}
+
+
+def load_model(folder: Path | None):
+    from torchrom.paper.pipeline import goland_pipeline
+    from torchrom.paper.study import FULL_PIPELINE
+
+    if folder is None:
+        env = os.environ.get("TORCHROM_CACHE")
+        folder = Path(env) if env else Path.home() / ".cache" / "torchrom" / "goland"
+    return goland_pipeline(FULL_PIPELINE, folder, log=lambda m: print(f"  {m}")).model
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--quick", action="store_true", help="10 cases instead of 21 (< 5 min)")
+    ap.add_argument("--model", type=Path, default=None, help="the Goland pipeline's cache")
+    ap.add_argument("--methods", nargs="*", default=list(DEFAULT_METHODS),
+                    choices=list(METHODS))
+    ap.add_argument("--device", default="cpu")
+    ap.add_argument("--out", type=Path, default=HERE / "results")
+    args = ap.parse_args(argv)
+    torch.set_num_threads(1)
+    t0 = time.perf_counter()
+    bench = Bench(load_model(args.model), case_set(args.quick), args.device)
+    runs = {}
+    for name in dict.fromkeys(["newmark-reference", *args.methods]):
+        runs[name] = METHODS[name](bench)
+        print(f"{name}: {runs[name].cpu_s:.1f} CPU s, statuses "
+              f"{dict(zip(*np.unique(runs[name].status, return_counts=True)))}", flush=True)
+    ref_amp, ref_freq = reference(bench, runs)
+    methods = [summarize(name, runs[name], bench.cases, ref_amp, ref_freq) for name in runs]
+    base = methods[0]["cpu_s_per_lco"]
+    for m in methods:
+        m["cpu_ratio_vs_reference_method"] = base / m["cpu_s_per_lco"]
+        print(f"{m['method']:20s} {m['cpu_s_per_lco']:7.2f} CPU s per LCO "
+              f"({m['steps_per_lco']:8.0f} steps)  x{m['cpu_ratio_vs_reference_method']:.1f}  "
+              f"max errors: amplitude {m['max_amplitude_error_pct']:.3f} %, frequency "
+              f"{m['max_frequency_error_pct']:.3f} %")
+    meta = machine_meta(quick=args.quick, device=args.device, threads=1, output=OUTPUT,
+                        cases=len(bench.cases), reference="fixed-step Newmark dt 0.25 ms, "
+                        "LCO rtol 1e-4, from the newmark-reference states",
+                        wall_s=time.perf_counter() - t0)
+    args.out.mkdir(parents=True, exist_ok=True)
+    path = args.out / "bench_lco.json"
+    path.write_text(json.dumps({"meta": meta, "methods": methods}, indent=1, default=float)
+                    + "\n")
+    print(f"wrote {path}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
