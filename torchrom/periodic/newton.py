@@ -19,7 +19,8 @@ Hand-written.
 
 from __future__ import annotations
 
-from collections.abc import Callable
+import contextlib
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 
 import torch
@@ -169,12 +170,13 @@ def equilibrated_solve(A: Tensor, b: Tensor) -> tuple[Tensor, Tensor, Tensor]:
     A, b = A / row[..., None], b / row
     col = A.abs().amax(dim=1).clamp_min(tiny)
     A = A / col[:, None, :]
-    lu, piv, info = torch.linalg.lu_factor_ex(A)
-    valid = (piv >= 1).all(dim=1) & (info == 0) & torch.isfinite(lu).all(dim=(1, 2))
-    if not bool(valid.all()):  # refactor with the failed cases replaced
-        A = torch.where(valid[:, None, None], A, eye)
+    with single_thread():
         lu, piv, info = torch.linalg.lu_factor_ex(A)
-    x = torch.linalg.lu_solve(lu, piv, b[..., None])[..., 0] / col
+        valid = (piv >= 1).all(dim=1) & (info == 0) & torch.isfinite(lu).all(dim=(1, 2))
+        if not bool(valid.all()):  # refactor with the failed cases replaced
+            A = torch.where(valid[:, None, None], A, eye)
+            lu, piv, info = torch.linalg.lu_factor_ex(A)
+        x = torch.linalg.lu_solve(lu, piv, b[..., None])[..., 0] / col
     ok = finite & valid & torch.isfinite(x).all(dim=1)
     x = torch.where(ok[:, None], x, torch.zeros_like(x))
     # the equilibration factors are positive: sign(det A) = Π sign(U_ii) · (−1)^swaps
@@ -182,3 +184,21 @@ def equilibrated_solve(A: Tensor, b: Tensor) -> tuple[Tensor, Tensor, Tensor]:
     sign = torch.sign(lu.diagonal(dim1=1, dim2=2)).prod(1) * (1.0 - 2.0 * (swaps % 2)).to(
         lu.dtype)
     return x, ok, sign
+
+
+@contextlib.contextmanager
+def single_thread() -> Iterator[None]:
+    """torch's intra-op threads set to one for the block (restored after). torch 2.13's CPU
+    batched LU — MKL's getrf inside torch's parallel loop over the batch — returned invalid
+    pivots ("Parameter 6 was incorrect on entry to DLASWP") or hung on this machine with two
+    threads, for batches of matrices of about 150 rows and more (every Goland Newton system):
+    the factorisations run on one thread, which for many small matrices costs nothing."""
+    threads = torch.get_num_threads()
+    if threads == 1:
+        yield
+        return
+    torch.set_num_threads(1)
+    try:
+        yield
+    finally:
+        torch.set_num_threads(threads)
