@@ -16,8 +16,8 @@ from torchrom.sim import CaseSystem, LCOCriteria, Newmark
 def test_van_der_pol_multiplier_equals_liouville():
     """One mode: the multipliers' product is exp(−∫(c + d3 q²)dt) (Liouville) and one of them
     is 1, so the other is that exponential, evaluated on the HB orbit itself. The
-    extrapolated trapezoidal monodromy is fourth order: 2e-5 off at the default 64 steps per
-    period (tolerance 1e-4), 16 times closer at 128 (tolerance 1e-5)."""
+    extrapolated exponential-midpoint monodromy is fourth order: within 1e-4 at the default
+    32 steps per period, within 1e-5 at 128."""
     rom = van_der_pol_duffing(1.0, c1=-0.05, d3=0.4, k3=1.0)
     system = CaseSystem.build(rom, 2, alpha=[0.0, 0.02], gamma=1.0)
     orb = solve_orbits(system, [1.0])

@@ -321,6 +321,8 @@ def harmonic_lco(histories: pd.DataFrame, table: pd.DataFrame, output: str = "A_
         keep = t >= t[-1] - periods / f
         t, y = t[keep], y[keep] - y[keep].mean()
         n = len(y)
+        if n < 16:  # a history that stopped early (a run decided at once): nothing to judge
+            continue
         spec = np.abs(np.fft.rfft(y * np.hanning(n)))
         freqs = np.fft.rfftfreq(n, t[1] - t[0])
         k1 = int(np.argmin(np.abs(freqs - f)))

@@ -44,7 +44,7 @@ class HarmonicBalanceMethod:
     Attributes:
         options: the solver's settings (:class:`~.solve.HBOptions`).
         stability: compute Floquet multipliers (``stable``, ``floquet_multiplier``).
-        floquet_steps: trapezoidal steps per period of the monodromy matrix.
+        floquet_steps: steps per period of the monodromy matrix (exponential midpoint rule).
         start: "neighbour" (cases chained along their varying parameter start from their
             neighbour's orbit) or "cold" (every case from its linear flutter mode).
         sensitivity: also the derivatives of each LCO's amplitude and frequency with respect
