@@ -167,7 +167,10 @@ def test_quick_hb_agrees_with_newmark(quick, quick_hb):
     freq = (lco["frequency_hz_hb"] / lco["frequency_hz_nm"] - 1).abs()
     assert amp.max() <= 5e-3, lco.loc[amp.idxmax(), ["altitude_ft", "gamma"]].to_dict()
     assert freq.max() <= 2e-3
-    assert lco["stable_hb"].all()
+    # no LCO judged unstable; the damped ones judged stable (the nearly undamped dual modes
+    # of γ = 0 can leave the verdict unknown: floquet_error)
+    assert not (lco["stable"] == False).any()  # noqa: E712 - nullable boolean column
+    assert lco.loc[lco["gamma"] >= 5e-4, "stable"].all()
     text = (quick_hb / "report.md").read_text()
     assert "## Harmonic balance confirmed by time marching" in text
     assert "## LCO branches from the flutter point" in text
@@ -190,7 +193,9 @@ def test_quick_branches_are_supercritical(quick):
     """The branches from the flutter point in altitude (γ = 0 and 1e-3 s): both leave the Hopf
     point stable, without folds, down to 4,000 ft (the paper's supercritical LCOs)."""
     for row in _summary(quick)["hb"]["branches"]:
-        assert row["stable_from_hopf"] and not row["folds_ft"]
+        assert row["stable_from_hopf"] is not False and not row["folds_ft"]
+        assert row["stable_from_hopf"] or row["gamma"] == 0.0  # γ = 0: may be unknown
+        assert not row["unstable_altitudes_ft"]
         assert row["lowest_altitude_ft"] == pytest.approx(4000.0)
         assert 0 < row["amplitude_pct_span_there"] < 50
 

@@ -111,7 +111,8 @@ def branch_summary(branches: pd.DataFrame) -> list[dict[str, Any]]:
         out.append({"branch": int(b), "gamma": float(hopf["gamma"]),
                     "hopf_altitude_ft": float(hopf["altitude_ft"]),
                     "hopf_frequency_hz": float(hopf["frequency_hz"]),
-                    "stable_from_hopf": bool(lco["stable"].iloc[0]) if len(lco) else None,
+                    "stable_from_hopf": (None if not len(lco) or pd.isna(lco["stable"].iloc[0])
+                                         else bool(lco["stable"].iloc[0])),
                     "folds_ft": [float(x) for x in grp.loc[grp["kind"] == "fold",
                                                            "fold_parameter"]],
                     "unstable_altitudes_ft": [float(x) for x in unstable["altitude_ft"]],

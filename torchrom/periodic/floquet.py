@@ -43,17 +43,23 @@ Tensor = torch.Tensor
 FLOQUET_STEPS = 32
 #: an orbit is stable when its critical multiplier is below 1 + this
 STABILITY_TOL = 1e-6
+#: the verdict is given only where the trivial multiplier is recovered to within this (else
+#: unknown: the monodromy did not resolve the orbit, e.g. nearly undamped stiff dual modes)
+TRIVIAL_TOL = 5e-2
 
 
 @dataclass
 class FloquetResult:
     """Per case: the multipliers (B, 2n + na) complex, the index of the trivial one, the
-    critical multiplier (complex, the largest |μ| of the others) and stability."""
+    critical multiplier (complex, the largest |μ| of the others), stability (True, False, or
+    None where the trivial multiplier is off by more than :data:`TRIVIAL_TOL`) and that
+    error |μ_trivial − 1| (the accuracy of the monodromy matrix on this orbit)."""
 
     multipliers: np.ndarray
     trivial: np.ndarray
     critical: np.ndarray
     stable: np.ndarray
+    trivial_error: np.ndarray | None = None
 
     @property
     def critical_modulus(self) -> np.ndarray:
@@ -142,5 +148,9 @@ def floquet(system: CaseSystem, X: Tensor, omega: Tensor, steps: int = FLOQUET_S
     rows = torch.arange(mu.shape[0])
     mod_other[rows, trivial] = -1.0
     crit = mu[rows, mod_other.argmax(dim=1)]
-    stable = (crit.abs() < 1 + tol).cpu().numpy()
-    return FloquetResult(mu.cpu().numpy(), trivial.cpu().numpy(), crit.cpu().numpy(), stable)
+    error = (mu[rows, trivial] - 1).abs().cpu().numpy()
+    verdict = (crit.abs() < 1 + tol).cpu().numpy()
+    stable = np.array([bool(v) if e <= TRIVIAL_TOL else None for v, e in zip(verdict, error)],
+                      dtype=object)
+    return FloquetResult(mu.cpu().numpy(), trivial.cpu().numpy(), crit.cpu().numpy(), stable,
+                         error)

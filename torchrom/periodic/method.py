@@ -8,8 +8,9 @@ output over one period of the orbit), ``frequency_hz`` and the ratios. HB adds p
 (:attr:`SimulationResult.extra`): ``method`` ("hb"), ``harmonics`` (H), ``hb_residual`` (last
 Newton residual), ``truncation`` (see :func:`~.solve.truncation_residual`),
 ``harmonic_distortion`` (of the first output), ``stable`` and ``floquet_multiplier`` (modulus
-of the critical Floquet multiplier, :mod:`.floquet`); ``steps`` holds the Newton iterations
-and ``t_end`` is NaN (no simulated time). A decaying case is stable when its critical linear
+of the critical Floquet multiplier, :mod:`.floquet`; ``stable`` is unknown where the monodromy
+matrix misses the trivial multiplier by more than 5 %, ``floquet_error``); ``steps`` holds the
+Newton iterations and ``t_end`` is NaN (no simulated time). A decaying case is stable when its critical linear
 root is; its amplitude is 0.
 
 The initial condition and ``t_end`` of a time-marching configuration do not apply; the
@@ -96,6 +97,7 @@ class HarmonicBalanceMethod:
         freq[orb.status == "decay"] = 0.0
         stable = np.full(B, np.nan, dtype=object)
         mult = np.full(B, np.nan)
+        ferr = np.full(B, np.nan)
         decay = orb.status == "decay"
         root = orb.critical_root
         stable[decay] = root.real[decay] < 0
@@ -111,6 +113,7 @@ class HarmonicBalanceMethod:
                              self.floquet_steps)
                 stable[idx] = fl.stable
                 mult[idx] = fl.critical_modulus
+                ferr[idx] = fl.trivial_error
         if self.sensitivity and parameter_systems is not None:
             dA, df = np.full(B, np.nan), np.full(B, np.nan)
             plus, minus, dg = parameter_systems
@@ -133,6 +136,7 @@ class HarmonicBalanceMethod:
         extra = {"method": np.full(B, "hb", dtype=object), "harmonics": orb.harmonics,
                  "hb_residual": orb.residual, "truncation": orb.truncation,
                  "harmonic_distortion": dist, "stable": stable, "floquet_multiplier": mult,
+                 "floquet_error": ferr,
                  **sens}
         wall = time.perf_counter() - t0
         if progress is not None:

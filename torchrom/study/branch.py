@@ -127,8 +127,9 @@ def run_branches(cfg: SweepConfig, parameter: str, options: BranchOptions, model
             else:
                 row.update({"status": "lco", "amplitude": float(amp[k, 0]),
                             "frequency_hz": pt.omega / (2 * math.pi),
-                            "stable": None if np.isnan(stable[k]) else bool(stable[k])
-                            if not isinstance(stable[k], (bool, np.bool_)) else bool(stable[k]),
+                            "stable": None if stable[k] is None or (
+                                isinstance(stable[k], float) and np.isnan(stable[k]))
+                            else bool(stable[k]),
                             "floquet_multiplier": float(mult[k]),
                             "harmonic_distortion": float(dist[k]),
                             **{f"amplitude_{n}": float(amp[k, j]) for j, n in enumerate(names)}})
