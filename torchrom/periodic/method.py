@@ -10,8 +10,8 @@ Newton residual), ``truncation`` (see :func:`~.solve.truncation_residual`),
 ``harmonic_distortion`` (of the first output), ``stable`` and ``floquet_multiplier`` (modulus
 of the critical Floquet multiplier, :mod:`.floquet`; ``stable`` is unknown where the monodromy
 matrix misses the trivial multiplier by more than 5 %, ``floquet_error``); ``steps`` holds the
-Newton iterations and ``t_end`` is NaN (no simulated time). A decaying case is stable when its critical linear
-root is; its amplitude is 0.
+Newton iterations and ``t_end`` is NaN (no simulated time). A decaying case is stable when its
+critical linear root is; its amplitude is 0.
 
 The initial condition and ``t_end`` of a time-marching configuration do not apply; the
 ``[initial] q0`` sets the cold start's first amplitude scale when no ``amplitude_scale`` is
