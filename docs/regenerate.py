@@ -167,12 +167,13 @@ def docs_summary(paper: dict[str, Any]) -> dict[str, Any]:
 
 def docs_report(report: str, bench: dict[str, Any]) -> str:
     """report.md with its "Run" section (this run's timings and cache hits) replaced by the
-    benchmark's timings."""
+    benchmark's timings, and its figure links pointing beside it."""
     runs = _bench_runs(bench)
     run = ("## Run\n\nThe timings of a run depend on the machine, its load and the cache; the "
            "measured ones are in `benchmarks/results/bench_paper.json` (full "
            f"{runs['full']['wall_s']:.0f} s, quick {runs['quick']['wall_s']:.0f} s).\n\n")
-    return re.sub(r"## Run\n.*?(?=\n## )", run.rstrip("\n") + "\n", report, count=1, flags=re.S)
+    report = re.sub(r"## Run\n.*?(?=\n## )", run.rstrip("\n") + "\n", report, count=1, flags=re.S)
+    return report.replace("](figures/", "](")  # docs/paper holds the figures beside the report
 
 
 def deck_lines(cmd_extra: list[str]) -> list[str]:
