@@ -10,12 +10,18 @@ from __future__ import annotations
 import contextlib
 import json
 import os
+import sys
 import tempfile
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
 from .errors import InputError
+
+if sys.version_info >= (3, 11):
+    import tomllib
+else:  # pragma: no cover - Python 3.10
+    import tomli as tomllib
 
 
 @contextlib.contextmanager
@@ -140,3 +146,17 @@ def write_figure(draw, *args, **kwargs):
         print(f"warning: figure not written ({type(exc).__name__}: {first[:200]}); the tables "
               f"are written", file=sys.stderr)
         return None
+
+
+def read_toml(path, what: str = "configuration file") -> tuple[Path, dict[str, Any]]:
+    """(path, table) of a TOML file; InputError naming the file when it is missing, not UTF-8
+    text or not valid TOML."""
+    source = Path(path)
+    if not source.is_file():
+        raise InputError(f"{source}: no such {what}")
+    try:
+        return source, tomllib.loads(source.read_text())
+    except tomllib.TOMLDecodeError as exc:
+        raise InputError(f"{source}: invalid TOML: {exc}") from None
+    except UnicodeDecodeError:
+        raise InputError(f"{source}: not a text (UTF-8) file") from None

@@ -35,16 +35,11 @@ Parsing by tomllib; validation hand-written (each error names the file, table an
 from __future__ import annotations
 
 import math
-import sys
 from dataclasses import dataclass, field
 from pathlib import Path
 
-if sys.version_info >= (3, 11):
-    import tomllib
-else:  # pragma: no cover - Python 3.10
-    import tomli as tomllib
-
 from ..errors import InputError
+from ..io import read_toml
 from .mac import TARGET_KINDS
 
 #: Updatable card fields: card → field → (pyNastran attribute, index in it or None, whether the
@@ -207,15 +202,7 @@ def _parameter(source, i, p) -> UpdateParameter:
 
 def load_update_spec(path) -> UpdateSpec:
     """Read and validate a targets file (InputError naming the key on any problem)."""
-    source = Path(path)
-    if not source.is_file():
-        raise InputError(f"{source}: no such targets file")
-    try:
-        raw = tomllib.loads(source.read_text())
-    except tomllib.TOMLDecodeError as exc:
-        raise InputError(f"{source}: invalid TOML: {exc}") from None
-    except UnicodeDecodeError:
-        raise InputError(f"{source}: not a text (UTF-8) file") from None
+    source, raw = read_toml(path, "targets file")
     _keys(source, "top level", raw, ("target", "parameter", "modes", "optimizer", "reference"))
     targets = raw.get("target", [])
     params = raw.get("parameter", [])

@@ -68,17 +68,12 @@ from __future__ import annotations
 import dataclasses
 import inspect
 import math
-import sys
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-if sys.version_info >= (3, 11):
-    import tomllib
-else:  # pragma: no cover - Python 3.10
-    import tomli as tomllib
-
 from ..errors import InputError
+from ..io import read_toml
 from ..periodic import HarmonicBalanceMethod, HBOptions
 from ..rom import NonlinearROM
 from ..rom.analytic import BUILTIN
@@ -350,15 +345,7 @@ def apply_variant(raw: dict[str, Any], variant: str | None, source: Path) -> dic
 def load_sweep_config(path, variant: str | None = None) -> SweepConfig:
     """Read and validate a sweep configuration (InputError naming the key on any problem);
     ``variant`` merges ``[variants.<variant>]`` over the rest."""
-    source = Path(path)
-    if not source.is_file():
-        raise InputError(f"{source}: no such configuration file")
-    try:
-        raw = tomllib.loads(source.read_text())
-    except tomllib.TOMLDecodeError as exc:
-        raise InputError(f"{source}: invalid TOML: {exc}") from None
-    except UnicodeDecodeError:
-        raise InputError(f"{source}: not a text (UTF-8) file") from None
+    source, raw = read_toml(path, "configuration file")
     _check_keys(raw, SECTIONS, source, "top level")
     raw = apply_variant(raw, variant, source)
     _check_keys(raw, SECTIONS, source, f"top level (variant {variant})")
