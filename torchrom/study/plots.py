@@ -275,7 +275,8 @@ def branch_diagram(table: pd.DataFrame, path, *, parameter: str, units: str = ""
                    y: str = "amplitude", y_label: str | None = None, title: str | None = None,
                    label_of=None, force: bool = False) -> Path:
     """Bifurcation diagram of branch tables (:mod:`torchrom.study.branch`): ``y`` against the
-    parameter, one colour per branch, stable orbits solid, unstable dashed, the Hopf points
+    parameter, one colour per branch, stable orbits solid, unstable dashed, dotted where the
+    Floquet verdict is unknown (``floquet_error``), the Hopf points
     as open circles at zero amplitude, folds as diamonds (at their refined parameter). Only
     what is drawn gets a legend entry; the legend sits outside the axes."""
     import numpy as np
@@ -284,7 +285,7 @@ def branch_diagram(table: pd.DataFrame, path, *, parameter: str, units: str = ""
     plt = _pyplot()
     fig, ax = plt.subplots(figsize=(8.2, 4.6), constrained_layout=True)
     colors = plt.rcParams["axes.prop_cycle"].by_key()["color"]
-    drew = {"stable": False, "unstable": False, "hopf": False, "fold": False}
+    drew = {"stable": False, "unstable": False, "unknown": False, "hopf": False, "fold": False}
     for b, grp in table.groupby("branch", sort=True):
         color = colors[int(b) % len(colors)]
         grp = grp.sort_values("point")
@@ -295,11 +296,10 @@ def branch_diagram(table: pd.DataFrame, path, *, parameter: str, units: str = ""
         ax.plot([], [], color=color, label=name)
         for i in range(1, len(grp)):
             stable = bool(st[i]) if st[i] is not None and not pd.isna(st[i]) else None
-            if stable is None:
-                continue
-            ax.plot(x[i - 1: i + 1], v[i - 1: i + 1], color=color,
-                    ls="-" if stable else "--", lw=1.6)
-            drew["stable" if stable else "unstable"] = True
+            kind = "unknown" if stable is None else "stable" if stable else "unstable"
+            ax.plot(x[i - 1: i + 1], v[i - 1: i + 1], color=color, lw=1.6,
+                    ls={"stable": "-", "unstable": "--", "unknown": ":"}[kind])
+            drew[kind] = True
         hopf = (grp["kind"] == "hopf").to_numpy()
         if hopf.any():
             ax.plot(x[hopf], v[hopf], "o", mfc="white", color=color, ms=7, zorder=3)
@@ -315,6 +315,8 @@ def branch_diagram(table: pd.DataFrame, path, *, parameter: str, units: str = ""
         else []
     if drew["unstable"]:
         handles.append(plt.Line2D([], [], color="k", ls="--", label="unstable LCO"))
+    if drew["unknown"]:
+        handles.append(plt.Line2D([], [], color="k", ls=":", label="stability unknown"))
     if drew["hopf"]:
         handles.append(plt.Line2D([], [], marker="o", mfc="white", color="k", ls="none",
                                   label="Hopf (flutter) point"))
