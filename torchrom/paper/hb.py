@@ -22,7 +22,7 @@ import torch
 from ..periodic import BranchOptions, solve_orbits
 from ..periodic.fourier import resize_harmonics
 from ..periodic.solve import orbit_state
-from ..sim import HistoryRequest, LCOCriteria
+from ..sim import HistoryRequest
 from ..sim.newmark import output_matrix
 from ..study.branch import run_branches
 from ..study.cases import case_system, history_table
@@ -62,8 +62,7 @@ def newmark_confirmation(cfg, model, table: pd.DataFrame, device="cpu"
     t_end = CONFIRMATION_PERIODS * float(periods)
     integ = cfg.integrator
     res = integ.run(system, q0, v0, xi0, t_end=t_end, outputs=cfg.outputs,
-                    lco=dataclasses.replace(cfg.lco, stop=False, cycles=4)
-                    if isinstance(cfg.lco, LCOCriteria) else None,
+                    lco=dataclasses.replace(cfg.lco, stop=False, cycles=4),
                     history=HistoryRequest(tuple(range(len(idx))), 5))
     ids = [table["case_id"][i] for i in idx]
     rows = []

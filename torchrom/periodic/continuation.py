@@ -40,7 +40,13 @@ from .balance import HarmonicBalance
 from .floquet import floquet
 from .fourier import n_coefficients
 from .newton import NewtonOptions, newton
-from .solve import amplitude_condition, amplitude_powers, critical_modes, orbit_from_mode
+from .solve import (
+    amplitude_condition,
+    amplitude_powers,
+    critical_modes,
+    dual_coordinates,
+    orbit_from_mode,
+)
 
 Tensor = torch.Tensor
 
@@ -214,9 +220,7 @@ def follow_branches(builder: Builder, B: int, output_row, options: BranchOptions
     n = sys0.n
     nh = n_coefficients(H)
     r = torch.as_tensor(np.asarray(output_row, dtype=float), dtype=dt, device=dev)
-    eq = _ParameterEquations(builder, H, p_scale)
-    slaved = torch.as_tensor([i for i, k in enumerate(getattr(sys0.rom, "mode_kinds", []) or [])
-                              if k == "dual"], dtype=torch.long, device=dev)
+    slaved = dual_coordinates(sys0)
     power = amplitude_powers(sys0).to(dt)
     Bl = live.size
     # all per-branch state is indexed 0..Bl-1 (branch live[k]); the builder gets branch ids
@@ -224,7 +228,7 @@ def follow_branches(builder: Builder, B: int, output_row, options: BranchOptions
     def build(p, act):  # active positions -> branch ids
         return builder(np.asarray(p), live[np.asarray(act)])
 
-    eq.builder = build
+    eq = _ParameterEquations(build, H, p_scale)
     A1 = float(options.first_amplitude or 1e-2 * options.amplitude_scale)
     amps = torch.tensor([A1, 2 * A1], dtype=dt, device=dev)
     phi = hop["mode"].to(dev)

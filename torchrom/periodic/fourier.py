@@ -145,3 +145,18 @@ def basis_at(tau: Tensor, H: int) -> Tensor:
     out[..., 1::2] = torch.cos(k * tau[..., None])
     out[..., 2::2] = torch.sin(k * tau[..., None])
     return out
+
+
+def parabolic_extreme(y: Tensor, sign: float = 1.0) -> tuple[Tensor, Tensor]:
+    """(position, value) of the largest (``sign`` = 1) or smallest (−1) of periodic samples
+    y (B, P, ...) along P, refined by the parabola through the best sample and its two
+    neighbours: position in samples (fractional), value in y's units, each (B, ...)."""
+    z = sign * y
+    P = y.shape[1]
+    i = z.argmax(dim=1, keepdim=True)
+    a, b, c = z.gather(1, (i - 1) % P), z.gather(1, i), z.gather(1, (i + 1) % P)
+    den = a - 2 * b + c
+    safe = torch.where(den != 0, den, torch.ones_like(den))
+    shift = torch.where(den != 0, 0.5 * (a - c) / safe, torch.zeros_like(b))
+    peak = torch.where(den != 0, b - 0.125 * (a - c) ** 2 / safe, b)
+    return (i.to(y.dtype) + shift)[:, 0], sign * peak[:, 0]

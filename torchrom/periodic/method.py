@@ -20,6 +20,7 @@ given. Hand-written glue.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import time
 from dataclasses import dataclass, field
@@ -86,7 +87,7 @@ class HarmonicBalanceMethod:
         decide = C[crit.decision_outputs[0]]
         opts = self.options
         if math.isfinite(crit.max_amplitude) and not math.isfinite(opts.max_amplitude):
-            opts = _replace(opts, max_amplitude=float(crit.max_amplitude))
+            opts = dataclasses.replace(opts, max_amplitude=float(crit.max_amplitude))
         orb = solve_orbits(system.to(dtype=torch.float64), decide, opts,
                            chains=chains if self.start == "neighbour" else None,
                            positions=positions if self.start == "neighbour" else None)
@@ -151,8 +152,3 @@ class HarmonicBalanceMethod:
             q=q.cpu().numpy().reshape(B, n), v=np.zeros((B, n)), wall_time_s=wall,
             case_steps=int(orb.iterations.sum()), extra=extra)
 
-
-def _replace(options: HBOptions, **changes) -> HBOptions:
-    import dataclasses
-
-    return dataclasses.replace(options, **changes)

@@ -22,7 +22,7 @@ import torch
 
 from ..sim.system import CaseSystem
 from .balance import HarmonicBalance
-from .fourier import basis_at, synthesis_matrix
+from .fourier import basis_at, parabolic_extreme, synthesis_matrix
 from .newton import equilibrated_solve
 
 Tensor = torch.Tensor
@@ -65,15 +65,5 @@ def extreme_phases(Y: Tensor, n_points: int = 512) -> tuple[Tensor, Tensor]:
     H = (Y.shape[1] - 1) // 2
     E = synthesis_matrix(H, n_points, Y.device, Y.dtype)
     y = (E @ Y[..., None])[..., 0]
-    P = y.shape[1]
-    step = 2 * math.pi / P
-    out = []
-    for sign in (1.0, -1.0):
-        z = sign * y
-        i = z.argmax(dim=1, keepdim=True)
-        a, b, c = z.gather(1, (i - 1) % P), z.gather(1, i), z.gather(1, (i + 1) % P)
-        den = a - 2 * b + c
-        shift = torch.where(den != 0, 0.5 * (a - c) / torch.where(den != 0, den,
-                                                                   torch.ones_like(den)), 0 * b)
-        out.append(((i.to(Y.dtype) + shift) * step)[:, 0])
-    return out[0], out[1]
+    step = 2 * math.pi / y.shape[1]
+    return parabolic_extreme(y, 1.0)[0] * step, parabolic_extreme(y, -1.0)[0] * step

@@ -44,6 +44,7 @@ from .fourier import (
     coefficients_from_samples,
     harmonic_magnitudes,
     n_coefficients,
+    parabolic_extreme,
     resize_harmonics,
     synthesis_matrix,
 )
@@ -191,27 +192,12 @@ def orbit_amplitude(Y: Tensor, status, n_points: int = 512) -> np.ndarray:
     H = (Y.shape[1] - 1) // 2
     E = synthesis_matrix(H, n_points, Y.device, Y.dtype)
     y = E @ Y  # (B, P, O)
-    amp = 0.5 * (_extreme(y, max) - _extreme(y, min))
+    amp = 0.5 * (parabolic_extreme(y, 1.0)[1] - parabolic_extreme(y, -1.0)[1])
     out = amp.cpu().numpy()
     status = np.asarray(status)
     out[status == "decay"] = 0.0
     out[~np.isin(status, ("lco", "decay"))] = np.nan
     return out
-
-
-def _extreme(y: Tensor, which) -> Tensor:
-    """Refined max (which=max) or min of periodic samples y (B, P, O) along P."""
-    sign = 1.0 if which is max else -1.0
-    z = sign * y
-    i = z.argmax(dim=1, keepdim=True)
-    P = y.shape[1]
-    a = z.gather(1, (i - 1) % P)
-    b = z.gather(1, i)
-    c = z.gather(1, (i + 1) % P)
-    den = a - 2 * b + c
-    peak = b - 0.125 * (a - c) ** 2 / torch.where(den != 0, den, torch.ones_like(den))
-    peak = torch.where(den != 0, peak, b)
-    return sign * peak[:, 0]
 
 
 # -- the linearised cases ------------------------------------------------------------------------
@@ -239,6 +225,13 @@ def amplitude_powers(system: CaseSystem) -> Tensor:
     kinds = list(getattr(system.rom, "mode_kinds", None) or [])
     p = [2.0 if k == "dual" else 1.0 for k in kinds] if len(kinds) == system.n else [1.0] * system.n
     return torch.tensor(p, device=system.device)
+
+
+def dual_coordinates(system: CaseSystem) -> Tensor:
+    """Indices of the dual modes (the stiff coordinates Newton slaves, :mod:`.newton`)."""
+    kinds = list(getattr(system.rom, "mode_kinds", None) or [])
+    return torch.as_tensor([i for i, k in enumerate(kinds) if k == "dual"], dtype=torch.long,
+                           device=system.device)
 
 
 def orbit_from_mode(phi: Tensor, r: Tensor, amplitude: Tensor, nh: int) -> Tensor:
@@ -300,9 +293,7 @@ class _Evaluator:
 
     @property
     def slaved(self) -> Tensor:
-        kinds = list(getattr(self.system.rom, "mode_kinds", None) or [])
-        return torch.as_tensor([i for i, k in enumerate(kinds) if k == "dual"],
-                               dtype=torch.long, device=self.system.device)
+        return dual_coordinates(self.system)
 
 
 def truncation_residual(system: CaseSystem, X: Tensor, omega: Tensor) -> Tensor:
