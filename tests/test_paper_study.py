@@ -137,10 +137,11 @@ def quick_hb(quick, tmp_path_factory):
     return out
 
 
-#: the largest LCO (4,000 ft, γ = 0, ~24 % of span): HB stays ~0.7 % below the paper-setting
-#: Newmark at every H (the issue's prototype saw +0.8 %; twice its frequency lies near the first
-#: torsion mode) — which one is right is not settled (a Newmark run started on the HB orbit
-#: fails at dt = 1 ms)
+#: the largest LCO (4,000 ft, γ = 0, ~24 % of span): HB stays 0.3–0.8 % above the paper-setting
+#: Newmark at every H from 5 to 13 without converging in H (the issue's prototype saw +0.8 %;
+#: twice its frequency lies near the first torsion mode), while Newmark started on the HB orbit
+#: returns to Newmark's own LCO (within 0.02 % of the run from a small start) — the time
+#: integrator's answer is the self-consistent one here
 LARGEST_LCO = {"altitude_ft": 4000.0, "gamma": 0.0, "stiffness_nl": 1.0, "damping_nl": 1.0}
 
 
@@ -178,11 +179,14 @@ def test_quick_hb_agrees_with_newmark(quick, quick_hb):
     assert summary["method"] == "hb"
     confirm = pd.DataFrame(summary["hb"]["confirmation"])
     ok = confirm[confirm["newmark_status"] == "lco"]
-    assert len(ok) >= 6 and (ok["amplitude_diff_pct"].abs() <= 0.5).all()
+    big = (ok[list(LARGEST_LCO)] == pd.Series(LARGEST_LCO)).all(axis=1)
+    assert len(ok[~big]) >= 6 and (ok.loc[~big, "amplitude_diff_pct"].abs() <= 0.5).all()
+    # the largest LCO: time marching from the HB orbit ends within 1 % (LARGEST_LCO)
+    assert (ok.loc[big, "amplitude_diff_pct"].abs() <= 1.0).all()
     assert (quick_hb / "figures" / FIGURE_FILES["branches"]).stat().st_size > 10_000
 
 
-@pytest.mark.xfail(strict=True, reason="the largest LCO: HB ~0.7 % below Newmark (LARGEST_LCO)")
+@pytest.mark.xfail(strict=True, reason="the largest LCO: HB 0.3-0.8 % above Newmark (LARGEST_LCO)")
 def test_quick_hb_largest_lco_within_half_a_percent(quick, quick_hb):
     both, largest = _hb_newmark(quick, quick_hb)
     row = both[largest].iloc[0]

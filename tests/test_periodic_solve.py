@@ -11,7 +11,7 @@ import torch
 
 from torchrom.errors import InputError
 from torchrom.periodic import HBOptions, solve_orbits
-from torchrom.rom.analytic import van_der_pol_duffing
+from torchrom.rom.analytic import quintic_damping_oscillator, van_der_pol_duffing
 from torchrom.sim import CaseSystem, LCOCriteria, Newmark
 
 
@@ -68,6 +68,26 @@ def test_neighbour_chains_give_the_cold_answers():
     a_warm = warm.amplitude(torch.ones(1, 1))[:, 0]
     assert np.allclose(a_cold[lco], a_warm[lco], rtol=1e-8)
     assert warm.iterations.sum() < cold.iterations.sum()
+
+
+def test_a_warm_case_costs_a_few_iterations():
+    """Along a chain in α of the quintic oscillator (a slaved dual mode), every case after the
+    first two is solved at its neighbour's H from the secant predictor and checked against
+    its H − 2 orbit, itself extrapolated from the neighbours' (:func:`_check_harmonics`):
+    at most 4 Newton iterations in all (2 at H, 1–2 at H − 2; a cold start takes 14–17
+    here), and the same orbits as cold starts to the Newton tolerance."""
+    rom = quintic_damping_oscillator(c1=-1.0, d3=1.0, d5=0.5)
+    alpha = np.linspace(0.0, 0.6, 13)
+    system = CaseSystem.build(rom, len(alpha), alpha=alpha, gamma=1.0)
+    cold = solve_orbits(system, rom.outputs["q1"])
+    order = list(range(12, -1, -1))
+    warm = solve_orbits(system, rom.outputs["q1"], chains=[order], positions=alpha)
+    assert (cold.status == "lco").all() and (warm.status == "lco").all()
+    assert (warm.harmonics == cold.harmonics).all()
+    assert warm.iterations[order[2:]].max() <= 4
+    assert cold.iterations.min() >= 10
+    r = torch.as_tensor(rom.outputs["q1"])[None]
+    assert np.allclose(warm.amplitude(r), cold.amplitude(r), rtol=1e-8)
 
 
 def test_bounds_and_bad_input():

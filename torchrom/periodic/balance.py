@@ -157,9 +157,8 @@ class HarmonicBalance:
         q2, v2 = q.reshape(B * N, n), v.reshape(B * N, n)
         f = torch.zeros_like(q2)
         m2 = q2[:, k.pair_i] * q2[:, k.pair_j]
-        if self.has_stiffness:
-            fs, _ = k.stiffness_and_tangent(q2, m2)
-            f = f + self.s.repeat_interleave(N)[:, None] * fs
+        if self.has_stiffness:  # the force alone: the monomials' GEMM, no tangent
+            f = f + self.s.repeat_interleave(N)[:, None] * k.stiffness_nl(q2, m2)
         if self.has_damping:
             Dm = k.damping_nl_matrix(q2, m2)
             f = f + self.g.repeat_interleave(N)[:, None] * (Dm @ v2[..., None])[..., 0]

@@ -38,6 +38,9 @@ from .fourier import resize_harmonics
 from .sensitivity import amplitude_derivative
 from .solve import HBOptions, solve_orbits
 
+#: orbits per monodromy batch
+FLOQUET_BATCH = 16
+
 
 @dataclass
 class HarmonicBalanceMethod:
@@ -107,14 +110,17 @@ class HarmonicBalanceMethod:
         lco_idx = np.flatnonzero(orb.status == "lco")
         if self.stability and lco_idx.size:
             for h in np.unique(orb.harmonics[lco_idx]):
-                idx = lco_idx[orb.harmonics[lco_idx] == h]
-                t = torch.as_tensor(idx)
-                fl = floquet(system.select(t).to(dtype=torch.float64),
-                             resize_harmonics(orb.X[t], int(h)), orb.omega[t],
-                             self.floquet_steps)
-                stable[idx] = fl.stable
-                mult[idx] = fl.critical_modulus
-                ferr[idx] = fl.trivial_error
+                same_h = lco_idx[orb.harmonics[lco_idx] == h]
+                # in slices: the per-step matrices of a whole large batch outgrow the caches
+                for start in range(0, same_h.size, FLOQUET_BATCH):
+                    idx = same_h[start: start + FLOQUET_BATCH]
+                    t = torch.as_tensor(idx)
+                    fl = floquet(system.select(t).to(dtype=torch.float64),
+                                 resize_harmonics(orb.X[t], int(h)), orb.omega[t],
+                                 self.floquet_steps)
+                    stable[idx] = fl.stable
+                    mult[idx] = fl.critical_modulus
+                    ferr[idx] = fl.trivial_error
         if self.sensitivity and parameter_systems is not None:
             dA, df = np.full(B, np.nan), np.full(B, np.nan)
             plus, minus, dg = parameter_systems

@@ -20,6 +20,7 @@ Hand-written.
 from __future__ import annotations
 
 import contextlib
+import math
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 
@@ -94,6 +95,8 @@ def newton(evaluate: Evaluate, X: Tensor, omega: Tensor, mu: Tensor, phase_row: 
     det_sign = torch.zeros(B, dtype=X.dtype, device=X.device)
     todo = torch.arange(B, device=X.device) if active is None else active.clone()
     solves = 0
+    # the last unlimited step of every case, relative to its orbit (inf: none yet)
+    prev_rel = torch.full((B,), math.inf, dtype=X.dtype, device=X.device)
     for _ in range(options.max_iterations):
         if todo.numel() == 0:
             break
@@ -120,7 +123,16 @@ def newton(evaluate: Evaluate, X: Tensor, omega: Tensor, mu: Tensor, phase_row: 
             1e-300), max=1.0))
         step = step * lam[:, None]
         znew = z + step
-        done = ok & (dxmax <= options.tol * size) & (step[:, -2].abs() <= options.tol * wa.abs())
+        # converged when the step is below the tolerance, or when the contraction of the
+        # last two steps, θ = |Δ_k| / |Δ_{k−1}| < 1/2, bounds the error left after this one,
+        # θ/(1 − θ)|Δ_k| (Hairer & Wanner, Solving ODEs II, Sec. IV.8): a quadratically
+        # converging case stops one Jacobian early
+        rel = torch.maximum(dxmax / size, step[:, -2].abs() / wa.abs().clamp_min(1e-300))
+        prev = prev_rel[todo]
+        theta = torch.where(torch.isfinite(prev), rel / prev, torch.full_like(rel, math.inf))
+        left = torch.where((lam >= 1) & (theta < 0.5), theta / (1 - theta) * rel, rel)
+        done = ok & (left <= options.tol)
+        prev_rel[todo] = torch.where(lam >= 1, rel, torch.full_like(rel, math.inf))
         Xn = znew[:, : nh * n].view(Ba, nh, n)
         if residual_fn is not None and slaved is not None and slaved.numel() and not bool(
                 done.all()):
@@ -163,16 +175,22 @@ def equilibrated_solve(A: Tensor, b: Tensor) -> tuple[Tensor, Tensor, Tensor]:
     m = A.shape[-1]
     eye = torch.eye(m, dtype=A.dtype, device=A.device)
     tiny = torch.finfo(A.dtype).tiny
-    finite = torch.isfinite(A).all(dim=(1, 2)) & torch.isfinite(b).all(dim=1)
+    # a row's largest magnitude is NaN or inf exactly when the row holds one: a finiteness
+    # check of A at the cost of a vector's
+    row = A.abs().amax(dim=2)
+    finite = torch.isfinite(row).all(dim=1) & torch.isfinite(b).all(dim=1)
     A = torch.where(finite[:, None, None], A, eye)
     b = torch.where(finite[:, None], b, torch.zeros_like(b))
-    row = A.abs().amax(dim=2).clamp_min(tiny)
+    row = torch.where(finite[:, None], row, torch.ones_like(row)).clamp_min(tiny)
     A, b = A / row[..., None], b / row
     col = A.abs().amax(dim=1).clamp_min(tiny)
     A = A / col[:, None, :]
     with single_thread():
         lu, piv, info = torch.linalg.lu_factor_ex(A)
-        valid = (piv >= 1).all(dim=1) & (info == 0) & torch.isfinite(lu).all(dim=(1, 2))
+        # a finite matrix factors into finite factors unless a pivot vanished (then U's
+        # diagonal holds the zero or the overflow): U's diagonal is the check
+        valid = (piv >= 1).all(dim=1) & (info == 0) & torch.isfinite(
+            lu.diagonal(dim1=1, dim2=2)).all(dim=1)
         if not bool(valid.all()):  # refactor with the failed cases replaced
             A = torch.where(valid[:, None, None], A, eye)
             lu, piv, info = torch.linalg.lu_factor_ex(A)

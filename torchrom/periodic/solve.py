@@ -23,6 +23,12 @@ The number of harmonics is adaptive per case: the cold start runs at ``start_har
 then H grows by 2 until the amplitude changes by at most ``amplitude_rtol`` from the previous H
 and the truncation residual (harmonics H+1…3H of the nonlinear force, which the equations at
 H cannot balance, relative to the largest linear force) is at most ``residual_tol``.
+
+Along a neighbour chain (:func:`solve_orbits`) a case is solved at its neighbour's H from the
+secant extrapolation of the two neighbours before it; the orbit at H − 2 that measures its
+amplitude change is extrapolated the same way from theirs (each orbit keeps the lower one it
+was checked with) and solved only loosely, so a warm case costs about two Newton iterations
+at H and one at H − 2; a case that fails the test is raised as after a cold start.
 Hand-written.
 """
 
@@ -65,6 +71,8 @@ FINAL_STAGE_RTOL = 0.05
 MAX_RETRIES = 6
 #: a warm start whose orbit shrank below this fraction of its neighbour's fell onto q = 0
 COLLAPSE_RATIO = 1e-3
+#: the H − 2 orbit of the adaptive check is solved to this fraction of ``amplitude_rtol``
+LOW_H_TOL = 0.1
 
 
 @dataclass(frozen=True)
@@ -353,6 +361,8 @@ def cold_start(system: CaseSystem, r: Tensor, options: HBOptions,
     evaluate = _Evaluator(system, H)
     nan = torch.full((B,), math.nan, dtype=dt, device=dev)
     x_prev, c_prev = nan.clone(), nan.clone()
+    # the converged stage before the last (orbit, ω, c, amplitude; A NaN until there is one)
+    X_before, om_before, c_before, A_before = X.clone(), omega.clone(), c.clone(), nan.clone()
     A_try = A.clone()  # amplitude of the next stage
     final = torch.zeros(B, dtype=torch.bool, device=dev)
     first = torch.ones(B, dtype=torch.bool, device=dev)
@@ -365,21 +375,31 @@ def cold_start(system: CaseSystem, r: Tensor, options: HBOptions,
         if act.numel() == 0:
             break
         # start every case from its last converged orbit scaled to the amplitude tried
-        # (linear coordinates ∝ A, dual ones ∝ A²: their quasi-static response)
-        start = X * (A_try / A)[:, None, None] ** power
+        # (linear coordinates ∝ A, dual ones ∝ A²: their quasi-static response); with two
+        # converged stages, the scaled shape X/A^p, ω and c are extrapolated (a secant
+        # predictor: far fewer Newton iterations on the large, strongly nonlinear stages)
+        shape = X / A[:, None, None] ** power
+        two = torch.isfinite(A_before) & (A_before != A)
+        Ab = torch.where(two, A_before, A)
+        f = torch.where(two, (A_try - A) / (A - Ab), torch.zeros_like(A))
+        shape_b = torch.where(two[:, None, None], X_before / Ab[:, None, None] ** power, shape)
+        start = (shape + f[:, None, None] * (shape - shape_b)) * A_try[:, None, None] ** power
+        om_start = omega + f * (omega - torch.where(two, om_before, omega))
+        c_start = c + torch.where(two, (c - c_before) * (A_try**2 - A**2) / (A**2 - Ab**2),
+                                  torch.zeros_like(c))
         fin = act[final[act]]
         stg = act[~final[act]]
-        X_new, om_new, c_new = start.clone(), omega.clone(), c.clone()
+        X_new, om_new, c_new = start.clone(), om_start.clone(), c_start.clone()
         conv = torch.zeros(B, dtype=torch.bool, device=dev)
         for idx, is_final in ((stg, False), (fin, True)):
             if idx.numel() == 0:
                 continue
             if is_final:  # c = 0, amplitude free: the physical orbit
                 w, d = fixed_parameter_condition(B, nh, n, zero)
-                res = evaluate.newton(start, omega, c, r, w, d, A_try, options.newton, idx)
+                res = evaluate.newton(start, om_start, c, r, w, d, A_try, options.newton, idx)
             else:  # amplitude fixed, c free
                 w, d = amplitude_condition(r, nh, A_try)
-                res = evaluate.newton(start, omega, c, r, w, d, A_try, loose, idx)
+                res = evaluate.newton(start, om_start, c_start, r, w, d, A_try, loose, idx)
             iterations += res.iterations
             X_new[idx], om_new[idx], c_new[idx] = res.X[idx], res.omega[idx], res.mu[idx]
             residual[idx] = res.residual[idx]
@@ -400,6 +420,10 @@ def cold_start(system: CaseSystem, r: Tensor, options: HBOptions,
         good = act[~final[act] & conv[act]]
         if good.numel() == 0:
             continue
+        # the stage before (for the predictor): the last converged one, not the first guess
+        was = good[~first[good]]
+        X_before[was], om_before[was], c_before[was], A_before[was] = (
+            X[was], omega[was], c[was], A[was])
         X[good], omega[good], c[good] = X_new[good], om_new[good], c_new[good]
         A[good] = A_try[good]
         first[good] = False
@@ -450,7 +474,10 @@ def refine_harmonics(system: CaseSystem, X: Tensor, omega: Tensor, r: Tensor, H:
 
 @dataclass
 class _Orbits:
-    """Working arrays of a batch (numpy per-case fields, torch coefficients at H_max)."""
+    """Working arrays of a batch (numpy per-case fields, torch coefficients at H_max). The
+    orbit at H − 2 that measured each accepted orbit's amplitude change rides along
+    (``X_low``, ``omega_low``; NaN frequency where there is none): the next case of a chain
+    starts its own H − 2 solve from it."""
 
     X: Tensor
     omega: Tensor
@@ -459,6 +486,13 @@ class _Orbits:
     residual: np.ndarray
     amplitude_change: np.ndarray
     iterations: np.ndarray
+    X_low: Tensor | None = None
+    omega_low: Tensor | None = None
+
+    def __post_init__(self):
+        if self.X_low is None:
+            self.X_low = torch.zeros_like(self.X)
+            self.omega_low = torch.full_like(self.omega, math.nan)
 
     @classmethod
     def empty(cls, B: int, nh: int, n: int, like: Tensor) -> _Orbits:
@@ -466,10 +500,19 @@ class _Orbits:
                    np.zeros(B, dtype=int), np.full(B, "failed", dtype=object),
                    np.full(B, math.nan), np.full(B, math.nan), np.zeros(B, dtype=int))
 
+    def widen(self, H: int) -> None:
+        """Coefficients zero-padded to H harmonics (if fewer)."""
+        if n_coefficients(H) > self.X.shape[1]:
+            self.X = resize_harmonics(self.X, H)
+            self.X_low = resize_harmonics(self.X_low, H)
+
     def put(self, idx: np.ndarray, other: _Orbits) -> None:
         t = torch.as_tensor(idx, dtype=torch.long, device=self.X.device)
-        self.X[t] = resize_harmonics(other.X, (self.X.shape[1] - 1) // 2)
+        H = (self.X.shape[1] - 1) // 2
+        self.X[t] = resize_harmonics(other.X, H)
+        self.X_low[t] = resize_harmonics(other.X_low, H)
         self.omega[t] = other.omega
+        self.omega_low[t] = other.omega_low
         for name in ("H", "status", "residual", "amplitude_change", "iterations"):
             getattr(self, name)[idx] = getattr(other, name)
 
@@ -500,6 +543,9 @@ def _adapt_harmonics(system: CaseSystem, r: Tensor, orb: _Orbits, H: int,
         ok = todo[conv]
         X = resize_harmonics(X, H_new)
         okt = torch.as_tensor(ok, dtype=torch.long, device=X.device)
+        X_low = resize_harmonics(orb.X_low, H_new)
+        X_low[okt], orb.omega_low[okt] = X[okt], omega[okt]  # the orbit at H, now the low one
+        orb.X_low = X_low
         X[okt], omega[okt] = Xn[okt], wn[okt]
         orb.residual[ok] = res[okt].cpu().numpy()
         orb.H[ok] = H_new
@@ -515,6 +561,7 @@ def _adapt_harmonics(system: CaseSystem, r: Tensor, orb: _Orbits, H: int,
         accept = (change[ok] <= options.amplitude_rtol) & (trunc <= options.residual_tol)
         todo = ok[~accept]
     orb.X, orb.omega = X, omega
+    orb.X_low = resize_harmonics(orb.X_low, (X.shape[1] - 1) // 2)
     return orb
 
 
@@ -541,12 +588,14 @@ def _warm_newton(system: CaseSystem, r: Tensor, X: Tensor, omega: Tensor, H: int
 
 
 def _solve_warm(system: CaseSystem, r: Tensor, X: Tensor, omega: Tensor, H: int,
-                options: HBOptions, neighbours: CaseSystem | None = None) -> _Orbits:
+                options: HBOptions, neighbours: CaseSystem | None = None,
+                low: tuple[Tensor, Tensor] | None = None) -> _Orbits:
     """Every case of ``system`` from a neighbour's orbit (X, ω truncated to H harmonics):
     Newton with c = 0, then the adaptive H check as for a cold start. Where that fails and the
     neighbours' own cases are given, the cases are reached along the straight path from the
     neighbours' (:meth:`CaseSystem.blend`) in 2, then 4 sub-steps (a homotopy); failures
-    left start cold (:func:`solve_orbits`)."""
+    left start cold (:func:`solve_orbits`). ``low``: starts of the check's H − 2 orbits
+    (:func:`_check_harmonics`)."""
     B = system.batch_size
     act = torch.arange(B, device=X.device)
     Xn, wn, conv, its, res = _warm_newton(system, r, X, omega, H, options, act)
@@ -577,7 +626,61 @@ def _solve_warm(system: CaseSystem, r: Tensor, X: Tensor, omega: Tensor, H: int,
     status[(status == "lco") & (amp > options.max_amplitude)] = "diverged"
     orb = _Orbits(Xn, wn, np.where(status == "lco", H, 0), status, res.cpu().numpy(),
                   np.full(B, math.nan), its)
-    return _adapt_harmonics(system, r, orb, H, options)
+    return _check_harmonics(system, r, orb, H, options, low)
+
+
+def _check_harmonics(system: CaseSystem, r: Tensor, orb: _Orbits, H: int,
+                     options: HBOptions, low: tuple[Tensor, Tensor] | None = None) -> _Orbits:
+    """The adaptive-H test of :func:`_adapt_harmonics` for orbits already solved at H (a warm
+    start at the neighbour's H): the H − 2 orbit is solved only to :data:`LOW_H_TOL` of the
+    amplitude tolerance (it measures the change, nothing more), from ``low`` (X (B, ·, n), ω
+    (B,): the neighbours' H − 2 orbits extrapolated, NaN ω where there is none) or else from
+    the truncated H orbit (farther: the dual coordinates move by percents when the top
+    harmonics are cut). Accepted orbits keep H; the others are raised by
+    :func:`_adapt_harmonics`."""
+    lco = np.flatnonzero(orb.status == "lco")
+    if lco.size == 0 or H - 2 < 1 or H < options.harmonics:
+        return _adapt_harmonics(system, r, orb, H, options)
+    act = torch.as_tensor(lco, device=orb.X.device)
+    X0, w0 = resize_harmonics(orb.X, H - 2), orb.omega.clone()
+    if low is not None:
+        given = torch.isfinite(low[1])
+        X0 = torch.where(given[:, None, None], resize_harmonics(low[0], H - 2), X0)
+        w0 = torch.where(given, low[1], w0)
+    loose = dataclasses.replace(options, newton=dataclasses.replace(
+        options.newton, tol=LOW_H_TOL * options.amplitude_rtol))
+    X_low, w_low, conv, its, _ = refine_harmonics(system, X0, w0, r, H - 2, loose, act)
+    amp0 = (orb.X[:, 1] @ r).abs()
+    conv = conv & ((X_low[:, 1] @ r).abs() > COLLAPSE_RATIO * amp0)
+    orb.iterations[lco] += its[act].cpu().numpy()
+    retry = act[~conv[act]]
+    if low is not None and retry.numel():  # a predictor that missed: from the truncated orbit
+        Xr, wr, cr, itr, _ = refine_harmonics(system, resize_harmonics(orb.X, H - 2),
+                                              orb.omega, r, H - 2, loose, retry)
+        cr = cr & ((Xr[:, 1] @ r).abs() > COLLAPSE_RATIO * amp0)
+        X_low[retry], w_low[retry], conv[retry] = Xr[retry], wr[retry], cr[retry]
+        orb.iterations[retry.cpu().numpy()] += itr[retry].cpu().numpy()
+    orb.X_low = resize_harmonics(orb.X_low, H)
+    orb.X_low[act], orb.omega_low[act] = resize_harmonics(X_low[act], H), w_low[act]
+    rows = r[None, :]
+    amps = orbit_amplitude(torch.cat([resize_harmonics(X_low[act], H), orb.X[act]]) @ rows.T,
+                           np.full(2 * lco.size, "lco", dtype=object),
+                           options.metric_points)[:, 0]
+    amp_low, amp = amps[: lco.size], amps[lco.size:]
+    # no lower orbit, no measured change (NaN, and the case is raised)
+    change = np.where(conv[act].cpu().numpy(),
+                      np.abs(amp - amp_low) / np.maximum(np.abs(amp), 1e-300), np.nan)
+    orb.amplitude_change[lco] = change
+    trunc = truncation_residual(system.select(act), orb.X[act], orb.omega[act]).cpu().numpy()
+    accept = (change <= options.amplitude_rtol) & (trunc <= options.residual_tol)
+    if accept.all():
+        return orb
+    redo = lco[~accept]
+    sub = _subset(orb, np.isin(np.arange(len(orb.status)), redo))
+    raised = _adapt_harmonics(system.select(torch.as_tensor(redo)), r, sub, H, options)
+    orb.widen((raised.X.shape[1] - 1) // 2)
+    orb.put(redo, raised)
+    return orb
 
 
 def solve_orbits(system: CaseSystem, output_row, options: HBOptions = HBOptions(),
@@ -620,11 +723,12 @@ def solve_orbits(system: CaseSystem, output_row, options: HBOptions = HBOptions(
         if warm.any():
             idx, pidx, p2 = here[warm], prev[warm], prev2[warm]
             sub = system.select(torch.as_tensor(idx))
-            # start every warm case one step below its neighbour's H (the largest in the
-            # group): the adaptive check raises it again, so H does not creep along a chain
-            H = max(options.start_harmonics, int(out.H[pidx].max()) - 2)
-            X0 = resize_harmonics(out.X[torch.as_tensor(pidx)], H)
-            w0 = out.omega[torch.as_tensor(pidx)].clone()
+            # every warm case at its neighbour's H (the largest in the group); the check of
+            # :func:`_check_harmonics` may accept it, lower nothing, or raise it
+            H = max(options.start_harmonics, int(out.H[pidx].max()))
+            # the predictors at H and at H − 2 (for the check's lower orbit)
+            X0, w0 = _at_level(out, pidx, H)
+            L0, wl0 = _at_level(out, pidx, H - 2)
             if pos is not None:  # secant predictor through the two neighbours
                 two = (p2 >= 0)
                 two[two] &= out.status[p2[two]] == "lco"
@@ -634,13 +738,13 @@ def solve_orbits(system: CaseSystem, output_row, options: HBOptions = HBOptions(
                     f = torch.as_tensor((pos[idx[two]] - pos[a]) / (pos[a] - pos[b]),
                                         dtype=X0.dtype)
                     f = torch.where(torch.isfinite(f), f, torch.zeros_like(f))
-                    Xa = out.X[torch.as_tensor(a)]
-                    Xb = out.X[torch.as_tensor(b)]
-                    X0[t2] = resize_harmonics(Xa + f[:, None, None] * (Xa - Xb), H)
-                    w0[t2] = out.omega[torch.as_tensor(a)] + f * (
-                        out.omega[torch.as_tensor(a)] - out.omega[torch.as_tensor(b)])
+                    for level, (Xs, ws) in ((H, (X0, w0)), (H - 2, (L0, wl0))):
+                        Xa, wa_ = _at_level(out, a, level)
+                        Xb, wb_ = _at_level(out, b, level)
+                        Xs[t2] = Xa + f[:, None, None] * (Xa - Xb)
+                        ws[t2] = wa_ + f * (wa_ - wb_)
             w_orb = _solve_warm(sub, r, X0, w0, H, options,
-                                neighbours=system.select(torch.as_tensor(pidx)))
+                                neighbours=system.select(torch.as_tensor(pidx)), low=(L0, wl0))
             failed = w_orb.status != "lco"
             out.put(idx[~failed], _subset(w_orb, ~failed))
             cold = np.concatenate([cold, idx[failed]])
@@ -677,10 +781,22 @@ def solve_orbits(system: CaseSystem, output_row, options: HBOptions = HBOptions(
                           critical_root=roots)
 
 
+def _at_level(orb: _Orbits, idx: np.ndarray, H: int) -> tuple[Tensor, Tensor]:
+    """(X (len(idx), 2H+1, n), ω) of the cases ``idx`` of ``orb`` at H harmonics: the lower
+    orbit where that is at H, else the orbit (truncated or zero-padded to H)."""
+    t = torch.as_tensor(np.asarray(idx), dtype=torch.long, device=orb.X.device)
+    low_h = torch.as_tensor(orb.H[np.asarray(idx)] - 2 == H, device=orb.X.device)
+    low_h &= torch.isfinite(orb.omega_low[t])
+    X = torch.where(low_h[:, None, None], resize_harmonics(orb.X_low[t], H),
+                    resize_harmonics(orb.X[t], H))
+    return X, torch.where(low_h, orb.omega_low[t], orb.omega[t])
+
+
 def _subset(orb: _Orbits, mask: np.ndarray) -> _Orbits:
     t = torch.as_tensor(np.flatnonzero(mask), dtype=torch.long, device=orb.X.device)
     return _Orbits(orb.X[t], orb.omega[t], orb.H[mask], orb.status[mask], orb.residual[mask],
-                   orb.amplitude_change[mask], orb.iterations[mask])
+                   orb.amplitude_change[mask], orb.iterations[mask], orb.X_low[t],
+                   orb.omega_low[t])
 
 
 __all__ = ["HBOptions", "PeriodicOrbits", "solve_orbits", "critical_modes", "cold_start",
