@@ -488,11 +488,14 @@ class _Orbits:
     iterations: np.ndarray
     X_low: Tensor | None = None
     omega_low: Tensor | None = None
+    truncation: np.ndarray | None = None
 
     def __post_init__(self):
         if self.X_low is None:
             self.X_low = torch.zeros_like(self.X)
             self.omega_low = torch.full_like(self.omega, math.nan)
+        if self.truncation is None:  # the truncation residual at the current H (NaN: unknown)
+            self.truncation = np.full(len(self.status), math.nan)
 
     @classmethod
     def empty(cls, B: int, nh: int, n: int, like: Tensor) -> _Orbits:
@@ -513,7 +516,8 @@ class _Orbits:
         self.X_low[t] = resize_harmonics(other.X_low, H)
         self.omega[t] = other.omega
         self.omega_low[t] = other.omega_low
-        for name in ("H", "status", "residual", "amplitude_change", "iterations"):
+        for name in ("H", "status", "residual", "amplitude_change", "iterations",
+                     "truncation"):
             getattr(self, name)[idx] = getattr(other, name)
 
 
@@ -549,6 +553,7 @@ def _adapt_harmonics(system: CaseSystem, r: Tensor, orb: _Orbits, H: int,
         X[okt], omega[okt] = Xn[okt], wn[okt]
         orb.residual[ok] = res[okt].cpu().numpy()
         orb.H[ok] = H_new
+        orb.truncation[ok] = math.nan
         amp = amp_of(X)
         change = np.abs(amp - prev_amp) / np.maximum(np.abs(amp), 1e-300)
         orb.amplitude_change[ok] = change[ok]
@@ -558,6 +563,7 @@ def _adapt_harmonics(system: CaseSystem, r: Tensor, orb: _Orbits, H: int,
             todo = ok
             continue
         trunc = truncation_residual(system.select(okt), X[okt], omega[okt]).cpu().numpy()
+        orb.truncation[ok] = trunc
         accept = (change[ok] <= options.amplitude_rtol) & (trunc <= options.residual_tol)
         todo = ok[~accept]
     orb.X, orb.omega = X, omega
@@ -672,6 +678,7 @@ def _check_harmonics(system: CaseSystem, r: Tensor, orb: _Orbits, H: int,
                       np.abs(amp - amp_low) / np.maximum(np.abs(amp), 1e-300), np.nan)
     orb.amplitude_change[lco] = change
     trunc = truncation_residual(system.select(act), orb.X[act], orb.omega[act]).cpu().numpy()
+    orb.truncation[lco] = trunc
     accept = (change <= options.amplitude_rtol) & (trunc <= options.residual_tol)
     if accept.all():
         return orb
@@ -768,8 +775,9 @@ def solve_orbits(system: CaseSystem, output_row, options: HBOptions = HBOptions(
     omega[torch.as_tensor(decay, dtype=torch.long)] = torch.as_tensor(
         roots[decay].imag, dtype=omega.dtype)
     omega[torch.as_tensor(~np.isin(out.status, ("lco", "decay")))] = math.nan
-    trunc = np.full(B, math.nan)
-    lco = np.flatnonzero(out.status == "lco")
+    # the truncation residual where the adaptive test did not leave it (a case at max H)
+    trunc = np.where(out.status == "lco", out.truncation, math.nan)
+    lco = np.flatnonzero((out.status == "lco") & np.isnan(trunc))
     for h in np.unique(out.H[lco]):
         idx = lco[out.H[lco] == h]
         t = torch.as_tensor(idx)
@@ -796,7 +804,7 @@ def _subset(orb: _Orbits, mask: np.ndarray) -> _Orbits:
     t = torch.as_tensor(np.flatnonzero(mask), dtype=torch.long, device=orb.X.device)
     return _Orbits(orb.X[t], orb.omega[t], orb.H[mask], orb.status[mask], orb.residual[mask],
                    orb.amplitude_change[mask], orb.iterations[mask], orb.X_low[t],
-                   orb.omega_low[t])
+                   orb.omega_low[t], orb.truncation[mask])
 
 
 __all__ = ["HBOptions", "PeriodicOrbits", "solve_orbits", "critical_modes", "cold_start",
