@@ -28,11 +28,13 @@ of the orbit
 (:func:`torchrom.periodic.solve.orbit_state`); a case without an orbit (a decay, a failed
 solve) starts small. The time integration then only confirms the orbit — its amplitude after
 the LCO criteria are met is the integrator's own, not harmonic balance's (they differ by the
-truncation in H and the step's error). All cases in one batch. On the quick Goland set
-(``benchmarks/bench_lco.py --methods newmark-hb``) the confirmation still takes 2.5–6 s of
-simulated time at dt = 1 ms (the LCO criteria need four steady cycles, and the stiff dual modes'
-transient from the truncated orbit must settle), so the harmonic balance solve is paid on top of
-a marching cost that is only ~2x smaller than the 10 %-of-span static-manifold start's.
+truncation in H and the step's error). All cases in one batch. It pays where the LCO attracts
+quickly; near an undamped one it does not: the LCO criteria need several steady cycles, and the
+integrator's own orbit lies up to a few tenths of a percent from harmonic balance's and is
+approached slowly (Goland at γ = 0, 4,000 ft: dt = 0.25 ms from the H = 13 orbit meets rtol 1e-4
+only after 10 s, ``experiments/hb_orbit_time_marching.py``). On the quick Goland set
+(``benchmarks/bench_lco.py --methods newmark-hb``) it costs more than the 10 %-of-span
+static-manifold start of the ``newmark`` method, the harmonic balance solve included.
 
 A supercritical LCO is the same whatever the start (the attracting orbit; tested within the
 LCO tolerance). For a **subcritical** system the start decides which attractor a case reaches
@@ -48,7 +50,10 @@ usually a *large* one — ``q0`` near the expected amplitude with ``static_manif
 cases in one batch (``benchmarks/bench_lco.py``, method ``newmark``). ``neighbour`` reaches the
 Goland LCOs in fewer simulated seconds than a small start, but its waves are batches of one case
 per line, where a step costs several times more per case: it pays with many lines (or on a
-device where small batches cost little).
+device where small batches cost little). ``hb`` is not the default either: it costs more on the
+Goland set (above), and a case would start on whichever orbit harmonic balance finds — for a
+subcritical system possibly the unstable one, from which the integration leaves toward either
+attractor.
 
 A start kind is one function ``start(context) -> InitialState`` in :data:`START_KINDS` with a
 flag saying whether it continues from finished cases (runs in waves).
