@@ -26,7 +26,9 @@ seconds of the whole method):
   with its defaults: adaptive H 5..9, neighbour chains, Floquet stability), cold starts included;
 - ``newmark-neighbour`` (``--methods``): the same steps with warm starts along the altitude
   (:mod:`torchrom.study.starts`); fewer simulated seconds per LCO, but the waves are batches of
-  one case per γ, where a step costs several times more per case.
+  one case per γ, where a step costs several times more per case;
+- ``newmark-hb`` (``--methods``): the same steps from each case's harmonic-balance orbit
+  (``[initial] start = "hb"``), the harmonic balance solve included in its CPU time.
 
 **References**: :func:`hb_reference`, harmonic balance at H = 13 (amplitude rtol 1e-4),
 checked against fixed-step Newmark at dt = 0.25 ms started on its orbits (the errors of every
@@ -161,6 +163,12 @@ def newmark_neighbour(bench: Bench) -> MethodRun:
                                                  "along": "altitude_ft"})
 
 
+def newmark_hb(bench: Bench) -> MethodRun:
+    """The same steps, every case started on its harmonic-balance orbit (``[initial] start =
+    "hb"``, :func:`torchrom.study.starts.hb_start`); the orbits' solve counts in the CPU time."""
+    return _marched(bench, Newmark(**ADAPTIVE), {**_large_start(bench), "start": "hb"})
+
+
 # --- harmonic balance (issue 13) ----------------------------------------------------------------
 def harmonic_balance(bench: Bench) -> MethodRun:
     """Periodic orbits by harmonic balance (:class:`torchrom.periodic.HarmonicBalanceMethod`,
@@ -221,6 +229,7 @@ METHODS: dict[str, Callable[[Bench], MethodRun]] = {
     "newmark-reference": newmark_reference,
     "newmark": newmark_default,
     "newmark-neighbour": newmark_neighbour,
+    "newmark-hb": newmark_hb,
     "hb": harmonic_balance,
 }
 #: run by default (``--methods`` adds others)

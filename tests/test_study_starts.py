@@ -67,6 +67,14 @@ def test_supercritical_lcos_do_not_depend_on_the_start():
     later = [1, 2, 3, 5, 6, 7]
     assert warm.time[later].sum() < 0.7 * small.time[later].sum()
     np.testing.assert_array_equal(warm.time[[0, 4]], small.time[[0, 4]])
+    # started on its harmonic-balance orbit, each case only confirms it: the same LCO (the
+    # integrator's, within the LCO tolerance as above) in less simulated time than from the
+    # small start
+    orbit = march(system, model.rom, cases, {**initial, "start": "hb"}, _run())
+    assert (orbit.status == "lco").all()
+    np.testing.assert_allclose(orbit.amplitude[:, 0], small.amplitude[:, 0], rtol=5e-3)
+    np.testing.assert_allclose(orbit.frequency_hz, small.frequency_hz, rtol=1e-3)
+    assert orbit.time.sum() < 0.5 * small.time.sum()
 
 
 def test_subcritical_start_decides_the_attractor():

@@ -20,6 +20,22 @@ not carried over; λ clipped to [½, 2]). The lines run in *waves* (the k-th cas
 together, one batched integration per wave), so a chunk takes as many batched runs as its
 longest line.
 
+``hb`` (start on the orbit): every case starts at τ = 0 of its periodic orbit found by harmonic
+balance (:func:`torchrom.periodic.solve_orbits` with the default
+:class:`~torchrom.periodic.HBOptions`, neighbour chains along the parameter with the most
+values, the phase and amplitude measured on the ROM's first named output), with the lag states
+of the orbit
+(:func:`torchrom.periodic.solve.orbit_state`); a case without an orbit (a decay, a failed
+solve) starts small. The time integration then only confirms the orbit — its amplitude after
+the LCO criteria are met is the integrator's own, not harmonic balance's (they differ by the
+truncation in H and the step's error). All cases in one batch. It pays where the LCO attracts
+quickly; near an undamped one it does not: the LCO criteria need several steady cycles, and the
+integrator's own orbit lies up to a few tenths of a percent from harmonic balance's and is
+approached slowly (Goland at γ = 0, 4,000 ft: dt = 0.25 ms from the H = 13 orbit meets rtol 1e-4
+only after 10 s, ``experiments/hb_orbit_time_marching.py``). On the quick Goland set
+(``benchmarks/bench_lco.py --methods newmark-hb``) it costs more than the 10 %-of-span
+static-manifold start of the ``newmark`` method, the harmonic balance solve included.
+
 A supercritical LCO is the same whatever the start (the attracting orbit; tested within the
 LCO tolerance). For a **subcritical** system the start decides which attractor a case reaches
 (the rest position or the LCO, on either side of the unstable orbit): ``neighbour`` then
@@ -34,7 +50,10 @@ usually a *large* one — ``q0`` near the expected amplitude with ``static_manif
 cases in one batch (``benchmarks/bench_lco.py``, method ``newmark``). ``neighbour`` reaches the
 Goland LCOs in fewer simulated seconds than a small start, but its waves are batches of one case
 per line, where a step costs several times more per case: it pays with many lines (or on a
-device where small batches cost little).
+device where small batches cost little). ``hb`` is not the default either: it costs more on the
+Goland set (above), and a case would start on whichever orbit harmonic balance finds — for a
+subcritical system possibly the unstable one, from which the integration leaves toward either
+attractor.
 
 A start kind is one function ``start(context) -> InitialState`` in :data:`START_KINDS` with a
 flag saying whether it continues from finished cases (runs in waves).
@@ -47,6 +66,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
+import torch
 
 from ..errors import InputError
 from ..rom import NonlinearROM
@@ -138,6 +158,30 @@ def neighbour_start(ctx: StartContext) -> InitialState:
     return InitialState(start.q, start.v, xi)
 
 
+def hb_start(ctx: StartContext) -> InitialState:
+    """Each case on its harmonic-balance orbit; a small start where there is none (module
+    docstring)."""
+    from ..periodic import HBOptions, solve_orbits
+    from ..periodic.solve import orbit_state
+    from .cases import neighbour_chains
+
+    start = small_start(ctx)
+    if not ctx.rom.outputs:
+        raise InputError("[initial] start = \"hb\": the ROM has no named output to measure "
+                         "the orbits' phase and amplitude on")
+    row = np.asarray(next(iter(ctx.rom.outputs.values())), dtype=float).reshape(-1)
+    system = ctx.system.to(dtype=torch.float64)
+    chains, positions = neighbour_chains(ctx.cases)
+    orb = solve_orbits(system, row, HBOptions(), chains=chains, positions=positions)
+    on = orb.status == "lco"
+    xi = np.zeros((len(ctx.cases), ctx.system.n_lag))
+    if on.any():
+        idx = torch.as_tensor(np.flatnonzero(on))
+        q, v, x = orbit_state(system.select(idx), orb.X[idx], orb.omega[idx])
+        start.q[on], start.v[on], xi[on] = q, v, x
+    return InitialState(start.q, start.v, xi)
+
+
 @dataclass(frozen=True)
 class StartKind:
     """A start: ``initial(context)`` and whether it continues from finished cases (waves)."""
@@ -149,6 +193,7 @@ class StartKind:
 START_KINDS: dict[str, StartKind] = {
     "small": StartKind(small_start, sequential=False),
     "neighbour": StartKind(neighbour_start, sequential=True),
+    "hb": StartKind(hb_start, sequential=False),
 }
 #: the start of a sweep without ``[initial] start`` (see the module docstring)
 DEFAULT_START = "small"
