@@ -7,9 +7,9 @@ Hand-written here: which cards are supported, the checks that turn bad input int
 properties/materials/constraints/loads into the plain arrays of :mod:`torchrom.fe.mesh`, and the
 selection of the SPC set and eigenvalue method from the case control (or the only one present).
 
-Supported structural cards: GRID (CP, CD, PS), GRDSET, SPOINT (a one-DOF row after the grids), CORD1R/C/S, CORD2R/C/S, SPC, SPC1,
-SPCADD, MPC/MPCADD, MAT1, CROD/PROD, CONROD, CQUAD4/CTRIA3 with PSHELL or PCOMP (MAT1/MAT8 plies,
-:mod:`torchrom.fe.laminate`), CHEXA/CPENTA/CTETRA/PSOLID
+Supported structural cards: GRID (CP, CD, PS), GRDSET, SPOINT (a one-DOF row after the grids),
+CORD1R/C/S, CORD2R/C/S, SPC, SPC1, SPCADD, MPC/MPCADD, MAT1, CROD/PROD, CONROD, CQUAD4/CTRIA3
+with PSHELL or PCOMP (MAT1/MAT8 plies, :mod:`torchrom.fe.laminate`), CHEXA/CPENTA/CTETRA/PSOLID
 (linear, corner grids; CTETRA also quadratic), CSHEAR/PSHEAR, CBAR/PBAR/PBARL,
 CBEAM/PBEAM/PBEAML (:mod:`torchrom.fe.sections`), CELAS1/PELAS, CELAS2, CONM1, CONM2,
 CMASS1/PMASS, CMASS2, CBUSH/PBUSH (coincident grids), GENEL, RBE2, RBAR, RBE3, EIGR, EIGRL, FORCE,
@@ -63,10 +63,10 @@ from .mesh import (
 from .sections import section
 
 STRUCTURAL_CARDS = frozenset(
-    "GRID GRDSET SPOINT CORD1R CORD1C CORD1S CORD2R CORD2C CORD2S SPC SPC1 SPCADD MPC MPCADD MAT1 CROD "
-    "PROD CONROD CQUAD4 CTRIA3 PSHELL PCOMP MAT8 CSHEAR PSHEAR CBAR PBAR PBARL CBEAM PBEAM PBEAML "
-    "CONM2 CMASS2 CHEXA CPENTA CTETRA PSOLID RBE2 RBE3 RBAR CELAS1 CELAS2 PELAS CMASS1 PMASS "
-    "CONM1 CBUSH PBUSH GENEL EIGR EIGRL FORCE MOMENT PLOAD2 PLOAD4 LOAD PARAM ENDDATA".split()
+    "GRID GRDSET SPOINT CORD1R CORD1C CORD1S CORD2R CORD2C CORD2S SPC SPC1 SPCADD MPC MPCADD MAT1 "
+    "CROD PROD CONROD CQUAD4 CTRIA3 PSHELL PCOMP MAT8 CSHEAR PSHEAR CBAR PBAR PBARL CBEAM PBEAM "
+    "PBEAML CONM2 CMASS2 CHEXA CPENTA CTETRA PSOLID RBE2 RBE3 RBAR CELAS1 CELAS2 PELAS CMASS1 "
+    "PMASS CONM1 CBUSH PBUSH GENEL EIGR EIGRL FORCE MOMENT PLOAD2 PLOAD4 LOAD PARAM ENDDATA".split()
 )
 # Kept for the aerodynamics (and for Nastran itself when the deck is written back); no effect on
 # the structure.
