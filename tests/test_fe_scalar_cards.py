@@ -68,3 +68,15 @@ def test_grounded_negative_scalar_mass_is_refused():
     m.add_cmass2(5, -1.0, [1, None], 3, 0)
     with pytest.raises(InputError, match=r"CMASS2 5: field M: expected a number >= 0 for a mass"):
         model_of(m)
+
+
+def test_dmig_on_the_structure_is_refused(tmp_path):
+    """DMIG is noted while only the p-set (K2PP) uses it; K2GG would change the modes."""
+    from torchrom.fe import read_bdf
+
+    deck = tmp_path / "d.bdf"
+    deck.write_text("SOL 103\nCEND\nK2GG = STIFF\nBEGIN BULK\nGRID,1,,0.,0.,0.\n"
+                    "CONM2,2,1,,1.\nCELAS2,3,10.,1,1\nDMIG,STIFF,0,6,1,0\n"
+                    "DMIG,STIFF,1,1,,1,1,1.\nENDDATA\n")
+    with pytest.raises(InputError, match="case control K2GG: direct matrix input"):
+        read_bdf(deck)

@@ -96,8 +96,8 @@ def test_clamped_bar_axial_mode(kind):
 
 def test_quadratic_tetra_mass_closed_form():
     """Straight-edged 10-grid tetrahedron: consistent mass ρV/420 × (6 on a corner, 1 between
-    corners, −4 between a corner and an edge through it, −6 otherwise, 32 on an edge, 16 between edges
-    sharing a face, 8 between opposite edges) — Zienkiewicz & Taylor Vol. 1; lumped: the
+    corners, −4 between a corner and an edge through it, −6 otherwise, 32 on an edge, 16 between
+    edges sharing a face, 8 between opposite edges) — Zienkiewicz & Taylor Vol. 1; lumped: the
     diagonal scaled to ρV (HRZ), corners 1/36 and edges 4/27 of ρV."""
     X = SHAPES[10][None]
     rho = np.array([2.0])
