@@ -153,4 +153,4 @@ def test_flutter_deck_compare_with_an_f06(tmp_path, capsys):
     assert "compared with" in text and "V Nastran" in text
     (rec,) = json.loads(out.read_text())["compare"]
     assert rec["nastran_velocity"] == pytest.approx(6004.2, rel=1e-4)
-    assert rec["velocity"] == pytest.approx(6091.6, rel=1e-3)
+    assert rec["velocity"] == pytest.approx(6032.1, rel=1e-3)  # Nastran's parabolic DLM kernel

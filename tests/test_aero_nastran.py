@@ -73,9 +73,11 @@ def test_pt145_ke_end_to_end(shared, pt145_fe):
     )
     (p,) = r.points
     assert p.mode == 1  # the torsion branch goes unstable
-    # isolated half wing (SYMXZ blank): observed 6,092 in/s (+1.9 %), 136.8 Hz (+13 %)
-    assert p.velocity == pytest.approx(REF_SPEED_IN_S, rel=0.03)
-    assert p.frequency_hz == pytest.approx(REF_FREQUENCY_HZ, rel=0.15)
+    # isolated half wing (SYMXZ blank), as MSC Nastran ran it (its f06, tests/decks/
+    # pynastran_pt145: 6,004.2 in/s, 140.12 Hz): observed 6,032 in/s (+0.47 %), 139.7 Hz
+    # (−0.28 %) with Nastran's parabolic DLM kernel; the reflection-plane reference is below
+    assert p.velocity == pytest.approx(6004.2, rel=0.02)
+    assert p.frequency_hz == pytest.approx(140.12, rel=0.02)
     text = format_deck_result(res)
     assert "FLUTTER SUMMARY" in text and "METHOD = KE" in text
     assert re.search(r"flutter speed \d+", text)
@@ -92,10 +94,12 @@ def test_pt145_with_reflection_plane_matches_the_reference(tmp_path, pt145_text,
         ("AERO    0               2.0706  1.145-7", _field8("AERO", 0, "", "2.0706", "1.145-7", 1)),
     )
     (p,) = run_deck(path, fe=pt145_fe, log=lambda *_: None).results[0].points
-    # observed 6,041 in/s (+1.0 %), 121.6 Hz (+0.5 %), k = 0.1310 (reference 0.1314)
+    # observed 6,012 in/s (+0.5 %), 123.8 Hz (+2.3 %), k = 0.1341 (reference 0.1314, +2.1 %)
+    # with Nastran's parabolic DLM kernel (quartic: 6,041 in/s, 121.6 Hz, k 0.1310). The
+    # reference is modified strip theory, not a lifting surface: 3 % on frequency and k.
     assert p.velocity == pytest.approx(REF_SPEED_IN_S, rel=0.02)
-    assert p.frequency_hz == pytest.approx(REF_FREQUENCY_HZ, rel=0.02)
-    assert p.k == pytest.approx(0.1314, rel=0.02)
+    assert p.frequency_hz == pytest.approx(REF_FREQUENCY_HZ, rel=0.03)
+    assert p.k == pytest.approx(0.1314, rel=0.03)
 
 
 def test_symxz_override_and_unit_labels(tmp_path, pt145_text, shared, capsys):
@@ -124,7 +128,7 @@ def test_symxz_override_and_unit_labels(tmp_path, pt145_text, shared, capsys):
     out = capsys.readouterr().out
     m = re.search(r"flutter speed ([\d.]+) in/s, frequency ([\d.]+) Hz", out)
     assert m and float(m[1]) == pytest.approx(REF_SPEED_IN_S, rel=0.02)
-    assert float(m[2]) == pytest.approx(REF_FREQUENCY_HZ, rel=0.02)
+    assert float(m[2]) == pytest.approx(REF_FREQUENCY_HZ, rel=0.03)
     assert "symmetry: SYMXZ = 1: symmetric image" in out and "units: velocity in/s" in out
 
 

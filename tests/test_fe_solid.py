@@ -21,9 +21,13 @@ SHAPES = {
                  [0.3, 1.0, 1.2]], float),
     4: np.array([[0, 0, 0], [1.1, 0.2, 0], [0.2, 0.9, 0.1], [0.3, 0.2, 1.0]], float),
 }
+# quadratic tetrahedron: the corners of the linear one, the edge grids at the mid-points in
+# Nastran's order (1-2, 2-3, 3-1, 1-4, 2-4, 3-4)
+_EDGES = ((0, 1), (1, 2), (2, 0), (0, 3), (1, 3), (2, 3))
+SHAPES[10] = np.vstack([SHAPES[4]] + [(SHAPES[4][i] + SHAPES[4][j]) / 2 for i, j in _EDGES])
 
 
-@pytest.mark.parametrize("nn", [8, 6, 4])
+@pytest.mark.parametrize("nn", [8, 6, 4, 10])
 def test_patch_test_rigid_modes_and_mass(nn):
     """A linear displacement field u = A x has constant strain: the element's strain energy is
     exactly ½ εᵀ D ε V; six rigid modes; the mass sums to ρ V (lumped and consistent)."""
@@ -42,8 +46,8 @@ def test_patch_test_rigid_modes_and_mass(nn):
     assert np.all(np.abs(lam[:6]) <= 1e-10 * lam[-1]) and lam[6] > 1e-6 * lam[-1]
     Ml = solid_mass(X, rho, coupled=False)[0]
     assert np.trace(Ml) / 3 == pytest.approx(rho[0] * V, rel=1e-12)
-    if nn == 4:  # tetrahedron volume by the triple product
-        a, b, c = X[0, 1:] - X[0, 0]
+    if nn in (4, 10):  # tetrahedron volume by the triple product
+        a, b, c = X[0, 1:4] - X[0, 0]
         assert V == pytest.approx(abs(np.dot(a, np.cross(b, c))) / 6, rel=1e-12)
 
 
@@ -90,12 +94,31 @@ def test_clamped_bar_axial_mode(kind):
     assert axial[0] == pytest.approx(exact, rel=5e-3)
 
 
-def test_quadratic_solids_are_refused():
+def test_quadratic_tetra_mass_closed_form():
+    """Straight-edged 10-grid tetrahedron: consistent mass ρV/420 × (6 on a corner, 1 between
+    corners, −4 between a corner and an edge through it, −6 otherwise, 32 on an edge, 16 between
+    edges sharing a face, 8 between opposite edges) — Zienkiewicz & Taylor Vol. 1; lumped: the
+    diagonal scaled to ρV (HRZ), corners 1/36 and edges 4/27 of ρV."""
+    X = SHAPES[10][None]
+    rho = np.array([2.0])
+    M = solid_mass(X, rho, coupled=True)[0][0::3, 0::3]
+    a, b, c = SHAPES[4][1:] - SHAPES[4][0]
+    m = rho[0] * abs(np.dot(a, np.cross(b, c))) / 6 / 420
+    assert M[0, 0] == pytest.approx(6 * m, rel=1e-12) and M[0, 1] == pytest.approx(m, rel=1e-12)
+    assert M[0, 4] == pytest.approx(-4 * m, rel=1e-12)  # corner 1, edge 1-2
+    assert M[0, 5] == pytest.approx(-6 * m, rel=1e-12)  # corner 1, edge 2-3
+    assert M[4, 4] == pytest.approx(32 * m, rel=1e-12) and M[4, 5] == pytest.approx(16 * m)
+    assert M[4, 9] == pytest.approx(8 * m, rel=1e-12)  # edges 1-2 and 3-4 (opposite)
+    Ml = np.diag(solid_mass(X, rho, coupled=False)[0])[0::3] / (420 * m)
+    assert Ml == pytest.approx([1 / 36] * 4 + [4 / 27] * 6, rel=1e-12)
+
+
+def test_partly_quadratic_solids_are_refused():
     m = new_deck()
-    for k in range(10):
+    for k in range(9):
         m.add_grid(k + 1, [k % 2, (k // 2) % 2, k // 4 * 0.5])
     m.add_mat1(1, 2.0e11, None, 0.3, rho=7800.0)
     m.add_psolid(1, 1)
-    m.add_ctetra(1, 1, list(range(1, 11)))
-    with pytest.raises(InputError, match="CTETRA 1: 10 grids: only the linear form"):
+    m.add_ctetra(1, 1, list(range(1, 10)))
+    with pytest.raises(InputError, match="CTETRA 1: 9 grids: only 4 or 10 grids are supported"):
         model_of(m)

@@ -31,9 +31,13 @@ MODES = [
     ("pynastran_2_mode_flutter", "0012_flutter.bdf", "0012_flutter.f06", {}),
     ("ekm_swept_plane", "sol103_swept_plane.bdf", "sol103_swept_plane.f06", {}),
     ("ekm_bar_beam", "test_case.bdf", "test_case.f06", {}),
+    ("pynastran_ha144d", "ha144da.bdf", "ha144da.f06", {}),
+    ("pynastran_bah_ha146c", "ha146c.bdf", "ha146c.f06", {}),
+    ("pynastran_actuator_tf", "actuator_tf_modeling.bdf", "actuator_tf_modeling.f06", {}),
     # The cylinder's shell modes with circumferential waves (10, 11, 13, 14, 17, 18) are
-    # 2.1-2.6 % stiffer than Nastran's QUAD4: NOT within the 1 % target (a difference of the
-    # shell elements on a curved mesh, not resolved); asserted within 3 % to catch regressions.
+    # 2.1-2.6 % stiffer than Nastran's QUAD4: NOT within the 1 % target; asserted within 3 % to
+    # catch regressions. Both elements are 5-8 % above the converged answer on this 16 x 20
+    # mesh and ours converges (experiments/cylinder_convergence.py; SOURCE.md there).
     ("dakota_cylinder", "modal.bdf", "modal.f06",
      {m: "curved-shell mode, 2.1-2.6 % (not met)" for m in (10, 11, 13, 14, 17, 18)}),
 ]
@@ -59,8 +63,11 @@ def test_modes_match_nastran(folder, deck, f06, loose):
 
 def test_flutter_pt145_ke_against_its_f06():
     """pt145 (KE, Mach 0.45): the f06's crossing of POINT 2, linearly interpolated in the same
-    9 reduced frequencies as ours. Measured: speed +1.46 % (within the 2 % target), frequency
-    -2.37 % (NOT within 2 %: asserted within 3 % to catch regressions)."""
+    9 reduced frequencies as ours. Measured with Nastran's parabolic DLM kernel (the default of
+    ``run_deck``): speed +0.47 %, frequency -0.28 % (target 2 %). With the quartic kernel they
+    were +1.46 % and -2.37 %: the unstable root's damping g(k) then sits up to 0.0075 below
+    Nastran's, and g crosses zero at a shallow angle (0.03 per k step), so the crossing moves
+    by a quarter of a step; speeds and frequencies at each k agree within 0.3 % with either."""
     from torchrom.aero.nastran_flutter import compare_f06, run_deck
 
     folder = DECKS / "pynastran_pt145"
@@ -70,13 +77,22 @@ def test_flutter_pt145_ke_against_its_f06():
     (rec,) = [r for r in records if r["velocity"] is not None]
     assert rec["nastran_velocity"] == pytest.approx(6004.2, rel=1e-4)
     assert abs(rec["velocity_diff_pct"]) <= 2.0
-    assert abs(rec["frequency_diff_pct"]) <= 3.0
+    assert abs(rec["frequency_diff_pct"]) <= 2.0
+    # each k of the f06's POINT 2 (its V-g table): damping within 0.005 (measured: 0.0023 from
+    # k = 0.111 to 0.333, 0.0043 at k = 0.5; the quartic kernel: up to 0.0075)
+    nastran_g = [0.13659, 0.08610, 0.04501, 0.01086, -0.01723, -0.03892, -0.05286, -0.05649,
+                 -0.04729]
+    sw = res.results[0].sweep
+    order = np.argsort(sw.k[:, 1])
+    assert np.abs(sw.damping[order, 1] - nastran_g).max() <= 0.005
 
 
 def test_flutter_two_mode_pknl_against_its_f06():
-    """0012_flutter (PKNL matched path, 93 points): measured speed -0.38 % (within 2 %),
-    frequency -7.7 % (NOT within 2 %: the f06's branch jumps from 6.93 to 6.10 Hz between the two
-    rows around the crossing; ours crosses at 5.74 Hz)."""
+    """0012_flutter (PKNL matched path, 93 points): measured speed -0.35 % (within 2 %),
+    frequency -5.5 % (NOT within 2 %, asserted within 6 %): the crossing is a coalescence where
+    the f06's root jumps from 6.93 to 6.24 to 6.10 Hz (damping -0.118, -0.025, +0.145) over 1 %
+    of speed, so its frequency at zero damping is fixed to a few % only by the rows the path
+    happens to sample; ours crosses at 5.88 Hz (quartic kernel: 5.74 Hz, -7.7 %)."""
     from torchrom.aero.nastran_flutter import compare_f06, run_deck
 
     folder = DECKS / "pynastran_2_mode_flutter"
@@ -85,4 +101,4 @@ def test_flutter_two_mode_pknl_against_its_f06():
     print(text)
     (rec,) = [r for r in records if r["velocity"] is not None]
     assert abs(rec["velocity_diff_pct"]) <= 2.0
-    assert abs(rec["frequency_diff_pct"]) <= 10.0
+    assert abs(rec["frequency_diff_pct"]) <= 6.0

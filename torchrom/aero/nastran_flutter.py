@@ -25,6 +25,15 @@ length unit per second divided by PARAM VREF, densities in its mass per length c
 in Hz). The length unit is labelled from DTI,UNITS when the deck has it, else from the caller
 (``--length-unit``), else as "length".
 
+DLM kernel: :data:`NASTRAN_KERNEL` (parabolic, Rodden, Giesing & Kalman 1971/72), the
+approximation of Nastran's DLM routines (PanelAero's parabolic path is checked against Nastran's
+``idf1.f``/``incro.f``); the later quartic refinement (Rodden, Taylor & McIntosh 1998, the
+default of :mod:`torchrom.aero.dlm` and of the Goland study) is ``kernel="quartic"``. On pt145's
+MSC Nastran 2020 f06 (KE, 9 reduced frequencies) the parabolic kernel puts the damping of the
+unstable root within 0.0023 of Nastran's from k = 0.11 to 0.33 and 0.0043 at k = 0.5 (quartic: up
+to 0.0075 low), and the flutter
+point within 0.5 % (quartic: frequency −2.4 %); tests/test_public_decks.py.
+
 Documented differences from Nastran: GAFs are computed directly at each FLFACT Mach number (on
 the reduced frequencies of the nearest MKAERO Mach for PK; at the FLFACT reduced frequencies
 themselves for K/KE) instead of being interpolated between MKAERO points; K and KE use the same
@@ -68,6 +77,8 @@ from .panels import (
 from .splines import BeamSpline, PlateSpline
 
 FLUTTER_METHODS = ("PK", "PKNL", "KE", "K")
+#: the DLM kernel approximation of Nastran's doublet-lattice routines (see the module docstring)
+NASTRAN_KERNEL = "parabolic"
 
 
 @dataclass
@@ -454,7 +465,7 @@ def _modes(deck: FlutterDeck, fe):
     return f[keep], shapes[:, keep]
 
 
-def run_deck(deck_or_path, fe=None, kernel: str = "quartic", log=print) -> DeckResult:
+def run_deck(deck_or_path, fe=None, kernel: str = NASTRAN_KERNEL, log=print) -> DeckResult:
     """Run every FLUTTER case of a deck (modes from ``fe`` or :func:`torchrom.fe.read_bdf`)."""
     deck = deck_or_path if isinstance(deck_or_path, FlutterDeck) else load_deck(deck_or_path)
     if fe is None:

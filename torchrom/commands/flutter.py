@@ -83,7 +83,11 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         metavar=("NCHORD", "NSPAN"),
         help="goland form: boxes per half wing (default 8 20)",
     )
-    p.add_argument("--kernel", choices=["quartic", "parabolic"], default="quartic")
+    p.add_argument(
+        "--kernel", choices=["quartic", "parabolic"], default=None,
+        help="DLM kernel approximation (default: parabolic for a Nastran deck, as Nastran's DLM; "
+        "quartic for the built-in Goland wing)",
+    )
     p.add_argument(
         "--alpha-for-gamma",
         type=nonnegative_float,
@@ -126,14 +130,15 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _run_deck(args, path: Path) -> int:
-    from ..aero.nastran_flutter import format_deck_result, load_deck, run_deck
+    from ..aero.nastran_flutter import NASTRAN_KERNEL, format_deck_result, load_deck, run_deck
     from ..fe import read_bdf
 
     deck = load_deck(path, symxz=args.symxz, length_unit=args.length_unit)
     print(
         f"torchrom flutter: {path}: {len(deck.cases)} FLUTTER case(s), {deck.aero_panels.n} boxes"
     )
-    res = run_deck(deck, fe=read_bdf(path, unsupported=args.unsupported), kernel=args.kernel)
+    res = run_deck(deck, fe=read_bdf(path, unsupported=args.unsupported),
+                   kernel=args.kernel or NASTRAN_KERNEL)
     print(format_deck_result(res))
     out = res.as_dict()
     if args.compare is not None:
@@ -200,7 +205,8 @@ def _run_goland(args) -> int:
             f"Mach {mach:g}, {args.lags} lags"
         )
         aero = build_from_modes(
-            modes, mach, args.lags, GOLAND_K_LIST, goland_panels(*args.boxes), None, args.kernel
+            modes, mach, args.lags, GOLAND_K_LIST, goland_panels(*args.boxes), None,
+            args.kernel or "quartic",
         )
     print("  modal frequencies (Hz): " + ", ".join(f"{f:.4g}" for f in modes.frequencies_hz))
     if args.at is None:

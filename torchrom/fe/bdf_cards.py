@@ -45,6 +45,7 @@ NOTED_CARDS: dict[str, str] = {
     "FREQ": "response frequencies: frequency response only",
     "FREQ1": "response frequencies: frequency response only",
     "FREQ2": "response frequencies: frequency response only",
+    "LSEQ": "static load set for dynamic loads (DAREA/EXCITEID): dynamic response only",
     "TABLED1": "load table: dynamic response only",
     "TABLED2": "load table: dynamic response only",
     "TABRND1": "power spectral density table: random response only",
@@ -52,7 +53,12 @@ NOTED_CARDS: dict[str, str] = {
     "MONPNT3": "monitor point: output only",
     "TEMPD": "default temperature: no thermal loads in modes/flutter",
     "TEMP": "temperatures: no thermal loads in modes/flutter",
-    "SPOINT": "scalar points not connected to the structure",
+    "EPOINT": "extra points: dynamic response and transfer functions only, not in the real "
+    "eigenvalue problem",
+    "TF": "transfer functions (case control TFL): dynamic response and complex modes only, not "
+    "the real eigenvalue problem",
+    "DMIG": "direct matrix input selected for the p-set (K2PP/M2PP/B2PP): dynamic response and "
+    "flutter in Nastran, not the real modes (a g-set selection, K2GG/M2GG, is refused)",
     "PLOTEL": "plot-only element (no stiffness, no mass)",
     "CORD3G": "coordinate system not referenced by a structural card",
 }
@@ -68,6 +74,24 @@ REFUSED_REASONS: dict[str, str] = {
     "CDAMP1": "viscous damper not implemented (no effect on real modes; flutter would need it)",
     "CDAMP2": "viscous damper not implemented (no effect on real modes; flutter would need it)",
 }
+
+
+#: case-control entries that would add DMIG matrices to the structure's own K or M
+GSET_MATRICES = ("K2GG", "M2GG", "B2GG", "K42GG")
+
+
+def refuse_gset_matrices(model, fname: str) -> None:
+    """DMIG is noted only while no case control adds it to the g-set (K2GG, M2GG, ...)."""
+    from ..errors import InputError
+
+    cc = model.case_control_deck
+    if cc is None:
+        return
+    for isub in sorted(cc.subcases):
+        for key in GSET_MATRICES:
+            if key in cc.subcases[isub].params:
+                raise InputError(f"{fname}: case control {key}: direct matrix input on the "
+                                 "structure (g-set) is not supported")
 
 
 def reason(card: str) -> str:

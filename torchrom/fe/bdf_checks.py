@@ -59,8 +59,9 @@ FIELD_RULES: dict[str, list[tuple[str, str, tuple[Callable[[float], bool], str]]
                ("tst", "TS/T", NONNEGATIVE)],
     "PSHEAR": [("t", "T", POSITIVE)],
     "CONM2": [("mass", "M", NONNEGATIVE)],
-    "CMASS2": [("mass", "M", NONNEGATIVE)],
 }
+# CMASS1/CMASS2 masses are checked by the reader: negative between two DOFs (a coupling term of
+# a mass matrix, as in MSC's BAH wing HA146C) is allowed, negative to ground is not.
 
 #: cards whose blank optional fields pyNastran lists as NaN (PBEAM's stations): only an
 #: infinite value is an error there

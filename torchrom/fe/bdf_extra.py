@@ -16,22 +16,25 @@ from .coords import axes_at as _axes_at
 from .coords import components as _comps
 from .elements.solid import solid_volumes
 from .laminate import laminate
-from .mesh import Bush, LinearMPC, MassMatrix6, Mesh, RigidRBE2, ScalarSpring
+from .mass import genel_stiffness
+from .mesh import Bush, GeneralElement, LinearMPC, MassMatrix6, Mesh, RigidRBE2, ScalarSpring
 
-#: linear solid elements and their number of corner grids
-SOLID_GRIDS = {"CHEXA": 8, "CPENTA": 6, "CTETRA": 4}
+#: solid elements and the numbers of grids supported (corner grids; CTETRA also with its edges)
+SOLID_GRIDS = {"CHEXA": (8,), "CPENTA": (6,), "CTETRA": (4, 10)}
 
 
 class ExtraCards:
     """Card readers mixed into :class:`torchrom.fe.bdf_read._Reader`."""
 
     def _solid(self, e):
-        """CHEXA/CPENTA/CTETRA with the corner grids only (linear), PSOLID and MAT1."""
+        """CHEXA/CPENTA with the corner grids only (linear), CTETRA with 4 or all 10 grids,
+        PSOLID and MAT1."""
         eid, card = e.eid, e.type
         nodes = [n for n in e.nodes if n not in (None, 0)]
-        if len(nodes) != SOLID_GRIDS[card]:
-            raise self.err(f"{card} {eid}: {len(nodes)} grids: only the linear form "
-                           f"({SOLID_GRIDS[card]} corner grids) is supported")
+        if len(nodes) not in SOLID_GRIDS[card]:
+            forms = " or ".join(str(k) for k in SOLID_GRIDS[card])
+            raise self.err(f"{card} {eid}: {len(nodes)} grids: only {forms} grids are supported"
+                           f" (the edge grids of CHEXA/CPENTA, all or none of CTETRA's)")
         p = self.prop(e.pid, card, eid, ("PSOLID",))
         E, _, nu, rho = self.mat1(p.mid, f"PSOLID {p.pid}", "MID")
         if not (E > 0 and -1.0 < nu < 0.5):
@@ -89,6 +92,48 @@ class ExtraCards:
         if ge:
             self.notes.append(f"{e.type} {e.eid}: structural damping GE = {ge:g} ignored")
         return ScalarSpring(e.eid, k, *self._scalar_pair(e))
+
+    def _genel(self, e) -> GeneralElement:
+        """GENEL: stiffness (K) or flexibility (Z, inverted) of the UI DOFs, the lower triangle
+        column by column, and S for the UD DOFs (:func:`torchrom.fe.mass.genel_stiffness`)."""
+        eid = e.eid
+        where = f"GENEL {eid}"
+
+        def dofs(pairs, field):
+            out = []
+            for nid, comp in np.asarray(pairs, dtype=int).reshape(-1, 2):
+                (g,) = self.rows([int(nid)], "GENEL", eid, field)
+                cs = _comps(str(comp), self.f, f"{where}: field {field}")
+                if len(cs) != 1:
+                    raise self.err(f"{where}: field {field}: grid {nid}: expected one "
+                                   f"component 1-6, got {comp}")
+                out.append((g, cs[0]))
+            return out
+
+        ui = dofs(e.ul, "UI")
+        ud = dofs(e.ud, "UD") if e.ud is not None and len(e.ud) else []
+        lower = e.k if e.k is not None else e.z
+        n = len(ui)
+        tri = np.asarray(lower, dtype=float).reshape(-1)
+        if len(tri) != n * (n + 1) // 2:
+            raise self.err(f"{where}: field {'K' if e.k is not None else 'Z'}: expected "
+                           f"{n * (n + 1) // 2} terms (lower triangle of {n} UI DOFs), "
+                           f"got {len(tri)}")
+        L = np.zeros((n, n))
+        L.T[np.triu_indices(n)] = tri  # column by column: the upper triangle of Lᵀ, row-major
+        mat = L + np.tril(L, -1).T
+        if e.k is None:
+            try:
+                mat = np.linalg.inv(mat)
+            except np.linalg.LinAlgError:
+                raise self.err(f"{where}: field Z: the flexibility matrix is singular") from None
+        S = None
+        if ud:
+            if e.s is None or len(np.ravel(e.s)) != n * len(ud):
+                raise self.err(f"{where}: field S: expected {n} x {len(ud)} terms for the UD "
+                               "DOFs (S may not be left out here)")
+            S = np.asarray(e.s, dtype=float).reshape(n, len(ud))
+        return GeneralElement(eid, ui + ud, genel_stiffness(mat, S))
 
     def _cbush(self, e) -> Bush:
         """CBUSH/PBUSH between coincident grids or to ground, oriented by CID (stiffness only)."""
@@ -183,7 +228,7 @@ class ExtraCards:
                 terms = []
                 for nid, comp, a in zip(card.nodes, card.components, card.coefficients):
                     (g,) = self.rows([nid], "MPC", s, "G")
-                    cs = _comps(comp, self.f, f"MPC {s}: field C")
+                    cs = self.scalar_components(nid, comp, f"MPC {s}: field C")
                     if len(cs) != 1:
                         raise self.err(f"MPC {s}: grid {nid}: field C: expected one component, "
                                        f"got {comp!r}")

@@ -7,12 +7,12 @@ Hand-written here: which cards are supported, the checks that turn bad input int
 properties/materials/constraints/loads into the plain arrays of :mod:`torchrom.fe.mesh`, and the
 selection of the SPC set and eigenvalue method from the case control (or the only one present).
 
-Supported structural cards: GRID (CP, CD, PS), GRDSET, CORD1R/C/S, CORD2R/C/S, SPC, SPC1,
-SPCADD, MPC/MPCADD, MAT1, CROD/PROD, CONROD, CQUAD4/CTRIA3 with PSHELL or PCOMP (MAT1/MAT8 plies,
-:mod:`torchrom.fe.laminate`), CHEXA/CPENTA/CTETRA/PSOLID
-(linear, corner grids only), CSHEAR/PSHEAR, CBAR/PBAR/PBARL,
+Supported structural cards: GRID (CP, CD, PS), GRDSET, SPOINT (a one-DOF row after the grids),
+CORD1R/C/S, CORD2R/C/S, SPC, SPC1, SPCADD, MPC/MPCADD, MAT1, CROD/PROD, CONROD, CQUAD4/CTRIA3
+with PSHELL or PCOMP (MAT1/MAT8 plies, :mod:`torchrom.fe.laminate`), CHEXA/CPENTA/CTETRA/PSOLID
+(linear, corner grids; CTETRA also quadratic), CSHEAR/PSHEAR, CBAR/PBAR/PBARL,
 CBEAM/PBEAM/PBEAML (:mod:`torchrom.fe.sections`), CELAS1/PELAS, CELAS2, CONM1, CONM2,
-CMASS1/PMASS, CMASS2, CBUSH/PBUSH (coincident grids), RBE2, RBAR, RBE3, EIGR, EIGRL, FORCE,
+CMASS1/PMASS, CMASS2, CBUSH/PBUSH (coincident grids), GENEL, RBE2, RBAR, RBE3, EIGR, EIGRL, FORCE,
 MOMENT, PLOAD2, PLOAD4, LOAD, PARAM (COUPMASS, WTMASS are used). Cards without effect on modes
 and flutter are accepted with a note (:data:`torchrom.fe.bdf_cards.NOTED_CARDS`).
 Aerodynamic and solution-control cards (CAERO1, PAERO1, SPLINE*, SET1, AERO, AEROS, MKAERO*,
@@ -35,7 +35,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import InputError
-from .bdf_cards import NOTED_CARDS, apply_grdset, reason
+from .bdf_cards import NOTED_CARDS, apply_grdset, reason, refuse_gset_matrices
 from .bdf_checks import check_complete, check_fields, duplicate_message
 from .bdf_extra import SOLID_GRIDS, ExtraCards
 from .coords import axes_at
@@ -63,10 +63,10 @@ from .mesh import (
 from .sections import section
 
 STRUCTURAL_CARDS = frozenset(
-    "GRID GRDSET CORD1R CORD1C CORD1S CORD2R CORD2C CORD2S SPC SPC1 SPCADD MPC MPCADD MAT1 CROD "
-    "PROD CONROD CQUAD4 CTRIA3 PSHELL PCOMP MAT8 CSHEAR PSHEAR CBAR PBAR PBARL CBEAM PBEAM PBEAML "
-    "CONM2 CMASS2 CHEXA CPENTA CTETRA PSOLID RBE2 RBE3 RBAR CELAS1 CELAS2 PELAS CMASS1 PMASS "
-    "CONM1 CBUSH PBUSH EIGR EIGRL FORCE MOMENT PLOAD2 PLOAD4 LOAD PARAM ENDDATA".split()
+    "GRID GRDSET SPOINT CORD1R CORD1C CORD1S CORD2R CORD2C CORD2S SPC SPC1 SPCADD MPC MPCADD MAT1 "
+    "CROD PROD CONROD CQUAD4 CTRIA3 PSHELL PCOMP MAT8 CSHEAR PSHEAR CBAR PBAR PBARL CBEAM PBEAM "
+    "PBEAML CONM2 CMASS2 CHEXA CPENTA CTETRA PSOLID RBE2 RBE3 RBAR CELAS1 CELAS2 PELAS CMASS1 "
+    "PMASS CONM1 CBUSH PBUSH GENEL EIGR EIGRL FORCE MOMENT PLOAD2 PLOAD4 LOAD PARAM ENDDATA".split()
 )
 # Kept for the aerodynamics (and for Nastran itself when the deck is written back); no effect on
 # the structure.
@@ -149,14 +149,15 @@ def read_bdf(
     spc_id: int | None = None,
     unsupported: str = "error",
     drilling: float = 1e-4,
-    autospc: bool = True,
+    autospc: bool | None = None,
     output_points: dict[str, tuple[int, int]] | None = None,
 ):
     """Read a Nastran deck into an :class:`~torchrom.fe.model.FEModel`.
 
     ``spc_id`` selects the SPC set (default: the case control's SPC, else the only set);
     ``unsupported`` is ``"error"`` (default) or ``"warn"``; ``drilling`` scales the CQUAD4
-    drilling penalty; ``autospc`` removes DOFs without stiffness (Nastran's AUTOSPC);
+    drilling penalty; ``autospc`` removes DOFs without stiffness (Nastran's AUTOSPC; default:
+    the deck's case control AUTOSPC or PARAM AUTOSPC, else yes);
     ``output_points`` maps names to (grid id, component 1..6) — decks written by
     ``torchrom goland`` get the Goland point A automatically.
     """
@@ -189,6 +190,16 @@ def _case_value(model, key: str):
     return None
 
 
+def _deck_autospc(model) -> bool:
+    """Nastran's AUTOSPC switch of the deck: case control AUTOSPC, else PARAM AUTOSPC, else
+    YES (SOL 103's default)."""
+    value = _case_value(model, "AUTOSPC")
+    if value is None:
+        p = model.params.get("AUTOSPC")
+        value = p.values[0] if p is not None and p.values else "YES"
+    return str(value).strip().upper() not in ("NO", "N", "-1")
+
+
 def _title(model) -> str:
     value = _case_value(model, "TITLE")
     return "" if value is None else str(value).strip()
@@ -202,7 +213,7 @@ def from_pynastran(
     spc_id: int | None = None,
     unsupported: str = "error",
     drilling: float = 1e-4,
-    autospc: bool = True,
+    autospc: bool | None = None,
     output_points: dict[str, tuple[int, int]] | None = None,
     units: dict[str, str] | None = None,
 ):
@@ -213,6 +224,9 @@ def from_pynastran(
     if unsupported not in ("error", "warn"):
         raise InputError(f"unsupported: expected 'error' or 'warn', got {unsupported!r}")
     notes = _check_cards(model, fname, unsupported)
+    refuse_gset_matrices(model, fname)
+    if autospc is None:
+        autospc = _deck_autospc(model)
     check_fields(model, fname)
     reader = _Reader(model, fname)
     mesh = reader.mesh(spc_id)
@@ -299,13 +313,31 @@ class _Reader(ExtraCards):
                 )
         except Exception as exc:
             raise _pynastran_error(self.f, exc) from None
-        ids = np.array(sorted(m.nodes), dtype=int)
-        xyz = np.array([m.nodes[i].get_position() for i in ids], dtype=float).reshape(-1, 3)
-        cd = np.empty((len(ids), 3, 3))
-        for k, i in enumerate(ids):
+        grid_ids = sorted(m.nodes)
+        xyz = np.array([m.nodes[i].get_position() for i in grid_ids], float).reshape(-1, 3)
+        cd = np.empty((len(grid_ids), 3, 3))
+        for k, i in enumerate(grid_ids):
             node = m.nodes[i]
             cd[k] = axes_at(m.coords[node.cd or 0], xyz[k]) if node.cd else np.eye(3)
+        # SPOINTs: rows after the grids, at the origin, with one DOF (component 1 here, 0 in
+        # Nastran); the other five are constrained in _spcs
+        self.spoints = sorted(int(i) for i in getattr(m, "spoints", {}))
+        clash = sorted(set(self.spoints) & set(grid_ids))
+        if clash:
+            raise self.err(f"SPOINT {clash[0]}: the ID of a GRID too")
+        ids = np.array(grid_ids + self.spoints, dtype=int)
+        xyz = np.vstack((xyz, np.zeros((len(self.spoints), 3))))
+        cd = np.concatenate((cd, np.tile(np.eye(3), (len(self.spoints), 1, 1))))
         return ids, xyz, cd
+
+    def scalar_components(self, nid: int, comp, where: str) -> list[int]:
+        """Components of (grid or SPOINT, C): an SPOINT has the one component 0 (or blank)."""
+        if nid in self.spoints:
+            if comp not in (None, "", 0, "0"):
+                raise self.err(f"{where}: SPOINT {nid}: expected component 0 or blank, "
+                               f"got {comp!r}")
+            return [0]
+        return _comps(comp, self.f, where)
 
     # -- materials and properties --------------------------------------------------------------
     def mat1(self, mid, owner: str, field: str):
@@ -348,7 +380,7 @@ class _Reader(ExtraCards):
         mesh.coupled_mass = self._param("COUPMASS", -1) > 0
         wtmass = float(self._param("WTMASS", 1.0))
         rods, quads, shears, bars, trias = [], [], [], [], []
-        solids: dict[int, list] = {8: [], 6: [], 4: []}
+        solids: dict[int, list] = {8: [], 6: [], 4: [], 10: []}
         for eid in sorted(self.m.elements):
             e = self.m.elements[eid]
             if e.type in ("CROD", "CONROD"):
@@ -363,6 +395,8 @@ class _Reader(ExtraCards):
                 mesh.celas.append(self._celas(e))
             elif e.type == "CBUSH":
                 mesh.bushes.append(self._cbush(e))
+            elif e.type == "GENEL":
+                mesh.genel.append(self._genel(e))
             elif e.type in SOLID_GRIDS:
                 row = self._solid(e)
                 solids[len(row["nodes"])].append(row)
@@ -583,11 +617,11 @@ class _Reader(ExtraCards):
         else:
             c1, c2 = c.c1, c.c2
         (g1,) = self.rows([n1], card, c.eid)
-        comp1 = _comps(c1, self.f, f"{card} {c.eid}: field C1")
+        comp1 = self.scalar_components(n1, c1, f"{card} {c.eid}: field C1")
         g2, comp2 = -1, [0]
         if n2 not in (None, 0):
             (g2,) = self.rows([n2], card, c.eid)
-            comp2 = _comps(c2, self.f, f"{card} {c.eid}: field C2")
+            comp2 = self.scalar_components(n2, c2, f"{card} {c.eid}: field C2")
         if len(comp1) != 1 or len(comp2) != 1:
             raise self.err(f"{card} {c.eid}: fields C1/C2: expected one component each")
         return g1, comp1[0], g2, comp2[0]
@@ -600,7 +634,11 @@ class _Reader(ExtraCards):
             mass = float(p.mass)
         else:
             mass = float(c.mass)
-        return ScalarMass(c.eid, mass * wtmass, *self._scalar_pair(c))
+        pair = self._scalar_pair(c)
+        if mass < 0 and pair[2] < 0:
+            raise self.err(f"{c.type} {c.eid}: field M: expected a number >= 0 for a mass to "
+                           f"ground, got {mass:g} (a negative mass couples two DOFs only)")
+        return ScalarMass(c.eid, mass * wtmass, *pair)
 
     def _rbe3(self, c) -> InterpRBE3:
         eid = c.eid
@@ -627,6 +665,11 @@ class _Reader(ExtraCards):
                 dof = (self.row[nid], c)
                 mesh.spc.append(dof)
                 mesh.spc_source[dof] = f"GRID {nid} PS"
+        for nid in self.spoints:
+            for c in range(1, 6):
+                dof = (self.row[nid], c)
+                mesh.spc.append(dof)
+                mesh.spc_source[dof] = f"SPOINT {nid} (a scalar point has one DOF)"
         ids = sorted(set(self.m.spcs) | set(self.m.spcadds))
         if spc_id is None:
             spc_id = self._case_value("SPC")

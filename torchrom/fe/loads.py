@@ -41,6 +41,8 @@ class LoadBuilder:
         for card in self.m.loads.get(sid, []):
             self._card(card, sid, f)
         for combo in self.m.load_combinations.get(sid, []):
+            if combo.type == "LSEQ":  # pyNastran files LSEQ here: dynamic loads only (noted)
+                continue
             for scale, lid in zip(combo.scale_factors, combo.load_ids):
                 if lid not in self.m.loads and lid not in self.m.load_combinations:
                     raise self.r.err(f"LOAD {sid}: field L: load set {lid} not found")

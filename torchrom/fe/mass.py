@@ -1,6 +1,6 @@
 """Concentrated masses and scalar springs: CONM2 (rigid mass with offset and inertia), CONM1 (a
 6x6 mass matrix), CMASS1/CMASS2 (scalar mass), CELAS1/CELAS2 (scalar spring), CBUSH (six
-springs between coincident grids).
+springs between coincident grids), GENEL (a general stiffness or flexibility matrix).
 
 Hand-written. CONM2: a rigid body whose CG sits at ``offset`` r from its grid; with the grid's
 translation t and rotation θ (small rotations) the CG moves t + θ × r = t − [r×] θ, so
@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .mesh import Bush, MassMatrix6, PointMass, ScalarMass, ScalarSpring
+from .mesh import Bush, GeneralElement, MassMatrix6, PointMass, ScalarMass, ScalarSpring
 
 
 def skew(r: np.ndarray) -> np.ndarray:
@@ -90,3 +90,33 @@ def bush_blocks(bushes: list[Bush]) -> tuple[np.ndarray, np.ndarray]:
         else:
             blocks[k] = np.block([[K6, -K6], [-K6, K6]])
     return dofs, blocks
+
+
+def genel_stiffness(K_ii: np.ndarray, S: np.ndarray | None) -> np.ndarray:
+    """Stiffness of a GENEL on (u_i, u_d) from the stiffness K_ii of its independent DOFs (the
+    inverse of Z for a flexibility GENEL) and S, u_i = S u_d in a rigid-body motion (MSC QRG,
+    GENEL, remark 4):
+
+        K = [[ K_ii,      −K_ii S     ],
+             [ −Sᵀ K_ii,  Sᵀ K_ii S   ]],
+
+    so that K [S; I] = 0: the element carries no load in a rigid-body motion."""
+    if S is None:
+        return K_ii
+    KS = K_ii @ S
+    return np.block([[K_ii, -KS], [-KS.T, S.T @ KS]])
+
+
+def genel_blocks(elements: list[GeneralElement], cd_axes: np.ndarray):
+    """(dofs, K) pairs, one per GENEL: its n scalar DOFs mapped to the 3n basic DOFs of their
+    translation or rotation triplets, K_basic = Aᵀ K A."""
+    parts = []
+    for g in elements:
+        n = len(g.dofs)
+        A = np.zeros((n, 3 * n))
+        dofs = np.zeros(3 * n, dtype=int)
+        for i, (row, comp) in enumerate(g.dofs):
+            A[i, 3 * i: 3 * i + 3] = cd_axes[row][:, comp % 3]
+            dofs[3 * i: 3 * i + 3] = row * 6 + 3 * (comp // 3) + np.arange(3)
+        parts.append((dofs[None], (A.T @ g.K @ A)[None]))
+    return parts

@@ -114,7 +114,7 @@ class TriaSet:
 
 @dataclass
 class SolidSet:
-    """CHEXA/CPENTA/CTETRA (one family: 8, 6 or 4 grids) with PSOLID/MAT1: linear solids."""
+    """CHEXA/CPENTA/CTETRA (one family: 8, 6, 4 or 10 grids) with PSOLID/MAT1: linear solids."""
 
     eids: np.ndarray
     nodes: np.ndarray  # (n, nn) grid rows
@@ -260,6 +260,17 @@ class InterpRBE3:
 
 
 @dataclass
+class GeneralElement:
+    """GENEL: a stiffness matrix ``K`` (n, n) on n scalar DOFs ``dofs`` (grid row, component
+    0..5 in the grid's displacement system), independent ones first (see
+    :func:`torchrom.fe.mass.genel_stiffness`)."""
+
+    eid: int
+    dofs: list[tuple[int, int]]
+    K: np.ndarray
+
+
+@dataclass
 class Mesh:
     """Everything the FE model needs, in basic axes and grid rows."""
 
@@ -277,6 +288,7 @@ class Mesh:
     celas: list[ScalarSpring] = field(default_factory=list)
     bushes: list[Bush] = field(default_factory=list)
     conm1: list[MassMatrix6] = field(default_factory=list)
+    genel: list[GeneralElement] = field(default_factory=list)
     rbe2: list[RigidRBE2] = field(default_factory=list)
     rbe3: list[InterpRBE3] = field(default_factory=list)
     mpc: list[LinearMPC] = field(default_factory=list)

@@ -42,7 +42,14 @@ from .elements.rod import rod_mass_blocks, rod_points, rod_torsion_blocks
 from .elements.shear import shear_mass_blocks, shear_points
 from .elements.solid import solid_blocks, solid_mass_blocks
 from .elements.tria3 import tria_bending_blocks, tria_mass_blocks, tria_points
-from .mass import bush_blocks, celas_blocks, cmass2_blocks, conm1_blocks, conm2_blocks
+from .mass import (
+    bush_blocks,
+    celas_blocks,
+    cmass2_blocks,
+    conm1_blocks,
+    conm2_blocks,
+    genel_blocks,
+)
 from .mesh import Mesh
 
 
@@ -165,6 +172,7 @@ class FEModel:
             lin.append(celas_blocks(mesh.celas, mesh.cd_axes))
         if mesh.bushes:
             lin.append(bush_blocks(mesh.bushes))
+        lin.extend(genel_blocks(mesh.genel, mesh.cd_axes))
         for solids in mesh.solids:
             lin.append(solid_blocks(solids, mesh.xyz))
         self._lin_parts = [p for p in lin if len(p[0])]
@@ -255,6 +263,7 @@ class FEModel:
 
     def _warn_linear(self) -> None:
         n_lin = (len(self.mesh.bars) + len(self.mesh.celas) + len(self.mesh.bushes)
+                 + len(self.mesh.genel)
                  + sum(len(s) for s in self.mesh.solids))
         if n_lin and not self._warned_linear:
             self._warned_linear = True
@@ -516,6 +525,7 @@ class FEModel:
             "CONM1": len(m.conm1),
             "CELAS": len(m.celas),
             "CBUSH": len(m.bushes),
+            "GENEL": len(m.genel),
             "RBE2": len(m.rbe2),
             "RBE3": len(m.rbe3),
             "autospc": len(self.autospc),

@@ -1,14 +1,20 @@
-"""CHEXA (8 grids), CPENTA (6), CTETRA (4) with PSOLID: linear isoparametric solids.
+"""CHEXA (8 grids), CPENTA (6), CTETRA (4 or 10) with PSOLID: isoparametric solids.
 
-Hand-written. Trilinear hexahedron, linear-triangle × linear-line wedge and linear tetrahedron,
-isotropic linear elasticity (MAT1: E, ν; G taken from E and ν), full Gauss integration (hexa
-2×2×2, penta 3 × 2, tetra 1 point). **Linear** (small strains and rotations): a geometrically
+Hand-written. Trilinear hexahedron, linear-triangle × linear-line wedge, linear tetrahedron and
+quadratic tetrahedron (Nastran's grid order: corners G1–G4, then the edge grids 1-2, 2-3, 3-1,
+1-4, 2-4, 3-4; N = L_i (2 L_i − 1) at the corners, 4 L_i L_j on the edges, Zienkiewicz & Taylor
+Vol. 1, §6.5), isotropic linear elasticity (MAT1: E, ν; G taken from E and ν), full Gauss
+integration (hexa 2×2×2, penta 3 × 2, tetra 1 point, quadratic tetra 4 points: exact for
+straight edges, where BᵀDB is quadratic). **Linear** (small strains and rotations): a geometrically
 nonlinear analysis includes them through their linear stiffness only (the model warns,
 :class:`~torchrom.fe.model.LinearElementWarning`). Fully integrated low-order solids are stiff
 in bending (shear locking): a bending-dominated part needs several elements through its
 thickness (Nastran's CHEXA adds bubble functions, so its answers differ on coarse meshes).
-Mass: consistent ∫ ρ N_a N_b dV, or lumped by row sums. The quadratic forms (CHEXA 20, CPENTA
-15, CTETRA 10 grids) are refused by the reader.
+Mass: consistent ∫ ρ N_a N_b dV, or lumped by row sums; the quadratic tetrahedron's row sums
+are negative at the corners (−ρV/20), so it is lumped by scaling the consistent diagonal to the
+element mass (Hinton–Rock–Zienkiewicz, which is how Nastran forms its diagonal mass: "scaling
+the diagonal terms of the coupled mass matrix for the correct element mass", PARAM COUPMASS).
+The other quadratic forms (CHEXA 20, CPENTA 15 grids) are refused by the reader.
 """
 
 from __future__ import annotations
@@ -50,6 +56,32 @@ def _tetra(p):
     return N, d
 
 
+def _tetra10(p):
+    r, s, t = p
+    L = np.array([1 - r - s - t, r, s, t])
+    dL = np.array([[-1.0, 1.0, 0.0, 0.0], [-1.0, 0.0, 1.0, 0.0], [-1.0, 0.0, 0.0, 1.0]])
+    edges = ((0, 1), (1, 2), (2, 0), (0, 3), (1, 3), (2, 3))
+    N = np.concatenate((L * (2 * L - 1), [4 * L[i] * L[j] for i, j in edges]))
+    d = np.concatenate((dL * (4 * L - 1), np.stack([4 * (dL[:, i] * L[j] + L[i] * dL[:, j])
+                                                     for i, j in edges], axis=1)), axis=1)
+    return N, d
+
+
+def collapsed_tetra_rule(n: int) -> tuple[list[tuple[float, float, float]], list[float]]:
+    """Gauss–Legendre n×n×n on the unit cube mapped to the unit tetrahedron (Duffy:
+    r = u, s = v (1 − u), t = w (1 − u)(1 − v), Jacobian (1 − u)² (1 − v)): exact for
+    polynomials of degree ≤ 2n − 3 (Stroud's conical product)."""
+    x, w = np.polynomial.legendre.leggauss(n)
+    x, w = 0.5 * (x + 1.0), 0.5 * w
+    pts, wts = [], []
+    for u, wu in zip(x, w):
+        for v, wv in zip(x, w):
+            for z, wz in zip(x, w):
+                pts.append((u, v * (1 - u), z * (1 - u) * (1 - v)))
+                wts.append(wu * wv * wz * (1 - u) ** 2 * (1 - v))
+    return pts, wts
+
+
 _TRI3 = ((1 / 6, 1 / 6), (2 / 3, 1 / 6), (1 / 6, 2 / 3))
 #: shape functions and integration rules (points, weights) per number of grids
 RULES = {
@@ -58,10 +90,12 @@ RULES = {
     6: (_penta, [(r, s, z) for (r, s) in _TRI3 for z in (-_G, _G)], [1.0 / 6.0] * 6),
     4: (_tetra, [(0.25, 0.25, 0.25)], [1.0 / 6.0]),
 }
-# Mass needs a higher rule for the tetrahedron (N_a N_b is quadratic): 4-point rule, degree 2.
+# Mass needs a higher rule for the tetrahedron (N_a N_b is quadratic): 4-point rule, degree 2;
+# the same rule integrates the quadratic tetrahedron's stiffness; its mass (degree 4) needs more.
 _A, _B = 0.5854101966249685, 0.1381966011250105
-MASS_RULES = {8: RULES[8][1:], 6: RULES[6][1:],
-              4: ([(_B, _B, _B), (_A, _B, _B), (_B, _A, _B), (_B, _B, _A)], [1.0 / 24.0] * 4)}
+_TET4 = ([(_B, _B, _B), (_A, _B, _B), (_B, _A, _B), (_B, _B, _A)], [1.0 / 24.0] * 4)
+RULES[10] = (_tetra10, *_TET4)
+MASS_RULES = {8: RULES[8][1:], 6: RULES[6][1:], 4: _TET4, 10: collapsed_tetra_rule(4)}
 
 
 def elasticity(E: np.ndarray, nu: np.ndarray) -> np.ndarray:
@@ -122,7 +156,11 @@ def solid_mass(X: np.ndarray, rho: np.ndarray, coupled: bool) -> np.ndarray:
         N, dnat = shape(p)
         det = _geometry(X, dnat)[0]
         pat += w * np.abs(det)[:, None, None] * np.outer(N, N)[None]
-    if not coupled:
+    if not coupled and nn == 10:  # HRZ: the diagonal scaled to the element's mass
+        diag = np.einsum("naa->na", pat)
+        scale = pat.sum(axis=(1, 2)) / diag.sum(axis=1)
+        pat = np.einsum("na,ab->nab", diag * scale[:, None], np.eye(nn))
+    elif not coupled:
         pat = np.einsum("na,ab->nab", pat.sum(axis=2), np.eye(nn))
     pat *= rho[:, None, None]
     return np.einsum("nab,ij->naibj", pat, np.eye(3)).reshape(n, 3 * nn, 3 * nn)
