@@ -28,6 +28,9 @@ import torch
 
 Tensor = torch.Tensor
 
+#: the slaved coordinates are re-solved after steps larger than this (relative to the orbit)
+SLAVE_ABOVE = 1e-3
+
 #: evaluate(X, ω, μ, active) -> (R, J, R_ω, R_μ) for the cases ``active`` (index tensor)
 Evaluate = Callable[[Tensor, Tensor, Tensor, Tensor], tuple[Tensor, Tensor, Tensor, Tensor]]
 #: residual(X, ω, μ, active) -> R
@@ -134,9 +137,15 @@ def newton(evaluate: Evaluate, X: Tensor, omega: Tensor, mu: Tensor, phase_row: 
         done = ok & (left <= options.tol)
         prev_rel[todo] = torch.where(lam >= 1, rel, torch.full_like(rel, math.inf))
         Xn = znew[:, : nh * n].view(Ba, nh, n)
-        if residual_fn is not None and slaved is not None and slaved.numel() and not bool(
-                done.all()):
-            Xn = _resolve_slaved(residual_fn, J, Xn, znew[:, -2], znew[:, -1], todo, slaved, ok)
+        # the slaved coordinates are re-solved while the steps are large (near the solution a
+        # plain Newton step converges quadratically on them too: a residual saved per step)
+        far = ok & ~done & (rel > SLAVE_ABOVE)
+        if residual_fn is not None and slaved is not None and slaved.numel() and bool(
+                far.any()):
+            f = torch.nonzero(far).reshape(-1)
+            Xn = Xn.clone()
+            Xn[f] = _resolve_slaved(residual_fn, J[f], Xn[f], znew[f, -2], znew[f, -1], todo[f],
+                                    slaved, torch.ones_like(f, dtype=torch.bool))
         X[todo] = torch.where(ok[:, None, None], Xn, Xa)
         omega[todo] = torch.where(ok, znew[:, -2], wa)
         mu[todo] = torch.where(ok, znew[:, -1], ma)

@@ -138,7 +138,8 @@ class PeriodicOrbits:
         truncation: (B,) truncation residual at the final H.
         amplitude_change: (B,) relative amplitude change from H − 2 to H.
         iterations: (B,) Newton iterations in all.
-        critical_root: (B,) complex critical root of the linearised case (1/s).
+        critical_root: (B,) complex critical root of the linearised case (1/s); NaN for an
+            LCO reached from a neighbour's orbit (not computed).
     """
 
     X: Tensor
@@ -763,6 +764,9 @@ def solve_orbits(system: CaseSystem, output_row, options: HBOptions = HBOptions(
             out.put(cold, c_orb)
             roots[cold] = c_roots
             cold_roots_needed[cold] = False
+    # the linear roots of the cases without an orbit (an LCO reached from its neighbour
+    # keeps NaN: nothing downstream needs its root, and the eigenvalues cost ~1 ms a case)
+    cold_roots_needed &= out.status != "lco"
     if cold_roots_needed.any():
         need = np.flatnonzero(cold_roots_needed)
         lam, _ = critical_modes(system.select(torch.as_tensor(need)))
