@@ -227,7 +227,7 @@ class HarmonicBalance:
             T = torch.cat([Kn, omega[:, None, None, None] * Cn], dim=1)  # (B, 2N, n, n)
             T = T.permute(1, 0, 2, 3).reshape(2 * Nn, B * n * n)
             Jn = (self._PE @ T).view(nh, nh, B, n, n)  # [k, l, b, i, j]
-            J = J + Jn.permute(2, 0, 3, 1, 4)
+            J += Jn.permute(2, 0, 3, 1, 4)
             # ∂F/∂ω: the samples of C_n (dq/dτ) projected
             dq = self.basis.dE @ X  # (B, N, n)
             R_omega = R_omega + self.basis.P @ (Cn @ dq[..., None])[..., 0]

@@ -184,16 +184,20 @@ def equilibrated_solve(A: Tensor, b: Tensor) -> tuple[Tensor, Tensor, Tensor]:
     m = A.shape[-1]
     eye = torch.eye(m, dtype=A.dtype, device=A.device)
     tiny = torch.finfo(A.dtype).tiny
+    inf = float("inf")
     # a row's largest magnitude is NaN or inf exactly when the row holds one: a finiteness
-    # check of A at the cost of a vector's
-    row = A.abs().amax(dim=2)
+    # check of A at the cost of a vector's (max-norms: no |A| temporary; A is scaled in one
+    # new copy, the caller's matrix left alone)
+    row = torch.linalg.vector_norm(A, inf, dim=2)
     finite = torch.isfinite(row).all(dim=1) & torch.isfinite(b).all(dim=1)
-    A = torch.where(finite[:, None, None], A, eye)
-    b = torch.where(finite[:, None], b, torch.zeros_like(b))
-    row = torch.where(finite[:, None], row, torch.ones_like(row)).clamp_min(tiny)
+    if not bool(finite.all()):
+        A = torch.where(finite[:, None, None], A, eye)
+        b = torch.where(finite[:, None], b, torch.zeros_like(b))
+        row = torch.where(finite[:, None], row, torch.ones_like(row))
+    row = row.clamp_min(tiny)
     A, b = A / row[..., None], b / row
-    col = A.abs().amax(dim=1).clamp_min(tiny)
-    A = A / col[:, None, :]
+    col = torch.linalg.vector_norm(A, inf, dim=1).clamp_min(tiny)
+    A.div_(col[:, None, :])
     with single_thread():
         lu, piv, info = torch.linalg.lu_factor_ex(A)
         # a finite matrix factors into finite factors unless a pivot vanished (then U's
