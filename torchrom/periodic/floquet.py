@@ -55,7 +55,10 @@ Tensor = torch.Tensor
 
 #: default steps per period of the monodromy product
 FLOQUET_STEPS = 32
-#: an orbit is stable when its critical multiplier is below 1 + this
+#: an orbit is stable when its critical multiplier is below 1 + this, or below 1 + the
+#: monodromy's own accuracy (its trivial multiplier's distance from 1) where that is larger:
+#: near a Hopf point the amplitude multiplier is 1 − O(A²), closer to 1 than the product's
+#: error, and a multiplier that the matrix cannot tell from 1 is not called unstable
 STABILITY_TOL = 1e-6
 #: the verdict is given only where the trivial multiplier is recovered to within this (else
 #: unknown: the monodromy did not resolve the orbit, e.g. nearly undamped stiff dual modes)
@@ -275,7 +278,7 @@ def floquet(system: CaseSystem, X: Tensor, omega: Tensor, steps: int = FLOQUET_S
     mod_other[rows, trivial] = -1.0
     crit = mu[rows, mod_other.argmax(dim=1)]
     error = (mu[rows, trivial] - 1).abs().cpu().numpy()
-    verdict = (crit.abs() < 1 + tol).cpu().numpy()
+    verdict = (crit.abs().cpu().numpy() < 1 + np.maximum(tol, error))
     stable = np.array([bool(v) if e <= TRIVIAL_TOL else None for v, e in zip(verdict, error)],
                       dtype=object)
     return FloquetResult(mu.cpu().numpy(), trivial.cpu().numpy(), crit.cpu().numpy(), stable,
