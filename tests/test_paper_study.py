@@ -168,8 +168,8 @@ def test_quick_hb_agrees_with_newmark(quick, quick_hb):
     freq = (lco["frequency_hz_hb"] / lco["frequency_hz_nm"] - 1).abs()
     assert amp.max() <= 5e-3, lco.loc[amp.idxmax(), ["altitude_ft", "gamma"]].to_dict()
     assert freq.max() <= 2e-3
-    # no LCO judged unstable; the damped ones judged stable (the nearly undamped dual modes
-    # of γ = 0 can leave the verdict unknown: floquet_error)
+    # no LCO judged unstable; the damped ones judged stable (the large orbits of γ = 0, slow to
+    # converge in H, can leave the verdict unknown: floquet_error)
     assert not (lco["stable"] == False).any()  # noqa: E712 - nullable boolean column
     assert lco.loc[lco["gamma"] >= 5e-4, "stable"].all()
     text = (quick_hb / "report.md").read_text()
@@ -196,9 +196,9 @@ def test_quick_hb_largest_lco_within_half_a_percent(quick, quick_hb):
 def test_quick_branches_are_supercritical(quick):
     """The branches from the flutter point in altitude (γ = 0 and 1e-3 s): both leave the Hopf
     point stable, without folds, down to 4,000 ft (the paper's supercritical LCOs); the damped
-    branch is stable all along. (At γ = 0 the dual modes are nearly undamped and the monodromy
-    matrix of the large orbits is not reliable — a few are judged unstable although time
-    marching converges to them: a known limitation, stated in the report's table.)"""
+    branch is stable all along. (At γ = 0 the large orbits, slow to converge in H, leave the
+    monodromy matrix short of the trivial multiplier: their verdicts are unknown, stated in the
+    report.)"""
     for row in _summary(quick)["hb"]["branches"]:
         assert row["stable_from_hopf"] and not row["folds_ft"]
         assert row["lowest_altitude_ft"] == pytest.approx(4000.0)

@@ -145,9 +145,11 @@ def branches_section(rows: list[dict[str, Any]], figure: str | None) -> list[str
              "altitude from the Hopf point of each γ (matched α) down to 4,000 ft; stability "
              "from the Floquet multipliers of every orbit. A branch that leaves the Hopf point "
              "stable and has no fold is supercritical: no hysteresis, no LCO above the flutter "
-             "altitude. At γ = 0 the dual modes are nearly undamped and the monodromy matrix of "
-             "the large orbits is not reliable: orbits listed unstable there are not confirmed "
-             "(time marching converges to them).", ""]
+             "altitude. Where the monodromy matrix misses the trivial multiplier by more than "
+             "5 % the verdict is unknown (at γ = 0 the large orbits, which converge only slowly "
+             "in the number of harmonics near the 2:1 resonance with torsion); a multiplier "
+             "within the matrix's accuracy of 1 (near the Hopf point) is not called unstable.",
+             ""]
     lines += _table([[_f(r["gamma"], "{:g}"), _f(r["hopf_altitude_ft"], "{:,.1f}"),
                       _f(r["hopf_frequency_hz"], "{:.4f}"),
                       "stable" if r["stable_from_hopf"] else "unstable",

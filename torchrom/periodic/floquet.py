@@ -61,7 +61,7 @@ FLOQUET_STEPS = 32
 #: error, and a multiplier that the matrix cannot tell from 1 is not called unstable
 STABILITY_TOL = 1e-6
 #: the verdict is given only where the trivial multiplier is recovered to within this (else
-#: unknown: the monodromy did not resolve the orbit, e.g. nearly undamped stiff dual modes)
+#: unknown: the monodromy did not resolve the orbit, e.g. an orbit not converged in H)
 TRIVIAL_TOL = 5e-2
 #: the dual coordinates condense when the slowest is this many times above 2ω
 CONDENSE_RATIO = 10.0
