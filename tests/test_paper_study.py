@@ -23,13 +23,21 @@ from torchrom.paper.study import FIGURE_FILES, run_paper
 #: Fig. 10 acceptance findings on which the current Goland model differs from the paper, with
 #: the reason (see report.md, "Why we differ"); measured on the quick and the full study
 KNOWN_DIFFERENCES = {
-    "gamma_1e-5_equals_0": "our γ = 1e-5 s amplitude lies 1-6 % above γ = 0 (LCOs of 9-26 % of "
-                           "span; the same at dt = 0.5 ms)",
-    "amplitude_decreases_with_gamma": "our amplitude grows from γ = 1e-5 to 1e-4 s (up to +15 % "
-                                      "at 7,000 ft) before it falls for γ >= 5e-4 s",
     "stiffness_nl_small_at_gamma_1e-3": "at γ = 1e-3 s our stiffness nonlinearity raises the "
-                                        "amplitude by 0.4-1.0 ft, as much as or more than the "
-                                        "5e-4 -> 1e-3 s change (0.4-0.9 ft)",
+                                        "amplitude by 0.5-1.3 ft, more than the 5e-4 -> 1e-3 s "
+                                        "change (0.3-0.8 ft); on the updated wing it fails for "
+                                        "every admissible damping decomposition (report.md's "
+                                        "band)",
+}
+#: on the calibrated wing (the default before issue 15) "gamma_1e-5_equals_0" and
+#: "amplitude_decreases_with_gamma" differed too; on the updated wing both agree in the quick
+#: study; in the full one (8 altitudes) the second differs by one step, below:
+FULL_STUDY_DIFFERENCES = {
+    **KNOWN_DIFFERENCES,
+    "amplitude_decreases_with_gamma": "one of 32 consecutive-γ steps raises the amplitude by "
+                                      "more than 0.5 %: +0.7 % from γ = 0 to 1e-5 s at 5,000 ft "
+                                      "(and the verdict depends on the damping decomposition: "
+                                      "report.md's band)",
 }
 ACCEPTANCE = ("gamma_1e-5_equals_0", "amplitude_decreases_with_gamma",
               "stiffness_nl_small_at_gamma_1e-3", "linear_statuses")
@@ -142,6 +150,10 @@ def test_quick_decomposition_band(quick):
     assert band["admissible"]
     for m in band["members"]:
         assert m["min_eigenvalue_scaled"] >= -1e-9 and m["reproduction_error_K2"] < 1e-12
+    # the exact tensors reproduce the identified K3 to identification accuracy; the optimum
+    # decomposition only to ~1 % (its enforcement), and restoring it makes it indefinite
+    assert band["members"][-1]["strict"] and not band["members"][0]["strict"]
+    assert band["decomposition_restored_min_eigenvalue"] < 0
     assert set(band["findings"]) == {"gamma_1e-5_equals_0", "amplitude_decreases_with_gamma",
                                      "stiffness_nl_small_at_gamma_1e-3"}
     assert set(band["findings"].values()) <= {HOLDS, FAILS, DEPENDS, NOT_ASSESSABLE}
@@ -262,5 +274,5 @@ def test_full_study(tmp_path):
     assert abs(summary["linear"]["difference_ft"]) < 50.0
     found = {f["key"]: f["verdict"] for f in summary["findings"]}
     for key in ACCEPTANCE:
-        expected = "differ" if key in KNOWN_DIFFERENCES else "agree"
+        expected = "differ" if key in FULL_STUDY_DIFFERENCES else "agree"
         assert found[key] == expected, (key, found[key])

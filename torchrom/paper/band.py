@@ -6,10 +6,12 @@ keeps the Kelvin–Voigt structure and has a semidefinite extended matrix is adm
 runs the damping check's Fig. 10 cases (:func:`torchrom.paper.study.damping_check_cases`) with
 the members of :func:`torchrom.identify.damping_family.damping_family` between the study's
 optimum decomposition (θ = 0) and the exact Kelvin–Voigt tensors of the FE material (θ = 1),
-each member checked admissible, and reports per altitude and γ the smallest and largest LCO
-amplitude, and per Fig. 10 finding whether it holds for every member, for none, or depends on
-the choice. The ends are the main study's and the exact damping check's tables when their
-tensors are the family's ends (to 1e-9); the members between are simulated here.
+each member checked (:class:`~torchrom.identify.damping_family.DampingMember`: admissible
+by the study's standard, and strictly), and reports per altitude and γ the smallest and largest
+LCO amplitude, and per Fig. 10 finding whether it holds for every admissible member, for none,
+or depends on the choice (and the same over the strict members). The ends are the main
+study's and the exact damping check's tables when their tensors are the family's ends (to
+1e-9); the members between are simulated here.
 
 Hand-written over :mod:`torchrom.identify.damping_family` and :mod:`.findings`.
 """
@@ -23,7 +25,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from ..identify.damping_family import damping_family
+from ..identify.damping_family import damping_family, restored_min_eigenvalue
 from . import findings as fnd
 
 #: θ of the family (0: the optimum decomposition, 1: the exact tensors), full and quick study
@@ -74,12 +76,20 @@ def decomposition_band(main, exact, thetas, end_tables: tuple[pd.DataFrame, pd.D
     b = pd.DataFrame(band).dropna()
     spread = (b.groupby(["altitude_ft", "curve"], sort=False)["amplitude_pct_span"]
               .agg(["min", "max", "count"]).reset_index())
-    keys = list(rows[0]["findings"]) if rows else []
-    summary = {}
-    for k in keys:
+    return {"members": rows, "band": spread.to_dict(orient="records"),
+            "findings": _over(rows, "admissible"), "findings_strict": _over(rows, "strict"),
+            "admissible": all(r["admissible"] for r in rows),
+            "decomposition_restored_min_eigenvalue": restored_min_eigenvalue(main.rom,
+                                                                             main.rom)}
+
+
+def _over(rows: list[dict[str, Any]], flag: str) -> dict[str, str]:
+    """Each finding's verdict over the members with ``flag`` (admissible or strict)."""
+    rows = [r for r in rows if r[flag]]
+    out = {}
+    for k in (rows[0]["findings"] if rows else []):
         verdicts = [r["findings"][k]["verdict"] for r in rows]
-        summary[k] = (HOLDS if all(v == fnd.AGREE for v in verdicts) else
-                      FAILS if all(v == fnd.DIFFER for v in verdicts) else
-                      NOT_ASSESSABLE if fnd.NA in verdicts else DEPENDS)
-    return {"members": rows, "band": spread.to_dict(orient="records"), "findings": summary,
-            "admissible": all(r["admissible"] for r in rows)}
+        out[k] = (HOLDS if all(v == fnd.AGREE for v in verdicts) else
+                  FAILS if all(v == fnd.DIFFER for v in verdicts) else
+                  NOT_ASSESSABLE if fnd.NA in verdicts else DEPENDS)
+    return out
