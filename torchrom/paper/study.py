@@ -391,7 +391,13 @@ def _branches(cache: FileCache, cfg, model, model_hash: str, device, log) -> pd.
         table["stable"] = table["stable"].astype("boolean")
         return table
     log("LCO branches in altitude from the flutter point (gamma = 0 and 1e-3 s)")
-    table = goland_branches(cfg, model, device)
+    from ..periodic.newton import single_thread
+
+    # one intra-op thread: with two, a Newton corrector of the continuation on the updated
+    # wing's quick ROM stepped to -33,699 ft (outside the atmosphere) — torch 2.13's CPU
+    # batched LU with two threads is unreliable for these systems (periodic.newton)
+    with single_thread():
+        table = goland_branches(cfg, model, device)
 
     def write_csv(p):
         from ..io import atomic_path
