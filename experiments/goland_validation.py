@@ -24,7 +24,12 @@ import numpy as np
 
 from torchrom.fe import goland
 from torchrom.identify import validate as v
-from torchrom.identify.basis import BENDING_TORSION_COMBINATIONS, DualModeOptions
+from torchrom.identify.basis import (
+    BENDING_TORSION_COMBINATIONS,
+    TRANSVERSE_RULE,
+    DualModeOptions,
+    parse_combinations,
+)
 from torchrom.identify.build import IdentifyOptions, identify
 from torchrom.identify.fe_backend import BuiltinFEBackend
 
@@ -36,7 +41,9 @@ VARIANTS = {
     "paper-like": {"pod_norm": "mass", "snapshot_weights": "unit",
                    "amplitude_control": "linear"},
     "range-25": {"tip_range": (0.001, 0.25)},
-    "combinations-1-3": {"combinations": BENDING_TORSION_COMBINATIONS},  # the pipeline's
+    "combinations-1-3": {"combinations": BENDING_TORSION_COMBINATIONS},
+    # the rule of the pipeline and of torchrom identify (from the wing's mode kinds)
+    "transverse": {"combinations": TRANSVERSE_RULE},
 }
 BANDS = (5.0, 10.0, 15.0, 20.0, 25.0)
 
@@ -74,7 +81,11 @@ def main(argv=None) -> int:
                    " FE Hz | ROM Hz |", "|---|---|---|---|---|---|"]
     for name in args.variants.split(","):
         t0 = time.perf_counter()
-        dual = replace(DualModeOptions(), **VARIANTS[name])
+        options = dict(VARIANTS[name])
+        if options.get("combinations") == TRANSVERSE_RULE:
+            options["combinations"] = parse_combinations(TRANSVERSE_RULE,
+                                                         kinds=fe.modes(9).kinds)
+        dual = replace(DualModeOptions(), **options)
         res = identify(fe, IdentifyOptions(n_linear=9, n_dual=args.n_dual, damping="exact",
                                            dual=dual))
         t_id = time.perf_counter() - t0

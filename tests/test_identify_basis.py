@@ -193,9 +193,11 @@ def test_parse_combinations_names_pairs_and_errors():
 
 
 def test_transverse_rule_chooses_combinations_from_mode_kinds():
-    """The rule loads the first two transverse modes with the first three, skipping in-plane and
-    axial modes; on the heavy Goland wing (both variants: modes 1-3 transverse) it is the
-    validated bending-torsion set of the pipeline."""
+    """The rule loads the first two transverse modes with the first three — or up to the second
+    bending mode when a torsion mode lies below it —, skipping in-plane and axial modes; on the
+    calibrated heavy Goland wing (1 bending, 2 torsion, 3 bending) it is the validated
+    bending-torsion set, on the updated wing (1 bending, 2-3 torsion, 4 bending) it adds the
+    second bending mode 4."""
     from torchrom.fe import goland
     from torchrom.identify.basis import (
         BENDING_TORSION_COMBINATIONS,
@@ -210,6 +212,11 @@ def test_transverse_rule_chooses_combinations_from_mode_kinds():
         transverse_combinations(["in-plane", "axial"])
     with pytest.raises(InputError, match="needs the mode kinds"):
         parse_combinations("transverse")
-    for variant in ("calibrated", "updated"):
-        kinds = goland(variant=variant).modes(9).kinds
-        assert parse_combinations("transverse", kinds=kinds) == BENDING_TORSION_COMBINATIONS
+    assert transverse_combinations(["bending", "torsion", "torsion", "torsion", "bending"]) == (
+        (1, 1), (1, 2), (1, 3), (1, 4), (1, 5), (2, 2), (2, 3), (2, 4), (2, 5))
+    assert transverse_combinations(["torsion", "bending"]) == ((1, 1), (1, 2), (2, 2))
+    kinds = goland(variant="calibrated").modes(9).kinds
+    assert parse_combinations("transverse", kinds=kinds) == BENDING_TORSION_COMBINATIONS
+    kinds = goland(variant="updated").modes(9).kinds
+    assert parse_combinations("transverse", kinds=kinds) == (
+        (1, 1), (1, 2), (1, 3), (1, 4), (2, 2), (2, 3), (2, 4))

@@ -33,7 +33,9 @@ def rel(a, b):
 
 @pytest.fixture(scope="session")
 def goland_fe():
-    return goland()
+    """The calibrated wing, on which the issue-4 numbers below were measured (the updated wing,
+    the default since issue 15, has its own static check at the end)."""
+    return goland(variant="calibrated")
 
 
 @pytest.fixture(scope="session")
@@ -280,3 +282,36 @@ def test_bending_torsion_9l12d_full_validation(goland_fe, goland_bending_torsion
         m = v.free_decay_validation(be, rom, Phi, shapes["uniform"], tip_fraction=tip,
                                     gamma=1e-3, cycles=10).metrics
         assert m["envelope_error"] < 0.03 and m["frequency_error"] < 0.01, (tip, m)
+
+
+@pytest.fixture(scope="session")
+def updated_fe():
+    return goland()
+
+
+def test_updated_wing_dual_pairs_by_rule(updated_fe):
+    """On the updated wing (the default) the rule loads the second bending mode (4) as well: a
+    torsion mode (3) lies below it (issue 15, item 3)."""
+    from torchrom.identify.basis import parse_combinations
+
+    assert parse_combinations("transverse", kinds=updated_fe.modes(9).kinds) == (
+        (1, 1), (1, 2), (1, 3), (1, 4), (2, 2), (2, 3), (2, 4))
+
+
+def test_updated_wing_static_to_25_percent_reduced(updated_fe):
+    """Issue 15 item 3: the ROM's static error on the updated wing, A_Tz and A_Ty within 2 % up
+    to a 25 % span tip deflection, with the dual pairs of the rule, reduced to two load levels
+    per shape (12.5 % and 25 %). 14 dual modes: measured on the full curves (1-25 %, 11-12
+    levels) uniform 0.21 % / 1.13 %, step 1.93 % / 1.40 %; with the paper's 12 the step
+    pressure's A_Tz reaches 2.01 % at 25 % (1.52 % at 20 %), so the 2 % bound needs 14
+    (experiments/results/goland_validation_updated.md)."""
+    from torchrom.identify.basis import parse_combinations
+
+    pairs = parse_combinations("transverse", kinds=updated_fe.modes(9).kinds)
+    res = identify(updated_fe, IdentifyOptions(n_linear=9, n_dual=14, damping="exact",
+                                               dual=DualModeOptions(combinations=pairs)))
+    be = as_backend(updated_fe)
+    for shape, load in be.load_shapes().items():
+        c = v.static_validation(be, res.rom, res.basis.Phi, shape, load, n_levels=2)
+        assert c.tip_pct_span.max() >= 24.8
+        assert c.errors["A_Tz"] < 0.02 and c.errors["A_Ty"] < 0.02, (shape, c.errors)

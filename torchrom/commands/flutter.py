@@ -73,8 +73,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     )
     p.add_argument("--lags", type=nonnegative_int, default=13,
                    help="goland form: RFA lag states (default 13)")
-    p.add_argument("--variant", choices=("calibrated", "updated"), default="calibrated",
-                   help="goland form: the heavy Goland wing variant (see torchrom goland)")
+    p.add_argument("--variant", choices=("calibrated", "updated"), default="updated",
+                   help="goland form: the heavy Goland wing variant (default updated; see "
+                        "torchrom goland)")
     p.add_argument(
         "--boxes",
         type=positive_int,

@@ -1,5 +1,7 @@
 """``torchrom goland``: write the heavy Goland wing deck and compare its modes with Table 2.
 
+``--variant updated`` (default) or ``calibrated`` (:data:`torchrom.fe.goland.GOLAND_VARIANTS`).
+
 JSON (``--json FILE``): a list of records, one per mode, with keys ``mode``, ``frequency_hz``
 (Hz), ``kind`` (bending/torsion/in-plane/axial), ``paper_hz`` (Table 2, Hz), ``diff_pct``
 (100 (model − paper)/paper) and ``content_bending``/``content_torsion``/``content_in-plane``/
@@ -26,10 +28,11 @@ HELP = "write the heavy Goland wing BDF (goland.bdf) and print its modes against
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--variant", choices=("calibrated", "updated"), default="calibrated",
-                        help="'calibrated' (uniform density for mode 1, store position for the "
-                             "flutter altitude) or 'updated' (non-structural mass groups "
-                             "updated to Table 2: torchrom/data/goland_update.toml)")
+    parser.add_argument("--variant", choices=("calibrated", "updated"), default="updated",
+                        help="'updated' (default: non-structural mass groups updated to "
+                             "Table 2, torchrom/data/goland_update.toml) or 'calibrated' "
+                             "(uniform density for mode 1, store position for the flutter "
+                             "altitude; the options below apply to it)")
     parser.add_argument("--mass-groups", action="store_true",
                         help="calibrated variant: declare the non-structural mass groups of "
                              "torchrom/data/goland_update.toml (massless until updated)")
@@ -64,7 +67,7 @@ def run(args: argparse.Namespace) -> int:
         print("building the heavy Goland wing, updated variant")
         fe = goland(variant="updated", store_x=args.store_x, density=args.density,
                     skins=args.skins, webs=args.webs, coupled_mass=args.coupled_mass,
-                    n_modes=args.n)
+                    mass_groups=args.mass_groups, n_modes=args.n)
     else:
         from ..fe.goland import DEFAULT_STORE_X
 
@@ -74,7 +77,7 @@ def run(args: argparse.Namespace) -> int:
               + (", mass groups" if args.mass_groups else "") + ")")
         fe = goland(store_x=store_x, density=args.density, skins=args.skins, webs=args.webs,
                     coupled_mass=args.coupled_mass, n_modes=args.n,
-                    mass_groups=args.mass_groups)
+                    mass_groups=args.mass_groups, variant="calibrated")
     from ..fe.update import total_mass
 
     rho = fe.mesh.rods.rho[0]

@@ -1,6 +1,7 @@
 """``torchrom paper [--out DIR] [--quick] [--force]``: the paper's post-flutter study end to end.
 
-Builds the heavy Goland FE model, identifies the 9L12D ROM (decomposition damping), computes the
+Builds the heavy Goland FE model (the default, updated wing), identifies the 9L12D ROM
+(decomposition damping), computes the
 aerodynamics on its basis (Mach 0.70, 9 modes, 13 lags), finds flutter, checks the batched
 simulator against the eigenvalues, runs the LCO sweep and writes into DIR (default ``paper``, or
 ``paper-quick`` with ``--quick``):
@@ -12,7 +13,11 @@ simulator against the eigenvalues, runs the LCO sweep and writes into DIR (defau
   linear, lco, alpha_gamma, findings, figures, figures_failed (figures that could not be drawn:
   a warning and exit status 1; the tables and the report are written), identification);
 - ``model/`` (goland.bdf, rom.npz, basis.npz, aero.npz, flutter.json), ``model_exact/`` (the same
-  with the exact Kelvin–Voigt damping, for the report's damping cause check), ``tables/``
+  with the exact Kelvin–Voigt damping, for the report's damping cause check and the band over
+  admissible damping decompositions, ``sweeps/lco_damping_theta_*``), ``model_calibrated/``
+  (the calibrated wing, whose LCO sweep ``sweeps/lco_calibrated/`` and findings the report
+  shows beside the study's: paper.json keys ``variant``, ``variants``,
+  ``decomposition_band``), ``tables/``
   (alpha_gamma, table3, linear_check) and ``sweeps/lco/``, ``sweeps/lco_exact_damping/``
   (results, histories): cached by the hash of their inputs and the package version and reused
   on the next run; ``--force`` rebuilds everything.

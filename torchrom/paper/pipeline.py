@@ -2,9 +2,10 @@
 
 Stages (each a file in the cache folder, rebuilt only when the hash of its inputs changes):
 
-1. ``goland.bdf``   the heavy Goland wing of :func:`torchrom.fe.goland` (package defaults: the
-                    key is the hash of the deck's own text, so a change of the FE defaults is
-                    seen even without a version change);
+1. ``goland.bdf``   the heavy Goland wing of :func:`torchrom.fe.goland`, the variant of
+                    :attr:`GolandPipeline.variant` (default the updated wing; the key is the
+                    hash of the deck's own text, so a change of the FE defaults is seen even
+                    without a version change);
 2. ``rom.npz``      the 9L12D ROM identified non-intrusively (:func:`torchrom.identify.identify`,
                     damping "decomposition" as in the paper, or "exact"), plus ``basis.npz``
                     (the basis Φ on the FE's free DOFs);
@@ -45,7 +46,8 @@ from ..aero.build import (
 )
 from ..aero.files import AeroData
 from ..errors import InputError
-from ..identify.basis import BENDING_TORSION_COMBINATIONS
+from ..fe.goland import DEFAULT_VARIANT, GOLAND_VARIANTS
+from ..identify.basis import TRANSVERSE_RULE, parse_combinations
 from ..io import atomic_path, write_json_atomic
 from ..reference import paper_reference
 from ..rom import NonlinearROM
@@ -63,21 +65,25 @@ DAMPING_METHODS = ("decomposition", "exact")
 class GolandPipeline:
     """Options of the built-in Goland pipeline (paper Secs. III.A–C defaults).
 
+    variant: the heavy Goland wing (:data:`torchrom.fe.goland.GOLAND_VARIANTS`, default
+    "updated");
     damping: "decomposition" (paper) or "exact" (FE material tangent);
     n_linear, n_dual: basis size (9L12D); dual_amplitudes: static loads per dual combination;
-    dual_combinations: the linear-mode pairs loaded for the dual modes (1-based; default the
-    bending-torsion set, see :mod:`torchrom.identify.basis`, "Combinations");
+    dual_combinations: the linear-mode pairs loaded for the dual modes (1-based pairs, a named
+    set, or the default rule "transverse" chosen from the modes' kinds, see
+    :mod:`torchrom.identify.basis`, "Combinations");
     mach, aero_modes, lags: aerodynamics (Mach 0.70, m = 9 modes, 13 lag states);
     boxes: DLM boxes per half wing (chordwise, spanwise); k_list: reduced frequencies;
     baseline_alpha, baseline_gamma: the FE model's Rayleigh damping (Eq. 46);
     altitude_range_ft: where the flutter point is searched.
     """
 
+    variant: str = DEFAULT_VARIANT
     damping: str = "decomposition"
     n_linear: int = 9
     n_dual: int = 12
     dual_amplitudes: int = 20
-    dual_combinations: tuple[tuple[int, int], ...] = BENDING_TORSION_COMBINATIONS
+    dual_combinations: tuple[tuple[int, int], ...] | str = TRANSVERSE_RULE
     mach: float = 0.7
     aero_modes: int = 9
     lags: int = 13
@@ -88,6 +94,11 @@ class GolandPipeline:
     altitude_range_ft: tuple[float, float] = ALTITUDE_RANGE_FT
 
     def __post_init__(self):
+        if self.variant not in GOLAND_VARIANTS:
+            raise InputError(f"goland pipeline: variant: expected one of {GOLAND_VARIANTS}, got "
+                             f"{self.variant!r}")
+        if isinstance(self.dual_combinations, str) and self.dual_combinations != TRANSVERSE_RULE:
+            parse_combinations(self.dual_combinations, "goland pipeline: dual_combinations")
         if self.damping not in DAMPING_METHODS:
             raise InputError(f"goland pipeline: damping: expected one of {DAMPING_METHODS}, got "
                              f"{self.damping!r}")
@@ -106,7 +117,8 @@ class GolandPipeline:
         if unknown:
             raise InputError(f"{where}: unknown key {unknown[0]!r}; expected one of "
                              f"{sorted(names)}")
-        values = {k: tuple(v) if isinstance(v, list) else v for k, v in table.items()}
+        values = {k: tuple(tuple(x) if isinstance(x, list) else x for x in v)
+                  if isinstance(v, list) else v for k, v in table.items()}
         try:
             return cls(**values)
         except TypeError as exc:
@@ -157,7 +169,7 @@ def goland_pipeline(options: GolandPipeline | None = None, folder=None, *, force
     files: dict[str, Path] = {}
 
     t0 = time.perf_counter()
-    fe = goland()
+    fe = goland(variant=opt.variant)
     deck = _deck_text(fe)
     deck_hash = hashlib.sha256(deck.encode()).hexdigest()
     fe_key = FileCache.key({"stage": "fe", "deck_sha256": deck_hash})
@@ -174,9 +186,10 @@ def goland_pipeline(options: GolandPipeline | None = None, folder=None, *, force
     seconds["fe"] = time.perf_counter() - t0
 
     # -- identification -------------------------------------------------------------------------
+    combinations = dual_combinations(fe, opt)
     id_inputs = {"stage": "rom", "fe": fe_key, "damping": opt.damping, "n_linear": opt.n_linear,
                  "n_dual": opt.n_dual, "dual_amplitudes": opt.dual_amplitudes,
-                 "dual_combinations": [list(c) for c in opt.dual_combinations]}
+                 "dual_combinations": [list(c) for c in combinations]}
     rom_key = FileCache.key(id_inputs)
     rom_path, basis_path = cache.get("rom.npz", rom_key), cache.get("basis.npz", rom_key)
     identification = None
@@ -184,7 +197,7 @@ def goland_pipeline(options: GolandPipeline | None = None, folder=None, *, force
     if rom_path is None or basis_path is None:
         log(f"identify: {opt.n_linear}L{opt.n_dual}D ROM, damping '{opt.damping}' (the FE model "
             f"does the work: dual modes, tangents)")
-        rom, Phi, identification = _identify(fe, opt)
+        rom, Phi, identification = _identify(fe, opt, combinations)
         rom_path = cache.put("rom.npz", rom_key, rom.save)
         basis_path = cache.put("basis.npz", rom_key, lambda p: _save_basis(p, Phi, rom))
     else:
@@ -234,13 +247,22 @@ def goland_pipeline(options: GolandPipeline | None = None, folder=None, *, force
     return PipelineResult(model, summary, files, seconds, list(cache.hits), identification)
 
 
-def _identify(fe, opt: GolandPipeline):
+def dual_combinations(fe, opt: GolandPipeline) -> tuple[tuple[int, int], ...]:
+    """The dual-mode combinations of ``opt`` on ``fe`` (a rule resolved from the modes' kinds)."""
+    if not isinstance(opt.dual_combinations, str):
+        return tuple(tuple(c) for c in opt.dual_combinations)
+    kinds = ([str(k) for k in fe.modes(opt.n_linear).kinds]
+             if opt.dual_combinations == TRANSVERSE_RULE else None)
+    return parse_combinations(opt.dual_combinations, "goland pipeline: dual_combinations", kinds)
+
+
+def _identify(fe, opt: GolandPipeline, combinations):
     from ..identify import DualModeOptions, IdentifyOptions, identify
     from ..identify.build import as_backend
 
     options = IdentifyOptions(n_linear=opt.n_linear, n_dual=opt.n_dual, damping=opt.damping,
                               dual=DualModeOptions(n_amplitudes=opt.dual_amplitudes,
-                                                   combinations=opt.dual_combinations))
+                                                   combinations=combinations))
     res = identify(fe, options)
     span = as_backend(fe).reference_length
     rom = res.rom.replace(metadata={**res.rom.metadata, "span": float(span)})

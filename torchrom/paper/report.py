@@ -18,11 +18,8 @@ from .findings import AGREE, DIFFER, PAPER_GAMMAS, Finding, curve_table
 
 #: reasons our model can differ from the paper's, cited by the findings that differ
 CAUSES = {
-    "model": "the FE model is a reconstruction: the paper does not give the density, the store's "
-             "chordwise position or the shear-panel modelling; ours is calibrated to mode 1 "
-             "(1.690 Hz) and the flutter altitude only, and its torsion mode is {torsion:+.0f} % "
-             "off Table 2 ({f2:.3f} vs {p2:.3f} Hz), which changes the bending–torsion flutter "
-             "mechanism that the LCO grows from",
+    "model": "the FE model is a reconstruction: the paper does not give the wing's mass "
+             "distribution, the store's chordwise position or the shear-panel modelling; {model}",
     "aero": "the aerodynamics are PanelAero's doublet-lattice GAFs on our modes (the paper used "
             "ZAERO on its modes): the flutter frequency is {fdiff:+.1f} % off the paper's",
     "damping": "the damping tensors come from our own optimum decomposition (the paper's "
@@ -57,6 +54,121 @@ def _curve_name(key) -> str:
     if key == "1e-3 only":
         return "γ = 1e-3 only"
     return "NL stiff (γ = 0)" if key == 0 else f"γ = {key:g}"
+
+
+#: what the report says of each wing variant's model (the "model" cause)
+MODEL_NOTES = {
+    "updated": "ours is updated to Table 2 by declared non-structural masses and the store's "
+               "offsets (`torchrom update`, largest modal difference {t2max:.1f} %, torsion "
+               "{torsion:+.1f} %: {f2:.3f} vs {p2:.3f} Hz), so the same frequencies can come "
+               "from another mass distribution than the paper's, with other mode shapes",
+    "calibrated": "ours is calibrated to mode 1 (1.690 Hz) and the flutter altitude only, and its "
+                  "torsion mode is {torsion:+.0f} % off Table 2 ({f2:.3f} vs {p2:.3f} Hz), which "
+                  "changes the bending–torsion flutter mechanism that the LCO grows from",
+}
+
+
+def variants_section(summary: dict[str, Any]) -> list[str]:
+    """The study's wing variant beside the other(s): Table 2, flutter, Table 3, findings."""
+    others = summary.get("variants") or {}
+    if not others:
+        return []
+    main = summary.get("variant", "updated")
+    runs = {main: {"flutter": summary["flutter"], "findings": summary["findings"]}, **others}
+    names = list(runs)
+    head = [f"{n}{' (this study)' if n == main else ''}" for n in names]
+    lines = ["## The two wing variants side by side", "",
+             "The same study on each heavy Goland wing variant (`torchrom goland --variant "
+             "NAME`): *updated* (the default: non-structural masses and store offsets updated to "
+             "Table 2 by `torchrom update`) and *calibrated* (uniform density for mode 1, store "
+             "position for the flutter altitude). Everything else — ROM recipe, aerodynamics, "
+             "LCO cases — is the same.", "", "Table 2 (Hz, difference to the paper in %, kind):",
+             ""]
+    t2 = {n: r["flutter"]["table2"] for n, r in runs.items()}
+    rows = []
+    for i, ref in enumerate(t2[main]):
+        rows.append([ref["mode"], _f(ref["paper_hz"], "{:.3f}"), ref.get("paper_kind") or "–"]
+                    + [f"{_f(t2[n][i]['frequency_hz'], '{:.3f}')} "
+                       f"({_f(t2[n][i]['diff_pct'], '{:+.1f}')}, {t2[n][i].get('kind') or '–'})"
+                       for n in names])
+    lines += _table(rows, ["mode", "paper", "paper kind"] + head)
+    lines += ["", "Flutter at Mach 0.70 (paper 11,275 ft, 1.975 Hz):", ""]
+    rows = []
+    for method in ("state_space", "pk"):
+        label = "state space" if method == "state_space" else "p-k"
+        rows.append([f"{label} altitude ft"] + [_f(runs[n]["flutter"][method]["altitude"],
+                                                   "{:,.0f}") for n in names])
+        rows.append([f"{label} frequency Hz"] + [_f(runs[n]["flutter"][method]["frequency_hz"],
+                                                    "{:.3f}") for n in names])
+    lines += _table(rows, ["", *head])
+    lines += ["", "Table 3, growing-response frequency by eigenvalues (Hz, difference %):", ""]
+    t3 = {n: r["flutter"]["table3"] for n, r in runs.items()}
+    lines += _table([[_f(r["altitude_ft"], "{:,.0f}"), _f(r["paper_hz"], "{:.3f}")]
+                     + [f"{_f(t3[n][i]['state_space_hz'], '{:.3f}')} "
+                        f"({_f(100 * (t3[n][i]['state_space_hz'] / r['paper_hz'] - 1), '{:+.1f}')})"
+                        for n in names] for i, r in enumerate(t3[main])],
+                    ["altitude ft", "paper", *head])
+    lines += ["", "The paper's findings (verdicts of the same checks on each variant's tables):",
+              ""]
+    verdicts = {n: {f["key"]: f for f in r["findings"]} for n, r in runs.items()}
+    keys = list(verdicts[main]) + [k for n in names for k in verdicts[n]
+                                   if k not in verdicts[main]]
+    keys = list(dict.fromkeys(keys))
+    lines += _table([[f"`{k}`"] + [f"**{verdicts[n][k]['verdict']}**" if k in verdicts[n]
+                                   else "–" for n in names] for k in keys],
+                    ["finding", *head])
+    return lines
+
+
+def band_section(band: dict[str, Any]) -> list[str]:
+    """The Fig. 10 cases over admissible damping decompositions (:mod:`.band`)."""
+    lines = ["## Fig. 10 over admissible damping decompositions", "",
+             "The identified stiffness does not determine D̄2, D̄3. Every decomposition that "
+             "reproduces the identified K2, K3 coefficients (Eqs. 16, 25–27), keeps the "
+             "Kelvin–Voigt structure (Eqs. 42–44) and has a positive semidefinite extended "
+             "matrix (Eq. 45) is admissible, and the set is convex. The members below lie on the "
+             "segment from the study's optimum decomposition (θ = 0) to the exact Kelvin–Voigt "
+             "tensors of the FE material (θ = 1), each checked. The optimum decomposition is "
+             "semidefinite only because its enforcement changed D̄3 (hence its K3 reproduction "
+             "error; with the identified coefficients restored exactly its smallest scaled "
+             f"eigenvalue is {_f(band.get('decomposition_restored_min_eigenvalue'), '{:.2g}')}), "
+             "so a member counts as admissible when it is semidefinite and reproduces K2, K3 at "
+             "least as well as the study's decomposition, and as strictly admissible when it "
+             "does so to identification accuracy (1e-6):", ""]
+    lines += _table([[m["name"], _f(m["theta"], "{:g}"), _f(m["min_eigenvalue_scaled"], "{:.2g}"),
+                      _f(m["reproduction_error_K2"], "{:.1e}"),
+                      _f(m["reproduction_error_K3"], "{:.1e}"),
+                      "yes" if m["admissible"] else "**no**",
+                      "yes" if m.get("strict") else "no"] for m in band["members"]],
+                    ["member", "θ", "λ_min (scaled)", "K2 reproduced to", "K3 reproduced to",
+                     "admissible", "strictly"])
+    lines += ["", "LCO amplitude of point A (% of span), smallest–largest over the members "
+              "(members without a converged LCO left out); the findings below are judged on "
+              "these altitudes only (the main findings use every altitude of the study):", ""]
+    b = pd.DataFrame(band["band"])
+    if len(b):
+        order = [str(g) for g in PAPER_GAMMAS] + ["1e-3 only"]
+        curves = [c for c in order if c in set(b["curve"])]
+        rows = []
+        for h in sorted(b["altitude_ft"].unique()):
+            cells = []
+            for c in curves:
+                r = b[(b["altitude_ft"] == h) & (b["curve"] == c)]
+                cells.append("–" if r.empty else f"{r['min'].iloc[0]:.2f}–{r['max'].iloc[0]:.2f}"
+                             + (f" ({int(r['count'].iloc[0])})"
+                                if int(r["count"].iloc[0]) < len(band["members"]) else ""))
+            rows.append([_f(h, "{:,.0f}")] + cells)
+        lines += _table(rows, ["altitude ft"] + [_curve_name("1e-3 only" if c == "1e-3 only"
+                                                             else float(c)) for c in curves])
+    strict = band.get("findings_strict", {})
+    lines += ["", "| finding | " + " | ".join(m["name"] for m in band["members"])
+              + " | over the admissible decompositions | over the strictly admissible ones |",
+              "|---|" + "---|" * (len(band["members"]) + 2)]
+    for key, verdict in band["findings"].items():
+        lines.append(f"| `{key}` | " + " | ".join(m["findings"][key]["verdict"]
+                                                 for m in band["members"])
+                     + f" | **{verdict}** | {strict.get(key, '–')} |")
+    return lines
 
 
 def damping_check_section(check: dict[str, Any]) -> list[str]:
@@ -199,11 +311,16 @@ def render(summary: dict[str, Any], findings: list[Finding], table: pd.DataFrame
     t2 = fl["table2"]
     f2 = t2[1]["frequency_hz"] if len(t2) > 1 else float("nan")
     p2 = t2[1]["paper_hz"] if len(t2) > 1 else float("nan")
-    causes = {k: v.format(torsion=100 * (f2 / p2 - 1), f2=f2, p2=p2,
+    t2max = max((abs(r["diff_pct"]) for r in t2), default=float("nan"))
+    model = MODEL_NOTES.get(summary.get("variant", "updated"), MODEL_NOTES["updated"]).format(
+        torsion=100 * (f2 / p2 - 1), f2=f2, p2=p2, t2max=t2max)
+    causes = {k: v.format(model=model,
                           fdiff=100 * (ss["frequency_hz"] / paper["frequency_hz"] - 1))
               for k, v in CAUSES.items()}
     lines = [f"# torchrom paper{' --quick' if summary['quick'] else ''}: heavy Goland wing "
              "post-flutter LCO study", "",
+             f"Wing: the *{summary.get('variant', 'updated')}* variant of `torchrom goland` "
+             "(the other variant is shown beside it at the end).", "",
              "Reproduction of Wang, Song, Mignolet & Chen, AIAA J. 59(10) 2021, Sec. IV "
              "(Figs. 9–13, Table 3), generated end to end by `torchrom paper` "
              f"(torchrom {summary['version']}).", ""]
@@ -298,6 +415,10 @@ def render(summary: dict[str, Any], findings: list[Finding], table: pd.DataFrame
         lines += [""] + branches_section(hb["branches"], summary["figures"].get("branches"))
     if summary.get("damping_check"):
         lines += [""] + damping_check_section(summary["damping_check"])
+    if summary.get("decomposition_band"):
+        lines += [""] + band_section(summary["decomposition_band"])
+    if summary.get("variants"):
+        lines += [""] + variants_section(summary)
     counts = table["status"].value_counts().to_dict()
     lines += ["", "## Statuses", "", ", ".join(f"{k}: {v}" for k, v in sorted(counts.items()))
               + f" (of {len(table)} cases).", ""]

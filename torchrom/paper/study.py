@@ -7,7 +7,11 @@ hash of their inputs and the package version, :mod:`.cache`):
 2. Fig. 9: α(γ) at the flutter altitude (the γ grid of ``paper_fig09.toml``);
 3. the simulator's linear checks and Table 3 (:mod:`.linear`);
 4. the LCO sweep of ``paper_lco.toml`` (Figs. 10–13, Fig. 11 from its histories);
-5. the figures (:mod:`torchrom.study.figures`), the findings (:mod:`.findings`), ``report.md``
+5. the damping cause check (the Fig. 10 cases with the exact Kelvin–Voigt tensors) and the band
+   over admissible damping decompositions between them and the optimum decomposition
+   (:mod:`.band`);
+6. the other wing variant beside the study's (:mod:`.variants`: pipeline, LCO sweep, findings);
+7. the figures (:mod:`torchrom.study.figures`), the findings (:mod:`.findings`), ``report.md``
    and ``paper.json``.
 
 ``quick`` loads the configurations' ``[variants.quick]`` (coarser grids, shorter runs) and uses
@@ -40,6 +44,7 @@ from ..study.plots import branch_diagram
 from ..study.sweep import run_sweep
 from ..study.table import write_histories
 from . import findings as fnd
+from .band import BAND_THETAS, decomposition_band
 from .cache import MANIFEST, FileCache
 from .dissipation import dissipation_ratio, lco_cycle, scaled_min_eigenvalue
 from .hb import branch_summary, goland_branches, newmark_confirmation
@@ -47,6 +52,7 @@ from .linear import linear_checks
 from .modes import paper_mode_map
 from .pipeline import GolandPipeline, goland_pipeline
 from .report import render
+from .variants import COMPARISON_VARIANTS, variant_study
 
 #: the full pipeline is the paper's (9L12D, 8 x 20 boxes); --quick keeps the basis and uses
 #: half as many dual-mode loads per combination and a coarser DLM mesh
@@ -171,8 +177,38 @@ def run_paper(out, *, quick: bool = False, force: bool = False, device: str = "c
 
     # -- cause check: the Fig. 10 cases with the exact Kelvin-Voigt damping ------------------
     watch.start()
-    check = _damping_check(cache, cfg, model, quick, out, force, device, dtype, log)
+    check, exact, exact_table = _damping_check(cache, cfg, model, quick, out, force, device,
+                                               dtype, log)
     watch.stop("damping check (exact Kelvin-Voigt)")
+
+    # -- the band over admissible damping decompositions ---------------------------------------
+    watch.start()
+    check_cfg = dataclasses.replace(cfg, cases=damping_check_cases(cfg), history=None)
+    keys = ["altitude_ft", "gamma", "stiffness_nl", "damping_nl"]
+    main_cases = table.merge(exact_table[keys], on=keys)  # the check's cases of the main sweep
+    log(f"damping decompositions: the Fig. 10 cases at θ = "
+        f"{', '.join(f'{t:g}' for t in BAND_THETAS[kind])} between the optimum decomposition "
+        "(0) and the exact tensors (1)")
+    band = decomposition_band(
+        model, exact, BAND_THETAS[kind], (main_cases, exact_table),
+        lambda m, name: _lco_sweep(cache, check_cfg, m, m.content_hash(), device, dtype, log,
+                                   name=name)[0])
+    for key, verdict in band["findings"].items():
+        log(f"  {key}: {verdict}")
+    watch.stop("damping decomposition band")
+
+    # -- the other wing variant(s) -------------------------------------------------------------
+    watch.start()
+    base = QUICK_PIPELINE if quick else FULL_PIPELINE
+    cfg_v = cfg if method == "newmark" else dataclasses.replace(cfg, history=None)
+    variants = {
+        name: variant_study(
+            name, base, out / f"model_{name}", [c.get("gamma", 0.0) for c in cfg9.cases],
+            lambda m, nm: _lco_sweep(cache, cfg_v, m, m.content_hash(), device, dtype, log,
+                                     name=nm),
+            paper_q4, force=force, log=log)
+        for name in COMPARISON_VARIANTS if name != base.variant}
+    watch.stop("other wing variant (pipeline, LCO sweep)")
 
     # -- figures ---------------------------------------------------------------------------------
     watch.start()
@@ -226,7 +262,8 @@ def run_paper(out, *, quick: bool = False, force: bool = False, device: str = "c
         "linear_window": LINEAR_WINDOW, "lco": lco_info,
         "alpha_gamma": alpha_gamma.to_dict(orient="records"),
         "findings": [f.as_dict() for f in found],
-        "damping_check": check, "method": method, "hb": hb_info,
+        "damping_check": check, "decomposition_band": band, "method": method, "hb": hb_info,
+        "variant": (QUICK_PIPELINE if quick else FULL_PIPELINE).variant, "variants": variants,
         "figures": {k: str(v) for k, v in paths.items()},
         "paper_q4": {**q4, "column": ratio4},
         "figures_failed": failed,
@@ -267,10 +304,11 @@ def damping_check_cases(cfg) -> list[dict[str, Any]]:
 
 
 def _damping_check(cache: FileCache, cfg, main, quick: bool, out: Path, force: bool, device,
-                   dtype, log) -> dict[str, Any]:
+                   dtype, log) -> tuple[dict[str, Any], Any, pd.DataFrame]:
     """The Fig. 10 curves at :data:`DAMPING_CHECK_ALTITUDES` with a ROM whose damping tensors
     are the exact Kelvin–Voigt ones (``damping="exact"``, same basis and aerodynamics recipe):
-    tells how much of a difference from the paper the optimum decomposition causes."""
+    tells how much of a difference from the paper the optimum decomposition causes. Returns the
+    check (JSON-ready), the exact-damping model and its table."""
     base = QUICK_PIPELINE if quick else FULL_PIPELINE
     res = goland_pipeline(dataclasses.replace(base, damping="exact"), out / "model_exact",
                           force=force, log=log)
@@ -284,9 +322,9 @@ def _damping_check(cache: FileCache, cfg, main, quick: bool, out: Path, force: b
         log(f"  exact damping: {f.key}: {f.verdict} ({f.ours})")
     cols = ["altitude_ft", "gamma", "stiffness_nl", "damping_nl", "status", "amplitude_pct_span",
             "frequency_hz"]
-    return {"findings": [f.as_dict() for f in found], "lco": info,
-            "table": table[[c for c in cols if c in table]].to_dict(orient="records"),
-            "dissipation": _dissipation_check(cache, cfg, main, model, log)}
+    return ({"findings": [f.as_dict() for f in found], "lco": info,
+             "table": table[[c for c in cols if c in table]].to_dict(orient="records"),
+             "dissipation": _dissipation_check(cache, cfg, main, model, log)}, model, table)
 
 
 def _dissipation_check(cache: FileCache, cfg, main, exact, log) -> dict[str, Any]:
@@ -353,7 +391,13 @@ def _branches(cache: FileCache, cfg, model, model_hash: str, device, log) -> pd.
         table["stable"] = table["stable"].astype("boolean")
         return table
     log("LCO branches in altitude from the flutter point (gamma = 0 and 1e-3 s)")
-    table = goland_branches(cfg, model, device)
+    from ..periodic.newton import single_thread
+
+    # one intra-op thread: with two, a Newton corrector of the continuation on the updated
+    # wing's quick ROM stepped to -33,699 ft (outside the atmosphere) — torch 2.13's CPU
+    # batched LU with two threads is unreliable for these systems (periodic.newton)
+    with single_thread():
+        table = goland_branches(cfg, model, device)
 
     def write_csv(p):
         from ..io import atomic_path
