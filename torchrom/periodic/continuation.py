@@ -126,23 +126,43 @@ class Branches:
 
 
 class _ParameterEquations:
-    """evaluate(X, ω, p, active) for :func:`~.newton.newton` with the case parameter as μ."""
+    """evaluate(X, ω, p, active) for :func:`~.newton.newton` with the case parameter as μ.
 
-    def __init__(self, builder: Builder, H: int, p_scale: float):
+    A Newton iterate may carry p far outside the continuation's bounds (a corrector that
+    diverges), where the cases may not even exist (an altitude below the atmosphere's range):
+    beyond ``domain`` the equations are evaluated at the nearest allowed p and returned as
+    NaN, which fails that case's corrector (its step is then halved) instead of the run."""
+
+    def __init__(self, builder: Builder, H: int, p_scale: float,
+                 domain: tuple[float, float] = (-math.inf, math.inf)):
         self.builder, self.H = builder, H
         self.dp = 1e-7 * p_scale
+        self.domain = domain
 
-    def _hb(self, p: Tensor, active: Tensor) -> HarmonicBalance:
-        return HarmonicBalance(self.builder(p.cpu().numpy(), active.cpu().numpy()), self.H)
+    def _hb(self, p: Tensor, active: Tensor) -> tuple[HarmonicBalance, Tensor]:
+        lo, hi = self.domain
+        outside = (p < lo) | (p > hi)
+        pc = p.clamp(lo, hi)
+        return HarmonicBalance(self.builder(pc.cpu().numpy(), active.cpu().numpy()),
+                               self.H), outside
+
+    @staticmethod
+    def _nan(T: Tensor, outside: Tensor) -> Tensor:
+        if not bool(outside.any()):
+            return T
+        return torch.where(outside.view(-1, *([1] * (T.dim() - 1))),
+                           torch.full_like(T, math.nan), T)
 
     def __call__(self, X, omega, p, active):
-        hb = self._hb(p, active)
+        hb, outside = self._hb(p, active)
         R, J, R_w, _ = hb.jacobian(X, omega)
-        R2 = self._hb(p + self.dp, active).residual(X, omega)
-        return R, J, R_w, (R2 - R) / self.dp
+        R2 = self._hb(p + self.dp, active)[0].residual(X, omega)
+        return (self._nan(R, outside), self._nan(J, outside), self._nan(R_w, outside),
+                self._nan((R2 - R) / self.dp, outside))
 
     def residual(self, X, omega, p, active):
-        return self._hb(p, active).residual(X, omega)
+        hb, outside = self._hb(p, active)
+        return self._nan(hb.residual(X, omega), outside)
 
 
 def hopf_points(builder: Builder, B: int, bounds: tuple[float, float], scan: int = 17,
@@ -228,7 +248,8 @@ def follow_branches(builder: Builder, B: int, output_row, options: BranchOptions
     def build(p, act):  # active positions -> branch ids
         return builder(np.asarray(p), live[np.asarray(act)])
 
-    eq = _ParameterEquations(build, H, p_scale)
+    # the correctors may not leave the bounds by more than their width
+    eq = _ParameterEquations(build, H, p_scale, (lo - (hi - lo), hi + (hi - lo)))
     A1 = float(options.first_amplitude or 1e-2 * options.amplitude_scale)
     amps = torch.tensor([A1, 2 * A1], dtype=dt, device=dev)
     phi = hop["mode"].to(dev)
@@ -379,7 +400,9 @@ def refine_fold(builder: Builder, branch: int, around: list[BranchPoint], r: Ten
     Xs = {a: pt for a, pt in zip(A, pts)}
     nh = n_coefficients(H)
     p_scale = options.bounds[1] - options.bounds[0]
-    eq = _ParameterEquations(lambda p, act: builder(p, np.full(len(p), branch)), H, p_scale)
+    lo, hi = options.bounds
+    eq = _ParameterEquations(lambda p, act: builder(p, np.full(len(p), branch)), H, p_scale,
+                             (lo - (hi - lo), hi + (hi - lo)))
     dt = pts[0].X.dtype
     for _ in range(iterations):
         (a0, a1, a2), (p0, p1, p2) = A[-3:] if len(A) > 3 else A, P[-3:] if len(P) > 3 else P

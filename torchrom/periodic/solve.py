@@ -73,6 +73,8 @@ MAX_RETRIES = 6
 COLLAPSE_RATIO = 1e-3
 #: the H − 2 orbit of the adaptive check is solved to this fraction of ``amplitude_rtol``
 LOW_H_TOL = 0.1
+#: Newton iterations of a warm start (and of the check's H − 2 solve) before it counts as failed
+WARM_ITERATIONS = 10
 
 
 @dataclass(frozen=True)
@@ -587,7 +589,10 @@ def _solve_cold(system: CaseSystem, r: Tensor, options: HBOptions) -> tuple[_Orb
 def _warm_newton(system: CaseSystem, r: Tensor, X: Tensor, omega: Tensor, H: int,
                  options: HBOptions, act: Tensor):
     """Newton (c = 0) from (X, ω) for the cases ``act``; a correction that falls onto q = 0
-    (always a solution) counts as failed."""
+    (always a solution) counts as failed. A warm start that has not converged within
+    :data:`WARM_ITERATIONS` is not going to: the homotopy or a cold start takes over."""
+    options = dataclasses.replace(options, newton=dataclasses.replace(
+        options.newton, max_iterations=min(options.newton.max_iterations, WARM_ITERATIONS)))
     Xn, wn, conv, its, res = refine_harmonics(system, X, omega, r, H, options, act)
     amp0 = (resize_harmonics(X, H)[:, 1] @ r).abs()
     conv = conv & ((Xn[:, 1] @ r).abs() > COLLAPSE_RATIO * amp0)
@@ -655,7 +660,8 @@ def _check_harmonics(system: CaseSystem, r: Tensor, orb: _Orbits, H: int,
         X0 = torch.where(given[:, None, None], resize_harmonics(low[0], H - 2), X0)
         w0 = torch.where(given, low[1], w0)
     loose = dataclasses.replace(options, newton=dataclasses.replace(
-        options.newton, tol=LOW_H_TOL * options.amplitude_rtol))
+        options.newton, tol=LOW_H_TOL * options.amplitude_rtol,
+        max_iterations=min(options.newton.max_iterations, WARM_ITERATIONS)))
     X_low, w_low, conv, its, _ = refine_harmonics(system, X0, w0, r, H - 2, loose, act)
     amp0 = (orb.X[:, 1] @ r).abs()
     conv = conv & ((X_low[:, 1] @ r).abs() > COLLAPSE_RATIO * amp0)
