@@ -56,11 +56,13 @@ Tensor = torch.Tensor
 #: default steps per period of the monodromy product
 FLOQUET_STEPS = 32
 #: an orbit is stable when its critical multiplier is below 1 + this, or below 1 + the
-#: monodromy's own accuracy (its trivial multiplier's distance from 1) where that is larger:
-#: near a Hopf point the amplitude multiplier is 1 − O(A²), closer to 1 than the product's
-#: error (1e-5 to 1e-4 on the Goland orbits at the default steps), and a multiplier that the
-#: matrix cannot tell from 1 is not called unstable (a growth of 0.01 % per period at most)
-STABILITY_TOL = 1e-4
+#: monodromy's own accuracy (its trivial multiplier's distance from 1) where that is larger
+STABILITY_TOL = 1e-6
+#: a critical multiplier closer to 1 than this (or than ten times the monodromy's accuracy) is
+#: recomputed with four times the steps: near a Hopf point or a fold it is 1 ± O(A²), within
+#: the default product's error (1e-5 to 1e-4 on the Goland orbits), and its side of the unit
+#: circle is the verdict
+REFINE_BAND = 1e-3
 #: the verdict is given only where the trivial multiplier is recovered to within this (else
 #: unknown: the monodromy did not resolve the orbit, e.g. an orbit not converged in H)
 TRIVIAL_TOL = 5e-2
@@ -250,14 +252,31 @@ def _condensed_matrices(hb: HarmonicBalance, X: Tensor, omega: Tensor, tau: Tens
 
 
 def floquet(system: CaseSystem, X: Tensor, omega: Tensor, steps: int = FLOQUET_STEPS,
-            tol: float = STABILITY_TOL) -> FloquetResult:
+            tol: float = STABILITY_TOL, refine: bool = True) -> FloquetResult:
     """Floquet multipliers and stability of the orbits X (B, 2H+1, n), ω (B,) rad/s.
 
     The multipliers are Richardson-extrapolated from ``steps`` and ``steps``/2 steps,
     (4Φ_S − Φ_{S/2})/3: the midpoint rule's global error expands in even powers of h, so this
     removes the h² term (on the Van der Pol orbit the multiplier is then 2e-5 from Liouville's
     formula at 32 steps). A multiplier counts as resolved when the extrapolated matrix has one
-    within 1e-2 of it; the others keep the plain product's value."""
+    within 1e-2 of it; the others keep the plain product's value. With ``refine``, orbits whose
+    critical multiplier lies within :data:`REFINE_BAND` of the unit circle are computed again
+    with four times the steps (module constants)."""
+    out = _floquet(system, X, omega, steps, tol)
+    near = np.abs(np.abs(out.critical) - 1) < np.maximum(REFINE_BAND, 10 * out.trivial_error)
+    near &= out.trivial_error <= TRIVIAL_TOL
+    if refine and near.any():
+        idx = np.flatnonzero(near)
+        t = torch.as_tensor(idx, device=X.device)
+        fine = _floquet(system.select(t), X[t], omega[t], 4 * steps, tol)
+        for name in ("multipliers", "trivial", "critical", "stable", "trivial_error"):
+            getattr(out, name)[idx] = getattr(fine, name)
+    return out
+
+
+def _floquet(system: CaseSystem, X: Tensor, omega: Tensor, steps: int, tol: float
+             ) -> FloquetResult:
+    """:func:`floquet` at one number of steps."""
     Phi, xdot = monodromy(system, X, omega, steps)
     Phi_half, _ = monodromy(system, X, omega, steps // 2)
     mu_plain, vec = torch.linalg.eig(Phi)
