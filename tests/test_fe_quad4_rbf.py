@@ -101,3 +101,21 @@ def test_bending_patch_test_on_distorted_quads_with_the_correction():
                 4: 1e-3 * (1 + x + 2 * y) / 2, 5: -1e-3 * (1 + 2 * x + y) / 2}
     solved, ref = _patch_solution(True, exact)
     assert np.abs(solved - ref).max() <= 1e-10 * np.abs(ref).max()
+
+
+def test_thin_square_plate_first_mode_with_the_correction_on_the_mean_shear_only():
+    """Simply supported square plate, t/a = 0.01, 8 x 8 CQUAD4: first mode against Kirchhoff's
+    ω = 2 π² / a² √(D / ρ t). Measured −1.67 % (plain MITC4 −0.91 %; the correction applied to
+    all of the transverse shear, twist part included, gave −3.57 %, which this 2.5 % bound
+    rejects; MITC4 converges from below here)."""
+    n, a, t, E, nu, rho = 8, 1.0, 0.01, 7.0e10, 0.3, 2700.0
+    m = plate_strip(n, n, a, a, t, E, nu, rho)
+    m.spcs.clear()  # its clamped edge replaced by a simple support on all four edges
+    gid = lambda i, j: 1 + i * (n + 1) + j  # noqa: E731  (plate_strip's numbering)
+    edge = [gid(i, j) for i in range(n + 1) for j in range(n + 1) if i in (0, n) or j in (0, n)]
+    m.add_spc1(1, "3", edge)
+    m.add_spc1(1, "126", [gid(i, j) for i in range(n + 1) for j in range(n + 1)])  # plate only
+    f = model_of(m).modes(1).frequencies_hz[0]
+    D = E * t**3 / (12 * (1 - nu**2))
+    exact = 2 * np.pi**2 / a**2 * np.sqrt(D / (rho * t)) / (2 * np.pi)
+    assert -0.025 <= f / exact - 1 <= 0.0
