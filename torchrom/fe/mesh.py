@@ -36,12 +36,9 @@ class RodSet:
 
 
 @dataclass
-class QuadSet:
-    """CQUAD4/PSHELL: Green-strain membrane, optional linear bending (MITC4), drilling spring.
-
-    ``bend_E``/``bend_nu`` come from PSHELL MID2 scaled by 12I/t³ (0 where MID2 is blank:
-    membrane only); ``shear_G`` is the transverse shear modulus times TS/T.
-    """
+class _ShellSet:
+    """The fields a CQUAD4 and a CTRIA3 set share (PSHELL or PCOMP shells); ``nodes`` is
+    (n, 4) or (n, 3) grid rows in the subclasses."""
 
     eids: np.ndarray = field(default_factory=lambda: _empty(0, dtype=int))
     nodes: np.ndarray = field(default_factory=lambda: _empty(0, 4, dtype=int))
@@ -76,40 +73,20 @@ class QuadSet:
 
 
 @dataclass
-class TriaSet:
+class QuadSet(_ShellSet):
+    """CQUAD4/PSHELL: Green-strain membrane, optional linear bending (MITC4), drilling spring.
+
+    ``bend_E``/``bend_nu`` come from PSHELL MID2 scaled by 12I/t³ (0 where MID2 is blank:
+    membrane only); ``shear_G`` is the transverse shear modulus times TS/T.
+    """
+
+
+@dataclass
+class TriaSet(_ShellSet):
     """CTRIA3/PSHELL: Green-strain CST membrane, optional linear DKT bending, drilling spring
     (fields as :class:`QuadSet`; ``shear_G`` is unused: DKT is a thin-plate element)."""
 
-    eids: np.ndarray = field(default_factory=lambda: _empty(0, dtype=int))
     nodes: np.ndarray = field(default_factory=lambda: _empty(0, 3, dtype=int))
-    t: np.ndarray = field(default_factory=lambda: _empty(0))
-    E: np.ndarray = field(default_factory=lambda: _empty(0))
-    nu: np.ndarray = field(default_factory=lambda: _empty(0))
-    G: np.ndarray = field(default_factory=lambda: _empty(0))
-    rho: np.ndarray = field(default_factory=lambda: _empty(0))
-    nsm: np.ndarray = field(default_factory=lambda: _empty(0))
-    bend_E: np.ndarray = field(default_factory=lambda: _empty(0))
-    bend_nu: np.ndarray = field(default_factory=lambda: _empty(0))
-    shear_G: np.ndarray = field(default_factory=lambda: _empty(0))
-
-    # PCOMP laminates (zeros elsewhere): membrane A, bending D, transverse shear (per element)
-    lam_A: np.ndarray = field(default_factory=lambda: _empty(0, 3, 3))
-    lam_D: np.ndarray = field(default_factory=lambda: _empty(0, 3, 3))
-    lam_shear: np.ndarray = field(default_factory=lambda: _empty(0))
-
-    def __post_init__(self):
-        n = len(self.eids)
-        if len(self.lam_A) != n:
-            self.lam_A, self.lam_D = np.zeros((n, 3, 3)), np.zeros((n, 3, 3))
-            self.lam_shear = np.zeros(n)
-
-    @property
-    def laminated(self) -> np.ndarray:
-        """(n,) True for PCOMP elements (stiffness from ``lam_A``/``lam_D``)."""
-        return np.any(self.lam_A != 0.0, axis=(1, 2))
-
-    def __len__(self) -> int:
-        return len(self.eids)
 
 
 @dataclass

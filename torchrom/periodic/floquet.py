@@ -93,35 +93,48 @@ def monodromy(system: CaseSystem, X: Tensor, omega: Tensor,
     """(Φ (B, ns, ns), ẋ(0) (B, ns)) of the orbits X (B, 2H+1, n), ω (B,) (module docstring):
     on the slow state [δl, δl̇, δξ] (ns = 2(n − nd) + na) when the dual coordinates condense
     (:func:`condensable`), else on the full state [q, q̇, ξ] (ns = 2n + na)."""
+    (Phi,), xdot = _monodromies(system, X, omega, (steps,))
+    return Phi, xdot
+
+
+def _monodromies(system: CaseSystem, X: Tensor, omega: Tensor, step_counts: tuple[int, ...]
+                 ) -> tuple[list[Tensor], Tensor]:
+    """The monodromy matrices of :func:`monodromy` for several step counts (Richardson), the
+    tangents along the orbit and the step matrices at every midpoint built once."""
     H = (X.shape[1] - 1) // 2
     hb = HarmonicBalance(system, H)
     duals = dual_coordinates(system)
     slow = condensable(system, omega, duals)
     # the condensed slow state takes twice the steps of the implicit midpoint rule (below)
-    n_steps = 2 * steps if slow else steps
-    # midpoint rules: the tangents at the step midpoints
-    tau = 2 * math.pi * (torch.arange(n_steps, device=X.device, dtype=X.dtype) + 0.5) / n_steps
+    counts = [2 * s if slow else s for s in step_counts]
+    # midpoint rules: the tangents at the step midpoints of every count, in one batch
+    tau = torch.cat([2 * math.pi * (torch.arange(c, device=X.device, dtype=X.dtype) + 0.5) / c
+                     for c in counts])
+    tangents = _tangent_coefficients(hb, X, omega)
     if slow:
-        A, xdot = _condensed_matrices(hb, X, omega, tau, duals)
+        A_all, xdot = _condensed_matrices(hb, X, omega, tau, duals, tangents)
     else:
-        A, xdot = _full_matrices(hb, X, omega, tau)
-    hA = ((2 * math.pi / omega) / n_steps)[:, None, None, None] * A
-    eye = torch.eye(A.shape[-1], device=X.device, dtype=X.dtype)
-    with single_thread():
-        if slow:
-            # implicit midpoint rule (I − hA/2)⁻¹(I + hA/2): A-stable, second order like the
-            # exponential one, one small solve instead of an exponential per step; with no
-            # stiff coordinates left it needs only twice the steps for the accuracy of the
-            # exponential rule at four times them (Goland orbits)
-            steps_map = torch.linalg.solve(eye - 0.5 * hA, eye + 0.5 * hA)
-        else:
-            # Φ = Π exp(h A(t_j+½)): exact for the part of A that is constant over a step;
-            # the error (second order, Magnus) comes from A's variation along the orbit only
-            steps_map = torch.linalg.matrix_exp(hA)
-    Phi = eye.expand_as(A[:, 0]).clone()
-    for j in range(n_steps):
-        Phi = steps_map[:, j] @ Phi
-    return Phi, xdot
+        A_all, xdot = _full_matrices(hb, X, omega, tau, tangents)
+    eye = torch.eye(A_all.shape[-1], device=X.device, dtype=X.dtype)
+    out = []
+    for A, n_steps in zip(A_all.split(counts, dim=1), counts):
+        hA = ((2 * math.pi / omega) / n_steps)[:, None, None, None] * A
+        with single_thread():
+            if slow:
+                # implicit midpoint rule (I − hA/2)⁻¹(I + hA/2): A-stable, second order like
+                # the exponential one, one small solve instead of an exponential per step;
+                # with no stiff coordinates left it needs only twice the steps for the
+                # accuracy of the exponential rule at four times them (Goland orbits)
+                steps_map = torch.linalg.solve(eye - 0.5 * hA, eye + 0.5 * hA)
+            else:
+                # Φ = Π exp(h A(t_j+½)): exact for the part of A that is constant over a step;
+                # the error (second order, Magnus) comes from A's variation along the orbit
+                steps_map = torch.linalg.matrix_exp(hA)
+        Phi = eye.expand_as(A[:, 0]).clone()
+        for j in range(n_steps):
+            Phi = steps_map[:, j] @ Phi
+        out.append(Phi)
+    return out, xdot
 
 
 def _tangent_coefficients(hb: HarmonicBalance, X: Tensor, omega: Tensor
@@ -135,15 +148,15 @@ def _tangent_coefficients(hb: HarmonicBalance, X: Tensor, omega: Tensor
     return tuple(coefficients_from_samples(T.reshape(B, -1, n * n), 2 * H) for T in (Kn, Cn))
 
 
-def _full_matrices(hb: HarmonicBalance, X: Tensor, omega: Tensor, tau: Tensor
-                   ) -> tuple[Tensor, Tensor]:
+def _full_matrices(hb: HarmonicBalance, X: Tensor, omega: Tensor, tau: Tensor,
+                   tangents: tuple[Tensor, Tensor]) -> tuple[Tensor, Tensor]:
     """A(τ_j) (B, S, ns, ns) on the state [q, q̇, ξ] and ẋ(0) (its lag part left zero: the
     structural part identifies the trivial multiplier)."""
     system = hb.system
     B, n, na, H = X.shape[0], hb.n, system.n_lag, hb.H
     S = tau.shape[0]
     fine = basis_at(tau, 2 * H)  # (S, 4H + 1)
-    Kc, Cc = _tangent_coefficients(hb, X, omega)
+    Kc, Cc = tangents  # _tangent_coefficients
     Kn, Cn = ((fine @ c).view(B, S, n, n) for c in (Kc, Cc))
     Minv = torch.linalg.inv(hb.Mt)
     A = X.new_zeros(B, S, 2 * n + na, 2 * n + na)
@@ -188,7 +201,8 @@ def condensable(system: CaseSystem, omega: Tensor, duals: Tensor) -> bool:
 
 
 def _condensed_matrices(hb: HarmonicBalance, X: Tensor, omega: Tensor, tau: Tensor,
-                        duals: Tensor) -> tuple[Tensor, Tensor]:
+                        duals: Tensor, tangents: tuple[Tensor, Tensor]
+                        ) -> tuple[Tensor, Tensor]:
     """A(τ_j) (B, S, ns, ns) on the slow state y = [δl, δl̇, δξ] and ẏ(0) (lag part zero, as
     :func:`_full_matrices`), the dual coordinates condensed (module docstring, *Stiff dual
     coordinates*). Their rows, K_dd δd + C_dd δḋ + C_dl δl̇ + K_dl δl = 0 without their
@@ -211,7 +225,7 @@ def _condensed_matrices(hb: HarmonicBalance, X: Tensor, omega: Tensor, tau: Tens
     mask[duals] = False
     lin = torch.nonzero(mask).reshape(-1)
     nl = lin.numel()
-    Kc, Cc = _tangent_coefficients(hb, X, omega)
+    Kc, Cc = tangents  # _tangent_coefficients
     D2 = FourierBasis.build(2 * H, device=X.device, dtype=X.dtype).D  # d/dτ on 4H+1 rows
     fine = basis_at(tau, 2 * H)
     Kn, dKn, Cn = ((fine @ c).view(B, S_, n, n) for c in (Kc, D2 @ Kc, Cc))
@@ -277,8 +291,7 @@ def floquet(system: CaseSystem, X: Tensor, omega: Tensor, steps: int = FLOQUET_S
 def _floquet(system: CaseSystem, X: Tensor, omega: Tensor, steps: int, tol: float
              ) -> FloquetResult:
     """:func:`floquet` at one number of steps."""
-    Phi, xdot = monodromy(system, X, omega, steps)
-    Phi_half, _ = monodromy(system, X, omega, steps // 2)
+    (Phi, Phi_half), xdot = _monodromies(system, X, omega, (steps, steps // 2))
     mu_plain, vec = torch.linalg.eig(Phi)
     mu_rich = torch.linalg.eigvals((4.0 * Phi - Phi_half) / 3.0)
     dist = (mu_plain[:, :, None] - mu_rich[:, None, :]).abs()

@@ -73,7 +73,7 @@ MAX_RETRIES = 6
 COLLAPSE_RATIO = 1e-3
 #: the H − 2 orbit of the adaptive check is solved to this fraction of ``amplitude_rtol``
 LOW_H_TOL = 0.1
-#: Newton iterations of a warm start (and of the check's H − 2 solve) before it counts as failed
+#: Newton iterations of a warm start (the check's H − 2 solve is one) before it counts as failed
 WARM_ITERATIONS = 10
 
 
@@ -659,18 +659,15 @@ def _check_harmonics(system: CaseSystem, r: Tensor, orb: _Orbits, H: int,
         given = torch.isfinite(low[1])
         X0 = torch.where(given[:, None, None], resize_harmonics(low[0], H - 2), X0)
         w0 = torch.where(given, low[1], w0)
+    # solved like a warm start (iteration cap, collapse onto q = 0 counted as failure)
     loose = dataclasses.replace(options, newton=dataclasses.replace(
-        options.newton, tol=LOW_H_TOL * options.amplitude_rtol,
-        max_iterations=min(options.newton.max_iterations, WARM_ITERATIONS)))
-    X_low, w_low, conv, its, _ = refine_harmonics(system, X0, w0, r, H - 2, loose, act)
-    amp0 = (orb.X[:, 1] @ r).abs()
-    conv = conv & ((X_low[:, 1] @ r).abs() > COLLAPSE_RATIO * amp0)
+        options.newton, tol=LOW_H_TOL * options.amplitude_rtol))
+    X_low, w_low, conv, its, _ = _warm_newton(system, r, X0, w0, H - 2, loose, act)
     orb.iterations[lco] += its[act].cpu().numpy()
     retry = act[~conv[act]]
     if low is not None and retry.numel():  # a predictor that missed: from the truncated orbit
-        Xr, wr, cr, itr, _ = refine_harmonics(system, resize_harmonics(orb.X, H - 2),
-                                              orb.omega, r, H - 2, loose, retry)
-        cr = cr & ((Xr[:, 1] @ r).abs() > COLLAPSE_RATIO * amp0)
+        Xr, wr, cr, itr, _ = _warm_newton(system, r, resize_harmonics(orb.X, H - 2), orb.omega,
+                                          H - 2, loose, retry)
         X_low[retry], w_low[retry], conv[retry] = Xr[retry], wr[retry], cr[retry]
         orb.iterations[retry.cpu().numpy()] += itr[retry].cpu().numpy()
     orb.X_low = resize_harmonics(orb.X_low, H)
