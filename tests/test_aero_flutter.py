@@ -19,6 +19,7 @@ from torchrom.aero.flutter import (
     AeroTable,
     ModalStructure,
     alpha_for_gamma,
+    alpha_for_gammas,
     critical_root,
     flutter_altitude_pk,
     flutter_altitude_state_space,
@@ -192,6 +193,19 @@ def test_alpha_for_gamma_keeps_the_flutter_altitude():
         st.with_damping(alphas[1], 1e-4), rfa, mach, (0, 20000), 21
     )
     assert check.altitude == pytest.approx(target, abs=1.0)
+
+
+def test_alpha_for_gammas_equals_the_scalar_root():
+    """The stacked Illinois iteration finds the same α as Brent's method per γ, to the root
+    finders' own tolerance (xtol 1e-10 1/s each: 1e-9 allows both errors and the rounding
+    of the affine state matrix), including a γ whose root lies outside the first bracket."""
+    _, st, gaf, mach = _altitude_case()
+    rfa = fit_minimum_state(gaf, n_lags=4)
+    gammas = [0.0, 1e-5, 3e-4, 1e-3, 4e-3]
+    many = alpha_for_gammas(st, rfa, gammas, mach, 9000.0, bracket=(-0.5, 0.5))
+    one = [alpha_for_gamma(st, rfa, g, mach, 9000.0) for g in gammas]
+    assert many == pytest.approx(one, abs=1e-9)
+    assert alpha_for_gammas(st, rfa, [], mach, 9000.0).shape == (0,)
 
 
 def test_modal_structure_from_rom_like_object():

@@ -689,6 +689,76 @@ def alpha_for_gamma(
     )
 
 
+def alpha_for_gammas(
+    structure, rfa, gammas, mach, altitude, units="ft", bracket=(-5.0, 5.0), xtol=1e-10,
+    max_iterations: int = 100,
+) -> np.ndarray:
+    """:func:`alpha_for_gamma` for many γ at once (a sampling study's cases): the same root,
+    found for all γ together. The state-space matrix is affine in (α, γ) — only the structural
+    damping C = C0 + αM + γD̄1 depends on them, and it enters through M̄⁻¹C — so every
+    iteration is one stacked eigenvalue solve of a₀ + α a_α + γ a_γ, and the root of each
+    growth rate is bracketed and refined by the Illinois rule (a regula falsi that halves the
+    retained end's value when the same end is kept twice: superlinear, never leaves the
+    bracket) to |Δα| ≤ ``xtol`` (1/s). A γ whose iteration does not settle falls back to
+    :func:`alpha_for_gamma`. Hand-written."""
+    g = np.asarray(gammas, dtype=float).reshape(-1)
+    if g.size == 0:
+        return np.zeros(0)
+    c = flight_condition(mach, float(altitude), units)
+
+    def matrix(a, gam):
+        return state_space_matrix(structure.with_damping(a, gam), rfa, c.velocity, c.density)
+
+    a0 = matrix(0.0, 0.0)
+    a_alpha, a_gamma = matrix(1.0, 0.0) - a0, matrix(0.0, 1.0) - a0
+    min_imag = 2 * np.pi * 1e-3
+
+    def growth(alpha, gam):
+        s = np.linalg.eigvals(a0 + alpha[:, None, None] * a_alpha + gam[:, None, None] * a_gamma)
+        return np.where(s.imag > min_imag, s.real, -np.inf).max(axis=1)
+
+    lo, hi = np.full(g.size, float(bracket[0])), np.full(g.size, float(bracket[1]))
+    glo, ghi = growth(lo, g), growth(hi, g)
+    for _ in range(20):
+        bad = ~((glo > 0) & (ghi < 0))
+        if not bad.any():
+            break
+        width = hi[bad] - lo[bad]
+        low_side = glo[bad] <= 0
+        lo[bad] = np.where(low_side, lo[bad] - width, lo[bad])
+        hi[bad] = np.where(low_side, hi[bad], hi[bad] + width)
+        glo[bad], ghi[bad] = growth(lo[bad], g[bad]), growth(hi[bad], g[bad])
+    bracketed = (glo > 0) & (ghi < 0)
+    if not bracketed.all():
+        bad = g[~bracketed][0]
+        raise ConvergenceError(
+            f"alpha(gamma): no sign change of the growth rate for gamma={bad:g}")
+    alpha = np.full(g.size, np.nan)
+    todo = np.arange(g.size)
+    side = np.zeros(g.size, dtype=int)  # which end was kept last (−1 lo, +1 hi)
+    for _ in range(max_iterations):
+        x = hi[todo] - ghi[todo] * (hi[todo] - lo[todo]) / (ghi[todo] - glo[todo])
+        gx = growth(x, g[todo])
+        done = (np.abs(gx) == 0) | (np.minimum(x - lo[todo], hi[todo] - x) <= xtol)
+        pos = gx > 0
+        i = todo
+        # the new point replaces the end with the same sign; the other end, kept, is halved
+        # when it was kept the time before too (Illinois)
+        keep_hi = pos
+        ghi[i] = np.where(keep_hi & (side[i] == 1), 0.5 * ghi[i], ghi[i])
+        glo[i] = np.where(~keep_hi & (side[i] == -1), 0.5 * glo[i], glo[i])
+        lo[i], glo[i] = np.where(pos, x, lo[i]), np.where(pos, gx, glo[i])
+        hi[i], ghi[i] = np.where(pos, hi[i], x), np.where(pos, ghi[i], gx)
+        side[i] = np.where(pos, 1, -1)
+        alpha[i[done]] = x[done]
+        todo = i[~done]
+        if todo.size == 0:
+            break
+    for j in todo:  # not settled: the scalar root finder
+        alpha[j] = alpha_for_gamma(structure, rfa, g[j], mach, altitude, units, bracket, xtol)
+    return alpha
+
+
 def damping_ratio(s: complex) -> float:
     """Viscous damping ratio ζ = -Re(s)/|s|."""
     return -s.real / abs(s) if abs(s) > 0 else math.nan

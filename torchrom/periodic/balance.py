@@ -209,15 +209,6 @@ class HarmonicBalance:
         # ∂R/∂c = coefficients of M_t q̇ = ω M_t (D X)
         DX = self.basis.D @ X
         R_c = omega[:, None, None] * (DX @ self.Mt.transpose(1, 2))
-        J = X.new_zeros(B, nh, n, nh, n)
-        J[:, 0, :, 0, :] = lin.K0
-        Zr, Zi = lin.Z.real, lin.Z.imag
-        for k in range(1, H + 1):
-            a, b = 2 * k - 1, 2 * k
-            J[:, a, :, a, :] = Zr[:, k - 1]
-            J[:, a, :, b, :] = Zi[:, k - 1]
-            J[:, b, :, a, :] = -Zi[:, k - 1]
-            J[:, b, :, b, :] = Zr[:, k - 1]
         if self.has_stiffness or self.has_damping:
             q, v = self.samples(X, omega)
             f, Kn, Cn = self.nonlinear_tangents(q, v)
@@ -227,10 +218,23 @@ class HarmonicBalance:
             T = torch.cat([Kn, omega[:, None, None, None] * Cn], dim=1)  # (B, 2N, n, n)
             T = T.permute(1, 0, 2, 3).reshape(2 * Nn, B * n * n)
             Jn = (self._PE @ T).view(nh, nh, B, n, n)  # [k, l, b, i, j]
-            J += Jn.permute(2, 0, 3, 1, 4)
+            # the full matrix in one pass (a zero fill and an addition of the whole matrix
+            # cost as much as the GEMM); the linear blocks, on the diagonal, are added below
+            J = Jn.permute(2, 0, 3, 1, 4).contiguous()
             # ∂F/∂ω: the samples of C_n (dq/dτ) projected
             dq = self.basis.dE @ X  # (B, N, n)
             R_omega = R_omega + self.basis.P @ (Cn @ dq[..., None])[..., 0]
+        else:
+            J = X.new_zeros(B, nh, n, nh, n)
+        # the linear part: block-diagonal per harmonic (Eq. 54's linear terms)
+        J[:, 0, :, 0, :] += lin.K0
+        Zr, Zi = lin.Z.real, lin.Z.imag
+        for k in range(1, H + 1):
+            a, b = 2 * k - 1, 2 * k
+            J[:, a, :, a, :] += Zr[:, k - 1]
+            J[:, a, :, b, :] += Zi[:, k - 1]
+            J[:, b, :, a, :] -= Zi[:, k - 1]
+            J[:, b, :, b, :] += Zr[:, k - 1]
         if self.load is not None:
             R[:, 0] -= self.load
         return R, J.reshape(B, nh * n, nh * n), R_omega, R_c

@@ -83,8 +83,9 @@ def matched_alphas(model: AeroelasticModel, cases: Sequence[Mapping[str, Any]]
                    ) -> tuple[list[float], list[bool]]:
     """(α per case, whether it was matched): ``alpha = "matched"`` resolved by the model."""
     matched = [c.get("alpha", 0.0) == MATCHED for c in cases]
-    alpha = [model.matched_alpha(float(c.get("gamma", 0.0))) if m else float(c.get("alpha", 0.0))
-             for c, m in zip(cases, matched)]
+    gammas = [float(c.get("gamma", 0.0)) for c, m in zip(cases, matched) if m]
+    solved = iter(model.matched_alphas(gammas) if gammas else [])
+    alpha = [next(solved) if m else float(c.get("alpha", 0.0)) for c, m in zip(cases, matched)]
     return alpha, matched
 
 

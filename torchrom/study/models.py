@@ -31,6 +31,7 @@ from ..aero.flutter import (
     MatchedPointResult,
     ModalStructure,
     alpha_for_gamma,
+    alpha_for_gammas,
     flutter_altitude_state_space,
 )
 from ..errors import ConvergenceError, InputError
@@ -122,6 +123,21 @@ class AeroelasticModel:
                 self._alpha[key] = alpha_for_gamma(self.structure(), self.aero.rfa, key,
                                                    self.mach, self.reference_altitude())
         return self._alpha[key]
+
+    def matched_alphas(self, gammas) -> list[float]:
+        """:meth:`matched_alpha` of many γ: those not known yet solved together
+        (:func:`~torchrom.aero.flutter.alpha_for_gammas`, one stacked eigenvalue solve per
+        iteration instead of a root search per γ)."""
+        keys = [float(g) for g in gammas]
+        missing = sorted({k for k in keys if k not in self._alpha})
+        if self.reference_altitude_ft is None and self.baseline_gamma in missing:
+            self._alpha[float(self.baseline_gamma)] = float(self.baseline_alpha)
+            missing.remove(self.baseline_gamma)
+        if missing:
+            found = alpha_for_gammas(self.structure(), self.aero.rfa, missing, self.mach,
+                                     self.reference_altitude())
+            self._alpha.update(zip(missing, (float(a) for a in found)))
+        return [self._alpha[k] for k in keys]
 
     def content_hash(self) -> str:
         """Hash of the ROM, the aerodynamics and the reference damping: the model's identity."""
