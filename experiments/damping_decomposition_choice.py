@@ -10,7 +10,8 @@ on the 9L12D ROM of ``torchrom paper``:
 2. ``exact`` — the Kelvin–Voigt tensors of the FE material (unique, no decomposition);
 3. ``sdp`` — the true optimum of the criterion: max t such that the scaled extended matrix
    minus t·I is positive semidefinite over the whole affine set of decompositions, a
-   semidefinite program solved with SCS (the optional extra ``experiments``), then the
+   semidefinite program solved with SCS (:func:`torchrom.identify.damping_family.sdp_member`,
+   also a member of ``torchrom paper``'s decomposition band), then the
    identified coefficients re-imposed and the same clipping if a rounding-level negative
    eigenvalue remains.
 
@@ -32,15 +33,13 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import json
-import time
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
-import scipy.sparse as sp
 import torch
 
-from torchrom.identify import damping as dmp
+from torchrom.identify.damping_family import sdp_member
 from torchrom.paper import findings as fnd
 from torchrom.paper.dissipation import dissipation_ratio, lco_cycle, scaled_min_eigenvalue
 from torchrom.paper.pipeline import goland_pipeline
@@ -50,64 +49,19 @@ from torchrom.paper.study import (
     config_path,
     damping_check_cases,
 )
-from torchrom.rom import conventions as cv
 from torchrom.study.config import load_sweep_config
 from torchrom.study.sweep import run_sweep
 
 
 def sdp_decomposition(rom, eps: float = 1e-5, max_iters: int = 8000):
-    """The optimum of the decomposition criterion by SCS; returns (rom with the new D̄2, D̄3,
+    """The optimum of the decomposition criterion
+    (:func:`torchrom.identify.damping_family.sdp_member`); returns (rom with its D̄2, D̄3,
     report)."""
-    try:
-        import scs
-    except ImportError as exc:
-        raise SystemExit("damping_decomposition_choice: needs SCS for the semidefinite program: "
-                         "pip install -c constraints.txt -e '.[experiments]'") from exc
-
-    p = dmp.decomposition_problem(rom.K1.numpy(), rom.K2.numpy(), rom.K3.numpy())
-    st, alpha_hat, b, K1hat = p.st, p.alpha_hat, p.b, p.K1hat
-    n = st.n
-    N = n + n * (n + 1) // 2
-    ncls = len(st.rows)
-    nx = ncls + 1                                   # class entries m, then t
-
-    def vidx(i, j):                                 # SCS: lower triangle, column-major
-        return j * N - j * (j - 1) // 2 + (i - j)
-
-    # zero cone: Σ_c∈group α̂_c m_c = b_group (the identified coefficients)
-    Az = sp.csr_matrix((alpha_hat, (st.group, np.arange(ncls))), shape=(st.n_groups, nx))
-    # PSD cone: vec(K̂1 ⊕ 0 + Σ m_c (E_rc + E_cr) − t I) = b_p − A_p x
-    lo, hi = np.maximum(st.rows, st.cols), np.minimum(st.rows, st.cols)
-    scale = np.where(lo == hi, 1.0, np.sqrt(2.0))
-    diag = np.array([vidx(i, i) for i in range(N)])
-    Ap = sp.csr_matrix((np.concatenate([-scale, np.ones(N)]),
-                        (np.concatenate([vidx(lo, hi), diag]),
-                         np.concatenate([np.arange(ncls), np.full(N, ncls)]))),
-                       shape=(N * (N + 1) // 2, nx))
-    bp = np.zeros(N * (N + 1) // 2)
-    for i in range(n):
-        for j in range(i + 1):
-            bp[vidx(i, j)] = K1hat[i, j] * (1.0 if i == j else np.sqrt(2.0))
-    c = np.zeros(nx)
-    c[-1] = -1.0
-    data = {"A": sp.vstack([Az, Ap]).tocsc(), "b": np.concatenate([b, bp]), "c": c}
-    t0 = time.perf_counter()
-    sol = scs.SCS(data, {"z": st.n_groups, "s": [N]}, eps_abs=eps, eps_rel=eps,
-                  max_iters=max_iters, verbose=False).solve()
-    m = dmp._affine_projector(st, alpha_hat, b)(torch.as_tensor(sol["x"][:ncls]))
-    K1t = torch.as_tensor(K1hat)
-    before = float(torch.linalg.eigvalsh(dmp._assemble(st, K1t, m))[0])
-    if before < 1e-9:
-        m = dmp._schur_clip(st, K1t, m, 1e-9)
-    G, H, err2, err3 = p.tensors(m.numpy())
-    D1, D2, D3 = cv.damping_from_gram(torch.as_tensor(p.K1), torch.as_tensor(G),
-                                      torch.as_tensor(H))
-    report = {"status": sol["info"]["status"], "seconds": time.perf_counter() - t0,
-              "optimum_t": float(sol["x"][-1]), "min_eigenvalue_scaled_projected": before,
-              "min_eigenvalue_scaled": float(torch.linalg.eigvalsh(
-                  dmp._assemble(st, K1t, m))[0]),
-              "reproduction_error_K2": err2, "reproduction_error_K3": err3}
-    return rom.replace(D1=D1, D2=D2, D3=D3), report
+    member = sdp_member(rom, rom, iterations=max_iters, eps=eps)
+    report = {**member.report, "min_eigenvalue_scaled": member.min_eigenvalue_scaled,
+              "reproduction_error_K2": member.reproduction_error_K2,
+              "reproduction_error_K3": member.reproduction_error_K3}
+    return member.rom(rom), report
 
 
 def fig10_cases(cfg, model, name: str) -> pd.DataFrame:

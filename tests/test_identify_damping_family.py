@@ -77,3 +77,32 @@ def test_thetas_outside_the_segment_are_refused(family):
     rom, dec, _ = family
     with pytest.raises(ValueError, match="thetas must lie in"):
         damping_family(rom, dec, rom, [1.5])
+
+
+def test_sdp_member_is_admissible_and_no_worse_than_any_member(family):
+    """The criterion's optimum (SCS): admissible (K2, K3 reproduced through the convention
+    formulas to 1e-8 — SCS's iterate meets them to its tolerance and the projection restores
+    them to rounding; positive dissipation on random states), its optimum t* at least the
+    smallest scaled eigenvalue of every member of the family (each is a feasible point of the
+    same program; SCS's tolerance 1e-5 allowed) and its own final λ_min within that tolerance
+    of t* or above the margin."""
+    from torchrom.identify.damping_family import sdp_member
+
+    rom, dec, members = family
+    m = sdp_member(rom, dec)
+    assert m.name == "sdp" and np.isnan(m.theta)
+    assert m.admissible, m.summary()
+    G, H = cv.gram_from_damping(torch.as_tensor(m.D2), torch.as_tensor(m.D3))
+    K2, K3 = cv.stiffness_from_gram(G, H)
+    assert rel(cv.sym_last2(K2), cv.sym_last2(rom.K2)) < 1e-8
+    assert rel(cv.sym_last3(K3), cv.sym_last3(rom.K3)) < 1e-8
+    t_star = m.report["optimum_t"]
+    assert all(t_star >= f.min_eigenvalue_scaled - 1e-5 for f in members)
+    assert m.min_eigenvalue_scaled >= min(t_star - 1e-4, 1e-9 * 0.99)
+    g = torch.Generator().manual_seed(11)
+    q = 3.0 * torch.randn(2000, rom.n, generator=g, dtype=torch.float64)
+    qd = torch.randn(2000, rom.n, generator=g, dtype=torch.float64)
+    r = m.rom(rom)
+    power = r.dissipated_power(q, qd)
+    linear = torch.einsum("bm,mn,bn->b", qd, r.D1, qd)
+    assert float((power / linear).min()) >= -1e-12

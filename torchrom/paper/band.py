@@ -9,7 +9,10 @@ optimum decomposition (θ = 0) and the exact Kelvin–Voigt tensors of the FE ma
 each member checked (:class:`~torchrom.identify.damping_family.DampingMember`: admissible
 by the study's standard, and strictly), and reports per altitude and γ the smallest and largest
 LCO amplitude, and per Fig. 10 finding whether it holds for every admissible member, for none,
-or depends on the choice (and the same over the strict members). The ends are the main
+or depends on the choice (and the same over the strict members). A further member, off the
+segment, is the decomposition criterion's own optimum over the whole admissible set (the
+semidefinite program of :func:`~torchrom.identify.damping_family.sdp_member`, passed in by the
+study, which caches it per ROM). The ends are the main
 study's and the exact damping check's tables when their tensors are the family's ends (to
 1e-9); the members between are simulated here.
 
@@ -19,13 +22,13 @@ Hand-written over :mod:`torchrom.identify.damping_family` and :mod:`.findings`.
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from typing import Any
 
 import numpy as np
 import pandas as pd
 
-from ..identify.damping_family import damping_family, restored_min_eigenvalue
+from ..identify.damping_family import DampingMember, damping_family, restored_min_eigenvalue
 from . import findings as fnd
 
 #: θ of the family (0: the optimum decomposition, 1: the exact tensors), full and quick study
@@ -41,15 +44,17 @@ def _same(a, b) -> bool:
 
 
 def decomposition_band(main, exact, thetas, end_tables: tuple[pd.DataFrame, pd.DataFrame],
-                       run: Callable[[Any, str], pd.DataFrame]) -> dict[str, Any]:
+                       run: Callable[[Any, str], pd.DataFrame],
+                       extra: Sequence[DampingMember] = ()) -> dict[str, Any]:
     """The band (JSON-ready).
 
     ``main``, ``exact``: the study's model and the exact-damping model (same basis and
     stiffness); ``end_tables``: the damping check's cases simulated with each (reused when the
     family's end equals that model's tensors); ``run(model, name)``: simulates those cases with
-    a model (the study's cached sweep).
+    a model (the study's cached sweep); ``extra``: members off the family's segment (the SDP
+    optimum), named uniquely.
     """
-    members = damping_family(main.rom, main.rom, exact.rom, thetas)
+    members = damping_family(main.rom, main.rom, exact.rom, thetas) + list(extra)
     ends = {0.0: (main.rom, end_tables[0]), 1.0: (exact.rom, end_tables[1])}
     tables, rows = [], []
     for m in members:
@@ -59,7 +64,8 @@ def decomposition_band(main, exact, thetas, end_tables: tuple[pd.DataFrame, pd.D
             table = end[1].copy()
         else:
             model = dataclasses.replace(main, rom=m.rom(main.rom))
-            table = run(model, f"lco_damping_theta_{m.theta:g}").copy()
+            label = f"theta_{m.theta:g}" if np.isfinite(m.theta) else m.name
+            table = run(model, f"lco_damping_{label}").copy()
         table["member"], table["theta"] = m.name, m.theta
         tables.append(table)
         found = {f.key: f for f in fnd.fig10_acceptance(table)}
@@ -67,11 +73,11 @@ def decomposition_band(main, exact, thetas, end_tables: tuple[pd.DataFrame, pd.D
                                                  for k, f in found.items()}})
     all_t = pd.concat(tables, ignore_index=True)
     band = []
-    for theta, t in all_t.groupby("theta", sort=True):
+    for name, t in all_t.groupby("member", sort=False):
         C = fnd.curve_table(t, "amplitude_pct_span", lco_only=True)
         for h in C.index:
             for k in C.columns:
-                band.append({"theta": float(theta), "altitude_ft": float(h), "curve": str(k),
+                band.append({"member": str(name), "altitude_ft": float(h), "curve": str(k),
                              "amplitude_pct_span": float(C.loc[h, k])})
     b = pd.DataFrame(band).dropna()
     spread = (b.groupby(["altitude_ft", "curve"], sort=False)["amplitude_pct_span"]

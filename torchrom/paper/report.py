@@ -134,8 +134,11 @@ def band_section(band: dict[str, Any]) -> list[str]:
              f"eigenvalue is {_f(band.get('decomposition_restored_min_eigenvalue'), '{:.2g}')}), "
              "so a member counts as admissible when it is semidefinite and reproduces K2, K3 at "
              "least as well as the study's decomposition, and as strictly admissible when it "
-             "does so to identification accuracy (1e-6):", ""]
-    lines += _table([[m["name"], _f(m["theta"], "{:g}"), _f(m["min_eigenvalue_scaled"], "{:.2g}"),
+             "does so to identification accuracy (1e-6). The member `sdp` is off that segment: "
+             "the criterion's own optimum over the whole admissible set (a semidefinite program, "
+             "solved by SCS; the study's decomposition approximates it stage by stage):", ""]
+    lines += _table([[m["name"], _f(m["theta"], "{:g}") if m.get("theta") is not None else "–",
+                      _f(m["min_eigenvalue_scaled"], "{:.2g}"),
                       _f(m["reproduction_error_K2"], "{:.1e}"),
                       _f(m["reproduction_error_K3"], "{:.1e}"),
                       "yes" if m["admissible"] else "**no**",
