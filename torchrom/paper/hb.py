@@ -21,6 +21,7 @@ import torch
 
 from ..periodic import BranchOptions, solve_orbits
 from ..periodic.fourier import resize_harmonics
+from ..periodic.seed import seed_unresolved
 from ..periodic.solve import orbit_state
 from ..sim import HistoryRequest
 from ..sim.newmark import output_matrix
@@ -56,6 +57,8 @@ def newmark_confirmation(cfg, model, table: pd.DataFrame, device="cpu"
     names, C = output_matrix(system.rom, cfg.outputs)
     opts = cfg.hb.options
     orb = solve_orbits(system, C[0], opts)
+    if cfg.hb.seed:  # the same orbits as the sweep's (which seeds its unresolved cases)
+        orb, _ = seed_unresolved(system, torch.as_tensor(C[0], dtype=system.dtype), orb, opts)
     H = int(max(orb.harmonics.max(), 1))
     q0, v0, xi0 = orbit_state(system, resize_harmonics(orb.X, H), orb.omega)
     periods = 1.0 / np.nanmax(np.where(orb.status == "lco", orb.frequency_hz, np.nan))

@@ -9,7 +9,9 @@ output over one period of the orbit), ``frequency_hz`` and the ratios. HB adds p
 Newton residual), ``truncation`` (see :func:`~.solve.truncation_residual`),
 ``harmonic_distortion`` (of the first output), ``stable`` and ``floquet_multiplier`` (modulus
 of the critical Floquet multiplier, :mod:`.floquet`; ``stable`` is unknown where the monodromy
-matrix misses the trivial multiplier by more than 5 %, ``floquet_error``); ``steps`` holds the
+matrix misses the trivial multiplier by more than 5 %, ``floquet_error``) and ``seeded`` (the
+orbit was seeded by a short time integration: :mod:`.seed`, for the cases the harmonic ladder
+left unconverged or not converged in H); ``steps`` holds the
 Newton iterations and ``t_end`` is NaN (no simulated time). A decaying case is stable when its
 critical linear root is; its amplitude is 0.
 
@@ -35,6 +37,7 @@ from ..sim.result import SimulationResult
 from ..sim.system import CaseSystem
 from .floquet import FLOQUET_STEPS, floquet
 from .fourier import resize_harmonics
+from .seed import seed_unresolved
 from .sensitivity import amplitude_derivative
 from .solve import HBOptions, solve_orbits
 
@@ -52,6 +55,8 @@ class HarmonicBalanceMethod:
         floquet_steps: steps per period of the monodromy matrix (exponential midpoint rule).
         start: "neighbour" (cases chained along their varying parameter start from their
             neighbour's orbit) or "cold" (every case from its linear flutter mode).
+        seed: re-solve the cases left unresolved (unconverged, or not accepted in H) from a
+            short time integration's orbit at higher H (:mod:`.seed`).
         sensitivity: also the derivatives of each LCO's amplitude and frequency with respect
             to γ by the implicit-function theorem (:mod:`.sensitivity`; columns
             ``amplitude_dgamma``, output units per s, and ``frequency_dgamma``, Hz per s); the
@@ -63,14 +68,17 @@ class HarmonicBalanceMethod:
     floquet_steps: int = FLOQUET_STEPS
     start: str = "neighbour"
     sensitivity: bool = False
+    seed: bool = True
 
     def __post_init__(self):
         if isinstance(self.sensitivity, str) or not isinstance(self.sensitivity, bool):
             raise InputError(f"hb.sensitivity: expected true or false, got {self.sensitivity!r}")
         if self.start not in ("neighbour", "cold"):
             raise InputError(f"hb.start: expected 'neighbour' or 'cold', got {self.start!r}")
-        if isinstance(self.stability, str) or not isinstance(self.stability, bool):
-            raise InputError(f"hb.stability: expected true or false, got {self.stability!r}")
+        for name in ("stability", "seed"):
+            value = getattr(self, name)
+            if isinstance(value, str) or not isinstance(value, bool):
+                raise InputError(f"hb.{name}: expected true or false, got {value!r}")
         if (isinstance(self.floquet_steps, bool) or not isinstance(self.floquet_steps, int)
                 or self.floquet_steps < 8 or self.floquet_steps % 2):
             raise InputError(f"hb.floquet_steps: expected an even integer >= 8, got "
@@ -91,9 +99,14 @@ class HarmonicBalanceMethod:
         opts = self.options
         if math.isfinite(crit.max_amplitude) and not math.isfinite(opts.max_amplitude):
             opts = dataclasses.replace(opts, max_amplitude=float(crit.max_amplitude))
-        orb = solve_orbits(system.to(dtype=torch.float64), decide, opts,
+        system64 = system.to(dtype=torch.float64)
+        orb = solve_orbits(system64, decide, opts,
                            chains=chains if self.start == "neighbour" else None,
                            positions=positions if self.start == "neighbour" else None)
+        seeded = np.zeros(system.batch_size, dtype=bool)
+        if self.seed:
+            orb, seeded = seed_unresolved(
+                system64, torch.as_tensor(decide, dtype=torch.float64), orb, opts)
         rows = torch.as_tensor(C, dtype=torch.float64)
         amp = orb.amplitude(rows, opts.metric_points)
         B = system.batch_size
@@ -143,7 +156,7 @@ class HarmonicBalanceMethod:
         extra = {"method": np.full(B, "hb", dtype=object), "harmonics": orb.harmonics,
                  "hb_residual": orb.residual, "truncation": orb.truncation,
                  "harmonic_distortion": dist, "stable": stable, "floquet_multiplier": mult,
-                 "floquet_error": ferr,
+                 "floquet_error": ferr, "seeded": seeded,
                  **sens}
         wall = time.perf_counter() - t0
         if progress is not None:

@@ -42,7 +42,8 @@ entry in each table:
                  harmonics, max_harmonics, amplitude_rtol, residual_tol, start_amplitude,
                  amplitude_scale, max_stages, metric_points) and ``stability``,
                  ``floquet_steps``, ``start`` ("neighbour" or "cold"), ``sensitivity``
-                 (dA/dγ by the implicit-function theorem).
+                 (dA/dγ by the implicit-function theorem), ``seed`` (default true: cases
+                 left unresolved in H re-solved from a short time integration).
 ``[lco]``        ``outputs`` (ROM outputs or generalized coordinates "q1"…; the first decides)
                  and the options of :class:`torchrom.sim.LCOCriteria` (rtol, cycles, decay_ratio,
                  max_amplitude, ring).
@@ -95,7 +96,7 @@ METHODS = ("newmark", "hb")
 _HB_OPTION_KEYS = ("start_harmonics", "harmonics", "max_harmonics", "amplitude_rtol",
                    "residual_tol", "start_amplitude", "amplitude_scale", "max_stages",
                    "metric_points")
-_HB_METHOD_KEYS = ("stability", "floquet_steps", "start", "sensitivity")
+_HB_METHOD_KEYS = ("stability", "floquet_steps", "start", "sensitivity", "seed")
 #: [aeroelastic] keys (AeroelasticModel fields)
 AEROELASTIC_KEYS = ("baseline_alpha", "baseline_gamma", "reference_altitude_ft",
                     "altitude_range_ft")

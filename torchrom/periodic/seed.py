@@ -1,0 +1,279 @@
+"""Orbits harmonic balance cannot reach from below: seeded by a short time integration.
+
+Harmonic balance raises H from a low-H orbit (:mod:`.solve`). That fails where the orbit's
+harmonic content converges slowly and the truncated problems have no solution near the true
+orbit: on the heavy Goland wing's nearly undamped (γ = 0) LCOs the flutter frequency's fifth
+and sixth harmonics straddle the in-plane mode 5 (≈ 5.8 f), the modal coordinate q5 keeps 6 %
+of its largest harmonic at k = 9, and the HB problems at H = 7–11 either have no solution near
+the orbit a time integration converges to or converge to spurious ones 1–2 % away (with small
+truncation residuals), while from the time integration's own Fourier coefficients H = 15–21
+converge in 3–7 Newton iterations to within 0.03 % of Newmark at dt = 0.25 ms
+(``experiments/hb_harmonic_convergence.py``).
+
+So for the cases that end unresolved — unconverged, or not accepted in H (amplitude change from
+H − 2 or truncation residual above the tolerances of :class:`~.solve.HBOptions`) — the orbit is
+seeded by time integration, the standard remedy of the HB literature for orbits without a good
+low-order start (a time-domain start instead of a harmonic ladder):
+
+1. a start: the case's own orbit when it has one, else an orbit at H = 5 from a cold start
+   (:func:`~.solve.solve_orbits` with start_harmonics = harmonics = 5, which reaches large
+   orbits where the default start at H = 3 does not);
+2. Newmark (average acceleration, Newton refreshed every step, :class:`torchrom.sim.Newmark`)
+   from that orbit's state for :data:`SEED_PERIODS` periods at :data:`SEED_STEPS_PER_PERIOD`
+   steps per period of the fastest case; a stable LCO attracts the motion within a few periods
+   (its Floquet multipliers are ~0.4–0.8 per period on Goland);
+3. the frequency from the zero up-crossings of the decision output over the last
+   :data:`SEED_FIT_PERIODS` periods, the Fourier coefficients of every coordinate over those
+   periods (phase shifted so that the output has no sin τ term: :mod:`.solve`'s phase
+   condition);
+4. Newton at each H of :data:`SEED_HARMONICS` in turn, from the last converged orbit (or, while
+   none has converged, from the seed's coefficients), until the amplitude change between
+   consecutive H and the truncation residual meet the tolerances (:func:`seeded_orbits`).
+
+Unstable orbits do not attract a time integration; a seed that runs away is reported as
+such (the case keeps its previous status). Hand-written over :mod:`.solve` and
+:mod:`torchrom.sim.newmark`.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass
+
+import numpy as np
+import torch
+
+from ..sim.lco import LCOCriteria
+from ..sim.newmark import HistoryRequest, Newmark
+from ..sim.system import CaseSystem
+from .fourier import resize_harmonics
+from .solve import (
+    HBOptions,
+    PeriodicOrbits,
+    orbit_amplitude,
+    orbit_state,
+    refine_harmonics,
+    solve_orbits,
+    truncation_residual,
+)
+
+Tensor = torch.Tensor
+
+#: periods of the seeding time integration (from an orbit near the LCO)
+SEED_PERIODS = 12
+#: periods at its end whose Fourier coefficients seed the HB solve
+SEED_FIT_PERIODS = 4
+#: time steps per period of the fastest case: the seed only has to lie in the basin of the
+#: HB solution (Newton polishes it); 128 resolve the fundamental to 2e-4 in frequency and
+#: sample up to the 25th harmonic above Nyquist
+SEED_STEPS_PER_PERIOD = 512
+#: the harmonic ladder of a seeded orbit (each H from the previous converged one)
+SEED_HARMONICS = (15, 17, 19, 21, 23, 25)
+#: H of the cold start that provides a seed for a case without an orbit
+SEED_START_HARMONICS = 5
+
+
+@dataclass
+class SeededOrbits:
+    """Per seeded case: X (k, 2H_max+1, n), ω, H, status ('lco' where Newton converged at some
+    H of the ladder, else the status it had), residual, truncation, amplitude change between
+    the last two converged H, Newton iterations, and whether accepted (both tolerances met)."""
+
+    X: Tensor
+    omega: Tensor
+    harmonics: np.ndarray
+    status: np.ndarray
+    residual: np.ndarray
+    truncation: np.ndarray
+    amplitude_change: np.ndarray
+    iterations: np.ndarray
+    accepted: np.ndarray
+
+
+def unresolved(status: np.ndarray, amplitude_change: np.ndarray, truncation: np.ndarray,
+               options: HBOptions) -> np.ndarray:
+    """Cases harmonic balance left unresolved: unconverged, or an LCO whose amplitude change
+    from H − 2 or truncation residual misses the tolerances (or was never measured)."""
+    lco = status == "lco"
+    with np.errstate(invalid="ignore"):
+        accepted = (amplitude_change <= options.amplitude_rtol) & (
+            truncation <= options.residual_tol)
+    return (status == "unconverged") | (lco & ~accepted)
+
+
+def _time_seed(system: CaseSystem, X: Tensor, omega: Tensor, r: Tensor, H: int
+               ) -> tuple[Tensor, Tensor, np.ndarray]:
+    """(X_seed (k, 2H+1, n), ω (k,), ok (k,)) from Newmark started on the orbits X, ω."""
+    k, n = X.shape[0], system.n
+    q0, v0, xi0 = orbit_state(system, X, omega)
+    w = omega.cpu().numpy()
+    dt = 2 * math.pi / float(w.max()) / SEED_STEPS_PER_PERIOD
+    t_end = SEED_PERIODS * 2 * math.pi / float(w.min())
+    names = [f"q{i + 1}" for i in range(n)]
+    # the paper's iteration (Newton refreshed every step) at a finer step; its tolerance
+    # flags a step error, not the seed's accuracy (Newton polishes the seed)
+    res = Newmark(dt=dt, iterations=2, refresh_every=1, tol=1.0).run(
+        system, q0, v0, xi0, t_end=t_end, outputs=(names, np.eye(n)),
+        lco=LCOCriteria(stop=False, cycles=SEED_FIT_PERIODS),
+        history=HistoryRequest(tuple(range(k)), 1))
+    Xs = X.new_zeros(k, 2 * H + 1, n)
+    ws = omega.clone()
+    ok = np.zeros(k, dtype=bool)
+    rr = r.cpu().numpy()
+    for i in range(k):
+        hist = res.histories.get(i)
+        if hist is None or not np.isfinite(hist.y).all():
+            continue
+        t, Q = np.asarray(hist.t), np.asarray(hist.y)
+        if t[-1] < 0.9 * t_end:  # stopped early (diverged or flagged): no seed
+            continue
+        y = Q @ rr
+        T = 2 * math.pi / w[i]
+        last = t >= t[-1] - (SEED_FIT_PERIODS + 1) * T
+        yc = y[last] - y[last].mean()
+        tl = t[last]
+        up = np.flatnonzero((yc[:-1] < 0) & (yc[1:] >= 0))
+        if up.size < SEED_FIT_PERIODS + 1:
+            continue
+        tz = tl[up] - yc[up] * (tl[up + 1] - tl[up]) / (yc[up + 1] - yc[up])
+        f = (up.size - 1) / (tz[-1] - tz[0])  # Hz, over whole periods
+        fit = (t >= tz[-1] - SEED_FIT_PERIODS / f) & (t <= tz[-1])
+        tf, Qf = t[fit], Q[fit]
+        # trapezoidal weights: the window spans whole periods, so the rule is spectrally exact
+        wts = np.gradient(tf)
+        wts /= wts.sum()
+        # phase: the output's first harmonic a pure cosine (no sin τ term, as in .solve)
+        y1 = np.sum(wts * (Qf @ rr) * np.exp(-2j * math.pi * f * tf))
+        tau = 2 * math.pi * f * tf + np.angle(y1)
+        coef = np.zeros((2 * H + 1, n))
+        coef[0] = wts @ Qf
+        for h in range(1, H + 1):
+            coef[2 * h - 1] = 2 * (wts * np.cos(h * tau)) @ Qf
+            coef[2 * h] = 2 * (wts * np.sin(h * tau)) @ Qf
+        Xs[i] = torch.as_tensor(coef, dtype=X.dtype, device=X.device)
+        ws[i] = 2 * math.pi * f
+        ok[i] = True
+    return Xs, ws, ok
+
+
+def seeded_orbits(system: CaseSystem, r: Tensor, X: Tensor | None, omega: Tensor | None,
+                  has_orbit: np.ndarray, options: HBOptions) -> SeededOrbits:
+    """Seed and solve the orbits of every case of ``system`` (module docstring). ``X``, ``ω``:
+    the cases' current orbits (any H), used where ``has_orbit``; the others start cold at
+    H = :data:`SEED_START_HARMONICS`."""
+    k, n = system.batch_size, system.n
+    Hmax = SEED_HARMONICS[-1]
+    out = SeededOrbits(
+        X=r.new_zeros(k, 2 * Hmax + 1, n), omega=r.new_full((k,), math.nan),
+        harmonics=np.zeros(k, dtype=int), status=np.full(k, "unconverged", dtype=object),
+        residual=np.full(k, math.nan), truncation=np.full(k, math.nan),
+        amplitude_change=np.full(k, math.nan), iterations=np.zeros(k, dtype=int),
+        accepted=np.zeros(k, dtype=bool))
+    X0 = r.new_zeros(k, 2 * SEED_START_HARMONICS + 1, n)
+    w0 = r.new_full((k,), math.nan)
+    start = np.asarray(has_orbit, dtype=bool).copy()
+    if start.any():
+        t = torch.as_tensor(np.flatnonzero(start))
+        X0[t] = resize_harmonics(X[t], SEED_START_HARMONICS)
+        w0[t] = omega[t]
+    cold = np.flatnonzero(~start)
+    if cold.size:
+        t = torch.as_tensor(cold)
+        opts = dataclasses.replace(options, start_harmonics=SEED_START_HARMONICS,
+                                   harmonics=SEED_START_HARMONICS,
+                                   max_harmonics=SEED_START_HARMONICS)
+        orb = solve_orbits(system.select(t), r, opts)
+        got = orb.status == "lco"
+        out.iterations[cold] += orb.iterations
+        X0[t[torch.as_tensor(got)]] = resize_harmonics(orb.X, SEED_START_HARMONICS)[
+            torch.as_tensor(got)]
+        w0[t[torch.as_tensor(got)]] = orb.omega[torch.as_tensor(got)]
+        start[cold[got]] = True
+    idx = np.flatnonzero(start)
+    if idx.size == 0:
+        return out
+    t = torch.as_tensor(idx)
+    sub = system.select(t)
+    Xs, ws, ok = _time_seed(sub, X0[t], w0[t], r, Hmax)
+    idx, Xs, ws = idx[ok], Xs[torch.as_tensor(ok)], ws[torch.as_tensor(ok)]
+    if idx.size == 0:
+        return out
+    sub = system.select(torch.as_tensor(idx))
+    m = idx.size
+    rows = r[None, :]
+    X_cur, w_cur = Xs.clone(), ws.clone()
+    have = np.zeros(m, dtype=bool)  # converged at some H of the ladder
+    prev_amp = np.full(m, math.nan)
+    todo = np.arange(m)
+    for H in SEED_HARMONICS:
+        act = torch.as_tensor(todo)
+        # from the last converged orbit, else from the seed's own coefficients
+        start_X = torch.where(torch.as_tensor(have)[:, None, None], resize_harmonics(X_cur, H),
+                              resize_harmonics(Xs, H))
+        start_w = torch.where(torch.as_tensor(have), w_cur, ws)
+        Xn, wn, conv, its, res = refine_harmonics(sub, start_X, start_w, r, H, options, act)
+        out.iterations[idx[todo]] += its[act].cpu().numpy()
+        conv_t = conv[act].cpu().numpy()
+        done = todo[conv_t]
+        if done.size:
+            d = torch.as_tensor(done)
+            X_cur[d] = resize_harmonics(Xn[d], Hmax)
+            w_cur[d] = wn[d]
+            amp = orbit_amplitude(resize_harmonics(Xn[d], H) @ rows.T,
+                                  np.full(done.size, "lco", dtype=object),
+                                  options.metric_points)[:, 0]
+            trunc = truncation_residual(sub.select(d), Xn[d], wn[d]).cpu().numpy()
+            change = np.abs(amp - prev_amp[done]) / np.maximum(np.abs(amp), 1e-300)
+            prev_amp[done] = amp
+            have[done] = True
+            g = idx[done]
+            out.harmonics[g] = H
+            out.status[g] = "lco"
+            out.residual[g] = res[d].cpu().numpy()
+            out.truncation[g] = trunc
+            out.amplitude_change[g] = change
+            with np.errstate(invalid="ignore"):
+                acc = (change <= options.amplitude_rtol) & (trunc <= options.residual_tol)
+            out.accepted[g] = acc
+            todo = np.setdiff1d(todo, done[acc])
+        if todo.size == 0:
+            break
+    out.X[torch.as_tensor(idx)] = X_cur
+    out.omega[torch.as_tensor(idx)] = torch.where(torch.as_tensor(have), w_cur,
+                                                  torch.full_like(w_cur, math.nan))
+    return out
+
+
+def seed_unresolved(system: CaseSystem, r: Tensor, orb: PeriodicOrbits, options: HBOptions
+                    ) -> tuple[PeriodicOrbits, np.ndarray]:
+    """``orb`` with its :func:`unresolved` cases re-solved by :func:`seeded_orbits` where that
+    converges (kept as they were elsewhere), and which cases now hold a seeded orbit. Only
+    with adaptive H (``max_harmonics > harmonics``): an H fixed by the user is kept."""
+    seeded = np.zeros(len(orb.status), dtype=bool)
+    if options.max_harmonics <= options.harmonics:  # H fixed by the user: nothing to resolve
+        return orb, seeded
+    bad = np.flatnonzero(unresolved(orb.status, orb.amplitude_change, orb.truncation, options))
+    if bad.size == 0:
+        return orb, seeded
+    t = torch.as_tensor(bad)
+    s = seeded_orbits(system.select(t), r, orb.X[t], orb.omega[t], orb.status[bad] == "lco",
+                      options)
+    orb.iterations[bad] += s.iterations
+    # a seeded orbit replaces the case's own where it converged and is accepted, or where the
+    # case had none (then it is the best there is; its amplitude change says how good)
+    take = (s.status == "lco") & (s.accepted | (orb.status[bad] != "lco"))
+    if not take.any():
+        return orb, seeded
+    g = bad[take]
+    width = max(orb.X.shape[1], s.X.shape[1])
+    H = (width - 1) // 2
+    X = resize_harmonics(orb.X, H)
+    X[torch.as_tensor(g)] = resize_harmonics(s.X[torch.as_tensor(take)], H)
+    omega = orb.omega.clone()
+    omega[torch.as_tensor(g)] = s.omega[torch.as_tensor(take)]
+    orb = dataclasses.replace(orb, X=X, omega=omega)
+    for name in ("harmonics", "status", "residual", "truncation", "amplitude_change"):
+        getattr(orb, name)[g] = getattr(s, name)[take]
+    seeded[g] = True
+    return orb, seeded
