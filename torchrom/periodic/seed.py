@@ -15,9 +15,10 @@ H − 2 or truncation residual above the tolerances of :class:`~.solve.HBOptions
 seeded by time integration, the standard remedy of the HB literature for orbits without a good
 low-order start (a time-domain start instead of a harmonic ladder):
 
-1. a start: the case's own orbit when it has one, else an orbit at H = 5 from a cold start
-   (:func:`~.solve.solve_orbits` with start_harmonics = harmonics = 5, which reaches large
-   orbits where the default start at H = 3 does not);
+1. a start: an orbit at H = 5 from a cold start (:func:`~.solve.solve_orbits` with
+   start_harmonics = harmonics = 5, which reaches large orbits where the default start at
+   H = 3 does not, 0.3-0.7 % from the Goland γ = 0 orbits), else the case's own orbit (an
+   orbit not accepted in H may be a spurious one of the truncated problem, percents away);
 2. Newmark (average acceleration, Newton refreshed every step, :class:`torchrom.sim.Newmark`)
    from that orbit's state for :data:`SEED_PERIODS` periods at :data:`SEED_STEPS_PER_PERIOD`
    steps per period of the fastest case; a stable LCO attracts the motion within a few periods
@@ -61,7 +62,7 @@ from .solve import (
 Tensor = torch.Tensor
 
 #: periods of the seeding time integration (from an orbit near the LCO)
-SEED_PERIODS = 12
+SEED_PERIODS = 20
 #: periods at its end whose Fourier coefficients seed the HB solve
 SEED_FIT_PERIODS = 4
 #: time steps per period of the fastest case: the seed only has to lie in the basin of the
@@ -172,24 +173,28 @@ def seeded_orbits(system: CaseSystem, r: Tensor, X: Tensor | None, omega: Tensor
         accepted=np.zeros(k, dtype=bool))
     X0 = r.new_zeros(k, 2 * SEED_START_HARMONICS + 1, n)
     w0 = r.new_full((k,), math.nan)
-    start = np.asarray(has_orbit, dtype=bool).copy()
-    if start.any():
-        t = torch.as_tensor(np.flatnonzero(start))
-        X0[t] = resize_harmonics(X[t], SEED_START_HARMONICS)
-        w0[t] = omega[t]
-    cold = np.flatnonzero(~start)
-    if cold.size:
-        t = torch.as_tensor(cold)
-        opts = dataclasses.replace(options, start_harmonics=SEED_START_HARMONICS,
-                                   harmonics=SEED_START_HARMONICS,
-                                   max_harmonics=SEED_START_HARMONICS)
-        orb = solve_orbits(system.select(t), r, opts)
-        got = orb.status == "lco"
-        out.iterations[cold] += orb.iterations
-        X0[t[torch.as_tensor(got)]] = resize_harmonics(orb.X, SEED_START_HARMONICS)[
-            torch.as_tensor(got)]
-        w0[t[torch.as_tensor(got)]] = orb.omega[torch.as_tensor(got)]
-        start[cold[got]] = True
+    # every case from a cold start at H = 5 (close to the orbit on Goland: 0.3-0.7 %), which
+    # the Newmark run then brings into the basin of the high-H solution; the case's own orbit
+    # only where that start fails (an orbit not accepted in H may be a spurious one of the
+    # truncated problem, percents away)
+    start = np.zeros(k, dtype=bool)
+    t = torch.arange(k)
+    opts = dataclasses.replace(options, start_harmonics=SEED_START_HARMONICS,
+                               harmonics=SEED_START_HARMONICS,
+                               max_harmonics=SEED_START_HARMONICS)
+    orb = solve_orbits(system, r, opts)
+    got = orb.status == "lco"
+    out.iterations += orb.iterations
+    g = torch.as_tensor(got)
+    X0[g] = resize_harmonics(orb.X, SEED_START_HARMONICS)[g]
+    w0[g] = orb.omega[g]
+    start |= got
+    own = np.flatnonzero(~got & np.asarray(has_orbit, dtype=bool))
+    if own.size:
+        o = torch.as_tensor(own)
+        X0[o] = resize_harmonics(X[o], SEED_START_HARMONICS)
+        w0[o] = omega[o]
+        start[own] = True
     idx = np.flatnonzero(start)
     if idx.size == 0:
         return out
