@@ -23,7 +23,10 @@ seconds of the whole method):
   every step), amplitude jumps toward slowly
   approached LCOs (``extrapolate``), all cases in one batch;
 - ``hb``: periodic orbits by harmonic balance (:class:`torchrom.periodic.HarmonicBalanceMethod`
-  with its defaults: adaptive H 5..9, neighbour chains, Floquet stability), cold starts included;
+  with its defaults: adaptive H 5..9, neighbour chains, Floquet stability, time-integration
+  seeds for unconverged cases), cold starts included;
+- ``hb-unresolved``: the same with ``seed = "unresolved"`` (also the LCOs not accepted in H
+  are seeded and solved at H up to 25: the paper study's setting);
 - ``newmark-neighbour`` (``--methods``): the same steps with warm starts along the altitude
   (:mod:`torchrom.study.starts`); fewer simulated seconds per LCO, but the waves are batches of
   one case per γ, where a step costs several times more per case;
@@ -172,11 +175,13 @@ def newmark_hb(bench: Bench) -> MethodRun:
 
 
 # --- harmonic balance (issue 13) ----------------------------------------------------------------
-def harmonic_balance(bench: Bench) -> MethodRun:
+def harmonic_balance(bench: Bench, seed: str = "unconverged") -> MethodRun:
     """Periodic orbits by harmonic balance (:class:`torchrom.periodic.HarmonicBalanceMethod`,
     the sweep's ``method = "hb"`` with its defaults: adaptive H 5..9, neighbour chains along
-    the altitude, Floquet stability of every orbit): cold starts and stability included."""
-    method = HarmonicBalanceMethod()
+    the altitude, Floquet stability of every orbit, time-integration seeds for the
+    unconverged cases): cold starts and stability included. ``seed = "unresolved"`` (method
+    ``hb-unresolved``, the paper study's setting) also seeds the LCOs not accepted in H."""
+    method = HarmonicBalanceMethod(seed=seed)
 
     def run():
         chains, positions = neighbour_chains(bench.cases)
@@ -237,9 +242,10 @@ METHODS: dict[str, Callable[[Bench], MethodRun]] = {
     "newmark-neighbour": newmark_neighbour,
     "newmark-hb": newmark_hb,
     "hb": harmonic_balance,
+    "hb-unresolved": lambda bench: harmonic_balance(bench, seed="unresolved"),
 }
 #: run by default (``--methods`` adds others)
-DEFAULT_METHODS = ("newmark-reference", "newmark", "hb")
+DEFAULT_METHODS = ("newmark-reference", "newmark", "hb", "hb-unresolved")
 
 
 def reference(bench: Bench, runs: dict[str, MethodRun]) -> tuple[np.ndarray, np.ndarray]:

@@ -91,6 +91,9 @@ def test_bad_hb_options(tmp_path):
     path.write_text(CONFIG.replace("sensitivity = true", "colour = 1"))
     with pytest.raises(InputError, match="unknown key 'colour'"):
         load_sweep_config(path)
+    path.write_text(CONFIG.replace("sensitivity = true", 'seed = "maybe"'))
+    with pytest.raises(InputError, match="hb.seed: expected one of"):
+        load_sweep_config(path)
     path.write_text(CONFIG.replace('method = "hb"', 'method = "shooting"'))
     with pytest.raises(InputError, match="method"):
         load_sweep_config(path)

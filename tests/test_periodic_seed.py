@@ -60,10 +60,10 @@ def test_seed_replaces_only_unresolved_cases():
     orb = solve_orbits(system, r.numpy(), tight)
     assert unresolved(orb.status, orb.amplitude_change, orb.truncation, tight).all()
     before = orb.amplitude(r[None])[:, 0]
-    after, seeded = seed_unresolved(system, r, orb, tight)
+    after, seeded = seed_unresolved(system, r, orb, tight, "unresolved")
     assert seeded.all() and (after.harmonics >= SEED_HARMONICS[0]).all()
     assert after.amplitude(r[None])[:, 0] == pytest.approx(before, rel=2e-5)
     fixed = HBOptions(start_harmonics=5, harmonics=5, max_harmonics=5, amplitude_rtol=1e-13)
     orb = solve_orbits(system, r.numpy(), fixed)
-    _, seeded = seed_unresolved(system, r, orb, fixed)
+    _, seeded = seed_unresolved(system, r, orb, fixed, "unresolved")
     assert not seeded.any()

@@ -57,8 +57,9 @@ def newmark_confirmation(cfg, model, table: pd.DataFrame, device="cpu"
     names, C = output_matrix(system.rom, cfg.outputs)
     opts = cfg.hb.options
     orb = solve_orbits(system, C[0], opts)
-    if cfg.hb.seed:  # the same orbits as the sweep's (which seeds its unresolved cases)
-        orb, _ = seed_unresolved(system, torch.as_tensor(C[0], dtype=system.dtype), orb, opts)
+    # the same orbits as the sweep's (which seeds the same kind of cases)
+    orb, _ = seed_unresolved(system, torch.as_tensor(C[0], dtype=system.dtype), orb, opts,
+                             cfg.hb.seed)
     H = int(max(orb.harmonics.max(), 1))
     q0, v0, xi0 = orbit_state(system, resize_harmonics(orb.X, H), orb.omega)
     periods = 1.0 / np.nanmax(np.where(orb.status == "lco", orb.frequency_hz, np.nan))

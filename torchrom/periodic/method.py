@@ -11,7 +11,7 @@ Newton residual), ``truncation`` (see :func:`~.solve.truncation_residual`),
 of the critical Floquet multiplier, :mod:`.floquet`; ``stable`` is unknown where the monodromy
 matrix misses the trivial multiplier by more than 5 %, ``floquet_error``) and ``seeded`` (the
 orbit was seeded by a short time integration: :mod:`.seed`, for the cases the harmonic ladder
-left unconverged or not converged in H); ``steps`` holds the
+left unconverged — or, with ``seed = "unresolved"``, not converged in H); ``steps`` holds the
 Newton iterations and ``t_end`` is NaN (no simulated time). A decaying case is stable when its
 critical linear root is; its amplitude is 0.
 
@@ -37,7 +37,7 @@ from ..sim.result import SimulationResult
 from ..sim.system import CaseSystem
 from .floquet import FLOQUET_STEPS, floquet
 from .fourier import resize_harmonics
-from .seed import seed_unresolved
+from .seed import SEED_MODES, seed_unresolved
 from .sensitivity import amplitude_derivative
 from .solve import HBOptions, solve_orbits
 
@@ -55,8 +55,10 @@ class HarmonicBalanceMethod:
         floquet_steps: steps per period of the monodromy matrix (exponential midpoint rule).
         start: "neighbour" (cases chained along their varying parameter start from their
             neighbour's orbit) or "cold" (every case from its linear flutter mode).
-        seed: re-solve the cases left unresolved (unconverged, or not accepted in H) from a
-            short time integration's orbit at higher H (:mod:`.seed`).
+        seed: which cases to re-solve from a short time integration's orbit at higher H
+            (:mod:`.seed`): "unconverged" (default: the cases harmonic balance did not
+            converge), "unresolved" (also the LCOs not accepted in H; more cases, each costs
+            ~20 periods of time integration) or "off".
         sensitivity: also the derivatives of each LCO's amplitude and frequency with respect
             to γ by the implicit-function theorem (:mod:`.sensitivity`; columns
             ``amplitude_dgamma``, output units per s, and ``frequency_dgamma``, Hz per s); the
@@ -68,17 +70,17 @@ class HarmonicBalanceMethod:
     floquet_steps: int = FLOQUET_STEPS
     start: str = "neighbour"
     sensitivity: bool = False
-    seed: bool = True
+    seed: str = "unconverged"
 
     def __post_init__(self):
         if isinstance(self.sensitivity, str) or not isinstance(self.sensitivity, bool):
             raise InputError(f"hb.sensitivity: expected true or false, got {self.sensitivity!r}")
         if self.start not in ("neighbour", "cold"):
             raise InputError(f"hb.start: expected 'neighbour' or 'cold', got {self.start!r}")
-        for name in ("stability", "seed"):
-            value = getattr(self, name)
-            if isinstance(value, str) or not isinstance(value, bool):
-                raise InputError(f"hb.{name}: expected true or false, got {value!r}")
+        if isinstance(self.stability, str) or not isinstance(self.stability, bool):
+            raise InputError(f"hb.stability: expected true or false, got {self.stability!r}")
+        if self.seed not in SEED_MODES:
+            raise InputError(f"hb.seed: expected one of {list(SEED_MODES)}, got {self.seed!r}")
         if (isinstance(self.floquet_steps, bool) or not isinstance(self.floquet_steps, int)
                 or self.floquet_steps < 8 or self.floquet_steps % 2):
             raise InputError(f"hb.floquet_steps: expected an even integer >= 8, got "
@@ -104,9 +106,8 @@ class HarmonicBalanceMethod:
                            chains=chains if self.start == "neighbour" else None,
                            positions=positions if self.start == "neighbour" else None)
         seeded = np.zeros(system.batch_size, dtype=bool)
-        if self.seed:
-            orb, seeded = seed_unresolved(
-                system64, torch.as_tensor(decide, dtype=torch.float64), orb, opts)
+        orb, seeded = seed_unresolved(system64, torch.as_tensor(decide, dtype=torch.float64),
+                                      orb, opts, self.seed)
         rows = torch.as_tensor(C, dtype=torch.float64)
         amp = orb.amplitude(rows, opts.metric_points)
         B = system.batch_size

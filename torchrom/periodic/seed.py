@@ -250,15 +250,27 @@ def seeded_orbits(system: CaseSystem, r: Tensor, X: Tensor | None, omega: Tensor
     return out
 
 
-def seed_unresolved(system: CaseSystem, r: Tensor, orb: PeriodicOrbits, options: HBOptions
-                    ) -> tuple[PeriodicOrbits, np.ndarray]:
-    """``orb`` with its :func:`unresolved` cases re-solved by :func:`seeded_orbits` where that
-    converges (kept as they were elsewhere), and which cases now hold a seeded orbit. Only
-    with adaptive H (``max_harmonics > harmonics``): an H fixed by the user is kept."""
+#: which cases :func:`seed_unresolved` seeds: "unconverged" (the cases harmonic balance did
+#: not converge at all: cheap, a sweep's failures only), "unresolved" (also the LCOs not
+#: accepted in H: the amplitude change from H − 2 or the truncation residual above the
+#: tolerances — more cases, each seed costs ~20 periods of time integration), "off"
+SEED_MODES = ("unconverged", "unresolved", "off")
+
+
+def seed_unresolved(system: CaseSystem, r: Tensor, orb: PeriodicOrbits, options: HBOptions,
+                    which: str = "unresolved") -> tuple[PeriodicOrbits, np.ndarray]:
+    """``orb`` with its cases of kind ``which`` (:data:`SEED_MODES`) re-solved by
+    :func:`seeded_orbits` where that converges (kept as they were elsewhere), and which cases
+    now hold a seeded orbit. Only with adaptive H (``max_harmonics > harmonics``): an H fixed
+    by the user is kept."""
     seeded = np.zeros(len(orb.status), dtype=bool)
-    if options.max_harmonics <= options.harmonics:  # H fixed by the user: nothing to resolve
+    if which == "off" or options.max_harmonics <= options.harmonics:
         return orb, seeded
-    bad = np.flatnonzero(unresolved(orb.status, orb.amplitude_change, orb.truncation, options))
+    if which == "unconverged":
+        bad = np.flatnonzero(orb.status == "unconverged")
+    else:
+        bad = np.flatnonzero(unresolved(orb.status, orb.amplitude_change, orb.truncation,
+                                        options))
     if bad.size == 0:
         return orb, seeded
     t = torch.as_tensor(bad)

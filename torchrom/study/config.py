@@ -42,8 +42,9 @@ entry in each table:
                  harmonics, max_harmonics, amplitude_rtol, residual_tol, start_amplitude,
                  amplitude_scale, max_stages, metric_points) and ``stability``,
                  ``floquet_steps``, ``start`` ("neighbour" or "cold"), ``sensitivity``
-                 (dA/dγ by the implicit-function theorem), ``seed`` (default true: cases
-                 left unresolved in H re-solved from a short time integration).
+                 (dA/dγ by the implicit-function theorem), ``seed`` ("unconverged",
+                 default, "unresolved" or "off": which cases are re-solved from a short
+                 time integration at higher H, :mod:`torchrom.periodic.seed`).
 ``[lco]``        ``outputs`` (ROM outputs or generalized coordinates "q1"…; the first decides)
                  and the options of :class:`torchrom.sim.LCOCriteria` (rtol, cycles, decay_ratio,
                  max_amplitude, ring).
