@@ -76,20 +76,12 @@ SEED_START_HARMONICS = 5
 
 
 @dataclass
-class SeededOrbits:
-    """Per seeded case: X (k, 2H_max+1, n), ω, H, status ('lco' where Newton converged at some
-    H of the ladder, else the status it had), residual, truncation, amplitude change between
-    the last two converged H, Newton iterations, and whether accepted (both tolerances met)."""
+class SeededOrbits(PeriodicOrbits):
+    """:class:`~.solve.PeriodicOrbits` of the seeded cases (status 'lco' where Newton converged
+    at some H of the ladder, the amplitude change between the last two converged H; no
+    critical root), and whether each was accepted (both tolerances met)."""
 
-    X: Tensor
-    omega: Tensor
-    harmonics: np.ndarray
-    status: np.ndarray
-    residual: np.ndarray
-    truncation: np.ndarray
-    amplitude_change: np.ndarray
-    iterations: np.ndarray
-    accepted: np.ndarray
+    accepted: np.ndarray | None = None
 
 
 def unresolved(status: np.ndarray, amplitude_change: np.ndarray, truncation: np.ndarray,
@@ -170,6 +162,7 @@ def seeded_orbits(system: CaseSystem, r: Tensor, X: Tensor | None, omega: Tensor
         harmonics=np.zeros(k, dtype=int), status=np.full(k, "unconverged", dtype=object),
         residual=np.full(k, math.nan), truncation=np.full(k, math.nan),
         amplitude_change=np.full(k, math.nan), iterations=np.zeros(k, dtype=int),
+        critical_root=np.full(k, complex(math.nan, math.nan)),
         accepted=np.zeros(k, dtype=bool))
     X0 = r.new_zeros(k, 2 * SEED_START_HARMONICS + 1, n)
     w0 = r.new_full((k,), math.nan)
