@@ -6,14 +6,14 @@ orbit: on the heavy Goland wing's nearly undamped (γ = 0) LCOs the flutter freq
 and sixth harmonics straddle the in-plane mode 5 (≈ 5.8 f), the modal coordinate q5 keeps 6 %
 of its largest harmonic at k = 9, and the HB problems at H = 7–11 either have no solution near
 the orbit a time integration converges to or converge to spurious ones 1–2 % away (with small
-truncation residuals), while from the time integration's own Fourier coefficients H = 15–21
-converge in 3–7 Newton iterations to within 0.03 % of Newmark at dt = 0.25 ms
-(``experiments/hb_harmonic_convergence.py``).
+truncation residuals), while from the time integration's own Fourier coefficients H = 15–25
+converge in 4–7 Newton iterations, H = 25 to within 0.003 % of Newmark at dt = 0.25 ms at
+7,000 ft (``experiments/hb_harmonic_convergence.py``).
 
 So for the cases that end unresolved — unconverged, or not accepted in H (amplitude change from
 H − 2 or truncation residual above the tolerances of :class:`~.solve.HBOptions`) — the orbit is
-seeded by time integration, the standard remedy of the HB literature for orbits without a good
-low-order start (a time-domain start instead of a harmonic ladder):
+seeded by time integration (a time-domain start instead of a harmonic ladder, common practice
+where no low-order start exists):
 
 1. a start: an orbit at H = 5 from a cold start (:func:`~.solve.solve_orbits` with
    start_harmonics = harmonics = 5, which reaches large orbits where the default start at
@@ -21,8 +21,9 @@ low-order start (a time-domain start instead of a harmonic ladder):
    orbit not accepted in H may be a spurious one of the truncated problem, percents away);
 2. Newmark (average acceleration, Newton refreshed every step, :class:`torchrom.sim.Newmark`)
    from that orbit's state for :data:`SEED_PERIODS` periods at :data:`SEED_STEPS_PER_PERIOD`
-   steps per period of the fastest case; a stable LCO attracts the motion within a few periods
-   (its Floquet multipliers are ~0.4–0.8 per period on Goland);
+   steps per period of the fastest case; a stable LCO attracts the motion (its Floquet
+   multipliers are ~0.8–0.93 per period on the Goland γ = 0 orbits: 20 periods leave a few
+   percent of the start's distance, inside the basin of the high-H solution);
 3. the frequency from the zero up-crossings of the decision output over the last
    :data:`SEED_FIT_PERIODS` periods, the Fourier coefficients of every coordinate over those
    periods (phase shifted so that the output has no sin τ term: :mod:`.solve`'s phase
@@ -65,9 +66,9 @@ Tensor = torch.Tensor
 SEED_PERIODS = 20
 #: periods at its end whose Fourier coefficients seed the HB solve
 SEED_FIT_PERIODS = 4
-#: time steps per period of the fastest case: the seed only has to lie in the basin of the
-#: HB solution (Newton polishes it); 128 resolve the fundamental to 2e-4 in frequency and
-#: sample up to the 25th harmonic above Nyquist
+#: time steps per period of the fastest case: ~1 ms on Goland, where the paper setting's two
+#: Newton iterations per step converge (at 2 ms the stiff dual coordinates made Newmark run
+#: away from some starts); the seed only has to lie in the basin of the HB solution
 SEED_STEPS_PER_PERIOD = 512
 #: the harmonic ladder of a seeded orbit (each H from the previous converged one)
 SEED_HARMONICS = (15, 17, 19, 21, 23, 25)
@@ -104,8 +105,8 @@ def _time_seed(system: CaseSystem, X: Tensor, omega: Tensor, r: Tensor, H: int
     dt = 2 * math.pi / float(w.max()) / SEED_STEPS_PER_PERIOD
     t_end = SEED_PERIODS * 2 * math.pi / float(w.min())
     names = [f"q{i + 1}" for i in range(n)]
-    # the paper's iteration (Newton refreshed every step) at a finer step; its tolerance
-    # flags a step error, not the seed's accuracy (Newton polishes the seed)
+    # the paper's iteration (two Newton iterations, refreshed every step); no error flag
+    # (tol 1): a flagged case would stop, and Newton polishes the seed anyway
     res = Newmark(dt=dt, iterations=2, refresh_every=1, tol=1.0).run(
         system, q0, v0, xi0, t_end=t_end, outputs=(names, np.eye(n)),
         lco=LCOCriteria(stop=False, cycles=SEED_FIT_PERIODS),
@@ -152,9 +153,9 @@ def _time_seed(system: CaseSystem, X: Tensor, omega: Tensor, r: Tensor, H: int
 
 def seeded_orbits(system: CaseSystem, r: Tensor, X: Tensor | None, omega: Tensor | None,
                   has_orbit: np.ndarray, options: HBOptions) -> SeededOrbits:
-    """Seed and solve the orbits of every case of ``system`` (module docstring). ``X``, ``ω``:
-    the cases' current orbits (any H), used where ``has_orbit``; the others start cold at
-    H = :data:`SEED_START_HARMONICS`."""
+    """Seed and solve the orbits of every case of ``system`` (module docstring): each starts
+    from a cold orbit at H = :data:`SEED_START_HARMONICS`, or where that fails from its own
+    orbit ``X``, ``ω`` (any H; used where ``has_orbit``)."""
     k, n = system.batch_size, system.n
     Hmax = SEED_HARMONICS[-1]
     out = SeededOrbits(
