@@ -291,6 +291,22 @@ def test_quick_branches_are_supercritical(quick):
             assert not row["unstable_altitudes_ft"]
 
 
+def test_secondary_sweeps_seed_only_unconverged_cases_and_are_cached_apart():
+    """The study's secondary HB sweeps seed only unconverged cases; their cache key differs
+    from the main sweep's although the configuration's own hash is the same (before the key
+    included the solver's settings, a run reused the other setting's tables)."""
+    from torchrom.paper.study import _secondary, _sweep_key, config_path
+    from torchrom.study.config import load_sweep_config, with_method
+
+    cfg = with_method(load_sweep_config(config_path("paper_lco.toml")), "hb")
+    assert cfg.hb.seed == "unresolved"
+    sec = _secondary(cfg)
+    assert sec.hb.seed == "unconverged" and sec.hash == cfg.hash
+    assert _sweep_key(sec, "m", "cpu", "float64") != _sweep_key(cfg, "m", "cpu", "float64")
+    newmark = load_sweep_config(config_path("paper_lco.toml"))
+    assert _secondary(newmark) is newmark
+
+
 def test_paper_refuses_a_folder_it_did_not_write(tmp_path):
     (tmp_path / "notes.txt").write_text("mine")
     with pytest.raises(InputError, match="did not write"):

@@ -455,16 +455,20 @@ def _branches(cache: FileCache, cfg, model, model_hash: str, device, log) -> pd.
     return table
 
 
+def _sweep_key(cfg, model_hash: str, device, dtype) -> str:
+    """The cache key of a sweep: the configuration, its cases and history, and the solver's
+    own settings too — the study adjusts them after loading (:func:`_secondary`), which the
+    configuration's hash does not see."""
+    return FileCache.key({"config": cfg.hash, "cases": config_hash(cfg.cases),
+                          "solver": repr(cfg.solver), "history": repr(cfg.history),
+                          "model": model_hash, "device": str(device), "dtype": str(dtype)})
+
+
 def _lco_sweep(cache: FileCache, cfg, model, model_hash: str, device, dtype, log,
                name: str = "lco"):
     """The LCO table and histories (cached by the configuration, the model and the precision)
     in ``sweeps/<name>/``."""
-    # the solver's own settings too: the study adjusts them after loading (e.g. _secondary),
-    # which the configuration's hash does not see
-    key = FileCache.key({"config": cfg.hash, "cases": config_hash(cfg.cases),
-                         "solver": repr(cfg.solver),
-                         "history": repr(cfg.history), "model": model_hash,
-                         "device": str(device), "dtype": str(dtype)})
+    key = _sweep_key(cfg, model_hash, device, dtype)
     names = (f"sweeps/{name}/results.parquet", f"sweeps/{name}/histories.parquet",
              f"sweeps/{name}/timing.json")
     found = [cache.get(n, key) for n in names]
