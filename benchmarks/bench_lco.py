@@ -210,12 +210,11 @@ def hb_reference(bench: Bench) -> tuple[np.ndarray, np.ndarray, list[dict]]:
                      amplitude_rtol=1e-4)
     system = bench.system()
     chains, positions = neighbour_chains(bench.cases)
-    orb = solve_orbits(system, system.rom.outputs[OUTPUT], opts, chains=chains,
-                       positions=positions)
+    r = torch.as_tensor(np.asarray(system.rom.outputs[OUTPUT]))
+    orb = solve_orbits(system, r.numpy(), opts, chains=chains, positions=positions)
     # the orbits not converged in H by then: from a short time integration, up to H = 25
-    orb, _ = seed_unresolved(system, torch.as_tensor(np.asarray(system.rom.outputs[OUTPUT])),
-                             orb, opts)
-    row = torch.as_tensor(np.asarray(system.rom.outputs[OUTPUT]))[None]
+    orb, _ = seed_unresolved(system, r, orb, opts)
+    row = r[None]
     amp = orb.amplitude(row)[:, 0]
     freq = orb.frequency_hz
     ok = orb.status == "lco"

@@ -145,6 +145,12 @@ def _member(p: dmp.DecompositionProblem, name: str, theta: float, m: torch.Tenso
                          _min_eigenvalue(p, m), err2, err3)
 
 
+def _tolerance(first: DampingMember) -> float:
+    """The reproduction error a member may have: the first tensor set's own, at least
+    :data:`STRICT_REPRODUCTION` (:attr:`DampingMember.tolerance`)."""
+    return max(STRICT_REPRODUCTION, first.reproduction_error_K2, first.reproduction_error_K3)
+
+
 def _min_eigenvalue(p: dmp.DecompositionProblem, m: torch.Tensor) -> float:
     return float(torch.linalg.eigvalsh(dmp._assemble(p.st, torch.as_tensor(p.K1hat), m))[0])
 
@@ -174,8 +180,7 @@ def damping_family(rom: NonlinearROM, first: NonlinearROM, second: NonlinearROM,
     with dmp._one_thread():
         p = dmp.decomposition_problem(rom.K1.numpy(), rom.K2.numpy(), rom.K3.numpy())
         ends = [_onto_admissible(p, _entries(p, r.D2, r.D3), floor) for r in (first, second)]
-        first = _member(p, names[0], 0.0, ends[0])
-        tol = max(STRICT_REPRODUCTION, first.reproduction_error_K2, first.reproduction_error_K3)
+        tol = _tolerance(_member(p, names[0], 0.0, ends[0]))
         out = []
         for t in thetas:
             t = float(t)
@@ -247,9 +252,7 @@ def sdp_member(rom: NonlinearROM, first: NonlinearROM, iterations: int = SDP_ITE
         if report["min_eigenvalue_scaled_projected"] < floor:
             m = dmp._schur_clip(p.st, torch.as_tensor(p.K1hat), m, floor)
         member = _member(p, "sdp", float("nan"), m)
-        ref = _member(p, "first", 0.0, _onto_admissible(p, _entries(p, first.D2, first.D3),
-                                                        floor))
-    member.tolerance = max(STRICT_REPRODUCTION, ref.reproduction_error_K2,
-                           ref.reproduction_error_K3)
+        member.tolerance = _tolerance(_member(
+            p, "first", 0.0, _onto_admissible(p, _entries(p, first.D2, first.D3), floor)))
     member.report = report
     return member

@@ -317,9 +317,7 @@ def _sdp_member(cache: FileCache, model, log) -> DampingMember:
     log(f"damping decompositions: the criterion's optimum (semidefinite program, SCS, "
         f"{SDP_ITERATIONS} iterations)")
     member = sdp_member(model.rom, model.rom)
-    info = {k: getattr(member, k) for k in ("name", "theta", "min_eigenvalue_scaled",
-                                            "reproduction_error_K2", "reproduction_error_K3",
-                                            "tolerance", "report")}
+    info = {k: v for k, v in dataclasses.asdict(member).items() if k not in fields}
     log(f"  SDP optimum t* = {member.report['optimum_t']:.3g} ({member.report['status']}, "
         f"{member.report['seconds']:.0f} s); smallest scaled eigenvalue "
         f"{member.min_eigenvalue_scaled:.2g}")

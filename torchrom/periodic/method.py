@@ -105,7 +105,6 @@ class HarmonicBalanceMethod:
         orb = solve_orbits(system64, decide, opts,
                            chains=chains if self.start == "neighbour" else None,
                            positions=positions if self.start == "neighbour" else None)
-        seeded = np.zeros(system.batch_size, dtype=bool)
         orb, seeded = seed_unresolved(system64, torch.as_tensor(decide, dtype=torch.float64),
                                       orb, opts, self.seed)
         rows = torch.as_tensor(C, dtype=torch.float64)

@@ -89,11 +89,16 @@ def unresolved(status: np.ndarray, amplitude_change: np.ndarray, truncation: np.
                options: HBOptions) -> np.ndarray:
     """Cases harmonic balance left unresolved: unconverged, or an LCO whose amplitude change
     from H − 2 or truncation residual misses the tolerances (or was never measured)."""
-    lco = status == "lco"
+    return (status == "unconverged") | ((status == "lco")
+                                        & ~_accepted(amplitude_change, truncation, options))
+
+
+def _accepted(amplitude_change: np.ndarray, truncation: np.ndarray, options: HBOptions
+              ) -> np.ndarray:
+    """Both tolerances of the adaptive-H test met (NaN: not measured, not accepted)."""
     with np.errstate(invalid="ignore"):
-        accepted = (amplitude_change <= options.amplitude_rtol) & (
+        return (amplitude_change <= options.amplitude_rtol) & (
             truncation <= options.residual_tol)
-    return (status == "unconverged") | (lco & ~accepted)
 
 
 def _time_seed(system: CaseSystem, X: Tensor, omega: Tensor, r: Tensor, H: int
@@ -171,8 +176,6 @@ def seeded_orbits(system: CaseSystem, r: Tensor, X: Tensor | None, omega: Tensor
     # the Newmark run then brings into the basin of the high-H solution; the case's own orbit
     # only where that start fails (an orbit not accepted in H may be a spurious one of the
     # truncated problem, percents away)
-    start = np.zeros(k, dtype=bool)
-    t = torch.arange(k)
     opts = dataclasses.replace(options, start_harmonics=SEED_START_HARMONICS,
                                harmonics=SEED_START_HARMONICS,
                                max_harmonics=SEED_START_HARMONICS)
@@ -182,7 +185,7 @@ def seeded_orbits(system: CaseSystem, r: Tensor, X: Tensor | None, omega: Tensor
     g = torch.as_tensor(got)
     X0[g] = resize_harmonics(orb.X, SEED_START_HARMONICS)[g]
     w0[g] = orb.omega[g]
-    start |= got
+    start = got.copy()
     own = np.flatnonzero(~got & np.asarray(has_orbit, dtype=bool))
     if own.size:
         o = torch.as_tensor(own)
@@ -201,17 +204,14 @@ def seeded_orbits(system: CaseSystem, r: Tensor, X: Tensor | None, omega: Tensor
     sub = system.select(torch.as_tensor(idx))
     m = idx.size
     rows = r[None, :]
+    # the last converged orbit of each case, its seed until one has converged
     X_cur, w_cur = Xs.clone(), ws.clone()
     have = np.zeros(m, dtype=bool)  # converged at some H of the ladder
     prev_amp = np.full(m, math.nan)
     todo = np.arange(m)
     for H in SEED_HARMONICS:
         act = torch.as_tensor(todo)
-        # from the last converged orbit, else from the seed's own coefficients
-        start_X = torch.where(torch.as_tensor(have)[:, None, None], resize_harmonics(X_cur, H),
-                              resize_harmonics(Xs, H))
-        start_w = torch.where(torch.as_tensor(have), w_cur, ws)
-        Xn, wn, conv, its, res = refine_harmonics(sub, start_X, start_w, r, H, options, act)
+        Xn, wn, conv, its, res = refine_harmonics(sub, X_cur, w_cur, r, H, options, act)
         out.iterations[idx[todo]] += its[act].cpu().numpy()
         conv_t = conv[act].cpu().numpy()
         done = todo[conv_t]
@@ -232,8 +232,7 @@ def seeded_orbits(system: CaseSystem, r: Tensor, X: Tensor | None, omega: Tensor
             out.residual[g] = res[d].cpu().numpy()
             out.truncation[g] = trunc
             out.amplitude_change[g] = change
-            with np.errstate(invalid="ignore"):
-                acc = (change <= options.amplitude_rtol) & (trunc <= options.residual_tol)
+            acc = _accepted(change, trunc, options)
             out.accepted[g] = acc
             todo = np.setdiff1d(todo, done[acc])
         if todo.size == 0:

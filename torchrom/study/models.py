@@ -30,7 +30,6 @@ from ..aero.files import AeroData
 from ..aero.flutter import (
     MatchedPointResult,
     ModalStructure,
-    alpha_for_gamma,
     alpha_for_gammas,
     flutter_altitude_state_space,
 )
@@ -115,14 +114,7 @@ class AeroelasticModel:
 
     def matched_alpha(self, gamma: float) -> float:
         """α (1/s) that puts the flutter point at the reference altitude for this γ (Fig. 9)."""
-        key = float(gamma)
-        if key not in self._alpha:
-            if key == self.baseline_gamma and self.reference_altitude_ft is None:
-                self._alpha[key] = float(self.baseline_alpha)  # by definition of the reference
-            else:
-                self._alpha[key] = alpha_for_gamma(self.structure(), self.aero.rfa, key,
-                                                   self.mach, self.reference_altitude())
-        return self._alpha[key]
+        return self.matched_alphas([gamma])[0]
 
     def matched_alphas(self, gammas) -> list[float]:
         """:meth:`matched_alpha` of many γ: those not known yet solved together
@@ -131,6 +123,7 @@ class AeroelasticModel:
         keys = [float(g) for g in gammas]
         missing = sorted({k for k in keys if k not in self._alpha})
         if self.reference_altitude_ft is None and self.baseline_gamma in missing:
+            # by definition of the reference
             self._alpha[float(self.baseline_gamma)] = float(self.baseline_alpha)
             missing.remove(self.baseline_gamma)
         if missing:
