@@ -25,7 +25,7 @@ def rotation(axis, angle: float) -> np.ndarray:
 
 def single_element(kind: str) -> BDF:
     """One unconstrained element of a Green-strain family: 'rod', 'membrane', 'shear' or 'tria'
-    (a CTRIA3 membrane).
+    (a CTRIA3 membrane), or 'shell' (a CQUAD4 with bending and transverse shear).
 
     The quad is a slightly irregular (but planar) quadrilateral, tilted out of the x-y plane.
     """
@@ -47,6 +47,9 @@ def single_element(kind: str) -> BDF:
         m.add_ctria3(1, 1, [1, 2, 3])
     elif kind == "membrane":
         m.add_pshell(1, mid1=1, t=0.01)
+        m.add_cquad4(1, 1, [1, 2, 3, 4])
+    elif kind == "shell":
+        m.add_pshell(1, mid1=1, t=0.05, mid2=1, mid3=1)
         m.add_cquad4(1, 1, [1, 2, 3, 4])
     else:
         m.add_pshear(1, 1, 0.01)
@@ -81,6 +84,32 @@ def plate_strip(n_long: int, n_wide: int, L: float, b: float, t: float, E: float
     m.add_spc1(1, "123456", [nid(0, j) for j in range(n_wide + 1)])
     if coupled:
         m.add_param("COUPMASS", [1])
+    return m
+
+
+def simply_supported_plate(n: int, a: float, t: float, E: float, nu: float, rho: float) -> BDF:
+    """Square plate a × a of n × n CQUAD4 in the x-y plane, "hard" simple support on its four
+    edges: w = 0 and the rotation about the edge normal (the edge's tangential slope) = 0, the
+    Mindlin condition that matches Navier's Kirchhoff solution. The in-plane rigid motion is
+    removed at three corners."""
+    m = new_deck()
+    nid = lambda i, j: 1 + i * (n + 1) + j  # noqa: E731
+    for i in range(n + 1):
+        for j in range(n + 1):
+            m.add_grid(nid(i, j), [a * i / n, a * j / n, 0.0])
+    m.add_mat1(1, E, None, nu, rho=rho)
+    m.add_pshell(1, mid1=1, t=t, mid2=1, mid3=1)
+    for i in range(n):
+        for j in range(n):
+            m.add_cquad4(1 + i * n + j, 1,
+                         [nid(i, j), nid(i + 1, j), nid(i + 1, j + 1), nid(i, j + 1)])
+    x_edges = [nid(i, j) for i in (0, n) for j in range(n + 1)]
+    y_edges = [nid(i, j) for j in (0, n) for i in range(1, n)]
+    m.add_spc1(1, "34", x_edges)  # edges x = 0, a: w and θx
+    m.add_spc1(1, "35", y_edges)  # edges y = 0, a: w and θy
+    m.add_spc1(1, "5", [nid(i, j) for i in (0, n) for j in (0, n)])  # corners: both slopes
+    m.add_spc1(1, "12", [nid(0, 0), nid(n, 0)])
+    m.add_spc1(1, "1", [nid(0, n)])
     return m
 
 

@@ -217,3 +217,70 @@ def test_dkt_bending_patch_test_and_rigid_modes():
     assert 0.5 * u @ K @ u == pytest.approx(W, rel=1e-12)
     lam = np.linalg.eigvalsh(K)
     assert np.all(np.abs(lam[:3]) <= 1e-12 * lam[-1]) and lam[3] > 1e-3 * lam[-1]
+
+
+def _mitc4_with_rbf(xy, E, nu, t):
+    from torchrom.fe.elements.quad4 import _mitc4_local
+
+    n = len(xy)
+    return _mitc4_local(xy, np.full(n, E), np.full(n, nu), np.full(n, t),
+                        np.full(n, E / (2 * (1 + nu)) * 5 / 6))
+
+
+def test_mitc4_bending_patch_test_and_rigid_modes():
+    """CQUAD4 bending (MITC4 with the residual bending flexibility on its constant shear), one
+    distorted quad (t = 0.1 on a unit element; the added flexibility ℓ²/(12 D) is about 30
+    times the shear's own 1/(κ G t), so a leak into these states would show): a quadratic w
+    with Kirchhoff rotations (constant curvature, no shear) gives the exact strain energy
+    ½ ∫ κᵀ D κ dA (rounding only: the MITC4 tying-point shears of such a field are exactly
+    zero, so the correction, which acts on them, adds nothing), and the element has exactly
+    the three rigid modes of plate bending (the correction makes no new zero-energy mode and
+    no negative one)."""
+    xy = np.array([[[0.0, 0.0], [1.2, 0.1], [1.0, 0.9], [-0.1, 0.8]]])
+    xy = xy - xy.mean(axis=1, keepdims=True)
+    E, nu, t = 7e10, 0.3, 0.1
+    K = _mitc4_with_rbf(xy, E, nu, t)[0]
+    a, b, c = 0.3, -0.2, 0.5  # w = a x² + b x y + c y²; θx = ∂w/∂y, θy = −∂w/∂x
+    u = np.concatenate([[a * x * x + b * x * y + c * y * y, b * x + 2 * c * y,
+                         -(2 * a * x + b * y)] for x, y in xy[0]])
+    D = E * t**3 / (12 * (1 - nu**2))
+    kxx, kyy, kxy = -2 * a, -2 * c, -2 * b
+    x, y = xy[0, :, 0], xy[0, :, 1]
+    area = 0.5 * abs(np.dot(x, np.roll(y, -1)) - np.dot(y, np.roll(x, -1)))
+    W = 0.5 * D * (kxx**2 + kyy**2 + 2 * nu * kxx * kyy + 0.5 * (1 - nu) * kxy**2) * area
+    assert 0.5 * u @ K @ u == pytest.approx(W, rel=1e-12)
+    lam = np.linalg.eigvalsh(K)
+    assert np.all(np.abs(lam[:3]) <= 1e-12 * lam[-1]) and lam[3] > 1e-4 * lam[-1]
+
+
+def test_mitc4_constant_shear_has_the_residual_bending_flexibility():
+    """A rectangle a × b in a constant transverse shear (w = γ x, no rotation): its energy is
+    ½ γ² A / (1/(κ G t) + a²/(12 D)), D = E t³/(12(1 − ν²)), MacNeal's shear flexibility plus
+    the bending flexibility a bilinear rotation field lacks (rounding only). Without the
+    correction it is ½ γ² A κ G t, 30 times larger here (t/a = 0.1)."""
+    a, b = 1.0, 0.6
+    xy = np.array([[[-a / 2, -b / 2], [a / 2, -b / 2], [a / 2, b / 2], [-a / 2, b / 2]]])
+    E, nu, t = 7e10, 0.3, 0.1
+    K = _mitc4_with_rbf(xy, E, nu, t)[0]
+    gamma = 1e-3
+    u = np.concatenate([[gamma * x, 0.0, 0.0] for x, _ in xy[0]])
+    ds = E / (2 * (1 + nu)) * 5 / 6 * t
+    D = E * t**3 / (12 * (1 - nu**2))
+    W = 0.5 * gamma**2 * a * b / (1 / ds + a**2 / (12 * D))
+    assert 0.5 * u @ K @ u == pytest.approx(W, rel=1e-12)
+
+
+def test_cquad4_shell_tangent_at_zero_is_linear_stiffness():
+    """A CQUAD4 with bending: the nonlinear model's tangent at u = 0 is the linear stiffness (the
+    bending and transverse shear, residual bending flexibility included, are one linear block of
+    both), and f(εu)/ε → K u (relative O(ε))."""
+    fe = model_of(single_element("shell"))
+    K = fe.stiffness_matrix()
+    np.testing.assert_allclose(fe.material_tangent(np.zeros(fe.n_dof)).toarray(), K.toarray(),
+                               rtol=0, atol=1e-12 * abs(K).max())
+    np.testing.assert_allclose(fe.tangent_stiffness(np.zeros(fe.n_dof)).toarray(), K.toarray(),
+                               rtol=0, atol=1e-12 * abs(K).max())
+    u = _random_u(fe, 1.0)
+    eps = 1e-7
+    lin = K @ u
+    assert np.linalg.norm(fe.internal_force(eps * u) / eps - lin) <= 1e-5 * np.linalg.norm(lin)
