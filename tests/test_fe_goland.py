@@ -56,14 +56,15 @@ def test_lead_lag_mode(modes):
 
 def test_web_variants_stiffness():
     """Membrane-only CQUAD4 webs (default) and CSHEAR panels give the same box stiffness within
-    2 %; webs with plate bending triple GJ (the ribs' out-of-plane bending restrains the
-    section's warping), which is why they are not the default."""
+    2 %; webs with plate bending more than double GJ (the ribs' out-of-plane bending restrains
+    the section's warping), which is why they are not the default. Measured 2.22 times (2.92
+    before the CQUAD4's residual bending flexibility softened the thick one-element ribs)."""
     ref = goland_stiffness(goland(store_x=DEFAULT_STORE_X, density=10.0, variant="calibrated"))
     shear = goland_stiffness(goland(density=10.0, webs="cshear", variant="calibrated"))
     plate = goland_stiffness(goland(density=10.0, webs="cquad4", variant="calibrated"))
     assert shear["EI"] == pytest.approx(ref["EI"], rel=0.02)
     assert shear["GJ"] == pytest.approx(ref["GJ"], rel=0.02)
-    assert plate["GJ"] > 2.5 * ref["GJ"]
+    assert plate["GJ"] > 2.0 * ref["GJ"]
 
 
 def _box_depth(fe, u, station, chord):
