@@ -30,3 +30,29 @@ def test_a_corrupt_manifest_is_reported(tmp_path):
     (tmp_path / MANIFEST).write_text("{not json")
     with pytest.raises(InputError, match="not a torchrom cache manifest"):
         FileCache(tmp_path)
+
+
+def test_a_change_of_the_package_source_changes_every_key(tmp_path, monkeypatch):
+    """The same inputs made by different code get different keys (an element formulation that
+    changes keeps the version number and the deck; the cached model must not be reused)."""
+    import shutil
+
+    from torchrom.paper import cache as cache_mod
+
+    copy = tmp_path / "torchrom"
+    shutil.copytree(cache_mod.PACKAGE, copy, ignore=shutil.ignore_patterns("__pycache__"))
+    monkeypatch.setattr(cache_mod, "PACKAGE", copy)
+    cache_mod.source_fingerprint.cache_clear()
+    try:
+        before = FileCache.key({"stage": "fe"})
+        (copy / "fe" / "elements" / "quad4.py").write_text(
+            (copy / "fe" / "elements" / "quad4.py").read_text() + "\n# a changed formulation\n")
+        cache_mod.source_fingerprint.cache_clear()
+        assert FileCache.key({"stage": "fe"}) != before
+        (copy / "fe" / "elements" / "__pycache__").mkdir(exist_ok=True)
+        (copy / "fe" / "elements" / "__pycache__" / "x.json").write_text("{}")
+        after = FileCache.key({"stage": "fe"})
+        cache_mod.source_fingerprint.cache_clear()
+        assert FileCache.key({"stage": "fe"}) == after  # byte-code caches do not count
+    finally:
+        cache_mod.source_fingerprint.cache_clear()

@@ -1,16 +1,19 @@
 """A folder of intermediate files, each reused while the hash of its inputs is unchanged.
 
-``cache.json`` in the folder maps each file name to the key (a hash of its inputs and the package
-version) it was made from. :meth:`FileCache.get` returns the file when its recorded key equals the
-requested one, so any change of an input (an option, an upstream file, the package version)
-rebuilds the file and, through the keys, everything downstream of it. Files are written
+``cache.json`` in the folder maps each file name to the key (a hash of its inputs, the package
+version and the package's source, :func:`source_fingerprint`) it was made from.
+:meth:`FileCache.get` returns the file when its recorded key equals the requested one, so any
+change of an input (an option, an upstream file, the package version, the code that computes the
+files) rebuilds the file and, through the keys, everything downstream of it. Files are written
 atomically (:mod:`torchrom.io`); the manifest is rewritten after each file. Hand-written.
 """
 
 from __future__ import annotations
 
+import hashlib
 import json
 from collections.abc import Callable
+from functools import lru_cache
 from pathlib import Path
 from typing import Any
 
@@ -20,6 +23,23 @@ from ..io import write_json_atomic
 from ..study.grid import config_hash
 
 MANIFEST = "cache.json"
+#: the package folder whose source files :func:`source_fingerprint` hashes
+PACKAGE = Path(__file__).resolve().parents[1]
+
+
+@lru_cache(maxsize=1)
+def source_fingerprint() -> str:
+    """SHA-256 of the package's source and data files (names and contents).
+
+    Part of every key: the version number stays the same between commits, while a change of
+    an element formulation or a solver changes the models and tables made from the same inputs
+    (a cache keyed by the inputs alone would return the old ones)."""
+    h = hashlib.sha256()
+    for path in sorted(PACKAGE.rglob("*")):
+        if path.suffix in (".py", ".toml", ".json") and "__pycache__" not in path.parts:
+            h.update(path.relative_to(PACKAGE).as_posix().encode())
+            h.update(path.read_bytes())
+    return h.hexdigest()
 
 
 class FileCache:
@@ -44,8 +64,9 @@ class FileCache:
 
     @staticmethod
     def key(inputs: dict[str, Any]) -> str:
-        """The key of a file made from ``inputs`` by this package version."""
-        return config_hash({"inputs": inputs, "version": __version__})
+        """The key of a file made from ``inputs`` by this package version and source."""
+        return config_hash({"inputs": inputs, "version": __version__,
+                            "source": source_fingerprint()})
 
     def get(self, name: str, key: str) -> Path | None:
         """The cached file ``name`` if it exists and was made from ``key``."""
