@@ -114,21 +114,21 @@ UPDATE_SPEC = Path(__file__).resolve().parents[1] / "data" / "goland_update.toml
 #: Store position (ft from the leading edge) and parameter values (names of
 #: :data:`UPDATE_SPEC`; model units) of the updated variant, written by
 #: experiments/goland_update.py and re-checked by the tests.
-UPDATED_STORE_X = 2.273264272
+UPDATED_STORE_X = 2.273483186
 UPDATED_PARAMETERS: dict[str, float] = {
     "density": 5.24,
     "nsm_skins": 0.0,
-    "nsm_caps_mid": 0.07457845695,
+    "nsm_caps_mid": 0.07489580462,
     "nsm_caps_le": 0.0,
-    "nsm_caps_te": 1.780730298,
-    "nsm_spar_mid": 0.0117153024,
+    "nsm_caps_te": 1.780460957,
+    "nsm_spar_mid": 0.01177767864,
     "nsm_spar_le": 0.0,
-    "nsm_spar_te": 0.5844882298,
+    "nsm_spar_te": 0.5844433403,
     "nsm_ribs": 0.0,
-    "store_z": -0.7017268068,
-    "te_mass_x": 1.474,
-    "mass_le_in": 1.017714269,
-    "mass_le_out": 3.522150909,
+    "store_z": -0.7016885057,
+    "te_mass_x": 1.473999999,
+    "mass_le_in": 1.017299191,
+    "mass_le_out": 3.522184292,
     "mass_te_in": 0.0,
     "mass_te_out": 0.0,
 }
