@@ -12,7 +12,7 @@ CORD1R/C/S, CORD2R/C/S, SPC, SPC1, SPCADD, MPC/MPCADD, MAT1, CROD/PROD, CONROD, 
 with PSHELL or PCOMP (MAT1/MAT8 plies, :mod:`torchrom.fe.laminate`), CHEXA/CPENTA/CTETRA/PSOLID
 (linear, corner grids; CTETRA also quadratic), CSHEAR/PSHEAR, CBAR/PBAR/PBARL,
 CBEAM/PBEAM/PBEAML (:mod:`torchrom.fe.sections`), CELAS1/PELAS, CELAS2, CONM1, CONM2,
-CMASS1/PMASS, CMASS2, CBUSH/PBUSH (coincident grids), GENEL, RBE2, RBAR, RBE3, EIGR, EIGRL, FORCE,
+CMASS1/PMASS, CMASS2, CBUSH/PBUSH, GENEL, RBE1, RBE2, RBAR, RBE3, EIGR, EIGRL, FORCE,
 MOMENT, PLOAD2, PLOAD4, LOAD, PARAM (COUPMASS, WTMASS are used). Cards without effect on modes
 and flutter are accepted with a note (:data:`torchrom.fe.bdf_cards.NOTED_CARDS`).
 Aerodynamic and solution-control cards (CAERO1, PAERO1, SPLINE*, SET1, AERO, AEROS, MKAERO*,
@@ -66,8 +66,9 @@ from .sections import section
 STRUCTURAL_CARDS = frozenset(
     "GRID GRDSET SPOINT CORD1R CORD1C CORD1S CORD2R CORD2C CORD2S SPC SPC1 SPCADD MPC MPCADD MAT1 "
     "CROD PROD CONROD CQUAD4 CTRIA3 PSHELL PCOMP MAT8 CSHEAR PSHEAR CBAR PBAR PBARL CBEAM PBEAM "
-    "PBEAML CONM2 CMASS2 CHEXA CPENTA CTETRA PSOLID RBE2 RBE3 RBAR CELAS1 CELAS2 PELAS CMASS1 "
-    "PMASS CONM1 CBUSH PBUSH GENEL EIGR EIGRL FORCE MOMENT PLOAD2 PLOAD4 LOAD PARAM ENDDATA".split()
+    "PBEAML CONM2 CMASS2 CHEXA CPENTA CTETRA PSOLID RBE1 RBE2 RBE3 RBAR CELAS1 CELAS2 PELAS "
+    "CMASS1 PMASS CONM1 CBUSH PBUSH GENEL EIGR EIGRL FORCE MOMENT PLOAD2 PLOAD4 LOAD PARAM "
+    "ENDDATA".split()
 )
 # Kept for the aerodynamics (and for Nastran itself when the deck is written back); no effect on
 # the structure.
@@ -440,6 +441,8 @@ class _Reader(ExtraCards):
                 mesh.rbe3.append(self._rbe3(c))
             elif c.type == "RBAR":
                 mesh.rbe2.append(self._rbar(c))
+            elif c.type == "RBE1":
+                mesh.rbe1.append(self._rbe1(c))
         self._spcs(mesh, spc_id)
         self._mpcs(mesh)
         return mesh

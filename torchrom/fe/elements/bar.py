@@ -36,6 +36,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..mass import rigid_links
 from ..mesh import BarSet
 
 
@@ -60,16 +61,6 @@ def bar_frames(bars: BarSet, xyz: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return frames_between(*bar_ends(bars, xyz), bars.v)
 
 
-def _rigid_offset(w: np.ndarray) -> np.ndarray:
-    """(n, 6, 6) maps of a grid's (t, θ) to the (t, θ) of a point at w from it:
-    t + θ × w = t − [w×] θ."""
-    E = np.tile(np.eye(6), (len(w), 1, 1))
-    E[:, 0, 4], E[:, 0, 5] = w[:, 2], -w[:, 1]
-    E[:, 1, 3], E[:, 1, 5] = -w[:, 2], w[:, 0]
-    E[:, 2, 3], E[:, 2, 4] = w[:, 1], -w[:, 0]
-    return E
-
-
 def _to_grids(bars: BarSet, R: np.ndarray, K: np.ndarray) -> np.ndarray:
     """Element-system matrices (n, 12, 12) → grid DOFs in basic: rotate to basic, then the
     rigid offsets from the grids to the ends."""
@@ -78,8 +69,8 @@ def _to_grids(bars: BarSet, R: np.ndarray, K: np.ndarray) -> np.ndarray:
     for b in range(4):
         Tr[:, 3 * b : 3 * b + 3, 3 * b : 3 * b + 3] = R
     if np.any(bars.wa) or np.any(bars.wb):
-        Tr[:, :6, :6] = Tr[:, :6, :6] @ _rigid_offset(bars.wa)
-        Tr[:, 6:, 6:] = Tr[:, 6:, 6:] @ _rigid_offset(bars.wb)
+        Tr[:, :6, :6] = Tr[:, :6, :6] @ rigid_links(bars.wa)
+        Tr[:, 6:, 6:] = Tr[:, 6:, 6:] @ rigid_links(bars.wb)
     return Tr.transpose(0, 2, 1) @ K @ Tr
 
 
