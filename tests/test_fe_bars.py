@@ -43,12 +43,17 @@ def _cd_axes(k):
     return rotation([0.3, 1.0, 0.2], 0.7) if k % 2 else np.eye(3)
 
 
-def _offset_deck(with_rbar: bool, coupled: bool):
+def _offset_deck(with_rbar: bool, coupled: bool, card: str = "CBAR"):
     m = new_deck()
     Rcd = rotation([0.3, 1.0, 0.2], 0.7)
     m.add_cord2r(7, [0.0, 0.0, 0.0], list(Rcd[:, 2]), list(Rcd[:, 0]))
     m.add_mat1(1, E, G, None, rho=RHO)
-    m.add_pbar(1, 1, A=1e-3, i1=2e-6, i2=5e-7, j=1e-6, nsm=0.3)
+    if card == "CBAR":
+        m.add_pbar(1, 1, A=1e-3, i1=2e-6, i2=5e-7, j=1e-6, nsm=0.3)
+        add = m.add_cbar
+    else:  # CBEAM: Timoshenko shear (K1 = K2 = 1 by default) and torsional inertia
+        m.add_pbeam(1, 1, [0.0], ["C"], [1e-3], [2e-6], [5e-7], [0.0], [1e-6], nsm=[0.3])
+        add = m.add_cbeam
     if coupled:
         m.add_param("COUPMASS", [1])
     pts, cards = _offset_frames()
@@ -57,7 +62,7 @@ def _offset_deck(with_rbar: bool, coupled: bool):
     for k, (offt, wa, wb, x) in enumerate(cards):
         ga, gb = k + 1, k + 2
         if not with_rbar:
-            m.add_cbar(k + 1, 1, [ga, gb], x, None, offt=offt, wa=wa, wb=wb)
+            add(k + 1, 1, [ga, gb], x, None, offt=offt, wa=wa, wb=wb)
             continue
         # the same bar between two new grids at its ends, rigidly linked to GA and GB; the
         # offsets and v converted to basic here, by the card's definition (MSC QRG CBAR)
@@ -76,23 +81,24 @@ def _offset_deck(with_rbar: bool, coupled: bool):
         m.add_grid(b, list(ends[1]))
         m.add_rbar(200 + 2 * k, [ga, a], "123456", "", "", "123456")
         m.add_rbar(201 + 2 * k, [gb, b], "123456", "", "", "123456")
-        m.add_cbar(k + 1, 1, [a, b], list(v), None, offt="BGG")
+        add(k + 1, 1, [a, b], list(v), None, offt="BGG")
     m.add_spc1(1, "123456", [1])
     return m
 
 
+@pytest.mark.parametrize("card", ["CBAR", "CBEAM"])
 @pytest.mark.parametrize("coupled", [False, True], ids=["lumped", "coupled"])
-def test_offset_bars_equal_bars_with_rbar_links(coupled):
+def test_offset_bars_equal_bars_with_rbar_links(coupled, card):
     """Offsets in every OFFT flavour (grid CD, basic, offset system) and rotated CD systems:
     K and M equal those of the bars between separate end grids carried by RBARs (1e-10 of the
     largest entry: the two are the same rigid transformation, so rounding only)."""
-    fa = model_of(_offset_deck(False, coupled), autospc=False)
-    fb = model_of(_offset_deck(True, coupled), autospc=False)
+    fa = model_of(_offset_deck(False, coupled, card), autospc=False)
+    fb = model_of(_offset_deck(True, coupled, card), autospc=False)
     assert fa.free_dofs() == fb.free_dofs()
     _close(fa.stiffness_matrix(), fb.stiffness_matrix(), 1e-10)
     _close(fa.mass_matrix(), fb.mass_matrix(), 1e-10)
     # and the offsets matter: without them the tip flexibility differs by far more
-    plain = _offset_deck(False, coupled)
+    plain = _offset_deck(False, coupled, card)
     for e in plain.elements.values():
         e.wa, e.wb = None, None
     fc = model_of(plain, autospc=False)

@@ -185,8 +185,13 @@ def mechanism_pins(bars: BarSet, xyz: np.ndarray) -> np.ndarray:
     for e in np.nonzero(rel.any(axis=1))[0]:
         r = np.nonzero(rel[e])[0]
         Krr = K[e][np.ix_(r, r)]
-        scale = np.abs(np.diag(K[e])).max()
-        if np.linalg.svd(Krr, compute_uv=False).min() <= 1e-10 * scale:
+        d = np.diag(Krr)
+        # each released DOF needs stiffness of its own (relative to the element's largest, so
+        # that a small J is fine), and together they must not form a mechanism (K_rr scaled to
+        # a unit diagonal is then well away from singular)
+        if d.min() <= 1e-14 * np.abs(np.diag(K[e])).max():
+            bad.append(e)
+        elif np.linalg.eigvalsh(Krr / np.sqrt(np.outer(d, d))).min() <= 1e-10:
             bad.append(e)
     return np.array(bad, dtype=int)
 
