@@ -3,8 +3,8 @@
 References: the same bars with their offsets built as separate grids and RBAR rigid links
 (exact, so to rounding), the Euler–Bernoulli pinned-pinned frequencies
 ω_n = (nπ)² √(EI/ρA) / L² (with the mesh's convergence, measured), the propped cantilever
-under a mid-span load δ = 7 P L³ / (768 E I) (Roark, Table 8.1 case 1c; Hermite elements are
-exact for nodal loads), the cantilever flexibility of an unsymmetric section
+under a mid-span load δ = 7 P L³ / (768 E I) (by superposition; Hermite elements are exact for
+nodal loads), the cantilever flexibility of an unsymmetric section
 (u_tip = L³/3 D⁻¹ P, D = E [[I1, I12], [I12, I2]]) and the same section about its principal
 axes with the orientation vector turned accordingly.
 """
