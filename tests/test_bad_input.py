@@ -114,6 +114,14 @@ DECK_CASES = {
                      ("CBAR 3", "G2")),
     "missing material": (("PBAR    1       1 ", "PBAR    1       5 "), ("PBAR 1", "MID")),
     "bad spc component": (("SPC1    1       123456", "SPC1    1       123789"), ("SPC1",)),
+    "bad bar offt": (("3       4       0.0     0.0     1.0",
+                      "3       4       0.0     0.0     1.0     OGG"),
+                     ("CBAR 3", "field OFFT", "GGG")),
+    "pin flags leave a mechanism": (("3       4       0.0     0.0     1.0",
+                                     "3       4       0.0     0.0     1.0\n        4       4"),
+                                    ("CBAR 3", "fields PA/PB", "mechanism")),
+    "product of inertia too large": (("3.-5\n", "3.-5\n" + " " * 8 + "0.0     " * 8 + "\n"
+                                      + " " * 24 + "2.-5\n"), ("PBAR 1", "field I12")),
 }
 
 

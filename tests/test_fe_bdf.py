@@ -282,7 +282,9 @@ def test_cbush_between_coincident_grids_in_a_rotated_system():
     # a unit force along basic x: compliance c²/K1 + s²/K2 along x (the springs are turned)
     u = fe.expand(fe.linear_static(fe.nodal_load({(2, 1): 1.0})))
     assert u[1, 0] == pytest.approx(c * c / 100.0 + s * s / 400.0, rel=1e-12)
+    # between separate grids (tests/test_fe_scalar_cards.py) the spring point may lie off the
+    # GA-GB line (OCID >= 0): refused
     m.add_grid(3, [1.0, 0.0, 0.0])
-    m.add_cbush(4, 3, [1, 3], None, None, cid=5)
-    with pytest.raises(InputError, match="CBUSH 4: grids 1 and 3 are apart"):
+    m.add_cbush(4, 3, [1, 3], None, None, cid=5, ocid=5, si=[0.0, 0.1, 0.0])
+    with pytest.raises(InputError, match="CBUSH 4: field OCID: only the spring on the line"):
         model_of(m)

@@ -1,7 +1,9 @@
-"""Constraint elimination: SPC/PS in rotated displacement systems, RBE2, RBE3, chains, AUTOSPC.
+"""Constraint elimination: SPC/PS in rotated displacement systems, RBE2, RBE1, RBE3, chains,
+AUTOSPC.
 
 References: exact rigid-body kinematics (a rigid element must reproduce a rigid motion exactly),
-the weighted-average property of the RBE3 for translations, and hand-built expectations.
+the weighted-average property of the RBE3 for translations, the RBE2 that constrains the same
+rigid body as an RBE1 (modes and static motion to 1e-10), and hand-built expectations.
 """
 
 from __future__ import annotations
@@ -160,4 +162,64 @@ def test_mpc_makes_the_first_term_dependent():
                                rtol=1e-12)
     m.add_mpcadd(9, [7])
     with pytest.raises(InputError, match="several MPC sets"):
+        model_of(m)
+
+
+def _rigid_body_deck(kind: str):
+    """A rigid body of grids 1-4 (grid 3 in a rotated CD system) on three bars to clamped
+    grids, with point masses: held by an RBE2 (GN = 1, all of grid 2-4's components dependent)
+    or by an RBE1 whose six independent components come from three grids (1: 123, 2: 23,
+    3: 3), every other component dependent."""
+    m = new_deck()
+    R = rotation([1.0, -0.5, 0.3], 0.6)
+    m.add_cord2r(6, [0.0, 0.0, 0.0], list(R[:, 2]), list(R[:, 0]))
+    body = {1: [0.0, 0.0, 0.0], 2: [1.0, 0.2, 0.0], 3: [0.3, 0.9, 0.1], 4: [0.5, 0.4, 0.7]}
+    for nid, x in body.items():
+        m.add_grid(nid, x, cd=6 if nid == 3 else 0)
+        m.add_grid(10 + nid, list(np.array(x) + [0.2, -0.3, -1.0]))
+        m.add_conm2(20 + nid, nid, 1.0 + nid, I=[0.1, 0.0, 0.2, 0.0, 0.0, 0.3])
+    m.add_mat1(1, 7e10, 2.7e10, None, rho=2700.0)
+    m.add_pbar(1, 1, A=1e-4, i1=1e-8, i2=2e-8, j=1e-8)
+    for nid in (1, 2, 4):
+        m.add_cbar(30 + nid, 1, [nid, 10 + nid], [1.0, 0.0, 0.0], None)
+    m.add_spc1(1, "123456", [11, 12, 13, 14])
+    if kind == "rbe2":
+        m.add_rbe2(40, 1, "123456", [2, 3, 4])
+    else:
+        m.add_rbe1(40, [1, 2, 3], ["123", "23", "3"], [1, 2, 3, 4],
+                   ["456", "1456", "12456", "123456"])
+    return m
+
+
+def test_rbe1_equals_the_equivalent_rbe2():
+    """An RBE1 taking its six independent components from three grids constrains the same
+    rigid body as an RBE2 from one grid: the same modes and the same static motion of every
+    grid (1e-10), though the two keep different DOFs."""
+    fa = model_of(_rigid_body_deck("rbe1"))
+    fb = model_of(_rigid_body_deck("rbe2"))
+    assert fa.summary()["RBE1"] == 1 and fa.n_dof == fb.n_dof == 6
+    assert fa.free_dofs() != fb.free_dofs()
+    np.testing.assert_allclose(fa.modes(6).eigenvalues, fb.modes(6).eigenvalues, rtol=1e-10)
+    load = {(4, 1): 3.0, (3, 2): -1.0, (2, 6): 0.5, (1, 3): 2.0}
+    Ua = fa.expand(fa.linear_static(fa.nodal_load(load)))
+    Ub = fb.expand(fb.linear_static(fb.nodal_load(load)))
+    np.testing.assert_allclose(Ua, Ub, rtol=0, atol=1e-10 * np.abs(Ub).max())
+    # and the body moves rigidly: grid 4 from grid 1's translation and rotation
+    row = fa.mesh.grid_row()
+    d = fa.grid_xyz[row[4]] - fa.grid_xyz[row[1]]
+    u1 = Ua[row[1]]
+    np.testing.assert_allclose(Ua[row[4]], np.concatenate((u1[:3] + np.cross(u1[3:], d),
+                                                          u1[3:])), atol=1e-12 * np.abs(Ua).max())
+
+
+def test_rbe1_needs_six_independent_components_fixing_a_rigid_motion():
+    m = _rigid_body_deck("rbe1")
+    rb = m.rigid_elements[40]
+    # the translations of grids 1 and 2 only: the twist about the line 1-2 is left free
+    rb.Gni, rb.Cni, rb.Cmi = [1, 2], ["123", "123"], ["456", "456", "123456", "123456"]
+    with pytest.raises(InputError, match="RBE1 40: the independent components"):
+        model_of(m)
+    m = _rigid_body_deck("rbe1")
+    m.rigid_elements[40].Cni = ["123", "23", "23"]
+    with pytest.raises(InputError, match="RBE1 40: fields CN: expected six"):
         model_of(m)

@@ -6,6 +6,9 @@
 - SPOINT: a scalar point carries one DOF; a spring k to ground and a mass m on it vibrate at
   √(k/m)/2π (1e-9), and an MPC may make it the dependent term of a grid's motion.
 - A grounded negative CMASS2 is refused, naming card and field.
+- CBUSH between separate grids: the same stiffness as RBE2 links from each grid to the spring
+  point and CELAS2 springs along the element axes there (1e-12), and along its axis (K1, K4) the
+  CROD of the same EA/L and GJ/L (1e-12).
 """
 
 from __future__ import annotations
@@ -80,3 +83,93 @@ def test_dmig_on_the_structure_is_refused(tmp_path):
                     "DMIG,STIFF,1,1,,1,1,1.\nENDDATA\n")
     with pytest.raises(InputError, match="case control K2GG: direct matrix input"):
         read_bdf(deck)
+
+
+def _bush_pair():
+    """Two separate grids (grid 2 with a rotated displacement system) and the CBUSH's axes for
+    each way of orienting it."""
+    xa, xb = np.array([0.2, -0.1, 0.3]), np.array([1.1, 0.5, -0.2])
+    v = np.array([0.1, 0.2, 1.0])
+    ex = (xb - xa) / np.linalg.norm(xb - xa)
+    ey = v - (v @ ex) * ex
+    ey /= np.linalg.norm(ey)
+    return xa, xb, v, np.column_stack((ex, ey, np.cross(ex, ey)))
+
+
+def _bush_deck(orient: str, links: bool, k6, s: float = 0.5):
+    """CBUSH between grids 1 and 2 oriented by X1-X3 ('x'), G0 ('g0') or a CORD2R ('cid'); or
+    (``links``) its independent equivalent: the spring point as two grids 3, 4, each an RBE2
+    dependent of grid 1 / 2, joined by six CELAS2 springs along the element axes (their CD)."""
+    xa, xb, v, axes = _bush_pair()
+    m = new_deck()
+    m.add_cord2r(8, [0.0, 0.0, 0.0], [0.3, 0.2, 1.0], [1.0, -0.4, 0.1])
+    m.add_grid(1, list(xa))
+    m.add_grid(2, list(xb), cd=8)
+    m.add_grid(5, list(xa + v))
+    if orient == "cid":
+        m.add_cord2r(9, [0.0, 0.0, 0.0], [0.0, 0.6, 0.8], [1.0, 0.0, 0.0])
+        axes = np.column_stack(([1.0, 0.0, 0.0], [0.0, 0.8, -0.6], [0.0, 0.6, 0.8]))
+    else:
+        m.add_cord2r(9, [0.0, 0.0, 0.0], list(axes[:, 2]), list(axes[:, 0]))
+    if links:
+        point = xa + s * (xb - xa)
+        m.add_grid(3, list(point), cd=9)
+        m.add_grid(4, list(point), cd=9)
+        m.add_rbe2(30, 1, "123456", [3])
+        m.add_rbe2(31, 2, "123456", [4])
+        for c in range(6):
+            m.add_celas2(40 + c, k6[c], [3, 4], c + 1, c + 1)
+    else:
+        m.add_pbush(7, list(k6), [], [])
+        x, g0 = {"x": (list(v), None), "g0": (None, 5), "cid": (None, None)}[orient]
+        m.add_cbush(1, 7, [1, 2], x, g0, cid=9 if orient == "cid" else None, s=s)
+    m.add_spc1(1, "123456", [5])
+    return m
+
+
+@pytest.mark.parametrize("orient", ["x", "g0", "cid"])
+def test_cbush_between_separate_grids_equals_rigid_links_and_springs(orient):
+    """CBUSH K1..K6 between separate grids, the spring at S = 0.3 on GA-GB: the stiffness on the
+    two grids' DOFs equals RBE2 links from each grid to the spring point and six CELAS2 springs
+    along the element axes there (1e-12 of the largest entry: rounding), for the element system
+    from X1-X3, from G0 and from CID."""
+    k6 = [1.0e5, 2.0e4, 3.0e4, 500.0, 700.0, 900.0]
+    fa = model_of(_bush_deck(orient, False, k6, 0.3), autospc=False)
+    fb = model_of(_bush_deck(orient, True, k6, 0.3), autospc=False)
+    ids = [d for d in fb.free_dofs() if d[0] in (1, 2)]
+    assert [d for d in fa.free_dofs() if d[0] in (1, 2)] == ids
+    ia = [fa.free_dofs().index(d) for d in ids]
+    ib = [fb.free_dofs().index(d) for d in ids]
+    Ka = fa.stiffness_matrix().toarray()[np.ix_(ia, ia)]
+    Kb = fb.stiffness_matrix().toarray()[np.ix_(ib, ib)]
+    np.testing.assert_allclose(Ka, Kb, rtol=0, atol=1e-12 * np.abs(Kb).max())
+
+
+def test_cbush_axial_and_torsion_equal_a_crod():
+    """A CBUSH along GA-GB with K1 = EA/L and K4 = GJ/L only is the CROD of that A and J
+    (linear stiffness, 1e-12): the rigid links to the mid-point add nothing along the axis."""
+    xa, xb, v, _ = _bush_pair()
+    E, G, A, J = 7.0e10, 2.6e10, 3e-4, 2e-8
+    L = np.linalg.norm(xb - xa)
+    mats = []
+    for rod in (False, True):
+        m = new_deck()
+        m.add_grid(1, list(xa))
+        m.add_grid(2, list(xb))
+        if rod:
+            m.add_mat1(1, E, G, None)
+            m.add_prod(1, 1, A, j=J)
+            m.add_crod(1, 1, [1, 2])
+        else:
+            m.add_pbush(1, [E * A / L, 0.0, 0.0, G * J / L, 0.0, 0.0], [], [])
+            m.add_cbush(1, 1, [1, 2], list(v), None)
+        fe = model_of(m, autospc=False)
+        mats.append(fe.stiffness_matrix().toarray())
+    np.testing.assert_allclose(mats[0], mats[1], rtol=0, atol=1e-12 * np.abs(mats[1]).max())
+
+
+def test_cbush_between_separate_grids_without_orientation_is_refused():
+    m = _bush_deck("x", False, [1.0] * 6)
+    m.elements[1].x = [None, None, None]
+    with pytest.raises(InputError, match="CBUSH 1: fields X1-X3/G0/CID: expected an orientation"):
+        model_of(m)

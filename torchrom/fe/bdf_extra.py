@@ -3,8 +3,9 @@
 Hand-written, like :mod:`torchrom.fe.bdf_read` (whose ``_Reader`` inherits these methods and
 provides ``self.m`` (the pyNastran model), ``self.f`` (file name), ``self.xyz``, ``self.ids``,
 ``self.rows``, ``self.prop``, ``self.mat1``, ``self.err`` and ``self.notes``): linear solids
-(CHEXA/CPENTA/CTETRA + PSOLID), PCOMP shells, CELAS1/CELAS2, CBUSH, CONM1, RBAR and MPC/MPCADD,
-and the zero-area check of CTRIA3. Kept in their own module so that the core reader stays small.
+(CHEXA/CPENTA/CTETRA + PSOLID), PCOMP shells, CELAS1/CELAS2, CBUSH, CONM1, RBAR, RBE1 and
+MPC/MPCADD, and the zero-area check of CTRIA3. Kept in their own module so that the core
+reader stays small.
 """
 
 from __future__ import annotations
@@ -17,7 +18,16 @@ from .coords import components as _comps
 from .elements.solid import solid_volumes
 from .laminate import laminate
 from .mass import genel_stiffness
-from .mesh import Bush, GeneralElement, LinearMPC, MassMatrix6, Mesh, RigidRBE2, ScalarSpring
+from .mesh import (
+    Bush,
+    GeneralElement,
+    LinearMPC,
+    MassMatrix6,
+    Mesh,
+    RigidRBE1,
+    RigidRBE2,
+    ScalarSpring,
+)
 
 #: solid elements and the numbers of grids supported (corner grids; CTETRA also with its edges)
 SOLID_GRIDS = {"CHEXA": (8,), "CPENTA": (6,), "CTETRA": (4, 10)}
@@ -136,30 +146,66 @@ class ExtraCards:
         return GeneralElement(eid, ui + ud, genel_stiffness(mat, S))
 
     def _cbush(self, e) -> Bush:
-        """CBUSH/PBUSH between coincident grids or to ground, oriented by CID (stiffness only)."""
+        """CBUSH/PBUSH (stiffness only; MSC QRG CBUSH): to ground, between coincident grids (CID
+        needed) or between separate grids, at the spring point S on the line GA-GB (OCID = -1)
+        rigidly linked to both. Element axes: CID's (0: basic) or, with CID blank, x from GA to
+        GB and y in the plane of x and the orientation vector (X1-X3 in GA's displacement
+        system, or GA → G0), z = x × y."""
         eid = e.eid
+        where = f"CBUSH {eid}"
         p = self.prop(e.pid, "CBUSH", eid, ("PBUSH",))
         n1, n2 = (list(e.nodes) + [None])[:2]
         (g1,) = self.rows([n1], "CBUSH", eid, "GA")
-        g2 = -1
+        g2, gap = -1, np.zeros(3)
         if n2 not in (None, 0):
             (g2,) = self.rows([n2], "CBUSH", eid, "GB")
-            if np.linalg.norm(self.xyz[g2] - self.xyz[g1]) > 1e-4:
-                raise self.err(f"CBUSH {eid}: grids {n1} and {n2} are apart: only coincident "
-                               "grids (or a grounded bush) are supported")
-        if e.cid is None or e.cid < 0:
-            raise self.err(f"CBUSH {eid}: field CID: expected a coordinate system for a bush "
-                           "between coincident grids, got blank")
-        if e.cid and e.cid not in self.m.coords:
-            raise self.err(f"CBUSH {eid}: field CID: coordinate system {e.cid} not found")
-        axes = _axes_at(self.m.coords[e.cid], self.xyz[g1]) if e.cid else np.eye(3)
+            gap = self.xyz[g2] - self.xyz[g1]
+        apart = np.linalg.norm(gap) > 1e-4  # Nastran's coincidence distance (QRG CBUSH)
+        if e.cid is not None and e.cid >= 0:
+            if e.cid and e.cid not in self.m.coords:
+                raise self.err(f"{where}: field CID: coordinate system {e.cid} not found")
+            axes = _axes_at(self.m.coords[e.cid], self.xyz[g1]) if e.cid else np.eye(3)
+        elif not apart:
+            raise self.err(f"{where}: field CID: expected a coordinate system for a bush "
+                           "between coincident grids or to ground, got blank")
+        else:
+            axes = self._bush_axes(e, where, g1, gap)
+        arm1, arm2 = np.zeros(3), np.zeros(3)
+        if apart:
+            if e.ocid not in (None, -1):
+                raise self.err(f"{where}: field OCID: only the spring on the line GA-GB "
+                               f"(OCID = -1, blank) is supported, got {e.ocid}")
+            s = 0.5 if e.s is None else float(e.s)
+            if not 0.0 <= s <= 1.0:
+                raise self.err(f"{where}: field S: expected 0 <= S <= 1, got {e.s}")
+            arm1, arm2 = s * gap, (s - 1.0) * gap
         k = np.zeros(6)
         k[: len(p.Ki)] = [float(x or 0.0) for x in p.Ki]
         if any(float(x or 0.0) for x in list(p.Bi) + list(p.GEi)):
             note = f"PBUSH {p.pid}: damping B/GE ignored (real modes and undamped flutter)"
             if note not in self.notes:
                 self.notes.append(note)
-        return Bush(eid, g1, g2, k, axes)
+        return Bush(eid, g1, g2, k, axes, arm1, arm2)
+
+    def _bush_axes(self, e, where: str, g1: int, gap: np.ndarray) -> np.ndarray:
+        """Element axes (columns, basic) of a CBUSH between separate grids with CID blank."""
+        if e.g0 not in (None, 0):
+            (g0,) = self.rows([e.g0], "CBUSH", e.eid, "G0")
+            v = self.xyz[g0] - self.xyz[g1]
+        elif e.x is not None and any(x is not None for x in e.x):
+            cd = self.m.nodes[int(self.ids[g1])].cd
+            x = np.array([float(c or 0.0) for c in e.x])
+            v = _axes_at(self.m.coords[cd], self.xyz[g1]) @ x if cd else x
+        else:
+            raise self.err(f"{where}: fields X1-X3/G0/CID: expected an orientation vector or a "
+                           "coordinate system, got none")
+        ex = gap / np.linalg.norm(gap)
+        vy = v - (v @ ex) * ex
+        if not np.linalg.norm(vy) > 1e-9 * max(np.linalg.norm(v), 1e-300):
+            raise self.err(f"{where}: fields X1-X3/G0: orientation vector is parallel to GA-GB "
+                           "or zero")
+        ey = vy / np.linalg.norm(vy)
+        return np.column_stack((ex, ey, np.cross(ex, ey)))
 
     def _conm1(self, c, wtmass: float) -> MassMatrix6:
         (g,) = self.rows([c.nid], "CONM1", c.eid)
@@ -193,6 +239,30 @@ class ExtraCards:
         raise self.err(f"RBAR {eid}: fields CNA/CNB/CMA/CMB: only one end with all six "
                        f"independent components is supported, got CNA={c.cna!r}, CNB={c.cnb!r}, "
                        f"CMA={c.cma!r}, CMB={c.cmb!r}")
+
+    def _rbe1(self, c) -> RigidRBE1:
+        """RBE1: independent GN_i/CN_i (six components in all), dependent GM_j/CM_j (MSC QRG
+        RBE1); the thermal coefficient ALPHA changes nothing here."""
+        eid = c.eid
+
+        def pairs(grids, comps, g_field, c_field):
+            out = []
+            rows = self.rows(grids, "RBE1", eid, g_field)
+            for row, comp in zip(rows, comps):
+                out += [(row, k) for k in _comps(comp, self.f, f"RBE1 {eid}: field {c_field}")]
+            return out
+
+        independent = pairs(c.Gni, c.Cni, "GN", "CN")
+        if len(independent) != 6:
+            raise self.err(f"RBE1 {eid}: fields CN: expected six independent components in all, "
+                           f"got {len(independent)}")
+        dependent = pairs(c.Gmi, c.Cmi, "GM", "CM")
+        both = sorted(set(independent) & set(dependent))
+        if both:
+            g, k = both[0]
+            raise self.err(f"RBE1 {eid}: grid {int(self.ids[g])} component {k + 1} is both "
+                           "independent (CN) and dependent (CM)")
+        return RigidRBE1(eid, independent, dependent)
 
     def _mpcs(self, mesh: Mesh) -> None:
         """MPC/MPCADD of the case control's MPC set (or the only one)."""

@@ -11,8 +11,9 @@ Supported structural cards: GRID (CP, CD, PS), GRDSET, SPOINT (a one-DOF row aft
 CORD1R/C/S, CORD2R/C/S, SPC, SPC1, SPCADD, MPC/MPCADD, MAT1, CROD/PROD, CONROD, CQUAD4/CTRIA3
 with PSHELL or PCOMP (MAT1/MAT8 plies, :mod:`torchrom.fe.laminate`), CHEXA/CPENTA/CTETRA/PSOLID
 (linear, corner grids; CTETRA also quadratic), CSHEAR/PSHEAR, CBAR/PBAR/PBARL,
-CBEAM/PBEAM/PBEAML (:mod:`torchrom.fe.sections`), CELAS1/PELAS, CELAS2, CONM1, CONM2,
-CMASS1/PMASS, CMASS2, CBUSH/PBUSH (coincident grids), GENEL, RBE2, RBAR, RBE3, EIGR, EIGRL, FORCE,
+CBEAM/PBEAM/PBEAML (:mod:`torchrom.fe.sections`; offsets with every CBAR OFFT code, pin flags,
+I12: :mod:`torchrom.fe.elements.bar`), CELAS1/PELAS, CELAS2, CONM1, CONM2,
+CMASS1/PMASS, CMASS2, CBUSH/PBUSH, GENEL, RBE1, RBE2, RBAR, RBE3, EIGR, EIGRL, FORCE,
 MOMENT, PLOAD2, PLOAD4, LOAD, PARAM (COUPMASS, WTMASS are used). Cards without effect on modes
 and flutter are accepted with a note (:data:`torchrom.fe.bdf_cards.NOTED_CARDS`).
 Aerodynamic and solution-control cards (CAERO1, PAERO1, SPLINE*, SET1, AERO, AEROS, MKAERO*,
@@ -40,6 +41,7 @@ from .bdf_checks import check_complete, check_fields, duplicate_message
 from .bdf_extra import SOLID_GRIDS, ExtraCards
 from .coords import axes_at
 from .coords import components as _comps
+from .elements.bar import frames_between, mechanism_pins
 from .elements.quad4 import quad_frames, shape
 from .goland_geometry import (  # noqa: F401 - GOLAND_* re-exported (public names of this module)
     GOLAND_TITLE,
@@ -65,8 +67,9 @@ from .sections import section
 STRUCTURAL_CARDS = frozenset(
     "GRID GRDSET SPOINT CORD1R CORD1C CORD1S CORD2R CORD2C CORD2S SPC SPC1 SPCADD MPC MPCADD MAT1 "
     "CROD PROD CONROD CQUAD4 CTRIA3 PSHELL PCOMP MAT8 CSHEAR PSHEAR CBAR PBAR PBARL CBEAM PBEAM "
-    "PBEAML CONM2 CMASS2 CHEXA CPENTA CTETRA PSOLID RBE2 RBE3 RBAR CELAS1 CELAS2 PELAS CMASS1 "
-    "PMASS CONM1 CBUSH PBUSH GENEL EIGR EIGRL FORCE MOMENT PLOAD2 PLOAD4 LOAD PARAM ENDDATA".split()
+    "PBEAML CONM2 CMASS2 CHEXA CPENTA CTETRA PSOLID RBE1 RBE2 RBE3 RBAR CELAS1 CELAS2 PELAS "
+    "CMASS1 PMASS CONM1 CBUSH PBUSH GENEL EIGR EIGRL FORCE MOMENT PLOAD2 PLOAD4 LOAD PARAM "
+    "ENDDATA".split()
 )
 # Kept for the aerodynamics (and for Nastran itself when the deck is written back); no effect on
 # the structure.
@@ -409,6 +412,11 @@ class _Reader(ExtraCards):
         self._check_surfaces("CQUAD4", mesh.quads.eids, mesh.quads.nodes)
         self._check_surfaces("CSHEAR", mesh.shears.eids, mesh.shears.nodes)
         mesh.bars = _stack(BarSet, bars)
+        for k in mechanism_pins(mesh.bars, xyz):
+            eid = int(mesh.bars.eids[k])
+            card = self.m.elements[eid].type
+            raise self.err(f"{card} {eid}: fields PA/PB: the pin flags release components "
+                           "without stiffness or leave the element a mechanism")
         for solid in mesh.solids:
             solid.rho *= wtmass
         for sel in (mesh.rods, mesh.quads, mesh.trias, mesh.shears, mesh.bars):
@@ -434,6 +442,8 @@ class _Reader(ExtraCards):
                 mesh.rbe3.append(self._rbe3(c))
             elif c.type == "RBAR":
                 mesh.rbe2.append(self._rbar(c))
+            elif c.type == "RBE1":
+                mesh.rbe1.append(self._rbe1(c))
         self._spcs(mesh, spc_id)
         self._mpcs(mesh)
         return mesh
@@ -544,7 +554,8 @@ class _Reader(ExtraCards):
         return dict(eids=eid, nodes=nodes, t=float(p.t), G=G, rho=rho, nsm=float(p.nsm or 0.0))
 
     def _bar(self, e):
-        """CBAR (PBAR, PBARL) or CBEAM (PBEAM, PBEAML, prismatic): the linear beam element."""
+        """CBAR (PBAR, PBARL) or CBEAM (PBEAM, PBEAML, prismatic): the linear beam element, with
+        offsets (OFFT), pin flags and the product of inertia I12."""
         eid, card = e.eid, e.type
         expected = ("PBAR", "PBARL") if card == "CBAR" else ("PBEAM", "PBEAML")
         p = self.prop(e.pid, card, eid, expected)
@@ -552,38 +563,77 @@ class _Reader(ExtraCards):
         sec = section(p, owner)
         E, G, _, rho = self.mat1(sec.mid, owner, "MID")
         n1, n2 = self.rows(e.nodes, card, eid)
-        L = np.linalg.norm(self.xyz[n2] - self.xyz[n1])
+        where = f"{card} {eid}"
+        offt = self._offt(e, where)
+        v = self._orientation(e, offt, n1)
+        wa, wb = self._bar_offsets(e, where, offt, v, n1, n2)
+        ends = (self.xyz[n1] + wa, self.xyz[n2] + wb)
+        L = np.linalg.norm(ends[1] - ends[0])
         if L <= 1e-12 * (1 + np.abs(self.xyz).max()):
-            raise self.err(f"{card} {eid}: zero length (grids {e.nodes[0]} and {e.nodes[1]} "
-                           "coincide)")
-        if e.pa or e.pb:
-            raise self.err(f"{card} {eid}: fields PA/PB: pin flags are not supported")
-        for field, w in (("WA", e.wa), ("WB", e.wb)):
-            if w is not None and np.any(np.abs(np.asarray(w, float)) > 0):
-                raise self.err(f"{card} {eid}: field {field}: offsets are not supported")
-        if sec.I12:
-            raise self.err(f"{owner}: field I12: product of inertia is not supported")
-        if e.g0 not in (None, 0):
-            (g0,) = self.rows([e.g0], card, eid, "G0")
-            v = self.xyz[g0] - self.xyz[n1]
-        else:
-            x = np.asarray(e.x, dtype=float)
-            # OFFT's first letter: orientation vector in GA's displacement system (G, the
-            # default and the old numeric flag) or in basic (B).
-            offt = e.offt if isinstance(e.offt, str) else "GGG"
-            cd = self.m.nodes[e.nodes[0]].cd
-            v = axes_at(self.m.coords[cd], self.xyz[n1]) @ x if offt[:1] == "G" and cd else x
-        axis = (self.xyz[n2] - self.xyz[n1]) / L
+            raise self.err(f"{where}: zero length (the ends of grids {e.nodes[0]} and "
+                           f"{e.nodes[1]}, offsets included, coincide)")
+        axis = (ends[1] - ends[0]) / L
         if np.linalg.norm(np.cross(axis, v)) <= 1e-9 * max(np.linalg.norm(v), 1e-300):
-            raise self.err(f"{card} {eid}: fields X1-X3/G0: orientation vector is parallel to "
+            raise self.err(f"{where}: fields X1-X3/G0: orientation vector is parallel to "
                            "the bar axis or zero")
+        if sec.I12 and sec.I1 * sec.I2 <= sec.I12**2:
+            raise self.err(f"{owner}: field I12: expected I1 I2 > I12², got I1 = {sec.I1:g}, "
+                           f"I2 = {sec.I2:g}, I12 = {sec.I12:g}")
         note = (f"{owner}: {getattr(p, 'beam_type', '')} section without shear "
                 "flexibility (its Nastran shear factor is not known here)")
         if p.type in ("PBARL", "PBEAML") and not sec.k1 and note not in self.notes:
             self.notes.append(note)
         polar = rho * (sec.I1 + sec.I2) if card == "CBEAM" else 0.0
+        pins = [np.isin(np.arange(6), _comps(flag or "", self.f, f"{where}: field {name}"))
+                for name, flag in (("PA", e.pa), ("PB", e.pb))]
         return dict(eids=eid, nodes=[n1, n2], v=v, A=sec.A, I1=sec.I1, I2=sec.I2, J=sec.J, E=E,
-                    G=G, rho=rho, nsm=sec.nsm, k1=sec.k1, k2=sec.k2, polar=polar)
+                    G=G, rho=rho, nsm=sec.nsm, k1=sec.k1, k2=sec.k2, polar=polar, I12=sec.I12,
+                    wa=wa, wb=wb, pa=pins[0].astype(float), pb=pins[1].astype(float))
+
+    #: OFFT codes (MSC QRG CBAR remark): orientation vector in GA's displacement system (G) or
+    #: basic (B); each end's offset in its grid's displacement system (G), basic (B) or the
+    #: offset system (O: x from GA to GB, y in the plane of x and v)
+    OFFT_CODES = ("GGG", "BGG", "GGO", "BGO", "GOG", "BOG", "GOO", "BOO")
+
+    def _offt(self, e, where: str) -> str:
+        offt = e.offt if isinstance(e.offt, str) and e.offt.strip() else "GGG"
+        if offt.upper() not in self.OFFT_CODES:
+            raise self.err(f"{where}: field OFFT: expected one of {', '.join(self.OFFT_CODES)}, "
+                           f"got {offt!r}")
+        return offt.upper()
+
+    def _grid_axes(self, row: int) -> np.ndarray:
+        """Displacement-system axes (columns, basic) of the grid at ``row``."""
+        cd = self.m.nodes[int(self.ids[row])].cd
+        return axes_at(self.m.coords[cd], self.xyz[row]) if cd else np.eye(3)
+
+    def _orientation(self, e, offt: str, n1: int) -> np.ndarray:
+        """Orientation vector v in basic: GA → G0 (grid positions; Nastran moves it to end A),
+        or X1-X3 in GA's displacement system (OFFT G..) or basic (B..)."""
+        if e.g0 not in (None, 0):
+            (g0,) = self.rows([e.g0], e.type, e.eid, "G0")
+            return self.xyz[g0] - self.xyz[n1]
+        x = np.asarray(e.x, dtype=float)
+        return self._grid_axes(n1) @ x if offt[0] == "G" else x
+
+    def _bar_offsets(self, e, where: str, offt: str, v, n1: int, n2: int):
+        """WA, WB in basic, per OFFT's second (end A) and third (end B) letter."""
+        out = []
+        for field, w, code, row in (("WA", e.wa, offt[1], n1), ("WB", e.wb, offt[2], n2)):
+            w = np.zeros(3) if w is None else np.asarray(w, dtype=float).reshape(3)
+            if not np.all(np.isfinite(w)):
+                raise self.err(f"{where}: field {field}: expected finite offsets, got {w}")
+            if code == "G":
+                w = self._grid_axes(row) @ w
+            elif code == "O":
+                d = self.xyz[n2] - self.xyz[n1]
+                if not np.linalg.norm(d) > 0 or not np.linalg.norm(np.cross(d, v)) > 0:
+                    raise self.err(f"{where}: field OFFT: offsets in the offset system need "
+                                   "GA ≠ GB and an orientation vector off the GA-GB line")
+                _, R = frames_between(self.xyz[n1][None], self.xyz[n2][None], v[None])
+                w = R[0].T @ w
+            out.append(w)
+        return out
 
     def _conm2(self, c, wtmass: float) -> PointMass:
         (g,) = self.rows([c.nid], "CONM2", c.eid)

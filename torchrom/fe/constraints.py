@@ -1,4 +1,5 @@
-"""Constraint elimination: SPC/SPC1/GRID PS, MPC, RBE2, RBE3 and automatic SPC → u_all = T u_free.
+"""Constraint elimination: SPC/SPC1/GRID PS, MPC, RBE2/RBAR, RBE1, RBE3 and automatic SPC →
+u_all = T u_free.
 
 Hand-written. Every grid has six DOFs measured in its displacement system (CD). The independent
 ("free") DOFs are the CD components that are neither single-point constrained nor dependent on a
@@ -6,7 +7,10 @@ rigid element. Dependent DOFs are eliminated by a **linear** transformation (sma
 
 - MPC: Σ a_i u_i = 0 makes the first term's DOF dependent, u_0 = −Σ_(i>0) (a_i / a_0) u_i;
 - RBE2: the dependent components of each GM follow the rigid motion of GN,
-  u_m = u_n + θ_n × (x_m − x_n), θ_m = θ_n;
+  u_m = u_n + θ_n × (x_m − x_n), θ_m = θ_n; RBAR with one end independent is the same;
+- RBE1: the same rigid body, its motion fixed by six independent components taken from one or
+  several grids (GN_i/CN_i): A (t, θ) = u_ind, then u_dep = B A⁻¹ u_ind with A, B the rows of
+  the rigid motion at the independent and dependent components (one function for both);
 - RBE3: the reference grid's REFC components are the weighted least-squares rigid-body fit of the
   independent components (Nastran's interpolation element): with the independent grid i at
   d_i = x_i − x_ref, component c along the unit vector e, the fit minimises
@@ -29,6 +33,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from ..errors import InputError
+from .mass import rigid_links
 from .mesh import Mesh
 
 COMPONENT = ("T1", "T2", "T3", "R1", "R2", "R3")
@@ -52,9 +57,37 @@ def _cd_block(cd: np.ndarray) -> np.ndarray:
 
 def _rigid_map(d: np.ndarray) -> np.ndarray:
     """Map (t, θ) at a point to (translation, rotation) at offset d: [[I, −[d×]], [0, I]]."""
-    A = np.eye(6)
-    A[:3, 3:] = -np.array([[0.0, -d[2], d[1]], [d[2], 0.0, -d[0]], [-d[1], d[0], 0.0]])
-    return A
+    return rigid_links(d)[0]
+
+
+def _rigid_rows(mesh: Mesh, pairs, x0: np.ndarray) -> np.ndarray:
+    """(k, 6): the (grid row, CD component) ``pairs`` in a small rigid motion (t, θ) (basic)
+    of the point x0."""
+    return np.array([(_cd_block(mesh.cd_axes[g]).T @ _rigid_map(mesh.xyz[g] - x0))[c]
+                     for g, c in pairs]).reshape(-1, 6)
+
+
+def _rigid_body(mesh: Mesh, independent, dependent, where: str):
+    """Dependent DOF → [(coefficient, grid row, component)] of the independent DOFs, for grids
+    that move as one rigid body (RBE2, RBE1): the six independent components fix the rigid
+    motion (t, θ) of the first independent grid, A (t, θ) = u_ind; each dependent component
+    is its row of that motion, u_dep = B A⁻¹ u_ind."""
+    g0 = independent[0][0]
+    x0 = mesh.xyz[g0]
+    if sorted(independent) == [(g0, c) for c in range(6)]:
+        Ainv = _cd_block(mesh.cd_axes[g0])  # one grid's six components: its motion, exactly
+        independent = [(g0, c) for c in range(6)]
+    else:
+        A = _rigid_rows(mesh, independent, x0)
+        if len(independent) != 6 or np.linalg.matrix_rank(A, tol=1e-10 * np.abs(A).max()) < 6:
+            raise InputError(
+                f"{where}: the independent components ({len(independent)}) do not determine a "
+                "rigid motion (expected six that fix the three translations and rotations)"
+            )
+        Ainv = np.linalg.inv(A)
+    B = _rigid_rows(mesh, dependent, x0) @ Ainv
+    return {dof: [(B[i, k], g, c) for k, (g, c) in enumerate(independent) if B[i, k] != 0.0]
+            for i, dof in enumerate(dependent)}
 
 
 def build_constraints(mesh: Mesh, source: str = "model") -> Constraints:
@@ -77,15 +110,13 @@ def build_constraints(mesh: Mesh, source: str = "model") -> Constraints:
         claim((g0, c0), f"MPC {mp.sid}")
         deps[(g0, c0)] = [(-a / a0, g, c) for a, g, c in mp.terms[1:]]
 
-    for rb in mesh.rbe2:
-        who = f"RBE2 {rb.eid}"
-        Qn = _cd_block(mesh.cd_axes[rb.independent])
-        for m in rb.dependent:
-            Qm = _cd_block(mesh.cd_axes[m])
-            A = Qm.T @ _rigid_map(mesh.xyz[m] - mesh.xyz[rb.independent]) @ Qn
-            for c in rb.comps:
-                claim((m, c), who)
-                deps[(m, c)] = [(A[c, j], rb.independent, j) for j in range(6) if A[c, j] != 0.0]
+    rigid = [(f"RBE2 {rb.eid}", [(rb.independent, c) for c in range(6)],
+              [(m, c) for m in rb.dependent for c in rb.comps]) for rb in mesh.rbe2]
+    rigid += [(f"RBE1 {rb.eid}", rb.independent, rb.dependent) for rb in mesh.rbe1]
+    for who, independent, dependent in rigid:
+        for dof, terms in _rigid_body(mesh, independent, dependent, f"{source}: {who}").items():
+            claim(dof, who)
+            deps[dof] = terms
 
     for rb in mesh.rbe3:
         who = f"RBE3 {rb.eid}"

@@ -1,6 +1,6 @@
 """Concentrated masses and scalar springs: CONM2 (rigid mass with offset and inertia), CONM1 (a
 6x6 mass matrix), CMASS1/CMASS2 (scalar mass), CELAS1/CELAS2 (scalar spring), CBUSH (six
-springs between coincident grids), GENEL (a general stiffness or flexibility matrix).
+springs at a point rigidly linked to two grids), GENEL (a general stiffness or flexibility matrix).
 
 Hand-written. CONM2: a rigid body whose CG sits at ``offset`` r from its grid; with the grid's
 translation t and rotation θ (small rotations) the CG moves t + θ × r = t − [r×] θ, so
@@ -23,6 +23,16 @@ from .mesh import Bush, GeneralElement, MassMatrix6, PointMass, ScalarMass, Scal
 def skew(r: np.ndarray) -> np.ndarray:
     """[r×] such that [r×] a = r × a."""
     return np.array([[0.0, -r[2], r[1]], [r[2], 0.0, -r[0]], [-r[1], r[0], 0.0]])
+
+
+def rigid_links(w: np.ndarray) -> np.ndarray:
+    """(n, 6, 6) maps of a grid's (t, θ) (basic) onto the (t, θ) of points at w (n, 3) from it,
+    small rotations: t + θ × w = t − [w×] θ, θ unchanged (Nastran's rigid offsets and links)."""
+    w = np.asarray(w, dtype=float).reshape(-1, 3)
+    A = np.tile(np.eye(6), (len(w), 1, 1))
+    for k, d in enumerate(w):
+        A[k, :3, 3:] = -skew(d)
+    return A
 
 
 def conm2_blocks(masses: list[PointMass]) -> tuple[np.ndarray, np.ndarray]:
@@ -75,8 +85,10 @@ def conm1_blocks(masses: list[MassMatrix6]) -> tuple[np.ndarray, np.ndarray]:
 
 
 def bush_blocks(bushes: list[Bush]) -> tuple[np.ndarray, np.ndarray]:
-    """CBUSH between coincident grids: k (u_A − u_B)² / 2 per axis of its system, (n, 12, 12)
-    on both grids' six DOFs (basic); a grounded bush acts on grid A alone."""
+    """CBUSH: k (u_PA − u_PB)² / 2 per axis of its element system, u_PA and u_PB the motions
+    of the spring point carried rigidly by grid A and by grid B (MSC QRG CBUSH: the spring sits
+    at S on the line GA-GB, rigidly connected to both grids); (n, 12, 12) on both grids' six
+    DOFs (basic); a grounded bush acts on grid A alone."""
     dofs = np.zeros((len(bushes), 12), dtype=int)
     blocks = np.zeros((len(bushes), 12, 12))
     for k, b in enumerate(bushes):
@@ -85,10 +97,12 @@ def bush_blocks(bushes: list[Bush]) -> tuple[np.ndarray, np.ndarray]:
         K6 = R @ np.diag(b.stiffness) @ R.T
         g2 = b.grid1 if b.grid2 < 0 else b.grid2
         dofs[k] = np.concatenate((b.grid1 * 6 + np.arange(6), g2 * 6 + np.arange(6)))
+        A1, A2 = rigid_links(np.array([b.arm1, b.arm2]))
         if b.grid2 < 0:
-            blocks[k, :6, :6] = K6
+            blocks[k, :6, :6] = A1.T @ K6 @ A1
         else:
-            blocks[k] = np.block([[K6, -K6], [-K6, K6]])
+            D = np.hstack((A1, -A2))  # u_PA − u_PB from the two grids' DOFs
+            blocks[k] = D.T @ K6 @ D
     return dofs, blocks
 
 

@@ -122,7 +122,10 @@ class ShearSet:
 class BarSet:
     """CBAR/CBEAM: linear beam; ``v`` is the orientation vector in basic axes; ``k1``/``k2``
     the shear area factors of planes 1/2 (0: no shear flexibility, Euler–Bernoulli);
-    ``polar`` the torsional mass moment of inertia per length (CBEAM: ρ (I1 + I2); CBAR: 0)."""
+    ``polar`` the torsional mass moment of inertia per length (CBEAM: ρ (I1 + I2); CBAR: 0);
+    ``I12`` the product of inertia ∫ y z dA; ``wa``/``wb`` the rigid offsets (basic) from grid
+    A/B to the element's ends; ``pa``/``pb`` (n, 6) 1.0 where a component (element system) is
+    released by a pin flag at end A/B."""
 
     eids: np.ndarray = field(default_factory=lambda: _empty(0, dtype=int))
     nodes: np.ndarray = field(default_factory=lambda: _empty(0, 2, dtype=int))
@@ -138,12 +141,20 @@ class BarSet:
     k1: np.ndarray = field(default_factory=lambda: _empty(0))
     k2: np.ndarray = field(default_factory=lambda: _empty(0))
     polar: np.ndarray = field(default_factory=lambda: _empty(0))
+    I12: np.ndarray = field(default_factory=lambda: _empty(0))
+    wa: np.ndarray = field(default_factory=lambda: _empty(0, 3))
+    wb: np.ndarray = field(default_factory=lambda: _empty(0, 3))
+    pa: np.ndarray = field(default_factory=lambda: _empty(0, 6))
+    pb: np.ndarray = field(default_factory=lambda: _empty(0, 6))
 
     def __post_init__(self):
         n = len(self.eids)
-        for name in ("k1", "k2", "polar"):
+        for name in ("k1", "k2", "polar", "I12"):
             if len(getattr(self, name)) != n:
                 setattr(self, name, np.zeros(n))
+        for name, width in (("wa", 3), ("wb", 3), ("pa", 6), ("pb", 6)):
+            if len(getattr(self, name)) != n:
+                setattr(self, name, np.zeros((n, width)))
 
     def __len__(self) -> int:
         return len(self.eids)
@@ -187,14 +198,18 @@ class ScalarSpring:
 
 @dataclass
 class Bush:
-    """CBUSH between coincident grids (or to ground, ``grid2`` = -1): six springs K1..K6 along
-    and about the axes (columns of ``axes``, basic) of its coordinate system."""
+    """CBUSH (or to ground, ``grid2`` = -1): six springs K1..K6 along and about the axes
+    (columns of ``axes``, basic) of its element system, at the spring point, which is rigidly
+    linked to each grid: ``arm1``/``arm2`` (basic) from grid 1/2 to it (zero for coincident
+    grids)."""
 
     eid: int
     grid1: int
     grid2: int
     stiffness: np.ndarray  # (6,)
     axes: np.ndarray  # (3, 3)
+    arm1: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    arm2: np.ndarray = field(default_factory=lambda: np.zeros(3))
 
 
 @dataclass
@@ -223,6 +238,17 @@ class RigidRBE2:
     independent: int
     comps: list[int]
     dependent: list[int]
+
+
+@dataclass
+class RigidRBE1:
+    """RBE1: the grids move as one rigid body whose motion is set by the ``independent``
+    (grid row, component 0..5) pairs (six, from one or several grids); the ``dependent`` pairs
+    follow it."""
+
+    eid: int
+    independent: list[tuple[int, int]]
+    dependent: list[tuple[int, int]]
 
 
 @dataclass
@@ -267,6 +293,7 @@ class Mesh:
     conm1: list[MassMatrix6] = field(default_factory=list)
     genel: list[GeneralElement] = field(default_factory=list)
     rbe2: list[RigidRBE2] = field(default_factory=list)
+    rbe1: list[RigidRBE1] = field(default_factory=list)
     rbe3: list[InterpRBE3] = field(default_factory=list)
     mpc: list[LinearMPC] = field(default_factory=list)
     spc: list[tuple[int, int]] = field(default_factory=list)  # (grid row, comp 0..5)

@@ -9,7 +9,7 @@ Total Lagrangian, St Venant–Kirchhoff (DIGEST Sec. 1, Eqs. 1–4): rods, membr
 panels use the Green–Lagrange strain, so their internal forces are exact cubic polynomials of the
 displacements; plate bending, drilling, rod torsion and CBAR are linear (see the element modules).
 All public vectors live on the independent ("free") DOFs: ``u_all = T u`` (constraints: SPC,
-GRID PS, RBE2, RBE3, automatic SPC of DOFs without stiffness).
+GRID PS, RBE1, RBE2, RBE3, automatic SPC of DOFs without stiffness).
 
 - internal force f(u) = f_nl(u) + K_lin u;
 - tangent stiffness K_T(u) = ∂f/∂u = K_mat(u) + K_geo(u);
@@ -527,6 +527,7 @@ class FEModel:
             "CBUSH": len(m.bushes),
             "GENEL": len(m.genel),
             "RBE2": len(m.rbe2),
+            "RBE1": len(m.rbe1),
             "RBE3": len(m.rbe3),
             "autospc": len(self.autospc),
         }

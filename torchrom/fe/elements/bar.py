@@ -1,44 +1,76 @@
-"""CBAR/CBEAM: linear (Timoshenko) beam with an orientation vector.
+"""CBAR/CBEAM: linear (Timoshenko) beam with an orientation vector, offsets and pin flags.
 
-Hand-written. Element axes (Nastran): x from GA to GB, y in the plane of x and the orientation
-vector v (plane 1), z = x × y. Stiffness: axial E A / L, torsion G J / L, bending E I1 in plane 1
-(displacement along y, rotation about z) and E I2 in plane 2 (along z, about y), with shear
-flexibility when the shear area factor K of the plane is non-zero: the exact two-node Timoshenko
-stiffness (Przemieniecki, Theory of Matrix Structural Analysis, Eq. 5.116),
+Hand-written (the card semantics are MSC Nastran's, Quick Reference Guide CBAR/CBEAM/PBAR).
+Element ends: the grids moved by the offsets WA/WB (basic here, converted by the reader), each
+end rigidly linked to its grid (small rotations): u_end = u_grid + θ_grid × w, θ_end = θ_grid.
+Element axes (Nastran): x from end A to end B (between the offset points), y in the plane of x
+and the orientation vector v (plane 1), z = x × y. Stiffness: axial E A / L, torsion G J / L,
+bending with the section tensor D = E [[I1, I12], [I12, I2]] (I1 = ∫y² dA in plane 1, I2 = ∫z² dA
+in plane 2, I12 = ∫yz dA: exact for an unsymmetric section) and the shear flexibility
+s = diag(1/(K1 G A), 1/(K2 G A)) (0 where PBAR K1/K2 is blank). The bending stiffness is the
+inverse of the cantilever flexibility (clamped end A, tip force P and moment C at end B, in
+plane coordinates q = (v, w), φ = (θz, −θy)):
 
-    k = E I / ((1 + Φ) L³) [[12, 6L, −12, 6L], [6L, (4+Φ)L², −6L, (2−Φ)L²], ...],
-    Φ = 12 E I / (K G A L²),
+    F = [[L³/3 D⁻¹ + L s, L²/2 D⁻¹], [L²/2 D⁻¹, L D⁻¹]],
 
-Φ = 0 (Euler–Bernoulli) when K = 0 (PBAR K1/K2 blank). No offsets, pin flags or I12 (the reader
-rejects them). CBAR/CBEAM are **linear**: in a geometrically nonlinear analysis they contribute
-K u with their small-rotation stiffness (the model warns once, :class:`LinearElementWarning`).
-Mass: lumped (half of (ρA + NSM) L on each end's translations, and for CBEAM half of
-ρ (I1 + I2) L on each end's torsional rotation, as Nastran's CBEAM) or consistent (cubic
-Hermite transverse, linear axial and torsional; no rotary inertia, as Nastran's CBAR).
+whose inverse, with Φ = 12 D s / L² (a 2 × 2 matrix), is K_qq = 12/L³ (I + Φ)⁻¹ D,
+K_qφ = −L/2 K_qq, K_φφ = D/L + L²/4 K_qq (no inverse of D: a section with I2 = 0 is allowed),
+completed by equilibrium (the rigid-body motions q_B = q_A + L φ_A, φ_B = φ_A carry no force).
+For I12 = 0 this is the exact two-node Timoshenko stiffness (Przemieniecki, Theory of Matrix
+Structural Analysis, Eq. 5.116; Φ = 0, Euler–Bernoulli, when K = 0).
+Pin flags PA/PB (components 1-6 in the element system) release the force there: the released
+element DOFs are condensed out statically, K* = K_kk − K_kr K_rr⁻¹ K_rk, before the
+transformation to basic (a release that leaves the element a mechanism is refused by the reader).
+CBAR/CBEAM are **linear**: in a geometrically nonlinear analysis they contribute K u with their
+small-rotation stiffness (the model warns once, :class:`LinearElementWarning`).
+Mass (at the offset ends, through the same rigid links): lumped (half of (ρA + NSM) L on each
+end's translations, and for CBEAM half of ρ (I1 + I2) L on each end's torsional rotation, as
+Nastran's CBEAM; pin flags leave it on the grids) or consistent (cubic Hermite transverse, linear
+axial and torsional; no rotary inertia, as Nastran's CBAR), with pin flags taken through the
+same condensed shape as the stiffness (u_r = −K_rr⁻¹ K_rk u_k), so that both use one
+interpolation. Whether Nastran condenses its coupled mass so is not known here (no f06 with
+pin flags and COUPMASS was at hand).
 """
 
 from __future__ import annotations
 
 import numpy as np
 
+from ..mass import rigid_links
 from ..mesh import BarSet
-from .rod import rod_geometry
+
+
+def bar_ends(bars: BarSet, xyz: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Basic positions (n, 3) of the element ends A and B (grids plus offsets)."""
+    return xyz[bars.nodes[:, 0]] + bars.wa, xyz[bars.nodes[:, 1]] + bars.wb
+
+
+def frames_between(a: np.ndarray, b: np.ndarray, v: np.ndarray):
+    """Lengths (n,) and rotation matrices (n, 3, 3) whose rows are the x (from a to b), y (in
+    the plane of x and v) and z axes."""
+    d = b - a
+    L = np.linalg.norm(d, axis=1)
+    ex = d / L[:, None]
+    vy = v - np.einsum("ni,ni->n", v, ex)[:, None] * ex
+    ey = vy / np.linalg.norm(vy, axis=1, keepdims=True)
+    return L, np.stack((ex, ey, np.cross(ex, ey)), axis=1)
 
 
 def bar_frames(bars: BarSet, xyz: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Lengths (n,) and rotation matrices (n, 3, 3) whose rows are the element x, y, z axes."""
-    L, ex = rod_geometry(bars.nodes, xyz)
-    vy = bars.v - np.einsum("ni,ni->n", bars.v, ex)[:, None] * ex
-    ey = vy / np.linalg.norm(vy, axis=1, keepdims=True)
-    ez = np.cross(ex, ey)
-    return L, np.stack((ex, ey, ez), axis=1)
+    """Lengths (n,) and element axes (n, 3, 3, rows x, y, z) between the offset ends."""
+    return frames_between(*bar_ends(bars, xyz), bars.v)
 
 
-def _to_basic(R: np.ndarray, K: np.ndarray) -> np.ndarray:
+def _to_grids(bars: BarSet, R: np.ndarray, K: np.ndarray) -> np.ndarray:
+    """Element-system matrices (n, 12, 12) → grid DOFs in basic: rotate to basic, then the
+    rigid offsets from the grids to the ends."""
     n = len(R)
     Tr = np.zeros((n, 12, 12))
     for b in range(4):
         Tr[:, 3 * b : 3 * b + 3, 3 * b : 3 * b + 3] = R
+    if np.any(bars.wa) or np.any(bars.wb):
+        Tr[:, :6, :6] = Tr[:, :6, :6] @ rigid_links(bars.wa)
+        Tr[:, 6:, 6:] = Tr[:, 6:, 6:] @ rigid_links(bars.wb)
     return Tr.transpose(0, 2, 1) @ K @ Tr
 
 
@@ -46,15 +78,17 @@ def bar_dofs(nodes: np.ndarray) -> np.ndarray:
     return (nodes[:, :, None] * 6 + np.arange(6)).reshape(len(nodes), 12)
 
 
-# Hermite cubic beam matrices for (w_A, θ_A, w_B, θ_B) with θ = dw/dx; entry (a, b) carries one
+# Hermite cubic beam mass for (w_A, θ_A, w_B, θ_B) with θ = dw/dx; entry (a, b) carries one
 # factor L for each rotation index.
-HERMITE_K = np.array([[12, 6, -12, 6], [6, 4, -6, 2], [-12, -6, 12, -6], [6, 2, -6, 4]], float)
 HERMITE_M = np.array(
     [[156, 22, 54, -13], [22, 4, 13, -3], [54, 13, 156, -22], [-13, -3, -22, 4]], float
 )
 # Bending planes in element DOFs: (transverse DOF, rotation DOF, sign of θ relative to dw/dx).
 # Plane 1: v along y with θz = +dv/dx; plane 2: w along z with θy = −dw/dx.
 PLANES = ((1, 5, 1.0), (2, 4, -1.0))
+# Plane coordinates of one end, (q1, q2, φ1, φ2) = (v, w, θz, −θy): element DOF and sign.
+BENDING_DOFS = np.array([1, 2, 5, 4])
+BENDING_SIGNS = np.array([1.0, 1.0, 1.0, -1.0])
 
 
 def _add_hermite(M: np.ndarray, coeff: np.ndarray, pattern: np.ndarray, plane, L) -> None:
@@ -69,26 +103,106 @@ def _add_hermite(M: np.ndarray, coeff: np.ndarray, pattern: np.ndarray, plane, L
             )
 
 
-def bar_stiffness_blocks(bars: BarSet, xyz: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    L, R = bar_frames(bars, xyz)
-    K = np.zeros((len(bars), 12, 12))
+def bending_stiffness(L: np.ndarray, D: np.ndarray, s: np.ndarray) -> np.ndarray:
+    """(n, 8, 8) bending stiffness on the plane coordinates (q, φ) of end A, then end B, from
+    the section tensor D (n, 2, 2) and the shear flexibility s (n, 2, 2) (module docstring)."""
+    n = len(L)
+    L3 = L[:, None, None]
+    eye = np.broadcast_to(np.eye(2), (n, 2, 2))
+    Kqq = 12.0 / L3**3 * np.linalg.solve(eye + 12.0 * D @ s / L3**2, D)
+    Kqq = 0.5 * (Kqq + Kqq.transpose(0, 2, 1))  # symmetric in exact arithmetic
+    Kbb = np.zeros((n, 4, 4))
+    Kbb[:, :2, :2] = Kqq
+    Kbb[:, :2, 2:] = Kbb[:, 2:, :2] = -0.5 * L3 * Kqq
+    Kbb[:, 2:, 2:] = D / L3 + 0.25 * L3**2 * Kqq
+    # End B relative to the rigid motion carried from end A: d = u_B − Rig u_A
+    rig = np.tile(np.eye(4), (n, 1, 1))
+    rig[:, :2, 2:] = L3 * np.eye(2)
+    KR = Kbb @ rig
+    K = np.zeros((n, 8, 8))
+    K[:, :4, :4] = rig.transpose(0, 2, 1) @ KR
+    K[:, :4, 4:] = -KR.transpose(0, 2, 1)
+    K[:, 4:, :4] = -KR
+    K[:, 4:, 4:] = Kbb
+    return K
+
+
+def element_stiffness(bars: BarSet, L: np.ndarray) -> np.ndarray:
+    """(n, 12, 12) stiffness in the element system, before the pin-flag releases."""
+    n = len(bars)
+    K = np.zeros((n, 12, 12))
     ka = bars.E * bars.A / L
     kt = bars.G * bars.J / L
-    for i, j, s in ((0, 0, 1), (0, 6, -1), (6, 0, -1), (6, 6, 1)):
-        K[:, i, j] = s * ka
-        K[:, i + 3, j + 3] = s * kt
-    for plane, EI, kshear in zip(PLANES, (bars.E * bars.I1, bars.E * bars.I2),
-                                 (bars.k1, bars.k2)):
-        GAs = kshear * bars.G * bars.A
-        phi = np.divide(12.0 * EI, GAs * L**2, out=np.zeros_like(L), where=GAs > 0)
-        _add_hermite(K, EI / ((1.0 + phi) * L**3), HERMITE_K, plane, L)
-        # Timoshenko correction of the rotation-rotation terms: (4, 2) → (4 + Φ, 2 − Φ)
-        w, th, sgn = plane
-        c = EI / ((1.0 + phi) * L**3) * phi * L**2
-        for a, b, s in ((th, th, 1.0), (th + 6, th + 6, 1.0), (th, th + 6, -1.0),
-                        (th + 6, th, -1.0)):
-            K[:, a, b] += s * c
-    return bar_dofs(bars.nodes), _to_basic(R, K)
+    for i, j, sg in ((0, 0, 1), (0, 6, -1), (6, 0, -1), (6, 6, 1)):
+        K[:, i, j] = sg * ka
+        K[:, i + 3, j + 3] = sg * kt
+    D = bars.E[:, None, None] * np.stack(
+        (np.stack((bars.I1, bars.I12), 1), np.stack((bars.I12, bars.I2), 1)), 1)
+    s = np.zeros((n, 2, 2))
+    for k, factor in enumerate((bars.k1, bars.k2)):
+        GAs = factor * bars.G * bars.A
+        s[:, k, k] = np.divide(1.0, GAs, out=np.zeros(n), where=GAs > 0)
+    idx = np.concatenate((BENDING_DOFS, BENDING_DOFS + 6))
+    sgn = np.concatenate((BENDING_SIGNS, BENDING_SIGNS))
+    K[:, idx[:, None], idx[None, :]] += bending_stiffness(L, D, s) * np.outer(sgn, sgn)
+    return K
+
+
+def released(bars: BarSet) -> np.ndarray:
+    """(n, 12) True for the element DOFs released by the pin flags PA (0..5), PB (6..11)."""
+    return np.concatenate((bars.pa, bars.pb), axis=1) > 0
+
+
+def condense_pins(K: np.ndarray, free: np.ndarray) -> np.ndarray:
+    """Static condensation of the released DOFs (``free`` True) of one element matrix: no force
+    there, K* = K_kk − K_kr K_rr⁻¹ K_rk on the kept DOFs, zero rows/columns on the released."""
+    r, k = np.nonzero(free)[0], np.nonzero(~free)[0]
+    out = np.zeros_like(K)
+    Kkr = K[np.ix_(k, r)]
+    out[np.ix_(k, k)] = K[np.ix_(k, k)] - Kkr @ np.linalg.solve(K[np.ix_(r, r)], Kkr.T)
+    return out
+
+
+def pin_shape(K: np.ndarray, free: np.ndarray) -> np.ndarray:
+    """(12, 12) map of the element DOFs tied to the grids onto all of them: the released ones
+    follow the condensation, u_r = −K_rr⁻¹ K_rk u_k (the element's deformed shape)."""
+    r, k = np.nonzero(free)[0], np.nonzero(~free)[0]
+    C = np.eye(len(K))
+    C[r, r] = 0.0
+    C[np.ix_(r, k)] = -np.linalg.solve(K[np.ix_(r, r)], K[np.ix_(r, k)])
+    return C
+
+
+def mechanism_pins(bars: BarSet, xyz: np.ndarray) -> np.ndarray:
+    """Indices of the bars whose pin flags release DOFs without stiffness or leave a mechanism
+    (K_rr singular relative to the element's stiffness)."""
+    if not np.any(bars.pa) and not np.any(bars.pb):
+        return np.zeros(0, dtype=int)
+    L, _ = bar_frames(bars, xyz)
+    K = element_stiffness(bars, L)
+    rel = released(bars)
+    bad = []
+    for e in np.nonzero(rel.any(axis=1))[0]:
+        r = np.nonzero(rel[e])[0]
+        Krr = K[e][np.ix_(r, r)]
+        d = np.diag(Krr)
+        # each released DOF needs stiffness of its own (relative to the element's largest, so
+        # that a small J is fine), and together they must not form a mechanism (K_rr scaled to
+        # a unit diagonal is then well away from singular)
+        if d.min() <= 1e-14 * np.abs(np.diag(K[e])).max():
+            bad.append(e)
+        elif np.linalg.eigvalsh(Krr / np.sqrt(np.outer(d, d))).min() <= 1e-10:
+            bad.append(e)
+    return np.array(bad, dtype=int)
+
+
+def bar_stiffness_blocks(bars: BarSet, xyz: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    L, R = bar_frames(bars, xyz)
+    K = element_stiffness(bars, L)
+    rel = released(bars)
+    for e in np.nonzero(rel.any(axis=1))[0]:
+        K[e] = condense_pins(K[e], rel[e])
+    return bar_dofs(bars.nodes), _to_grids(bars, R, K)
 
 
 def bar_mass_blocks(bars: BarSet, xyz: np.ndarray, coupled: bool):
@@ -100,10 +214,18 @@ def bar_mass_blocks(bars: BarSet, xyz: np.ndarray, coupled: bool):
         for i in (0, 1, 2, 6, 7, 8):
             M[:, i, i] = m / 2.0
         M[:, 3, 3] = M[:, 9, 9] = ip / 2.0
-        return bar_dofs(bars.nodes), (_to_basic(R, M) if np.any(ip) else M)
-    for i, j, s in ((0, 0, 2.0), (0, 6, 1.0), (6, 0, 1.0), (6, 6, 2.0)):
-        M[:, i, j] = m * s / 6.0
-        M[:, i + 3, j + 3] = ip * s / 6.0
+        return bar_dofs(bars.nodes), _to_grids(bars, R, M)
+    for i, j, sg in ((0, 0, 2.0), (0, 6, 1.0), (6, 0, 1.0), (6, 6, 2.0)):
+        M[:, i, j] = m * sg / 6.0
+        M[:, i + 3, j + 3] = ip * sg / 6.0
     for plane in PLANES:
         _add_hermite(M, m / 420.0, HERMITE_M, plane, L)
-    return bar_dofs(bars.nodes), _to_basic(R, M)
+    rel = released(bars)
+    if rel.any():
+        # the consistent mass follows the condensed shape of the stiffness (Rayleigh–Ritz with
+        # one interpolation); without it a pinned end keeps the clamped slope's kinetic energy
+        K = element_stiffness(bars, L)
+        for e in np.nonzero(rel.any(axis=1))[0]:
+            C = pin_shape(K[e], rel[e])
+            M[e] = C.T @ M[e] @ C
+    return bar_dofs(bars.nodes), _to_grids(bars, R, M)
