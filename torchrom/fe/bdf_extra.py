@@ -2,9 +2,10 @@
 
 Hand-written, like :mod:`torchrom.fe.bdf_read` (whose ``_Reader`` inherits these methods and
 provides ``self.m`` (the pyNastran model), ``self.f`` (file name), ``self.xyz``, ``self.ids``,
-``self.rows``, ``self.prop``, ``self.mat1``, ``self.err`` and ``self.notes``): linear solids
-(CHEXA/CPENTA/CTETRA + PSOLID), PCOMP shells, CELAS1/CELAS2, CBUSH, CONM1, RBAR and MPC/MPCADD,
-and the zero-area check of CTRIA3. Kept in their own module so that the core reader stays small.
+``self.rows``, ``self.prop``, ``self.mat1``, ``self.err`` and ``self.notes``): linear and
+quadratic solids (CHEXA/CPENTA/CTETRA + PSOLID), PCOMP shells, CELAS1/CELAS2, CBUSH, CONM1, RBAR
+and MPC/MPCADD, and the zero-area check of CTRIA3. Kept in their own module so that the core
+reader stays small.
 """
 
 from __future__ import annotations
@@ -19,17 +20,26 @@ from .laminate import laminate
 from .mass import genel_stiffness
 from .mesh import Bush, GeneralElement, LinearMPC, MassMatrix6, Mesh, RigidRBE2, ScalarSpring
 
-#: solid elements and the numbers of grids supported (corner grids; CTETRA also with its edges)
-SOLID_GRIDS = {"CHEXA": (8,), "CPENTA": (6,), "CTETRA": (4, 10)}
+#: solid elements and the numbers of grids supported: the corner grids alone, or with all the
+#: edge grids (the quadratic forms)
+SOLID_GRIDS = {"CHEXA": (8, 20), "CPENTA": (6, 15), "CTETRA": (4, 10)}
 
 
 class ExtraCards:
     """Card readers mixed into :class:`torchrom.fe.bdf_read._Reader`."""
 
     def _solid(self, e):
-        """CHEXA/CPENTA with the corner grids only (linear), CTETRA with 4 or all 10 grids,
-        PSOLID and MAT1."""
+        """CHEXA, CPENTA, CTETRA with their corner grids alone (linear) or with all their edge
+        grids (quadratic), PSOLID and MAT1."""
         eid, card = e.eid, e.type
+        corners = SOLID_GRIDS[card][0]
+        given = [n not in (None, 0) for n in e.nodes]
+        edges = given[corners:]
+        if any(edges) and not all(edges):
+            k = corners + edges.index(False)
+            raise self.err(f"{card} {eid}: field G{k + 1}: edge grid blank while other edge grids"
+                           f" are given: expected all {SOLID_GRIDS[card][1] - corners} edge grids"
+                           " or none (partly quadratic solids are not supported)")
         nodes = [n for n in e.nodes if n not in (None, 0)]
         if len(nodes) not in SOLID_GRIDS[card]:
             forms = " or ".join(str(k) for k in SOLID_GRIDS[card])

@@ -380,7 +380,7 @@ class _Reader(ExtraCards):
         mesh.coupled_mass = self._param("COUPMASS", -1) > 0
         wtmass = float(self._param("WTMASS", 1.0))
         rods, quads, shears, bars, trias = [], [], [], [], []
-        solids: dict[int, list] = {8: [], 6: [], 4: [], 10: []}
+        solids: dict[int, list] = {8: [], 6: [], 4: [], 10: [], 20: [], 15: []}
         for eid in sorted(self.m.elements):
             e = self.m.elements[eid]
             if e.type in ("CROD", "CONROD"):
