@@ -10,7 +10,7 @@ selection of the SPC set and eigenvalue method from the case control (or the onl
 Supported structural cards: GRID (CP, CD, PS), GRDSET, SPOINT (a one-DOF row after the grids),
 CORD1R/C/S, CORD2R/C/S, SPC, SPC1, SPCADD, MPC/MPCADD, MAT1, CROD/PROD, CONROD, CQUAD4/CTRIA3
 with PSHELL or PCOMP (MAT1/MAT8 plies, :mod:`torchrom.fe.laminate`), CHEXA/CPENTA/CTETRA/PSOLID
-(linear, corner grids; CTETRA also quadratic), CSHEAR/PSHEAR, CBAR/PBAR/PBARL,
+(corner grids, or with all their edge grids), CSHEAR/PSHEAR, CBAR/PBAR/PBARL,
 CBEAM/PBEAM/PBEAML (:mod:`torchrom.fe.sections`), CELAS1/PELAS, CELAS2, CONM1, CONM2,
 CMASS1/PMASS, CMASS2, CBUSH/PBUSH (coincident grids), GENEL, RBE2, RBAR, RBE3, EIGR, EIGRL, FORCE,
 MOMENT, PLOAD2, PLOAD4, LOAD, PARAM (COUPMASS, WTMASS are used). Cards without effect on modes
@@ -494,10 +494,11 @@ class _Reader(ExtraCards):
         eid, card = e.eid, e.type
         p = self.prop(e.pid, card, eid, ("PSHELL", "PCOMP"))
         owner = f"{p.type} {p.pid}"
-        if abs(float(e.zoffset or 0.0)) > 0.0:
-            raise self.err(f"{card} {eid}: field ZOFFS: offsets are not supported, got {e.zoffset}")
+        zoffs = float(e.zoffset or 0.0)
+        if not np.isfinite(zoffs):
+            raise self.err(f"{card} {eid}: field ZOFFS: expected a finite offset, got {e.zoffset}")
         if p.type == "PCOMP":
-            return self._pcomp_shell(e, p)
+            return dict(self._pcomp_shell(e, p), zoffs=zoffs)
         t = p.t
         if t is None or not float(t) > 0.0:
             raise self.err(f"{owner}: field T: expected a positive thickness, got {t}")
@@ -528,7 +529,7 @@ class _Reader(ExtraCards):
                 rho = rho_b
         return dict(eids=eid, nodes=nodes, t=t, E=E, nu=nu, G=G, rho=rho,
                     nsm=float(p.nsm or 0.0), bend_E=bend_E, bend_nu=bend_nu, shear_G=shear_G,
-                    lam_A=np.zeros((3, 3)), lam_D=np.zeros((3, 3)), lam_shear=0.0)
+                    lam_A=np.zeros((3, 3)), lam_D=np.zeros((3, 3)), lam_shear=0.0, zoffs=zoffs)
 
     def _shear(self, e):
         eid = e.eid
