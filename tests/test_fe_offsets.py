@@ -21,9 +21,10 @@ E, T, L, B = 7.0e10, 0.01, 1.0, 0.1
 EI, EA, KGA = E * B * T**3 / 12, E * B * T, 5 / 6 * E / 2 * B * T  # ν = 0: G = E/2
 
 
-def _strip(plates, nx=10, ny=2, nu=0.0, tria=False):
+def _strip(plates, nx=10, ny=2, nu=0.0, tria=False, pcomp=False):
     """(model, tip grid ids) of a strip whose every cell carries one shell per (thickness,
-    ZOFFS) in ``plates`` on the same grids (CQUAD4, or two CTRIA3s per cell)."""
+    ZOFFS) in ``plates`` on the same grids (CQUAD4, or two CTRIA3s per cell); PSHELL, or PCOMP
+    with one MAT1 ply."""
     m = new_deck()
 
     def gid(i, j):
@@ -35,7 +36,10 @@ def _strip(plates, nx=10, ny=2, nu=0.0, tria=False):
     m.add_mat1(1, E, None, nu, rho=2700.0)
     eid = 1
     for k, (t, _) in enumerate(plates):
-        m.add_pshell(k + 1, mid1=1, t=t, mid2=1, mid3=1)
+        if pcomp:
+            m.add_pcomp(k + 1, [1], [t], [0.0])
+        else:
+            m.add_pshell(k + 1, mid1=1, t=t, mid2=1, mid3=1)
     for i in range(nx):
         for j in range(ny):
             g = [gid(i, j), gid(i + 1, j), gid(i + 1, j + 1), gid(i, j + 1)]
@@ -98,15 +102,17 @@ def test_two_offset_plates_are_one_plate_of_twice_the_thickness(tria):
         assert d <= 1e-3 and d2 <= d / 2
 
 
-@pytest.mark.parametrize("tria", [False, True], ids=["CQUAD4", "CTRIA3"])
-def test_offset_cantilever_eccentric_axial_load(tria):
+@pytest.mark.parametrize("tria,pcomp", [(False, False), (True, False), (False, True)],
+                         ids=["CQUAD4", "CTRIA3", "CQUAD4-PCOMP"])
+def test_offset_cantilever_eccentric_axial_load(tria, pcomp):
     """Plate with ZOFFS = z0 = 2t, a tip force P along x at the grids, i.e. at −z0 from the
     plate's neutral (reference) plane: the beam with the shifted neutral axis carries P and the
     constant moment P z0, so w_tip = P z0 L² / (2EI) and the grids' u_tip = PL/EA + z0² PL/EI
     (EI = E b t³/12, EA = E b t). Constant curvature is exact in both elements (linear rotations,
-    quadratic w at the grids): 1e-8 (observed ≤ 2e-10, the conditioning of K)."""
+    quadratic w at the grids): 1e-8 (observed ≤ 2e-10, the conditioning of K). The same with a
+    one-ply PCOMP (its laminate A, D about the ply's mid-plane, offset by the element's ZOFFS)."""
     z0, P = 2 * T, 1.0
-    fe, tip = _strip([(T, z0)], tria=tria)
+    fe, tip = _strip([(T, z0)], tria=tria, pcomp=pcomp)
     U = _tip_load(fe, tip, 1, P)
     k = tip[1] - 1
     assert U[k, 2] == pytest.approx(P * z0 * L**2 / (2 * EI), rel=1e-8)

@@ -9,7 +9,8 @@ selection of the SPC set and eigenvalue method from the case control (or the onl
 
 Supported structural cards: GRID (CP, CD, PS), GRDSET, SPOINT (a one-DOF row after the grids),
 CORD1R/C/S, CORD2R/C/S, SPC, SPC1, SPCADD, MPC/MPCADD, MAT1, CROD/PROD, CONROD, CQUAD4/CTRIA3
-with PSHELL or PCOMP (MAT1/MAT8 plies, :mod:`torchrom.fe.laminate`), CHEXA/CPENTA/CTETRA/PSOLID
+with PSHELL or PCOMP (MAT1/MAT8 plies, :mod:`torchrom.fe.laminate`) and ZOFFS
+(:mod:`torchrom.fe.elements.offset`), CHEXA/CPENTA/CTETRA/PSOLID
 (corner grids, or with all their edge grids), CSHEAR/PSHEAR, CBAR/PBAR/PBARL,
 CBEAM/PBEAM/PBEAML (:mod:`torchrom.fe.sections`), CELAS1/PELAS, CELAS2, CONM1, CONM2,
 CMASS1/PMASS, CMASS2, CBUSH/PBUSH (coincident grids), GENEL, RBE2, RBAR, RBE3, EIGR, EIGRL, FORCE,
