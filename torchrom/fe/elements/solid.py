@@ -20,12 +20,14 @@ Isotropic linear elasticity (MAT1: E, ν; G taken from E and ν). Integration, f
 2×2×2 and 20-grid hexa 3×3×3 (exact for the parallelepiped's BᵀDB and mass); penta 3 × 2 and
 15-grid penta the 7-point degree-5 triangle rule × 3 Gauss points (exact for the right prism's
 BᵀDB, degree 4, and mass, degree 4 in each direction); tetra 1 point, quadratic tetra 4 points
-(exact for straight edges, where BᵀDB is quadratic). Nastran's default for the quadratic hexa
-and penta is a reduced rule (PSOLID IN/ISOP); the full rules are used here because the reduced
-2×2×2 rule leaves a single 20-grid hexahedron with spurious zero-energy modes, so coarse-mesh
-answers differ from Nastran's by the integration error. **Linear** (small strains and rotations):
-a geometrically nonlinear analysis includes them through their linear stiffness only (the model
-warns, :class:`~torchrom.fe.model.LinearElementWarning`). Fully integrated low-order solids are
+(exact for straight edges, where BᵀDB is quadratic). Nastran's PSOLID fields IN/ISOP select a
+reduced or the full rule for the quadratic hexa and penta; PSOLID is read for its material only
+and the full rules are always used here (the reduced 2×2×2 rule leaves a single 20-grid
+hexahedron with six spurious zero-energy modes besides the six rigid ones), so coarse-mesh
+answers can differ from a reduced-integration Nastran run by the integration error.
+**Linear** (small strains and rotations): a geometrically nonlinear analysis includes them
+through their linear stiffness only (the model warns,
+:class:`~torchrom.fe.model.LinearElementWarning`). Fully integrated low-order solids are
 stiff in bending (shear locking): a bending-dominated part needs several elements through its
 thickness (Nastran's CHEXA adds bubble functions, so its answers differ on coarse meshes); the
 quadratic forms bend well with one element through the thickness.
