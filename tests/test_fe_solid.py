@@ -329,3 +329,17 @@ def test_partly_quadratic_hexa_is_refused():
     with pytest.raises(InputError, match=r"^test.bdf: CHEXA 7: field G11: edge grid blank while "
                        r"other edge grids are given: expected all 12 edge grids or none"):
         model_of(m)
+
+
+def test_reduced_integration_request_is_noted():
+    """PSOLID ISOP = REDUCED on a 20-grid CHEXA: the full rule is used, and the model says so."""
+    m = new_deck()
+    for k, x in enumerate(_reference_nodes(20)[0]):
+        m.add_grid(k + 1, list(x))
+    m.add_mat1(1, 2.0e11, None, 0.3, rho=7800.0)
+    m.add_psolid(1, 1, isop="REDUCED")
+    m.add_chexa(7, 1, list(range(1, 21)))
+    fe = model_of(m)
+    assert any(n.startswith("PSOLID 1: IN = None, ISOP = REDUCED (reduced integration) on "
+                            "CHEXA 7 with edge grids: the full Gauss rule is used")
+               for n in fe.notes), fe.notes

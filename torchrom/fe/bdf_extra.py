@@ -50,10 +50,22 @@ class ExtraCards:
         if not (E > 0 and -1.0 < nu < 0.5):
             raise self.err(f"PSOLID {p.pid}: MAT1 {p.mid}: a solid needs E > 0 and -1 < NU < 0.5,"
                            f" got E = {E}, NU = {nu}")
+        if len(nodes) > corners:
+            self._note_reduced_integration(p, card, eid)
         rows = self.rows(nodes, card, eid)
         if not abs(solid_volumes(self.xyz[rows][None])[0]) > 0:
             raise self.err(f"{card} {eid}: zero volume (grids {nodes})")
         return dict(eids=eid, nodes=rows, E=E, nu=nu, rho=rho)
+
+    def _note_reduced_integration(self, p, card: str, eid: int) -> None:
+        """PSOLID IN = 2 or ISOP = 0/REDUCED asks Nastran for reduced integration of the
+        quadratic forms; the full rule is used here (:mod:`torchrom.fe.elements.solid`)."""
+        integ, isop = str(p.integ or "").upper(), str(p.isop if p.isop is not None else "")
+        if integ in ("2", "TWO") or isop.upper() in ("0", "REDUCED"):
+            note = (f"PSOLID {p.pid}: IN = {p.integ}, ISOP = {p.isop} (reduced integration) on"
+                    f" {card} {eid} with edge grids: the full Gauss rule is used")
+            if not any(n.startswith(f"PSOLID {p.pid}: IN") for n in self.notes):
+                self.notes.append(note)
 
     def _check_trias(self, trias) -> None:
         """Triangles with a zero area (collinear or coincident grids) are refused."""
