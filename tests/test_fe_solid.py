@@ -343,3 +343,23 @@ def test_reduced_integration_request_is_noted():
     assert any(n.startswith("PSOLID 1: IN = None, ISOP = REDUCED (reduced integration) on "
                             "CHEXA 7 with edge grids: the full Gauss rule is used")
                for n in fe.notes), fe.notes
+
+
+def test_partly_quadratic_hexa_through_the_command_line(tmp_path, capsys):
+    """The same deck through ``torchrom modes``: exit status 2 and a one-line message naming
+    the file, the element and the field (tests/test_bad_input.py's contract)."""
+    from torchrom.cli import main
+
+    m = new_deck()
+    for k, x in enumerate(_reference_nodes(20)[0]):
+        m.add_grid(k + 1, list(x))
+    m.add_mat1(1, 2.0e11, None, 0.3, rho=7800.0)
+    m.add_psolid(1, 1)
+    m.add_chexa(7, 1, list(range(1, 11)) + [None] * 10)
+    m.add_eigrl(10, nd=4)
+    path = tmp_path / "block.bdf"
+    m.write_bdf(str(path), enddata=True)
+    assert main(["modes", str(path)]) == 2
+    lines = [ln for ln in capsys.readouterr().err.splitlines() if ln.strip()]
+    assert "Traceback" not in "\n".join(lines)
+    assert "block.bdf: CHEXA 7: field G11: edge grid blank" in lines[-1]

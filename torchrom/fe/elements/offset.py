@@ -27,7 +27,9 @@ Choices, stated because they change numbers:
   translation–rotation coupling of a mass at a distance z0 (the lumped mass is then no longer
   diagonal, as for an offset CONM2). The plate's own rotary inertia about its mid-plane stays
   neglected, as without offset.
-- Pressure loads act along the normal, parallel to the offset, so they are unchanged.
+- Loads stay at the grids: a pressure acts along the normal, parallel to the offset, so moving
+  it to the reference plane would change nothing; a PLOAD4 with an in-plane direction (N1–N3)
+  would gain a moment z0 × F there, which is not added.
 """
 
 from __future__ import annotations
