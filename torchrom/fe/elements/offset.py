@@ -11,7 +11,11 @@ B = z0 A and D + z0² A of plate theory (Reddy, *Mechanics of Laminated Composit
 Shells*, §3.3, for a laminate whose reference surface is moved by z0), with A integrated by the
 membrane's own rule (normal strains at 2×2 Gauss points, the in-plane shear at the centre for the
 quad; one point for the triangle), so the offset twisting stiffness z0² A66 of a quad is
-integrated at its centre.
+integrated at its centre. For the triangle the offset part z0² A acts on the constant gradient
+of the linearly interpolated grid rotations (the CST membrane), the plate's own D on DKT's
+curvatures; the two agree as the mesh converges (two plates at ZOFFS = ±t/2 vs one of 2t, tip
+deflection of a cantilever strip, ν = 0.3: 0.67 %, 0.36 %, 0.22 %, 0.11 % apart on 10×2, 20×4,
+40×8, 80×16 cells; ν = 0: 0.40 %, 0.10 %, 0.025 %).
 
 Choices, stated because they change numbers:
 
