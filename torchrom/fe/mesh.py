@@ -105,8 +105,8 @@ class TriaSet(_ShellSet):
 
 @dataclass
 class SolidSet:
-    """CHEXA/CPENTA/CTETRA (one family: 8, 20, 6, 15, 4 or 10 grids) with PSOLID/MAT1: linear
-    solids."""
+    """CHEXA/CPENTA/CTETRA (one family: 8, 20, 6, 15, 4 or 10 grids) with PSOLID/MAT1: small-strain
+    linear elastic solids."""
 
     eids: np.ndarray
     nodes: np.ndarray  # (n, nn) grid rows

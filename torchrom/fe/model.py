@@ -8,6 +8,8 @@ sparse factorisations to scipy (see :mod:`torchrom.fe.solvers`).
 Total Lagrangian, St Venant–Kirchhoff (DIGEST Sec. 1, Eqs. 1–4): rods, membranes and shear
 panels use the Green–Lagrange strain, so their internal forces are exact cubic polynomials of the
 displacements; plate bending, drilling, rod torsion and CBAR are linear (see the element modules).
+Shells with ZOFFS (:mod:`torchrom.fe.elements.offset`) are linear altogether, and a model that
+has them refuses the nonlinear internal forces and tangents with a one-line error.
 All public vectors live on the independent ("free") DOFs: ``u_all = T u`` (constraints: SPC,
 GRID PS, RBE2, RBE3, automatic SPC of DOFs without stiffness).
 
