@@ -2,9 +2,9 @@
 
 Hand-written, like :mod:`torchrom.fe.bdf_read` (whose ``_Reader`` inherits these methods and
 provides ``self.m`` (the pyNastran model), ``self.f`` (file name), ``self.xyz``, ``self.ids``,
-``self.rows``, ``self.prop``, ``self.mat1``, ``self.err`` and ``self.notes``): linear solids
-(CHEXA/CPENTA/CTETRA + PSOLID), PCOMP shells, CELAS1/CELAS2, CBUSH, CONM1, RBAR, RBE1 and
-MPC/MPCADD, and the zero-area check of CTRIA3. Kept in their own module so that the core
+``self.rows``, ``self.prop``, ``self.mat1``, ``self.err`` and ``self.notes``): linear and
+quadratic solids (CHEXA/CPENTA/CTETRA + PSOLID), PCOMP shells, CELAS1/CELAS2, CBUSH, CONM1, RBAR,
+RBE1 and MPC/MPCADD, and the zero-area check of CTRIA3. Kept in their own module so that the core
 reader stays small.
 """
 
@@ -29,17 +29,26 @@ from .mesh import (
     ScalarSpring,
 )
 
-#: solid elements and the numbers of grids supported (corner grids; CTETRA also with its edges)
-SOLID_GRIDS = {"CHEXA": (8,), "CPENTA": (6,), "CTETRA": (4, 10)}
+#: solid elements and the numbers of grids supported: the corner grids alone, or with all the
+#: edge grids (the quadratic forms)
+SOLID_GRIDS = {"CHEXA": (8, 20), "CPENTA": (6, 15), "CTETRA": (4, 10)}
 
 
 class ExtraCards:
     """Card readers mixed into :class:`torchrom.fe.bdf_read._Reader`."""
 
     def _solid(self, e):
-        """CHEXA/CPENTA with the corner grids only (linear), CTETRA with 4 or all 10 grids,
-        PSOLID and MAT1."""
+        """CHEXA, CPENTA, CTETRA with their corner grids alone (linear) or with all their edge
+        grids (quadratic), PSOLID and MAT1."""
         eid, card = e.eid, e.type
+        corners = SOLID_GRIDS[card][0]
+        given = [n not in (None, 0) for n in e.nodes]
+        edges = given[corners:]
+        if any(edges) and not all(edges):
+            k = corners + edges.index(False)
+            raise self.err(f"{card} {eid}: field G{k + 1}: edge grid blank while other edge grids"
+                           f" are given: expected all {SOLID_GRIDS[card][1] - corners} edge grids"
+                           " or none (partly quadratic solids are not supported)")
         nodes = [n for n in e.nodes if n not in (None, 0)]
         if len(nodes) not in SOLID_GRIDS[card]:
             forms = " or ".join(str(k) for k in SOLID_GRIDS[card])
@@ -50,10 +59,22 @@ class ExtraCards:
         if not (E > 0 and -1.0 < nu < 0.5):
             raise self.err(f"PSOLID {p.pid}: MAT1 {p.mid}: a solid needs E > 0 and -1 < NU < 0.5,"
                            f" got E = {E}, NU = {nu}")
+        if len(nodes) > corners:
+            self._note_reduced_integration(p, card, eid)
         rows = self.rows(nodes, card, eid)
         if not abs(solid_volumes(self.xyz[rows][None])[0]) > 0:
             raise self.err(f"{card} {eid}: zero volume (grids {nodes})")
         return dict(eids=eid, nodes=rows, E=E, nu=nu, rho=rho)
+
+    def _note_reduced_integration(self, p, card: str, eid: int) -> None:
+        """PSOLID IN = 2 or ISOP = 0/REDUCED asks Nastran for reduced integration of the
+        quadratic forms; the full rule is used here (:mod:`torchrom.fe.elements.solid`)."""
+        integ, isop = str(p.integ or "").upper(), str(p.isop if p.isop is not None else "")
+        if integ in ("2", "TWO") or isop.upper() in ("0", "REDUCED"):
+            note = (f"PSOLID {p.pid}: IN = {p.integ}, ISOP = {p.isop} (reduced integration) on"
+                    f" {card} {eid} with edge grids: the full Gauss rule is used")
+            if not any(n.startswith(f"PSOLID {p.pid}: IN") for n in self.notes):
+                self.notes.append(note)
 
     def _check_trias(self, trias) -> None:
         """Triangles with a zero area (collinear or coincident grids) are refused."""

@@ -9,11 +9,12 @@ selection of the SPC set and eigenvalue method from the case control (or the onl
 
 Supported structural cards: GRID (CP, CD, PS), GRDSET, SPOINT (a one-DOF row after the grids),
 CORD1R/C/S, CORD2R/C/S, SPC, SPC1, SPCADD, MPC/MPCADD, MAT1, CROD/PROD, CONROD, CQUAD4/CTRIA3
-with PSHELL or PCOMP (MAT1/MAT8 plies, :mod:`torchrom.fe.laminate`), CHEXA/CPENTA/CTETRA/PSOLID
-(linear, corner grids; CTETRA also quadratic), CSHEAR/PSHEAR, CBAR/PBAR/PBARL,
-CBEAM/PBEAM/PBEAML (:mod:`torchrom.fe.sections`; offsets with every CBAR OFFT code, pin flags,
-I12: :mod:`torchrom.fe.elements.bar`), CELAS1/PELAS, CELAS2, CONM1, CONM2,
-CMASS1/PMASS, CMASS2, CBUSH/PBUSH, GENEL, RBE1, RBE2, RBAR, RBE3, EIGR, EIGRL, FORCE,
+with PSHELL or PCOMP (MAT1/MAT8 plies, :mod:`torchrom.fe.laminate`) and ZOFFS
+(:mod:`torchrom.fe.elements.offset`), CHEXA/CPENTA/CTETRA/PSOLID (corner grids, or with all
+their edge grids), CSHEAR/PSHEAR, CBAR/PBAR/PBARL, CBEAM/PBEAM/PBEAML (:mod:`torchrom.fe.sections`;
+offsets with every CBAR OFFT code, pin flags, I12: :mod:`torchrom.fe.elements.bar`), CELAS1/PELAS,
+CELAS2, CONM1, CONM2, CMASS1/PMASS, CMASS2, CBUSH/PBUSH, GENEL, RBE1, RBE2, RBAR, RBE3, EIGR,
+EIGRL, FORCE,
 MOMENT, PLOAD2, PLOAD4, LOAD, PARAM (COUPMASS, WTMASS are used). Cards without effect on modes
 and flutter are accepted with a note (:data:`torchrom.fe.bdf_cards.NOTED_CARDS`).
 Aerodynamic and solution-control cards (CAERO1, PAERO1, SPLINE*, SET1, AERO, AEROS, MKAERO*,
@@ -383,7 +384,7 @@ class _Reader(ExtraCards):
         mesh.coupled_mass = self._param("COUPMASS", -1) > 0
         wtmass = float(self._param("WTMASS", 1.0))
         rods, quads, shears, bars, trias = [], [], [], [], []
-        solids: dict[int, list] = {8: [], 6: [], 4: [], 10: []}
+        solids: dict[int, list] = {8: [], 6: [], 4: [], 10: [], 20: [], 15: []}
         for eid in sorted(self.m.elements):
             e = self.m.elements[eid]
             if e.type in ("CROD", "CONROD"):
@@ -504,10 +505,11 @@ class _Reader(ExtraCards):
         eid, card = e.eid, e.type
         p = self.prop(e.pid, card, eid, ("PSHELL", "PCOMP"))
         owner = f"{p.type} {p.pid}"
-        if abs(float(e.zoffset or 0.0)) > 0.0:
-            raise self.err(f"{card} {eid}: field ZOFFS: offsets are not supported, got {e.zoffset}")
+        zoffs = float(e.zoffset or 0.0)
+        if not np.isfinite(zoffs):
+            raise self.err(f"{card} {eid}: field ZOFFS: expected a finite offset, got {e.zoffset}")
         if p.type == "PCOMP":
-            return self._pcomp_shell(e, p)
+            return dict(self._pcomp_shell(e, p), zoffs=zoffs)
         t = p.t
         if t is None or not float(t) > 0.0:
             raise self.err(f"{owner}: field T: expected a positive thickness, got {t}")
@@ -538,7 +540,7 @@ class _Reader(ExtraCards):
                 rho = rho_b
         return dict(eids=eid, nodes=nodes, t=t, E=E, nu=nu, G=G, rho=rho,
                     nsm=float(p.nsm or 0.0), bend_E=bend_E, bend_nu=bend_nu, shear_G=shear_G,
-                    lam_A=np.zeros((3, 3)), lam_D=np.zeros((3, 3)), lam_shear=0.0)
+                    lam_A=np.zeros((3, 3)), lam_D=np.zeros((3, 3)), lam_shear=0.0, zoffs=zoffs)
 
     def _shear(self, e):
         eid = e.eid

@@ -9,7 +9,7 @@ system (columns of ``cd_axes``), as in Nastran.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 
 import numpy as np
 
@@ -56,17 +56,31 @@ class _ShellSet:
     lam_A: np.ndarray = field(default_factory=lambda: _empty(0, 3, 3))
     lam_D: np.ndarray = field(default_factory=lambda: _empty(0, 3, 3))
     lam_shear: np.ndarray = field(default_factory=lambda: _empty(0))
+    #: ZOFFS: offset of the reference (mid-)plane from the plane of the grids along the element
+    #: normal (0: none)
+    zoffs: np.ndarray = field(default_factory=lambda: _empty(0))
 
     def __post_init__(self):
         n = len(self.eids)
         if len(self.lam_A) != n:
             self.lam_A, self.lam_D = np.zeros((n, 3, 3)), np.zeros((n, 3, 3))
             self.lam_shear = np.zeros(n)
+        if len(self.zoffs) != n:
+            self.zoffs = np.zeros(n)
 
     @property
     def laminated(self) -> np.ndarray:
         """(n,) True for PCOMP elements (stiffness from ``lam_A``/``lam_D``)."""
         return np.any(self.lam_A != 0.0, axis=(1, 2))
+
+    @property
+    def offset(self) -> np.ndarray:
+        """(n,) True for elements with a ZOFFS offset."""
+        return self.zoffs != 0.0
+
+    def select(self, mask: np.ndarray):
+        """The elements where ``mask`` (n,) is True, as a set of the same class."""
+        return type(self)(**{f.name: getattr(self, f.name)[mask] for f in fields(self)})
 
     def __len__(self) -> int:
         return len(self.eids)
@@ -91,7 +105,8 @@ class TriaSet(_ShellSet):
 
 @dataclass
 class SolidSet:
-    """CHEXA/CPENTA/CTETRA (one family: 8, 6, 4 or 10 grids) with PSOLID/MAT1: linear solids."""
+    """CHEXA/CPENTA/CTETRA (one family: 8, 20, 6, 15, 4 or 10 grids) with PSOLID/MAT1: small-strain
+    linear elastic solids."""
 
     eids: np.ndarray
     nodes: np.ndarray  # (n, nn) grid rows

@@ -8,6 +8,8 @@ sparse factorisations to scipy (see :mod:`torchrom.fe.solvers`).
 Total Lagrangian, St Venant–Kirchhoff (DIGEST Sec. 1, Eqs. 1–4): rods, membranes and shear
 panels use the Green–Lagrange strain, so their internal forces are exact cubic polynomials of the
 displacements; plate bending, drilling, rod torsion and CBAR are linear (see the element modules).
+Shells with ZOFFS (:mod:`torchrom.fe.elements.offset`) are linear altogether, and a model that
+has them refuses the nonlinear internal forces and tangents with a one-line error.
 All public vectors live on the independent ("free") DOFs: ``u_all = T u`` (constraints: SPC,
 GRID PS, RBE1, RBE2, RBE3, automatic SPC of DOFs without stiffness).
 
@@ -31,6 +33,7 @@ from .assembly import ProjectedPattern, assemble, project
 from .constraints import COMPONENT, build_constraints, drop_free
 from .elements.bar import bar_mass_blocks, bar_stiffness_blocks
 from .elements.green import GreenKernel, GreenPoints
+from .elements.offset import offset_mass_blocks, offset_stiffness_blocks
 from .elements.quad4 import (
     area_mass_blocks,
     bending_blocks,
@@ -74,6 +77,28 @@ def _coo_parts(M: sp.spmatrix):
     return c.row.astype(np.int64), c.col.astype(np.int64), c.data
 
 
+def _without_offset(shells):
+    """The quads or triangles without ZOFFS (the others: :mod:`torchrom.fe.elements.offset`)."""
+    return shells.select(~shells.offset) if shells.offset.any() else shells
+
+
+def _offset_shells(mesh: Mesh) -> list:
+    """The sets of offset quads and offset triangles (those that exist)."""
+    return [s.select(s.offset) for s in (mesh.quads, mesh.trias) if s.offset.any()]
+
+
+def _first_offset(mesh: Mesh) -> tuple[str, int, float, int] | None:
+    """(card, element id, ZOFFS, number of offset elements) of the lowest-numbered offset
+    shell, or None."""
+    found = [(int(s.eids[s.offset].min()), card, s) for card, s in
+             (("CQUAD4", mesh.quads), ("CTRIA3", mesh.trias)) if s.offset.any()]
+    if not found:
+        return None
+    eid, card, s = min(found, key=lambda x: x[0])
+    count = int(mesh.quads.offset.sum() + mesh.trias.offset.sum())
+    return card, eid, float(s.zoffs[s.eids == eid][0]), count
+
+
 def assemble_mass(mesh: Mesh) -> sp.csr_matrix:
     """Mass matrix of a mesh on all its grid DOFs (basic axes, 6 per grid): elements'
     structural and non-structural mass (lumped, or consistent with PARAM COUPMASS > 0), CONM1s,
@@ -83,11 +108,12 @@ def assemble_mass(mesh: Mesh) -> sp.csr_matrix:
     parts = []
     if len(mesh.rods):
         parts.append(rod_mass_blocks(mesh.rods, xyz, cm))
-    if len(mesh.quads):
-        q = mesh.quads
-        parts.append(area_mass_blocks(xyz, q.nodes, q.rho * q.t + q.nsm, cm))
-    if len(mesh.trias):
-        parts.append(tria_mass_blocks(mesh.trias, xyz, cm))
+    quads, trias = _without_offset(mesh.quads), _without_offset(mesh.trias)
+    if len(quads):
+        parts.append(area_mass_blocks(xyz, quads.nodes, quads.rho * quads.t + quads.nsm, cm))
+    if len(trias):
+        parts.append(tria_mass_blocks(trias, xyz, cm))
+    parts.extend(offset_mass_blocks(s, xyz, cm) for s in _offset_shells(mesh))
     for solids in mesh.solids:
         parts.append(solid_mass_blocks(solids, xyz, cm))
     if len(mesh.shears):
@@ -144,26 +170,31 @@ class FEModel:
         self.notes: list[str] = []  # cards accepted without effect, conditioning, ... (reader)
 
         # Nonlinear (Green-strain) integration points: rods (2 nodes, 1-D), quads+shear (4, 2-D).
+        # Shells with ZOFFS are linear (elements.offset): only the others have Green points.
+        quads, trias = _without_offset(mesh.quads), _without_offset(mesh.trias)
+        offsets = _offset_shells(mesh)
+        self._offset_element = _first_offset(mesh)
         groups = []
         if len(mesh.rods):
             groups.append(rod_points(mesh.rods, mesh.xyz))
         quad_like = []
-        if len(mesh.quads):
-            quad_like.append(membrane_points(mesh.quads, mesh.xyz))
+        if len(quads):
+            quad_like.append(membrane_points(quads, mesh.xyz))
         if len(mesh.shears):
             quad_like.append(shear_points(mesh.shears, mesh.xyz))
         if quad_like:
             groups.append(GreenPoints.concat(quad_like))
-        if len(mesh.trias):
-            groups.append(tria_points(mesh.trias, mesh.xyz))
+        if len(trias):
+            groups.append(tria_points(trias, mesh.xyz))
         self._points = groups
 
-        # Linear stiffness parts (bending + drilling, rod torsion, CBAR).
+        # Linear stiffness parts (bending + drilling, rod torsion, CBAR, offset shells).
         lin = []
-        if len(mesh.quads):
-            lin.append(bending_blocks(mesh.quads, mesh.xyz, drilling))
-        if len(mesh.trias):
-            lin.append(tria_bending_blocks(mesh.trias, mesh.xyz, drilling))
+        if len(quads):
+            lin.append(bending_blocks(quads, mesh.xyz, drilling))
+        if len(trias):
+            lin.append(tria_bending_blocks(trias, mesh.xyz, drilling))
+        lin.extend(offset_stiffness_blocks(s, mesh.xyz, drilling) for s in offsets)
         if len(mesh.rods):
             lin.append(rod_torsion_blocks(mesh.rods, mesh.xyz))
         if len(mesh.bars):
@@ -275,6 +306,16 @@ class FEModel:
                 stacklevel=3,
             )
 
+    def _refuse_offsets(self, what: str) -> None:
+        """Shells with ZOFFS are linear (small-rotation offset): no nonlinear analysis."""
+        if self._offset_element is not None:
+            card, eid, z0, count = self._offset_element
+            raise InputError(
+                f"{self.source or self.name}: {card} {eid}: field ZOFFS = {z0:g}: offset shells"
+                f" are linear only; {what} (nonlinear analysis) is not supported for a model with"
+                f" ZOFFS ({count} offset elements); modes, linear statics and flutter are"
+                " supported")
+
     # -- DOF bookkeeping -------------------------------------------------------------------------
     def dof_index(self, grid_id: int, component: int, what: str = "dof_index") -> int:
         """Index of (grid, component 1..6 in the grid's CD system) among the free DOFs."""
@@ -343,6 +384,7 @@ class FEModel:
         Exactly cubic in u (Green-strain parts) plus linear terms; autograd (reverse or forward
         mode, e.g. ``torch.func.jvp``/``jacfwd``) gives the exact tangent and Taylor coefficients.
         """
+        self._refuse_offsets("the internal force f(u)")
         st = self._state(u.dtype, u.device)
         u_all = self._all_torch(u, st)
         f_all = torch.zeros_like(u_all)
@@ -352,6 +394,7 @@ class FEModel:
 
     def material_force_torch(self, u: torch.Tensor, v: torch.Tensor) -> torch.Tensor:
         """K_mat(u) v, differentiable, for u, v of shape (..., n_dof)."""
+        self._refuse_offsets("the material tangent")
         st = self._state(u.dtype, u.device)
         u_all, v_all = self._all_torch(u, st), self._all_torch(v, st)
         f_all = torch.zeros_like(u_all)
@@ -361,6 +404,7 @@ class FEModel:
 
     def strain_energy_torch(self, u: torch.Tensor) -> torch.Tensor:
         """Strain energy W(u) (...,): f = ∂W/∂u."""
+        self._refuse_offsets("the strain energy W(u)")
         st = self._state(u.dtype, u.device)
         u_all = self._all_torch(u, st)
         W = 0.5 * (u * self._const_torch(u, st)).sum(-1)
@@ -385,6 +429,7 @@ class FEModel:
                            damping: float = 0.0, v=None) -> sp.csr_matrix:
         """material · K_mat(u) + geometric · K_geo(u) + damping · ∂(K_mat(u) v)/∂u, assembled in
         one pass (K_T = K_mat + K_geo; the linear element parts belong to K_mat)."""
+        self._refuse_offsets("the tangent stiffness")
         u_all = self.T @ np.asarray(u, dtype=float)
         v_all = None if not damping else self.T @ np.asarray(v, dtype=float)
         K = self._K_const_free * material if material else sp.csr_matrix((self.n_dof,) * 2)

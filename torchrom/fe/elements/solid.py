@@ -1,20 +1,42 @@
-"""CHEXA (8 grids), CPENTA (6), CTETRA (4 or 10) with PSOLID: isoparametric solids.
+"""CHEXA (8 or 20 grids), CPENTA (6 or 15), CTETRA (4 or 10) with PSOLID: isoparametric solids.
 
-Hand-written. Trilinear hexahedron, linear-triangle × linear-line wedge, linear tetrahedron and
-quadratic tetrahedron (Nastran's grid order: corners G1–G4, then the edge grids 1-2, 2-3, 3-1,
-1-4, 2-4, 3-4; N = L_i (2 L_i − 1) at the corners, 4 L_i L_j on the edges, Zienkiewicz & Taylor
-Vol. 1, §6.5), isotropic linear elasticity (MAT1: E, ν; G taken from E and ν), full Gauss
-integration (hexa 2×2×2, penta 3 × 2, tetra 1 point, quadratic tetra 4 points: exact for
-straight edges, where BᵀDB is quadratic). **Linear** (small strains and rotations): a geometrically
-nonlinear analysis includes them through their linear stiffness only (the model warns,
-:class:`~torchrom.fe.model.LinearElementWarning`). Fully integrated low-order solids are stiff
-in bending (shear locking): a bending-dominated part needs several elements through its
-thickness (Nastran's CHEXA adds bubble functions, so its answers differ on coarse meshes).
-Mass: consistent ∫ ρ N_a N_b dV, or lumped by row sums; the quadratic tetrahedron's row sums
-are negative at the corners (−ρV/20), so it is lumped by scaling the consistent diagonal to the
-element mass (Hinton–Rock–Zienkiewicz, which is how Nastran forms its diagonal mass: "scaling
-the diagonal terms of the coupled mass matrix for the correct element mass", PARAM COUPMASS).
-The other quadratic forms (CHEXA 20, CPENTA 15 grids) are refused by the reader.
+Hand-written. One code path (shape functions + integration rule per number of grids) serves
+the trilinear hexahedron, the linear-triangle × linear-line wedge, the linear tetrahedron and
+the quadratic forms, with Nastran's grid order (MSC Nastran Quick Reference Guide, CHEXA,
+CPENTA, CTETRA): corners first, then the edge grids —
+
+- CTETRA 10: edges 1-2, 2-3, 3-1, 1-4, 2-4, 3-4; N = L_i (2 L_i − 1) at the corners,
+  4 L_i L_j on the edges (Zienkiewicz & Taylor Vol. 1, §6.5);
+- CHEXA 20: edges 1-2, 2-3, 3-4, 4-1, 1-5, 2-6, 3-7, 4-8, 5-6, 6-7, 7-8, 8-5; the serendipity
+  quadratic hexahedron, N = ⅛ (1 + ξξ_a)(1 + ηη_a)(1 + ζζ_a)(ξξ_a + ηη_a + ζζ_a − 2) at the
+  corners, ¼ (1 − ξ²)(1 + ηη_a)(1 + ζζ_a) on an edge along ξ (Zienkiewicz & Taylor Vol. 1,
+  §6.4.3);
+- CPENTA 15: edges 1-2, 2-3, 3-1 (face 1-2-3), 1-4, 2-5, 3-6, 4-5, 5-6, 6-4 (face 4-5-6); the
+  quadratic wedge (triangle L_i × line ζ ∈ [−1, 1]): ½ L_i (2L_i − 1)(1 ∓ ζ) − ½ L_i (1 − ζ²)
+  at the corners, 2 L_i L_j (1 ∓ ζ) on the triangle edges, L_i (1 − ζ²) on the edges 1-4, 2-5,
+  3-6 (Zienkiewicz & Taylor Vol. 1, §6.5.2).
+
+Isotropic linear elasticity (MAT1: E, ν; G taken from E and ν). Integration, full Gauss: hexa
+2×2×2 and 20-grid hexa 3×3×3 (exact for the parallelepiped's BᵀDB and mass); penta 3 × 2 and
+15-grid penta the 7-point degree-5 triangle rule × 3 Gauss points (exact for the right prism's
+BᵀDB, degree 4, and mass, degree 4 in each direction); tetra 1 point, quadratic tetra 4 points
+(exact for straight edges, where BᵀDB is quadratic). Nastran's PSOLID fields IN/ISOP select a
+reduced or the full rule for the quadratic hexa and penta; PSOLID is read for its material only
+and the full rules are always used here (the reduced 2×2×2 rule leaves a single 20-grid
+hexahedron with six spurious zero-energy modes besides the six rigid ones), so coarse-mesh
+answers can differ from a reduced-integration Nastran run by the integration error.
+**Linear** (small strains and rotations): a geometrically nonlinear analysis includes them
+through their linear stiffness only (the model warns,
+:class:`~torchrom.fe.model.LinearElementWarning`). Fully integrated low-order solids are
+stiff in bending (shear locking): a bending-dominated part needs several elements through its
+thickness (Nastran's CHEXA adds bubble functions, so its answers differ on coarse meshes); the
+quadratic forms bend well with one element through the thickness.
+Mass: consistent ∫ ρ N_a N_b dV, or lumped. The quadratic forms' row sums are negative at the
+corners (−ρV/20 for the tetrahedron), so they are lumped by scaling the consistent diagonal to
+the element mass (Hinton–Rock–Zienkiewicz, which is how Nastran forms its diagonal mass:
+"scaling the diagonal terms of the coupled mass matrix for the correct element mass", PARAM
+COUPMASS); the linear forms by row sums. CHEXA/CPENTA with only some of their edge grids are
+refused by the reader.
 """
 
 from __future__ import annotations
@@ -67,6 +89,86 @@ def _tetra10(p):
     return N, d
 
 
+#: natural coordinates of the 20-grid hexahedron: corners, then the mid-points of the edges
+#: in Nastran's order
+_HEX20_EDGES = ((0, 1), (1, 2), (2, 3), (3, 0), (0, 4), (1, 5), (2, 6), (3, 7), (4, 5), (5, 6),
+                (6, 7), (7, 4))
+_HEX20_NODES = np.vstack([_HEX_NODES] + [(_HEX_NODES[i] + _HEX_NODES[j]) / 2
+                                         for i, j in _HEX20_EDGES])
+
+
+def _hexa20(p):
+    p = np.asarray(p, dtype=float)
+    N = np.empty(20)
+    d = np.empty((3, 20))
+    for a, s in enumerate(_HEX20_NODES):
+        f = 1 + p * s  # (1 + ξ ξ_a), (1 + η η_a), (1 + ζ ζ_a); 1 along an edge's own direction
+        if a < 8:
+            c = s @ p - 2
+            N[a] = 0.125 * f.prod() * c
+            for k in range(3):
+                d[k, a] = 0.125 * s[k] * np.prod(np.delete(f, k)) * (c + f[k])
+        else:
+            m = int(np.flatnonzero(s == 0)[0])  # the edge runs along natural direction m
+            g = np.prod(np.delete(f, m))
+            N[a] = 0.25 * (1 - p[m] ** 2) * g
+            for k in range(3):
+                d[k, a] = (-0.5 * p[m] * g if k == m else
+                           0.25 * (1 - p[m] ** 2) * s[k] * np.prod(np.delete(f, [k, m])))
+    return N, d
+
+
+#: the 15-grid wedge's edges: triangle 1-2-3, the edges along ζ, triangle 4-5-6
+_PENTA15_EDGES = ((0, 1), (1, 2), (2, 0), (0, 3), (1, 4), (2, 5), (3, 4), (4, 5), (5, 3))
+
+
+def _penta15(p):
+    r, s, z = p
+    L = np.array([1 - r - s, r, s])
+    dL = np.array([[-1.0, 1.0, 0.0], [-1.0, 0.0, 1.0]])
+    q = 1 - z * z
+    N = np.empty(15)
+    gL = np.zeros((3, 15))  # ∂N/∂L_k, then chained to (r, s) by dL
+    dz = np.empty(15)
+    for a in range(6):  # corners: side σ = −1 (grids 1-3) or +1 (grids 4-6)
+        i, sg = a % 3, (-1.0 if a < 3 else 1.0)
+        lin = 1 + sg * z
+        N[a] = 0.5 * L[i] * (2 * L[i] - 1) * lin - 0.5 * L[i] * q
+        gL[i, a] = 0.5 * (4 * L[i] - 1) * lin - 0.5 * q
+        dz[a] = 0.5 * sg * L[i] * (2 * L[i] - 1) + L[i] * z
+    for k, (i, j) in enumerate(_PENTA15_EDGES):
+        a = 6 + k
+        if 3 <= k < 6:  # edge along ζ
+            N[a], gL[i, a], dz[a] = L[i] * q, q, -2 * z * L[i]
+        else:
+            sg = -1.0 if k < 3 else 1.0
+            i, j = i % 3, j % 3
+            lin = 1 + sg * z
+            N[a] = 2 * L[i] * L[j] * lin
+            gL[i, a], gL[j, a] = 2 * L[j] * lin, 2 * L[i] * lin
+            dz[a] = 2 * sg * L[i] * L[j]
+    return N, np.vstack((dL @ gL, dz))
+
+
+def _gauss_cube(n: int):
+    x, w = np.polynomial.legendre.leggauss(n)
+    return ([(a, b, c) for a in x for b in x for c in x],
+            [wa * wb * wc for wa in w for wb in w for wc in w])
+
+
+def _wedge_rule():
+    """Degree-5 7-point triangle rule (Radon; weights on the unit triangle, sum ½) × 3 Gauss."""
+    r15 = np.sqrt(15.0)
+    a, b = (6 - r15) / 21, (6 + r15) / 21
+    wa, wb = (155 - r15) / 2400, (155 + r15) / 2400
+    tri = ([(1 / 3, 1 / 3)] + [(a, a), (1 - 2 * a, a), (a, 1 - 2 * a)]
+           + [(b, b), (1 - 2 * b, b), (b, 1 - 2 * b)])
+    wt = [9 / 80] + [wa] * 3 + [wb] * 3
+    x, w = np.polynomial.legendre.leggauss(3)
+    return ([(r, s, z) for (r, s) in tri for z in x],
+            [wr * wz for wr in wt for wz in w])
+
+
 def collapsed_tetra_rule(n: int) -> tuple[list[tuple[float, float, float]], list[float]]:
     """Gauss–Legendre n×n×n on the unit cube mapped to the unit tetrahedron (Duffy:
     r = u, s = v (1 − u), t = w (1 − u)(1 − v), Jacobian (1 − u)² (1 − v)): exact for
@@ -95,7 +197,12 @@ RULES = {
 _A, _B = 0.5854101966249685, 0.1381966011250105
 _TET4 = ([(_B, _B, _B), (_A, _B, _B), (_B, _A, _B), (_B, _B, _A)], [1.0 / 24.0] * 4)
 RULES[10] = (_tetra10, *_TET4)
-MASS_RULES = {8: RULES[8][1:], 6: RULES[6][1:], 4: _TET4, 10: collapsed_tetra_rule(4)}
+RULES[20] = (_hexa20, *_gauss_cube(3))
+RULES[15] = (_penta15, *_wedge_rule())
+MASS_RULES = {8: RULES[8][1:], 6: RULES[6][1:], 4: _TET4, 10: collapsed_tetra_rule(4),
+              20: RULES[20][1:], 15: RULES[15][1:]}
+#: grids of the quadratic forms, lumped by HRZ (their row sums are negative at the corners)
+QUADRATIC = (10, 15, 20)
 
 
 def elasticity(E: np.ndarray, nu: np.ndarray) -> np.ndarray:
@@ -156,7 +263,7 @@ def solid_mass(X: np.ndarray, rho: np.ndarray, coupled: bool) -> np.ndarray:
         N, dnat = shape(p)
         det = _geometry(X, dnat)[0]
         pat += w * np.abs(det)[:, None, None] * np.outer(N, N)[None]
-    if not coupled and nn == 10:  # HRZ: the diagonal scaled to the element's mass
+    if not coupled and nn in QUADRATIC:  # HRZ: the diagonal scaled to the element's mass
         diag = np.einsum("naa->na", pat)
         scale = pat.sum(axis=(1, 2)) / diag.sum(axis=1)
         pat = np.einsum("na,ab->nab", diag * scale[:, None], np.eye(nn))
