@@ -74,24 +74,29 @@ def test_two_offset_plates_are_one_plate_of_twice_the_thickness(tria):
     z0² A adds exactly the missing bending stiffness. Tip-loaded cantilever strip, all
     displacements and rotations compared.
 
-    CQUAD4, ν = 0: equal to 1e-8 (observed 3e-11): the offset membrane's z0² A is integrated at
-    the same 2×2 points as the bending (cylindrical bending has no twist, which the membrane
-    integrates at the centre). CTRIA3: the offset part of the bending comes from the CST membrane
-    of the linearly interpolated rotations, the plate's own from DKT, so the two agree only as
-    the mesh converges: 10×2 cells within 0.5 % (observed 0.40 %), 20×4 within a third of that
-    (observed 0.25 ×, the O(h²) of both). CQUAD4, ν = 0.3: the offset twisting stiffness is
-    integrated at the centre, so 10×2 within 0.1 % (observed 0.084 %) and 20×4 within half of
-    that (observed 0.40 ×)."""
+    CQUAD4, ν = 0: without the quad's residual bending flexibility (RBF) the two were equal to
+    1e-8 (3e-11 observed): the offset membrane's z0² A is integrated at the same 2×2 points as
+    the bending (cylindrical bending has no twist, which the membrane integrates at the centre).
+    With it, each plate's transverse shear carries ℓ²/(12 D_t) of its own bending stiffness, the
+    single plate's ℓ²/(12 · 8 D_t): the pair is softer by an O(h²) term (the RBF sees each
+    element's own D, which is exact for a uniformly offset plate, below, where the offset's
+    membrane strain cancels): 10×2 cells within 1 % (observed 0.500 %), 20×4 within a third of
+    that (observed 0.125 %, then 0.031 % at 40×8). CTRIA3: the offset part of the bending comes
+    from the CST membrane of the linearly interpolated rotations, the plate's own from DKT, so
+    the two agree only as the mesh converges: 10×2 cells within 0.5 % (observed 0.40 %), 20×4
+    within a third of that (observed 0.25 ×, the O(h²) of both). CQUAD4, ν = 0.3: the strip's
+    anticlastic twist near the root adds the centre-integrated offset twisting stiffness and
+    the RBF's excess where the shear comes from a twist gradient (O(h), the simply supported
+    plate of tests/test_fe_solvers.py), so only the first refinement is asserted to halve the
+    difference: 10×2 within 1 % (observed 0.48 %), 20×4 within half of that (observed 0.15 %;
+    0.19 % at 40×8)."""
     pair, tip = _strip([(T, T / 2), (T, -T / 2)], tria=tria)
     one, _ = _strip([(2 * T, 0.0)], tria=tria)
     d = _difference(_tip_load(pair, tip, 3, 1.0), _tip_load(one, tip, 3, 1.0))
-    if not tria:
-        assert d <= 1e-8
-    else:
-        pair2, tip2 = _strip([(T, T / 2), (T, -T / 2)], 20, 4, tria=True)
-        one2, _ = _strip([(2 * T, 0.0)], 20, 4, tria=True)
-        d2 = _difference(_tip_load(pair2, tip2, 3, 1.0), _tip_load(one2, tip2, 3, 1.0))
-        assert d <= 5e-3 and d2 <= d / 3
+    pair2, tip2 = _strip([(T, T / 2), (T, -T / 2)], 20, 4, tria=tria)
+    one2, _ = _strip([(2 * T, 0.0)], 20, 4, tria=tria)
+    d2 = _difference(_tip_load(pair2, tip2, 3, 1.0), _tip_load(one2, tip2, 3, 1.0))
+    assert d <= (1e-2 if not tria else 5e-3) and d2 <= d / 3
     if not tria:
         pair, tip = _strip([(T, T / 2), (T, -T / 2)], nu=0.3)
         one, _ = _strip([(2 * T, 0.0)], nu=0.3)
@@ -99,7 +104,7 @@ def test_two_offset_plates_are_one_plate_of_twice_the_thickness(tria):
         pair2, tip2 = _strip([(T, T / 2), (T, -T / 2)], 20, 4, nu=0.3)
         one2, _ = _strip([(2 * T, 0.0)], 20, 4, nu=0.3)
         d2 = _difference(_tip_load(pair2, tip2, 3, 1.0), _tip_load(one2, tip2, 3, 1.0))
-        assert d <= 1e-3 and d2 <= d / 2
+        assert d <= 1e-2 and d2 <= d / 2
 
 
 @pytest.mark.parametrize("tria,pcomp", [(False, False), (True, False), (False, True)],
