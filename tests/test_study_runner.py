@@ -58,10 +58,16 @@ BUILTIN = 'builtin = "van_der_pol_duffing"\nc1 = -1.0\nd3 = 1.0\nk3 = 0.5'
 N_CASES, N_CHUNKS = 12, 6
 
 
-def write_config(folder, model: str = BUILTIN):
+def write_config(folder, model: str = BUILTIN, text: str = CONFIG):
     path = folder / "sweep.toml"
-    path.write_text(CONFIG.format(model=model))
+    path.write_text(text.format(model=model))
     return path
+
+
+#: the same cases run for 10,000 steps each (no LCO is decided at rtol 1e-12, so no case stops
+#: early): chunks of ~0.5 s, so that a SIGINT sent when the first part file appears finds the
+#: others still running (with the 1,000-step chunks the whole sweep could finish before it)
+SLOW_CONFIG = CONFIG.replace("dt = 0.01", "dt = 0.001").replace("rtol = 1e-3", "rtol = 1e-12")
 
 
 @pytest.fixture(scope="module")
@@ -83,6 +89,11 @@ def reference_run(config, tmp_path_factory):
 @pytest.fixture(scope="module")
 def reference(reference_run):
     return reference_run[0]
+
+
+@pytest.fixture(scope="module")
+def slow_config(tmp_path_factory):
+    return write_config(tmp_path_factory.mktemp("slow"), text=SLOW_CONFIG)
 
 
 @pytest.fixture(scope="module")
@@ -164,10 +175,12 @@ def test_scheduler_option_runs_on_an_existing_cluster(config, reference, cluster
     pd.testing.assert_frame_equal(pd.read_parquet(out / "results.parquet"), reference)
 
 
-def test_sigint_keeps_finished_chunks_and_resume_matches(config, reference, tmp_path, capsys):
+def test_sigint_keeps_finished_chunks_and_resume_matches(slow_config, tmp_path, capsys):
     """`torchrom sweep --workers 2` interrupted by SIGINT after its first finished chunk: exit
     130, finished chunks kept, no worker process left; the rerun (in-process) computes only the
-    missing cases and gives exactly the uninterrupted table."""
+    missing cases and gives exactly the uninterrupted table (:data:`SLOW_CONFIG`)."""
+    config = slow_config
+    reference, _ = run_sweep(load_sweep_config(config), out=tmp_path / "reference")
     out = tmp_path / "out"
     env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(REPO), os.environ.get(
         "PYTHONPATH", "")])}
