@@ -168,9 +168,15 @@ class FlutterDeck:
             pts_c = half.control_points[sp.box_index]
             hl, _ = sp.spline.operators(pts_l)
             hc, hx = sp.spline.operators(pts_c)
-            h_l[:, sp.box_index] = u @ hl.T
-            h_c[:, sp.box_index] = u @ hc.T
-            sl_c[:, sp.box_index] = u @ hx.T
+            # The DLM reads h along each box's normal. A plate spline interpolates that
+            # component already; a beam spline (SPLINE2/5) deflects along the z axis of its CID,
+            # which may point either way (bah_plane: the wing's CID 0 z is opposite to its boxes'
+            # normals, the tail's CID 3 z along them): project it on the normals.
+            along = (half.normals[sp.box_index] @ sp.spline.axes[2]
+                     if isinstance(sp.spline, BeamSpline) else 1.0)
+            h_l[:, sp.box_index] = (u @ hl.T) * along
+            h_c[:, sp.box_index] = (u @ hc.T) * along
+            sl_c[:, sp.box_index] = (u @ hx.T) * along
         full = self.aero_panels
         anti = self.reference.symxz < 0
         return BoxMotion(
@@ -445,21 +451,39 @@ class DeckResult:
         }
 
 
-def _modes(deck: FlutterDeck, fe):
-    from ..fe.solvers import require_restrained
+def _with_rigid(fe, modes, n_total: int | None, notes: list[str]):
+    """Frequencies and shapes of Nastran's modal basis: the rigid-body modes first (0 Hz exactly,
+    :func:`torchrom.fe.rigid.rigid_body_modes`), then the elastic ones, ``n_total`` in all (None:
+    every mode computed). Nastran counts its rigid-body modes among ND and LMODES."""
+    from ..fe.rigid import orthogonalise_against, rigid_body_modes
 
-    n_dof = fe.n_dof
-    n = deck.n_modes
-    where = f"{deck.path.name}: flutter"
-    if n is None:  # frequency range only
-        probe = require_restrained(fe.modes(min(n_dof, 100)), where)
-        f = np.asarray(probe.frequencies_hz)
-        lo, hi = deck.frequency_range
-        keep = np.flatnonzero((f >= lo) & (f <= hi))
-        return f[keep], np.asarray(probe.shapes)[:, keep]
-    modes = require_restrained(fe.modes(min(n, n_dof)), where)
     f = np.asarray(modes.frequencies_hz)
     shapes = np.asarray(modes.shapes)
+    if not modes.n_rigid:
+        return (f, shapes) if n_total is None else (f[:n_total], shapes[:, :n_total])
+    rigid, how = rigid_body_modes(fe, modes)
+    r = rigid.shape[1]
+    n_el = len(f) if n_total is None else max(n_total - r, 0)
+    elastic = orthogonalise_against(shapes[:, :n_el], rigid, fe.mass_matrix())
+    notes.append(f"{r} rigid-body mode(s) kept in the modal basis at 0 Hz ({how}; the "
+                 f"eigensolver gave ω² = "
+                 + ", ".join(f"{x:.2g}" for x in modes.rigid_eigenvalues) + ")")
+    n = r + n_el if n_total is None else min(n_total, r + n_el)
+    return (np.concatenate([np.zeros(r), f[:n_el]])[:n],
+            np.concatenate([rigid, elastic], axis=1)[:, :n])
+
+
+def _modes(deck: FlutterDeck, fe, notes: list[str]):
+    """The deck's modal basis (ND/LMODES or the EIGR/EIGRL frequency range), rigid-body modes
+    included as Nastran does (a free-free aircraft keeps its rigid-body modes)."""
+    n_dof = fe.n_dof
+    n = deck.n_modes
+    if n is None:  # frequency range only
+        f, shapes = _with_rigid(fe, fe.modes(min(n_dof, 100)), None, notes)
+        lo, hi = deck.frequency_range
+        keep = np.flatnonzero((f >= lo) & (f <= hi))
+        return f[keep], shapes[:, keep]
+    f, shapes = _with_rigid(fe, fe.modes(min(n, n_dof)), n, notes)
     lo = deck.frequency_range[0]
     keep = np.flatnonzero(f >= lo) if lo > 0 else np.arange(len(f))
     return f[keep], shapes[:, keep]
@@ -472,7 +496,8 @@ def run_deck(deck_or_path, fe=None, kernel: str = NASTRAN_KERNEL, log=print) -> 
         from ..fe import read_bdf
 
         fe = read_bdf(deck.path)
-    freqs, shapes = _modes(deck, fe)
+    mode_notes: list[str] = []
+    freqs, shapes = _modes(deck, fe, mode_notes)
     if len(freqs) == 0:
         raise InputError(f"{deck.path}: modes: none in the requested range")
     log(f"{deck.path.name}: {len(freqs)} modes: " + ", ".join(f"{f:.4g}" for f in freqs) + " Hz")
@@ -482,7 +507,7 @@ def run_deck(deck_or_path, fe=None, kernel: str = NASTRAN_KERNEL, log=print) -> 
     structure = ModalStructure(np.eye(len(freqs)), np.diag(omega**2))
     b = deck.reference.semichord
     panels = deck.aero_panels
-    results, notes = [], list(deck.notes) + list(getattr(fe, "notes", []))
+    results, notes = [], list(deck.notes) + list(getattr(fe, "notes", [])) + mode_notes
     def table_at(mach, k_list, case):
         log(
             f"FLUTTER {case.sid} ({case.method}): DLM at Mach {mach:g}, {len(k_list)} reduced "
@@ -491,9 +516,16 @@ def run_deck(deck_or_path, fe=None, kernel: str = NASTRAN_KERNEL, log=print) -> 
         gaf = compute_gaf(panels, motion, mach, k_list, b, kernel)
         return AeroTable.from_gaf(gaf, interpolation="linear" if case.imeth == "L" else "cubic")
 
+    n_rigid = int(np.sum(freqs == 0.0))
+
     def pk_k_list(mach):
         near = min({m for m, _ in deck.mkaero}, key=lambda m: abs(m - mach))
-        return sorted({k for m, k in deck.mkaero if m == near})
+        k_list = {k for m, k in deck.mkaero if m == near}
+        # rigid-body roots sit at k -> 0: the steady GAF (k = 0) is added so that their
+        # aerodynamic stiffness is the steady one (none for a rigid plunge) rather than that of
+        # the lowest MKAERO k (a small spurious stiffness: a plunge root of 5e-3 rad/s at
+        # V = 30 in bah_plane, real +-9e-4 in its f06)
+        return sorted(k_list | ({0.0} if n_rigid else set()))
 
     for case in deck.cases:
         if case.method == "PKNL":
@@ -512,7 +544,8 @@ def run_deck(deck_or_path, fe=None, kernel: str = NASTRAN_KERNEL, log=print) -> 
                 sel = mach_all == mach
                 aero = table_at(mach, pk_k_list(mach), case)
                 sweep = pk_sweep(structure, aero, np.abs(case.values[sel]), rho_all[sel],
-                                 mach=mach, eps=min(case.eps, 1e-4))
+                                 mach=mach, eps=min(case.eps, 1e-4),
+                                 real_root_damping="nastran")
                 points = sweep.crossings()  # linear in the path, as Nastran's summary
                 for p in points:
                     p.mach = float(mach)
@@ -531,7 +564,8 @@ def run_deck(deck_or_path, fe=None, kernel: str = NASTRAN_KERNEL, log=print) -> 
             for ratio, rho in zip(case.density_ratios, case.densities):
                 if case.method.startswith("PK"):
                     v = np.sort(np.abs(case.values))
-                    sweep = pk_sweep(structure, aero, v, rho, mach=mach, eps=min(case.eps, 1e-4))
+                    sweep = pk_sweep(structure, aero, v, rho, mach=mach,
+                                     eps=min(case.eps, 1e-4), real_root_damping="nastran")
                     points = refine_pk_crossings(structure, aero, sweep)
                 else:
                     sweep = ke_sweep(structure, aero, case.values, rho)
