@@ -249,12 +249,58 @@ def test_free_free_pt145_rigid_body_and_elastic_modes(shared, tmp_path):
     assert records[4]["mode"] == 5 and records[4]["kind"] == "bending"
 
 
-def test_free_free_flutter_is_a_clear_error(shared, tmp_path, capsys):
+def test_rigid_body_modes_from_the_geometry(shared, tmp_path):
+    """Free-free pt145's four rigid-body modes built from the grids' rigid motions
+    (:func:`torchrom.fe.rigid.rigid_body_modes`): mass-orthonormal (GᵀMG = I to 1e-12: an
+    eigen-decomposition of a 4 x 4 matrix), strain-free (GᵀKG ≤ 1e-10 of the first elastic ω²:
+    exact rigid motions carry round-off energy only; the eigensolver's rigid modes have
+    ω² = 7.7e-5, 1e-11 of it), expanded to the grids they are exact rigid motions (each grid's
+    translation is t + θ × x with one (t, θ) for the whole model, to 1e-12), and they span the
+    eigensolver's rigid modes (M-projection residual ≤ 1e-6). The elastic modes are
+    M-orthogonal to them (1e-10)."""
+    from torchrom.fe import read_bdf
+    from torchrom.fe.rigid import rigid_body_modes
+
+    fe = read_bdf(_free_free_pt145(shared, tmp_path))
+    modes = fe.modes(4)
+    G, how = rigid_body_modes(fe, modes)
+    assert G.shape[1] == 4 and how.startswith("rigid motions")
+    M, K = fe.mass_matrix(), fe.stiffness_matrix()
+    assert np.abs(G.T @ (M @ G) - np.eye(4)).max() <= 1e-12
+    assert np.abs(G.T @ (K @ G)).max() <= 1e-10 * modes.eigenvalues[0]
+    u = fe.expand(G)  # (4, n_grid, 6) in basic axes
+    x = fe.grid_xyz
+    for ui in u:
+        t, th = ui[0, :3] - np.cross(ui[0, 3:], x[0]), ui[0, 3:]
+        assert np.abs(ui[:, 3:] - th).max() <= 1e-12 * np.abs(ui).max()
+        assert np.abs(ui[:, :3] - (t + np.cross(th, x))).max() <= 1e-12 * np.abs(ui).max() * (
+            1 + np.abs(x).max())
+    rest = modes.rigid_shapes - G @ (G.T @ (M @ modes.rigid_shapes))
+    assert np.sqrt(np.einsum("ik,ik->k", rest, M @ rest)).max() <= 1e-6
+    assert np.abs(G.T @ (M @ modes.shapes)).max() <= 1e-10
+
+
+def test_free_free_flutter_keeps_the_rigid_body_modes(shared, tmp_path, capsys):
+    """``torchrom flutter`` on free-free pt145 (KE; LMODES raised to 7 so that the EIGR's 6
+    roots are 4 rigid + 2 elastic, counted as Nastran counts them): runs, lists the rigid-body
+    modes at exactly 0 Hz and says so in a note; KE has no root for them (velocity 0, damping
+    undefined, never a crossing). The free-free flutter of an aircraft by PK is checked
+    against Nastran's f06 on bah_plane (tests/test_public_decks.py)."""
+    from torchrom.aero.nastran_flutter import run_deck
     from torchrom.cli import main
 
-    rc = main(["flutter", str(_free_free_pt145(shared, tmp_path))])
-    err = capsys.readouterr().err
-    assert rc == 2 and "4 rigid-body mode(s)" in err and "SUPORT" in err
+    path = _free_free_pt145(shared, tmp_path)
+    path.write_text(path.read_text().replace("PARAM   LMODES  3", "PARAM   LMODES  7"))
+    res = run_deck(path, log=lambda *_: None)
+    assert np.array_equal(res.frequencies_hz[:4], np.zeros(4)) and len(res.frequencies_hz) == 6
+    assert res.frequencies_hz[4] > 100.0
+    sw = res.results[0].sweep
+    assert np.all(sw.velocity[:, :4] == 0.0) and np.all(np.isnan(sw.damping[:, :4]))
+    assert all(p.mode >= 4 for r in res.results for p in r.points)
+    assert any("4 rigid-body mode(s) kept" in n for n in res.notes)
+    rc = main(["flutter", str(path)])
+    out = capsys.readouterr().out
+    assert rc == 0 and "modal frequencies (Hz): 0  0  0  0  254" in out
 
 
 def test_point_mass_on_a_massless_plate():

@@ -530,7 +530,7 @@ def ke_sweep(structure: ModalStructure, aero: AeroTable, k_list, density: float)
         if np.any(lam.real <= 0):
             notes.append(f"KE: a root at k={ki:.4g} has no physical interpretation (Re λ <= 0)")
         with np.errstate(invalid="ignore"):
-            damping[i] = lam.imag / lam.real
+            damping[i] = np.where(np.isinf(lam.real), np.nan, lam.imag / lam.real)
         vel[i] = omega * b / ki
         # Represent the KE root like Nastran: s = ω (g/2 + i)
         eig[i] = omega * (0.5 * damping[i] + 1j)
