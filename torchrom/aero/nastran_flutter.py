@@ -38,12 +38,24 @@ Documented differences from Nastran: GAFs are computed directly at each FLFACT M
 the reduced frequencies of the nearest MKAERO Mach for PK; at the FLFACT reduced frequencies
 themselves for K/KE) instead of being interpolated between MKAERO points; K and KE use the same
 solver (KE without viscous damping, as in Nastran); structural damping tables (TABDMP1) are not
-read; splines interpolate exactly (see :mod:`torchrom.aero.splines`). Modal matrices are those of
-mass-normalised modes (M = I, K = diag ω²). The modes are the lowest min(LMODES, ND) eigenmodes:
-Nastran may augment them with residual vectors (PARAM RESVEC, its "AFTER AUGMENTATION" table),
-which are not computed here (pyNastran's bah_plane uses 8 eigenmodes and 2 residual vectors).
-Velocities are in the deck's units divided by
-PARAM VREF.
+read; splines interpolate exactly (see :mod:`torchrom.aero.splines`); a beam spline's deflection
+(along the z axis of its CID) is projected on the box normals, which the DLM's h is measured along.
+Modal matrices are those of mass-normalised modes (M = I, K = diag ω²). The modes are the lowest
+min(LMODES, ND) eigenmodes: Nastran may augment them with residual vectors (PARAM RESVEC, its
+"AFTER AUGMENTATION" table), which are not computed here (pyNastran's bah_plane uses 8 eigenmodes
+and 2 residual vectors; its flutter point is reproduced within 0.15 % without them).
+Velocities are in the deck's units divided by PARAM VREF.
+
+Free-free structures (an aircraft): as in Nastran, the rigid-body modes are part of the modal
+basis and counted among ND/LMODES, at exactly 0 Hz (:func:`torchrom.fe.rigid.rigid_body_modes`:
+the rigid motions the constraints admit, mass-orthonormal; the elastic modes are orthogonalised
+against them). For PK, the steady GAF (k = 0) is added to the MKAERO reduced frequencies, the
+rigid roots start from their modes, roots below the lowest positive k get quasi-steady
+aerodynamics (:func:`torchrom.aero.flutter.pk_sweep`), and a real root's damping is Nastran's
+g = 2sb/(V ln 2), so that a divergence (a real root through 0) is a zero crossing. A crossing is
+declared only where g passes from below −G_ROUNDOFF to above +G_ROUNDOFF. Nastran prints only the
+most positive real root of a point in its FLUTTER SUMMARY (the others as "LESS CRITICAL REAL
+ROOTS"); torchrom tracks each branch by its mode shape, so its real-root branches may differ.
 """
 
 from __future__ import annotations
