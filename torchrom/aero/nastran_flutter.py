@@ -8,9 +8,9 @@ checks with one-line errors, and the Nastran-style output (V-g table, flutter su
 Cards honoured: FLUTTER (methods PK, PKNL, KE, K; PKNL pairs the i-th density, Mach number and
 velocity into one flight condition, PK and KE loop over the lists), FLFACT (density ratios, Mach
 numbers, reduced frequencies or velocities, negative velocities taken by magnitude; the ``THRU``
-form is expanded by pyNastran), MKAERO1/MKAERO2, AERO (ACSID, REFC, RHOREF, SYMXZ; SYMXY
-refused), AEROS, CAERO1/PAERO1 (+AEFACT), SPLINE1/SPLINE2/SET1, SPLINE4 (IPS)/SPLINE5 with AELIST,
-EIGR/EIGRL (ND, frequency range),
+form is expanded by pyNastran), MKAERO1/MKAERO2, AERO (ACSID, REFC, RHOREF, SYMXZ, SYMXY: image
+boxes about the aero xy plane, -1 = ground effect), AEROS, CAERO1/PAERO1 (+AEFACT),
+SPLINE1/SPLINE2/SET1, SPLINE4 (IPS)/SPLINE5 with AELIST, EIGR/EIGRL (ND, frequency range),
 PARAM LMODES and PARAM VREF; case control FMETHOD and METHOD. The boxes, spline grids and grid
 motions are expressed in the aero frame (ACSID), where the flow runs along +x.
 :func:`compare_f06` puts Nastran's flutter points (FLUTTER SUMMARY of an f06) beside ours.
@@ -18,7 +18,9 @@ motions are expressed in the aero frame (ACSID), where the flow runs along +x.
 Symmetry: the reflection plane is the deck's AERO SYMXZ (AEROS when there is no AERO card):
 +1 a symmetric image wing (a wall-mounted model), -1 antisymmetric, 0 or blank an isolated half
 wing. ``symxz`` of :func:`load_deck` (``torchrom flutter --symxz``) overrides it; the output says
-which was used and where it came from.
+which was used and where it came from. AERO/AEROS SYMXY adds the images of all boxes about the
+xy plane of the aero system (ground effect for SYMXY = -1, MSC QRG AERO: "-1 for symmetry",
+the opposite sign convention to SYMXZ; +1 antisymmetric); boxes lying in that plane are refused.
 
 Units: a Nastran deck has none of its own; results are in the deck's units (velocities in its
 length unit per second divided by PARAM VREF, densities in its mass per length cubed, frequencies
@@ -149,12 +151,17 @@ class FlutterDeck:
         """One line: the reflection plane used and where it came from."""
         what = {0: "none (isolated half wing)", 1: "symmetric image (reflection plane xz)",
                 -1: "antisymmetric image about xz"}[self.reference.symxz]
-        return f"SYMXZ = {self.reference.symxz}: {what}, from {self.symmetry_source}"
+        xy = {0: "", -1: "; SYMXY = -1: mirror image about the aero xy plane (ground effect)",
+              1: "; SYMXY = +1: antisymmetric image about the aero xy plane"}[
+            self.reference.symxy]
+        return f"SYMXZ = {self.reference.symxz}: {what}, from {self.symmetry_source}{xy}"
 
     @property
     def aero_panels(self) -> AeroPanels:
-        """The panels the DLM sees: mirrored about xz when AERO SYMXZ = ±1."""
-        return self.panels.mirror() if self.reference.symxz != 0 else self.panels
+        """The panels the DLM sees: mirrored about xz when AERO SYMXZ = ±1, then about the aero
+        xy plane (z -> -z) when SYMXY = ±1."""
+        panels = self.panels.mirror() if self.reference.symxz != 0 else self.panels
+        return panels.mirror_xy() if self.reference.symxy != 0 else panels
 
     def box_motion(self, grid_ids, grid_disp: np.ndarray) -> BoxMotion:
         """Modal box motion from grid displacements (n_modes, n_grid, 6) in basic axes."""
@@ -191,9 +198,9 @@ class FlutterDeck:
             sl_c[:, sp.box_index] = (u @ hx.T) * along
         full = self.aero_panels
         anti = self.reference.symxz < 0
-        return BoxMotion(
-            full.box_motion(h_l, anti), full.box_motion(h_c, anti), full.box_motion(sl_c, anti)
-        )
+        xy = -1 if self.reference.symxy < 0 else 1  # SYMXY = -1: h' = -h on the xy images
+        return BoxMotion(full.box_motion(h_l, anti, xy), full.box_motion(h_c, anti, xy),
+                         full.box_motion(sl_c, anti, xy))
 
 
 # -- reading -------------------------------------------------------------------------------------
@@ -305,6 +312,14 @@ def load_deck(path, require_flutter: bool = True, *, symxz: int | None = None,
         if symxz != ref.symxz:
             source = f"the command line (the deck's {card} SYMXZ is {ref.symxz})"
         ref = replace(ref, symxz=int(symxz))
+    if ref.symxy != 0:
+        in_plane = np.all(np.abs(panels.corners[:, :, 2]) <= 1e-9 * np.abs(panels.corners).max(),
+                          axis=1)
+        if np.any(in_plane):
+            raise InputError(
+                f"{path}: {card}: SYMXY = {ref.symxy}: CAERO1 box {panels.box_ids[in_plane][0]} "
+                "lies in the xy plane of the aero system, where it coincides with its image: "
+                "expected the boxes off that plane (z != 0 in ACSID)")
     units = model.dti.get("UNITS")
     deck_length = (units.fields.get("length") if units is not None else None) or None
     splines = _spline_defs(model, path, panels, frame)
@@ -433,6 +448,7 @@ class DeckResult:
             "deck": str(self.deck.path),
             "title": self.deck.title,
             "symxz": self.deck.reference.symxz,
+            "symxy": self.deck.reference.symxy,
             "symmetry": self.deck.symmetry,
             "units": {"velocity": self.deck.velocity_unit, "frequency": "Hz",
                       "density": f"mass/{self.deck.length_unit}^3 (deck units)"},
