@@ -632,9 +632,10 @@ def format_deck_result(res: DeckResult) -> str:
                 f"{'FREQUENCY':>12} {'REAL EIGVAL':>13} {'IMAG EIGVAL':>13}"
             )
             for i in np.argsort(vel[:, j], kind="stable"):
-                k = sw.k[i, j]
-                v = vel[i, j] / vref
                 s = sw.eigenvalues[i, j]
+                # a real p-k root has k = 0 (iterated at the floor K_FLOOR), printed as Nastran
+                k = 0.0 if sw.method == "PK" and s.imag == 0 else sw.k[i, j]
+                v = vel[i, j] / vref
                 lines.append(
                     f"{k:10.4f} {1 / k if k > 0 else np.inf:12.4f} {v:13.5e} "
                     f"{sw.damping[i, j]:12.4e} {sw.frequency_hz[i, j]:12.5e} "
