@@ -334,3 +334,34 @@ def test_point_mass_on_a_massless_plate():
     more = fe.modes(4)
     np.testing.assert_allclose(more.eigenvalues, expected, rtol=1e-8)
     assert any("3 finite" in note for note in more.notes)
+
+
+@pytest.mark.parametrize("deck", ["pynastran_ha144d/ha144da.bdf", "ekm_bar_beam/test_case.bdf",
+                                  "ekm_swept_plane/sol103_swept_plane.bdf"])
+def test_rigid_body_modes_span_nastrans_suport_shapes(deck):
+    """The three public decks with SUPORT (free-free; Nastran ran them, so their r-sets are
+    statically determinate): the rigid-body modes built from the geometry span the shapes
+    Nastran computes from the r-set, Ψ = [-K_ll⁻¹ K_lr; I] (MSC Dynamic Analysis User's Guide,
+    rigid-body modes from SUPORT), a second method on the same K (M-projection residual of Ψ
+    on them ≤ 1e-8 of Ψ's size: linear algebra to round-off), and the flutter note says so."""
+    from pathlib import Path
+
+    from torchrom.fe import read_bdf
+    from torchrom.fe.rigid import rigid_body_modes, suport_dofs, suport_note
+
+    fe = read_bdf(Path(__file__).parent / "decks" / deck)
+    modes = fe.modes(3)
+    G, how = rigid_body_modes(fe, modes)
+    dofs = suport_dofs(fe)
+    assert how.startswith("rigid motions") and G.shape[1] == modes.n_rigid == len(dofs)
+    r = np.array([fe.dof_index(g, c) for g, c in dofs])
+    ll = np.setdiff1d(np.arange(fe.n_dof), r)
+    K = fe.stiffness_matrix().toarray()
+    M = fe.mass_matrix()
+    psi = np.zeros((fe.n_dof, len(r)))
+    psi[r] = np.eye(len(r))
+    psi[ll] = -np.linalg.solve(K[np.ix_(ll, ll)], K[np.ix_(ll, r)])
+    rest = psi - G @ (G.T @ (M @ psi))
+    size = np.sqrt(np.einsum("ik,ik->k", psi, M @ psi))
+    assert np.all(np.sqrt(np.einsum("ik,ik->k", rest, M @ rest)) <= 1e-8 * size)
+    assert "statically determinate" in suport_note(fe, G)

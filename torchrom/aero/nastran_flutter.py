@@ -483,7 +483,7 @@ def _with_rigid(fe, modes, n_total: int | None, notes: list[str]):
     """Frequencies and shapes of Nastran's modal basis: the rigid-body modes first (0 Hz exactly,
     :func:`torchrom.fe.rigid.rigid_body_modes`), then the elastic ones, ``n_total`` in all (None:
     every mode computed). Nastran counts its rigid-body modes among ND and LMODES."""
-    from ..fe.rigid import orthogonalise_against, rigid_body_modes
+    from ..fe.rigid import orthogonalise_against, rigid_body_modes, suport_note
 
     f = np.asarray(modes.frequencies_hz)
     shapes = np.asarray(modes.shapes)
@@ -496,6 +496,9 @@ def _with_rigid(fe, modes, n_total: int | None, notes: list[str]):
     notes.append(f"{r} rigid-body mode(s) kept in the modal basis at 0 Hz ({how}; the "
                  f"eigensolver gave ω² = "
                  + ", ".join(f"{x:.2g}" for x in modes.rigid_eigenvalues) + ")")
+    note = suport_note(fe, rigid)
+    if note:
+        notes.append(note)
     n = r + n_el if n_total is None else min(n_total, r + n_el)
     return (np.concatenate([np.zeros(r), f[:n_el]])[:n],
             np.concatenate([rigid, elastic], axis=1)[:, :n])

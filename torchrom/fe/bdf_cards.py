@@ -33,11 +33,11 @@ NOTED_CARDS: dict[str, str] = {
     "DEQATN": "equations for SOL 200 responses: optimisation only",
     "DTABLE": "SOL 200 constants: optimisation only",
     "SUPORT": "rigid-body modes are found by a shifted eigensolver and, for flutter, rebuilt "
-    "as the rigid motions the constraints admit (the span SUPORT's r-set gives Nastran): "
-    "SUPORT only labels the rigid-body DOFs",
+    "as the rigid motions the constraints admit (the span SUPORT's r-set gives Nastran); "
+    "flutter notes whether the r-set is statically determinate for them",
     "SUPORT1": "rigid-body modes are found by a shifted eigensolver and, for flutter, rebuilt "
-    "as the rigid motions the constraints admit (the span SUPORT1's r-set gives Nastran): "
-    "SUPORT1 only labels the rigid-body DOFs",
+    "as the rigid motions the constraints admit (the span SUPORT1's r-set gives Nastran); "
+    "flutter notes whether the r-set is statically determinate for them",
     "DAREA": "dynamic load scale factor: frequency/transient response only",
     "DLOAD": "dynamic load combination: frequency/transient response only",
     "RLOAD1": "frequency-response load: frequency response only",

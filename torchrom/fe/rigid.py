@@ -17,6 +17,8 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as sla
 
+from ..errors import InputError
+
 #: a rigid motion is admitted when the part of it that the free DOFs cannot represent is below
 #: this fraction of its size (exact rigid motions are represented to round-off, ~1e-15; one that
 #: a constraint blocks misses by order 1)
@@ -95,3 +97,51 @@ def rigid_body_modes(fe, modes) -> tuple[np.ndarray, str]:
 def orthogonalise_against(shapes: np.ndarray, rigid: np.ndarray, M: sp.spmatrix) -> np.ndarray:
     """``shapes`` minus their M-projection on the (M-orthonormal) ``rigid`` shapes."""
     return shapes - rigid @ (rigid.T @ (M @ shapes))
+
+
+def suport_dofs(fe) -> list[tuple[int, int]]:
+    """(grid, component) of the deck's SUPORT entries and of the SUPORT1 set that case control
+    selects (MSC QRG SUPORT/SUPORT1: the r-set that Nastran uses to compute its rigid-body
+    modes); empty when the model has no deck or none of them."""
+    model = getattr(fe, "bdf", None)
+    if model is None:
+        return []
+    out = []
+    cards = list(getattr(model, "suport", []))
+    cc = model.case_control_deck
+    if cc is not None:
+        for sub in cc.subcases.values():
+            if sub.has_parameter("SUPORT1")[0]:
+                card = model.suport1.get(int(sub.get_parameter("SUPORT1")[0]))
+                if card is not None and card not in cards:
+                    cards.append(card)
+    for card in cards:
+        for gid, comps in zip(card.node_ids, card.Cs):
+            out += [(int(gid), int(c)) for c in str(comps) if c in "123456"]
+    return list(dict.fromkeys(out))
+
+
+def suport_note(fe, rigid: np.ndarray) -> str | None:
+    """A note on the deck's SUPORT r-set against the rigid-body shapes ``rigid`` (n_free, r):
+    Nastran computes its rigid-body modes from the r-set, which takes a statically determinate
+    set, as many DOFs as rigid-body modes with the shapes' r × r block on them non-singular.
+    None when the deck has no SUPORT."""
+    dofs = suport_dofs(fe)
+    if not dofs:
+        return None
+    r = rigid.shape[1]
+    rows = []
+    for gid, comp in dofs:
+        try:
+            rows.append(fe.dof_index(gid, comp, what="SUPORT"))
+        except InputError:  # a DOF that is constrained or dependent: Nastran rejects it too
+            return (f"SUPORT: grid {gid} component {comp} is not an independent DOF; the "
+                    f"{r} rigid-body modes come from the geometry")
+    block = rigid[rows, :]
+    sv = np.linalg.svd(block, compute_uv=False) if block.size else np.zeros(0)
+    rank = int(np.sum(sv > 1e-8 * sv.max())) if len(sv) else 0
+    if len(rows) == r and rank == r:
+        return (f"SUPORT: {r} DOFs, a statically determinate r-set for the {r} rigid-body "
+                f"modes (the same span as Nastran's)")
+    return (f"SUPORT: {len(rows)} DOFs of rank {rank} for {r} rigid-body modes (Nastran wants "
+            f"as many, statically determinate); the rigid-body modes come from the geometry")
