@@ -329,3 +329,37 @@ def test_spline4_and_spline5_on_aelists_equal_spline1_and_spline2(tmp_path, pt14
         for name in ("h_load", "h_control", "slope_control"):
             np.testing.assert_allclose(getattr(a, name), getattr(b, name), rtol=1e-12, atol=1e-12)
         assert np.abs(a.h_load).max() > 0.1
+
+
+def test_resvec_selection(tmp_path):
+    """Residual vectors (RESVEC) are used as Nastran uses them: by default, when LMODES asks for
+    more modes than ND (bah_plane: LMODES 10, ND 8 -> 8 eigenmodes + 2 residual vectors),
+    switched off by PARAM RESVEC NO, case control RESVEC = NO or ``resvec=False`` (8 modes);
+    a PARAM RESVEC that is neither YES nor NO is a one-line error naming it."""
+    from pathlib import Path
+
+    from torchrom.aero import nastran_flutter as nf
+    from torchrom.fe import read_bdf
+
+    folder = Path(__file__).parent / "decks" / "pynastran_bah_plane"
+    for inc in folder.glob("*.inc"):
+        (tmp_path / inc.name).write_text(inc.read_text())
+    text = (folder / "bah_plane.bdf").read_text()
+    fe = read_bdf(folder / "bah_plane.bdf")
+
+    def deck(name, new_text, **kw):
+        path = tmp_path / name
+        path.write_text(new_text)
+        return nf.load_deck(path, **kw)
+
+    default = deck("default.bdf", text)
+    assert default.resvec and default.resvec_source == "Nastran's default"
+    assert (default.n_eigen, default.lmodes) == (8, 10)
+    assert len(nf._modes(default, fe, [])[0]) == 10
+    param_no = deck("param.bdf",
+                    text.replace("PARAM,LMODES,10", "PARAM,LMODES,10\nPARAM,RESVEC,NO"))
+    case_no = deck("case.bdf", text.replace("METHOD = 401", "METHOD = 401\nRESVEC = NO"))
+    for d in (param_no, case_no, deck("cli.bdf", text, resvec=False)):
+        assert not d.resvec and len(nf._modes(d, fe, [])[0]) == 8
+    with pytest.raises(InputError, match=r"bad.bdf: PARAM RESVEC: expected YES or NO, got MAYBE"):
+        deck("bad.bdf", text.replace("PARAM,LMODES,10", "PARAM,LMODES,10\nPARAM,RESVEC,MAYBE"))

@@ -121,26 +121,30 @@ def _bah_plane_both_subcases(tmp_path) -> Path:
 def test_flutter_bah_plane_free_free_pk_against_its_f06(tmp_path):
     """bah_plane: a free-free aircraft (wing, fuselage beam, tail; SPC only on x, y, roll and yaw
     at the root: plunge and pitch are rigid-body modes), PK at Mach 0.2, 30 speeds. Its 2
-    rigid-body modes are kept in the basis at 0 Hz (as Nastran's ND = 8 counts them).
+    rigid-body modes are kept in the basis at 0 Hz (as Nastran's ND = 8 counts them), and, as in
+    the f06, LMODES = 10 takes 2 residual vectors past the 8 eigenmodes (Nastran's default
+    RESVEC; torchrom's inertia-relief vectors: 39.02 and 56.557 Hz where the f06 has 41.229 and
+    56.557, see torchrom.fe.resvec).
 
-    Measured: flutter of POINT 4 (the 3.75 Hz mode) at 393.43 vs 394.04 (-0.15 %) and 3.1784
-    vs 3.1784 Hz (0.00 %); target 2 %. Nastran's basis adds 2 residual vectors (LMODES 10 of
-    12 after augmentation); torchrom's 8 eigenmodes reproduce its flutter point without them.
-    The short-period root (the rigid pitch-plunge pair, POINT 2 of the f06) at V = 30:
-    s = -0.6560 + 0.5677i vs -0.6448 + 0.5640i (1.7 % and 0.7 %), asserted within 3 %: it
-    checks the rigid-body aerodynamics (wing and tail) without any elastic coupling; the cause
-    of the 1.7 % is not isolated (basis, or Q_I/k interpolated at k = 0.038 between MKAERO
-    0.001 and 0.05). Excluded: the f06's divergence-type crossing of POINT 2 at 437.8 (a real
-    root): the f06 prints only the most positive real root per point and moves the others to
-    'LESS CRITICAL REAL ROOTS' lists, so which branch carries it is Nastran's bookkeeping;
-    torchrom follows the short-period pair into the more damped of its two real roots. Mach 0
-    (FLUTTER 501): no crossing in either."""
+    Measured: flutter of POINT 4 (the 3.75 Hz mode) at 393.23 vs 394.04 (-0.21 %) and 3.1791
+    vs 3.1784 Hz (+0.02 %); target 2 %. Without residual vectors (``resvec=False``, 8 modes):
+    393.43 (-0.15 %) and 3.1784 Hz (0.00 %). The short-period root (the rigid pitch-plunge
+    pair, POINT 2 of the f06) at V = 30: s = -0.6560 + 0.5677i vs -0.6448 + 0.5640i (1.7 % and
+    0.7 %), asserted within 3 %: it checks the rigid-body aerodynamics (wing and tail) without
+    elastic coupling; the cause of the 1.7 % is not isolated (Q_I/k interpolated at k = 0.038
+    between MKAERO 0.001 and 0.05, as in Nastran, or the basis). Excluded: the f06's
+    divergence-type crossing of POINT 2 at 437.8 (a real root): the f06 prints only the most
+    positive real root per point and moves the others to 'LESS CRITICAL REAL ROOTS' lists, so
+    which branch carries it is Nastran's bookkeeping; torchrom follows the short-period pair
+    into the more damped of its two real roots. Mach 0 (FLUTTER 501): no crossing in either."""
     from torchrom.aero.nastran_flutter import compare_f06, run_deck
 
     res = run_deck(_bah_plane_both_subcases(tmp_path), log=lambda *_: None)
-    assert np.array_equal(res.frequencies_hz[:2], [0.0, 0.0]) and len(res.frequencies_hz) == 8
+    assert np.array_equal(res.frequencies_hz[:2], [0.0, 0.0]) and len(res.frequencies_hz) == 10
     text, records = compare_f06(res, DECKS / "pynastran_bah_plane" / "bah_plane.f06")
     print(text)
+    # the second residual vector is Nastran's 10th mode (56.557 Hz; f06: 5.655734E+01)
+    assert res.frequencies_hz[9] == pytest.approx(56.55734, rel=1e-5)
     ours = [r for r in records if r["velocity"] is not None]
     (rec,) = ours  # one crossing, matched
     assert rec["mach"] == 0.2 and rec["mode"] == 4

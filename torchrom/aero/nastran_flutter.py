@@ -11,8 +11,8 @@ numbers, reduced frequencies or velocities, negative velocities taken by magnitu
 form is expanded by pyNastran), MKAERO1/MKAERO2, AERO (ACSID, REFC, RHOREF, SYMXZ, SYMXY: image
 boxes about the aero xy plane, -1 = ground effect), AEROS, CAERO1/PAERO1 (+AEFACT),
 SPLINE1/SPLINE2/SET1, SPLINE4 (IPS)/SPLINE5 with AELIST, EIGR/EIGRL (ND, frequency range),
-PARAM LMODES and PARAM VREF; case control FMETHOD and METHOD. The boxes, spline grids and grid
-motions are expressed in the aero frame (ACSID), where the flow runs along +x.
+PARAM LMODES, RESVEC and VREF; case control FMETHOD, METHOD and RESVEC. The boxes, spline grids
+and grid motions are expressed in the aero frame (ACSID), where the flow runs along +x.
 :func:`compare_f06` puts Nastran's flutter points (FLUTTER SUMMARY of an f06) beside ours.
 
 Symmetry: the reflection plane is the deck's AERO SYMXZ (AEROS when there is no AERO card):
@@ -43,9 +43,12 @@ solver (KE without viscous damping, as in Nastran); structural damping tables (T
 read; splines interpolate exactly (see :mod:`torchrom.aero.splines`); a beam spline's deflection
 (along the z axis of its CID) is projected on the box normals, which the DLM's h is measured along.
 Modal matrices are those of mass-normalised modes (M = I, K = diag ω²). The modes are the lowest
-min(LMODES, ND) eigenmodes: Nastran may augment them with residual vectors (PARAM RESVEC, its
-"AFTER AUGMENTATION" table), which are not computed here (pyNastran's bah_plane uses 8 eigenmodes
-and 2 residual vectors; its flutter point is reproduced within 0.15 % without them).
+min(LMODES, ND) eigenmodes; when LMODES exceeds ND (or there is no LMODES) they are augmented, as
+Nastran does by default (its "AFTER AUGMENTATION OF RESIDUAL VECTORS" table), with residual
+vectors (case control RESVEC, PARAM RESVEC, ``--resvec``), of which the lowest LMODES are used.
+torchrom builds the inertia-relief kind (:mod:`torchrom.fe.resvec`), which reproduces some of
+Nastran's augmented frequencies but not all (bah_plane: 56.557 Hz as Nastran's, 39.02 where it
+has 41.229): its flutter point moves by 0.06 % with them (−0.21 % vs −0.15 % without).
 Velocities are in the deck's units divided by PARAM VREF.
 
 Free-free structures (an aircraft): as in Nastran, the rigid-body modes are part of the modal
@@ -139,6 +142,10 @@ class FlutterDeck:
     frame: AeroFrame = field(default_factory=AeroFrame)  # AERO ACSID: flow along its +x
     length_unit: str = "length"
     symmetry_source: str = "AERO SYMXZ"
+    n_eigen: int | None = None  # ND of the EIGR/EIGRL (None: not given)
+    lmodes: int | None = None  # PARAM LMODES (None: not given)
+    resvec: bool = False  # augment the eigenmodes with residual vectors (RESVEC)
+    resvec_source: str = ""
 
     @property
     def velocity_unit(self) -> str:
@@ -290,11 +297,12 @@ def _spline_defs(model, path: Path, panels: AeroPanels, frame: AeroFrame) -> lis
 
 
 def load_deck(path, require_flutter: bool = True, *, symxz: int | None = None,
-              length_unit: str | None = None) -> FlutterDeck:
+              length_unit: str | None = None, resvec: bool | None = None) -> FlutterDeck:
     """Read and check the aeroelastic part of a deck (everything except the modal solution).
 
     ``require_flutter=False`` accepts a deck with aerodynamic boxes and splines but no FLUTTER
-    cards (to build GAFs only). ``symxz`` (-1, 0, +1) overrides the deck's AERO/AEROS SYMXZ;
+    cards (to build GAFs only). ``resvec`` overrides the deck's RESVEC (residual vectors,
+    :func:`_with_residual_vectors`). ``symxz`` (-1, 0, +1) overrides the deck's AERO/AEROS SYMXZ;
     ``length_unit`` labels the output when the deck has no DTI,UNITS card.
     """
     path = Path(path)
@@ -379,7 +387,11 @@ def load_deck(path, require_flutter: bool = True, *, symxz: int | None = None,
             )
         )
 
-    n_modes, frange = _mode_count(model, path) if require_flutter else (None, (0.0, None))
+    n_modes, frange, nd, lmodes = (_mode_count(model, path) if require_flutter
+                                   else (None, (0.0, None), None, None))
+    use_resvec, resvec_source = _resvec(model, path)
+    if resvec is not None:
+        use_resvec, resvec_source = bool(resvec), "the command line"
     vref = float(model.params["VREF"].values[0]) if "VREF" in model.params else 1.0
     title = ""
     cc = model.case_control_deck
@@ -390,10 +402,15 @@ def load_deck(path, require_flutter: bool = True, *, symxz: int | None = None,
         frame,
         length_unit=str(deck_length or length_unit or "length").lower(),
         symmetry_source=source,
+        n_eigen=nd,
+        lmodes=lmodes,
+        resvec=use_resvec,
+        resvec_source=resvec_source,
     )
 
 
-def _mode_count(model, path: Path) -> tuple[int | None, tuple[float, float | None]]:
+def _mode_count(model, path: Path):
+    """(modes used without residual vectors, EIGR/EIGRL frequency range, ND, LMODES)."""
     lmodes = int(model.params["LMODES"].values[0]) if "LMODES" in model.params else 0
     methods = _case_ids(model, "METHOD")
     nd, frange = None, (0.0, None)
@@ -410,11 +427,30 @@ def _mode_count(model, path: Path) -> tuple[int | None, tuple[float, float | Non
             # Tridiagonal methods (GIV, HOU, ...) return ND roots when ND is given.
             if not nd:
                 frange = (float(card.f1 or 0.0), float(card.f2) if card.f2 else None)
+    nd_card = int(nd) if nd else None
     if lmodes > 0:
         nd = lmodes if nd is None else min(lmodes, nd) if nd else lmodes
     if nd is None and frange[1] is None:
         raise InputError(f"{path}: modes: give PARAM LMODES or an EIGR/EIGRL (ND or F2) via METHOD")
-    return (int(nd) if nd else None), frange
+    return (int(nd) if nd else None), frange, nd_card, (lmodes or None)
+
+
+def _resvec(model, path: Path) -> tuple[bool, str]:
+    """Whether residual vectors augment the modes, and where that came from: case control
+    RESVEC, else PARAM RESVEC, else Nastran's SOL 145 default (yes: the f06s of pt145 and
+    bah_plane augment their modes without asking)."""
+    cc = model.case_control_deck
+    if cc is not None:
+        for sub in cc.subcases.values():
+            if sub.has_parameter("RESVEC")[0]:
+                value = str(sub.get_parameter("RESVEC")[0]).upper()
+                return value not in ("NO", "NOINRL"), f"case control RESVEC = {value}"
+    if "RESVEC" in model.params:
+        value = str(model.params["RESVEC"].values[0]).upper()
+        if value not in ("YES", "NO"):
+            raise InputError(f"{path}: PARAM RESVEC: expected YES or NO, got {value}")
+        return value == "YES", f"PARAM RESVEC {value}"
+    return True, "Nastran's default"
 
 
 # -- running ---------------------------------------------------------------------------------------
@@ -514,10 +550,31 @@ def _modes(deck: FlutterDeck, fe, notes: list[str]):
         lo, hi = deck.frequency_range
         keep = np.flatnonzero((f >= lo) & (f <= hi))
         return f[keep], shapes[:, keep]
+    if deck.resvec and deck.n_eigen and (deck.lmodes is None or deck.lmodes > deck.n_eigen):
+        return _with_residual_vectors(deck, fe, notes)
     f, shapes = _with_rigid(fe, fe.modes(min(n, n_dof)), n, notes)
     lo = deck.frequency_range[0]
     keep = np.flatnonzero(f >= lo) if lo > 0 else np.arange(len(f))
     return f[keep], shapes[:, keep]
+
+
+def _with_residual_vectors(deck: FlutterDeck, fe, notes: list[str]):
+    """Nastran's augmented basis: the ND eigenmodes plus the residual vectors
+    (:func:`torchrom.fe.resvec.inertia_residual_vectors`), of which the lowest LMODES - ND (all
+    without LMODES) are used. Residual vectors lie above every computed eigenmode (they are
+    orthogonal to them), so with LMODES <= ND none would be used and none is computed."""
+    from ..fe.resvec import inertia_residual_vectors
+
+    n_eig = deck.n_eigen
+    f, shapes = _with_rigid(fe, fe.modes(min(n_eig, fe.n_dof)), n_eig, notes)
+    fr, vectors = inertia_residual_vectors(fe, shapes, shapes[:, f == 0.0])
+    total = len(f) + len(fr) if deck.lmodes is None else deck.lmodes
+    used = max(0, min(total - len(f), len(fr)))
+    notes.append(f"residual vectors (RESVEC, inertia relief; from {deck.resvec_source}): "
+                 f"{len(fr)} computed (" + ", ".join(f"{x:.4g}" for x in fr)
+                 + f" Hz), {used} used")
+    return (np.concatenate([f, fr[:used]]),
+            np.concatenate([shapes, vectors[:, :used]], axis=1))
 
 
 def run_deck(deck_or_path, fe=None, kernel: str = NASTRAN_KERNEL, log=print) -> DeckResult:

@@ -45,14 +45,20 @@ def rigid_motions(xyz: np.ndarray) -> np.ndarray:
     return out.reshape(6 * n, 6)
 
 
-def admissible_rigid_shapes(T: sp.spmatrix, xyz: np.ndarray) -> np.ndarray:
-    """Free-DOF shapes (n_free, r) spanning the rigid motions that ``u_all = T u`` can represent
-    (T: free DOFs → all grid DOFs in basic axes, as ``FEModel.T``)."""
+def rigid_motions_on_free(T: sp.spmatrix, xyz: np.ndarray):
+    """(X (n_free, 6), misfit R - T X, R): the free-DOF vectors closest (least squares) to the
+    six :func:`rigid_motions`; a motion the constraints block leaves a misfit of order one."""
     T = sp.csc_matrix(T)
     R = rigid_motions(xyz)
     # least squares u = (TᵀT)⁻¹ Tᵀ R: T has full column rank (each free DOF drives a grid DOF)
     X = sla.splu(sp.csc_matrix(T.T @ T)).solve(np.asarray(T.T @ R))
-    miss = R - T @ X
+    return X, R - T @ X, R
+
+
+def admissible_rigid_shapes(T: sp.spmatrix, xyz: np.ndarray) -> np.ndarray:
+    """Free-DOF shapes (n_free, r) spanning the rigid motions that ``u_all = T u`` can represent
+    (T: free DOFs → all grid DOFs in basic axes, as ``FEModel.T``)."""
+    X, miss, R = rigid_motions_on_free(T, xyz)
     # combinations c of the six motions with T X c = R c: the null space of the misfit
     _, sv, vt = np.linalg.svd(miss, full_matrices=True)
     sv = np.concatenate([sv, np.zeros(6 - len(sv))])
