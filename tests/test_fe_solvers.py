@@ -415,3 +415,32 @@ def test_inertia_residual_vectors(deck, n, nastran_hz):
     size = np.sqrt(np.einsum("ik,ik->k", u, M @ u))
     # (a rigid-body direction's relieved load is zero: sizes are relative to the largest)
     assert np.all(np.sqrt(np.einsum("ik,ik->k", rest, M @ rest)) <= 1e-5 * size.max())
+
+
+def test_rigid_body_modes_fall_back_on_a_mechanism():
+    """A zero-energy mode that is not a rigid motion of the grids (a mechanism: here grid 3's
+    vertical DOF has mass and no stiffness, grids 1-2 are a z-spring pair): the geometric
+    shapes (the common z translation) do not span it, so the eigensolver's zero-frequency shapes
+    are used, M-orthonormal (1e-12), and the reason is given."""
+    from types import SimpleNamespace
+
+    import scipy.sparse as sp
+
+    from torchrom.fe.rigid import rigid_body_modes
+    from torchrom.fe.solvers import Modes
+
+    xyz = np.array([[0.0, 0, 0], [1.0, 0, 0], [2.0, 0, 0]])
+    T = sp.lil_matrix((18, 3))
+    for i in range(3):
+        T[6 * i + 2, i] = 1.0  # the free DOFs: z of each grid
+    K = sp.csr_matrix(np.array([[1.0, -1.0, 0.0], [-1.0, 1.0, 0.0], [0.0, 0.0, 0.0]]))
+    M = sp.csr_matrix(np.diag([1.0, 2.0, 3.0]))
+    fe = SimpleNamespace(T=sp.csr_matrix(T), grid_xyz=xyz, mass_matrix=lambda: M,
+                         stiffness_matrix=lambda: K)
+    # the two zero-energy modes: z translation of grids 1-2, and grid 3 alone
+    shapes = np.array([[1.0, 0.0], [1.0, 0.0], [0.0, 1.0]])
+    modes = Modes(np.zeros(0), np.zeros((3, 0)), [], np.zeros(0), rigid_eigenvalues=np.zeros(2),
+                  rigid_shapes=shapes)
+    G, how = rigid_body_modes(fe, modes)
+    assert "not rigid motions" in how and G.shape == (3, 2)
+    assert np.abs(G.T @ (M @ G) - np.eye(2)).max() <= 1e-12
