@@ -239,3 +239,59 @@ def test_round_off_damping_is_not_flutter():
     assert p.mode == 1 and p.velocity == pytest.approx(400.0, rel=1e-12)
     assert zero_crossings(noise) == [] and zero_crossings([-1e-3, 5e-9, 2e-8]) == [0]
     assert zero_crossings([-1e-3, 0.5 * G_ROUNDOFF, -1e-3, 1e-3]) == [2]
+
+
+def test_pk_damping_of_real_roots_is_nastrans():
+    """Nastran prints a real (k = 0) p-k root's damping as g = 2 s b / (V ln 2). Reference: the
+    f06 numbers themselves (printed to 5-8 digits, so 1e-4): bah_plane Mach 0.2 POINT 1 at
+    V = 30 (b = REFC/2 = 2): s = 9.3382457e-4, g = 1.7963175e-4; 0012_flutter POINT 2 at
+    V = 162.486 (b = 0.5): s = -40.9415, g = -0.363519. Oscillatory roots keep g = 2σ/ω."""
+    from torchrom.aero.flutter import pk_damping
+
+    g = pk_damping(np.array([[9.3382457e-4 + 0j]]), [30.0], 2.0)[0, 0]
+    assert g == pytest.approx(1.7963175e-4, rel=1e-4)
+    g = pk_damping(np.array([[-40.9415 + 0j]]), [162.486], 0.5)[0, 0]
+    assert g == pytest.approx(-0.363519, rel=1e-4)
+    g = pk_damping(np.array([[-0.17802 + 15.293j]]), [30.0], 2.0)[0, 0]
+    assert g == 2 * -0.17802 / 15.293
+
+
+def test_pk_rigid_body_mode_closed_form():
+    """A rigid-body mode (ω = 0) with quasi-steady aerodynamics Q = c + i k d, beside an
+    uncoupled elastic mode (10 rad/s, no aerodynamics): the p-k root of the rigid mode solves
+    s² + q (b/V) d s + q c = 0 exactly (Q_I/k = d for every k), s = -q b d/(2V) +
+    i √(q c - (q b d/2V)²). The rigid root starts from the mode at s = 0 (the companion matrix
+    is defective there), the elastic one stays at 10i. Tolerance 1e-6: the p-k iteration stops
+    at a relative change of k of eps = 1e-8."""
+    b, c, d, rho = 0.5, 2.0, 3.0, 1.2
+    structure = ModalStructure(np.eye(2), np.diag([0.0, 100.0]))
+    aero = AeroTable.from_function(lambda k: np.diag([c + 1j * k * d, 0.0]), b)
+    V = np.array([5.0, 10.0, 20.0])
+    sw = pk_sweep(structure, aero, V, rho, eps=1e-8, real_root_damping="nastran")
+    q = 0.5 * rho * V**2
+    re = -q * b * d / (2 * V)
+    expected = re + 1j * np.sqrt(q * c - re**2)
+    assert np.abs(sw.eigenvalues[:, 0] / expected - 1).max() <= 1e-6
+    assert np.abs(sw.eigenvalues[:, 1] - 10j).max() <= 1e-9
+    assert not sw.crossings()
+
+
+def test_pk_below_the_table_is_quasi_steady():
+    """Below the lowest positive tabulated k the p-k aerodynamics are Q_R at the lowest
+    tabulated k (the steady one when k = 0 is tabulated) plus i k Q_I(k_d)/k_d, not an
+    extrapolation. With a table at k = 0, 0.001, 0.05 whose Q_R is c at k = 0 and grows
+    linearly with k, a rigid mode's root at k < 0.001 is the quasi-steady one,
+    s² + q (b/V) (Q_I(0.001)/0.001) s + q c = 0, to 1e-9 (closed form)."""
+    b, rho, V = 2.0, 1.0, 30.0
+    k = np.array([0.0, 0.001, 0.05])
+    c, slope, d = -1e-3, 5.0, 0.4
+    Q = (c + slope * k + 1j * d * k)[:, None, None]
+    aero = AeroTable.from_gaf(GAF(k=k, Q=Q, mach=0.2, semichord=b), interpolation="linear")
+    assert aero.k_min == 0.0 and aero.k_damp == 0.001
+    sw = pk_sweep(ModalStructure(np.eye(1), np.zeros((1, 1))), aero, [V], rho, eps=1e-10,
+                  real_root_damping="nastran")
+    q = 0.5 * rho * V**2
+    roots = np.roots([1.0, q * (b / V) * d, q * c])  # real: c < 0 (a divergent rigid mode)
+    assert sw.eigenvalues[0, 0].imag == 0.0 and sw.k[0, 0] < 0.001
+    assert np.min(np.abs(roots - sw.eigenvalues[0, 0].real)) <= 1e-9 * np.abs(roots).max()
+    assert sw.damping[0, 0] == pytest.approx(2 * sw.eigenvalues[0, 0].real * b / (V * np.log(2)))

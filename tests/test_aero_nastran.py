@@ -170,6 +170,46 @@ def test_symmetric_aero_card_mirrors_the_boxes(tmp_path, pt145_text):
     assert deck.aero_panels.n == 48 and np.all(deck.aero_panels.normals[:, 2] > 0.999)
 
 
+def test_aero_symxy_adds_the_images_about_the_xy_plane(tmp_path, pt145_text, pt145_fe):
+    """AERO SYMXY = -1 (ground effect, MSC QRG AERO) with SYMXZ = 1. pt145's boxes lie in the
+    aero xy plane, where they would coincide with their images: a one-line error naming a box.
+    The same deck with its boxes 0.5 above that plane: the half wing, its xz image, and the xy
+    images of both (z -> -z), 96 boxes; the splined motion of an xy image is minus that of its
+    source box (the mirror image of the motion), of an xz image plus. The GAFs of such panels
+    are checked against a hand-built mirror in tests/test_aero_panels.py."""
+    from dataclasses import replace
+
+    from torchrom.aero.panels import AeroPanels
+
+    path = _variant(
+        tmp_path,
+        pt145_text,
+        "symxy.bdf",
+        ("AERO    0               2.0706  1.145-7", _field8("AERO", 0, "", "2.0706", "1.145-7", 1,
+                                                          -1)),
+    )
+    with pytest.raises(InputError, match=r"symxy.bdf: AERO: SYMXY = -1: CAERO1 box 101 lies "
+                       r"in the xy plane") as exc:
+        load_deck(path)
+    assert "\n" not in str(exc.value)
+    plain = tmp_path / "plain.bdf"
+    plain.write_text(pt145_text)
+    deck = load_deck(plain)
+    raised = replace(deck, panels=AeroPanels(deck.panels.corners + [0.0, 0.0, 0.5],
+                                             deck.panels.box_ids, deck.panels.caero_ids),
+                     reference=replace(deck.reference, symxz=1, symxy=-1))
+    assert "SYMXY = -1" in raised.symmetry and "ground effect" in raised.symmetry
+    full = raised.aero_panels
+    assert full.n == 96 and full.xy_image.sum() == 48 and full.xz_image.sum() == 48
+    np.testing.assert_array_equal(full.corners[48:, :, 2], -full.corners[:48, :, 2])
+    modes = pt145_fe.modes(2)
+    disp = np.asarray(pt145_fe.expand(modes.shapes)).reshape(2, -1, 6)
+    motion = raised.box_motion(pt145_fe.grid_ids, disp)
+    for a in (motion.h_load, motion.h_control, motion.slope_control):
+        np.testing.assert_array_equal(a[:, 48:], -a[:, :48])
+        np.testing.assert_array_equal(a[:, :48], a[:, 24 + full.source[:48]])
+
+
 BAD = [
     (
         "missing_set1_grid.bdf",
@@ -195,8 +235,8 @@ BAD = [
     (
         "aero_symxy.bdf",
         ("AERO    0               2.0706  1.145-7", _field8("AERO", 0, "", "2.0706", "1.145-7", "",
-                                                          1)),
-        r"AERO: SYMXY: symmetry about the xy plane \(ground effect\) is not supported",
+                                                          2)),
+        r"AERO: SYMXY: expected -1 \(ground effect\), 0 or \+1, got 2",
     ),
     (
         "method_missing_eigr.bdf",
@@ -289,3 +329,37 @@ def test_spline4_and_spline5_on_aelists_equal_spline1_and_spline2(tmp_path, pt14
         for name in ("h_load", "h_control", "slope_control"):
             np.testing.assert_allclose(getattr(a, name), getattr(b, name), rtol=1e-12, atol=1e-12)
         assert np.abs(a.h_load).max() > 0.1
+
+
+def test_resvec_selection(tmp_path):
+    """Residual vectors (RESVEC) are used as Nastran uses them: by default, when LMODES asks for
+    more modes than ND (bah_plane: LMODES 10, ND 8 -> 8 eigenmodes + 2 residual vectors),
+    switched off by PARAM RESVEC NO, case control RESVEC = NO or ``resvec=False`` (8 modes);
+    a PARAM RESVEC that is neither YES nor NO is a one-line error naming it."""
+    from pathlib import Path
+
+    from torchrom.aero import nastran_flutter as nf
+    from torchrom.fe import read_bdf
+
+    folder = Path(__file__).parent / "decks" / "pynastran_bah_plane"
+    for inc in folder.glob("*.inc"):
+        (tmp_path / inc.name).write_text(inc.read_text())
+    text = (folder / "bah_plane.bdf").read_text()
+    fe = read_bdf(folder / "bah_plane.bdf")
+
+    def deck(name, new_text, **kw):
+        path = tmp_path / name
+        path.write_text(new_text)
+        return nf.load_deck(path, **kw)
+
+    default = deck("default.bdf", text)
+    assert default.resvec and default.resvec_source == "Nastran's default"
+    assert (default.n_eigen, default.lmodes) == (8, 10)
+    assert len(nf._modes(default, fe, [])[0]) == 10
+    param_no = deck("param.bdf",
+                    text.replace("PARAM,LMODES,10", "PARAM,LMODES,10\nPARAM,RESVEC,NO"))
+    case_no = deck("case.bdf", text.replace("METHOD = 401", "METHOD = 401\nRESVEC = NO"))
+    for d in (param_no, case_no, deck("cli.bdf", text, resvec=False)):
+        assert not d.resvec and len(nf._modes(d, fe, [])[0]) == 8
+    with pytest.raises(InputError, match=r"bad.bdf: PARAM RESVEC: expected YES or NO, got MAYBE"):
+        deck("bad.bdf", text.replace("PARAM,LMODES,10", "PARAM,LMODES,10\nPARAM,RESVEC,MAYBE"))

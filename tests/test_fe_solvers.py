@@ -307,12 +307,60 @@ def test_free_free_pt145_rigid_body_and_elastic_modes(shared, tmp_path):
     assert records[4]["mode"] == 5 and records[4]["kind"] == "bending"
 
 
-def test_free_free_flutter_is_a_clear_error(shared, tmp_path, capsys):
+def test_rigid_body_modes_from_the_geometry(shared, tmp_path):
+    """Free-free pt145's four rigid-body modes built from the grids' rigid motions
+    (:func:`torchrom.fe.rigid.rigid_body_modes`): mass-orthonormal (GᵀMG = I to 1e-12: an
+    eigen-decomposition of a 4 x 4 matrix), strain-free (GᵀKG ≤ 1e-10 of the first elastic ω²:
+    exact rigid motions carry round-off energy only; the eigensolver's rigid modes have
+    ω² = 7.7e-5, 1e-11 of it), expanded to the grids they are exact rigid motions (each grid's
+    translation is t + θ × x with one (t, θ) for the whole model, to 1e-12), and they span the
+    eigensolver's rigid modes (M-projection residual ≤ 1e-6). The elastic modes are
+    M-orthogonal to them (1e-10)."""
+    from torchrom.fe import read_bdf
+    from torchrom.fe.rigid import rigid_body_modes
+
+    fe = read_bdf(_free_free_pt145(shared, tmp_path))
+    modes = fe.modes(4)
+    G, how = rigid_body_modes(fe, modes)
+    assert G.shape[1] == 4 and how.startswith("rigid motions")
+    M, K = fe.mass_matrix(), fe.stiffness_matrix()
+    assert np.abs(G.T @ (M @ G) - np.eye(4)).max() <= 1e-12
+    assert np.abs(G.T @ (K @ G)).max() <= 1e-10 * modes.eigenvalues[0]
+    u = fe.expand(G)  # (4, n_grid, 6) in basic axes
+    x = fe.grid_xyz
+    for ui in u:
+        t, th = ui[0, :3] - np.cross(ui[0, 3:], x[0]), ui[0, 3:]
+        assert np.abs(ui[:, 3:] - th).max() <= 1e-12 * np.abs(ui).max()
+        assert np.abs(ui[:, :3] - (t + np.cross(th, x))).max() <= 1e-12 * np.abs(ui).max() * (
+            1 + np.abs(x).max())
+    rest = modes.rigid_shapes - G @ (G.T @ (M @ modes.rigid_shapes))
+    assert np.sqrt(np.einsum("ik,ik->k", rest, M @ rest)).max() <= 1e-6
+    assert np.abs(G.T @ (M @ modes.shapes)).max() <= 1e-10
+
+
+def test_free_free_flutter_keeps_the_rigid_body_modes(shared, tmp_path, capsys):
+    """``torchrom flutter`` on free-free pt145 (KE; LMODES raised to 7: the EIGR's 6 roots are
+    4 rigid + 2 elastic, counted as Nastran counts them, and the 7th is a residual vector, as
+    Nastran's default RESVEC gives): runs, lists the rigid-body modes at exactly 0 Hz and says
+    so in a note; KE has no root for them (velocity 0, damping undefined, never a crossing).
+    The free-free flutter of an aircraft by PK is checked against Nastran's f06 on bah_plane
+    (tests/test_public_decks.py)."""
+    from torchrom.aero.nastran_flutter import run_deck
     from torchrom.cli import main
 
-    rc = main(["flutter", str(_free_free_pt145(shared, tmp_path))])
-    err = capsys.readouterr().err
-    assert rc == 2 and "4 rigid-body mode(s)" in err and "SUPORT" in err
+    path = _free_free_pt145(shared, tmp_path)
+    path.write_text(path.read_text().replace("PARAM   LMODES  3", "PARAM   LMODES  7"))
+    res = run_deck(path, log=lambda *_: None)
+    assert np.array_equal(res.frequencies_hz[:4], np.zeros(4)) and len(res.frequencies_hz) == 7
+    assert res.frequencies_hz[4] > 100.0 and res.frequencies_hz[6] > res.frequencies_hz[5]
+    assert any("residual vectors" in n and "1 used" in n for n in res.notes)
+    sw = res.results[0].sweep
+    assert np.all(sw.velocity[:, :4] == 0.0) and np.all(np.isnan(sw.damping[:, :4]))
+    assert all(p.mode >= 4 for r in res.results for p in r.points)
+    assert any("4 rigid-body mode(s) kept" in n for n in res.notes)
+    rc = main(["flutter", str(path)])
+    out = capsys.readouterr().out
+    assert rc == 0 and "modal frequencies (Hz): 0  0  0  0  254" in out
 
 
 def test_point_mass_on_a_massless_plate():
@@ -346,3 +394,111 @@ def test_point_mass_on_a_massless_plate():
     more = fe.modes(4)
     np.testing.assert_allclose(more.eigenvalues, expected, rtol=1e-8)
     assert any("3 finite" in note for note in more.notes)
+
+
+@pytest.mark.parametrize("deck", ["pynastran_ha144d/ha144da.bdf", "ekm_bar_beam/test_case.bdf",
+                                  "ekm_swept_plane/sol103_swept_plane.bdf"])
+def test_rigid_body_modes_span_nastrans_suport_shapes(deck):
+    """The three public decks with SUPORT (free-free; Nastran ran them, so their r-sets are
+    statically determinate): the rigid-body modes built from the geometry span the shapes
+    Nastran computes from the r-set, Ψ = [-K_ll⁻¹ K_lr; I] (MSC Dynamic Analysis User's Guide,
+    rigid-body modes from SUPORT), a second method on the same K (M-projection residual of Ψ
+    on them ≤ 1e-8 of Ψ's size: linear algebra to round-off), and the flutter note says so."""
+    from pathlib import Path
+
+    from torchrom.fe import read_bdf
+    from torchrom.fe.rigid import rigid_body_modes, suport_dofs, suport_note
+
+    fe = read_bdf(Path(__file__).parent / "decks" / deck)
+    modes = fe.modes(3)
+    G, how = rigid_body_modes(fe, modes)
+    dofs = suport_dofs(fe)
+    assert how.startswith("rigid motions") and G.shape[1] == modes.n_rigid == len(dofs)
+    r = np.array([fe.dof_index(g, c) for g, c in dofs])
+    ll = np.setdiff1d(np.arange(fe.n_dof), r)
+    K = fe.stiffness_matrix().toarray()
+    M = fe.mass_matrix()
+    psi = np.zeros((fe.n_dof, len(r)))
+    psi[r] = np.eye(len(r))
+    psi[ll] = -np.linalg.solve(K[np.ix_(ll, ll)], K[np.ix_(ll, r)])
+    rest = psi - G @ (G.T @ (M @ psi))
+    size = np.sqrt(np.einsum("ik,ik->k", psi, M @ psi))
+    assert np.all(np.sqrt(np.einsum("ik,ik->k", rest, M @ rest)) <= 1e-8 * size)
+    assert "statically determinate" in suport_note(fe, G)
+
+
+@pytest.mark.parametrize("deck, n, nastran_hz", [
+    # pt145 (clamped): the f06's augmented table has 1394.46, 1711.82, 3112.26 Hz
+    ("pynastran_pt145/pt145.bdf", 6, 1711.823),
+    # bah_plane (free-free, 2 rigid-body modes): 41.229, 56.557, 120.58, 180.32 Hz
+    ("pynastran_bah_plane/bah_plane.bdf", 6, 56.55734),
+])
+def test_inertia_residual_vectors(deck, n, nastran_hz):
+    """Residual vectors (RESVEC, inertia relief): the defining property, by a second route —
+    the static response to each of the six inertia loads M D (relieved of its rigid-body part
+    on a free-free structure, and taken orthogonal to the rigid-body modes) lies in the span of
+    the modes and the residual vectors (M-projection residual relative to the largest response:
+    measured 1.3e-6 on pt145, whose stiff bars make K ill-conditioned, 1e-12 on bah_plane;
+    asserted 1e-5: round-off of two different linear solves of K); the vectors are
+    mass-normalised, M- and K-orthogonal to the modes (1e-9, relative to ω² for K). Against
+    the f06's augmented table one frequency is Nastran's (1e-5); the others are not (pt145
+    1388.97, 2916.46 vs 1394.46, 3112.26; bah_plane 39.02, 119.31, 179.08 vs 41.229, 120.58,
+    180.32): Nastran's load set differs, see torchrom.fe.resvec."""
+    from pathlib import Path
+
+    from torchrom.fe import read_bdf
+    from torchrom.fe.resvec import inertia_residual_vectors
+    from torchrom.fe.rigid import orthogonalise_against, rigid_body_modes, rigid_motions_on_free
+
+    fe = read_bdf(Path(__file__).parent / "decks" / deck)
+    modes = fe.modes(n)
+    M, K = fe.mass_matrix(), fe.stiffness_matrix().toarray()
+    rigid = rigid_body_modes(fe, modes)[0] if modes.n_rigid else np.zeros((fe.n_dof, 0))
+    basis = np.concatenate([rigid, orthogonalise_against(modes.shapes, rigid, M)], axis=1)
+    fr, U = inertia_residual_vectors(fe, basis, rigid)
+    assert np.min(np.abs(fr / nastran_hz - 1)) <= 1e-5, fr
+    assert np.abs(U.T @ (M @ U) - np.eye(len(fr))).max() <= 1e-9
+    assert np.abs(basis.T @ (M @ U)).max() <= 1e-9
+    assert np.abs(basis.T @ K @ U).max() <= 1e-9 * (2 * np.pi * fr.max()) ** 2
+    X, _, _ = rigid_motions_on_free(fe.T, fe.grid_xyz)
+    F = M @ X
+    F = F - M @ (rigid @ (rigid.T @ F))
+    if rigid.shape[1]:  # solve on the elastic subspace: K u = F, u ⟂ rigid (least squares)
+        u = np.linalg.lstsq(K, F, rcond=None)[0]
+        u = u - rigid @ (rigid.T @ (M @ u))
+    else:
+        u = np.linalg.solve(K, F)
+    B = np.concatenate([basis, U], axis=1)
+    rest = u - B @ (B.T @ (M @ u))
+    size = np.sqrt(np.einsum("ik,ik->k", u, M @ u))
+    # (a rigid-body direction's relieved load is zero: sizes are relative to the largest)
+    assert np.all(np.sqrt(np.einsum("ik,ik->k", rest, M @ rest)) <= 1e-5 * size.max())
+
+
+def test_rigid_body_modes_fall_back_on_a_mechanism():
+    """A zero-energy mode that is not a rigid motion of the grids (a mechanism: here grid 3's
+    vertical DOF has mass and no stiffness, grids 1-2 are a z-spring pair): the geometric
+    shapes (the common z translation) do not span it, so the eigensolver's zero-frequency shapes
+    are used, M-orthonormal (1e-12), and the reason is given."""
+    from types import SimpleNamespace
+
+    import scipy.sparse as sp
+
+    from torchrom.fe.rigid import rigid_body_modes
+    from torchrom.fe.solvers import Modes
+
+    xyz = np.array([[0.0, 0, 0], [1.0, 0, 0], [2.0, 0, 0]])
+    T = sp.lil_matrix((18, 3))
+    for i in range(3):
+        T[6 * i + 2, i] = 1.0  # the free DOFs: z of each grid
+    K = sp.csr_matrix(np.array([[1.0, -1.0, 0.0], [-1.0, 1.0, 0.0], [0.0, 0.0, 0.0]]))
+    M = sp.csr_matrix(np.diag([1.0, 2.0, 3.0]))
+    fe = SimpleNamespace(T=sp.csr_matrix(T), grid_xyz=xyz, mass_matrix=lambda: M,
+                         stiffness_matrix=lambda: K)
+    # the two zero-energy modes: z translation of grids 1-2, and grid 3 alone
+    shapes = np.array([[1.0, 0.0], [1.0, 0.0], [0.0, 1.0]])
+    modes = Modes(np.zeros(0), np.zeros((3, 0)), [], np.zeros(0), rigid_eigenvalues=np.zeros(2),
+                  rigid_shapes=shapes)
+    G, how = rigid_body_modes(fe, modes)
+    assert "not rigid motions" in how and G.shape == (3, 2)
+    assert np.abs(G.T @ (M @ G) - np.eye(2)).max() <= 1e-12

@@ -153,11 +153,14 @@ class AeroTable:
     """Q(k) on demand: interpolated from a GAF table, from a callable, or from an RFA."""
 
     def __init__(
-        self, q_of_k: Callable[[float], np.ndarray], semichord: float, k_max: float = np.inf
+        self, q_of_k: Callable[[float], np.ndarray], semichord: float, k_max: float = np.inf,
+        k_min: float = 0.0,
     ):
         self._q = q_of_k
         self.semichord = float(semichord)
         self.k_max = k_max
+        self.k_min = float(k_min)  # lowest tabulated k (0: Q is known down to k = 0)
+        self.k_damp = self.k_min  # lowest positive tabulated k (where Q_I/k is last known)
         self.extrapolated = 0.0  # largest k requested beyond the table
 
     def __call__(self, k: float) -> np.ndarray:
@@ -187,7 +190,9 @@ class AeroTable:
             raise InputError(
                 f"flutter: interpolation: expected 'cubic' or 'linear', got {interpolation!r}"
             )
-        return cls(q_of_k, gaf.semichord, k_max=float(k[-1]))
+        table = cls(q_of_k, gaf.semichord, k_max=float(k[-1]), k_min=float(k[0]))
+        table.k_damp = float(k[k > 0][0]) if np.any(k > 0) else 0.0
+        return table
 
     @classmethod
     def from_rfa(cls, rfa: RFA) -> AeroTable:
@@ -342,12 +347,26 @@ def _pk_mode(structure, aero, V, rho, s_guess, vec_guess, eps, max_iter):
     s_best, vec_best = s_guess, vec_guess
     relax, last_step = 1.0, 0.0
     for _ in range(max_iter):
-        qk = aero(k)
+        # Below the lowest positive tabulated k (a rigid-body or divergence root, k -> 0) the
+        # aerodynamics are quasi-steady, Q(k) = Q_R(k_min) + i k Q_I(k_d)/k_d, with k_min the
+        # lowest tabulated k (0 when the steady GAF is tabulated) and k_d the lowest positive
+        # one, instead of extrapolated: Q_I/k tends to a finite limit (the aerodynamic damping)
+        # but an extrapolation of Q_I to k << k_d leaves an offset that the division by k
+        # blows up, and a Q_R interpolated between k = 0 and k_d grows like k, which gives every
+        # rigid-body root a spurious fixed point k ~ q (b/V)² dQ_R/dk > 0. This is what a small
+        # first MKAERO k (0.001 in bah_plane) is for.
+        if k < aero.k_damp:
+            qk, qd, kd = aero(aero.k_min), aero(aero.k_damp), aero.k_damp
+        else:
+            qk = qd = aero(k)
+            kd = k
         kt = structure.K + q * qk.real
-        ct = structure.C + q * (b / V) * qk.imag / k
+        ct = structure.C + q * (b / V) * qd.imag / kd
         s, vecs = _quadratic_eig(structure.M_inv, ct, kt)
         upper = np.flatnonzero(s.imag >= -1e-12 * np.abs(s).max())
-        scale = max(abs(s_guess), 1e-12)
+        # a rigid-body start (s_guess = 0 exactly): the mode shape decides (the distance term,
+        # scaled by the largest root, only breaks ties, favouring the root nearest zero)
+        scale = max(abs(s_guess), 1e-12) if s_guess != 0 else max(np.abs(s).max(), 1e-12)
         score = [_mac(vecs[:, i], vec_guess) - 0.5 * abs(s[i] - s_guess) / scale for i in upper]
         pick = upper[int(np.argmax(score))]
         s_best, vec_best = s[pick], vecs[:, pick]
@@ -365,10 +384,35 @@ def _pk_mode(structure, aero, V, rho, s_guess, vec_guess, eps, max_iter):
 def _vacuum_roots(structure: ModalStructure):
     s, v = _quadratic_eig(structure.M_inv, structure.C, structure.K)
     keep = np.flatnonzero(s.imag > 0)
+    if len(keep) < structure.n_modes and _is_modal(structure):
+        # rigid-body modes (ω = 0): the companion matrix is defective there and its
+        # eigenvectors for s = 0 need not be distinct; the modes themselves are the start
+        w = np.sqrt(np.diag(structure.K) / np.diag(structure.M))
+        return 1j * w, np.eye(structure.n_modes, dtype=complex)
     if len(keep) < structure.n_modes:  # overdamped or rigid modes: take the upper half by |s|
         keep = np.argsort(-s.imag)[: structure.n_modes]
     keep = keep[np.argsort(np.abs(s[keep]))][: structure.n_modes]
     return s[keep], v[:, keep]
+
+
+def _is_modal(structure: ModalStructure) -> bool:
+    """Undamped with diagonal M and K ≥ 0 (a modal basis, possibly with rigid-body modes)."""
+    diag_only = all(np.array_equal(a, np.diag(np.diag(a))) for a in (structure.M, structure.K))
+    return diag_only and not np.any(structure.C) and bool(np.all(np.diag(structure.K) >= 0))
+
+
+def pk_damping(eigenvalues: np.ndarray, velocity, semichord: float) -> np.ndarray:
+    """Nastran's p-k damping: g = 2 Re(s)/|Im(s)| for an oscillating root; for a real root
+    (k = 0) g = 2 s b / (V ln 2), the decay (growth) rate per half-amplitude distance, which is
+    what the f06 prints for its zero-frequency roots (checked on bah_plane's FLUTTER SUMMARY:
+    s = 9.3382e-4 at V = 30, b = 2 gives g = 1.7963e-4). It keeps a divergence, a real root
+    through s = 0, a zero crossing of g."""
+    eig = np.asarray(eigenvalues)
+    vel = np.broadcast_to(np.asarray(velocity, dtype=float).reshape(-1, 1), eig.shape)
+    real = eig.imag == 0
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return np.where(real, 2 * eig.real * semichord / (vel * np.log(2.0)),
+                        2 * eig.real / np.abs(eig.imag))
 
 
 def pk_sweep(
@@ -381,12 +425,18 @@ def pk_sweep(
     eps: float = 1e-6,
     max_iter: int = 100,
     ramp_steps: int = 6,
+    real_root_damping: str = "infinite",
 ) -> ModeSweep:
     """p-k along a path of flight conditions (tracked from the in-vacuo modes).
 
     The path is entered by ramping the density from ~0 to its first value at the first speed so
-    that every mode is followed continuously from its structural mode.
+    that every mode is followed continuously from its structural mode. The damping of a real
+    root (zero frequency) is ±inf (``real_root_damping="infinite"``: only oscillatory roots
+    flutter) or Nastran's finite value (``"nastran"``, :func:`pk_damping`).
     """
+    if real_root_damping not in ("infinite", "nastran"):
+        raise InputError(f"p-k: real_root_damping: expected 'infinite' or 'nastran', "
+                         f"got {real_root_damping!r}")
     V = np.asarray(velocities, dtype=float).reshape(-1)
     rho = np.broadcast_to(np.asarray(densities, dtype=float), V.shape).copy()
     if np.any(V <= 0) or np.any(rho < 0):
@@ -411,10 +461,12 @@ def pk_sweep(
                 notes.append(f"p-k: mode {j + 1} not converged at V={V[i]:.6g}")
             eig[i, j], vecs[i, :, j], kk[i, j] = s, vec, k
         s_prev, v_prev = eig[i].copy(), vecs[i].copy()
-    with np.errstate(divide="ignore", invalid="ignore"):
-        g = np.where(
-            np.abs(eig.imag) > 0, 2 * eig.real / np.abs(eig.imag), np.sign(eig.real) * np.inf
-        )
+    if real_root_damping == "nastran":
+        g = pk_damping(eig, V, aero.semichord)
+    else:
+        with np.errstate(divide="ignore", invalid="ignore"):
+            g = np.where(np.abs(eig.imag) > 0, 2 * eig.real / np.abs(eig.imag),
+                         np.sign(eig.real) * np.inf)
     if aero.extrapolated:
         notes.append(
             f"p-k: reduced frequency up to {aero.extrapolated:.4g} beyond the GAF table "
@@ -448,10 +500,24 @@ def ke_sweep(structure: ModalStructure, aero: AeroTable, k_list, density: float)
     vecs = np.empty((len(k), m, m), complex)
     prev = None
     notes = []
-    kinv = _inverse(structure.K)
+    rigid = _is_modal(structure) and bool(np.any(np.diag(structure.K) == 0))
+    if rigid:
+        # K is singular (rigid-body modes): solve μ A x = K x, μ = 1/λ, instead of inverting K.
+        # A rigid-body mode has μ = 0, i.e. no KE root (ω = 0: velocity 0, damping undefined).
+        notes.append("KE: the rigid-body modes have no KE root (ω = 0, listed with velocity 0 "
+                     "and undefined damping); use PK for the free-free flutter of an aircraft")
+    else:
+        kinv = _inverse(structure.K)
     for i, ki in enumerate(k):
-        a = kinv @ (structure.M - 0.5 * density * (b / ki) ** 2 * aero(ki))
-        lam, v = np.linalg.eig(a)
+        if rigid:
+            mu, v = np.linalg.eig(_inverse(
+                structure.M - 0.5 * density * (b / ki) ** 2 * aero(ki)) @ structure.K)
+            zero = np.abs(mu) <= 1e-12 * np.abs(mu).max()
+            with np.errstate(divide="ignore", invalid="ignore"):
+                lam = np.where(zero, np.inf + 0j, 1.0 / np.where(zero, 1.0, mu))
+        else:
+            a = kinv @ (structure.M - 0.5 * density * (b / ki) ** 2 * aero(ki))
+            lam, v = np.linalg.eig(a)
         if prev is None:
             order = np.argsort(-lam.real)  # λ ≈ 1/ω²: lowest frequency first
         else:
@@ -463,7 +529,8 @@ def ke_sweep(structure: ModalStructure, aero: AeroTable, k_list, density: float)
             omega = np.where(lam.real > 0, 1.0 / np.sqrt(np.abs(lam.real)), np.nan)
         if np.any(lam.real <= 0):
             notes.append(f"KE: a root at k={ki:.4g} has no physical interpretation (Re λ <= 0)")
-        damping[i] = lam.imag / lam.real
+        with np.errstate(invalid="ignore"):
+            damping[i] = np.where(np.isinf(lam.real), np.nan, lam.imag / lam.real)
         vel[i] = omega * b / ki
         # Represent the KE root like Nastran: s = ω (g/2 + i)
         eig[i] = omega * (0.5 * damping[i] + 1j)

@@ -8,17 +8,19 @@ checks with one-line errors, and the Nastran-style output (V-g table, flutter su
 Cards honoured: FLUTTER (methods PK, PKNL, KE, K; PKNL pairs the i-th density, Mach number and
 velocity into one flight condition, PK and KE loop over the lists), FLFACT (density ratios, Mach
 numbers, reduced frequencies or velocities, negative velocities taken by magnitude; the ``THRU``
-form is expanded by pyNastran), MKAERO1/MKAERO2, AERO (ACSID, REFC, RHOREF, SYMXZ; SYMXY
-refused), AEROS, CAERO1/PAERO1 (+AEFACT), SPLINE1/SPLINE2/SET1, SPLINE4 (IPS)/SPLINE5 with AELIST,
-EIGR/EIGRL (ND, frequency range),
-PARAM LMODES and PARAM VREF; case control FMETHOD and METHOD. The boxes, spline grids and grid
-motions are expressed in the aero frame (ACSID), where the flow runs along +x.
+form is expanded by pyNastran), MKAERO1/MKAERO2, AERO (ACSID, REFC, RHOREF, SYMXZ, SYMXY: image
+boxes about the aero xy plane, -1 = ground effect), AEROS, CAERO1/PAERO1 (+AEFACT),
+SPLINE1/SPLINE2/SET1, SPLINE4 (IPS)/SPLINE5 with AELIST, EIGR/EIGRL (ND, frequency range),
+PARAM LMODES, RESVEC and VREF; case control FMETHOD, METHOD and RESVEC. The boxes, spline grids
+and grid motions are expressed in the aero frame (ACSID), where the flow runs along +x.
 :func:`compare_f06` puts Nastran's flutter points (FLUTTER SUMMARY of an f06) beside ours.
 
 Symmetry: the reflection plane is the deck's AERO SYMXZ (AEROS when there is no AERO card):
 +1 a symmetric image wing (a wall-mounted model), -1 antisymmetric, 0 or blank an isolated half
 wing. ``symxz`` of :func:`load_deck` (``torchrom flutter --symxz``) overrides it; the output says
-which was used and where it came from.
+which was used and where it came from. AERO/AEROS SYMXY adds the images of all boxes about the
+xy plane of the aero system (ground effect for SYMXY = -1, MSC QRG AERO: "-1 for symmetry",
+the opposite sign convention to SYMXZ; +1 antisymmetric); boxes lying in that plane are refused.
 
 Units: a Nastran deck has none of its own; results are in the deck's units (velocities in its
 length unit per second divided by PARAM VREF, densities in its mass per length cubed, frequencies
@@ -38,12 +40,27 @@ Documented differences from Nastran: GAFs are computed directly at each FLFACT M
 the reduced frequencies of the nearest MKAERO Mach for PK; at the FLFACT reduced frequencies
 themselves for K/KE) instead of being interpolated between MKAERO points; K and KE use the same
 solver (KE without viscous damping, as in Nastran); structural damping tables (TABDMP1) are not
-read; splines interpolate exactly (see :mod:`torchrom.aero.splines`). Modal matrices are those of
-mass-normalised modes (M = I, K = diag ω²). The modes are the lowest min(LMODES, ND) eigenmodes:
-Nastran may augment them with residual vectors (PARAM RESVEC, its "AFTER AUGMENTATION" table),
-which are not computed here (pyNastran's bah_plane uses 8 eigenmodes and 2 residual vectors).
-Velocities are in the deck's units divided by
-PARAM VREF.
+read; splines interpolate exactly (see :mod:`torchrom.aero.splines`); a beam spline's deflection
+(along the z axis of its CID) is projected on the box normals, which the DLM's h is measured along.
+Modal matrices are those of mass-normalised modes (M = I, K = diag ω²). The modes are the lowest
+min(LMODES, ND) eigenmodes; when LMODES exceeds ND (or there is no LMODES) they are augmented, as
+Nastran does by default (its "AFTER AUGMENTATION OF RESIDUAL VECTORS" table), with residual
+vectors (case control RESVEC, PARAM RESVEC, ``--resvec``), of which the lowest LMODES are used.
+torchrom builds the inertia-relief kind (:mod:`torchrom.fe.resvec`), which reproduces some of
+Nastran's augmented frequencies but not all (bah_plane: 56.557 Hz as Nastran's, 39.02 where it
+has 41.229): its flutter point moves by 0.06 % with them (−0.21 % vs −0.15 % without).
+Velocities are in the deck's units divided by PARAM VREF.
+
+Free-free structures (an aircraft): as in Nastran, the rigid-body modes are part of the modal
+basis and counted among ND/LMODES, at exactly 0 Hz (:func:`torchrom.fe.rigid.rigid_body_modes`:
+the rigid motions the constraints admit, mass-orthonormal; the elastic modes are orthogonalised
+against them). For PK, the steady GAF (k = 0) is added to the MKAERO reduced frequencies, the
+rigid roots start from their modes, roots below the lowest positive k get quasi-steady
+aerodynamics (:func:`torchrom.aero.flutter.pk_sweep`), and a real root's damping is Nastran's
+g = 2sb/(V ln 2), so that a divergence (a real root through 0) is a zero crossing. A crossing is
+declared only where g passes from below −G_ROUNDOFF to above +G_ROUNDOFF. Nastran prints only the
+most positive real root of a point in its FLUTTER SUMMARY (the others as "LESS CRITICAL REAL
+ROOTS"); torchrom tracks each branch by its mode shape, so its real-root branches may differ.
 """
 
 from __future__ import annotations
@@ -125,6 +142,10 @@ class FlutterDeck:
     frame: AeroFrame = field(default_factory=AeroFrame)  # AERO ACSID: flow along its +x
     length_unit: str = "length"
     symmetry_source: str = "AERO SYMXZ"
+    n_eigen: int | None = None  # ND of the EIGR/EIGRL (None: not given)
+    lmodes: int | None = None  # PARAM LMODES (None: not given)
+    resvec: bool = False  # augment the eigenmodes with residual vectors (RESVEC)
+    resvec_source: str = ""
 
     @property
     def velocity_unit(self) -> str:
@@ -137,12 +158,17 @@ class FlutterDeck:
         """One line: the reflection plane used and where it came from."""
         what = {0: "none (isolated half wing)", 1: "symmetric image (reflection plane xz)",
                 -1: "antisymmetric image about xz"}[self.reference.symxz]
-        return f"SYMXZ = {self.reference.symxz}: {what}, from {self.symmetry_source}"
+        xy = {0: "", -1: "; SYMXY = -1: mirror image about the aero xy plane (ground effect)",
+              1: "; SYMXY = +1: antisymmetric image about the aero xy plane"}[
+            self.reference.symxy]
+        return f"SYMXZ = {self.reference.symxz}: {what}, from {self.symmetry_source}{xy}"
 
     @property
     def aero_panels(self) -> AeroPanels:
-        """The panels the DLM sees: mirrored about xz when AERO SYMXZ = ±1."""
-        return self.panels.mirror() if self.reference.symxz != 0 else self.panels
+        """The panels the DLM sees: mirrored about xz when AERO SYMXZ = ±1, then about the aero
+        xy plane (z -> -z) when SYMXY = ±1."""
+        panels = self.panels.mirror() if self.reference.symxz != 0 else self.panels
+        return panels.mirror_xy() if self.reference.symxy != 0 else panels
 
     def box_motion(self, grid_ids, grid_disp: np.ndarray) -> BoxMotion:
         """Modal box motion from grid displacements (n_modes, n_grid, 6) in basic axes."""
@@ -168,14 +194,20 @@ class FlutterDeck:
             pts_c = half.control_points[sp.box_index]
             hl, _ = sp.spline.operators(pts_l)
             hc, hx = sp.spline.operators(pts_c)
-            h_l[:, sp.box_index] = u @ hl.T
-            h_c[:, sp.box_index] = u @ hc.T
-            sl_c[:, sp.box_index] = u @ hx.T
+            # The DLM reads h along each box's normal. A plate spline interpolates that
+            # component already; a beam spline (SPLINE2/5) deflects along the z axis of its CID,
+            # which may point either way (bah_plane: the wing's CID 0 z is opposite to its boxes'
+            # normals, the tail's CID 3 z along them): project it on the normals.
+            along = (half.normals[sp.box_index] @ sp.spline.axes[2]
+                     if isinstance(sp.spline, BeamSpline) else 1.0)
+            h_l[:, sp.box_index] = (u @ hl.T) * along
+            h_c[:, sp.box_index] = (u @ hc.T) * along
+            sl_c[:, sp.box_index] = (u @ hx.T) * along
         full = self.aero_panels
         anti = self.reference.symxz < 0
-        return BoxMotion(
-            full.box_motion(h_l, anti), full.box_motion(h_c, anti), full.box_motion(sl_c, anti)
-        )
+        xy = -1 if self.reference.symxy < 0 else 1  # SYMXY = -1: h' = -h on the xy images
+        return BoxMotion(full.box_motion(h_l, anti, xy), full.box_motion(h_c, anti, xy),
+                         full.box_motion(sl_c, anti, xy))
 
 
 # -- reading -------------------------------------------------------------------------------------
@@ -265,11 +297,12 @@ def _spline_defs(model, path: Path, panels: AeroPanels, frame: AeroFrame) -> lis
 
 
 def load_deck(path, require_flutter: bool = True, *, symxz: int | None = None,
-              length_unit: str | None = None) -> FlutterDeck:
+              length_unit: str | None = None, resvec: bool | None = None) -> FlutterDeck:
     """Read and check the aeroelastic part of a deck (everything except the modal solution).
 
     ``require_flutter=False`` accepts a deck with aerodynamic boxes and splines but no FLUTTER
-    cards (to build GAFs only). ``symxz`` (-1, 0, +1) overrides the deck's AERO/AEROS SYMXZ;
+    cards (to build GAFs only). ``resvec`` overrides the deck's RESVEC (residual vectors,
+    :func:`_with_residual_vectors`). ``symxz`` (-1, 0, +1) overrides the deck's AERO/AEROS SYMXZ;
     ``length_unit`` labels the output when the deck has no DTI,UNITS card.
     """
     path = Path(path)
@@ -287,6 +320,14 @@ def load_deck(path, require_flutter: bool = True, *, symxz: int | None = None,
         if symxz != ref.symxz:
             source = f"the command line (the deck's {card} SYMXZ is {ref.symxz})"
         ref = replace(ref, symxz=int(symxz))
+    if ref.symxy != 0:
+        in_plane = np.all(np.abs(panels.corners[:, :, 2]) <= 1e-9 * np.abs(panels.corners).max(),
+                          axis=1)
+        if np.any(in_plane):
+            raise InputError(
+                f"{path}: {card}: SYMXY = {ref.symxy}: CAERO1 box {panels.box_ids[in_plane][0]} "
+                "lies in the xy plane of the aero system, where it coincides with its image: "
+                "expected the boxes off that plane (z != 0 in ACSID)")
     units = model.dti.get("UNITS")
     deck_length = (units.fields.get("length") if units is not None else None) or None
     splines = _spline_defs(model, path, panels, frame)
@@ -346,7 +387,11 @@ def load_deck(path, require_flutter: bool = True, *, symxz: int | None = None,
             )
         )
 
-    n_modes, frange = _mode_count(model, path) if require_flutter else (None, (0.0, None))
+    n_modes, frange, nd, lmodes = (_mode_count(model, path) if require_flutter
+                                   else (None, (0.0, None), None, None))
+    use_resvec, resvec_source = _resvec(model, path)
+    if resvec is not None:
+        use_resvec, resvec_source = bool(resvec), "the command line"
     vref = float(model.params["VREF"].values[0]) if "VREF" in model.params else 1.0
     title = ""
     cc = model.case_control_deck
@@ -357,10 +402,15 @@ def load_deck(path, require_flutter: bool = True, *, symxz: int | None = None,
         frame,
         length_unit=str(deck_length or length_unit or "length").lower(),
         symmetry_source=source,
+        n_eigen=nd,
+        lmodes=lmodes,
+        resvec=use_resvec,
+        resvec_source=resvec_source,
     )
 
 
-def _mode_count(model, path: Path) -> tuple[int | None, tuple[float, float | None]]:
+def _mode_count(model, path: Path):
+    """(modes used without residual vectors, EIGR/EIGRL frequency range, ND, LMODES)."""
     lmodes = int(model.params["LMODES"].values[0]) if "LMODES" in model.params else 0
     methods = _case_ids(model, "METHOD")
     nd, frange = None, (0.0, None)
@@ -377,11 +427,30 @@ def _mode_count(model, path: Path) -> tuple[int | None, tuple[float, float | Non
             # Tridiagonal methods (GIV, HOU, ...) return ND roots when ND is given.
             if not nd:
                 frange = (float(card.f1 or 0.0), float(card.f2) if card.f2 else None)
+    nd_card = int(nd) if nd else None
     if lmodes > 0:
         nd = lmodes if nd is None else min(lmodes, nd) if nd else lmodes
     if nd is None and frange[1] is None:
         raise InputError(f"{path}: modes: give PARAM LMODES or an EIGR/EIGRL (ND or F2) via METHOD")
-    return (int(nd) if nd else None), frange
+    return (int(nd) if nd else None), frange, nd_card, (lmodes or None)
+
+
+def _resvec(model, path: Path) -> tuple[bool, str]:
+    """Whether residual vectors augment the modes, and where that came from: case control
+    RESVEC, else PARAM RESVEC, else Nastran's SOL 145 default (yes: the f06s of pt145 and
+    bah_plane augment their modes without asking)."""
+    cc = model.case_control_deck
+    if cc is not None:
+        for sub in cc.subcases.values():
+            if sub.has_parameter("RESVEC")[0]:
+                value = str(sub.get_parameter("RESVEC")[0]).upper()
+                return value not in ("NO", "NOINRL"), f"case control RESVEC = {value}"
+    if "RESVEC" in model.params:
+        value = str(model.params["RESVEC"].values[0]).upper()
+        if value not in ("YES", "NO"):
+            raise InputError(f"{path}: PARAM RESVEC: expected YES or NO, got {value}")
+        return value == "YES", f"PARAM RESVEC {value}"
+    return True, "Nastran's default"
 
 
 # -- running ---------------------------------------------------------------------------------------
@@ -415,6 +484,7 @@ class DeckResult:
             "deck": str(self.deck.path),
             "title": self.deck.title,
             "symxz": self.deck.reference.symxz,
+            "symxy": self.deck.reference.symxy,
             "symmetry": self.deck.symmetry,
             "units": {"velocity": self.deck.velocity_unit, "frequency": "Hz",
                       "density": f"mass/{self.deck.length_unit}^3 (deck units)"},
@@ -445,24 +515,66 @@ class DeckResult:
         }
 
 
-def _modes(deck: FlutterDeck, fe):
-    from ..fe.solvers import require_restrained
+def _with_rigid(fe, modes, n_total: int | None, notes: list[str]):
+    """Frequencies and shapes of Nastran's modal basis: the rigid-body modes first (0 Hz exactly,
+    :func:`torchrom.fe.rigid.rigid_body_modes`), then the elastic ones, ``n_total`` in all (None:
+    every mode computed). Nastran counts its rigid-body modes among ND and LMODES."""
+    from ..fe.rigid import orthogonalise_against, rigid_body_modes, suport_note
 
-    n_dof = fe.n_dof
-    n = deck.n_modes
-    where = f"{deck.path.name}: flutter"
-    if n is None:  # frequency range only
-        probe = require_restrained(fe.modes(min(n_dof, 100)), where)
-        f = np.asarray(probe.frequencies_hz)
-        lo, hi = deck.frequency_range
-        keep = np.flatnonzero((f >= lo) & (f <= hi))
-        return f[keep], np.asarray(probe.shapes)[:, keep]
-    modes = require_restrained(fe.modes(min(n, n_dof)), where)
     f = np.asarray(modes.frequencies_hz)
     shapes = np.asarray(modes.shapes)
+    if not modes.n_rigid:
+        return (f, shapes) if n_total is None else (f[:n_total], shapes[:, :n_total])
+    rigid, how = rigid_body_modes(fe, modes)
+    r = rigid.shape[1]
+    n_el = len(f) if n_total is None else max(n_total - r, 0)
+    elastic = orthogonalise_against(shapes[:, :n_el], rigid, fe.mass_matrix())
+    notes.append(f"{r} rigid-body mode(s) kept in the modal basis at 0 Hz ({how}; the "
+                 f"eigensolver gave ω² = "
+                 + ", ".join(f"{x:.2g}" for x in modes.rigid_eigenvalues) + ")")
+    note = suport_note(fe, rigid)
+    if note:
+        notes.append(note)
+    n = r + n_el if n_total is None else min(n_total, r + n_el)
+    return (np.concatenate([np.zeros(r), f[:n_el]])[:n],
+            np.concatenate([rigid, elastic], axis=1)[:, :n])
+
+
+def _modes(deck: FlutterDeck, fe, notes: list[str]):
+    """The deck's modal basis (ND/LMODES or the EIGR/EIGRL frequency range), rigid-body modes
+    included as Nastran does (a free-free aircraft keeps its rigid-body modes)."""
+    n_dof = fe.n_dof
+    n = deck.n_modes
+    if n is None:  # frequency range only
+        f, shapes = _with_rigid(fe, fe.modes(min(n_dof, 100)), None, notes)
+        lo, hi = deck.frequency_range
+        keep = np.flatnonzero((f >= lo) & (f <= hi))
+        return f[keep], shapes[:, keep]
+    if deck.resvec and deck.n_eigen and (deck.lmodes is None or deck.lmodes > deck.n_eigen):
+        return _with_residual_vectors(deck, fe, notes)
+    f, shapes = _with_rigid(fe, fe.modes(min(n, n_dof)), n, notes)
     lo = deck.frequency_range[0]
     keep = np.flatnonzero(f >= lo) if lo > 0 else np.arange(len(f))
     return f[keep], shapes[:, keep]
+
+
+def _with_residual_vectors(deck: FlutterDeck, fe, notes: list[str]):
+    """Nastran's augmented basis: the ND eigenmodes plus the residual vectors
+    (:func:`torchrom.fe.resvec.inertia_residual_vectors`), of which the lowest LMODES - ND (all
+    without LMODES) are used. Residual vectors lie above every computed eigenmode (they are
+    orthogonal to them), so with LMODES <= ND none would be used and none is computed."""
+    from ..fe.resvec import inertia_residual_vectors
+
+    n_eig = deck.n_eigen
+    f, shapes = _with_rigid(fe, fe.modes(min(n_eig, fe.n_dof)), n_eig, notes)
+    fr, vectors = inertia_residual_vectors(fe, shapes, shapes[:, f == 0.0])
+    total = len(f) + len(fr) if deck.lmodes is None else deck.lmodes
+    used = max(0, min(total - len(f), len(fr)))
+    notes.append(f"residual vectors (RESVEC, inertia relief; from {deck.resvec_source}): "
+                 f"{len(fr)} computed (" + ", ".join(f"{x:.4g}" for x in fr)
+                 + f" Hz), {used} used")
+    return (np.concatenate([f, fr[:used]]),
+            np.concatenate([shapes, vectors[:, :used]], axis=1))
 
 
 def run_deck(deck_or_path, fe=None, kernel: str = NASTRAN_KERNEL, log=print) -> DeckResult:
@@ -472,7 +584,8 @@ def run_deck(deck_or_path, fe=None, kernel: str = NASTRAN_KERNEL, log=print) -> 
         from ..fe import read_bdf
 
         fe = read_bdf(deck.path)
-    freqs, shapes = _modes(deck, fe)
+    mode_notes: list[str] = []
+    freqs, shapes = _modes(deck, fe, mode_notes)
     if len(freqs) == 0:
         raise InputError(f"{deck.path}: modes: none in the requested range")
     log(f"{deck.path.name}: {len(freqs)} modes: " + ", ".join(f"{f:.4g}" for f in freqs) + " Hz")
@@ -482,7 +595,7 @@ def run_deck(deck_or_path, fe=None, kernel: str = NASTRAN_KERNEL, log=print) -> 
     structure = ModalStructure(np.eye(len(freqs)), np.diag(omega**2))
     b = deck.reference.semichord
     panels = deck.aero_panels
-    results, notes = [], list(deck.notes) + list(getattr(fe, "notes", []))
+    results, notes = [], list(deck.notes) + list(getattr(fe, "notes", [])) + mode_notes
     def table_at(mach, k_list, case):
         log(
             f"FLUTTER {case.sid} ({case.method}): DLM at Mach {mach:g}, {len(k_list)} reduced "
@@ -491,9 +604,16 @@ def run_deck(deck_or_path, fe=None, kernel: str = NASTRAN_KERNEL, log=print) -> 
         gaf = compute_gaf(panels, motion, mach, k_list, b, kernel)
         return AeroTable.from_gaf(gaf, interpolation="linear" if case.imeth == "L" else "cubic")
 
+    n_rigid = int(np.sum(freqs == 0.0))
+
     def pk_k_list(mach):
         near = min({m for m, _ in deck.mkaero}, key=lambda m: abs(m - mach))
-        return sorted({k for m, k in deck.mkaero if m == near})
+        k_list = {k for m, k in deck.mkaero if m == near}
+        # rigid-body roots sit at k -> 0: the steady GAF (k = 0) is added so that their
+        # aerodynamic stiffness is the steady one (none for a rigid plunge) rather than that of
+        # the lowest MKAERO k (a small spurious stiffness: a plunge root of 5e-3 rad/s at
+        # V = 30 in bah_plane, real +-9e-4 in its f06)
+        return sorted(k_list | ({0.0} if n_rigid else set()))
 
     for case in deck.cases:
         if case.method == "PKNL":
@@ -512,7 +632,8 @@ def run_deck(deck_or_path, fe=None, kernel: str = NASTRAN_KERNEL, log=print) -> 
                 sel = mach_all == mach
                 aero = table_at(mach, pk_k_list(mach), case)
                 sweep = pk_sweep(structure, aero, np.abs(case.values[sel]), rho_all[sel],
-                                 mach=mach, eps=min(case.eps, 1e-4))
+                                 mach=mach, eps=min(case.eps, 1e-4),
+                                 real_root_damping="nastran")
                 points = sweep.crossings()  # linear in the path, as Nastran's summary
                 for p in points:
                     p.mach = float(mach)
@@ -531,7 +652,8 @@ def run_deck(deck_or_path, fe=None, kernel: str = NASTRAN_KERNEL, log=print) -> 
             for ratio, rho in zip(case.density_ratios, case.densities):
                 if case.method.startswith("PK"):
                     v = np.sort(np.abs(case.values))
-                    sweep = pk_sweep(structure, aero, v, rho, mach=mach, eps=min(case.eps, 1e-4))
+                    sweep = pk_sweep(structure, aero, v, rho, mach=mach,
+                                     eps=min(case.eps, 1e-4), real_root_damping="nastran")
                     points = refine_pk_crossings(structure, aero, sweep)
                 else:
                     sweep = ke_sweep(structure, aero, case.values, rho)
@@ -570,9 +692,10 @@ def format_deck_result(res: DeckResult) -> str:
                 f"{'FREQUENCY':>12} {'REAL EIGVAL':>13} {'IMAG EIGVAL':>13}"
             )
             for i in np.argsort(vel[:, j], kind="stable"):
-                k = sw.k[i, j]
-                v = vel[i, j] / vref
                 s = sw.eigenvalues[i, j]
+                # a real p-k root has k = 0 (iterated at the floor K_FLOOR), printed as Nastran
+                k = 0.0 if sw.method == "PK" and s.imag == 0 else sw.k[i, j]
+                v = vel[i, j] / vref
                 lines.append(
                     f"{k:10.4f} {1 / k if k > 0 else np.inf:12.4f} {v:13.5e} "
                     f"{sw.damping[i, j]:12.4e} {sw.frequency_hz[i, j]:12.5e} "

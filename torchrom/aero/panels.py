@@ -2,7 +2,8 @@
 
 Hand-written: box geometry (corner points, quarter/half/three-quarter chord points, normals,
 areas), the CAERO1 lattice (equal NSPAN/NCHORD divisions or AEFACT fractions), mirroring about
-the xz plane, and the conversion to the ``aerogrid`` dictionary that PanelAero expects.
+the xz plane (AERO SYMXZ) and the xy plane (SYMXY, ground effect), and the conversion to the
+``aerogrid`` dictionary that PanelAero expects.
 Delegated: reading CAERO1/PAERO1/AEFACT/AERO/AEROS cards and coordinate systems (pyNastran).
 
 Conventions (REFERENCE Sec. 7): every box is stored *left to right* — corners
@@ -34,6 +35,10 @@ class AeroReference:
     ``chord`` is the reference chord c (AERO REFC); the reduced frequency is k = ω b / V with
     the reference semichord ``semichord`` b = c/2 (Nastran/ZAERO convention).
     ``symxz``: 0 none, +1 symmetric, -1 antisymmetric about the xz plane (mirrored image).
+    ``symxy``: 0 none, -1 symmetric about the xy plane of the aero system (ground effect: the
+    image is the mirror image, with the opposite circulation), +1 antisymmetric; MSC QRG AERO/
+    AEROS: "SYMXY = -1 for symmetry, 0 for no symmetry, +1 for antisymmetry", the opposite
+    sign convention to SYMXZ.
     """
 
     chord: float
@@ -42,6 +47,7 @@ class AeroReference:
     rho_ref: float = 1.0
     symxz: int = 0
     velocity: float | None = None
+    symxy: int = 0
 
     @property
     def semichord(self) -> float:
@@ -58,7 +64,9 @@ class AeroPanels:
     caero_ids: (n,) id of the CAERO card (or built-in macro panel) each box belongs to
     source:    (n,) index of the half-model box whose motion each box follows (itself if not
                mirrored)
-    mirrored:  (n,) True for image boxes created by :meth:`mirror`
+    mirrored:  (n,) True for image boxes (created by :meth:`mirror` or :meth:`mirror_xy`)
+    xz_image:  (n,) True for images about the xz plane (:meth:`mirror`, and their xy images)
+    xy_image:  (n,) True for images about the xy plane (:meth:`mirror_xy`)
     """
 
     corners: np.ndarray
@@ -66,6 +74,8 @@ class AeroPanels:
     caero_ids: np.ndarray
     source: np.ndarray = field(default=None)  # type: ignore[assignment]
     mirrored: np.ndarray = field(default=None)  # type: ignore[assignment]
+    xz_image: np.ndarray = field(default=None)  # type: ignore[assignment]
+    xy_image: np.ndarray = field(default=None)  # type: ignore[assignment]
 
     def __post_init__(self):
         self.corners = np.asarray(self.corners, dtype=float).reshape(-1, 4, 3)
@@ -75,6 +85,14 @@ class AeroPanels:
         self.source = np.arange(n) if self.source is None else np.asarray(self.source, int)
         self.mirrored = (
             np.zeros(n, bool) if self.mirrored is None else np.asarray(self.mirrored, bool)
+        )
+        self.xy_image = (
+            np.zeros(n, bool) if self.xy_image is None else np.asarray(self.xy_image, bool)
+        )
+        # an image not marked otherwise is an xz image (the only kind before xy images)
+        self.xz_image = (
+            self.mirrored & ~self.xy_image if self.xz_image is None
+            else np.asarray(self.xz_image, bool)
         )
         if self.areas.min(initial=np.inf) <= 0.0:
             bad = int(np.argmin(self.areas))
@@ -170,14 +188,52 @@ class AeroPanels:
             mirrored=np.concatenate([np.ones(self.n, bool), np.zeros(self.n, bool)]),
         )
 
-    def box_motion(self, values: np.ndarray, antisymmetric: bool = False) -> np.ndarray:
+    def mirror_xy(self) -> AeroPanels:
+        """These boxes and their images about the xy plane (z -> -z), appended.
+
+        The image of a box is stored with the same corner order: it stays left to right and a
+        horizontal box keeps its +z normal (the computed normal of a mirrored box is minus the
+        mirror of the normal). So the mirror image of a motion (ground effect) has h' = -h on
+        the image box: ``box_motion(..., xy_sign=-1)``, Nastran's SYMXY = -1.
+        """
+        if np.any(self.xy_image):
+            raise InputError("aero panels: already mirrored about the xy plane")
+        size = float(np.abs(self.corners).max(initial=0.0)) or 1.0
+        in_plane = np.all(np.abs(self.corners[:, :, 2]) <= 1e-9 * size, axis=1)
+        if np.any(in_plane):
+            first = np.argmax(in_plane & ~self.mirrored) if np.any(
+                in_plane & ~self.mirrored) else np.argmax(in_plane)
+            raise InputError(
+                f"aero box {self.box_ids[first]}: lies in the xy plane of the aero "
+                "system (z = 0), where it coincides with its SYMXY image: expected boxes off it"
+            )
+        img = self.corners.copy()
+        img[:, :, 2] *= -1.0
+        return AeroPanels(
+            corners=np.concatenate([self.corners, img]),
+            box_ids=np.concatenate([self.box_ids, -np.abs(self.box_ids)]),
+            caero_ids=np.concatenate([self.caero_ids, self.caero_ids]),
+            source=np.concatenate([self.source, self.source]),
+            mirrored=np.concatenate([self.mirrored, np.ones(self.n, bool)]),
+            xz_image=np.concatenate([self.xz_image, self.xz_image]),
+            xy_image=np.concatenate([np.zeros(self.n, bool), np.ones(self.n, bool)]),
+        )
+
+    def box_motion(self, values: np.ndarray, antisymmetric: bool = False,
+                   xy_sign: int = 1) -> np.ndarray:
         """Spread per-source-box values (..., n_source) onto these boxes (..., n).
 
-        Image boxes get +values (symmetric) or -values (antisymmetric mode shapes).
+        xz image boxes get +values (symmetric) or -values (``antisymmetric`` mode shapes); xy
+        image boxes are multiplied by ``xy_sign`` (-1: the mirror image of the motion, ground
+        effect, SYMXY = -1; +1: SYMXY = +1).
         """
         out = np.asarray(values)[..., self.source]
         if antisymmetric:
-            out = np.where(self.mirrored, -out, out)
+            out = np.where(self.xz_image, -out, out)
+        if xy_sign == -1:
+            out = np.where(self.xy_image, -out, out)
+        elif xy_sign != 1:
+            raise InputError(f"aero panels: xy_sign: expected -1 or 1, got {xy_sign!r}")
         return out
 
     @staticmethod
@@ -191,6 +247,8 @@ class AeroPanels:
             caero_ids=np.concatenate([p.caero_ids for p in parts]),
             source=np.concatenate([p.source + o for p, o in zip(parts, offsets)]),
             mirrored=np.concatenate([p.mirrored for p in parts]),
+            xz_image=np.concatenate([p.xz_image for p in parts]),
+            xy_image=np.concatenate([p.xy_image for p in parts]),
         )
 
 
@@ -404,23 +462,26 @@ def read_aero_reference(model, path: str = "deck") -> AeroReference:
         raise InputError(
             f"{path}: {card.type}: REFC: expected a positive reference chord, got {card.cref}"
         )
-    if int(getattr(card, "sym_xy", 0) or 0):
-        raise InputError(
-            f"{path}: {card.type}: SYMXY: symmetry about the xy plane (ground effect) is not "
-            f"supported, got {card.sym_xy}"
-        )
+    symxy = getattr(card, "sym_xy", 0) or 0
+    if symxy not in (-1, 0, 1):
+        raise InputError(f"{path}: {card.type}: SYMXY: expected -1 (ground effect), 0 or +1, "
+                         f"got {card.sym_xy}")
+    if (card.sym_xz or 0) not in (-1, 0, 1):
+        raise InputError(f"{path}: {card.type}: SYMXZ: expected -1, 0 or +1, got {card.sym_xz}")
     if card.type == "AERO":
         return AeroReference(
             chord=float(card.cref),
             rho_ref=float(card.rho_ref) if card.rho_ref else 1.0,
             symxz=int(card.sym_xz or 0),
             velocity=float(card.velocity) if card.velocity else None,
+            symxy=int(symxy),
         )
     return AeroReference(
         chord=float(card.cref),
         span=float(card.bref) if card.bref else None,
         area=float(card.sref) if card.sref else None,
         symxz=int(card.sym_xz or 0),
+        symxy=int(symxy),
     )
 
 

@@ -106,6 +106,10 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--symxz", type=int, choices=(-1, 0, 1), default=None,
                    help="deck form: override the deck's AERO/AEROS SYMXZ (1: reflection plane, "
                         "e.g. a wall-mounted model; -1: antisymmetric; 0: isolated half wing)")
+    p.add_argument("--resvec", choices=("yes", "no"), default=None,
+                   help="deck form: augment the eigenmodes with residual vectors (inertia relief; "
+                        "default: the deck's RESVEC, else yes as Nastran's SOL 145); used when "
+                        "PARAM LMODES asks for more modes than the EIGR/EIGRL's ND")
     p.add_argument("--length-unit", default=None, metavar="UNIT",
                    help="deck form: label of the deck's length unit (e.g. in) when it has no "
                         "DTI,UNITS card; velocities are printed in UNIT/s")
@@ -134,7 +138,8 @@ def _run_deck(args, path: Path) -> int:
     from ..aero.nastran_flutter import NASTRAN_KERNEL, format_deck_result, load_deck, run_deck
     from ..fe import read_bdf
 
-    deck = load_deck(path, symxz=args.symxz, length_unit=args.length_unit)
+    deck = load_deck(path, symxz=args.symxz, length_unit=args.length_unit,
+                     resvec=None if args.resvec is None else args.resvec == "yes")
     print(
         f"torchrom flutter: {path}: {len(deck.cases)} FLUTTER case(s), {deck.aero_panels.n} boxes"
     )

@@ -32,10 +32,12 @@ NOTED_CARDS: dict[str, str] = {
     "DLINK": "SOL 200 design-variable link: optimisation only",
     "DEQATN": "equations for SOL 200 responses: optimisation only",
     "DTABLE": "SOL 200 constants: optimisation only",
-    "SUPORT": "free-free modes are found by a shifted eigensolver; SUPORT only labels the "
-    "rigid-body DOFs",
-    "SUPORT1": "free-free modes are found by a shifted eigensolver; SUPORT1 only labels the "
-    "rigid-body DOFs",
+    "SUPORT": "rigid-body modes are found by a shifted eigensolver and, for flutter, rebuilt "
+    "as the rigid motions the constraints admit (the span SUPORT's r-set gives Nastran); "
+    "flutter notes whether the r-set is statically determinate for them",
+    "SUPORT1": "rigid-body modes are found by a shifted eigensolver and, for flutter, rebuilt "
+    "as the rigid motions the constraints admit (the span SUPORT1's r-set gives Nastran); "
+    "flutter notes whether the r-set is statically determinate for them",
     "DAREA": "dynamic load scale factor: frequency/transient response only",
     "DLOAD": "dynamic load combination: frequency/transient response only",
     "RLOAD1": "frequency-response load: frequency response only",
