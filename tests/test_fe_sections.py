@@ -37,6 +37,12 @@ def test_library_sections_match_closed_forms():
     assert s.A == pytest.approx(2 * 4.8 + 0.5 * web) and s.I1 == pytest.approx(I1)
     assert s.I2 == pytest.approx(2 * 0.8 * 6**3 / 12 + web * 0.5**3 / 12)
     assert s.J == pytest.approx((2 * 6 * 0.8**3 + (10 - 0.8) * 0.5**3) / 3)
+    # T [0.03, 0.03, 0.004, 0.004] as NX Nastran prints its PBAR equivalent (see
+    # library_shear_factors): A, I1, I2, J and the shear factors K1, K2
+    t = section(PBARL(1, 1, "T", [0.03, 0.03, 0.004, 0.004]), "p")
+    assert (t.A, t.I1, t.I2, t.J) == pytest.approx((2.24e-4, 1.8554e-8, 9.1387e-9, 1.2373e-9),
+                                                   rel=5e-5)
+    assert (t.k1, t.k2) == pytest.approx((0.46429, 0.53571), rel=1e-5)
     # T and CHAN are symmetric about one axis: no product of inertia
     assert section(PBARL(1, 1, "T", [6.0, 10.0, 0.8, 0.5]), "p").I12 == pytest.approx(0.0)
     ch = section(PBARL(1, 1, "CHAN", [4.0, 10.0, 0.5, 0.8]), "p")
@@ -52,8 +58,10 @@ def test_rectangles_and_torsion_errors():
         torsion_constant("HAT", [1, 2, 3, 4])
 
 
-def _cantilever(kind: str, n: int = 4, L: float = 2.0):
+def _cantilever(kind: str, n: int = 4, L: float = 2.0, coupmass: bool = False):
     m = new_deck()
+    if coupmass:
+        m.add_param("COUPMASS", [1])
     for i in range(n + 1):
         m.add_grid(i + 1, [L * i / n, 0.0, 0.0], ps="123456" if i == 0 else "")
     m.add_mat1(1, 2.0e11, 8.0e10, None, rho=7800.0)
@@ -90,6 +98,11 @@ def test_cbeam_torsional_inertia_and_tapered_refused():
     modes = fe.modes(12)
     torsion = [f for f, k in zip(modes.frequencies_hz, modes.kinds) if k == "torsion"]
     w1 = 2 * np.sqrt(G * J / h / Ip) * np.sin(np.pi / (4 * N))
+    assert torsion[0] == pytest.approx(w1 / (2 * np.pi), rel=1e-10)
+    # PARAM COUPMASS: the torsional inertia stays lumped (as MSC Nastran's coupled CBEAM mass,
+    # tests/decks/pynastran_buckled), so the torsion mode is the same lumped chain's
+    modes = _cantilever("CBEAM", coupmass=True).modes(12)
+    torsion = [f for f, k in zip(modes.frequencies_hz, modes.kinds) if k == "torsion"]
     assert torsion[0] == pytest.approx(w1 / (2 * np.pi), rel=1e-10)
     m = new_deck()
     m.add_grid(1, [0.0, 0.0, 0.0])

@@ -48,6 +48,9 @@ NOTED_CARDS: dict[str, str] = {
     "FREQ1": "response frequencies: frequency response only",
     "FREQ2": "response frequencies: frequency response only",
     "LSEQ": "static load set for dynamic loads (DAREA/EXCITEID): dynamic response only",
+    "SPCD": "enforced motion of constrained DOFs: a load of static/dynamic response (the DOFs "
+    "stay constrained by the SPC set, so the real modes do not change); a load set with an "
+    "SPCD is not available to torchrom's static solves",
     "TABLED1": "load table: dynamic response only",
     "TABLED2": "load table: dynamic response only",
     "TABRND1": "power spectral density table: random response only",

@@ -16,6 +16,10 @@ from .elements.quad4 import pressure_forces
 from .mesh import Mesh
 
 
+class _Enforced(Exception):
+    """A load set with an SPCD (enforced motion), which torchrom does not model."""
+
+
 class LoadBuilder:
     def __init__(self, reader, mesh: Mesh):
         self.r = reader
@@ -28,9 +32,14 @@ class LoadBuilder:
                 self.surface[int(eid)] = nodes
 
     def all(self) -> dict[int, np.ndarray]:
+        """Every load set; a set with an SPCD (enforced motion: noted, not modelled) is left
+        out, so that a static solve of it is refused as a set not found."""
         out = {}
         for sid in sorted(set(self.m.loads) | set(self.m.load_combinations)):
-            out[sid] = self.vector(sid, set())
+            try:
+                out[sid] = self.vector(sid, set())
+            except _Enforced:
+                continue
         return out
 
     def vector(self, sid: int, seen: set) -> np.ndarray:
@@ -39,6 +48,8 @@ class LoadBuilder:
         seen = seen | {sid}
         f = np.zeros(self.n_all)
         for card in self.m.loads.get(sid, []):
+            if card.type == "SPCD":
+                raise _Enforced(sid)
             self._card(card, sid, f)
         for combo in self.m.load_combinations.get(sid, []):
             if combo.type == "LSEQ":  # pyNastran files LSEQ here: dynamic loads only (noted)

@@ -17,7 +17,7 @@ Nastran uses the St Venant torsion constant:
 
 PBEAM/PBEAML must have one section along the element (a tapered beam is refused: the element is
 prismatic). Shear flexibility: PBAR/PBEAM K1, K2 as given (PBAR blank: none; PBEAM default 1.0);
-library sections: :data:`LIBRARY_SHEAR_FACTOR`.
+library sections: :func:`library_shear_factors`.
 """
 
 from __future__ import annotations
@@ -47,9 +47,24 @@ class Section:
 
 #: Shear area factors Nastran gives library sections, found by matching MSC Nastran's f06:
 #: ROD 0.9 (pyNastran's beam_modes deck, CBAR and CBEAM, all 10 modes to 1e-6) and BAR 5/6
-#: (ExportNastranKM's test_case, 10 modes to 1e-5); other sections: not known here, so their
-#: shear flexibility is left out, with a note.
+#: (ExportNastranKM's test_case, 10 modes to 1e-5); T: :func:`library_shear_factors`; other
+#: sections: not known here, so their shear flexibility is left out, with a note.
 LIBRARY_SHEAR_FACTOR = {"ROD": 0.9, "BAR": 5.0 / 6.0}
+
+
+def library_shear_factors(kind: str, dim) -> tuple[float, float]:
+    """K1, K2 of a library section: :data:`LIBRARY_SHEAR_FACTOR`, or for T (DIM1 flange width,
+    DIM2 height, DIM3 flange and DIM4 web thickness) the web's and the flange's share of the
+    area, K1 = (DIM2 − DIM3) DIM4 / A, K2 = DIM1 DIM3 / A: NX Nastran's own PBAR equivalents of
+    two T sections (0.46429/0.53571, 0.44444/0.55556) in the f06 of MSC's folding-wing example
+    (pyNastran, aero/examples/nlfltr/case3/fict_mass.f06; NX 2007); 0, 0 (no shear
+    flexibility) where not known."""
+    if kind == "T":
+        b, h, tf, tw = (float(x) for x in dim[:4])
+        web, flange = (h - tf) * tw, b * tf
+        return web / (web + flange), flange / (web + flange)
+    k = LIBRARY_SHEAR_FACTOR.get(kind, 0.0)
+    return k, k
 
 
 def torsion_constant(kind: str, dim) -> float:
@@ -139,8 +154,8 @@ def section(prop, owner: str) -> Section:
     if t == "PBARL":
         A, I1, I2, I12 = _library(prop, prop.beam_type, prop.dim, owner)
         J = torsion_constant(prop.beam_type, prop.dim)
-        k = LIBRARY_SHEAR_FACTOR.get(prop.beam_type, 0.0)
-        return Section(A, I1, I2, I12, J, float(prop.nsm or 0.0), prop.mid, k, k)
+        k1, k2 = library_shear_factors(prop.beam_type, prop.dim)
+        return Section(A, I1, I2, I12, J, float(prop.nsm or 0.0), prop.mid, k1, k2)
     if t == "PBEAML":
         dims = [list(d) for d in prop.dim]
         if any(not np.allclose(d, dims[0]) for d in dims):
@@ -149,8 +164,8 @@ def section(prop, owner: str) -> Section:
         A, I1, I2, I12 = _library(prop, prop.beam_type, dims[0], owner)
         J = torsion_constant(prop.beam_type, dims[0])
         nsm = float(np.asarray(prop.nsm, float).reshape(-1)[0]) if prop.nsm is not None else 0.0
-        k = LIBRARY_SHEAR_FACTOR.get(prop.beam_type, 0.0)
-        return Section(A, I1, I2, I12, J, nsm, prop.mid, k, k)
+        k1, k2 = library_shear_factors(prop.beam_type, dims[0])
+        return Section(A, I1, I2, I12, J, nsm, prop.mid, k1, k2)
     if t == "PBEAM":
         vals = {}
         for name in ("A", "i1", "i2", "i12", "j", "nsm"):
