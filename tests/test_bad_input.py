@@ -120,6 +120,9 @@ DECK_CASES = {
     "pin flags leave a mechanism": (("3       4       0.0     0.0     1.0",
                                      "3       4       0.0     0.0     1.0\n        4       4"),
                                     ("CBAR 3", "fields PA/PB", "mechanism")),
+    "no mass at all": (("MAT1    1       7.+10           0.3     2700.\n"
+                        "CONM2   10      4               1.0",
+                        "MAT1    1       7.+10           0.3"), ("modes", "no mass", "RHO")),
     "product of inertia too large": (("3.-5\n", "3.-5\n" + " " * 8 + "0.0     " * 8 + "\n"
                                       + " " * 24 + "2.-5\n"), ("PBAR 1", "field I12")),
 }

@@ -262,8 +262,13 @@ def modal_analysis(fe, n: int, sigma: float | None = None) -> Modes:
     """Lowest ``n`` elastic modes of K φ = ω² M φ on the free DOFs of ``fe``, classified by
     kind, and its rigid-body modes (:func:`eigenpairs`)."""
     notes: list[str] = []
-    vals, vecs, rigid_vals, rigid_vecs = _elastic_and_rigid(fe.stiffness_matrix(),
-                                                            fe.mass_matrix(), n, sigma, notes)
+    M = fe.mass_matrix()
+    if not M.count_nonzero() or not np.abs(M.diagonal()).max(initial=0.0) > 0.0:
+        raise InputError(f"{fe.source or fe.name}: modes: the model has no mass (no finite modes): "
+                         "expected densities (MAT1 RHO), non-structural mass or mass elements "
+                         "(CONM1/CONM2/CMASS)")
+    vals, vecs, rigid_vals, rigid_vecs = _elastic_and_rigid(fe.stiffness_matrix(), M, n, sigma,
+                                                            notes)
     freqs = np.sqrt(vals) / (2 * np.pi)
     kinds, fractions = classify(fe, vecs)
     return Modes(freqs, vecs, kinds, vals, fractions, notes, rigid_eigenvalues=rigid_vals,
