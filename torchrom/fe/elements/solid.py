@@ -1,4 +1,5 @@
-"""CHEXA (8 or 20 grids), CPENTA (6 or 15), CTETRA (4 or 10) with PSOLID: isoparametric solids.
+"""CHEXA (8 or 20 grids), CPENTA (6 or 15), CTETRA (4 or 10) with PSOLID: isoparametric solids,
+the 8- and 6-grid ones with condensed incompatible modes.
 
 Hand-written. One code path (shape functions + integration rule per number of grids) serves
 the trilinear hexahedron, the linear-triangle × linear-line wedge, the linear tetrahedron and
@@ -27,10 +28,32 @@ hexahedron with six spurious zero-energy modes besides the six rigid ones), so c
 answers can differ from a reduced-integration Nastran run by the integration error.
 **Linear** (small strains and rotations): a geometrically nonlinear analysis includes them
 through their linear stiffness only (the model warns,
-:class:`~torchrom.fe.model.LinearElementWarning`). Fully integrated low-order solids are
-stiff in bending (shear locking): a bending-dominated part needs several elements through its
-thickness (Nastran's CHEXA adds bubble functions, so its answers differ on coarse meshes); the
-quadratic forms bend well with one element through the thickness.
+:class:`~torchrom.fe.model.LinearElementWarning`).
+
+Incompatible modes (default, :func:`solid_stiffness` ``incompatible="taylor"``). The fully
+integrated trilinear hexahedron locks in bending (its bending mode carries parasitic shear: in
+pure bending with ν = 0 it is 1 + ½ (a/h)² too stiff). The 8-grid CHEXA adds the three bubble
+functions (1 − ξ²), (1 − η²), (1 − ζ²) to each displacement component (9 internal DOFs), the
+incompatible-mode element of E. L. Wilson, R. L. Taylor, W. P. Doherty, J. Ghaboussi,
+"Incompatible displacement models" (Numerical and Computer Methods in Structural Mechanics,
+Academic Press, 1973), with the modification of R. L. Taylor, P. J. Beresford, E. L. Wilson,
+"A non-conforming element for stress analysis" (IJNME 10, 1976): the bubbles' derivatives are
+taken with the Jacobian at the element's centre and scaled by det J₀ / det J, ∂P/∂x =
+(det J₀ / det J) J₀⁻¹ ∂P/∂ξ, so that ∫ ∂P/∂x dV = det J₀ J₀⁻¹ ∫ ∂P/∂ξ dξ = 0 exactly under the
+2×2×2 rule: the bubbles do not couple to constant strain and the element passes the patch
+test on any shape (Wilson's plain J⁻¹ ∂P/∂ξ fails it on distorted elements;
+``incompatible="wilson"`` is kept to show that). The internal DOFs are condensed out per
+element (K = K_cc − K_ci K_ii⁻¹ K_ic); the mass is the compatible shape functions'. A
+rectangular element then reproduces pure bending exactly. The 6-grid CPENTA has one bubble,
+(1 − ζ²) along its axis, with the same centre-Jacobian form (centre r = s = ⅓, ζ = 0; the
+3 × 2 rule integrates ∂P/∂ζ = −2ζ exactly): a wedge bent along its axis is exact too, bent in
+the plane of its triangles it has no bubble (the linear triangle has no standard incompatible
+mode) and stays stiff. This element choice is ours, after the references above; whether MSC
+Nastran's CHEXA/CPENTA (known to add bubble functions) are exactly this element is not
+established, but it brings the MSC deck tests/decks/pynastran_solid_shell_bar to within +0.90,
++0.15, +1.56 % (fully integrated: +1.45, +0.92, +2.37 %). The tetrahedra and the quadratic
+forms are unchanged (the quadratic forms bend well with one element through the thickness).
+
 Mass: consistent ∫ ρ N_a N_b dV, or lumped. The quadratic forms' row sums are negative at the
 corners (−ρV/20 for the tetrahedron), so they are lumped by scaling the consistent diagonal to
 the element mass (Hinton–Rock–Zienkiewicz, which is how Nastran forms its diagonal mass:
