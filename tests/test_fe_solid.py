@@ -346,6 +346,24 @@ def test_reduced_integration_request_is_noted():
                for n in fe.notes), fe.notes
 
 
+def test_full_integration_request_on_linear_hexa_is_noted():
+    """PSOLID ISOP = FULL on an 8-grid CHEXA: the incompatible-mode element is used anyway, and
+    the model says so; no note without ISOP."""
+    notes = {}
+    for isop in ("FULL", None):
+        m = new_deck()
+        for k, x in enumerate(HEX):
+            m.add_grid(k + 1, list(x))
+        m.add_mat1(1, 2.0e11, None, 0.3, rho=7800.0)
+        m.add_psolid(1, 1, isop=isop)
+        m.add_chexa(7, 1, list(range(1, 9)))
+        notes[isop] = model_of(m).notes
+    assert any(n.startswith("PSOLID 1: ISOP = FULL (full integration) on CHEXA 7 without edge "
+                            "grids: the element with incompatible (bubble) modes is used")
+               for n in notes["FULL"]), notes["FULL"]
+    assert not any("ISOP" in n for n in notes[None])
+
+
 def test_partly_quadratic_hexa_through_the_command_line(tmp_path, capsys):
     """The same deck through ``torchrom modes``: exit status 2 and a one-line message naming
     the file, the element and the field (tests/test_bad_input.py's contract)."""

@@ -51,8 +51,10 @@ the plane of its triangles it has no bubble (the linear triangle has no standard
 mode) and stays stiff. This element choice is ours, after the references above; whether MSC
 Nastran's CHEXA/CPENTA (known to add bubble functions) are exactly this element is not
 established, but it brings the MSC deck tests/decks/pynastran_solid_shell_bar to within +0.90,
-+0.15, +1.56 % (fully integrated: +1.45, +0.92, +2.37 %). The tetrahedra and the quadratic
-forms are unchanged (the quadratic forms bend well with one element through the thickness).
++0.15, +1.56 % (fully integrated: +1.45, +0.92, +2.37 %). A PSOLID ISOP = FULL on these
+elements is noted by the reader, not honoured (the bubbles are always added). The tetrahedra
+and the quadratic forms are unchanged (the quadratic forms bend well with one element through
+the thickness).
 
 Mass: consistent ∫ ρ N_a N_b dV, or lumped. The quadratic forms' row sums are negative at the
 corners (−ρV/20 for the tetrahedron), so they are lumped by scaling the consistent diagonal to
