@@ -61,6 +61,8 @@ class ExtraCards:
                            f" got E = {E}, NU = {nu}")
         if len(nodes) > corners:
             self._note_reduced_integration(p, card, eid)
+        elif card != "CTETRA":
+            self._note_full_integration(p, card, eid)
         rows = self.rows(nodes, card, eid)
         if not abs(solid_volumes(self.xyz[rows][None])[0]) > 0:
             raise self.err(f"{card} {eid}: zero volume (grids {nodes})")
@@ -74,6 +76,17 @@ class ExtraCards:
             note = (f"PSOLID {p.pid}: IN = {p.integ}, ISOP = {p.isop} (reduced integration) on"
                     f" {card} {eid} with edge grids: the full Gauss rule is used")
             if not any(n.startswith(f"PSOLID {p.pid}: IN") for n in self.notes):
+                self.notes.append(note)
+
+    def _note_full_integration(self, p, card: str, eid: int) -> None:
+        """PSOLID ISOP = 1/FULL on an 8-grid CHEXA or 6-grid CPENTA asks Nastran for the plain
+        fully integrated element; the incompatible-mode element is used here regardless
+        (:mod:`torchrom.fe.elements.solid`)."""
+        isop = str(p.isop if p.isop is not None else "").upper()
+        if isop in ("1", "FULL"):
+            note = (f"PSOLID {p.pid}: ISOP = {p.isop} (full integration) on {card} {eid} without"
+                    " edge grids: the element with incompatible (bubble) modes is used")
+            if not any(n.startswith(f"PSOLID {p.pid}: ISOP") for n in self.notes):
                 self.notes.append(note)
 
     def _check_trias(self, trias) -> None:

@@ -1,4 +1,5 @@
-"""CHEXA (8 or 20 grids), CPENTA (6 or 15), CTETRA (4 or 10) with PSOLID: isoparametric solids.
+"""CHEXA (8 or 20 grids), CPENTA (6 or 15), CTETRA (4 or 10) with PSOLID: isoparametric solids,
+the 8- and 6-grid ones with condensed incompatible modes.
 
 Hand-written. One code path (shape functions + integration rule per number of grids) serves
 the trilinear hexahedron, the linear-triangle × linear-line wedge, the linear tetrahedron and
@@ -27,10 +28,34 @@ hexahedron with six spurious zero-energy modes besides the six rigid ones), so c
 answers can differ from a reduced-integration Nastran run by the integration error.
 **Linear** (small strains and rotations): a geometrically nonlinear analysis includes them
 through their linear stiffness only (the model warns,
-:class:`~torchrom.fe.model.LinearElementWarning`). Fully integrated low-order solids are
-stiff in bending (shear locking): a bending-dominated part needs several elements through its
-thickness (Nastran's CHEXA adds bubble functions, so its answers differ on coarse meshes); the
-quadratic forms bend well with one element through the thickness.
+:class:`~torchrom.fe.model.LinearElementWarning`).
+
+Incompatible modes (default, :func:`solid_stiffness` ``incompatible="taylor"``). The fully
+integrated trilinear hexahedron locks in bending (its bending mode carries parasitic shear: in
+pure bending with ν = 0 it is 1 + ½ (a/h)² too stiff). The 8-grid CHEXA adds the three bubble
+functions (1 − ξ²), (1 − η²), (1 − ζ²) to each displacement component (9 internal DOFs), the
+incompatible-mode element of E. L. Wilson, R. L. Taylor, W. P. Doherty, J. Ghaboussi,
+"Incompatible displacement models" (Numerical and Computer Methods in Structural Mechanics,
+Academic Press, 1973), with the modification of R. L. Taylor, P. J. Beresford, E. L. Wilson,
+"A non-conforming element for stress analysis" (IJNME 10, 1976): the bubbles' derivatives are
+taken with the Jacobian at the element's centre and scaled by det J₀ / det J, ∂P/∂x =
+(det J₀ / det J) J₀⁻¹ ∂P/∂ξ, so that ∫ ∂P/∂x dV = det J₀ J₀⁻¹ ∫ ∂P/∂ξ dξ = 0 exactly under the
+2×2×2 rule: the bubbles do not couple to constant strain and the element passes the patch
+test on any shape (Wilson's plain J⁻¹ ∂P/∂ξ fails it on distorted elements;
+``incompatible="wilson"`` is kept to show that). The internal DOFs are condensed out per
+element (K = K_cc − K_ci K_ii⁻¹ K_ic); the mass is the compatible shape functions'. A
+rectangular element then reproduces pure bending exactly. The 6-grid CPENTA has one bubble,
+(1 − ζ²) along its axis, with the same centre-Jacobian form (centre r = s = ⅓, ζ = 0; the
+3 × 2 rule integrates ∂P/∂ζ = −2ζ exactly): a wedge bent along its axis is exact too, bent in
+the plane of its triangles it has no bubble (the linear triangle has no standard incompatible
+mode) and stays stiff. This element choice is ours, after the references above; whether MSC
+Nastran's CHEXA/CPENTA (known to add bubble functions) are exactly this element is not
+established, but it brings the MSC deck tests/decks/pynastran_solid_shell_bar to within +0.90,
++0.15, +1.56 % (fully integrated: +1.45, +0.92, +2.37 %). A PSOLID ISOP = FULL on these
+elements is noted by the reader, not honoured (the bubbles are always added). The tetrahedra
+and the quadratic forms are unchanged (the quadratic forms bend well with one element through
+the thickness).
+
 Mass: consistent ∫ ρ N_a N_b dV, or lumped. The quadratic forms' row sums are negative at the
 corners (−ρV/20 for the tetrahedron), so they are lumped by scaling the consistent diagonal to
 the element mass (Hinton–Rock–Zienkiewicz, which is how Nastran forms its diagonal mass:
@@ -229,21 +254,77 @@ def solid_dofs(nodes: np.ndarray) -> np.ndarray:
     return (nodes[:, :, None] * 6 + np.arange(3)).reshape(len(nodes), -1)
 
 
-def solid_stiffness(X: np.ndarray, E: np.ndarray, nu: np.ndarray) -> np.ndarray:
-    """K (n, 3nn, 3nn) of elements with node coordinates X (n, nn, 3), basic axes."""
+def _hexa_bubbles(p):
+    """∂/∂(ξ, η, ζ) of the incompatible modes (1 − ξ²), (1 − η²), (1 − ζ²): (3, 3)."""
+    return np.diag(-2.0 * np.asarray(p, dtype=float))
+
+
+def _penta_bubbles(p):
+    """∂/∂(r, s, ζ) of the wedge's one incompatible mode (1 − ζ²), along its axis: (3, 1)."""
+    return np.array([[0.0], [0.0], [-2.0 * p[2]]])
+
+
+#: incompatible (bubble) modes per number of grids: their natural derivatives and the
+#: element's centre in natural coordinates (where Taylor's form takes the Jacobian)
+BUBBLES = {8: (_hexa_bubbles, (0.0, 0.0, 0.0)), 6: (_penta_bubbles, (1 / 3, 1 / 3, 0.0))}
+#: ``incompatible`` choices of :func:`solid_stiffness`
+INCOMPATIBLE = ("taylor", "wilson", None)
+
+
+def _strain_matrix(d: np.ndarray) -> np.ndarray:
+    """B (n, 6, 3m) from the x, y, z derivatives d (n, m, 3) of m functions (Voigt order of
+    :func:`elasticity`)."""
+    n, m = d.shape[:2]
+    B = np.zeros((n, 6, 3 * m))
+    for i in range(3):
+        B[:, i, i::3] = d[:, :, i]
+    B[:, 3, 0::3], B[:, 3, 1::3] = d[:, :, 1], d[:, :, 0]
+    B[:, 4, 1::3], B[:, 4, 2::3] = d[:, :, 2], d[:, :, 1]
+    B[:, 5, 2::3], B[:, 5, 0::3] = d[:, :, 0], d[:, :, 2]
+    return B
+
+
+def solid_stiffness(X: np.ndarray, E: np.ndarray, nu: np.ndarray,
+                    incompatible: str | None = "taylor") -> np.ndarray:
+    """K (n, 3nn, 3nn) of elements with node coordinates X (n, nn, 3), basic axes.
+
+    ``incompatible`` (8- and 6-grid elements; ignored for the others): ``"taylor"`` adds the
+    bubble modes with Taylor's centre-Jacobian derivatives (passes the patch test on any
+    shape), ``"wilson"`` with the plain derivatives J⁻¹ ∂P/∂ξ (Wilson's 1973 form: fails the
+    patch test on distorted elements; kept to show that), ``None`` the plain isoparametric
+    element. The bubble DOFs are condensed out per element."""
+    if incompatible not in INCOMPATIBLE:
+        raise ValueError(f"incompatible must be one of {INCOMPATIBLE}, got {incompatible!r}")
     n, nn = X.shape[:2]
     shape, points, weights = RULES[nn]
     D = elasticity(E, nu)
     K = np.zeros((n, 3 * nn, 3 * nn))
+    bubbles = BUBBLES.get(nn) if incompatible else None
+    if bubbles is not None:
+        bubble, centre = bubbles
+        nb = 3 * bubble(centre).shape[1]
+        Kci = np.zeros((n, 3 * nn, nb))
+        Kii = np.zeros((n, nb, nb))
+        J0 = np.einsum("ra,nai->nri", shape(centre)[1], X)
+        inv0, det0 = np.linalg.inv(J0), np.linalg.det(J0)
     for p, w in zip(points, weights):
         det, d = _geometry(X, shape(p)[1])
-        B = np.zeros((n, 6, 3 * nn))
-        for i in range(3):
-            B[:, i, i::3] = d[:, :, i]
-        B[:, 3, 0::3], B[:, 3, 1::3] = d[:, :, 1], d[:, :, 0]
-        B[:, 4, 1::3], B[:, 4, 2::3] = d[:, :, 2], d[:, :, 1]
-        B[:, 5, 2::3], B[:, 5, 0::3] = d[:, :, 0], d[:, :, 2]
-        K += w * np.abs(det)[:, None, None] * (B.transpose(0, 2, 1) @ D @ B)
+        B = _strain_matrix(d)
+        dV = w * np.abs(det)[:, None, None]
+        DB = D @ B
+        K += dV * (B.transpose(0, 2, 1) @ DB)
+        if bubbles is not None:
+            if incompatible == "taylor":  # Taylor–Beresford–Wilson: J0⁻¹ ∂P/∂ξ × det J0 / det J
+                g = np.einsum("nir,rb->nbi", inv0, bubble(p)) * (det0 / det)[:, None, None]
+            else:
+                g = np.einsum("nir,rb->nbi", np.linalg.inv(np.einsum(
+                    "ra,nai->nri", shape(p)[1], X)), bubble(p))
+            G = _strain_matrix(g)
+            Kci += dV * (B.transpose(0, 2, 1) @ D @ G)
+            Kii += dV * (G.transpose(0, 2, 1) @ D @ G)
+    if bubbles is not None:
+        K -= Kci @ np.linalg.solve(Kii, Kci.transpose(0, 2, 1))
+        K = 0.5 * (K + K.transpose(0, 2, 1))
     return K
 
 
