@@ -318,13 +318,19 @@ def test_quadratic_cantilever_bending_frequency(nn):
     assert f == pytest.approx(ref, rel=5e-3)
 
 
-def test_partly_quadratic_hexa_is_refused():
-    """A CHEXA with its 8 corners and only some of the 12 edge grids: one-line error naming the
-    file, element and the first blank field."""
+def _reference_hexa20_grids():
+    """A deck with the 20 grids of the reference hexahedron and steel (MAT1 1)."""
     m = new_deck()
     for k, x in enumerate(_reference_nodes(20)[0]):
         m.add_grid(k + 1, list(x))
     m.add_mat1(1, 2.0e11, None, 0.3, rho=7800.0)
+    return m
+
+
+def test_partly_quadratic_hexa_is_refused():
+    """A CHEXA with its 8 corners and only some of the 12 edge grids: one-line error naming the
+    file, element and the first blank field."""
+    m = _reference_hexa20_grids()
     m.add_psolid(1, 1)
     m.add_chexa(7, 1, list(range(1, 11)) + [None] * 10)
     with pytest.raises(InputError, match=r"^test.bdf: CHEXA 7: field G11: edge grid blank while "
@@ -334,10 +340,7 @@ def test_partly_quadratic_hexa_is_refused():
 
 def test_reduced_integration_request_is_noted():
     """PSOLID ISOP = REDUCED on a 20-grid CHEXA: the full rule is used, and the model says so."""
-    m = new_deck()
-    for k, x in enumerate(_reference_nodes(20)[0]):
-        m.add_grid(k + 1, list(x))
-    m.add_mat1(1, 2.0e11, None, 0.3, rho=7800.0)
+    m = _reference_hexa20_grids()
     m.add_psolid(1, 1, isop="REDUCED")
     m.add_chexa(7, 1, list(range(1, 21)))
     fe = model_of(m)
@@ -369,10 +372,7 @@ def test_partly_quadratic_hexa_through_the_command_line(tmp_path, capsys):
     the file, the element and the field (tests/test_bad_input.py's contract)."""
     from torchrom.cli import main
 
-    m = new_deck()
-    for k, x in enumerate(_reference_nodes(20)[0]):
-        m.add_grid(k + 1, list(x))
-    m.add_mat1(1, 2.0e11, None, 0.3, rho=7800.0)
+    m = _reference_hexa20_grids()
     m.add_psolid(1, 1)
     m.add_chexa(7, 1, list(range(1, 11)) + [None] * 10)
     m.add_eigrl(10, nd=4)
