@@ -57,16 +57,25 @@ def single_element(kind: str) -> BDF:
     return m
 
 
+def grid_lattice(m: BDF, nx: int, ny: int, Lx: float, Ly: float):
+    """GRIDs of an (nx + 1) × (ny + 1) lattice over [0, Lx] × [0, Ly] in the x-y plane; returns
+    the id of grid (i, j)."""
+    def nid(i: int, j: int) -> int:
+        return 1 + i * (ny + 1) + j
+
+    for i in range(nx + 1):
+        for j in range(ny + 1):
+            m.add_grid(nid(i, j), [Lx * i / nx, Ly * j / ny, 0.0])
+    return nid
+
+
 def plate_strip(n_long: int, n_wide: int, L: float, b: float, t: float, E: float, nu: float,
                 rho: float, bending: bool = True, coupled: bool = False,
                 triangles: bool = False) -> BDF:
     """Cantilever strip of CQUAD4s (or two CTRIA3s per cell, alternating diagonals) in the x-y
     plane, clamped at x = 0."""
     m = new_deck()
-    nid = lambda i, j: 1 + i * (n_wide + 1) + j  # noqa: E731
-    for i in range(n_long + 1):
-        for j in range(n_wide + 1):
-            m.add_grid(nid(i, j), [L * i / n_long, b * j / n_wide, 0.0])
+    nid = grid_lattice(m, n_long, n_wide, L, b)
     m.add_mat1(1, E, None, nu, rho=rho)
     m.add_pshell(1, mid1=1, t=t, mid2=1 if bending else None, mid3=1 if bending else None)
     eid = 1
@@ -93,10 +102,7 @@ def simply_supported_plate(n: int, a: float, t: float, E: float, nu: float, rho:
     Mindlin condition that matches Navier's Kirchhoff solution. The in-plane rigid motion is
     removed at three corners."""
     m = new_deck()
-    nid = lambda i, j: 1 + i * (n + 1) + j  # noqa: E731
-    for i in range(n + 1):
-        for j in range(n + 1):
-            m.add_grid(nid(i, j), [a * i / n, a * j / n, 0.0])
+    nid = grid_lattice(m, n, n, a, a)
     m.add_mat1(1, E, None, nu, rho=rho)
     m.add_pshell(1, mid1=1, t=t, mid2=1, mid3=1)
     for i in range(n):
