@@ -401,18 +401,20 @@ def _is_modal(structure: ModalStructure) -> bool:
     return diag_only and not np.any(structure.C) and bool(np.all(np.diag(structure.K) >= 0))
 
 
-def pk_damping(eigenvalues: np.ndarray, velocity, semichord: float) -> np.ndarray:
-    """Nastran's p-k damping: g = 2 Re(s)/|Im(s)| for an oscillating root; for a real root
-    (k = 0) g = 2 s b / (V ln 2), the decay (growth) rate per half-amplitude distance, which is
-    what the f06 prints for its zero-frequency roots (checked on bah_plane's FLUTTER SUMMARY:
-    s = 9.3382e-4 at V = 30, b = 2 gives g = 1.7963e-4). It keeps a divergence, a real root
-    through s = 0, a zero crossing of g."""
+def pk_damping(eigenvalues: np.ndarray, velocity, semichord: float,
+               real_roots: str = "nastran") -> np.ndarray:
+    """p-k damping: g = 2 Re(s)/|Im(s)| for an oscillating root. For a real root (k = 0):
+    ``real_roots="nastran"``: g = 2 s b / (V ln 2), the decay (growth) rate per half-amplitude
+    distance, which is what the f06 prints for its zero-frequency roots (checked on bah_plane's
+    FLUTTER SUMMARY: s = 9.3382e-4 at V = 30, b = 2 gives g = 1.7963e-4); it keeps a divergence,
+    a real root through s = 0, a zero crossing of g. ``"infinite"``: ±inf by the sign of s."""
     eig = np.asarray(eigenvalues)
     vel = np.broadcast_to(np.asarray(velocity, dtype=float).reshape(-1, 1), eig.shape)
     real = eig.imag == 0
     with np.errstate(divide="ignore", invalid="ignore"):
-        return np.where(real, 2 * eig.real * semichord / (vel * np.log(2.0)),
-                        2 * eig.real / np.abs(eig.imag))
+        g_real = (2 * eig.real * semichord / (vel * np.log(2.0)) if real_roots == "nastran"
+                  else np.sign(eig.real) * np.inf)
+        return np.where(real, g_real, 2 * eig.real / np.abs(eig.imag))
 
 
 def pk_sweep(
@@ -461,12 +463,7 @@ def pk_sweep(
                 notes.append(f"p-k: mode {j + 1} not converged at V={V[i]:.6g}")
             eig[i, j], vecs[i, :, j], kk[i, j] = s, vec, k
         s_prev, v_prev = eig[i].copy(), vecs[i].copy()
-    if real_root_damping == "nastran":
-        g = pk_damping(eig, V, aero.semichord)
-    else:
-        with np.errstate(divide="ignore", invalid="ignore"):
-            g = np.where(np.abs(eig.imag) > 0, 2 * eig.real / np.abs(eig.imag),
-                         np.sign(eig.real) * np.inf)
+    g = pk_damping(eig, V, aero.semichord, real_root_damping)
     if aero.extrapolated:
         notes.append(
             f"p-k: reduced frequency up to {aero.extrapolated:.4g} beyond the GAF table "

@@ -30,8 +30,9 @@ def rigid_links(w: np.ndarray) -> np.ndarray:
     small rotations: t + θ × w = t − [w×] θ, θ unchanged (Nastran's rigid offsets and links)."""
     w = np.asarray(w, dtype=float).reshape(-1, 3)
     A = np.tile(np.eye(6), (len(w), 1, 1))
-    for k, d in enumerate(w):
-        A[k, :3, 3:] = -skew(d)
+    # −[w×] for every point at once
+    A[:, 0, 4], A[:, 0, 5], A[:, 1, 5] = w[:, 2], -w[:, 1], w[:, 0]
+    A[:, 1, 3], A[:, 2, 3], A[:, 2, 4] = -w[:, 2], w[:, 1], -w[:, 0]
     return A
 
 

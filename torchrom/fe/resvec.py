@@ -26,7 +26,7 @@ import scipy.linalg as la
 import scipy.sparse as sp
 import scipy.sparse.linalg as sla
 
-from .rigid import rigid_motions_on_free
+from .rigid import orthogonalise_against, rigid_motions_on_free
 
 #: a residual vector whose squared M-norm after orthogonalisation against the basis (and the
 #: other vectors) is below this fraction of the largest response's is dependent and dropped
@@ -50,11 +50,11 @@ def inertia_residual_vectors(fe, basis: np.ndarray, rigid: np.ndarray | None = N
         MG = np.asarray(M @ rigid)
         lu = sla.splu(sp.csc_matrix(K + sp.csr_matrix(MG @ MG.T)))
         U = lu.solve(np.asarray(loads))
-        U = U - rigid @ (rigid.T @ (M @ U))
+        U = orthogonalise_against(U, rigid, M)
     else:
         U = sla.splu(K).solve(np.asarray(loads))
     size = float(np.einsum("ik,ik->k", U, M @ U).max(initial=0.0))
-    U = U - basis @ (basis.T @ (M @ U))
+    U = orthogonalise_against(U, basis, M)
     mm = U.T @ (M @ U)
     w, v = np.linalg.eigh(0.5 * (mm + mm.T))
     # relative to the responses before the projection: when the basis spans them (a model with

@@ -2,7 +2,7 @@
 
 Delegated to pyNastran: the area and the two area moments of the PBARL/PBEAML sections it
 computes (``PBARL.Area()``, ``I1()``, ``I2()``, ``I12()``: ROD, TUBE, BAR, BOX, L). Hand-written
-here: I, T and CHAN (pyNastran 1.4 raises NotImplementedError for their moments) as unions of
+here: I, T and CHAN (pyNastran 1.4 does not compute their moments) as unions of
 rectangles (:func:`rectangles`), and the torsion constant J of every section, because pyNastran
 returns the polar moment I1 + I2 for solid rectangles and nothing for several sections, while
 Nastran uses the St Venant torsion constant:

@@ -40,26 +40,18 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..mass import rigid_links
 from ..mesh import QuadSet, TriaSet
 from .green import GreenKernel
 from .quad4 import area_mass_blocks, bending_blocks, membrane_points, quad_dofs, quad_frames
 from .tria3 import tria_bending_blocks, tria_dofs, tria_frames, tria_mass_blocks, tria_points
 
 
-def _skew(r: np.ndarray) -> np.ndarray:
-    """[r]× (n, 3, 3): [r]× v = r × v."""
-    S = np.zeros((len(r), 3, 3))
-    S[:, 0, 1], S[:, 0, 2], S[:, 1, 2] = -r[:, 2], r[:, 1], -r[:, 0]
-    return S - S.transpose(0, 2, 1)
-
-
 def offset_transform(normal: np.ndarray, z0: np.ndarray, nn: int) -> np.ndarray:
-    """T (n, 6nn, 6nn) from the grids' six DOFs to the reference plane's: per grid
-    [[I, −[z0 n]×], [0, I]]."""
-    n = len(z0)
-    block = np.tile(np.eye(6), (n, 1, 1))
-    block[:, :3, 3:] = -_skew(z0[:, None] * normal)
-    T = np.zeros((n, 6 * nn, 6 * nn))
+    """T (n, 6nn, 6nn) from the grids' six DOFs to the reference plane's: per grid the rigid
+    link to the point z0 n from it (:func:`~torchrom.fe.mass.rigid_links`)."""
+    block = rigid_links(z0[:, None] * normal)
+    T = np.zeros((len(z0), 6 * nn, 6 * nn))
     for a in range(nn):
         T[:, 6 * a : 6 * a + 6, 6 * a : 6 * a + 6] = block
     return T
