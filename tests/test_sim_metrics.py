@@ -57,3 +57,25 @@ def test_window_metrics_with_several_extrema_per_period():
 def test_amplitude_ratio_handles_zero():
     r = amplitude_ratio([2.0, 1.0, 0.0], [1.0, 0.0, 0.0])
     assert r[0] == 2.0 and np.isnan(r[1]) and np.isnan(r[2])
+
+
+def test_window_metrics_amplitude_is_the_last_period_of_a_slow_approach():
+    """A sine whose amplitude falls by ~0.03 % per cycle (an LCO accepted at rtol 1e-3 on a slow
+    approach from above): the amplitude is that of the last period, within one cycle's change of
+    the envelope at the newest extremum, not the window's oldest cycle (~4 cycles' change
+    above, what half the range of the whole window gives)."""
+    f, dt, T = 2.0, 1e-4, 10.0
+    lam = 1.6e-3  # envelope 1 + 0.5 e^(−λt) (1/s)
+    t = np.arange(0, T + dt / 2, dt)
+    env = 1.0 + 0.5 * np.exp(-lam * t)
+    denv = -0.5 * lam * np.exp(-lam * t)
+    w = 2 * math.pi * f
+    y = (env * np.sin(w * t))[:, None]
+    yd = (denv * np.sin(w * t) + env * w * np.cos(w * t))[:, None]
+    tr = PeakTracker(torch.tensor(y[:1]), torch.tensor(yd[:1]), ring=16)
+    tr.update(torch.tensor(y[1:, None, :]), torch.tensor(yd[1:, None, :]), 0, dt)
+    m = window_metrics(tr.values[0].numpy(), tr.times[0].numpy(), tr.count[0].numpy(), cycles=4)
+    newest = tr.times[0, 0].max().item()
+    a_end = 1.0 + 0.5 * math.exp(-lam * newest)
+    per_cycle = 0.5 * math.exp(-lam * newest) * (math.exp(lam / f) - 1)  # over one cycle
+    assert abs(m["amplitude"][0] - a_end) <= per_cycle
