@@ -58,7 +58,7 @@ class HarmonicBalanceMethod:
         seed: which cases to re-solve from a short time integration's orbit at higher H
             (:mod:`.seed`): "unconverged" (default: the cases harmonic balance did not
             converge), "unresolved" (also the LCOs not accepted in H; more cases, each costs
-            ~20 periods of time integration) or "off".
+            a few periods of time integration) or "off".
         sensitivity: also the derivatives of each LCO's amplitude and frequency with respect
             to γ by the implicit-function theorem (:mod:`.sensitivity`; columns
             ``amplitude_dgamma``, output units per s, and ``frequency_dgamma``, Hz per s); the

@@ -21,16 +21,18 @@ where no low-order start exists):
    orbit not accepted in H may be a spurious one of the truncated problem, percents away);
 2. Newmark (average acceleration, Newton refreshed every step, :class:`torchrom.sim.Newmark`)
    from that orbit's state for :data:`SEED_PERIODS` periods at :data:`SEED_STEPS_PER_PERIOD`
-   steps per period of the fastest case; a stable LCO attracts the motion (its Floquet
-   multipliers are ~0.8–0.93 per period on the Goland γ = 0 orbits: 20 periods leave a few
-   percent of the start's distance, inside the basin of the high-H solution);
+   steps per period of the fastest case: the start lacks the high harmonics, which the
+   integration supplies within a period or two (they belong to fast, well damped coordinates);
+   its error along the orbit family decays slowly (Floquet multipliers ~0.8–0.93 per period on
+   the Goland γ = 0 orbits), but Newton at H = 15 removes that error anyway;
 3. the frequency from the zero up-crossings of the decision output over the last
    :data:`SEED_FIT_PERIODS` periods, the Fourier coefficients of every coordinate over those
    periods (phase shifted so that the output has no sin τ term: :mod:`.solve`'s phase
    condition);
-4. Newton at each H of :data:`SEED_HARMONICS` in turn, from the last converged orbit (or, while
-   none has converged, from the seed's coefficients), until the amplitude change between
-   consecutive H and the truncation residual meet the tolerances (:func:`seeded_orbits`).
+4. Newton at each H of :data:`SEED_HARMONICS` in turn (at most :data:`SEED_NEWTON_ITERATIONS`
+   iterations), from the last converged orbit (or, while none has converged, from the seed's
+   coefficients), until the amplitude change between consecutive H and the truncation residual
+   meet the tolerances (:func:`seeded_orbits`).
 
 Unstable orbits do not attract a time integration; a seed that runs away is reported as
 such (the case keeps its previous status). Hand-written over :mod:`.solve` and
@@ -62,8 +64,10 @@ from .solve import (
 
 Tensor = torch.Tensor
 
-#: periods of the seeding time integration (from an orbit near the LCO)
-SEED_PERIODS = 20
+#: periods of the seeding time integration (from an orbit near the LCO): on the 16 seeded cases
+#: of the paper's LCO sweep (``torchrom paper --method hb``) 5, 6, 10 and 20 periods gave the
+#: same orbits (same H, amplitudes within 1e-11 relative), 20 periods cost 10.5 s and 6 3.2 s
+SEED_PERIODS = 6
 #: periods at its end whose Fourier coefficients seed the HB solve
 SEED_FIT_PERIODS = 4
 #: time steps per period of the fastest case: ~1 ms on Goland, where the paper setting's two
@@ -72,6 +76,11 @@ SEED_FIT_PERIODS = 4
 SEED_STEPS_PER_PERIOD = 512
 #: the harmonic ladder of a seeded orbit (each H from the previous converged one)
 SEED_HARMONICS = (15, 17, 19, 21, 23, 25)
+#: Newton iterations at each H of the ladder: from a seed in the basin Newton converges in 3–9
+#: (the paper's LCO sweep); a case that has not converged by then does not converge at that H
+#: (none did between 10 and the default 25 iterations there) and goes on to the next H, while
+#: its batch waited for its 25 iterations before
+SEED_NEWTON_ITERATIONS = 12
 #: H of the cold start that provides a seed for a case without an orbit
 SEED_START_HARMONICS = 5
 
@@ -209,9 +218,12 @@ def seeded_orbits(system: CaseSystem, r: Tensor, X: Tensor | None, omega: Tensor
     have = np.zeros(m, dtype=bool)  # converged at some H of the ladder
     prev_amp = np.full(m, math.nan)
     todo = np.arange(m)
+    ladder = dataclasses.replace(options, newton=dataclasses.replace(
+        options.newton, max_iterations=min(options.newton.max_iterations,
+                                           SEED_NEWTON_ITERATIONS)))
     for H in SEED_HARMONICS:
         act = torch.as_tensor(todo)
-        Xn, wn, conv, its, res = refine_harmonics(sub, X_cur, w_cur, r, H, options, act)
+        Xn, wn, conv, its, res = refine_harmonics(sub, X_cur, w_cur, r, H, ladder, act)
         out.iterations[idx[todo]] += its[act].cpu().numpy()
         conv_t = conv[act].cpu().numpy()
         done = todo[conv_t]
@@ -246,7 +258,7 @@ def seeded_orbits(system: CaseSystem, r: Tensor, X: Tensor | None, omega: Tensor
 #: which cases :func:`seed_unresolved` seeds: "unconverged" (the cases harmonic balance did
 #: not converge at all: cheap, a sweep's failures only), "unresolved" (also the LCOs not
 #: accepted in H: the amplitude change from H − 2 or the truncation residual above the
-#: tolerances — more cases, each seed costs ~20 periods of time integration), "off"
+#: tolerances — more cases, each seed costs a few periods of time integration), "off"
 SEED_MODES = ("unconverged", "unresolved", "off")
 
 

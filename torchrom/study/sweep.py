@@ -174,12 +174,25 @@ def run_sweep(cfg: SweepConfig, *, device=None, dtype=torch.float64,
     task = SweepTask(cfg, model, str(torch.device(device or "cpu")), dtype)
     store = PartStore(Path(out), run) if out is not None else None
     table, stats = run_cases(task, cases, ids, batch_size=cfg.batch_size,
-                             chunk_size=chunk_size or cfg.chunk_size, executor=executor,
+                             chunk_size=chunk_size or sweep_chunk_size(cfg), executor=executor,
                              store=store, force=force, progress=progress, log=log,
                              on_history=on_history)
     table.attrs["units"] = sweep_units(list(table.columns), list(cfg.outputs or []),
                                        model_length_unit(model))
     return table, stats.as_dict()
+
+
+def sweep_chunk_size(cfg: SweepConfig) -> int | None:
+    """Cases per chunk: ``[run] chunk_size``; else, for harmonic balance, ``batch_size`` (one
+    chunk where the cases fit); else None (:func:`~torchrom.study.runner.plan_chunks`' default
+    of about 8 chunks). A harmonic-balance chunk costs nearly as much with few cases as with
+    many — its time-integration seeds (:mod:`torchrom.periodic.seed`) are launch-bound at
+    these batch widths (on the paper's 59-case LCO sweep in two chunks, 7.7 s for each chunk's
+    seeds, 14 and 2 cases) — and a chunk boundary cuts the neighbour chains; a sweep for
+    several workers sets ``chunk_size``."""
+    if cfg.chunk_size is not None or cfg.method != "hb":
+        return cfg.chunk_size
+    return cfg.batch_size
 
 
 def model_length_unit(model) -> str | None:
