@@ -169,5 +169,6 @@ class HarmonicBalanceMethod:
             time=nan.copy(), amplitude=amp, frequency_hz=freq,
             amplitude_change=orb.amplitude_change, solver_error=orb.residual,
             q=q.cpu().numpy().reshape(B, n), v=np.zeros((B, n)), wall_time_s=wall,
-            case_steps=int(orb.iterations.sum()), extra=extra)
+            case_steps=int(orb.iterations.sum()), extra=extra,
+            orbits=(orb.X.cpu().numpy(), orb.omega.cpu().numpy()))
 
