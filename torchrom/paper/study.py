@@ -39,6 +39,7 @@ from ..identify.damping_family import SDP_EPS, SDP_ITERATIONS, DampingMember, sd
 from ..io import atomic_path, check_folder, write_figure, write_json_atomic, write_text_atomic
 from ..reference import paper_reference
 from ..study import figures
+from ..study.cases import orbits_of
 from ..study.config import load_sweep_config, with_method
 from ..study.grid import config_hash
 from ..study.models import alpha_gamma_table
@@ -171,8 +172,8 @@ def run_paper(out, *, quick: bool = False, force: bool = False, device: str = "c
         hb_info["confirmation"] = confirm.to_dict(orient="records")
         watch.stop("Newmark confirmation (Fig. 11)")
     else:
-        table, histories, lco_info, _ = _lco_sweep(cache, cfg, model, model_hash, device,
-                                                   dtype, log)
+        table, histories, lco_info, orbits = _lco_sweep(cache, cfg, model, model_hash, device,
+                                                        dtype, log)
         watch.stop("LCO sweep (Figs. 10-13)")
     watch.start()
     branches = _branches(cache, cfg, model, model_hash, device, log)
@@ -182,7 +183,7 @@ def run_paper(out, *, quick: bool = False, force: bool = False, device: str = "c
     # -- cause check: the Fig. 10 cases with the exact Kelvin-Voigt damping ------------------
     watch.start()
     check, exact, exact_table = _damping_check(cache, cfg, model, quick, out, force, device,
-                                               dtype, log)
+                                               dtype, log, _cycle_orbit(table, orbits, model))
     watch.stop("damping check (exact Kelvin-Voigt)")
 
     # -- the band over admissible damping decompositions ---------------------------------------
@@ -350,11 +351,12 @@ def damping_check_cases(cfg) -> list[dict[str, Any]]:
 
 
 def _damping_check(cache: FileCache, cfg, main, quick: bool, out: Path, force: bool, device,
-                   dtype, log) -> tuple[dict[str, Any], Any, pd.DataFrame]:
+                   dtype, log, orbit=None) -> tuple[dict[str, Any], Any, pd.DataFrame]:
     """The Fig. 10 curves at :data:`DAMPING_CHECK_ALTITUDES` with a ROM whose damping tensors
     are the exact Kelvin–Voigt ones (``damping="exact"``, same basis and aerodynamics recipe):
     tells how much of a difference from the paper the optimum decomposition causes. Returns the
-    check (JSON-ready), the exact-damping model and its table."""
+    check (JSON-ready), the exact-damping model and its table. ``orbit``: the dissipation
+    cycle's orbit from the main sweep (:func:`_cycle_orbit`), if any."""
     base = QUICK_PIPELINE if quick else FULL_PIPELINE
     res = goland_pipeline(dataclasses.replace(base, damping="exact"), out / "model_exact",
                           force=force, log=log)
@@ -371,10 +373,26 @@ def _damping_check(cache: FileCache, cfg, main, quick: bool, out: Path, force: b
             "frequency_hz"]
     return ({"findings": [f.as_dict() for f in found], "lco": info,
              "table": table[[c for c in cols if c in table]].to_dict(orient="records"),
-             "dissipation": _dissipation_check(cache, cfg, main, model, log)}, model, table)
+             "dissipation": _dissipation_check(cache, cfg, main, model, log, orbit)}, model,
+            table)
 
 
-def _dissipation_check(cache: FileCache, cfg, main, exact, log) -> dict[str, Any]:
+def _cycle_orbit(table: pd.DataFrame, orbits: pd.DataFrame | None, model
+                 ) -> tuple[np.ndarray, float] | None:
+    """The main HB sweep's orbit of the dissipation cycle's case (γ = 0, both nonlinearities,
+    matched α, at the lowest check altitude) as (X, ω), or None (time marching, no such LCO)."""
+    if orbits is None:
+        return None
+    row = table[(table["altitude_ft"] == min(DAMPING_CHECK_ALTITUDES)) & (table["gamma"] == 0.0)
+                & (table["stiffness_nl"] == 1) & (table["damping_nl"] == 1)
+                & (table["alpha_matched"] == 1) & (table["status"] == "lco")]
+    if len(row) != 1:
+        return None
+    X, omega = orbits_of(orbits, [row["case_id"].iloc[0]], model.rom.n)
+    return X[0], float(omega[0])
+
+
+def _dissipation_check(cache: FileCache, cfg, main, exact, log, orbit=None) -> dict[str, Any]:
     """Nonlinear over linear dissipation of both damping identifications on the same γ = 0 LCO
     cycle (:mod:`.dissipation`) at the lowest check altitude, and the decomposition criterion
     (smallest scaled eigenvalue) of each; cached with the two models."""
@@ -384,7 +402,7 @@ def _dissipation_check(cache: FileCache, cfg, main, exact, log) -> dict[str, Any
     path = cache.get("tables/dissipation_check.json", key)
     if path is not None:
         return json.loads(path.read_text())
-    q, qd, status = lco_cycle(main, cfg, altitude)
+    q, qd, status = lco_cycle(main, cfg, altitude, orbit=orbit)
     report = main.rom.metadata.get("damping", {}).get("report", {})
     out = {"altitude_ft": altitude, "status": status,
            "decomposition_ratio": dissipation_ratio(main.rom, q, qd),
