@@ -102,11 +102,11 @@ class HarmonicBalanceMethod:
         if math.isfinite(crit.max_amplitude) and not math.isfinite(opts.max_amplitude):
             opts = dataclasses.replace(opts, max_amplitude=float(crit.max_amplitude))
         system64 = system.to(dtype=torch.float64)
-        orb = solve_orbits(system64, decide, opts,
-                           chains=chains if self.start == "neighbour" else None,
-                           positions=positions if self.start == "neighbour" else None)
+        if self.start != "neighbour":
+            chains = positions = None
+        orb = solve_orbits(system64, decide, opts, chains=chains, positions=positions)
         orb, seeded = seed_unresolved(system64, torch.as_tensor(decide, dtype=torch.float64),
-                                      orb, opts, self.seed)
+                                      orb, opts, self.seed, chains, positions)
         rows = torch.as_tensor(C, dtype=torch.float64)
         amp = orb.amplitude(rows, opts.metric_points)
         B = system.batch_size

@@ -15,10 +15,13 @@ H − 2 or truncation residual above the tolerances of :class:`~.solve.HBOptions
 seeded by time integration (a time-domain start instead of a harmonic ladder, common practice
 where no low-order start exists):
 
-1. a start: an orbit at H = 5 from a cold start (:func:`~.solve.solve_orbits` with
-   start_harmonics = harmonics = 5, which reaches large orbits where the default start at
-   H = 3 does not, 0.3-0.7 % from the Goland γ = 0 orbits), else the case's own orbit (an
-   orbit not accepted in H may be a spurious one of the truncated problem, percents away);
+1. a start: an orbit at H = 5 (:func:`~.solve.solve_orbits` with start_harmonics =
+   harmonics = 5, which reaches large orbits where the default start at H = 3 does not,
+   0.3-0.7 % from the Goland γ = 0 orbits; along the sweep's neighbour chains among the seeded
+   cases, each from its neighbour's H = 5 orbit where there is one, which on the paper's LCO
+   sweep gave the same seeds in 1.5 s instead of 2.4 s of cold starts), else the case's own
+   orbit (an orbit not accepted in H may be a spurious one of the truncated problem, percents
+   away);
 2. Newmark (average acceleration, Newton refreshed every step, :class:`torchrom.sim.Newmark`)
    from that orbit's state for :data:`SEED_PERIODS` periods at :data:`SEED_STEPS_PER_PERIOD`
    steps per period of the fastest case: the start lacks the high harmonics, which the
@@ -166,10 +169,12 @@ def _time_seed(system: CaseSystem, X: Tensor, omega: Tensor, r: Tensor, H: int
 
 
 def seeded_orbits(system: CaseSystem, r: Tensor, X: Tensor | None, omega: Tensor | None,
-                  has_orbit: np.ndarray, options: HBOptions) -> SeededOrbits:
+                  has_orbit: np.ndarray, options: HBOptions,
+                  chains: list[list[int]] | None = None, positions=None) -> SeededOrbits:
     """Seed and solve the orbits of every case of ``system`` (module docstring): each starts
-    from a cold orbit at H = :data:`SEED_START_HARMONICS`, or where that fails from its own
-    orbit ``X``, ``ω`` (any H; used where ``has_orbit``)."""
+    from an orbit at H = :data:`SEED_START_HARMONICS` (along ``chains``/``positions`` as
+    :func:`~.solve.solve_orbits`, else cold), or where that fails from its own orbit ``X``,
+    ``ω`` (any H; used where ``has_orbit``)."""
     k, n = system.batch_size, system.n
     Hmax = SEED_HARMONICS[-1]
     out = SeededOrbits(
@@ -181,14 +186,14 @@ def seeded_orbits(system: CaseSystem, r: Tensor, X: Tensor | None, omega: Tensor
         accepted=np.zeros(k, dtype=bool))
     X0 = r.new_zeros(k, 2 * SEED_START_HARMONICS + 1, n)
     w0 = r.new_full((k,), math.nan)
-    # every case from a cold start at H = 5 (close to the orbit on Goland: 0.3-0.7 %), which
+    # every case from an orbit at H = 5 (close to the orbit on Goland: 0.3-0.7 %), which
     # the Newmark run then brings into the basin of the high-H solution; the case's own orbit
     # only where that start fails (an orbit not accepted in H may be a spurious one of the
     # truncated problem, percents away)
     opts = dataclasses.replace(options, start_harmonics=SEED_START_HARMONICS,
                                harmonics=SEED_START_HARMONICS,
                                max_harmonics=SEED_START_HARMONICS)
-    orb = solve_orbits(system, r, opts)
+    orb = solve_orbits(system, r, opts, chains=chains, positions=positions)
     got = orb.status == "lco"
     out.iterations += orb.iterations
     g = torch.as_tensor(got)
@@ -255,6 +260,18 @@ def seeded_orbits(system: CaseSystem, r: Tensor, X: Tensor | None, omega: Tensor
     return out
 
 
+def _sub_chains(cases: np.ndarray, chains: list[list[int]] | None, positions
+                ) -> tuple[list[list[int]] | None, np.ndarray | None]:
+    """``chains`` and ``positions`` of the whole batch restricted to ``cases`` (indices into it),
+    renumbered as positions in ``cases``; (None, None) without chains."""
+    if chains is None:
+        return None, None
+    where = {int(c): j for j, c in enumerate(cases)}
+    sub = [[where[i] for i in chain if i in where] for chain in chains]
+    pos = None if positions is None else np.asarray(positions, dtype=float)[cases]
+    return [c for c in sub if c], pos
+
+
 #: which cases :func:`seed_unresolved` seeds: "unconverged" (the cases harmonic balance did
 #: not converge at all: cheap, a sweep's failures only), "unresolved" (also the LCOs not
 #: accepted in H: the amplitude change from H − 2 or the truncation residual above the
@@ -263,7 +280,8 @@ SEED_MODES = ("unconverged", "unresolved", "off")
 
 
 def seed_unresolved(system: CaseSystem, r: Tensor, orb: PeriodicOrbits, options: HBOptions,
-                    which: str = "unresolved") -> tuple[PeriodicOrbits, np.ndarray]:
+                    which: str = "unresolved", chains: list[list[int]] | None = None,
+                    positions=None) -> tuple[PeriodicOrbits, np.ndarray]:
     """``orb`` with its cases of kind ``which`` (:data:`SEED_MODES`) re-solved by
     :func:`seeded_orbits` where that converges (kept as they were elsewhere), and which cases
     now hold a seeded orbit. Only with adaptive H (``max_harmonics > harmonics``): an H fixed
@@ -279,8 +297,9 @@ def seed_unresolved(system: CaseSystem, r: Tensor, orb: PeriodicOrbits, options:
     if bad.size == 0:
         return orb, seeded
     t = torch.as_tensor(bad)
+    sub_chains, sub_pos = _sub_chains(bad, chains, positions)
     s = seeded_orbits(system.select(t), r, orb.X[t], orb.omega[t], orb.status[bad] == "lco",
-                      options)
+                      options, sub_chains, sub_pos)
     orb.iterations[bad] += s.iterations
     # a seeded orbit replaces the case's own where it converged and is accepted, or where the
     # case had none (then it is the best there is; its amplitude change says how good)

@@ -227,17 +227,15 @@ def orbit_table(result: SimulationResult, case_ids: Sequence[str]) -> pd.DataFra
     X, omega = result.orbits
     H = result.extra.get("harmonics", np.full(len(case_ids), (X.shape[1] - 1) // 2))
     names = [f"q{j + 1}" for j in range(X.shape[2])]
-    frames = []
-    for i in np.flatnonzero(result.status == "lco"):
-        rows = 2 * int(H[i]) + 1
-        df = pd.DataFrame(X[i, :rows], columns=names)
-        df.insert(0, "k", np.arange(rows))
-        df.insert(0, "omega", float(omega[i]))
-        df.insert(0, "case_id", case_ids[i])
-        frames.append(df)
-    if not frames:
-        return pd.DataFrame(columns=["case_id", "omega", "k", *names])
-    return pd.concat(frames, ignore_index=True)
+    lco = np.flatnonzero(result.status == "lco")
+    rows = 2 * np.asarray(H, dtype=int)[lco] + 1
+    case = np.repeat(lco, rows)  # one row per (case, coefficient)
+    k = np.concatenate([np.arange(m) for m in rows]) if lco.size else np.zeros(0, dtype=int)
+    df = pd.DataFrame(X[case, k], columns=names)
+    df.insert(0, "k", k)
+    df.insert(0, "omega", np.asarray(omega, dtype=float)[case])
+    df.insert(0, "case_id", np.asarray(list(case_ids), dtype=object)[case])
+    return df
 
 
 def orbits_of(table: pd.DataFrame, case_ids: Sequence[str], n: int
