@@ -3,10 +3,15 @@
 from __future__ import annotations
 
 import numpy as np
+import pandas as pd
 import pytest
+import torch
 
 from torchrom.errors import InputError
 from torchrom.periodic import HarmonicBalanceMethod
+from torchrom.periodic.solve import orbit_state
+from torchrom.sim import LCOCriteria
+from torchrom.study.cases import case_system, orbits_of
 from torchrom.study.config import load_sweep_config, with_method
 from torchrom.study.sweep import run_sweep
 
@@ -43,8 +48,10 @@ def tables(tmp_path_factory):
     path = tmp_path_factory.mktemp("hb") / "vdp.toml"
     path.write_text(CONFIG)
     cfg = load_sweep_config(path)
-    hb, _ = run_sweep(cfg)
+    orbits = []
+    hb, _ = run_sweep(cfg, on_orbits=orbits.append)
     nm, _ = run_sweep(with_method(cfg, "newmark"))
+    hb.attrs["orbits"] = pd.concat(orbits, ignore_index=True)
     return cfg, hb, nm
 
 
@@ -63,6 +70,28 @@ def test_same_table_as_time_marching(tables):
     assert hb.loc[~lco, "amplitude"].eq(0).all()
     # the two methods never share case ids (the method is part of the configuration's hash)
     assert not set(hb["case_id"]) & set(nm["case_id"])
+
+
+def test_orbits_start_a_time_integration_on_the_lco(tables):
+    """The sweep's orbits (``on_orbits``, one per LCO, its own H) put a time integration on
+    the LCO: its first cycles from their state at τ = 0 have HB's amplitude (Newmark's error
+    at dt = 2 ms, 1e-3; a start off the orbit would still be converging); a decaying case has
+    no orbit."""
+    cfg, hb, _ = tables
+    orbits = hb.attrs["orbits"]
+    lco = np.flatnonzero(hb["status"] == "lco")
+    assert set(orbits["case_id"]) == set(hb["case_id"][lco])
+    for i in lco:
+        rows = orbits[orbits["case_id"] == hb["case_id"][i]]
+        assert rows["k"].tolist() == list(range(2 * int(hb["harmonics"][i]) + 1))
+    ids = list(hb["case_id"][lco])
+    system, _ = case_system(cfg.build_model(), [cfg.cases[i] for i in lco],
+                            torch.device("cpu"), torch.float64)
+    X, omega = orbits_of(orbits, ids, system.n)
+    q0, v0, xi0 = orbit_state(system, torch.as_tensor(X), torch.as_tensor(omega))
+    res = cfg.integrator.run(system, q0, v0, xi0, t_end=3 * 2 * np.pi / omega.min(),
+                             outputs=cfg.outputs, lco=LCOCriteria(stop=False, cycles=2))
+    assert np.allclose(res.amplitude[:, 0], hb["amplitude"][lco], rtol=1e-3)
 
 
 def test_amplitude_derivative_matches_finite_differences(tmp_path):

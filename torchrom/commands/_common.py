@@ -97,7 +97,7 @@ def add_executor_options(parser: argparse.ArgumentParser) -> None:
                             "(e.g. tcp://host:8786)")
     parser.add_argument("--chunk-size", type=positive_int, default=None, metavar="N",
                         help="cases per chunk of work (default: [run] chunk_size, else about 8 "
-                             "chunks)")
+                             "chunks, or one with method hb)")
 
 
 def add_json_option(parser: argparse.ArgumentParser) -> None:

@@ -46,14 +46,20 @@ HB_CYCLE_SAMPLES = 1024
 HB_CHAIN_STEP_FT = 1000.0
 
 
-def lco_cycle(model, cfg, altitude_ft: float, t_end: float | None = None
+def lco_cycle(model, cfg, altitude_ft: float, t_end: float | None = None,
+              orbit: tuple[np.ndarray, float] | None = None
               ) -> tuple[np.ndarray, np.ndarray, str]:
     """(q, q̇, status) over the last :data:`CYCLE_PERIODS` periods of the γ = 0 case ("NL stiff")
     of the sweep ``cfg`` (its initial condition, integrator and LCO criteria) at ``altitude_ft``,
     every time step; q̇ by central differences of the recorded q. With ``method = "hb"`` the
     cycle is the harmonic balance orbit (:data:`HB_CYCLE_SAMPLES` samples of one period, q̇
-    exact): the ratio is a mean over whole periods either way."""
+    exact): the ratio is a mean over whole periods either way. ``orbit``: that case's orbit
+    (Fourier coefficients (2H+1, n), ω in rad/s) from a sweep that already solved it (the
+    large γ = 0 orbits need a time-integration seed, :mod:`torchrom.periodic.seed`); else it
+    is solved here."""
     rom = model.rom
+    if orbit is not None:
+        return _orbit_cycle(torch.as_tensor(orbit[0], dtype=torch.float64), float(orbit[1]))
     cases = [{"altitude_ft": float(altitude_ft), "gamma": 0.0, "alpha": "matched"}]
     system, _ = case_system(model, cases, torch.device("cpu"), torch.float64)
     # the sweep's deciding output (its first; the ROM's first output if it names none)
@@ -68,10 +74,7 @@ def lco_cycle(model, cfg, altitude_ft: float, t_end: float | None = None
                            positions=alts)
         if orb.status[0] != "lco":
             return np.zeros((0, rom.n)), np.zeros((0, rom.n)), str(orb.status[0])
-        basis = FourierBasis.build((orb.X.shape[1] - 1) // 2, HB_CYCLE_SAMPLES)
-        q = (basis.E @ orb.X[0]).numpy()
-        qd = float(orb.omega[0]) * (basis.dE @ orb.X[0]).numpy()
-        return q, qd, "lco"
+        return _orbit_cycle(orb.X[0], float(orb.omega[0]))
     names += [f"q{i + 1}" for i in range(rom.n)]
     res = cfg.integrator.run(system, initial_displacement(rom, cfg.initial, cases),
                              initial_velocity(rom, cfg.initial, 1),
@@ -84,6 +87,13 @@ def lco_cycle(model, cfg, altitude_ft: float, t_end: float | None = None
     k = int(round(CYCLE_PERIODS / freq / dt)) if np.isfinite(freq) and freq > 0 else len(h.t) // 4
     q = h.y[-k - 2:, 1:]
     return q[1:-1], (q[2:] - q[:-2]) / (2 * dt), str(res.status[0])
+
+
+def _orbit_cycle(X: torch.Tensor, omega: float) -> tuple[np.ndarray, np.ndarray, str]:
+    """(q, q̇, "lco") at :data:`HB_CYCLE_SAMPLES` samples of one period of the orbit X (2H+1, n)
+    with angular frequency ω (rad/s)."""
+    basis = FourierBasis.build((X.shape[0] - 1) // 2, HB_CYCLE_SAMPLES)
+    return (basis.E @ X).numpy(), omega * (basis.dE @ X).numpy(), "lco"
 
 
 def dissipation_ratio(rom: NonlinearROM, q: np.ndarray, qd: np.ndarray) -> float:

@@ -2,9 +2,10 @@
 
 - :func:`newmark_confirmation`: a subset of the HB table (the Fig. 11 cases and the largest
   LCO of every curve) run by the time integrator at the paper's step, *started on the HB
-  orbit*, for a few periods: the amplitude and frequency it keeps beside HB's, and how much
-  its amplitude still changes per cycle (an orbit that is not a periodic solution of the time-
-  discrete equations drifts). Its histories are Fig. 11 in this mode.
+  orbit* (the sweep's own, :func:`torchrom.study.cases.orbit_table`), for a few periods: the
+  amplitude and frequency it keeps beside HB's, and how much its amplitude still changes per
+  cycle (an orbit that is not a periodic solution of the time-discrete equations drifts). Its
+  histories are Fig. 11 in this mode.
 - :func:`goland_branches`: the LCO branches in altitude from the flutter (Hopf) point down to
   4,000 ft for γ = 0 and 1e-3 s (matched α), with Floquet stability, folds flagged.
 Hand-written orchestration over :mod:`torchrom.periodic` and :mod:`torchrom.study`.
@@ -19,14 +20,11 @@ import numpy as np
 import pandas as pd
 import torch
 
-from ..periodic import BranchOptions, solve_orbits
-from ..periodic.fourier import resize_harmonics
-from ..periodic.seed import seed_unresolved
+from ..periodic import BranchOptions
 from ..periodic.solve import orbit_state
 from ..sim import HistoryRequest
-from ..sim.newmark import output_matrix
 from ..study.branch import run_branches
-from ..study.cases import case_system, history_table
+from ..study.cases import case_system, history_table, orbits_of
 
 #: periods of the confirming time integration (LCO metrics from its last cycles)
 CONFIRMATION_PERIODS = 12
@@ -45,24 +43,23 @@ def confirmation_cases(cfg, table: pd.DataFrame) -> list[int]:
     return sorted(rows)
 
 
-def newmark_confirmation(cfg, model, table: pd.DataFrame, device="cpu"
+def newmark_confirmation(cfg, model, table: pd.DataFrame, orbits: pd.DataFrame, device="cpu"
                          ) -> tuple[pd.DataFrame, pd.DataFrame]:
-    """(comparison, histories) for :func:`confirmation_cases` (module docstring); histories
-    carry the HB table's case ids (Fig. 11)."""
+    """(comparison, histories) for :func:`confirmation_cases` (module docstring), each started
+    on its orbit in ``orbits`` (the sweep's, :func:`torchrom.study.cases.orbit_table`; a case
+    without one starts at rest); histories carry the HB table's case ids (Fig. 11)."""
     idx = confirmation_cases(cfg, table)
     if not idx:
         return pd.DataFrame(), pd.DataFrame()
     cases = [cfg.cases[i] for i in idx]
     system, _ = case_system(model, cases, torch.device(device), torch.float64)
-    names, C = output_matrix(system.rom, cfg.outputs)
-    opts = cfg.hb.options
-    orb = solve_orbits(system, C[0], opts)
-    # the same orbits as the sweep's (which seeds the same kind of cases)
-    orb, _ = seed_unresolved(system, torch.as_tensor(C[0], dtype=system.dtype), orb, opts,
-                             cfg.hb.seed)
-    H = int(max(orb.harmonics.max(), 1))
-    q0, v0, xi0 = orbit_state(system, resize_harmonics(orb.X, H), orb.omega)
-    periods = 1.0 / np.nanmax(np.where(orb.status == "lco", orb.frequency_hz, np.nan))
+    X, omega = orbits_of(orbits, [table["case_id"][i] for i in idx], system.n)
+    # at rest where there is no orbit (ω NaN would make the lag states NaN)
+    has = np.isfinite(omega)
+    X[~has] = 0.0
+    q0, v0, xi0 = orbit_state(system, torch.as_tensor(X, dtype=system.dtype),
+                              torch.as_tensor(np.where(has, omega, 1.0), dtype=system.dtype))
+    periods = 2 * np.pi / np.nanmax(omega)
     t_end = CONFIRMATION_PERIODS * float(periods)
     integ = cfg.integrator
     res = integ.run(system, q0, v0, xi0, t_end=t_end, outputs=cfg.outputs,

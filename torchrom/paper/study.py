@@ -39,6 +39,7 @@ from ..identify.damping_family import SDP_EPS, SDP_ITERATIONS, DampingMember, sd
 from ..io import atomic_path, check_folder, write_figure, write_json_atomic, write_text_atomic
 from ..reference import paper_reference
 from ..study import figures
+from ..study.cases import orbits_of
 from ..study.config import load_sweep_config, with_method
 from ..study.grid import config_hash
 from ..study.models import alpha_gamma_table
@@ -161,16 +162,18 @@ def run_paper(out, *, quick: bool = False, force: bool = False, device: str = "c
     cfg = with_method(load_sweep_config(config_path("paper_lco.toml"), variant), method)
     hb_info: dict[str, Any] = {}
     if method == "hb":
-        table, _, lco_info = _lco_sweep(cache, dataclasses.replace(cfg, history=None), model,
-                                        model_hash, device, dtype, log, name="lco_hb")
+        table, _, lco_info, orbits = _lco_sweep(cache, dataclasses.replace(cfg, history=None),
+                                                model, model_hash, device, dtype, log,
+                                                name="lco_hb")
         watch.stop("LCO sweep (Figs. 10-13)")
         watch.start()
-        confirm, histories = _confirmation(cache, cfg, model, model_hash, table, device, log)
+        confirm, histories = _confirmation(cache, cfg, model, model_hash, table, orbits, device,
+                                           log)
         hb_info["confirmation"] = confirm.to_dict(orient="records")
         watch.stop("Newmark confirmation (Fig. 11)")
     else:
-        table, histories, lco_info = _lco_sweep(cache, cfg, model, model_hash, device, dtype,
-                                                log)
+        table, histories, lco_info, orbits = _lco_sweep(cache, cfg, model, model_hash, device,
+                                                        dtype, log)
         watch.stop("LCO sweep (Figs. 10-13)")
     watch.start()
     branches = _branches(cache, cfg, model, model_hash, device, log)
@@ -180,7 +183,7 @@ def run_paper(out, *, quick: bool = False, force: bool = False, device: str = "c
     # -- cause check: the Fig. 10 cases with the exact Kelvin-Voigt damping ------------------
     watch.start()
     check, exact, exact_table = _damping_check(cache, cfg, model, quick, out, force, device,
-                                               dtype, log)
+                                               dtype, log, _cycle_orbit(table, orbits, model))
     watch.stop("damping check (exact Kelvin-Voigt)")
 
     # -- the band over admissible damping decompositions ---------------------------------------
@@ -209,7 +212,7 @@ def run_paper(out, *, quick: bool = False, force: bool = False, device: str = "c
         name: variant_study(
             name, base, out / f"model_{name}", [c.get("gamma", 0.0) for c in cfg9.cases],
             lambda m, nm: _lco_sweep(cache, cfg_v, m, m.content_hash(), device, dtype, log,
-                                     name=nm),
+                                     name=nm)[:3],
             paper_q4, force=force, log=log)
         for name in COMPARISON_VARIANTS if name != base.variant}
     watch.stop("other wing variant (pipeline, LCO sweep)")
@@ -348,17 +351,19 @@ def damping_check_cases(cfg) -> list[dict[str, Any]]:
 
 
 def _damping_check(cache: FileCache, cfg, main, quick: bool, out: Path, force: bool, device,
-                   dtype, log) -> tuple[dict[str, Any], Any, pd.DataFrame]:
+                   dtype, log, orbit=None) -> tuple[dict[str, Any], Any, pd.DataFrame]:
     """The Fig. 10 curves at :data:`DAMPING_CHECK_ALTITUDES` with a ROM whose damping tensors
     are the exact Kelvin–Voigt ones (``damping="exact"``, same basis and aerodynamics recipe):
     tells how much of a difference from the paper the optimum decomposition causes. Returns the
-    check (JSON-ready), the exact-damping model and its table."""
+    check (JSON-ready), the exact-damping model and its table. ``orbit``: the dissipation
+    cycle's orbit from the main sweep (:func:`_cycle_orbit`), if any."""
     base = QUICK_PIPELINE if quick else FULL_PIPELINE
     res = goland_pipeline(dataclasses.replace(base, damping="exact"), out / "model_exact",
                           force=force, log=log)
     model = res.model
     cfg_x = dataclasses.replace(_secondary(cfg), cases=damping_check_cases(cfg), history=None)
-    table, _, info = _lco_sweep(cache, cfg_x, model, model.content_hash(), device, dtype, log,
+    table, _, info, _ = _lco_sweep(cache, cfg_x, model, model.content_hash(), device, dtype,
+                                   log,
                                 name="lco_exact_damping" + ("_hb" if cfg.method == "hb"
                                                             else ""))
     found = fnd.fig10_acceptance(table)
@@ -368,10 +373,26 @@ def _damping_check(cache: FileCache, cfg, main, quick: bool, out: Path, force: b
             "frequency_hz"]
     return ({"findings": [f.as_dict() for f in found], "lco": info,
              "table": table[[c for c in cols if c in table]].to_dict(orient="records"),
-             "dissipation": _dissipation_check(cache, cfg, main, model, log)}, model, table)
+             "dissipation": _dissipation_check(cache, cfg, main, model, log, orbit)}, model,
+            table)
 
 
-def _dissipation_check(cache: FileCache, cfg, main, exact, log) -> dict[str, Any]:
+def _cycle_orbit(table: pd.DataFrame, orbits: pd.DataFrame | None, model
+                 ) -> tuple[np.ndarray, float] | None:
+    """The main HB sweep's orbit of the dissipation cycle's case (γ = 0, both nonlinearities,
+    matched α, at the lowest check altitude) as (X, ω), or None (time marching, no such LCO)."""
+    if orbits is None:
+        return None
+    row = table[(table["altitude_ft"] == min(DAMPING_CHECK_ALTITUDES)) & (table["gamma"] == 0.0)
+                & (table["stiffness_nl"] == 1) & (table["damping_nl"] == 1)
+                & (table["alpha_matched"] == 1) & (table["status"] == "lco")]
+    if len(row) != 1:
+        return None
+    X, omega = orbits_of(orbits, [row["case_id"].iloc[0]], model.rom.n)
+    return X[0], float(omega[0])
+
+
+def _dissipation_check(cache: FileCache, cfg, main, exact, log, orbit=None) -> dict[str, Any]:
     """Nonlinear over linear dissipation of both damping identifications on the same γ = 0 LCO
     cycle (:mod:`.dissipation`) at the lowest check altitude, and the decomposition criterion
     (smallest scaled eigenvalue) of each; cached with the two models."""
@@ -381,7 +402,7 @@ def _dissipation_check(cache: FileCache, cfg, main, exact, log) -> dict[str, Any
     path = cache.get("tables/dissipation_check.json", key)
     if path is not None:
         return json.loads(path.read_text())
-    q, qd, status = lco_cycle(main, cfg, altitude)
+    q, qd, status = lco_cycle(main, cfg, altitude, orbit=orbit)
     report = main.rom.metadata.get("damping", {}).get("report", {})
     out = {"altitude_ft": altitude, "status": status,
            "decomposition_ratio": dissipation_ratio(main.rom, q, qd),
@@ -396,9 +417,10 @@ def _dissipation_check(cache: FileCache, cfg, main, exact, log) -> dict[str, Any
     return out
 
 
-def _confirmation(cache: FileCache, cfg, model, model_hash: str, table: pd.DataFrame, device,
-                  log) -> tuple[pd.DataFrame, pd.DataFrame]:
-    """:func:`.hb.newmark_confirmation`, cached with the HB table it confirms."""
+def _confirmation(cache: FileCache, cfg, model, model_hash: str, table: pd.DataFrame,
+                  orbits: pd.DataFrame, device, log) -> tuple[pd.DataFrame, pd.DataFrame]:
+    """:func:`.hb.newmark_confirmation` from the sweep's ``orbits``, cached with the HB table
+    it confirms."""
     key = FileCache.key({"config": cfg.hash, "model": model_hash,
                          "table": config_hash(table["case_id"].tolist()),
                          "history": repr(cfg.history)})
@@ -407,7 +429,7 @@ def _confirmation(cache: FileCache, cfg, model, model_hash: str, table: pd.DataF
     if all(p is not None for p in found):
         return pd.read_csv(found[0]), pd.read_parquet(found[1])
     log("Newmark confirmation: a subset from the HB orbits at the paper's step")
-    confirm, histories = newmark_confirmation(cfg, model, table, device)
+    confirm, histories = newmark_confirmation(cfg, model, table, orbits, device)
     if len(confirm):
         worst = confirm["amplitude_diff_pct"].abs().max()
         log(f"  {len(confirm)} cases, amplitude within {worst:.2f} % of HB, frequency within "
@@ -464,30 +486,36 @@ def _sweep_key(cfg, model_hash: str, device, dtype) -> str:
 
 def _lco_sweep(cache: FileCache, cfg, model, model_hash: str, device, dtype, log,
                name: str = "lco"):
-    """The LCO table and histories (cached by the configuration, the model and the precision)
-    in ``sweeps/<name>/``."""
+    """The LCO table, histories, timing and, by harmonic balance, the orbits (else None;
+    :func:`torchrom.study.cases.orbit_table`), cached by the configuration, the model and the
+    precision in ``sweeps/<name>/``."""
     key = _sweep_key(cfg, model_hash, device, dtype)
     names = (f"sweeps/{name}/results.parquet", f"sweeps/{name}/histories.parquet",
-             f"sweeps/{name}/timing.json")
+             f"sweeps/{name}/timing.json") + ((f"sweeps/{name}/orbits.parquet",)
+                                              if cfg.method == "hb" else ())
     found = [cache.get(n, key) for n in names]
     if all(p is not None for p in found):
         log(f"LCO sweep: reusing {found[0]}")
         timing = json.loads(found[2].read_text())
         return (pd.read_parquet(found[0]), pd.read_parquet(found[1]),
-                {**timing, "reused": True, "reused_files": list(names)})
+                {**timing, "reused": True, "reused_files": list(names)},
+                pd.read_parquet(found[3]) if len(found) > 3 else None)
     how = ("harmonic balance" if cfg.method == "hb" else
            f"dt = {cfg.integrator.dt:g} s, up to {cfg.t_end:g} s")
     log(f"LCO sweep: {len(cfg.cases)} cases of '{cfg.title}', {how}")
     from ..progress import Progress
 
     hist: list[pd.DataFrame] = []
+    orb: list[pd.DataFrame] = []
     with Progress(len(cfg.cases), "  cases done") as bar:
         def progress(done: int, total: int) -> None:
             bar.update_to(done)
 
         table, timing = run_sweep(cfg, model=model, device=torch.device(device), dtype=dtype,
-                                  progress=progress, on_history=hist.append)
+                                  progress=progress, on_history=hist.append,
+                                  on_orbits=orb.append)
     histories = pd.concat(hist, ignore_index=True) if hist else pd.DataFrame()
+    orbits = pd.concat(orb, ignore_index=True) if cfg.method == "hb" and orb else None
     counts = table["status"].value_counts().to_dict()
     log("  status: " + ", ".join(f"{k} {v}" for k, v in sorted(counts.items())) +
         (f"; {1e3 * timing['wall_time_s'] / max(len(table), 1):.1f} ms per case"
@@ -507,4 +535,13 @@ def _lco_sweep(cache: FileCache, cfg, model, model_hash: str, device, dtype, log
     cache.put(names[0], key, write_table)
     cache.put(names[1], key, lambda p: write_histories([histories], p))
     cache.put(names[2], key, lambda p: write_json_atomic(p, info))
-    return table, histories, {**info, "reused": False, "reused_files": []}
+    if len(names) > 3:
+        def write_orbits(p):
+            from ..io import atomic_path
+
+            with atomic_path(p) as tmp:
+                (orbits if orbits is not None else pd.DataFrame(columns=["case_id", "omega", "k"])
+                 ).to_parquet(tmp, index=False)
+
+        cache.put(names[3], key, write_orbits)
+    return table, histories, {**info, "reused": False, "reused_files": []}, orbits

@@ -58,7 +58,7 @@ class HarmonicBalanceMethod:
         seed: which cases to re-solve from a short time integration's orbit at higher H
             (:mod:`.seed`): "unconverged" (default: the cases harmonic balance did not
             converge), "unresolved" (also the LCOs not accepted in H; more cases, each costs
-            ~20 periods of time integration) or "off".
+            a few periods of time integration) or "off".
         sensitivity: also the derivatives of each LCO's amplitude and frequency with respect
             to γ by the implicit-function theorem (:mod:`.sensitivity`; columns
             ``amplitude_dgamma``, output units per s, and ``frequency_dgamma``, Hz per s); the
@@ -102,11 +102,11 @@ class HarmonicBalanceMethod:
         if math.isfinite(crit.max_amplitude) and not math.isfinite(opts.max_amplitude):
             opts = dataclasses.replace(opts, max_amplitude=float(crit.max_amplitude))
         system64 = system.to(dtype=torch.float64)
-        orb = solve_orbits(system64, decide, opts,
-                           chains=chains if self.start == "neighbour" else None,
-                           positions=positions if self.start == "neighbour" else None)
+        if self.start != "neighbour":
+            chains = positions = None
+        orb = solve_orbits(system64, decide, opts, chains=chains, positions=positions)
         orb, seeded = seed_unresolved(system64, torch.as_tensor(decide, dtype=torch.float64),
-                                      orb, opts, self.seed)
+                                      orb, opts, self.seed, chains, positions)
         rows = torch.as_tensor(C, dtype=torch.float64)
         amp = orb.amplitude(rows, opts.metric_points)
         B = system.batch_size
@@ -169,5 +169,6 @@ class HarmonicBalanceMethod:
             time=nan.copy(), amplitude=amp, frequency_hz=freq,
             amplitude_change=orb.amplitude_change, solver_error=orb.residual,
             q=q.cpu().numpy().reshape(B, n), v=np.zeros((B, n)), wall_time_s=wall,
-            case_steps=int(orb.iterations.sum()), extra=extra)
+            case_steps=int(orb.iterations.sum()), extra=extra,
+            orbits=(orb.X.cpu().numpy(), orb.omega.cpu().numpy()))
 

@@ -15,22 +15,27 @@ H − 2 or truncation residual above the tolerances of :class:`~.solve.HBOptions
 seeded by time integration (a time-domain start instead of a harmonic ladder, common practice
 where no low-order start exists):
 
-1. a start: an orbit at H = 5 from a cold start (:func:`~.solve.solve_orbits` with
-   start_harmonics = harmonics = 5, which reaches large orbits where the default start at
-   H = 3 does not, 0.3-0.7 % from the Goland γ = 0 orbits), else the case's own orbit (an
-   orbit not accepted in H may be a spurious one of the truncated problem, percents away);
+1. a start: an orbit at H = 5 (:func:`~.solve.solve_orbits` with start_harmonics =
+   harmonics = 5, which reaches large orbits where the default start at H = 3 does not,
+   0.3-0.7 % from the Goland γ = 0 orbits; along the sweep's neighbour chains among the seeded
+   cases, each from its neighbour's H = 5 orbit where there is one, which on the paper's LCO
+   sweep gave the same seeds in 1.5 s instead of 2.4 s of cold starts), else the case's own
+   orbit (an orbit not accepted in H may be a spurious one of the truncated problem, percents
+   away);
 2. Newmark (average acceleration, Newton refreshed every step, :class:`torchrom.sim.Newmark`)
    from that orbit's state for :data:`SEED_PERIODS` periods at :data:`SEED_STEPS_PER_PERIOD`
-   steps per period of the fastest case; a stable LCO attracts the motion (its Floquet
-   multipliers are ~0.8–0.93 per period on the Goland γ = 0 orbits: 20 periods leave a few
-   percent of the start's distance, inside the basin of the high-H solution);
+   steps per period of the fastest case: the start lacks the high harmonics, which the
+   integration supplies within a period or two (they belong to fast, well damped coordinates);
+   its error along the orbit family decays slowly (Floquet multipliers ~0.8–0.93 per period on
+   the Goland γ = 0 orbits), but Newton at H = 15 removes that error anyway;
 3. the frequency from the zero up-crossings of the decision output over the last
    :data:`SEED_FIT_PERIODS` periods, the Fourier coefficients of every coordinate over those
    periods (phase shifted so that the output has no sin τ term: :mod:`.solve`'s phase
    condition);
-4. Newton at each H of :data:`SEED_HARMONICS` in turn, from the last converged orbit (or, while
-   none has converged, from the seed's coefficients), until the amplitude change between
-   consecutive H and the truncation residual meet the tolerances (:func:`seeded_orbits`).
+4. Newton at each H of :data:`SEED_HARMONICS` in turn (at most :data:`SEED_NEWTON_ITERATIONS`
+   iterations), from the last converged orbit (or, while none has converged, from the seed's
+   coefficients), until the amplitude change between consecutive H and the truncation residual
+   meet the tolerances (:func:`seeded_orbits`).
 
 Unstable orbits do not attract a time integration; a seed that runs away is reported as
 such (the case keeps its previous status). Hand-written over :mod:`.solve` and
@@ -62,8 +67,10 @@ from .solve import (
 
 Tensor = torch.Tensor
 
-#: periods of the seeding time integration (from an orbit near the LCO)
-SEED_PERIODS = 20
+#: periods of the seeding time integration (from an orbit near the LCO): on the 16 seeded cases
+#: of the paper's LCO sweep (``torchrom paper --method hb``) 5, 6, 10 and 20 periods gave the
+#: same orbits (same H, amplitudes within 1e-11 relative), 20 periods cost 10.5 s and 6 3.2 s
+SEED_PERIODS = 6
 #: periods at its end whose Fourier coefficients seed the HB solve
 SEED_FIT_PERIODS = 4
 #: time steps per period of the fastest case: ~1 ms on Goland, where the paper setting's two
@@ -72,6 +79,11 @@ SEED_FIT_PERIODS = 4
 SEED_STEPS_PER_PERIOD = 512
 #: the harmonic ladder of a seeded orbit (each H from the previous converged one)
 SEED_HARMONICS = (15, 17, 19, 21, 23, 25)
+#: Newton iterations at each H of the ladder: from a seed in the basin Newton converges in 3–9
+#: (the paper's LCO sweep); a case that has not converged by then does not converge at that H
+#: (none did between 10 and the default 25 iterations there) and goes on to the next H, while
+#: its batch waited for its 25 iterations before
+SEED_NEWTON_ITERATIONS = 12
 #: H of the cold start that provides a seed for a case without an orbit
 SEED_START_HARMONICS = 5
 
@@ -157,10 +169,12 @@ def _time_seed(system: CaseSystem, X: Tensor, omega: Tensor, r: Tensor, H: int
 
 
 def seeded_orbits(system: CaseSystem, r: Tensor, X: Tensor | None, omega: Tensor | None,
-                  has_orbit: np.ndarray, options: HBOptions) -> SeededOrbits:
+                  has_orbit: np.ndarray, options: HBOptions,
+                  chains: list[list[int]] | None = None, positions=None) -> SeededOrbits:
     """Seed and solve the orbits of every case of ``system`` (module docstring): each starts
-    from a cold orbit at H = :data:`SEED_START_HARMONICS`, or where that fails from its own
-    orbit ``X``, ``ω`` (any H; used where ``has_orbit``)."""
+    from an orbit at H = :data:`SEED_START_HARMONICS` (along ``chains``/``positions`` as
+    :func:`~.solve.solve_orbits`, else cold), or where that fails from its own orbit ``X``,
+    ``ω`` (any H; used where ``has_orbit``)."""
     k, n = system.batch_size, system.n
     Hmax = SEED_HARMONICS[-1]
     out = SeededOrbits(
@@ -172,14 +186,14 @@ def seeded_orbits(system: CaseSystem, r: Tensor, X: Tensor | None, omega: Tensor
         accepted=np.zeros(k, dtype=bool))
     X0 = r.new_zeros(k, 2 * SEED_START_HARMONICS + 1, n)
     w0 = r.new_full((k,), math.nan)
-    # every case from a cold start at H = 5 (close to the orbit on Goland: 0.3-0.7 %), which
+    # every case from an orbit at H = 5 (close to the orbit on Goland: 0.3-0.7 %), which
     # the Newmark run then brings into the basin of the high-H solution; the case's own orbit
     # only where that start fails (an orbit not accepted in H may be a spurious one of the
     # truncated problem, percents away)
     opts = dataclasses.replace(options, start_harmonics=SEED_START_HARMONICS,
                                harmonics=SEED_START_HARMONICS,
                                max_harmonics=SEED_START_HARMONICS)
-    orb = solve_orbits(system, r, opts)
+    orb = solve_orbits(system, r, opts, chains=chains, positions=positions)
     got = orb.status == "lco"
     out.iterations += orb.iterations
     g = torch.as_tensor(got)
@@ -209,9 +223,12 @@ def seeded_orbits(system: CaseSystem, r: Tensor, X: Tensor | None, omega: Tensor
     have = np.zeros(m, dtype=bool)  # converged at some H of the ladder
     prev_amp = np.full(m, math.nan)
     todo = np.arange(m)
+    ladder = dataclasses.replace(options, newton=dataclasses.replace(
+        options.newton, max_iterations=min(options.newton.max_iterations,
+                                           SEED_NEWTON_ITERATIONS)))
     for H in SEED_HARMONICS:
         act = torch.as_tensor(todo)
-        Xn, wn, conv, its, res = refine_harmonics(sub, X_cur, w_cur, r, H, options, act)
+        Xn, wn, conv, its, res = refine_harmonics(sub, X_cur, w_cur, r, H, ladder, act)
         out.iterations[idx[todo]] += its[act].cpu().numpy()
         conv_t = conv[act].cpu().numpy()
         done = todo[conv_t]
@@ -243,15 +260,28 @@ def seeded_orbits(system: CaseSystem, r: Tensor, X: Tensor | None, omega: Tensor
     return out
 
 
+def _sub_chains(cases: np.ndarray, chains: list[list[int]] | None, positions
+                ) -> tuple[list[list[int]] | None, np.ndarray | None]:
+    """``chains`` and ``positions`` of the whole batch restricted to ``cases`` (indices into it),
+    renumbered as positions in ``cases``; (None, None) without chains."""
+    if chains is None:
+        return None, None
+    where = {int(c): j for j, c in enumerate(cases)}
+    sub = [[where[i] for i in chain if i in where] for chain in chains]
+    pos = None if positions is None else np.asarray(positions, dtype=float)[cases]
+    return [c for c in sub if c], pos
+
+
 #: which cases :func:`seed_unresolved` seeds: "unconverged" (the cases harmonic balance did
 #: not converge at all: cheap, a sweep's failures only), "unresolved" (also the LCOs not
 #: accepted in H: the amplitude change from H − 2 or the truncation residual above the
-#: tolerances — more cases, each seed costs ~20 periods of time integration), "off"
+#: tolerances — more cases, each seed costs a few periods of time integration), "off"
 SEED_MODES = ("unconverged", "unresolved", "off")
 
 
 def seed_unresolved(system: CaseSystem, r: Tensor, orb: PeriodicOrbits, options: HBOptions,
-                    which: str = "unresolved") -> tuple[PeriodicOrbits, np.ndarray]:
+                    which: str = "unresolved", chains: list[list[int]] | None = None,
+                    positions=None) -> tuple[PeriodicOrbits, np.ndarray]:
     """``orb`` with its cases of kind ``which`` (:data:`SEED_MODES`) re-solved by
     :func:`seeded_orbits` where that converges (kept as they were elsewhere), and which cases
     now hold a seeded orbit. Only with adaptive H (``max_harmonics > harmonics``): an H fixed
@@ -267,8 +297,9 @@ def seed_unresolved(system: CaseSystem, r: Tensor, orb: PeriodicOrbits, options:
     if bad.size == 0:
         return orb, seeded
     t = torch.as_tensor(bad)
+    sub_chains, sub_pos = _sub_chains(bad, chains, positions)
     s = seeded_orbits(system.select(t), r, orb.X[t], orb.omega[t], orb.status[bad] == "lco",
-                      options)
+                      options, sub_chains, sub_pos)
     orb.iterations[bad] += s.iterations
     # a seeded orbit replaces the case's own where it converged and is accepted, or where the
     # case had none (then it is the best there is; its amplitude change says how good)

@@ -41,6 +41,10 @@ class SimulationResult:
         wall_time_s: wall-clock time of the run; case_steps: Σ over cases of steps computed.
         extra: further per-case columns of a method (name -> (B,) array), e.g. the harmonic
             balance's stability (:mod:`torchrom.periodic.method`).
+        orbits: harmonic balance only: the Fourier coefficients (B, 2H+1, n) of every case's
+            orbit (zero beyond its own H, ``extra["harmonics"]``) and the angular frequencies
+            (B,) in rad/s — what a time integration started on the orbit needs
+            (:func:`torchrom.periodic.solve.orbit_state`); None for time marching.
     """
 
     output_names: list[str]
@@ -60,6 +64,7 @@ class SimulationResult:
     case_steps: int = 0
     xi: np.ndarray | None = None
     extra: dict[str, np.ndarray] = field(default_factory=dict)
+    orbits: tuple[np.ndarray, np.ndarray] | None = None
 
     @property
     def batch_size(self) -> int:

@@ -217,6 +217,44 @@ def history_table(result: SimulationResult, case_ids: Sequence[str]) -> pd.DataF
     return pd.concat(frames, ignore_index=True)
 
 
+def orbit_table(result: SimulationResult, case_ids: Sequence[str]) -> pd.DataFrame | None:
+    """Long table of the LCO orbits of a harmonic balance result (:attr:`SimulationResult.orbits`;
+    None for time marching): case_id, omega (rad/s), k (row of the Fourier coefficients: 0 the
+    mean, 2h − 1 and 2h the cosine and sine of harmonic h, up to the case's own H) and one
+    column per modal coordinate (q1..qn)."""
+    if result.orbits is None:
+        return None
+    X, omega = result.orbits
+    H = result.extra.get("harmonics", np.full(len(case_ids), (X.shape[1] - 1) // 2))
+    names = [f"q{j + 1}" for j in range(X.shape[2])]
+    lco = np.flatnonzero(result.status == "lco")
+    rows = 2 * np.asarray(H, dtype=int)[lco] + 1
+    case = np.repeat(lco, rows)  # one row per (case, coefficient)
+    k = np.concatenate([np.arange(m) for m in rows]) if lco.size else np.zeros(0, dtype=int)
+    df = pd.DataFrame(X[case, k], columns=names)
+    df.insert(0, "k", k)
+    df.insert(0, "omega", np.asarray(omega, dtype=float)[case])
+    df.insert(0, "case_id", np.asarray(list(case_ids), dtype=object)[case])
+    return df
+
+
+def orbits_of(table: pd.DataFrame, case_ids: Sequence[str], n: int
+              ) -> tuple[np.ndarray, np.ndarray]:
+    """(X (B, 2H+1, n), ω (B,)) of ``case_ids`` from an :func:`orbit_table` (H the largest among
+    them; zeros and NaN for a case without an orbit)."""
+    mine = table[table["case_id"].isin(list(case_ids))]
+    rows = int(mine["k"].max()) + 1 if len(mine) else 1
+    X = np.zeros((len(case_ids), rows, n))
+    omega = np.full(len(case_ids), np.nan)
+    names = [f"q{j + 1}" for j in range(n)]
+    for i, cid in enumerate(case_ids):
+        own = mine[mine["case_id"] == cid]
+        if len(own):
+            X[i, own["k"].to_numpy(int)] = own[names].to_numpy(float)
+            omega[i] = float(own["omega"].iloc[0])
+    return X, omega
+
+
 def initial_displacement(rom: NonlinearROM, initial: dict[str, Any],
                          cases: list[dict[str, Any]], where: str = "[initial]") -> np.ndarray:
     """(B, n) initial displacements: the ``[initial]`` pattern, scaled by each case's ``q0``."""

@@ -59,7 +59,8 @@ entry in each table:
                  default "amplitude"), ``hue`` (a case parameter, optional).
 ``[run]``        ``batch_size`` (largest number of cases integrated together, default 512) and
                  ``chunk_size`` (cases per chunk of work and per part file; default: about 8
-                 chunks, see :func:`torchrom.study.runner.plan_chunks`).
+                 chunks, see :func:`torchrom.study.runner.plan_chunks`, or with method "hb"
+                 ``batch_size``, :func:`torchrom.study.sweep.sweep_chunk_size`).
 ``[variants.NAME]`` tables that replace parts of the others when the configuration is loaded as
                  variant NAME (e.g. ``[variants.quick.cases]`` with a coarser grid); tables are
                  merged key by key, other values replaced.

@@ -77,6 +77,9 @@ class ChunkResult:
     #: output time histories of the chunk's cases that asked for them (long format, with a
     #: ``case_id`` column), or None
     histories: pd.DataFrame | None = None
+    #: harmonic balance: the chunk's LCO orbits (:func:`torchrom.study.cases.orbit_table`), or
+    #: None; handed to ``on_orbits`` of :func:`run_cases`, not stored in part files
+    orbits: pd.DataFrame | None = None
 
 
 class Task(Protocol):
@@ -465,13 +468,16 @@ def run_cases(task: Task, cases: Sequence[dict[str, Any]], case_ids: Sequence[st
               progress: Progress | None = None,
               log: Callable[[str], None] | None = None,
               on_history: Callable[[pd.DataFrame], None] | None = None,
+              on_orbits: Callable[[pd.DataFrame], None] | None = None,
               ) -> tuple[pd.DataFrame, RunStats]:
     """Evaluate ``task`` on every case (see the module docstring); returns (table, stats).
 
     With ``store``, finished chunks go to part files as they complete, cases already stored
     for the same run key are skipped, and the table is assembled from the part files.
     ``on_history(frame)`` receives the chunks' time histories (:attr:`ChunkResult.histories`):
-    chunk by chunk without a store, all of them (stored and new) at the end with one."""
+    chunk by chunk without a store, all of them (stored and new) at the end with one.
+    ``on_orbits(frame)`` receives the harmonic balance orbits (:attr:`ChunkResult.orbits`) of
+    the chunks computed in this call, chunk by chunk (they are not stored)."""
     t0 = time.perf_counter()
     log = log or (lambda _msg: None)
     cases = list(cases)
@@ -505,6 +511,8 @@ def run_cases(task: Task, cases: Sequence[dict[str, Any]], case_ids: Sequence[st
     report(0, 0)
     for _k, result in executor.run(task, todo, report):
         rows = result.rows
+        if result.orbits is not None and on_orbits is not None:
+            on_orbits(result.orbits)
         if store is not None:
             store.write(rows, result.histories)
         else:

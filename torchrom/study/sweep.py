@@ -21,7 +21,7 @@ import torch
 
 from ..rom import NonlinearROM
 from ..sim import HistoryRequest
-from .cases import case_system, history_table, neighbour_chains
+from .cases import case_system, history_table, neighbour_chains, orbit_table
 from .cases import initial_displacement as initial_displacement  # noqa: F401 - public name
 from .cases import initial_velocity as initial_velocity  # noqa: F401 - public name
 from .cases import structural_system as structural_system  # noqa: F401 - public name
@@ -57,16 +57,16 @@ class SweepTask:
 
     def __call__(self, cases: list[dict[str, Any]], case_ids: list[str],
                  progress: Callable[[int, int], None] | None = None) -> ChunkResult:
-        rows, hist, wall, steps = self._run(cases, case_ids, self.dtype, progress)
+        rows, hist, wall, steps, orbits = self._run(cases, case_ids, self.dtype, progress)
         if self.dtype != torch.float32 or not self.confirm_float64:
-            return ChunkResult(rows, wall, steps, hist)
+            return ChunkResult(rows, wall, steps, hist, orbits)
         redo = [i for i, s in enumerate(rows["status"]) if s in CONFIRM_STATUSES]
         if redo:
             # the solver's own error estimate says float32 was not enough for these cases:
             # their rows (and histories) are replaced by a float64 run of the same cases
             ids = [case_ids[i] for i in redo]
-            rows64, hist64, wall64, steps64 = self._run([cases[i] for i in redo], ids,
-                                                        torch.float64)
+            rows64, hist64, wall64, steps64, orbits64 = self._run([cases[i] for i in redo],
+                                                                  ids, torch.float64)
             rows64["precision"] = "float64 (confirmed)"
             rows64.index = pd.Index(redo)
             rows = pd.concat([rows.drop(index=redo), rows64.reindex(columns=rows.columns)]
@@ -74,8 +74,11 @@ class SweepTask:
             if hist is not None and hist64 is not None:
                 hist = pd.concat([hist[~hist["case_id"].isin(ids)], hist64],
                                  ignore_index=True)
+            if orbits is not None and orbits64 is not None:
+                orbits = pd.concat([orbits[~orbits["case_id"].isin(ids)], orbits64],
+                                   ignore_index=True)
             wall, steps = wall + wall64, steps + steps64
-        return ChunkResult(rows, wall, steps, hist)
+        return ChunkResult(rows, wall, steps, hist, orbits)
 
     def _run(self, cases, case_ids, dtype, progress=None):
         cfg, rom = self.cfg, model_rom(self.model)
@@ -110,7 +113,7 @@ class SweepTask:
         rows = result_rows(cases, res, config_hash=cfg.hash, span=span, case_ids=case_ids,
                            extra=extra, precision=str(dtype).replace("torch.", ""))
         return (rows, history_table(res, case_ids) if keep else None, res.wall_time_s,
-                res.case_steps)
+                res.case_steps, orbit_table(res, case_ids))
 
 
 
@@ -156,6 +159,7 @@ def run_sweep(cfg: SweepConfig, *, device=None, dtype=torch.float64,
               out=None, force: bool = False, executor=None, chunk_size: int | None = None,
               log: Callable[[str], None] | None = None,
               on_history: Callable[[pd.DataFrame], None] | None = None,
+              on_orbits: Callable[[pd.DataFrame], None] | None = None,
               ) -> tuple[pd.DataFrame, dict[str, float]]:
     """Integrate every case of ``cfg`` (or ``cases``, e.g. a calibration batch); returns
     (table, timing) with timing keys wall_time_s (Σ integration time), case_steps,
@@ -166,7 +170,8 @@ def run_sweep(cfg: SweepConfig, *, device=None, dtype=torch.float64,
     :func:`~torchrom.study.runner.open_executor` (default in-process); ``model``: the sweep's
     model (default ``cfg.build_model()``; ``rom`` is accepted for a structural model);
     ``on_history(frame)`` receives the time histories of the cases that ``[history]`` selects
-    (see :func:`torchrom.study.cases.history_table`)."""
+    (see :func:`torchrom.study.cases.history_table`); ``on_orbits(frame)`` the harmonic balance
+    orbits of the computed cases (:func:`torchrom.study.cases.orbit_table`)."""
     model = model if model is not None else (rom if rom is not None else cfg.build_model())
     cases = cfg.cases if cases is None else cases
     run = run_description(cfg, model, dtype)
@@ -174,12 +179,25 @@ def run_sweep(cfg: SweepConfig, *, device=None, dtype=torch.float64,
     task = SweepTask(cfg, model, str(torch.device(device or "cpu")), dtype)
     store = PartStore(Path(out), run) if out is not None else None
     table, stats = run_cases(task, cases, ids, batch_size=cfg.batch_size,
-                             chunk_size=chunk_size or cfg.chunk_size, executor=executor,
+                             chunk_size=chunk_size or sweep_chunk_size(cfg), executor=executor,
                              store=store, force=force, progress=progress, log=log,
-                             on_history=on_history)
+                             on_history=on_history, on_orbits=on_orbits)
     table.attrs["units"] = sweep_units(list(table.columns), list(cfg.outputs or []),
                                        model_length_unit(model))
     return table, stats.as_dict()
+
+
+def sweep_chunk_size(cfg: SweepConfig) -> int | None:
+    """Cases per chunk: ``[run] chunk_size``; else, for harmonic balance, ``batch_size`` (one
+    chunk where the cases fit); else None (:func:`~torchrom.study.runner.plan_chunks`' default
+    of about 8 chunks). A harmonic-balance chunk costs nearly as much with few cases as with
+    many — its time-integration seeds (:mod:`torchrom.periodic.seed`) are launch-bound at
+    these batch widths (on the paper's 59-case LCO sweep in two chunks, 7.7 s for each chunk's
+    seeds, 14 and 2 cases) — and a chunk boundary cuts the neighbour chains; a sweep for
+    several workers sets ``chunk_size``."""
+    if cfg.chunk_size is not None or cfg.method != "hb":
+        return cfg.chunk_size
+    return cfg.batch_size
 
 
 def model_length_unit(model) -> str | None:
