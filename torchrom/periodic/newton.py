@@ -13,7 +13,8 @@ All B cases are solved together: one batched LU per iteration (rows equilibrated
 force rows of stiff dual coordinates are ~1e7 times the displacement rows). Each case stops on
 its own once its scaled correction is below the tolerance; a case whose iterate turns non-finite
 is marked and frozen, never touching its neighbours. Steps are limited to a fraction of the
-orbit's size, which keeps Newton inside its basin on the stiff dual coordinates.
+orbit's size, which keeps Newton inside its basin on the stiff dual coordinates; a case that
+needs :data:`MAX_LIMITED_STEPS` limited steps in a row is lost and stops, unconverged.
 Hand-written.
 """
 
