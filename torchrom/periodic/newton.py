@@ -13,7 +13,8 @@ All B cases are solved together: one batched LU per iteration (rows equilibrated
 force rows of stiff dual coordinates are ~1e7 times the displacement rows). Each case stops on
 its own once its scaled correction is below the tolerance; a case whose iterate turns non-finite
 is marked and frozen, never touching its neighbours. Steps are limited to a fraction of the
-orbit's size, which keeps Newton inside its basin on the stiff dual coordinates.
+orbit's size, which keeps Newton inside its basin on the stiff dual coordinates; a case that
+needs :data:`MAX_LIMITED_STEPS` limited steps in a row is lost and stops, unconverged.
 Hand-written.
 """
 
@@ -30,6 +31,12 @@ Tensor = torch.Tensor
 
 #: the slaved coordinates are re-solved after steps larger than this (relative to the orbit)
 SLAVE_ABOVE = 1e-3
+
+#: a case stops, unconverged, after this many limited steps in a row (Newton has lost it: on
+#: the paper's LCO sweep, ``torchrom paper --method hb``, none of the 273 cases that converged
+#: took more than 2 limited steps in all, while the ones that did not wandered with limited
+#: steps until ``max_iterations``, H = 3–19)
+MAX_LIMITED_STEPS = 3
 
 #: evaluate(X, ω, μ, active) -> (R, J, R_ω, R_μ) for the cases ``active`` (index tensor)
 Evaluate = Callable[[Tensor, Tensor, Tensor, Tensor], tuple[Tensor, Tensor, Tensor, Tensor]]
@@ -100,6 +107,7 @@ def newton(evaluate: Evaluate, X: Tensor, omega: Tensor, mu: Tensor, phase_row: 
     solves = 0
     # the last unlimited step of every case, relative to its orbit (inf: none yet)
     prev_rel = torch.full((B,), math.inf, dtype=X.dtype, device=X.device)
+    limited = torch.zeros(B, dtype=torch.long, device=X.device)  # limited steps in a row
     for _ in range(options.max_iterations):
         if todo.numel() == 0:
             break
@@ -153,8 +161,11 @@ def newton(evaluate: Evaluate, X: Tensor, omega: Tensor, mu: Tensor, phase_row: 
         rs = R.abs().amax(dim=(1, 2)) / (J.abs().amax(dim=(1, 2)) * size).clamp_min(1e-300)
         residual[todo] = rs
         converged[todo] = done
-        # a failed case (singular or non-finite) stops, unconverged; converged cases stop
-        keep = ok & ~done
+        # a failed case (singular or non-finite) stops, unconverged, and so does one that
+        # took MAX_LIMITED_STEPS limited steps in a row; converged cases stop
+        limited[todo] = torch.where(lam < 1, limited[todo] + 1, torch.zeros_like(lam,
+                                                                                dtype=torch.long))
+        keep = ok & ~done & (limited[todo] < MAX_LIMITED_STEPS)
         todo = todo[keep]
     return NewtonResult(X, omega, mu, converged, iterations, residual, solves, det_sign)
 
