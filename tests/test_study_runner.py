@@ -184,9 +184,13 @@ def test_sigint_keeps_finished_chunks_and_resume_matches(slow_config, tmp_path, 
     out = tmp_path / "out"
     env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(REPO), os.environ.get(
         "PYTHONPATH", "")])}
+    # SIGINT's default disposition in the child, as in a terminal: a test run started in the
+    # background by a non-interactive shell inherits SIGINT ignored (POSIX), and an ignored
+    # signal stays ignored across exec — the sweep would then never see the Ctrl-C
     proc = subprocess.Popen([sys.executable, "-m", "torchrom", "sweep", str(config), "--out",
                              str(out), "--workers", "2"], env=env, stdout=subprocess.PIPE,
-                            stderr=subprocess.STDOUT, text=True)
+                            stderr=subprocess.STDOUT, text=True,
+                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
     deadline = time.monotonic() + 120
     while not glob.glob(str(out / "parts" / "part-*.json")):
         assert proc.poll() is None, proc.communicate()[0]
