@@ -56,7 +56,6 @@ error) and the per-case table. Writes ``bench_lco.json`` shaped
 from __future__ import annotations
 
 import argparse
-import dataclasses
 import json
 import os
 import sys
@@ -75,8 +74,12 @@ sys.path.insert(0, str(HERE.parent))
 from results_io import machine_meta  # noqa: E402
 
 from torchrom.periodic import HarmonicBalanceMethod, HBOptions, solve_orbits  # noqa: E402
-from torchrom.periodic.fourier import resize_harmonics  # noqa: E402
-from torchrom.periodic.seed import SEED_HARMONICS, seed_unresolved, seeded_orbits  # noqa: E402
+from torchrom.periodic.seed import (  # noqa: E402
+    SEED_HARMONICS,
+    merge_seeded,
+    seed_unresolved,
+    seeded_orbits,
+)
 from torchrom.periodic.solve import orbit_state  # noqa: E402
 from torchrom.sim import LCOCriteria, Newmark  # noqa: E402
 from torchrom.study.cases import case_system, neighbour_chains  # noqa: E402
@@ -236,18 +239,7 @@ def _raised_to_top(system, r: torch.Tensor, orb, opts: HBOptions):
     s = seeded_orbits(system.select(t), r, orb.X[t], orb.omega[t], np.ones(low.size, bool),
                       opts)
     take = (s.status == "lco") & (s.harmonics > orb.harmonics[low])
-    if not take.any():
-        return orb
-    g = torch.as_tensor(low[take])
-    H = SEED_HARMONICS[-1]
-    X = resize_harmonics(orb.X, H)
-    X[g] = resize_harmonics(s.X[torch.as_tensor(take)], H)
-    omega = orb.omega.clone()
-    omega[g] = s.omega[torch.as_tensor(take)]
-    orb = dataclasses.replace(orb, X=X, omega=omega)
-    for name in ("harmonics", "residual", "truncation", "amplitude_change"):
-        getattr(orb, name)[low[take]] = getattr(s, name)[take]
-    return orb
+    return merge_seeded(orb, low, s, take)
 
 
 def hb_reference(bench: Bench) -> tuple[np.ndarray, np.ndarray, list[dict]]:

@@ -50,6 +50,10 @@ class Section:
 #: (ExportNastranKM's test_case, 10 modes to 1e-5); T: :func:`library_shear_factors`; other
 #: sections: not known here, so their shear flexibility is left out, with a note.
 LIBRARY_SHEAR_FACTOR = {"ROD": 0.9, "BAR": 5.0 / 6.0}
+#: PBARL/PBEAML section types with properties: pyNastran computes A, I1, I2, I12 of the first
+#: five (its PBARL refuses the others), :func:`_open_section` those of I, T and CHAN
+PYNASTRAN_SECTIONS = ("ROD", "TUBE", "BAR", "BOX", "L")
+LIBRARY_SECTIONS = PYNASTRAN_SECTIONS + ("I", "T", "CHAN")
 
 
 def library_shear_factors(kind: str, dim) -> tuple[float, float]:
@@ -94,8 +98,8 @@ def torsion_constant(kind: str, dim) -> float:
     if kind == "CHAN":  # width, depth, web t, flange t
         b, depth, tw, tf = d[:4]
         return (2.0 * (b - 0.5 * tw) * tf**3 + (depth - tf) * tw**3) / 3.0
-    raise InputError(f"section {kind}: torsion constant not available (supported: ROD, TUBE, "
-                     "BAR, BOX, I, T, L, CHAN)")
+    raise InputError(f"section {kind}: torsion constant not available (supported: "
+                     f"{', '.join(LIBRARY_SECTIONS)})")
 
 
 def rectangles(parts) -> tuple[float, float, float, float]:
@@ -134,12 +138,15 @@ def _library(prop, kind: str, dim, owner: str) -> tuple[float, float, float, flo
     """A, I1, I2, I12 of a library section (pyNastran's PBARL, or :func:`_open_section`)."""
     from pyNastran.bdf.cards.properties.bars import PBARL
 
-    if kind in ("I", "T", "CHAN"):
+    if kind not in LIBRARY_SECTIONS:
+        raise InputError(f"{owner}: section {kind}: not supported (supported: "
+                         f"{', '.join(LIBRARY_SECTIONS)})")
+    if kind not in PYNASTRAN_SECTIONS:
         return _open_section(kind, [float(x) for x in dim])
     try:
         bar = PBARL(prop.pid, prop.mid, kind, list(dim))
         return float(bar.Area()), float(bar.I1()), float(bar.I2()), float(bar.I12() or 0.0)
-    except (NotImplementedError, ValueError, TypeError, AssertionError) as exc:
+    except (ValueError, TypeError, AssertionError) as exc:  # dimensions pyNastran refuses
         raise InputError(f"{owner}: section {kind} {list(dim)}: {exc}") from None
 
 

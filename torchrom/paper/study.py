@@ -363,9 +363,8 @@ def _damping_check(cache: FileCache, cfg, main, quick: bool, out: Path, force: b
     model = res.model
     cfg_x = dataclasses.replace(_secondary(cfg), cases=damping_check_cases(cfg), history=None)
     table, _, info, _ = _lco_sweep(cache, cfg_x, model, model.content_hash(), device, dtype,
-                                   log,
-                                name="lco_exact_damping" + ("_hb" if cfg.method == "hb"
-                                                            else ""))
+                                   log, name="lco_exact_damping" + ("_hb" if cfg.method == "hb"
+                                                                    else ""))
     found = fnd.fig10_acceptance(table)
     for f in found:
         log(f"  exact damping: {f.key}: {f.verdict} ({f.ours})")
@@ -537,8 +536,6 @@ def _lco_sweep(cache: FileCache, cfg, model, model_hash: str, device, dtype, log
     cache.put(names[2], key, lambda p: write_json_atomic(p, info))
     if len(names) > 3:
         def write_orbits(p):
-            from ..io import atomic_path
-
             with atomic_path(p) as tmp:
                 (orbits if orbits is not None else pd.DataFrame(columns=["case_id", "omega", "k"])
                  ).to_parquet(tmp, index=False)

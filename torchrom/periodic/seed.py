@@ -304,17 +304,24 @@ def seed_unresolved(system: CaseSystem, r: Tensor, orb: PeriodicOrbits, options:
     # a seeded orbit replaces the case's own where it converged and is accepted, or where the
     # case had none (then it is the best there is; its amplitude change says how good)
     take = (s.status == "lco") & (s.accepted | (orb.status[bad] != "lco"))
+    seeded[bad[take]] = True
+    return merge_seeded(orb, bad, s, take), seeded
+
+
+def merge_seeded(orb: PeriodicOrbits, cases: np.ndarray, s: SeededOrbits, take: np.ndarray
+                 ) -> PeriodicOrbits:
+    """``orb`` with the seeded orbits ``s`` of its ``cases`` (indices into it, one per row of
+    ``s``) taken where ``take``: coefficients (at the larger H of the two), frequency, H,
+    status, residual, truncation and amplitude change."""
     if not take.any():
-        return orb, seeded
-    g = bad[take]
-    width = max(orb.X.shape[1], s.X.shape[1])
-    H = (width - 1) // 2
+        return orb
+    g = torch.as_tensor(cases[take])
+    H = (max(orb.X.shape[1], s.X.shape[1]) - 1) // 2
     X = resize_harmonics(orb.X, H)
-    X[torch.as_tensor(g)] = resize_harmonics(s.X[torch.as_tensor(take)], H)
+    X[g] = resize_harmonics(s.X[torch.as_tensor(take)], H)
     omega = orb.omega.clone()
-    omega[torch.as_tensor(g)] = s.omega[torch.as_tensor(take)]
+    omega[g] = s.omega[torch.as_tensor(take)]
     orb = dataclasses.replace(orb, X=X, omega=omega)
     for name in ("harmonics", "status", "residual", "truncation", "amplitude_change"):
-        getattr(orb, name)[g] = getattr(s, name)[take]
-    seeded[g] = True
-    return orb, seeded
+        getattr(orb, name)[cases[take]] = getattr(s, name)[take]
+    return orb
