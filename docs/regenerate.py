@@ -12,8 +12,7 @@ Steps:
    into ``docs/paper/paper.json`` without the fields that depend on the run rather than on the
    results (wall/CPU seconds, which files came from the cache, the output folder), and with the
    report's "Run" section pointing to the benchmark instead of that run's own timings;
-3. ``torchrom flutter ../shared/nastran/pt145.bdf`` as given and with ``--symxz 1`` (skipped,
-   keeping the README's block, when the shared deck is absent);
+3. ``torchrom flutter tests/decks/pynastran_pt145/pt145.bdf`` as given and with ``--symxz 1``;
 4. rewrite every README block between ``<!-- generated:NAME -->`` and ``<!-- /generated:NAME -->``
    from ``docs/paper/paper.json``, ``benchmarks/results/bench_paper.json`` and step 3.
 
@@ -38,7 +37,8 @@ ROOT = Path(__file__).resolve().parents[1]
 README = ROOT / "README.md"
 DOCS = ROOT / "docs" / "paper"
 BENCH = ROOT / "benchmarks" / "results" / "bench_paper.json"
-DECK = ROOT.parent / "shared" / "nastran" / "pt145.bdf"
+DECK_NAME = "tests/decks/pynastran_pt145/pt145.bdf"
+DECK = ROOT / DECK_NAME
 #: paper.json fields that describe the run, not its results
 VOLATILE = ("seconds", "cpu_seconds", "model_seconds", "reused", "out", "figures")
 BLOCK = re.compile(r"(<!-- generated:(?P<name>[\w-]+) -->\n)(?P<body>.*?)(<!-- /generated:"
@@ -164,9 +164,9 @@ def block_band(paper: dict[str, Any]) -> str:
 
 def block_deck(deck: dict[str, str]) -> str:
     return "\n".join([
-        "    $ torchrom flutter ../shared/nastran/pt145.bdf",
+        f"    $ torchrom flutter {DECK_NAME}",
         *(f"    {ln}" for ln in deck["plain"]),
-        "    $ torchrom flutter ../shared/nastran/pt145.bdf --symxz 1 --length-unit in",
+        f"    $ torchrom flutter {DECK_NAME} --symxz 1 --length-unit in",
         *(f"    {ln}" for ln in deck["symmetric"])])
 
 
@@ -258,10 +258,8 @@ def main(argv: list[str] | None = None) -> int:
     write_text_atomic(DOCS / "paper.json", json.dumps(summary, indent=2) + "\n")
     report = (args.paper_dir / "report.md").read_text()
     write_text_atomic(DOCS / "report.md", docs_report(report, bench))
-    deck = None
-    if DECK.is_file():
-        deck = {"plain": deck_lines([]), "symmetric": deck_lines(["--symxz", "1",
-                                                                   "--length-unit", "in"])}
+    deck = {"plain": deck_lines([]),
+            "symmetric": deck_lines(["--symxz", "1", "--length-unit", "in"])}
     text = README.read_text()
     write_text_atomic(README, replace_blocks(text, render_blocks(summary, bench, deck)))
     print(f"wrote {DOCS} and the README's generated blocks")

@@ -1,4 +1,4 @@
-"""Shared pytest configuration: the ``../shared`` folder, slow tests, torch threads."""
+"""Shared pytest configuration: the public pt145 deck, slow tests, torch threads."""
 
 from __future__ import annotations
 
@@ -11,10 +11,8 @@ import torch
 REPO = Path(__file__).resolve().parents[1]
 
 
-def shared_dir() -> Path:
-    """The project's shared folder: $TORCHROM_SHARED, else ``../shared`` beside the checkout."""
-    env = os.environ.get("TORCHROM_SHARED")
-    return Path(env) if env else REPO.parent / "shared"
+#: pyNastran's SOL 145 example (NASA test problem 10-2-1), with MSC Nastran's f06 beside it
+PT145_DECK = REPO / "tests" / "decks" / "pynastran_pt145" / "pt145.bdf"
 
 
 def pytest_addoption(parser):
@@ -38,8 +36,6 @@ def pytest_collection_modifyitems(config, items):
 
 
 @pytest.fixture(scope="session")
-def shared() -> Path:
-    path = shared_dir()
-    if not path.is_dir():
-        pytest.fail(f"shared folder not found at {path}; set TORCHROM_SHARED")
-    return path
+def pt145_deck() -> Path:
+    """The pt145 deck in the repository (``tests/decks/pynastran_pt145/SOURCE.md``)."""
+    return PT145_DECK

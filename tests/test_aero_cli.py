@@ -11,11 +11,6 @@ from torchrom.cli import main
 from .test_aero_flutter import _altitude_case
 
 
-@pytest.fixture
-def pt145(shared):
-    return shared / "nastran" / "pt145.bdf"
-
-
 def test_flutter_rom_and_aero_files(tmp_path, capsys):
     from torchrom.rom import NonlinearROM
 
@@ -64,8 +59,8 @@ def test_flutter_rom_and_aero_files(tmp_path, capsys):
     assert "state-space" in capsys.readouterr().out
 
 
-def test_flutter_deck(pt145, tmp_path, capsys):
-    rc = main(["flutter", str(pt145), "--json", str(tmp_path / "d.json")])
+def test_flutter_deck(pt145_deck, tmp_path, capsys):
+    rc = main(["flutter", str(pt145_deck), "--json", str(tmp_path / "d.json")])
     assert rc == 0
     text = capsys.readouterr().out
     assert "FLUTTER SUMMARY" in text and "flutter speed" in text
@@ -73,11 +68,11 @@ def test_flutter_deck(pt145, tmp_path, capsys):
     assert out["flutter"][0]["method"] == "KE" and out["flutter"][0]["velocity"] > 0
 
 
-def test_aero_command_writes_aero_npz(pt145, tmp_path, capsys):
+def test_aero_command_writes_aero_npz(pt145_deck, tmp_path, capsys):
     out = tmp_path / "aero.npz"
     args = [
         "aero",
-        str(pt145),
+        str(pt145_deck),
         "--mach",
         "0.45",
         "--out",
@@ -102,8 +97,8 @@ def test_aero_command_writes_aero_npz(pt145, tmp_path, capsys):
     assert "already exists" in capsys.readouterr().err
 
 
-def test_bad_deck_exit_code(shared, tmp_path, capsys):
-    text = (shared / "nastran" / "pt145.bdf").read_text().replace("PAERO1  1", "PAERO1  2", 1)
+def test_bad_deck_exit_code(pt145_deck, tmp_path, capsys):
+    text = pt145_deck.read_text().replace("PAERO1  1", "PAERO1  2", 1)
     bad = tmp_path / "bad.bdf"
     bad.write_text(text)
     assert main(["flutter", str(bad)]) == 2
@@ -111,7 +106,7 @@ def test_bad_deck_exit_code(shared, tmp_path, capsys):
     assert err.count("\n") == 0 and "CAERO1 101: PAERO1 1 not found" in err
 
 
-def test_flutter_deck_unsupported_warn_and_noted_cards(pt145, tmp_path, capsys):
+def test_flutter_deck_unsupported_warn_and_noted_cards(pt145_deck, tmp_path, capsys):
     """Cards without effect on modes/flutter are accepted with a note; an unknown card refuses
     the deck (exit 2, its name, count and reason) unless --unsupported warn."""
     extra = (
@@ -120,7 +115,7 @@ def test_flutter_deck_unsupported_warn_and_noted_cards(pt145, tmp_path, capsys):
         "DRESP1  30      FREQ1   FREQ                    1\nDCONSTR 40      30      10.\n"
         "DCONADD 50      40\nDSCREEN FREQ    -0.5    10\n"
     )
-    text = pt145.read_text().replace("PARAM   LMODES  3", "PARAM   LMODES  3\n" + extra, 1)
+    text = pt145_deck.read_text().replace("PARAM   LMODES  3", "PARAM   LMODES  3\n" + extra, 1)
     noted = tmp_path / "noted.bdf"
     noted.write_text(text)
     assert main(["flutter", str(noted), "--json", str(tmp_path / "n.json")]) == 0

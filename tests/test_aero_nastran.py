@@ -14,8 +14,8 @@ def _field8(*fields):
 
 
 @pytest.fixture(scope="module")
-def pt145_text(shared):
-    return (shared / "nastran" / "pt145.bdf").read_text()
+def pt145_text(pt145_deck):
+    return pt145_deck.read_text()
 
 
 def _variant(tmp_path, text, name, *replacements):
@@ -28,11 +28,11 @@ def _variant(tmp_path, text, name, *replacements):
 
 
 @pytest.fixture(scope="module")
-def pt145_fe(shared):
+def pt145_fe(pt145_deck):
     """pt145's structure by the built-in FE (CBAR, CMASS2, rotated CORD2R, PS = 126)."""
     from torchrom.fe import read_bdf
 
-    return read_bdf(shared / "nastran" / "pt145.bdf")
+    return read_bdf(pt145_deck)
 
 
 # NASA test problem 10-2-1 (the same 15-degree swept wing, model D of NASA TN D-1824, Mach 0.45):
@@ -44,8 +44,8 @@ REF_SPEED_IN_S = 5980.0
 REF_FREQUENCY_HZ = 121.0
 
 
-def test_pt145_cards_are_read(shared):
-    deck = load_deck(shared / "nastran" / "pt145.bdf")
+def test_pt145_cards_are_read(pt145_deck):
+    deck = load_deck(pt145_deck)
     assert deck.panels.n == 24 and deck.reference.chord == pytest.approx(2.0706)
     assert deck.reference.symxz == 0 and deck.aero_panels.n == 24  # AERO SYMXZ blank: no image
     assert deck.n_modes == 3  # PARAM LMODES 3 (EIGR asks for 6)
@@ -60,8 +60,8 @@ def test_pt145_cards_are_read(shared):
     assert "PT145" in deck.title
 
 
-def test_pt145_ke_end_to_end(shared, pt145_fe):
-    res = run_deck(shared / "nastran" / "pt145.bdf", fe=pt145_fe, log=lambda *_: None)
+def test_pt145_ke_end_to_end(pt145_deck, pt145_fe):
+    res = run_deck(pt145_deck, fe=pt145_fe, log=lambda *_: None)
     # first bending, first torsion, second bending (EIGR ND 6 -> PARAM LMODES 3)
     np.testing.assert_allclose(res.frequencies_hz, [39.96, 236.4, 250.4], rtol=2e-3)
     (r,) = res.results
@@ -102,28 +102,28 @@ def test_pt145_with_reflection_plane_matches_the_reference(tmp_path, pt145_text,
     assert p.k == pytest.approx(0.1314, rel=0.03)
 
 
-def test_symxz_override_and_unit_labels(tmp_path, pt145_text, shared, capsys):
+def test_symxz_override_and_unit_labels(tmp_path, pt145_text, pt145_deck, capsys):
     """--symxz 1 on the deck as given is the deck with AERO SYMXZ = 1 (the same image wing);
     the output names the symmetry's source and labels velocities in the deck's length unit
     (DTI,UNITS when present, else --length-unit)."""
     from torchrom.cli import main
 
-    deck = load_deck(shared / "nastran" / "pt145.bdf")
+    deck = load_deck(pt145_deck)
     assert "from the deck's AERO card (field blank)" in deck.symmetry
     assert deck.velocity_unit == "length/s"
-    over = load_deck(shared / "nastran" / "pt145.bdf", symxz=1, length_unit="in")
+    over = load_deck(pt145_deck, symxz=1, length_unit="in")
     assert over.reference.symxz == 1 and over.aero_panels.n == 48
     assert "from the command line (the deck's AERO SYMXZ is 0)" in over.symmetry
     assert over.velocity_unit == "in/s"
     with pytest.raises(InputError, match="--symxz: expected -1, 0 or 1"):
-        load_deck(shared / "nastran" / "pt145.bdf", symxz=2)
+        load_deck(pt145_deck, symxz=2)
     dti = _variant(tmp_path, pt145_text, "pt145_dti.bdf",
                    ("PARAM   COUPMASS1", "PARAM   COUPMASS1\n" + _field8("DTI", "UNITS", 1, "LBF",
                                                                           "LBF", "IN", "S")))
     assert load_deck(dti, length_unit="ft").velocity_unit == "in/s"  # the deck's card wins
     # the CLI line the README quotes (reflection plane: NASA test problem 10-2-1, 5,980 in/s,
     # 121 Hz; values as in test_pt145_with_reflection_plane_matches_the_reference)
-    assert main(["flutter", str(shared / "nastran" / "pt145.bdf"), "--symxz", "1",
+    assert main(["flutter", str(pt145_deck), "--symxz", "1",
                  "--length-unit", "in"]) == 0
     out = capsys.readouterr().out
     m = re.search(r"flutter speed ([\d.]+) in/s, frequency ([\d.]+) Hz", out)
@@ -132,7 +132,7 @@ def test_symxz_override_and_unit_labels(tmp_path, pt145_text, shared, capsys):
     assert "symmetry: SYMXZ = 1: symmetric image" in out and "units: velocity in/s" in out
 
 
-def test_pk_and_ke_agree_on_the_flutter_point(shared, tmp_path, pt145_text, pt145_fe):
+def test_pk_and_ke_agree_on_the_flutter_point(pt145_deck, tmp_path, pt145_text, pt145_fe):
     """KE and PK are both exact at zero damping: the same flutter point up to interpolation."""
     pk_deck = _variant(
         tmp_path,
@@ -149,7 +149,7 @@ def test_pk_and_ke_agree_on_the_flutter_point(shared, tmp_path, pt145_text, pt14
             _field8("+MK", ".001", ".05", ".1", ".125", ".15", ".2", ".3", ".5"),
         ),
     )
-    ke = run_deck(shared / "nastran" / "pt145.bdf", fe=pt145_fe, log=lambda *_: None)
+    ke = run_deck(pt145_deck, fe=pt145_fe, log=lambda *_: None)
     pk = run_deck(pk_deck, fe=pt145_fe, log=lambda *_: None)
     (p_ke,) = ke.results[0].points
     (p_pk,) = pk.results[0].points

@@ -75,8 +75,8 @@ def test_zero_area_box():
         AeroPanels(np.zeros((1, 4, 3)), [1], [1])
 
 
-def test_caero1_from_deck_in_rotated_cp(shared):
-    model = read_model(shared / "nastran" / "pt145.bdf")
+def test_caero1_from_deck_in_rotated_cp(pt145_deck):
+    model = read_model(pt145_deck)
     p = read_caero1(model, "pt145.bdf")
     assert p.n == 24 and p.box_ids[0] == 101 and p.box_ids[-1] == 124
     # root LE: (-1, -0.26795) in the -15 deg rotated CP -> x = -1.0353, y = 0 in basic

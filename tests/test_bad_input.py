@@ -491,9 +491,9 @@ def test_free_free_deck_needs_constraints(command, tmp_path, capsys):
 
 
 @pytest.mark.parametrize("damage", ["nan density", "no enddata"])
-def test_bad_flutter_deck(damage, shared, tmp_path, capsys):
+def test_bad_flutter_deck(damage, pt145_deck, tmp_path, capsys):
     """pt145 with a NaN in its FLFACT densities or cut before ENDDATA: exit 2, card named."""
-    text = (shared / "nastran" / "pt145.bdf").read_text()
+    text = pt145_deck.read_text()
     if damage == "nan density":
         text, words = text.replace("FLFACT  1       0.967 ", "FLFACT  1       nan   "), (
             "FLFACT 1", "finite")
@@ -536,7 +536,7 @@ def test_bad_option_value(name, tmp_path, capsys):
     assert not out.exists()
 
 
-def test_flutter_figure_failure_keeps_the_json(shared, tmp_path, capsys, monkeypatch):
+def test_flutter_figure_failure_keeps_the_json(pt145_deck, tmp_path, capsys, monkeypatch):
     """The V-g figure failing after the pt145 flutter solution: warning, exit 1, JSON written."""
     import torchrom.aero.plots as aero_plots
 
@@ -545,7 +545,7 @@ def test_flutter_figure_failure_keeps_the_json(shared, tmp_path, capsys, monkeyp
 
     monkeypatch.setattr(aero_plots, "plot_vg", broken)
     js = tmp_path / "flutter.json"
-    rc, err = _cli(capsys, ["flutter", shared / "nastran" / "pt145.bdf", "--json", js, "--plot",
+    rc, err = _cli(capsys, ["flutter", pt145_deck, "--json", js, "--plot",
                             tmp_path / "vg.png"])
     assert rc == 1 and "warning: figure not written" in err and "Traceback" not in err
     assert js.exists() and not (tmp_path / "vg.png").exists()

@@ -21,11 +21,9 @@ from torchrom.fe.bdf_read import UnsupportedCardWarning
 
 from .fe_decks import model_of, new_deck
 
-PT145 = "nastran/pt145.bdf"
 
-
-def test_pt145_modes_match_closed_form(shared):
-    fe = read_bdf(shared / PT145)
+def test_pt145_modes_match_closed_form(pt145_deck):
+    fe = read_bdf(pt145_deck)
     assert fe.n_modes_requested == 6  # EIGR ND
     assert fe.n_dof == 30  # 10 free grids x (T3, R1, R2) in CORD2R 1: PS = 126, root SPC1 345
     assert fe.mesh.coupled_mass  # PARAM COUPMASS 1
@@ -45,18 +43,18 @@ def test_pt145_modes_match_closed_form(shared):
     assert modes.frequencies_hz[1] == pytest.approx(tors, rel=1e-10)
 
 
-def test_nonlinear_analysis_with_cbar_warns(shared):
+def test_nonlinear_analysis_with_cbar_warns(pt145_deck):
     from torchrom.fe import LinearElementWarning
 
-    fe = read_bdf(shared / PT145)
+    fe = read_bdf(pt145_deck)
     with pytest.warns(LinearElementWarning, match="CBAR/CBEAM/CELAS/solid elements are linear"):
         f = fe.internal_force(np.full(fe.n_dof, 1e-3))
     np.testing.assert_allclose(f, fe.stiffness_matrix() @ np.full(fe.n_dof, 1e-3), rtol=1e-12)
 
 
-def test_cli_modes_pt145(shared, tmp_path, capsys):
+def test_cli_modes_pt145(pt145_deck, tmp_path, capsys):
     out = tmp_path / "modes.json"
-    assert main(["modes", str(shared / PT145), "--n", "3", "--json", str(out)]) == 0
+    assert main(["modes", str(pt145_deck), "--n", "3", "--json", str(out)]) == 0
     text = capsys.readouterr().out
     assert "bending" in text and "torsion" in text
     recs = json.loads(out.read_text())
@@ -176,10 +174,10 @@ def test_writer_round_trip_gives_identical_matrices(tmp_path):
         write_bdf(fe1, p1)
 
 
-def _pt145_with_grdset(shared, tmp_path):
+def _pt145_with_grdset(pt145_deck, tmp_path):
     """pt145 with CP, CD and PS moved from every GRID onto one GRDSET (fields blank on GRID)."""
     lines = []
-    for line in (shared / PT145).read_text().splitlines():
+    for line in pt145_deck.read_text().splitlines():
         if line.startswith("GRID    "):
             line = line[:16] + " " * 8 + line[24:48]  # CP (field 3) blank, CD/PS (7, 8) dropped
         elif line.startswith("BEGIN BULK"):
@@ -190,11 +188,11 @@ def _pt145_with_grdset(shared, tmp_path):
     return path
 
 
-def test_grdset_defaults_apply_to_blank_grid_fields(shared, tmp_path):
+def test_grdset_defaults_apply_to_blank_grid_fields(pt145_deck, tmp_path):
     """GRDSET CP, CD and PS are the defaults of blank GRID fields (MSC QRG, GRDSET): the deck
     with them on GRDSET is the same model as pt145 (before: PS ignored, 60 free DOFs, CP lost)."""
-    ref = read_bdf(shared / PT145)
-    fe = read_bdf(_pt145_with_grdset(shared, tmp_path))
+    ref = read_bdf(pt145_deck)
+    fe = read_bdf(_pt145_with_grdset(pt145_deck, tmp_path))
     assert fe.n_dof == ref.n_dof == 30
     np.testing.assert_allclose(fe.grid_xyz, ref.grid_xyz, atol=1e-12)
     for name in ("stiffness_matrix", "mass_matrix"):

@@ -272,10 +272,10 @@ def test_newmark_kelvin_voigt_energy_balance():
     assert np.abs(E[0] - E - dissipated).max() <= 2e-3 * E[0]  # measured 1.7e-4
 
 
-def _free_free_pt145(shared, tmp_path):
+def _free_free_pt145(pt145_deck, tmp_path):
     """pt145 with its root SPC1 and the GRID PS constraints dropped (CD kept)."""
     lines = []
-    for ln in (shared / "nastran" / "pt145.bdf").read_text().splitlines():
+    for ln in pt145_deck.read_text().splitlines():
         if ln.startswith("SPC1") or ln.replace(" ", "") == "SPC=1":
             continue
         lines.append(ln[:56] if ln.startswith("GRID") else ln)  # fields up to CD
@@ -284,7 +284,7 @@ def _free_free_pt145(shared, tmp_path):
     return path
 
 
-def test_free_free_pt145_rigid_body_and_elastic_modes(shared, tmp_path):
+def test_free_free_pt145_rigid_body_and_elastic_modes(pt145_deck, tmp_path):
     """Free-free pt145: the bars have no in-plane bending stiffness (I2 = 0), so AUTOSPC removes
     the in-plane translation and rotation of every grid and the rigid-body modes are the four
     left (translation along and normal to the span, roll and pitch): counted, never reported as
@@ -295,8 +295,8 @@ def test_free_free_pt145_rigid_body_and_elastic_modes(shared, tmp_path):
     eigenvalues come out at 5e-5 rad²/s², 2e-11 of the first elastic one."""
     from torchrom.fe import read_bdf
 
-    free = read_bdf(_free_free_pt145(shared, tmp_path)).modes(4)
-    clamped = read_bdf(shared / "nastran" / "pt145.bdf").modes(1)
+    free = read_bdf(_free_free_pt145(pt145_deck, tmp_path)).modes(4)
+    clamped = read_bdf(pt145_deck).modes(1)
     assert free.n_rigid == 4 and clamped.n_rigid == 0
     assert np.all(np.abs(free.rigid_eigenvalues) < 1e-8 * free.eigenvalues[0])
     assert len(free.frequencies_hz) == 4 and free.frequencies_hz[0] > 100.0
@@ -307,7 +307,7 @@ def test_free_free_pt145_rigid_body_and_elastic_modes(shared, tmp_path):
     assert records[4]["mode"] == 5 and records[4]["kind"] == "bending"
 
 
-def test_rigid_body_modes_from_the_geometry(shared, tmp_path):
+def test_rigid_body_modes_from_the_geometry(pt145_deck, tmp_path):
     """Free-free pt145's four rigid-body modes built from the grids' rigid motions
     (:func:`torchrom.fe.rigid.rigid_body_modes`): mass-orthonormal (GᵀMG = I to 1e-12: an
     eigen-decomposition of a 4 x 4 matrix), strain-free (GᵀKG ≤ 1e-10 of the first elastic ω²:
@@ -319,7 +319,7 @@ def test_rigid_body_modes_from_the_geometry(shared, tmp_path):
     from torchrom.fe import read_bdf
     from torchrom.fe.rigid import rigid_body_modes
 
-    fe = read_bdf(_free_free_pt145(shared, tmp_path))
+    fe = read_bdf(_free_free_pt145(pt145_deck, tmp_path))
     modes = fe.modes(4)
     G, how = rigid_body_modes(fe, modes)
     assert G.shape[1] == 4 and how.startswith("rigid motions")
@@ -338,7 +338,7 @@ def test_rigid_body_modes_from_the_geometry(shared, tmp_path):
     assert np.abs(G.T @ (M @ modes.shapes)).max() <= 1e-10
 
 
-def test_free_free_flutter_keeps_the_rigid_body_modes(shared, tmp_path, capsys):
+def test_free_free_flutter_keeps_the_rigid_body_modes(pt145_deck, tmp_path, capsys):
     """``torchrom flutter`` on free-free pt145 (KE; LMODES raised to 7: the EIGR's 6 roots are
     4 rigid + 2 elastic, counted as Nastran counts them, and the 7th is a residual vector, as
     Nastran's default RESVEC gives): runs, lists the rigid-body modes at exactly 0 Hz and says
@@ -348,7 +348,7 @@ def test_free_free_flutter_keeps_the_rigid_body_modes(shared, tmp_path, capsys):
     from torchrom.aero.nastran_flutter import run_deck
     from torchrom.cli import main
 
-    path = _free_free_pt145(shared, tmp_path)
+    path = _free_free_pt145(pt145_deck, tmp_path)
     path.write_text(path.read_text().replace("PARAM   LMODES  3", "PARAM   LMODES  7"))
     res = run_deck(path, log=lambda *_: None)
     assert np.array_equal(res.frequencies_hz[:4], np.zeros(4)) and len(res.frequencies_hz) == 7
