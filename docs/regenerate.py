@@ -1,4 +1,4 @@
-"""Regenerate ``docs/paper/`` and the README's generated sections from the commands themselves.
+"""Regenerate ``docs/paper/`` and the generated blocks of the README and the docs pages.
 
     PYTHONPATH=. python docs/regenerate.py                      # runs `torchrom paper --out paper`
     PYTHONPATH=. python docs/regenerate.py --paper-dir DIR --no-run   # use an existing full run
@@ -13,12 +13,13 @@ Steps:
    results (wall/CPU seconds, which files came from the cache, the output folder), and with the
    report's "Run" section pointing to the benchmark instead of that run's own timings;
 3. ``torchrom flutter tests/decks/pynastran_pt145/pt145.bdf`` as given and with ``--symxz 1``;
-4. rewrite every README block between ``<!-- generated:NAME -->`` and ``<!-- /generated:NAME -->``
-   from ``docs/paper/paper.json``, ``benchmarks/results/bench_paper.json`` and step 3.
+4. rewrite every block between ``<!-- generated:NAME -->`` and ``<!-- /generated:NAME -->`` of
+   the README and ``docs/**/*.md`` from ``docs/paper/paper.json``,
+   ``benchmarks/results/*.json``, the sweep configuration's keys and step 3.
 
-The README's numbers therefore come from files anyone can regenerate; ``tests/test_readme.py``
-checks that the README's blocks equal what :func:`render_blocks` makes of the committed
-``docs/paper/paper.json`` and benchmark file. Deterministic: the same results give the same
+The numbers therefore come from files anyone can regenerate; ``tests/test_readme.py`` and
+``tests/test_docs.py`` check that the blocks equal what :func:`render_blocks` makes of the
+committed files. Deterministic: the same results give the same
 files byte for byte, so running it twice changes nothing. Hand-written.
 """
 
@@ -36,7 +37,8 @@ from typing import Any
 ROOT = Path(__file__).resolve().parents[1]
 README = ROOT / "README.md"
 DOCS = ROOT / "docs" / "paper"
-BENCH = ROOT / "benchmarks" / "results" / "bench_paper.json"
+RESULTS = ROOT / "benchmarks" / "results"
+BENCH = RESULTS / "bench_paper.json"
 DECK_NAME = "tests/decks/pynastran_pt145/pt145.bdf"
 DECK = ROOT / DECK_NAME
 #: paper.json fields that describe the run, not its results
@@ -170,15 +172,204 @@ def block_deck(deck: dict[str, str]) -> str:
         *(f"    {ln}" for ln in deck["symmetric"])])
 
 
+# -- the docs site's generated pages: verification (paper.json) and performance (benchmarks) ---
+def _load(la: list[float] | None) -> str:
+    return "?" if not la else f"{la[0]:.1f}"
+
+
+def _machine(meta: dict[str, Any], load: str) -> str:
+    """The machine and load line every timing carries."""
+    threads = f", {meta['threads']} torch thread" if meta.get("threads") else ""
+    return (f"Machine: {meta.get('cpus', '?')}-core {meta.get('machine', '?')}, torch "
+            f"{meta.get('torch', '?')}{threads}; run {meta.get('date', '(date not recorded)')}; "
+            f"1-minute load average {load}.")
+
+
+def _count(x: float) -> str:
+    return f"{x:,.0f}" if float(x).is_integer() else f"{x:,.1f}"
+
+
+def _span(values: list[float]) -> str:
+    lo, hi = min(values), max(values)
+    return f"{lo:.1f}" if f"{lo:.1f}" == f"{hi:.1f}" else f"{lo:.1f}–{hi:.1f}"
+
+
+def block_table2(paper: dict[str, Any]) -> str:
+    rows = ["| mode | torchrom Hz | paper Hz | difference % | kind (ours) | kind (paper) |",
+            "|---|---|---|---|---|---|"]
+    for m in paper["flutter"]["table2"]:
+        rows.append(f"| {m['mode']} | {m['frequency_hz']:.3f} | {m['paper_hz']:.3f} | "
+                    f"{m['diff_pct']:+.2f} | {m['kind']} | {m['paper_kind'] or '–'} |")
+    return "\n".join(rows)
+
+
+def block_table3(paper: dict[str, Any]) -> str:
+    sim = {r["altitude_ft"]: r for r in paper["linear"]["table3"]}
+    rows = ["| altitude ft | state space Hz | p-k Hz | batched simulator Hz | paper Hz | "
+            "state space vs paper % |", "|---|---|---|---|---|---|"]
+    for r in paper["flutter"]["table3"]:
+        s = sim.get(r["altitude_ft"], {})
+        f_sim = f"{s['frequency_sim_hz']:.4f}" if s else "–"
+        rows.append(f"| {_ft(r['altitude_ft'])} | {r['state_space_hz']:.4f} | {r['pk_hz']:.4f} | "
+                    f"{f_sim} | {r['paper_hz']:.3f} | "
+                    f"{100 * (r['state_space_hz'] / r['paper_hz'] - 1):+.2f} |")
+    lin, fit = paper["linear"], paper["flutter"]["rfa_fit_error"]
+    rows += ["", f"The batched simulator's linear growth rate changes sign at "
+             f"{_ft(lin['flutter_altitude_sim_ft'], 1)} ft, the eigenvalue analysis's flutter "
+             f"altitude is {_ft(lin['flutter_altitude_eig_ft'], 1)} ft (difference "
+             f"{lin['difference_ft']:.2f} ft). The RFA reproduces the GAF table to "
+             f"{fit['rms_relative']:.2%} RMS (largest weighted entry error "
+             f"{fit['max_weighted']:.2%})."]
+    return "\n".join(rows)
+
+
+def block_branches(paper: dict[str, Any]) -> str:
+    rows = ["| γ s | Hopf altitude ft | Hopf frequency Hz | stable from the Hopf point | folds | "
+            "amplitude at the lowest altitude (% of span) |", "|---|---|---|---|---|---|"]
+    for b in paper["hb"]["branches"]:
+        rows.append(f"| {b['gamma']:g} | {_ft(b['hopf_altitude_ft'], 1)} | "
+                    f"{b['hopf_frequency_hz']:.4f} | {'yes' if b['stable_from_hopf'] else 'no'} | "
+                    f"{len(b['folds_ft']) or 'none'} | {b['amplitude_pct_span_there']:.2f} at "
+                    f"{_ft(b['lowest_altitude_ft'])} ft |")
+    return "\n".join(rows)
+
+
+def block_perf_paper(bench: dict[str, Any]) -> str:
+    rows = ["| run | wall s | limit s | µs per case-step | load at start |",
+            "|---|---|---|---|---|"]
+    for r in bench["runs"]:
+        rows.append(f"| {r['form']} | {r['wall_s']:.1f} | {r['limit_s']:.0f} | "
+                    f"{r['us_per_case_step']:.1f} | {r['load_average_1min_start']:.1f} |")
+    loads = [r["load_average_1min_start"] for r in bench["runs"]]
+    return "\n".join([*rows, "", _machine(bench["meta"], _span(loads))])
+
+
+def block_perf_goland(res: dict[str, Any]) -> str:
+    meta = res["meta"]
+    rows = [r for r in res["throughput"] if r.get("kind") == "throughput"]
+    sizes = sorted({r["B"] for r in rows})
+    table = {(r["setting"], r["dtype"], r["B"]): r["us_per_case_step"] for r in rows}
+    keys = list(dict.fromkeys((r["setting"], r["dtype"]) for r in rows))
+    out = ["| Newmark setting | dtype | " + " | ".join(f"B = {b}" for b in sizes) + " |",
+           "|---|---|" + "---|" * len(sizes)]
+    for setting, dtype in keys:
+        opts = ", ".join(f"{k}={v}" for k, v in meta["settings"][setting].items())
+        cells = [f"{table[(setting, dtype, b)]:.1f}" if (setting, dtype, b) in table else "–"
+                 for b in sizes]
+        out.append(f"| `{setting}` ({opts}) | {dtype} | " + " | ".join(cells) + " |")
+    load = _span([r["load_average_1min"] for r in rows])
+    return "\n".join([*out, "", _machine(meta, load) + f" Device: {meta.get('device', 'cpu')}."])
+
+
+def block_perf_lco(res: dict[str, Any]) -> str:
+    meta = res["meta"]
+    out = ["| method | CPU s per LCO | steps (Newmark) or Newton iterations (HB) per LCO | "
+           "speed-up vs `newmark-reference` | amplitude / frequency error vs the HB reference % | "
+           "vs Newmark dt 0.25 ms % |", "|---|---|---|---|---|---|"]
+    for m in res["methods"]:
+        out.append(f"| `{m['method']}` | {m['cpu_s_per_lco']:.3f} | {_count(m['steps_per_lco'])} | "
+                   f"{m['cpu_ratio_vs_reference_method']:.1f}× | "
+                   f"{m['max_amplitude_error_pct']:.2f} / {m['max_frequency_error_pct']:.3f} | "
+                   f"{m['max_amplitude_error_vs_newmark_025ms_pct']:.2f} / "
+                   f"{m['max_frequency_error_vs_newmark_025ms_pct']:.3f} |")
+    return "\n".join([*out, "", f"{meta['cases']} cases, output {meta['output']}; reference: "
+                       f"{meta['reference']}. All methods in one run of {meta['wall_s']:.0f} s. "
+                       + _machine(meta, _span(meta["load_average"]))])
+
+
+def block_perf_integrator(res: dict[str, Any]) -> str:
+    rows = res["throughput"]
+    out = ["| mode | dtype | B | µs per case-step | load |", "|---|---|---|---|---|"]
+    for r in rows:
+        out.append(f"| {r['mode']} | {r['dtype']} | {r['B']} | {r['us_per_case_step']:.1f} | "
+                   f"{r['load_average_1min']:.1f} |")
+    for s in res.get("scipy", []):
+        out += ["", f"SciPy Radau (analytic Jacobian) to the LCO of a flutter case at rtol "
+                f"{s['scipy_rtol_matching']:g}, the loosest as accurate as torchrom (amplitude "
+                f"error {s['torchrom_amplitude_error']:.1e}): {s['scipy_s_per_case']:.1f} s per "
+                f"case against torchrom's {s['torchrom_s_per_case']:.2f} s batched, "
+                f"{s['ratio_scipy_over_torchrom']:.1f}×."]
+    return "\n".join([*out, "", _machine(res["meta"], _span([r["load_average_1min"]
+                                                             for r in rows]))])
+
+
+def block_perf_dask(res: dict[str, Any]) -> str:
+    meta = res["meta"]
+    out = ["| mode | wall s (best) | CPU s (best) | CPU ratio vs in-process (best; paired "
+           "median) | wall ratio (paired median) | table identical |", "|---|---|---|---|---|---|"]
+    loads = []
+    for r in res["rows"]:
+        loads += r.get("load_average_1min_runs", [])
+        out.append(f"| {r['mode']} | {r['wall_s']:.1f} | {r['cpu_s']:.1f} | "
+                   f"{r['cpu_ratio_vs_in_process']:.2f}; {r['cpu_ratio_paired_median']:.2f} | "
+                   f"{r['wall_ratio_paired_median']:.2f} | "
+                   f"{'yes' if r['identical_to_in_process'] else 'no'} |")
+    return "\n".join([*out, "", f"{meta['cases']} cases, best of {meta['repeats']} runs each. "
+                       + _machine(meta, _span(loads or meta["load_average"]))])
+
+
+def block_config_keys() -> str:
+    """The sections and keys a sweep configuration accepts, as ``torchrom.study.config`` checks
+    them."""
+    from torchrom.study import config as cfg
+
+    keys = {**cfg.TABLE_KEYS, "aeroelastic": cfg.AEROELASTIC_KEYS,
+            "hb": (*cfg._HB_OPTION_KEYS, *cfg._HB_METHOD_KEYS)}
+    rows = ["| section | keys |", "|---|---|"]
+    for name in cfg.SECTIONS:
+        if name in keys:
+            rows.append(f"| `[{name}]` | " + ", ".join(f"`{k}`" for k in keys[name]) + " |")
+    others = [f"`{n}`" for n in cfg.SECTIONS if n not in keys]
+    return "\n".join([*rows, "", "Also at the top level: " + ", ".join(others)
+                       + f"; `method` is one of {', '.join(cfg.METHODS)}."])
+
+
+def bench_results() -> dict[str, Any]:
+    """``benchmarks/results/*.json`` by file stem."""
+    return {p.stem: json.loads(p.read_text()) for p in sorted(RESULTS.glob("*.json"))}
+
+
 def render_blocks(paper: dict[str, Any], bench: dict[str, Any],
-                  deck: dict[str, list[str]] | None = None) -> dict[str, str]:
-    """Every generated README block (``deck``: the pt145 CLI lines; block left out if None)."""
+                  deck: dict[str, list[str]] | None = None,
+                  results: dict[str, Any] | None = None) -> dict[str, str]:
+    """Every generated block of the README and the docs pages (``deck``: the pt145 CLI lines,
+    block left out if None; ``results``: :func:`bench_results`, read if None)."""
+    results = bench_results() if results is None else results
     blocks = {"paper-commands": block_commands(bench), "paper-flutter": block_flutter(paper),
               "paper-findings": block_findings(paper),
-              "paper-cause-check": block_cause_check(paper), "paper-band": block_band(paper)}
+              "paper-cause-check": block_cause_check(paper), "paper-band": block_band(paper),
+              "verify-table2": block_table2(paper), "verify-table3": block_table3(paper),
+              "verify-branches": block_branches(paper),
+              "perf-paper": block_perf_paper(bench),
+              "perf-goland": block_perf_goland(results["bench_goland"]),
+              "perf-lco": block_perf_lco(results["bench_lco"]),
+              "perf-integrator": block_perf_integrator(results["bench_integrator"]),
+              "perf-dask": block_perf_dask(results["bench_dask"]),
+              "config-keys": block_config_keys()}
     if deck is not None:
         blocks["pt145-flutter"] = block_deck(deck)
     return blocks
+
+
+def pages() -> list[Path]:
+    """The Markdown files with generated blocks: the README and the docs site's pages."""
+    return [README, *sorted(p for p in (ROOT / "docs").rglob("*.md") if p.parent != DOCS)]
+
+
+def write_pages(blocks: dict[str, str]) -> None:
+    """Rewrite each page's blocks; a block that no page holds is an error."""
+    from torchrom.io import write_text_atomic
+
+    placed: set[str] = set()
+    for page in pages():
+        text = page.read_text()
+        mine = {k: v for k, v in blocks.items() if k in readme_blocks(text)}
+        placed |= set(mine)
+        if mine:
+            write_text_atomic(page, replace_blocks(text, mine))
+    if set(blocks) - placed:
+        raise SystemExit(f"no page has a <!-- generated:{sorted(set(blocks) - placed)[0]} --> "
+                         "block")
 
 
 def readme_blocks(text: str) -> dict[str, str]:
@@ -260,9 +451,8 @@ def main(argv: list[str] | None = None) -> int:
     write_text_atomic(DOCS / "report.md", docs_report(report, bench))
     deck = {"plain": deck_lines([]),
             "symmetric": deck_lines(["--symxz", "1", "--length-unit", "in"])}
-    text = README.read_text()
-    write_text_atomic(README, replace_blocks(text, render_blocks(summary, bench, deck)))
-    print(f"wrote {DOCS} and the README's generated blocks")
+    write_pages(render_blocks(summary, bench, deck))
+    print(f"wrote {DOCS} and the generated blocks of the README and docs pages")
     return 0
 
 
