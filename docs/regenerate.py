@@ -20,7 +20,7 @@ Steps:
 The numbers therefore come from files anyone can regenerate; ``tests/test_readme.py`` and
 ``tests/test_docs.py`` check that the blocks equal what :func:`render_blocks` makes of the
 committed files. Deterministic: the same results give the same
-files byte for byte, so running it twice changes nothing. Hand-written.
+files byte for byte, so running it twice changes nothing.
 """
 
 from __future__ import annotations

@@ -25,7 +25,7 @@ three verdicts of the issue's acceptance (:func:`torchrom.paper.findings.fig10_a
 
 ``--paper`` is the output folder of a full ``torchrom paper`` run (its cached model and
 model_exact folders are reused; otherwise they are built, ~1 min each). Takes ~6 min on 2 cores.
-Hand-written glue over torchrom, SciPy sparse matrices and SCS.
+Glue over torchrom, SciPy sparse matrices and SCS.
 """
 
 from __future__ import annotations

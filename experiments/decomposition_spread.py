@@ -17,7 +17,7 @@ compares:
     PYTHONPATH=. OMP_NUM_THREADS=1 python experiments/decomposition_spread.py [--threads 1 2]
         [--out experiments/results/decomposition_spread.md]
 
-Writes Markdown (and JSON beside it). Hand-written.
+Writes Markdown (and JSON beside it).
 """
 
 from __future__ import annotations

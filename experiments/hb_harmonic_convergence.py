@@ -14,7 +14,7 @@ Writes ``experiments/results/hb_harmonic_convergence.md`` (~3 min on one core):
 
     PYTHONPATH=$PWD python experiments/hb_harmonic_convergence.py
 
-Hand-written glue over torchrom.periodic and torchrom.sim.
+Glue over torchrom.periodic and torchrom.sim.
 """
 
 from __future__ import annotations

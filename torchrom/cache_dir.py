@@ -12,7 +12,7 @@ package version (:mod:`torchrom.paper.cache`), in ``<root>/goland``. The root is
 ``[model] cache = "DIR"`` in a configuration names the Goland folder itself and bypasses the
 root. ``torchrom cache info`` lists what is kept; ``torchrom cache clear`` deletes it (only
 folders holding a torchrom manifest, ``cache.json``). ``torchrom paper`` keeps its own model files
-inside its output folder (``OUT/model``), not here. Hand-written.
+inside its output folder (``OUT/model``), not here.
 """
 
 from __future__ import annotations

@@ -1,7 +1,7 @@
 """Reproducible eigenvectors: a fixed ARPACK start and a tie-proof sign convention.
 
 Used by every modal analysis (built-in FE, FE backends) and by the dual modes, so that the same
-model gives the same basis — bit for bit on one machine — from run to run. Hand-written.
+model gives the same basis — bit for bit on one machine — from run to run.
 """
 
 from __future__ import annotations

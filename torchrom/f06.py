@@ -1,6 +1,6 @@
 """Nastran's own answers from an F06 file: REAL EIGENVALUES and FLUTTER SUMMARY tables.
 
-Hand-written: pyNastran 1.4 has no F06 reader for eigenvalue tables, and its flutter parser
+Written here: pyNastran 1.4 has no F06 reader for eigenvalue tables, and its flutter parser
 (``pyNastran.f06.parse_flutter``) builds plotting objects with unit conversions and stops at
 the first unexpected line; these tables have a fixed, documented layout (MSC Nastran Reference
 Manual, "Real Eigenvalue Summary" and "Flutter Summary"), so a small line parser serves.

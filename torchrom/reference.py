@@ -3,7 +3,7 @@
 Everything the paper states as a number that torchrom compares with (Table 2 frequencies and
 mode kinds, the baseline Rayleigh damping of Eq. 46, the flutter point at Mach 0.70, Table 3,
 the γ levels of Figs. 10–13) lives in that one file; code that compares or draws these values
-gets them from :func:`paper_reference` instead of typing them in. Hand-written loader (tomllib).
+gets them from :func:`paper_reference` instead of typing them in (read with tomllib).
 """
 
 from __future__ import annotations

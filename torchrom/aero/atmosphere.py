@@ -1,7 +1,7 @@
 """U.S. Standard Atmosphere 1976 at geometric altitude, in foot–slug–second or SI units.
 
 Delegated: the atmosphere itself is the ``ambiance`` package (USSA-76, geometric altitude,
-valid from -5,004 m to 81,020 m). Hand-written: unit conversion, range checks with one-line
+valid from -5,004 m to 81,020 m). Written here: unit conversion, range checks with one-line
 errors, and the matched-point flight condition (V = M a(h), q = ½ ρ V²) used by the flutter
 solvers (paper Sec. III.C: Mach 0.70, altitude in ft).
 

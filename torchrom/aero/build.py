@@ -1,6 +1,6 @@
 """From an FE model to ``AeroData`` (GAF + RFA) and to flutter results: the Python API.
 
-Hand-written glue: modes from the FE model (:mod:`torchrom.fe`), box motion through a spline
+Glue: modes from the FE model (:mod:`torchrom.fe`), box motion through a spline
 (:mod:`torchrom.aero.splines`), DLM GAFs (:mod:`torchrom.aero.dlm`, PanelAero), the RFA
 (:mod:`torchrom.aero.rfa`) and the matched-point flutter solvers (:mod:`torchrom.aero.flutter`).
 

@@ -3,7 +3,7 @@
 Delegated: the aerodynamic influence coefficients — PanelAero's vortex-lattice steady part
 (``panelaero.VLM.calc_Ajj``) plus its doublet-lattice oscillatory increment
 (``panelaero.DLM.calc_Ajj``, quartic [Rodden et al. 1998] or parabolic [Rodden et al. 1971]
-kernel approximation). Hand-written: normalwash from the modal box motion, the pressure solve,
+kernel approximation). Written here: normalwash from the modal box motion, the pressure solve,
 the generalized-force integration and the reduced-frequency conversion.
 
 Conventions (DESIGN; REFERENCE Sec. 7):

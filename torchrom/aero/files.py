@@ -1,6 +1,6 @@
 """``aero.npz``: generalized aerodynamic forces and their RFA (DESIGN file contract).
 
-Hand-written on numpy's ``.npz`` container, written atomically (:func:`torchrom.io.atomic_path`).
+On numpy's ``.npz`` container, written atomically (:func:`torchrom.io.atomic_path`).
 
 Arrays (m modes, nk reduced frequencies, n_a lag states), sign F_aero = -q∞ Q q (paper Eq. 49):
 

@@ -1,6 +1,6 @@
 """Flutter: p-k with mode tracking, KE, state-space eigenvalues, matched-point altitude, α(γ).
 
-Hand-written (numpy/scipy). Equations of motion on the m aerodynamic modes (paper Eqs. 12, 49):
+Written here (numpy/scipy). Equations of motion on the m aerodynamic modes (paper Eqs. 12, 49):
 
     M q̈ + C q̇ + K q = -q∞ Q(ik) q,   C = C0 + α M + γ D̄1,   q∞ = ½ ρ V²,   k = ω b / V.
 
@@ -764,7 +764,7 @@ def alpha_for_gammas(
     growth rate is bracketed and refined by the Illinois rule (a regula falsi that halves the
     retained end's value when the same end is kept twice: superlinear, never leaves the
     bracket) to |Δα| ≤ ``xtol`` (1/s). A γ whose iteration does not settle falls back to
-    :func:`alpha_for_gamma`. Hand-written."""
+    :func:`alpha_for_gamma`."""
     g = np.asarray(gammas, dtype=float).reshape(-1)
     if g.size == 0:
         return np.zeros(0)

@@ -1,7 +1,7 @@
 """The heavy Goland wing at Mach 0.70: flutter by p-k and state space, store calibration,
 panel-density convergence (paper Sec. III.C, Table 3; REFERENCE Sec. 6).
 
-Hand-written study glue over :func:`torchrom.fe.goland` (structure), :mod:`.build` (DLM GAF on
+Study glue over :func:`torchrom.fe.goland` (structure), :mod:`.build` (DLM GAF on
 the built-in planform, minimum-state RFA) and :mod:`.flutter` (matched-point solvers).
 The store's chordwise position is the one calibration knob for the flutter altitude
 (REFERENCE Sec. 6); once fixed it is the FE default and everything here is a prediction.

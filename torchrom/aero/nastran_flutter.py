@@ -2,7 +2,7 @@
 
 Delegated: reading the deck and its coordinate systems (pyNastran), the modal solution
 (:func:`torchrom.fe.read_bdf` and ``FEModel.modes``), the aerodynamic influence coefficients
-(PanelAero, through :mod:`torchrom.aero.dlm`). Hand-written: the card semantics below, reference
+(PanelAero, through :mod:`torchrom.aero.dlm`). Written here: the card semantics below, reference
 checks with one-line errors, and the Nastran-style output (V-g table, flutter summary).
 
 Cards honoured: FLUTTER (methods PK, PKNL, KE, K; PKNL pairs the i-th density, Mach number and

@@ -1,6 +1,6 @@
 """Aerodynamic boxes: CAERO1-style lattices, the built-in Goland planform, full-span mirroring.
 
-Hand-written: box geometry (corner points, quarter/half/three-quarter chord points, normals,
+Written here: box geometry (corner points, quarter/half/three-quarter chord points, normals,
 areas), the CAERO1 lattice (equal NSPAN/NCHORD divisions or AEFACT fractions), mirroring about
 the xz plane (AERO SYMXZ) and the xy plane (SYMXY, ground effect), and the conversion to the
 ``aerogrid`` dictionary that PanelAero expects.

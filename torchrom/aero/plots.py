@@ -1,6 +1,6 @@
 """Flutter figures: V-g / V-f diagrams and state-space root loci (matplotlib, Agg backend).
 
-Hand-written layout; drawing delegated to matplotlib. Every figure is written atomically.
+Layout; drawing delegated to matplotlib. Every figure is written atomically.
 """
 
 from __future__ import annotations

@@ -1,6 +1,6 @@
 """Rational function approximation (RFA) of generalized aerodynamic forces: Roger, minimum-state.
 
-Hand-written (numpy/scipy least squares). The approximation in the Laplace variable p = s b / V
+Written here (numpy/scipy least squares). The approximation in the Laplace variable p = s b / V
 (b = reference semichord, so p = ik on the imaginary axis) is
 
     Q(p) ≈ A0 + A1 p + A2 p² + D (p I - R)⁻¹ E p                                   (paper Eq. 49–50)

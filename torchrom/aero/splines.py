@@ -1,6 +1,6 @@
 """Splines from structural grids to aerodynamic boxes (SPLINE1-like and SPLINE2-like).
 
-Hand-written (numpy/scipy): the infinite-plate spline of Harder & Desmarais (Nastran SPLINE1:
+Written here (numpy/scipy): the infinite-plate spline of Harder & Desmarais (Nastran SPLINE1:
 w = a0 + a1 x + a2 y + Σ F_i r_i² ln r_i², with Σ F_i = Σ F_i x_i = Σ F_i y_i = 0) and a beam
 spline along an axis (Nastran SPLINE2-like: bending deflection w(s), bending slope dw/ds and
 torsion θ(s) along the y axis of the spline coordinate system). Both are *linear operators*:

@@ -1,6 +1,6 @@
 """Theodorsen's unsteady thin-airfoil aerodynamics and the two-degree-of-freedom typical section.
 
-Hand-written (scipy Hankel functions): Theodorsen's function C(k) = H1⁽²⁾(k) / (H1⁽²⁾(k) +
+Written here (scipy Hankel functions): Theodorsen's function C(k) = H1⁽²⁾(k) / (H1⁽²⁾(k) +
 i H0⁽²⁾(k)) (k = ω b / V), the section GAF for plunge h (positive up, at the elastic axis) and
 pitch α (nose up) per unit span in the paper's sign (F_aero = -q∞ Q q), and the typical-section
 structure (Bisplinghoff, Ashley & Halfman 1955, Ch. 9; Hodges & Pierce 2011, Ch. 5). Used as an

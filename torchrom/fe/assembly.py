@@ -1,6 +1,6 @@
 """Sparse assembly of element blocks into matrices on the independent (free) DOFs.
 
-Hand-written on top of scipy.sparse. Element blocks live on the all-grid vector (6 DOFs per grid,
+On top of scipy.sparse. Element blocks live on the all-grid vector (6 DOFs per grid,
 basic axes); the constraint transformation u_all = T u_free (SPC, RBE2, RBE3, automatic SPC, see
 :mod:`torchrom.fe.constraints`) gives K_free = Tᵀ K_all T. For matrices assembled many times (the
 tangent stiffness) :class:`ProjectedPattern` precomputes, once, where every element entry lands

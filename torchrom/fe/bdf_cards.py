@@ -1,6 +1,6 @@
 """Which Nastran cards the FE reader uses, accepts with a note, or refuses — and why.
 
-Hand-written tables (the card semantics are Nastran's, MSC Quick Reference Guide) and the GRDSET
+Tables (the card semantics are Nastran's, MSC Quick Reference Guide) and the GRDSET
 defaults. Kept apart from :mod:`torchrom.fe.bdf_read` so that the card lists and their reasons
 are in one place: the reader's error message, its notes and the README all come from here.
 

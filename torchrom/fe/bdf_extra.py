@@ -1,6 +1,6 @@
 """Readers of the cards added for real decks, mixed into the bulk-data reader.
 
-Hand-written, like :mod:`torchrom.fe.bdf_read` (whose ``_Reader`` inherits these methods and
+Like :mod:`torchrom.fe.bdf_read` (whose ``_Reader`` inherits these methods and
 provides ``self.m`` (the pyNastran model), ``self.f`` (file name), ``self.xyz``, ``self.ids``,
 ``self.rows``, ``self.prop``, ``self.mat1``, ``self.err`` and ``self.notes``): linear and
 quadratic solids (CHEXA/CPENTA/CTETRA + PSOLID), PCOMP shells, CELAS1/CELAS2, CBUSH, CONM1, RBAR,

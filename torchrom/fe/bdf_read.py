@@ -2,7 +2,7 @@
 
 Delegated to pyNastran: parsing the deck (free/small/large field, continuations, INCLUDE),
 card objects and the coordinate systems' axes (``Coord.beta()``, ``GRID.get_position()``).
-Hand-written here: which cards are supported, the checks that turn bad input into one-line
+Written here: which cards are supported, the checks that turn bad input into one-line
 :class:`~torchrom.errors.InputError` messages naming the file, card and ID, the conversion of
 properties/materials/constraints/loads into the plain arrays of :mod:`torchrom.fe.mesh`, and the
 selection of the SPC set and eigenvalue method from the case control (or the only one present).

@@ -1,7 +1,7 @@
 """Constraint elimination: SPC/SPC1/GRID PS, MPC, RBE2/RBAR, RBE1, RBE3 and automatic SPC →
 u_all = T u_free.
 
-Hand-written. Every grid has six DOFs measured in its displacement system (CD). The independent
+Every grid has six DOFs measured in its displacement system (CD). The independent
 ("free") DOFs are the CD components that are neither single-point constrained nor dependent on a
 rigid element. Dependent DOFs are eliminated by a **linear** transformation (small rotations):
 

@@ -1,7 +1,7 @@
 """Axes of Nastran coordinate systems at a point (rectangular, cylindrical, spherical), and
 Nastran component strings.
 
-Delegated to pyNastran: the systems' rotation (``Coord.beta()``) and origin. Hand-written: the
+Delegated to pyNastran: the systems' rotation (``Coord.beta()``) and origin. Written here: the
 local axes of the curvilinear systems at a basic point (used for GRID CD, CBAR orientation, CONM2
 offsets and FORCE/MOMENT directions).
 """

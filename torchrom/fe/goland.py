@@ -1,6 +1,6 @@
 """The heavy Goland wing (Wang, Song, Mignolet & Chen 2021, Sec. III.A; DIGEST Sec. 6).
 
-Hand-written builder; the deck is a pyNastran ``BDF`` object (so the same cards are written to
+Builder; the deck is a pyNastran ``BDF`` object (so the same cards are written to
 ``goland.bdf`` and read back by :func:`torchrom.fe.read_bdf`), converted to an
 :class:`~torchrom.fe.model.FEModel` by the BDF reader. Units: ft, slug, s, lbf.
 

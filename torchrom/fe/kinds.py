@@ -1,6 +1,6 @@
 """Classify mode shapes as bending, torsion, in-plane or axial from their displacement content.
 
-Hand-written, geometric (no mass weighting). The span axis is the principal axis of the
+Geometric (no mass weighting). The span axis is the principal axis of the
 structural grids (those connected to elements); the normal is basic z made orthogonal to it
 (the principal axis of least extent if the span is nearly vertical); the chord completes the
 frame. At each span station the normal displacements are fitted by heave + twist × (chord

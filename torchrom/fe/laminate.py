@@ -1,6 +1,6 @@
 """PCOMP laminates as the equivalent shell stiffness of classical lamination theory.
 
-Hand-written (Jones, Mechanics of Composite Materials, 2nd ed., Sec. 4.3, Eqs. 4.22–4.28): each
+Written here (Jones, Mechanics of Composite Materials, 2nd ed., Sec. 4.3, Eqs. 4.22–4.28): each
 ply k (material MAT1 or MAT8, thickness t_k, angle θ_k from the element's material x axis,
 between z_(k−1) and z_k measured from the reference plane, the first ply at Z0) contributes its
 transformed plane-stress matrix Q̄_k to

@@ -1,6 +1,6 @@
 """Static load sets from FORCE, MOMENT, PLOAD2, PLOAD4 and LOAD cards.
 
-Hand-written. Every load set becomes a vector on the all-grid DOFs (basic axes); the FE model
+Every load set becomes a vector on the all-grid DOFs (basic axes); the FE model
 projects it on the free DOFs with Tᵀ (so a load on an RBE-dependent grid is distributed to the
 independent ones, and a load on a constrained DOF is dropped). Pressures give consistent nodal
 forces along the element normal (G1-G2-G3 right-hand rule) or along the PLOAD4 direction vector;

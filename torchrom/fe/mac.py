@@ -1,6 +1,6 @@
 """Modal Assurance Criterion and the pairing of target modes with computed modes.
 
-Hand-written formulas; the assignment problem is delegated to SciPy
+Formulas; the assignment problem is delegated to SciPy
 (``scipy.optimize.linear_sum_assignment``, the Hungarian/Jonker–Volgenant algorithm).
 
 MAC(a, b) = (aᵀ W b)² / ((aᵀ W a)(bᵀ W b)), W the mass matrix (mass-weighted, so that

@@ -2,7 +2,7 @@
 6x6 mass matrix), CMASS1/CMASS2 (scalar mass), CELAS1/CELAS2 (scalar spring), CBUSH (six
 springs at a point rigidly linked to two grids), GENEL (a general stiffness or flexibility matrix).
 
-Hand-written. CONM2: a rigid body whose CG sits at ``offset`` r from its grid; with the grid's
+CONM2: a rigid body whose CG sits at ``offset`` r from its grid; with the grid's
 translation t and rotation θ (small rotations) the CG moves t + θ × r = t − [r×] θ, so
 
     M = [[ m I,      −m [r×]           ],

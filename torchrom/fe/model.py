@@ -1,6 +1,6 @@
 """The built-in geometrically nonlinear FE model (the default "FE backend").
 
-Hand-written: assembly, constraint elimination, internal forces and tangents; delegated:
+Written here: assembly, constraint elimination, internal forces and tangents; delegated:
 sparse matrices to scipy.sparse, the element kernels' tensor algebra to torch (float64, so that
 the internal forces are differentiable by autograd in forward and reverse mode), eigenvalues and
 sparse factorisations to scipy (see :mod:`torchrom.fe.solvers`).

@@ -1,6 +1,6 @@
 """Residual vectors (Nastran RESVEC, inertia-relief loads): static shapes added to a modal basis.
 
-Hand-written. Nastran augments the eigenmodes of a modal solution with residual vectors, the
+Nastran augments the eigenmodes of a modal solution with residual vectors, the
 static responses to load patterns, made orthogonal to the modes (its "REAL EIGENVALUES (AFTER
 AUGMENTATION OF RESIDUAL VECTORS)" table; Case Control RESVEC, MSC QRG: INRLOD "residual vectors
 based on inertia relief", APPLOD applied loads, RVDOF unit loads, DAMPLOD viscous dampers). Only

@@ -1,6 +1,6 @@
 """Rigid-body modes of an unconstrained or under-constrained model, built from its geometry.
 
-Hand-written. A free-free structure's rigid-body modes are, up to a basis change, the rigid
+A free-free structure's rigid-body modes are, up to a basis change, the rigid
 motions u(x) = t + θ × (x − x₀) of its grids that its constraints admit. An eigensolver returns
 them as eigenvectors of tiny eigenvalues (round-off, of either sign, e.g. 4e-8 Hz in the
 bah_plane f06): their span is right to round-off but their frequencies are noise. Nastran

@@ -1,7 +1,7 @@
 """Beam section properties of PBAR, PBARL, PBEAM and PBEAML as the linear beam element uses them.
 
 Delegated to pyNastran: the area and the two area moments of the PBARL/PBEAML sections it
-computes (``PBARL.Area()``, ``I1()``, ``I2()``, ``I12()``: ROD, TUBE, BAR, BOX, L). Hand-written
+computes (``PBARL.Area()``, ``I1()``, ``I2()``, ``I12()``: ROD, TUBE, BAR, BOX, L). Written
 here: I, T and CHAN (pyNastran 1.4 does not compute their moments) as unions of
 rectangles (:func:`rectangles`), and the torsion constant J of every section, because pyNastran
 returns the polar moment I1 + I2 for solid rectangles and nothing for several sections, while

@@ -1,7 +1,7 @@
 """Analyses on an :class:`~torchrom.fe.model.FEModel`: modes, nonlinear statics, transient.
 
 Delegated: the sparse eigensolver (``scipy.sparse.linalg.eigsh``, shift-invert Lanczos/ARPACK),
-dense ``scipy.linalg.eigh`` for small models, and sparse LU (``splu``). Hand-written: the shift,
+dense ``scipy.linalg.eigh`` for small models, and sparse LU (``splu``). Written here: the shift,
 mass normalisation and sign convention of the modes; Newton–Raphson with load stepping and step
 cutting; the displacement-controlled variant; Newmark (average acceleration) with Newton
 iterations, Rayleigh damping α M + β K and Kelvin–Voigt damping γ K_mat(u) u̇ (DIGEST Eqs. 46,

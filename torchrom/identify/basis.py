@@ -70,7 +70,7 @@ and the step pressures (``experiments/goland_validation.py``,
 A load the FE cannot carry (no converged static solution) is recorded as "failed" and the larger
 loads of that combination and sign are skipped; the POD uses the rest.
 
-Hand-written; the static solves are the backend's, the eigen-solvers scipy's.
+The static solves are the backend's, the eigen-solvers scipy's.
 """
 
 from __future__ import annotations

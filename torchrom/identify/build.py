@@ -5,7 +5,7 @@ protocol and returns the ROM with everything needed to judge it (basis, POD spec
 residuals, eigenvalues of the extended damping matrix, FE call counts and timings);
 ``build_rom(fe, n_linear=9, n_dual=12, damping="decomposition")`` returns just the ROM (DESIGN
 "Python API"). The ROM carries outputs (rows Φ[dof, :] of the backend's output points, e.g.
-"A_Tx", "A_Ty", "A_Tz"), mode kinds "linear"/"dual" and provenance metadata. Hand-written glue.
+"A_Tx", "A_Ty", "A_Tz"), mode kinds "linear"/"dual" and provenance metadata.
 """
 
 from __future__ import annotations

@@ -43,7 +43,7 @@ decomposition" (paper Ref. 28, restated in NOTES-damping) resolves the indetermi
 Eigenvalues are compared on a scaled extended matrix S K_E S with S = diag(K1_mm^-½ ;
 (H_iiii H_jjjj)^-¼ for pair (i, j)): invariant to the normalisation of the basis functions and of
 order one on the diagonal. Both scaled and unscaled smallest eigenvalues are reported.
-Hand-written (no library implements this); the eigen-solvers are torch's.
+Written here (no library implements this); the eigen-solvers are torch's.
 """
 
 from __future__ import annotations

@@ -34,7 +34,7 @@ same Schur-complement step if a rounding-level negative eigenvalue remains, and 
 the others. The study's decomposition approximates this optimum stage by stage; the SDP is the
 reference it approximates.
 
-Hand-written over :mod:`.damping`; the eigen-solvers are torch's, the conic solver SCS's.
+Over :mod:`.damping`; the eigen-solvers are torch's, the conic solver SCS's.
 """
 
 from __future__ import annotations

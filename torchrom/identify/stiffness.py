@@ -21,7 +21,7 @@ and at ±(a_j e_j + a_k e_k + a_l e_l) gives every combined coefficient (Eqs. 25
 linear algebra on the monomials. It needs only forces (no tangent), but O(n³) evaluations.
 
 Both are exact for an FE whose internal force is a cubic polynomial in u (St Venant–Kirchhoff with
-Green strain), for any amplitude, up to rounding ~ ε‖K1‖/(a² ‖K3‖). Hand-written.
+Green strain), for any amplitude, up to rounding ~ ε‖K1‖/(a² ‖K3‖).
 """
 
 from __future__ import annotations

@@ -14,7 +14,7 @@
 - **Damping methods**: ``decomposition`` vs ``exact`` tensors, and the dissipated power
   q̇ᵀ D_T(q) q̇ (Eq. 33) along a sampled motion.
 
-Hand-written (Newton, Newmark, peak detection); the FE solves are the backend's.
+Written here (Newton, Newmark, peak detection); the FE solves are the backend's.
 """
 
 from __future__ import annotations

@@ -16,7 +16,7 @@ study, which caches it per ROM). The ends are the main
 study's and the exact damping check's tables when their tensors are the family's ends (to
 1e-9); the members between are simulated here.
 
-Hand-written over :mod:`torchrom.identify.damping_family` and :mod:`.findings`.
+Over :mod:`torchrom.identify.damping_family` and :mod:`.findings`.
 """
 
 from __future__ import annotations

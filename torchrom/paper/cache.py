@@ -5,7 +5,7 @@ version and the package's source, :func:`source_fingerprint`) it was made from.
 :meth:`FileCache.get` returns the file when its recorded key equals the requested one, so any
 change of an input (an option, an upstream file, the package version, the code that computes the
 files) rebuilds the file and, through the keys, everything downstream of it. Files are written
-atomically (:mod:`torchrom.io`); the manifest is rewritten after each file. Hand-written.
+atomically (:mod:`torchrom.io`); the manifest is rewritten after each file.
 """
 
 from __future__ import annotations

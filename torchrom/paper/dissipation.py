@@ -11,7 +11,7 @@ dual-mode motion (r → −1: the motion is nearly inextensional, the strain rat
 Kelvin–Voigt dissipation nearly vanish). The smallest eigenvalue of the scaled extended matrix
 (the decomposition's criterion, :mod:`torchrom.identify.damping`) is reported beside it.
 
-Hand-written over :mod:`torchrom.sim` and :mod:`torchrom.rom`.
+Over :mod:`torchrom.sim` and :mod:`torchrom.rom`.
 """
 
 from __future__ import annotations

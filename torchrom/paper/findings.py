@@ -5,7 +5,6 @@ Each check returns a :class:`Finding`: what the paper says, what our numbers say
 LCO) and the numbers behind it. Amplitudes are compared only between cases whose status is
 ``lco``. The three acceptance checks of Fig. 10 are :func:`gamma_small_matches_zero`,
 :func:`amplitude_not_increasing_with_gamma` and :func:`stiffness_matters_little_at_large_gamma`.
-Hand-written (pandas).
 """
 
 from __future__ import annotations

@@ -8,7 +8,7 @@
   histories are Fig. 11 in this mode.
 - :func:`goland_branches`: the LCO branches in altitude from the flutter (Hopf) point down to
   4,000 ft for γ = 0 and 1e-3 s (matched α), with Floquet stability, folds flagged.
-Hand-written orchestration over :mod:`torchrom.periodic` and :mod:`torchrom.study`.
+Orchestration over :mod:`torchrom.periodic` and :mod:`torchrom.study`.
 """
 
 from __future__ import annotations

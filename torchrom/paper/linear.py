@@ -13,7 +13,7 @@ grows exactly where the eigenvalues say it does. Two checks are run in one batch
   (as the LCO runs do); the frequency of the growing response is measured over the last
   ``window`` of the run, once the growing root dominates the decaying ones.
 
-Both use the baseline damping (α0, β0 of Eq. 46). Hand-written.
+Both use the baseline damping (α0, β0 of Eq. 46).
 """
 
 from __future__ import annotations

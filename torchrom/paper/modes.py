@@ -6,7 +6,7 @@ differently (e.g. its mode 4 is in-plane). Each paper mode, in order, takes the 
 modes not yet taken whose kind is compatible: ``bending`` / ``torsion`` / ``in-plane`` the same
 kind, ``transverse`` and ``bending-torsion`` any out-of-plane mode (bending or torsion). So the
 paper's q4 (its transverse bending–torsion mode) is compared with our first out-of-plane mode
-after those matched to its modes 1–3, not with our in-plane mode 4. Hand-written.
+after those matched to its modes 1–3, not with our in-plane mode 4.
 """
 
 from __future__ import annotations

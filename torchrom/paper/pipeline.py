@@ -17,7 +17,7 @@ Stages (each a file in the cache folder, rebuilt only when the hash of its input
                     eigenvalues (Eqs. 49–50) and by p-k on the GAF table, the growing-response
                     frequencies of Table 3 and the modal frequencies against Table 2.
 
-Hand-written glue over torchrom.fe, torchrom.identify and torchrom.aero.
+Glue over torchrom.fe, torchrom.identify and torchrom.aero.
 """
 
 from __future__ import annotations

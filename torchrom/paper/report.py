@@ -1,6 +1,6 @@
 """``report.md`` of ``torchrom paper``: our results beside the paper's, finding by finding.
 
-Hand-written Markdown from the JSON-ready summary the study collects (:mod:`.study`): run
+Markdown from the JSON-ready summary the study collects (:mod:`.study`): run
 settings and times, Table 2 (modal frequencies), the flutter point, the simulator's linear
 check, Table 3, the α(γ) table (Fig. 9), the Fig. 10–13 values, and every finding of
 :mod:`.findings` with its verdict, numbers and, where we differ, the reasoned causes.

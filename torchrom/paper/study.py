@@ -16,7 +16,7 @@ hash of their inputs and the package version, :mod:`.cache`):
 
 ``quick`` loads the configurations' ``[variants.quick]`` (coarser grids, shorter runs) and uses
 :data:`QUICK_PIPELINE`. The configurations ship in ``torchrom/data`` (the same files as
-``configs/paper_*.toml``). Hand-written orchestration.
+``configs/paper_*.toml``).
 """
 
 from __future__ import annotations

@@ -5,7 +5,7 @@ and the findings of the same LCO sweep.
 model-updated one) and, for the report's side-by-side section, builds the pipeline of each
 variant in :data:`COMPARISON_VARIANTS` (its own cached model folder), runs the same LCO sweep on
 it and evaluates the same findings, so a reader sees what the model updating changed.
-Hand-written glue over :mod:`.pipeline`, :mod:`.findings` and the study's cached sweep.
+Glue over :mod:`.pipeline`, :mod:`.findings` and the study's cached sweep.
 """
 
 from __future__ import annotations

@@ -29,7 +29,7 @@ The Jacobian is analytic: the linear part is block-diagonal per harmonic (2n × 
 
 evaluated for all cases and samples with the ROM's compact kernels
 (:class:`torchrom.rom.kernels.CompactForces`) and contracted in one GEMM.
-Hand-written: no library offers batched harmonic balance of this model in torch.
+Written here: no library offers batched harmonic balance of this model in torch.
 """
 
 from __future__ import annotations

@@ -21,7 +21,7 @@ For B branches (e.g. one per γ), each a case whose parameter p varies (altitude
 5. **Stop** when p leaves [lo, hi], the amplitude exceeds ``max_amplitude``, after
    ``max_points`` points, or when the step falls below ``min_step``.
 
-Stability of every point follows from :mod:`.floquet`. Hand-written (the continuation
+Stability of every point follows from :mod:`.floquet`. Written here (the continuation
 algorithm is the standard one of AUTO/MATCONT/COCO/NLvib; no library does it batched in torch).
 """
 

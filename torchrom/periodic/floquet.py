@@ -34,7 +34,7 @@ left there, so the steps are those of the implicit midpoint rule (a small solve 
 twice the steps): on the Goland orbits this matches the full state's exponential rule at four
 times the steps to 1e-4 in the critical multiplier, for about a fifth of its cost; on the test
 oscillator it is within 2e-5 of the full state's matrix at 512 steps.
-Hand-written (no library computes batched monodromy matrices of this model).
+Written here (no library computes batched monodromy matrices of this model).
 """
 
 from __future__ import annotations

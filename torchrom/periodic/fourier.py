@@ -18,7 +18,7 @@ projected onto harmonics ≤ H, so again N ≥ 4H + 1. :func:`sample_count` retu
 
 Forward transforms use ``torch.fft.rfft``; the synthesis and the Jacobian's projections use the
 small explicit basis matrices (:class:`FourierBasis`), which batch as one GEMM.
-Hand-written (no library offers batched real harmonic balance transforms in torch).
+Written here (no library offers batched real harmonic balance transforms in torch).
 """
 
 from __future__ import annotations

@@ -17,7 +17,7 @@ critical linear root is; its amplitude is 0.
 
 The initial condition and ``t_end`` of a time-marching configuration do not apply; the
 ``[initial] q0`` sets the cold start's first amplitude scale when no ``amplitude_scale`` is
-given. Hand-written glue.
+given.
 """
 
 from __future__ import annotations

@@ -15,7 +15,6 @@ its own once its scaled correction is below the tolerance; a case whose iterate 
 is marked and frozen, never touching its neighbours. Steps are limited to a fraction of the
 orbit's size, which keeps Newton inside its basin on the stiff dual coordinates; a case that
 needs :data:`MAX_LIMITED_STEPS` limited steps in a row is lost and stops, unconverged.
-Hand-written.
 """
 
 from __future__ import annotations

@@ -38,7 +38,7 @@ where no low-order start exists):
    meet the tolerances (:func:`seeded_orbits`).
 
 Unstable orbits do not attract a time integration; a seed that runs away is reported as
-such (the case keeps its previous status). Hand-written over :mod:`.solve` and
+such (the case keeps its previous status). Over :mod:`.solve` and
 :mod:`torchrom.sim.newmark`.
 """
 

@@ -11,7 +11,7 @@ of the residual between the systems at p ± δp (the parameter may enter anywher
 damping, the α matched to it, the altitude through the atmosphere). The amplitude
 A = ½ (max y − min y) of the output y = r·q then changes by
 dA/dp = ½ (y'(τ_max) − y'(τ_min)) with y' = r·dq/dp at the two extremes (the extremes' own
-shift does not change A to first order). Hand-written.
+shift does not change A to first order).
 """
 
 from __future__ import annotations

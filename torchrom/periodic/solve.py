@@ -29,7 +29,6 @@ secant extrapolation of the two neighbours before it; the orbit at H − 2 that 
 amplitude change is extrapolated the same way from theirs (each orbit keeps the lower one it
 was checked with) and solved only loosely, so a warm case costs about two Newton iterations
 at H and one at H − 2; a case that fails the test is raised as after a cold start.
-Hand-written.
 """
 
 from __future__ import annotations

@@ -13,7 +13,7 @@ dense GEMMs per batch, which is what makes thousands of cases per second possibl
              not)
 
 All tensors live on one device/dtype; the kernel holds no state besides its coefficient matrices.
-Hand-written: no library implements ROM force evaluation on monomials.
+Written here: no library implements ROM force evaluation on monomials.
 """
 
 from __future__ import annotations

@@ -6,7 +6,7 @@ and Kelvin–Voigt nonlinear damping (paper Eqs. 12, 14, 29, 53–54).
 Tensors are kept in torchrom's symmetric storage (see :mod:`.conventions`); batched force and
 tangent evaluation go through the compact monomial kernels of :mod:`.kernels`. α (1/s), γ (s) and
 the flags ``stiffness_nl`` / ``damping_nl`` are per-case inputs, so one ROM serves a whole batch of
-cases. Hand-written: no library implements this model.
+cases. Written here: no library implements this model.
 """
 
 from __future__ import annotations

@@ -24,7 +24,7 @@ rescaled mode. The linear part of the assembled system can be written as a first
 (:func:`critical_mode_state`) to measure the simulator's own growth rate
 (:func:`growth_rate`), the check that the batched simulator reproduces the flutter analysis.
 
-Hand-written (numpy/torch); the atmosphere is ``ambiance``'s through torchrom.aero.
+Written here (numpy/torch); the atmosphere is ``ambiance``'s through torchrom.aero.
 """
 
 from __future__ import annotations

@@ -1,6 +1,6 @@
 """Batched implicit Newmark / HHT-α / generalised-α integration with on-the-fly LCO detection.
 
-Hand-written (torch only). B cases of a :class:`~torchrom.sim.system.CaseSystem` advance in
+Written here (torch only). B cases of a :class:`~torchrom.sim.system.CaseSystem` advance in
 lockstep with a fixed time step; per step and case the unknown is the new acceleration a_{n+1}
 (solving for the acceleration, not the displacement, keeps float32 free of the cancellation in
 (q_{n+1} − q̂)/(β dt²)).

@@ -17,7 +17,7 @@ when γ = ½ - αm + αf.
 - ``generalized_alpha``: αm = (2ρ∞-1)/(ρ∞+1), αf = ρ∞/(ρ∞+1), γ = ½ - αm + αf, β = ¼ (1-αm+αf)².
 
 ρ∞ is the spectral radius at infinite frequency (1: no numerical dissipation).
-Hand-written; the formulas are the published ones.
+The formulas are the published ones.
 """
 
 from __future__ import annotations

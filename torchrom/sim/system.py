@@ -10,7 +10,7 @@ nonlinearity switches (1.0 / 0.0, or any scale). The linear additions and the fi
 states are how anything else enters — the aerodynamics of Eqs. 49–50 map to M_add = q∞ (b²/V²) A2,
 C_add = q∞ (b/V) A1, K_add = q∞ A0, lag_D = q∞ D, lag_E = E, lag_R = (V/b) R (zero-padded from
 the m aerodynamic modes to n) — so the integrator never needs to know what they represent.
-Hand-written; torch tensors only.
+Torch tensors only.
 """
 
 from __future__ import annotations

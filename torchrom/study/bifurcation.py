@@ -1,6 +1,6 @@
 """Bifurcation character of limit cycles from a batched sweep over initial amplitudes.
 
-Hand-written classification; the simulations go through any ``evaluate(cases) -> table``
+Classification; the simulations go through any ``evaluate(cases) -> table``
 (e.g. :func:`torchrom.study.sweep.case_evaluator`, in-process or on Dask workers).
 
 At each *control* case (e.g. an altitude around flutter, or a value of α) the same initial

@@ -14,7 +14,7 @@ output), ``amplitude_pct_span``, ``frequency_hz``, ``amplitude_<output>`` and th
 ``floquet_multiplier`` (modulus of the critical multiplier), ``harmonics`` (H),
 ``hb_residual``, ``iterations``, ``method`` ("hb"), and for fold rows the refined limit
 point ``fold_parameter`` / ``fold_amplitude`` (output units, half peak-to-peak).
-Hand-written glue; pandas for the table.
+Glue; pandas for the table.
 """
 
 from __future__ import annotations

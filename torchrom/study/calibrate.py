@@ -1,6 +1,6 @@
 """Calibration of the Kelvin–Voigt factor γ (s, Eq. 53–54) from an observed LCO amplitude.
 
-Hand-written batched bracketing; the simulations go through any ``evaluate(cases) -> table``
+Batched bracketing; the simulations go through any ``evaluate(cases) -> table``
 (e.g. :func:`torchrom.study.sweep.run_sweep` in-process or on Dask workers).
 
 For every *base case* (a case of the configuration: altitude, α, ...) :func:`calibrate_gamma`

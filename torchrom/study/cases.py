@@ -11,7 +11,7 @@ Fig. 9, :meth:`AeroelasticModel.matched_alpha`); the table then holds the numeri
 
 ``[history]`` selects cases whose output time histories are kept: ``where`` is a table of
 parameter values (a value or a list of values each; numbers compare to a relative 1e-9) and
-``every`` the sampling in steps. Hand-written; pandas for the tables.
+``every`` the sampling in steps. Pandas for the tables.
 """
 
 from __future__ import annotations

@@ -18,7 +18,7 @@ case's status (filled: converged LCO); the legend, outside the axes, lists only 
 statuses drawn. Where the paper states a value (Table 2, the flutter point, Table 3) it is drawn
 from the package's reference data (:func:`torchrom.reference.paper_reference`), never typed
 here; the flutter altitude (ours when given, and the paper's) is marked on the altitude axes.
-Hand-written layout; drawing delegated to matplotlib.
+Layout; drawing delegated to matplotlib.
 """
 
 from __future__ import annotations

@@ -11,7 +11,7 @@ the paper's study needs beyond the per-case matrices (Sec. IV):
 - the *matched* α(γ): for each γ, the α that keeps the flutter point at the reference altitude
   (paper Fig. 9), so that varying γ isolates the effect of the nonlinear damping.
 
-Hand-written glue over :mod:`torchrom.aero.flutter` (eigenvalues, Brent's method).
+Glue over :mod:`torchrom.aero.flutter` (eigenvalues, Brent's method).
 """
 
 from __future__ import annotations

@@ -1,6 +1,6 @@
 """Chunked, resumable and optionally distributed execution of sweep cases.
 
-Hand-written orchestration; Dask ``distributed`` does the scale-out (LocalCluster, Client,
+Orchestration; Dask ``distributed`` does the scale-out (LocalCluster, Client,
 futures, as_completed), pandas/pyarrow write the part files, hashlib the checksums.
 
 **Tasks and chunks.** A *task* is a picklable callable ``task(cases, case_ids, progress=None)``

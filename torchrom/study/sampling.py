@@ -1,6 +1,6 @@
 """Uncertainty sampling of case parameters (seeded) and amplitude distributions.
 
-Hand-written inverse-CDF sampling on numpy's PCG64 generator (``numpy.random.default_rng``;
+Inverse-CDF sampling on numpy's PCG64 generator (``numpy.random.default_rng``;
 SciPy's ``ndtr``/``ndtri`` for the normal CDF and its inverse); pandas for the summaries.
 
 In a ``[cases]`` table a parameter may be a distribution instead of values::

@@ -5,7 +5,7 @@ A chunk of cases is integrated together (one :class:`~torchrom.sim.CaseSystem`, 
 :class:`SweepTask`; :mod:`.runner` splits the cases into chunks, runs them in-process or on
 Dask workers and, given an output folder, stores finished chunks as resumable part files.
 Case ids hash each case's parameters together with the run key (:func:`run_description`).
-Hand-written; pandas for the table.
+Pandas for the table.
 """
 
 from __future__ import annotations

@@ -5,7 +5,7 @@ pandas stores in the parquet file's metadata) and used to label figure axes.
 columns (:data:`KNOWN`) and the amplitudes in the units of the decision output (the model's
 length unit for a physical output such as point A's ``A_Tz``, ``-`` for generalized coordinates).
 :func:`column_units` reads them back (a CSV has no metadata: the known columns are still
-labelled). Hand-written.
+labelled).
 """
 
 from __future__ import annotations

@@ -1,6 +1,6 @@
 """CBAR/CBEAM: linear (Timoshenko) beam with an orientation vector, offsets and pin flags.
 
-Hand-written (the card semantics are MSC Nastran's, Quick Reference Guide CBAR/CBEAM/PBAR).
+Written here (the card semantics are MSC Nastran's, Quick Reference Guide CBAR/CBEAM/PBAR).
 Element ends: the grids moved by the offsets WA/WB (basic here, converted by the reader), each
 end rigidly linked to its grid (small rotations): u_end = u_grid + θ_grid × w, θ_end = θ_grid.
 Element axes (Nastran): x from end A to end B (between the offset points), y in the plane of x

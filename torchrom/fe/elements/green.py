@@ -1,6 +1,6 @@
 """St Venant–Kirchhoff (Green–Lagrange strain) kernel shared by rods, membranes and shear panels.
 
-Hand-written, vectorised over integration points in torch float64 (so that autograd, including
+Vectorised over integration points in torch float64 (so that autograd, including
 forward mode, gives exact Taylor coefficients of the internal forces), total Lagrangian
 (DIGEST Eqs. 1–2, 4 with D = 0).
 

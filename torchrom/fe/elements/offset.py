@@ -1,6 +1,6 @@
 """CQUAD4/CTRIA3 with ZOFFS: the shell's reference plane offset from the plane of its grids.
 
-Hand-written. MSC Nastran Quick Reference Guide (CQUAD4, CTRIA3, field ZOFFS): the element's
+MSC Nastran Quick Reference Guide (CQUAD4, CTRIA3, field ZOFFS): the element's
 reference plane lies at z0 = ZOFFS along the element normal (G1-G2-G3 right-hand rule, the
 normal of :func:`~torchrom.fe.elements.quad4.quad_frames` / ``tria_frames``) from the plane of
 the grids. Each grid is tied to its point of the reference plane by a rigid offset (small

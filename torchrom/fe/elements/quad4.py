@@ -1,6 +1,6 @@
 """CQUAD4/PSHELL: nonlinear membrane, linear MITC4 plate bending, drilling spring, mass, pressure.
 
-Hand-written (no library). Choices, documented here because they change numbers:
+Written here (no library). Choices, documented here because they change numbers:
 
 - **Membrane**: bilinear isoparametric, full Green–Lagrange strain of the 3-D displacement field
   (so in-plane stretching from out-of-plane deflection is included), St Venant–Kirchhoff plane

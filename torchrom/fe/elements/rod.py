@@ -1,6 +1,6 @@
 """CROD/CONROD: geometrically nonlinear truss (Green strain) plus linear torsion; rod mass.
 
-Hand-written. Axial: one integration point with dN = [−1/L, 1/L] and C = E A L, so the strain
+Axial: one integration point with dN = [−1/L, 1/L] and C = E A L, so the strain
 energy is ½ E A L E11² with E11 = (l² − L²) / (2 L²) — exactly quartic in the displacements.
 Torsion (PROD J) is a linear spring G J / L between the rotations about the undeformed axis;
 it does not follow large rotations (documented limitation; J = 0 in the Goland model).

@@ -1,6 +1,6 @@
 """CSHEAR/PSHEAR: shear panel carrying in-plane shear only.
 
-Hand-written. One integration point at the panel centre whose only constitutive term is
+One integration point at the panel centre whose only constitutive term is
 G t A on the Green shear strain 2E12 (Voigt C = diag(0, 0, G t A)); the panel therefore has no
 extensional stiffness (PSHEAR F1 = F2 = 0, the edges' rods carry the direct stresses) and, through
 the Green strain, stays geometrically nonlinear and rigid-rotation invariant. For a rectangular

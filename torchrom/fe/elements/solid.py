@@ -1,7 +1,7 @@
 """CHEXA (8 or 20 grids), CPENTA (6 or 15), CTETRA (4 or 10) with PSOLID: isoparametric solids,
 the 8- and 6-grid ones with condensed incompatible modes.
 
-Hand-written. One code path (shape functions + integration rule per number of grids) serves
+One code path (shape functions + integration rule per number of grids) serves
 the trilinear hexahedron, the linear-triangle × linear-line wedge, the linear tetrahedron and
 the quadratic forms, with Nastran's grid order (MSC Nastran Quick Reference Guide, CHEXA,
 CPENTA, CTETRA): corners first, then the edge grids —

@@ -1,6 +1,6 @@
 """CTRIA3/PSHELL: nonlinear CST membrane, linear DKT plate bending, drilling spring, mass.
 
-Hand-written (no library), the triangular companion of :mod:`torchrom.fe.elements.quad4`:
+Written here (no library), the triangular companion of :mod:`torchrom.fe.elements.quad4`:
 
 - **Membrane**: constant-strain triangle with the full Green–Lagrange strain of the 3-D
   displacement field (one integration point, :class:`~torchrom.fe.elements.green.GreenPoints`),
