@@ -64,7 +64,7 @@ DT = 1e-3
 
 @functools.lru_cache(maxsize=1)
 def benchmark_rom():
-    """The synthetic ROM, built once per process (it takes ~0.5 s)."""
+    """The synthetic ROM, built once per process."""
     return synthetic_rom()
 
 

@@ -12,10 +12,8 @@ at least as accurate as torchrom, its wall time per case (compilation excluded) 
 to torchrom's time per case. The right-hand side is the first-order form of
 ``first_order.FirstOrderCase`` (same force coefficients) in float64.
 
-Measured here (2 cores, load average ≈ 4): a 0.2-s window of the γ = 1e-3, 7000-ft case at
-rtol 1e-5 took Kvaerno5 3728 steps and 15.5 s per case (B = 8, compilation excluded) — about
-0.08 s per millisecond of simulated time against torchrom's ≈ 4e-5 s (B = 64) — so the full
-3-s windows of this script take hours on this machine; run it where time allows.
+On a 2-core CPU the full 3-s windows of this script take hours (Kvaerno5 needs thousands of
+steps per 0.2 s of this stiff system); run it where time allows.
 """
 
 from __future__ import annotations

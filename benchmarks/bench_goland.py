@@ -23,7 +23,7 @@ RFA (aerodynamics on the first 9 modes, 13 lag states), as the paper study build
    times B monomial vectors, N3 = 1771) and the ratio of the ``paper`` step to it
    (``kind = "k3_gemm"`` rows), with the step's dense multiply-adds in the same unit
    (``paper_dense_gemm_equivalents``, :func:`paper_step_gemm_equivalents`: a floor under the
-   ratio, 6.98 for the 21-mode ROM with nonlinear damping).
+   ratio).
 2. Accuracy and SciPy: the hardest and a typical paper case are first brought near their LCO
    (``paper`` setting); from that common state [q, q̇, ξ] every setting integrates the same
    window and the amplitude of the tip deflection A_Tz over its last 3 s is compared with SciPy

@@ -3,54 +3,17 @@
     PYTHONPATH=. python benchmarks/bench_lco.py [--quick] [--model DIR] [--device cpu|cuda]
         [--out benchmarks/results]
 
-Model: the paper's heavy Goland wing 9L12D ROM with its RFA aerodynamics (Mach 0.70), from the
-paper pipeline's model cache (``--model``, default ``$TORCHROM_CACHE`` or
-``~/.cache/torchrom/goland``; built there first if absent, ~30 s). Cases: altitudes × γ with the
-matched α (paper Fig. 9), all post-flutter (flutter at ~11,300 ft), LCOs from ~5 % to ~25 % of
-span: the full set 4000–10000 ft every 1000 ft × γ ∈ {0, 1e-4, 1e-3} (21 cases), ``--quick``
-4000–10000 ft every 1500 ft × γ ∈ {0, 1e-3} (10 cases).
-
-**Methods** (:data:`METHODS`, one function each: ``method(bench) -> MethodRun`` with the
-per-case amplitude of the tip deflection A_Tz, frequency, status and final state, and the CPU
-seconds of the whole method):
-
-- ``newmark-reference``: the paper's setting — dt = 1 ms, the paper's small start (mode 1
-  displaced by 0.1, tip ≈ 0.06 % of span), Newton refreshed every step with 2 iterations, every
-  case from its own start in one batch;
-- ``newmark``: the new time marching — every case from a start with the tip at 10 % of span
-  and the dual coordinates on the static manifold (:func:`torchrom.sim.initial.static_manifold`),
-  error-controlled per-case steps from 2 ms (``step_tol`` 2e-5, 2 Newton iterations refreshed
-  every step, :data:`ADAPTIVE`), no amplitude jumps, all cases in one batch;
-- ``hb``: periodic orbits by harmonic balance (:class:`torchrom.periodic.HarmonicBalanceMethod`
-  with its defaults: adaptive H 5..9, neighbour chains, Floquet stability, time-integration
-  seeds for unconverged cases), cold starts included;
-- ``hb-unresolved``: the same with ``seed = "unresolved"`` (also the LCOs not accepted in H
-  are seeded and solved at H up to 25: the paper study's setting);
-- ``newmark-neighbour`` (``--methods``): the same steps with warm starts along the altitude
-  (:mod:`torchrom.study.starts`); fewer simulated seconds per LCO, but the waves are batches of
-  one case per γ, where a step costs several times more per case;
-- ``newmark-hb`` (``--methods``): the same steps from each case's harmonic-balance orbit
-  (``[initial] start = "hb"``), the harmonic balance solve included in its CPU time;
-- ``newmark-fast`` (``--methods``): the ``newmark`` start with the former, coarser steps
-  (``step_tol`` 5e-5, amplitude jumps toward slowly approached LCOs, ``extrapolate`` 3;
-  :data:`ADAPTIVE_FAST`): about twice cheaper, but the γ = 0 LCOs up to 0.9 % above fixed-step
-  Newmark at dt = 0.25 ms.
-
-**References**: :func:`hb_reference`, harmonic balance adaptive up to H = 13 (amplitude rtol
-1e-4), then every LCO seeded by time integration and raised up to H = 25 (the highest
-converged H kept: convergence in H is not monotone near a structural resonance), checked
-against fixed-step Newmark at dt = 0.25 ms started on its orbits (the errors of every method
-are against it); and :func:`reference`, fixed-step
-Newmark at dt = 0.25 ms, Newton with 3 iterations refreshed every step, started from the
-``newmark-reference`` final states and run until the amplitude changes by less than 1e-4 per
-cycle (LCO rtol 1e-4).
-
-Reported per method: ``cpu_s_per_lco`` (CPU seconds of the method / cases that reached an LCO;
-one torch thread), ``max_amplitude_error_pct`` and ``max_frequency_error_pct`` (largest over
-the cases against the reference; a case that did not reach an LCO counts as an infinite
-error) and the per-case table. Writes ``bench_lco.json`` shaped
-``{"meta": {...}, "methods": [{"method", "cpu_s_per_lco", "max_amplitude_error_pct",
-"max_frequency_error_pct", "cases"}]}``.
+Model: the heavy Goland wing 9L12D ROM with its RFA aerodynamics (Mach 0.70) from the paper
+pipeline's model cache (``--model``). Cases: post-flutter altitudes × γ with the matched α
+(``--quick``: 4000–10000 ft every 1500 ft × γ ∈ {0, 1e-3}). Methods (:data:`METHODS`, one
+function each): ``newmark-reference`` (the paper's setting: dt = 1 ms, small start, 2 Newton
+iterations), ``newmark`` (a 10 %-of-span start on the static manifold, error-controlled steps),
+``newmark-fast``, ``hb`` and ``hb-unresolved`` (harmonic balance, with seeding of the LCOs not
+accepted in H), ``newmark-neighbour`` and ``newmark-hb`` (``--methods``). References:
+:func:`hb_reference` (harmonic balance up to H = 25, checked against fixed-step Newmark at
+dt = 0.25 ms) and :func:`reference` (that Newmark run). Writes ``bench_lco.json``: per method
+``cpu_s_per_lco`` (one torch thread), the largest amplitude and frequency errors over the cases
+(a case without an LCO counts as infinite) and the per-case table, with the machine and load.
 """
 
 from __future__ import annotations

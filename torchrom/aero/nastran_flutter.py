@@ -1,66 +1,23 @@
 """SOL 145-style flutter analysis of a Nastran deck.
 
 Delegated: reading the deck and its coordinate systems (pyNastran), the modal solution
-(:func:`torchrom.fe.read_bdf` and ``FEModel.modes``), the aerodynamic influence coefficients
-(PanelAero, through :mod:`torchrom.aero.dlm`). Written here: the card semantics below, reference
-checks with one-line errors, and the Nastran-style output (V-g table, flutter summary).
+(:func:`torchrom.fe.read_bdf`), the aerodynamic influence coefficients (PanelAero, through
+:mod:`torchrom.aero.dlm`). Written here: the card semantics, reference checks with one-line
+errors, and the Nastran-style output (V-g table, flutter summary); :func:`compare_f06` puts an
+f06's FLUTTER SUMMARY beside ours.
 
-Cards honoured: FLUTTER (methods PK, PKNL, KE, K; PKNL pairs the i-th density, Mach number and
-velocity into one flight condition, PK and KE loop over the lists), FLFACT (density ratios, Mach
-numbers, reduced frequencies or velocities, negative velocities taken by magnitude; the ``THRU``
-form is expanded by pyNastran), MKAERO1/MKAERO2, AERO (ACSID, REFC, RHOREF, SYMXZ, SYMXY: image
-boxes about the aero xy plane, -1 = ground effect), AEROS, CAERO1/PAERO1 (+AEFACT),
-SPLINE1/SPLINE2/SET1, SPLINE4 (IPS)/SPLINE5 with AELIST, EIGR/EIGRL (ND, frequency range),
-PARAM LMODES, RESVEC and VREF; case control FMETHOD, METHOD and RESVEC. The boxes, spline grids
-and grid motions are expressed in the aero frame (ACSID), where the flow runs along +x.
-:func:`compare_f06` puts Nastran's flutter points (FLUTTER SUMMARY of an f06) beside ours.
-
-Symmetry: the reflection plane is the deck's AERO SYMXZ (AEROS when there is no AERO card):
-+1 a symmetric image wing (a wall-mounted model), -1 antisymmetric, 0 or blank an isolated half
-wing. ``symxz`` of :func:`load_deck` (``torchrom flutter --symxz``) overrides it; the output says
-which was used and where it came from. AERO/AEROS SYMXY adds the images of all boxes about the
-xy plane of the aero system (ground effect for SYMXY = -1, MSC QRG AERO: "-1 for symmetry",
-the opposite sign convention to SYMXZ; +1 antisymmetric); boxes lying in that plane are refused.
-
-Units: a Nastran deck has none of its own; results are in the deck's units (velocities in its
-length unit per second divided by PARAM VREF, densities in its mass per length cubed, frequencies
-in Hz). The length unit is labelled from DTI,UNITS when the deck has it, else from the caller
-(``--length-unit``), else as "length".
-
-DLM kernel: :data:`NASTRAN_KERNEL` (parabolic, Rodden, Giesing & Kalman 1971/72), the
-approximation of Nastran's DLM routines (PanelAero's parabolic path is checked against Nastran's
-``idf1.f``/``incro.f``); the later quartic refinement (Rodden, Taylor & McIntosh 1998, the
-default of :mod:`torchrom.aero.dlm` and of the Goland study) is ``kernel="quartic"``. On pt145's
-MSC Nastran 2020 f06 (KE, 9 reduced frequencies) the parabolic kernel puts the damping of the
-unstable root within 0.0023 of Nastran's from k = 0.11 to 0.33 and 0.0043 at k = 0.5 (quartic: up
-to 0.0075 low), and the flutter
-point within 0.5 % (quartic: frequency −2.4 %); tests/test_public_decks.py.
-
-Documented differences from Nastran: GAFs are computed directly at each FLFACT Mach number (on
-the reduced frequencies of the nearest MKAERO Mach for PK; at the FLFACT reduced frequencies
-themselves for K/KE) instead of being interpolated between MKAERO points; K and KE use the same
-solver (KE without viscous damping, as in Nastran); structural damping tables (TABDMP1) are not
-read; splines interpolate exactly (see :mod:`torchrom.aero.splines`); a beam spline's deflection
-(along the z axis of its CID) is projected on the box normals, which the DLM's h is measured along.
-Modal matrices are those of mass-normalised modes (M = I, K = diag ω²). The modes are the lowest
-min(LMODES, ND) eigenmodes; when LMODES exceeds ND (or there is no LMODES) they are augmented, as
-Nastran does by default (its "AFTER AUGMENTATION OF RESIDUAL VECTORS" table), with residual
-vectors (case control RESVEC, PARAM RESVEC, ``--resvec``), of which the lowest LMODES are used.
-torchrom builds the inertia-relief kind (:mod:`torchrom.fe.resvec`), which reproduces some of
-Nastran's augmented frequencies but not all (bah_plane: 56.557 Hz as Nastran's, 39.02 where it
-has 41.229): its flutter point moves by 0.06 % with them (−0.21 % vs −0.15 % without).
-Velocities are in the deck's units divided by PARAM VREF.
-
-Free-free structures (an aircraft): as in Nastran, the rigid-body modes are part of the modal
-basis and counted among ND/LMODES, at exactly 0 Hz (:func:`torchrom.fe.rigid.rigid_body_modes`:
-the rigid motions the constraints admit, mass-orthonormal; the elastic modes are orthogonalised
-against them). For PK, the steady GAF (k = 0) is added to the MKAERO reduced frequencies, the
-rigid roots start from their modes, roots below the lowest positive k get quasi-steady
-aerodynamics (:func:`torchrom.aero.flutter.pk_sweep`), and a real root's damping is Nastran's
-g = 2sb/(V ln 2), so that a divergence (a real root through 0) is a zero crossing. A crossing is
-declared only where g passes from below −G_ROUNDOFF to above +G_ROUNDOFF. Nastran prints only the
-most positive real root of a point in its FLUTTER SUMMARY (the others as "LESS CRITICAL REAL
-ROOTS"); torchrom tracks each branch by its mode shape, so its real-root branches may differ.
+Cards: FLUTTER (PK, PKNL, KE, K), FLFACT, MKAERO1/2, AERO/AEROS (ACSID, REFC, RHOREF, SYMXZ,
+SYMXY), CAERO1/PAERO1 (+AEFACT), SPLINE1/2/4/5 with SET1/AELIST, EIGR/EIGRL, PARAM LMODES, RESVEC,
+VREF; case control FMETHOD, METHOD, RESVEC. Geometry is in the aero frame (ACSID), flow along +x.
+The reflection plane is the deck's SYMXZ (+1 image wing, −1 antisymmetric, 0/blank isolated half
+wing) unless ``symxz`` overrides it. Results are in the deck's units (velocities in its length
+unit per second over PARAM VREF, frequencies in Hz), labelled from DTI,UNITS or the caller.
+The DLM kernel is Nastran's parabolic approximation (:data:`NASTRAN_KERNEL`, Rodden, Giesing &
+Kalman 1971/72); ``kernel="quartic"`` the later refinement. Differences from Nastran: GAFs are
+computed at each FLFACT Mach number instead of interpolated; TABDMP1 is not read; residual
+vectors are the inertia-relief kind (:mod:`torchrom.fe.resvec`); branches are tracked by mode
+shape. Rigid-body modes of a free-free deck stay in the basis at 0 Hz, with quasi-steady
+aerodynamics below the lowest positive k and a real root's damping g = 2sb/(V ln 2).
 """
 
 from __future__ import annotations

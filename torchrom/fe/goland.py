@@ -1,60 +1,20 @@
 """The heavy Goland wing (Wang, Song, Mignolet & Chen 2021, Sec. III.A; DIGEST Sec. 6).
 
-Builder; the deck is a pyNastran ``BDF`` object (so the same cards are written to
-``goland.bdf`` and read back by :func:`torchrom.fe.read_bdf`), converted to an
-:class:`~torchrom.fe.model.FEModel` by the BDF reader. Units: ft, slug, s, lbf.
+Builds a pyNastran ``BDF`` (the same cards are written to ``goland.bdf`` and read back by
+:func:`torchrom.fe.read_bdf`). Units: ft, slug, s, lbf. Geometry and sizes are Table 1's: a
+wing box x ∈ {0, 2, 4} ft, y = 0..20 ft, depth 0.33334 ft; CQUAD4 skins, CROD caps and posts,
+webs (``webs``: membrane-only CQUAD4 by default, as the paper's "CQUAD4 Nastran elements"; CSHEAR
+webs let the section crush under large bending, plate-bending webs over-stiffen torsion —
+``experiments/goland_variants.py``); E = 1.4976e9 lbf/ft², ν = 0.3333; root clamped; tip store
+CONM2 22.498 slug, I_yy = 50.3396 slug·ft², tied to the tip by an RBE3.
 
-Geometry (Table 1): wing box x ∈ {0, 2, 4} ft from the leading edge, y = 0..20 ft every 2 ft,
-z = ±0.16667 ft (depth 0.33334 ft). Upper and lower skins: 2 × 10 CQUAD4 each (t = 0.0155 ft).
-CROD: spanwise at x = 0, 2, 4 on both skins (A = 0.1496 ft² at mid-wing x = 2, 0.0416 ft² at the
-edges), chordwise at every station (0.0422 ft²), thicknesswise at every node column (8e-4 ft²).
-Shear panels ("webs"): spanwise spars at x = 0, 2, 4 (t = 0.0889 ft at x = 2, 6e-4 ft at the
-edges) and chordwise ribs at every station (t = 0.0347 ft), by default membrane-only CQUAD4s
-(PSHELL without MID2), as the paper says its shear panels were "CQUAD4 Nastran elements" (see
-"Web modelling" below). E = 1.4976e9 lbf/ft², ν = 0.3333. Root (y = 0) clamped.
-Tip store: CONM2 22.498 slug, I_yy = 50.3396 slug·ft² (spanwise axis), on a reference grid at
-(``store_x``, 20, 0) tied to the six tip grids by an RBE3 (translations, unit weights).
-
-Web modelling (``webs``), measured with this builder (tests/test_fe_goland.py,
-experiments/goland_variants.py):
-- ``"cquad4-membrane"`` (default): the webs carry in-plane shear *and* in-plane normal stress, so
-  the box cross-section keeps its depth under large bending. Under a uniform pressure the tip
-  deflection stiffens as a cantilever's should (4.75 ft at the load that gives 5 ft linearly;
-  Newton converges beyond 40 % of the span). EI 2.44e7, GJ 2.52e6 lbf·ft².
-- ``"cshear"``: CSHEAR panels (shear only, Nastran PSHEAR without extensional effectiveness).
-  Linear stiffness and modes are nearly the same (EI 2.39e7, GJ 2.52e6, torsion 4.03 vs
-  3.99 Hz), but nothing resists the crushing of the section by the skins' bending stresses except
-  the 8e-4 ft² thicknesswise rods: the root bay loses 15 % of its depth at a 4.2 ft tip
-  deflection, the response *softens* (4.22 ft at 80 % of the load that gives 5 ft linearly) and
-  the static Newton solution is lost at ≈ 22 % of the span.
-- ``"cquad4"``: CQUAD4s with plate bending. The ribs' out-of-plane bending and transverse shear
-  (t = 0.0347 ft over a 0.333 ft depth, one element, rotations shared with the skins at rigid
-  joints) restrain the warping and distortion of the box cross-section in torsion: GJ 5.60e6,
-  torsion mode 5.9 Hz against Table 2's 3.05 Hz — further from the paper than either membrane
-  option. (GJ 7.36e6 and 6.8 Hz before the CQUAD4 had the residual bending flexibility on its
-  transverse shear, which softens these thick one-element ribs; then ribs alone with bending
-  gave 7.30e6, spars alone 2.57e6.)
-
-Not given by the paper (REFERENCE Sec. 6) and therefore chosen here:
-- the uniform structural density, calibrated so that mode 1 is 1.690 Hz (Table 2)
-  (:func:`calibrate_density`; the value for the default model is cached in
-  :data:`CALIBRATED_DENSITY` and re-checked by the tests);
-- the store's chordwise position ``store_x`` (:data:`DEFAULT_STORE_X`, ft from the leading
-  edge; change it here, in one place);
-- the "updated" variant (the default, ``goland()`` = ``goland(variant="updated")``, REFERENCE
-  Sec. 6 second pass; the first pass stays available as ``goland(variant="calibrated")``): the
-  declared non-structural mass groups (:attr:`GolandOptions.mass_groups`: skins, spar caps and
-  webs at the leading edge, mid-box and trailing edge, ribs, and concentrated masses on the
-  leading- and trailing-edge grids inboard and outboard, the latter up to the 6 ft chord), the
-  structural density (at least aluminium's) and the store's vertical offset are fitted to all
-  nine Table 2 frequencies in the paper's order by ``torchrom update``
-  (torchrom/data/goland_update.toml), and the store's chordwise position to the p-k flutter
-  altitude (experiments/goland_update.py; :data:`UPDATED_STORE_X`,
-  :data:`UPDATED_PARAMETERS`). Element sizes, E, ν and the store's mass and inertias are the
-  paper's;
-- point A, the output point of every response: the upper-skin tip grid at x = 2 ft (mid-box,
-  on the elastic axis at 33 % of the 6 ft chord), grid 1102; outputs ``A_Tx``, ``A_Ty``,
-  ``A_Tz`` (its basic translations).
+Not given by the paper (reference numbers Sec. 6), chosen here: the "calibrated" variant's
+uniform density (mode 1 = 1.690 Hz, :func:`calibrate_density`, :data:`CALIBRATED_DENSITY`) and
+store position (:data:`DEFAULT_STORE_X`); the "updated" variant (the default) with the declared
+non-structural mass groups, density and store offsets fitted to Table 2 and the flutter altitude
+(:data:`UPDATED_STORE_X`, :data:`UPDATED_PARAMETERS`, ``torchrom/data/goland_update.toml``,
+``experiments/goland_update.py``). Point A, the output point (``A_Tx``, ``A_Ty``, ``A_Tz``), is
+the upper-skin tip grid at x = 2 ft (grid 1102).
 """
 
 from __future__ import annotations

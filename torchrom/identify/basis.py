@@ -1,76 +1,18 @@
 """The ROM basis: mass-normalised linear modes plus dual modes (DIGEST Sec. 6, Eqs. 47–48).
 
-Dual modes capture what the linear modes cannot: mostly the in-plane (membrane) displacements that
-a large transverse deflection drags along. For each combination (j, l) of linear modes, static loads
-
-    F = α K U^(j)                 (l = j, Eq. 47)      or      F = α (K U^(j) + K U^(l))   (Eq. 48)
-
-— loads that would produce exactly U^(j) (+ U^(l)) in a linear model — are applied with 20 values
-of α (half positive, half negative) and solved nonlinearly. The parts of the responses outside the
-span of the linear modes (residuals, removed by M-orthogonal projection) are decomposed by proper
-orthogonal decomposition (POD); the dominant POD vectors, mass-orthonormalised against the linear
-modes, are the dual modes. The paper's nine combinations (1-based) are the default of
-:class:`DualModeOptions`; ``torchrom identify`` chooses the combinations by a rule from the
-modes' kinds (:func:`transverse_combinations`).
-
-Choices (each an option of :class:`DualModeOptions`), measured on the heavy Goland wing, 9L12D,
-as the largest A_Tz / A_Ty errors at point A up to a 25 % span tip deflection under the uniform
-and the step pressures (``experiments/goland_validation.py``,
-``experiments/results/goland_validation_variants.md``):
-
-- **Amplitudes** (``amplitude_control``). The paper chose α "so that the displacement data induce
-  tip transverse displacements ... from about 0.1 % to 15 % of span ... distributed in this
-  range as uniformly as possible". ``"response"`` (default) does that with the FE's response: the
-  targets are spread uniformly over the range and each α is found by a few secant/regula-falsi
-  solves so that the FE tip deflection hits its target, never beyond the α whose *linear*
-  prediction hits it (a stiffening combination, e.g. torsion, stops there). ``"linear"`` uses
-  the linear prediction only (one solve per load, the plan written to Nastran decks). The
-  difference matters where the response *softens*: on Goland a combination with the in-plane
-  (lead–lag) mode, whose equal modal amplitude means an enormous in-plane load, meets the
-  wing's lateral–torsional instability: with ``"linear"`` the loads from 3 % up give tip
-  deflections of 40–50 % of the span with the tip swung 14 ft aft — snapshots of a collapsed
-  wing (uniform 0.84 / 0.59 %, step 3.3 / 5.8 %, against 0.22 / 1.7 % and 1.7 / 3.4 %).
-- **POD inner product** (``pod_norm``). ``"stiffness"`` (default): the POD maximises the captured
-  strain energy uᵀ K u of the residuals. The dual modes exist to let the ROM relax membrane
-  strain energy, and a Galerkin ROM's static error is bounded by the best approximation in the
-  energy norm (Céa's lemma); in-plane residuals carry little mass, so the mass-norm POD ranks
-  them by an irrelevant measure: uniform 16 / 30 %, step 11 / 19 % with ``"mass"``.
-- **Snapshot weights** (``snapshot_weights``). ``"relative"`` (default): each residual divided by
-  the norm of its response's linear-mode part, so the POD minimises the summed squared
-  *relative* misrepresentation of the responses; ``"unit"``: each residual scaled to unit norm,
-  so the smallest loads (pure quadratic content, negligible in the responses) weigh as much as
-  the largest. On Goland the step pressure at 25 %: 1.7 / 3.4 % (relative) vs 5.0 / 9.4 %
-  (unit), and with more dual modes relative weights converge faster (14 duals: every error
-  ≤ 1.1 %; unit weights still 2.1 / 3.7 % with 20). Not universal: on a very nonlinear
-  synthetic truss with only 3 dual modes unit weights capture a response better
-  (tests/test_identify_basis.py). The paper's recipe read literally ("linear", "mass", "unit")
-  gives 9.7 / 17 % (uniform) and 16 / 28 % (step).
-- **Combinations** (``combinations``). The paper's nine pair the first two modes with modes 1–5;
-  on our Goland model mode 4 is the in-plane (lead–lag) mode and 5 the second torsion (the
-  paper's 4 is bending–torsion, its 5 in-plane), and the combinations with them load the box
-  towards its lateral–torsional instability. :data:`BENDING_TORSION_COMBINATIONS` — (1,1),
-  (1,2), (1,3), (2,2), (2,3): first bending, first torsion, second bending — keep every error
-  within 2 % up to 25 % of span with 12 duals (uniform 0.11 / 0.87 %, step 0.53 / 0.91 %, A_Tx
-  4.8 %; free decay from 10 % span 0.30 % envelope, 0.019 % frequency) with 104 static solves
-  instead of 250; the paper's set stays within 2 % up to ~17 % of span (step 2.4 / 3.4 % at 20 /
-  25 %) and needs 14 duals for 25 %. The built-in Goland pipeline chooses the pairs by the rule
-  of :func:`transverse_combinations`, which gives that set on the calibrated wing. On the
-  updated wing (issue 15: same stiffness, masses updated to Table 2) modes 2 and 3 are both
-  torsion and the second bending is mode 4; the five pairs without it leave uniform A_Ty at
-  2.03 % and step A_Tz at 2.05 % at 25 % (12 duals). The rule adds (1,4), (2,4): uniform 0.08 /
-  1.58 %, step 2.01 / 0.81 % with 12 duals, 0.21 / 1.13 % and 1.93 / 1.40 % with 14
-  (``experiments/results/goland_validation_updated*.md``). The static FE response does not
-  depend on the mass, but the linear modes do; the step pressure's A_Tz error grows smoothly
-  with the load (0.85 / 1.52 / 2.01 % up to 15 / 20 / 25 %) and neither a wider load range
-  (``tip_range`` to 20 or 25 %: 2.11 / 2.33 %) nor a 13th dual mode (2.02 %) brings it under 2 %
-  at 25 %: that takes 14.
-- **Reproducibility**: signs by :func:`torchrom.eigen.orient_columns`, POD eigenvectors ordered
-  by decreasing eigenvalue, fixed solution order: the same FE gives the same basis bit for bit.
-
-A load the FE cannot carry (no converged static solution) is recorded as "failed" and the larger
-loads of that combination and sign are skipped; the POD uses the rest.
-
-The static solves are the backend's, the eigen-solvers scipy's.
+Dual modes capture what the linear modes cannot: mostly the in-plane (membrane) displacements a
+large transverse deflection drags along. For each combination (j, l) of linear modes the static
+loads F = α K U^(j) (Eq. 47) or F = α (K U^(j) + K U^(l)) (Eq. 48) are solved nonlinearly for a
+range of α; the residuals outside the span of the linear modes are decomposed by POD and the
+dominant vectors, mass-orthonormalised, are the dual modes. The options of
+:class:`DualModeOptions` — amplitudes set by the FE response (not the linear prediction, which
+overloads softening combinations), a stiffness-norm POD (the energy norm that bounds a Galerkin
+ROM's static error), relative snapshot weights, and the combinations
+(:func:`transverse_combinations` by the modes' kinds, or the paper's nine) — were chosen by the
+static and free-decay errors at point A of the Goland wing (``experiments/goland_validation.py``,
+``experiments/results/goland_validation*.md``). The same FE gives the same basis bit for bit. A
+load the FE cannot carry is recorded as "failed" and the larger loads of that combination and
+sign are skipped. The static solves are the backend's, the eigen-solvers scipy's.
 """
 
 from __future__ import annotations

@@ -1,48 +1,20 @@
 """Non-intrusive identification of the Kelvin–Voigt nonlinear damping tensors D̄1, D̄2, D̄3 (γ = 1).
 
-Two methods (issue 4, DIGEST Sec. 5, NOTES-damping):
+Two methods (DIGEST Sec. 5, NOTES-damping):
 
-``exact`` — for FE backends that expose the material tangent K_mat(u) = ∫ Bᵀ(u) C B(u) (the tangent
-stiffness without its initial-stress part). With D = γC the tangent damping matrix of Eq. 32 is its
-projection, Φᵀ K_mat(Φq) Φ = D̄1 + D̄2(q) + D̄3(q, q), a quadratic polynomial in q identified by the
-same imposed displacements as the stiffness (:func:`~.stiffness.fit_quadratic_matrix`). Unique; no
-decomposition.
+- ``exact``, for FE backends that expose the material tangent K_mat(u) = ∫ Bᵀ(u) C B(u): with
+  D = γC the tangent damping matrix of Eq. 32 is its projection Φᵀ K_mat(Φq) Φ = D̄1 + D̄2(q) +
+  D̄3(q, q), a quadratic polynomial in q fitted like the stiffness. Unique.
+- ``decomposition``, the paper's route: the identified stiffness coefficients fix only the
+  symmetrised parts of the energy-form tensors G and H (:mod:`torchrom.rom.conventions`); the
+  "optimum decomposition" (paper Ref. 28) chooses the free parameters, subset of modes by subset
+  (Eqs. 16, 25–27 inverted), to maximise the smallest eigenvalue of the extended matrix (Eq. 45)
+  by a batched soft-minimum ascent, then the whole basis at once, and finally enforces positive
+  semidefiniteness by projection onto the affine set of the identified coefficients (or, where
+  that set is too thin, by clipping the Schur complement of the pair block, reported as the K̃3
+  reproduction error). Eigenvalues are compared on the extended matrix scaled to unit diagonal
+  order, invariant to the normalisation of the basis.
 
-``decomposition`` — the paper's route: the pseudo-stiffness coefficients of a fictitious FE model
-with elasticity D (for D = γC, γ = 1, they are the identified stiffness coefficients themselves)
-determine only the symmetrized parts of the energy-form tensors G (≙ K̂2/2) and H (≙ K3-pair/2)
-of :mod:`torchrom.rom.conventions`; the damping depends on G and H themselves. The "optimum
-decomposition" (paper Ref. 28, restated in NOTES-damping) resolves the indeterminacy:
-
-1. particular solution: the fully symmetric split G0 = K2/3, H0 = K3/2 (fully symmetrized K2, K3),
-   the baseline every result is compared with; the optimisation starts from the minimum-norm
-   split in the scaled metric below (it loads each coefficient on the classes of stiff modes);
-2. the null space is parametrised per *multiset* of mode indices: the identified coefficient of the
-   monomial with multiset {a, b, c} (K2) or {a, b, c, d} (K3) constrains only the G (or H) entries
-   with the same multiset, so each free parameter belongs to the set of distinct modes of its
-   multiset — a pair {i, j}, a triple or a quadruple (Eqs. 16, 25–27 inverted);
-3. stage by stage (pairs, then triples, then quadruples), the parameters of each subset S maximise
-   the smallest eigenvalue of the extended matrix D_KB (Eq. 45, here the energy matrix K_E of
-   NOTES-damping, congruent to it) restricted to the modes of S, all subsets of a stage at once
-   (batched ``torch.linalg.eigvalsh`` of a soft minimum, Adam ascent, best iterate kept), so every
-   coefficient depends only on identified coefficients whose mode numbers are among its own;
-4. the same ascent on the whole basis at once (the largest "subset"), which brings the full
-   extended matrix close to semidefinite (Goland 9L12D: smallest scaled eigenvalue −140 for the
-   symmetric split, about −5 after the subsets, a few hundredths after this stage), still
-   reproducing the identified coefficients exactly;
-5. positive semidefiniteness (λ_min ≥ ε: a small margin, or the symmetric split's λ_min if that
-   is larger, so the result is never less positive than the plain split) is then enforced:
-   first as the nearest matrix in the affine set of the identified coefficients (eigenvalue
-   clipping and re-imposing the coefficients solved as one projection problem, semismooth
-   Newton); where that set is too thin to reach — bases with dual modes have nearly
-   inextensional strain combinations, so the true Gram matrix is nearly singular — by clipping
-   the Schur complement of the pair block (D̄1 = K1 and D̄2 kept, D̄3 changed as little as
-   needed; the change is reported as the K̃3 reproduction error of the damping's energy form;
-   the ROM's stiffness tensors are the identified ones in every case).
-
-Eigenvalues are compared on a scaled extended matrix S K_E S with S = diag(K1_mm^-½ ;
-(H_iiii H_jjjj)^-¼ for pair (i, j)): invariant to the normalisation of the basis functions and of
-order one on the diagonal. Both scaled and unscaled smallest eigenvalues are reported.
 Written here (no library implements this); the eigen-solvers are torch's.
 """
 

@@ -1,38 +1,16 @@
 """Admissible damping decompositions: a one-parameter family between two of them (issue 15).
 
-The identified stiffness fixes only the symmetrized parts of the energy-form tensors G, H
-(:mod:`.damping`, NOTES-damping); every (G, H) that
-
-1. reproduces the identified coefficients of K2, K3 (paper Eqs. 16, 25–27: the class entries of
-   each multiset sum to the identified coefficient, an affine set),
-2. gives Kelvin–Voigt damping tensors D̄1 = K1, D̄2, D̄3 (Eqs. 42–44, by construction from G, H:
-   :func:`~torchrom.rom.conventions.damping_from_gram`), and
-3. has a positive semidefinite extended matrix (the decomposition's criterion, Eq. 45: the
-   damping dissipates for every motion)
-
-is an admissible decomposition (*strictly*: (1) to identification accuracy,
-:data:`STRICT_REPRODUCTION`). The set is convex: (1) is affine in the class entries m and the
-extended matrix is affine in m, so its smallest eigenvalue is concave and a convex combination
-of two admissible decompositions is admissible. :func:`damping_family` takes two tensor sets
-— the optimum decomposition of the pipeline and the exact Kelvin–Voigt tensors of the FE
-material — brings each onto the affine set of the *identified* coefficients (the exact tensors
-reproduce the FE's own K2, K3, identified to ~1e-6: a Frobenius projection) where that keeps
-it semidefinite — the optimum decomposition is kept as it is — and returns
-m(θ) = (1 − θ) m_A + θ m_B for the requested θ, each member checked (reproduction errors,
-smallest scaled eigenvalue) rather than assumed. The optimum decomposition is semidefinite
-only because its enforcement gave up some K̃3 reproduction (Goland 9L12D, updated wing: 1.6 %;
-with the coefficients restored its smallest scaled eigenvalue is −0.11,
-:func:`restored_min_eigenvalue`), so a member is called admissible when it is semidefinite and
-reproduces K2, K3 at least as well as the first tensor set (the study's standard), and strict
-when it does so to identification accuracy; both are reported.
-
-A third kind of member is the criterion's own optimum over the whole admissible set
-(:func:`sdp_member`): maximise t such that the scaled extended matrix − t I is positive
-semidefinite subject to the identified coefficients — a semidefinite program, solved by SCS
-(splitting conic solver, O'Donoghue et al.) — then the coefficients re-imposed and the
-same Schur-complement step if a rounding-level negative eigenvalue remains, and checked like
-the others. The study's decomposition approximates this optimum stage by stage; the SDP is the
-reference it approximates.
+A decomposition (G, H) of the energy-form tensors (:mod:`.damping`) is admissible when it
+reproduces the identified K2, K3 coefficients (paper Eqs. 16, 25–27: an affine set), gives the
+Kelvin–Voigt tensors D̄1 = K1, D̄2, D̄3 (Eqs. 42–44) and has a positive semidefinite extended
+matrix (Eq. 45); *strictly* admissible when it reproduces K2, K3 to identification accuracy
+(:data:`STRICT_REPRODUCTION`). The set is convex, so :func:`damping_family` returns
+m(θ) = (1 − θ) m_A + θ m_B between the pipeline's optimum decomposition and the exact tensors of
+the FE material (projected onto the identified coefficients), each member checked rather than
+assumed; :func:`restored_min_eigenvalue` shows what the optimum decomposition's reproduction
+error buys. :func:`sdp_member` is the criterion's own optimum over the whole set: maximise t
+with the scaled extended matrix − t I semidefinite, a semidefinite program solved by SCS
+(O'Donoghue et al.).
 
 Over :mod:`.damping`; the eigen-solvers are torch's, the conic solver SCS's.
 """

@@ -298,8 +298,8 @@ def _secondary(cfg):
     decomposition band, the other wing variant): time-integration seeds only for the cases
     harmonic balance does not converge (``seed = "unconverged"``), whatever the main sweep's
     setting — seeding every LCO not accepted in H ("unresolved", the paper configuration's,
-    for the figures) made ``torchrom paper --method hb`` three times slower (96 s against 34
-    s), two thirds of it in these sweeps."""
+    for the figures) made ``torchrom paper --method hb`` several times slower, most of it in
+    these sweeps."""
     if cfg.method != "hb" or cfg.hb.seed == "off":
         return cfg
     return dataclasses.replace(cfg, hb=dataclasses.replace(cfg.hb, seed="unconverged"))
@@ -307,7 +307,7 @@ def _secondary(cfg):
 
 def _sdp_member(cache: FileCache, model, log) -> DampingMember:
     """The decomposition criterion's SDP optimum for the study's ROM (the band's member
-    ``sdp``), cached per ROM: SCS takes ~25 s on the 9L14D basis."""
+    ``sdp``), cached per ROM (the SCS solve is the costly part)."""
     key = FileCache.key({"rom": model.rom.content_hash(), "iterations": SDP_ITERATIONS,
                          "eps": SDP_EPS})
     name = "tables/damping_sdp.npz"

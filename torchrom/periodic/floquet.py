@@ -1,39 +1,18 @@
 """Stability of periodic orbits: Floquet multipliers from the monodromy matrix (batched).
 
-A perturbation x = [δq, δq̇, δξ] of an orbit obeys the linear T-periodic system x' = A(t) x,
+A perturbation x = [δq, δq̇, δξ] of an orbit obeys the linear T-periodic system
+M_t δq̈ + C_t(t) δq̇ + K_t(t) δq + D δξ = 0, δξ̇ = E δq̇ + R δξ, with the tangents of
+:mod:`.balance` along the orbit. The monodromy matrix Φ(T) maps x(0) to x(T); its eigenvalues
+are the Floquet multipliers. One is 1 (the shift along the orbit, identified by its eigenvector's
+alignment with ẋ(0)); the orbit is stable when every other |μ| < 1, and the largest of them, the
+*critical* multiplier, leaves the unit circle at +1 (fold), −1 (period doubling) or as a complex
+pair (torus). Φ is the product of the exponentials of A at the step midpoints (a second-order
+Magnus integrator, exact for the stiff constant part), Richardson-extrapolated over two step
+sizes (:func:`floquet`); the tangents are interpolated exactly from the 4H + 1 AFT samples. On a
+wing ROM the stiff dual coordinates are first condensed onto the slow state (first order in their
+damping, :func:`condensable`, :func:`_condensed_matrices`), which then takes implicit-midpoint
+steps.
 
-    M_t δq̈ + C_t(t) δq̇ + K_t(t) δq + D δξ = 0,      δξ̇ = E δq̇ + R δξ,
-
-with the tangents of :mod:`.balance` along the orbit: K_t = K_l + K_n(q, q̇), C_t = C_0 + C_n(q).
-The monodromy matrix Φ(T) maps x(0) to x(T); its eigenvalues are the Floquet multipliers μ.
-One of them is 1 (a shift along the orbit: the eigenvector is ẋ(0)); the orbit is
-asymptotically stable when every other |μ| < 1. The *critical* multiplier is the largest of the
-others: it leaves the unit circle at +1 (fold), −1 (period doubling) or as a complex pair
-(torus / Neimark–Sacker bifurcation).
-
-Φ is the product of the exponentials of A at the step midpoints over ``steps`` steps per period
-(the exponential midpoint rule, a second-order Magnus integrator): it is exact for the part of A
-that is constant over a step, so the stiff dual coordinates — hundreds of radians per period,
-which a trapezoidal or Runge–Kutta step of the same size propagates with arbitrary phase errors
-that leak into the slow multipliers — cost no more steps than the flutter mode; the error comes
-from A's variation along the orbit. The tangents at the midpoints are interpolated exactly from
-the 4H + 1 AFT samples (they are trigonometric polynomials of degree 2H). The multipliers that
-both step sizes resolve are Richardson-extrapolated (:func:`floquet`). The trivial multiplier is
-identified by its eigenvector's alignment with ẋ(0) (not merely by being closest to 1: near a
-fold a second multiplier approaches 1 too).
-
-*Stiff dual coordinates.* A wing ROM's dual (membrane) modes lie hundreds of Hz above the
-orbit and follow the slow ones quasi-statically; their own multipliers are those of fast damped
-(or, at γ = 0, barely damped) oscillations and say nothing about the orbit, while their large,
-time-varying coupling makes each step's exponential costly and the product inaccurate. When
-they condense (:func:`condensable`), the perturbation of the duals is expressed through the
-slow one (:func:`_condensed_matrices`, first order in their damping, which is how the
-Kelvin–Voigt damping reaches the slow motion) and the monodromy matrix is that of the slow
-state [δl, δl̇, δξ] (2·9 + 13 = 31 states on the Goland ROM instead of 55). Nothing stiff is
-left there, so the steps are those of the implicit midpoint rule (a small solve each, A-stable,
-twice the steps): on the Goland orbits this matches the full state's exponential rule at four
-times the steps to 1e-4 in the critical multiplier, for about a fifth of its cost; on the test
-oscillator it is within 2e-5 of the full state's matrix at 512 steps.
 Written here (no library computes batched monodromy matrices of this model).
 """
 

@@ -1,45 +1,21 @@
 """Orbits harmonic balance cannot reach from below: seeded by a short time integration.
 
-Harmonic balance raises H from a low-H orbit (:mod:`.solve`). That fails where the orbit's
-harmonic content converges slowly and the truncated problems have no solution near the true
-orbit: on the heavy Goland wing's nearly undamped (γ = 0) LCOs the flutter frequency's fifth
-and sixth harmonics straddle the in-plane mode 5 (≈ 5.8 f), the modal coordinate q5 keeps 6 %
-of its largest harmonic at k = 9, and the HB problems at H = 7–11 either have no solution near
-the orbit a time integration converges to or converge to spurious ones 1–2 % away (with small
-truncation residuals), while from the time integration's own Fourier coefficients H = 15–25
-converge in 4–7 Newton iterations, H = 25 to within 0.003 % of Newmark at dt = 0.25 ms at
-7,000 ft (``experiments/hb_harmonic_convergence.py``).
+Raising H from a low-H orbit (:mod:`.solve`) fails where the orbit's harmonic content converges
+slowly and the truncated problems have no solution near the true orbit (the Goland wing's nearly
+undamped LCOs, whose 5th and 6th harmonics straddle the in-plane mode;
+``experiments/hb_harmonic_convergence.py``). For the cases that end unresolved — unconverged, or
+not accepted in H — the orbit is seeded instead:
 
-So for the cases that end unresolved — unconverged, or not accepted in H (amplitude change from
-H − 2 or truncation residual above the tolerances of :class:`~.solve.HBOptions`) — the orbit is
-seeded by time integration (a time-domain start instead of a harmonic ladder, common practice
-where no low-order start exists):
+1. a start: an orbit at H = 5 (along the sweep's neighbour chains), else the case's own orbit;
+2. Newmark (:class:`torchrom.sim.Newmark`) from it for :data:`SEED_PERIODS` periods at
+   :data:`SEED_STEPS_PER_PERIOD` steps per period, which supplies the high harmonics;
+3. the frequency from the output's zero up-crossings and the Fourier coefficients of every
+   coordinate over the last :data:`SEED_FIT_PERIODS` periods, in :mod:`.solve`'s phase;
+4. Newton at each H of :data:`SEED_HARMONICS` in turn until the amplitude change and the
+   truncation residual meet :class:`~.solve.HBOptions`' tolerances (:func:`seeded_orbits`).
 
-1. a start: an orbit at H = 5 (:func:`~.solve.solve_orbits` with start_harmonics =
-   harmonics = 5, which reaches large orbits where the default start at H = 3 does not,
-   0.3-0.7 % from the Goland γ = 0 orbits; along the sweep's neighbour chains among the seeded
-   cases, each from its neighbour's H = 5 orbit where there is one, which on the paper's LCO
-   sweep gave the same seeds in 1.5 s instead of 2.4 s of cold starts), else the case's own
-   orbit (an orbit not accepted in H may be a spurious one of the truncated problem, percents
-   away);
-2. Newmark (average acceleration, Newton refreshed every step, :class:`torchrom.sim.Newmark`)
-   from that orbit's state for :data:`SEED_PERIODS` periods at :data:`SEED_STEPS_PER_PERIOD`
-   steps per period of the fastest case: the start lacks the high harmonics, which the
-   integration supplies within a period or two (they belong to fast, well damped coordinates);
-   its error along the orbit family decays slowly (Floquet multipliers ~0.8–0.93 per period on
-   the Goland γ = 0 orbits), but Newton at H = 15 removes that error anyway;
-3. the frequency from the zero up-crossings of the decision output over the last
-   :data:`SEED_FIT_PERIODS` periods, the Fourier coefficients of every coordinate over those
-   periods (phase shifted so that the output has no sin τ term: :mod:`.solve`'s phase
-   condition);
-4. Newton at each H of :data:`SEED_HARMONICS` in turn (at most :data:`SEED_NEWTON_ITERATIONS`
-   iterations), from the last converged orbit (or, while none has converged, from the seed's
-   coefficients), until the amplitude change between consecutive H and the truncation residual
-   meet the tolerances (:func:`seeded_orbits`).
-
-Unstable orbits do not attract a time integration; a seed that runs away is reported as
-such (the case keeps its previous status). Over :mod:`.solve` and
-:mod:`torchrom.sim.newmark`.
+Unstable orbits do not attract a time integration; a seed that runs away is reported as such
+(the case keeps its previous status).
 """
 
 from __future__ import annotations

@@ -1,80 +1,18 @@
 """Batched implicit Newmark / HHT-α / generalised-α integration with on-the-fly LCO detection.
 
-Written here (torch only). B cases of a :class:`~torchrom.sim.system.CaseSystem` advance in
-lockstep with a fixed time step; per step and case the unknown is the new acceleration a_{n+1}
-(solving for the acceleration, not the displacement, keeps float32 free of the cancellation in
-(q_{n+1} − q̂)/(β dt²)).
-
-**Lag states.** Under the scheme (see :mod:`.schemes`) ξ̇_{n+1} and ξ_{n+1} are affine in
-v_{n+1} = v̂ + γ dt a_{n+1}:  ξ̇_{n+1} = ξ̇* + W v_{n+1}, W = (1−αf) P⁻¹ E,
-P = (1−αm) I − (1−αf) γ dt R. Their force D ξ_{n+1} therefore adds a constant per-case damping
-γ dt D W to the iteration matrix ("condensation"), and the lag states never enter the
-nonlinear iteration.
-
-**Per-step solve.** With S = (1−αm) M_T + (1−αf) (γ dt C_eff + β dt² K_T) (the acceleration form
-of M_eff/(β dt²) + γ C_eff/(β dt) + K_eff, C_eff including the condensed lags) inverted ONCE per
-case, modified Newton (default) iterates
-
-    a ← S⁻¹ [ b − (1−αf) f_nl(q̂ + β dt² a, v̂ + γ dt a) ]
-
-a fixed number of times from an extrapolated predictor; it is exact for the linear part, so it
-contracts with ratio ρ ≈ ‖S⁻¹ (1−αf)(β dt² ∂f_nl/∂q + γ dt ∂f_nl/∂q̇)‖ (see
-:meth:`Newmark.contraction_ratio`), tiny at dt = 1e-3 for structural ROMs. The paper's fixed-point
-iteration (``solver="fixed_point"``) uses S = (1−αm) M_T and moves the linear terms to the right
-side; it converges only when dt is small against the stiffest mode. Per step and case the error
-left after the last iteration is estimated from the last two corrections (Aitken:
-|Δa_K|²/(|Δa_{K−1}| − |Δa_K|) = |Δa_K| r/(1−r), r capped at 0.99); every case keeps the largest
-estimate and its largest |a|∞ on the device, and once per check interval the host reads their
-ratio and marks cases above ``tol`` as ``unconverged``. (A correction measured on the displacement
-would be meaningless: q changes by only β dt² Δa.) The first check interval uses
-``startup_iterations``: an initial state off the slow manifold of stiff modes starts a fast
-transient the extrapolated predictor cannot follow.
-
-**Refreshed iteration matrix (Newton).** A large LCO (the Goland wing beyond ~10 % of span) makes
-the nonlinear tangent comparable with the linear stiffness: S⁻¹ is then a poor Jacobian and the
-iteration above contracts slowly or not at all. Every ``refresh_every`` steps the force kernel
-also returns the tangent stiffness and the nonlinear damping matrix at the predicted state and
-the iteration matrix becomes (S + (1−αf)(β dt² s K_nl + γ_N dt g D_nl))⁻¹ (s, g the per-case
-stiffness and damping scales; kept until the next refresh): with ``refresh_every=1`` each
-correction is a Newton step (without the O(β dt |q̇|/|q|) term ∂(D(q) q̇)/∂q), and one or two
-corrections from the quadratic predictor
-reach the converged solution's LCO amplitude to ≤ 5e-6 on the paper's Goland cases. With a
-single correction per step the Aitken estimate needs two corrections: every ``sample_every``-th
-step iterates twice and its measured contraction ratio r turns the single correction of the
-other steps into the estimate |Δa| r/(1−r) (an upper bound that overstates the effect on the
-amplitude by one to three orders of magnitude on the Goland cases).
-
-**Error-controlled steps** (``adaptive=True``). Every case takes its own step dt_c (the step
-coefficients become (1, B) rows of the per-case matrices; all cases still advance the same
-number of steps per check interval, so each reaches its own time). Per step the local
-displacement error of the Newmark family is estimated as e = (β − 1/6) dt² (a_{n+1} − a_n)
-(Zienkiewicz & Xie 1991, the difference between the corrector and a third-order Taylor
-predictor), read on the tracked outputs C e and kept as its interval maximum relative to the
-largest |C q|. At each check the step becomes dt · clip(0.9 (step_tol/err)^(1/3), ½, 2) within
-[dt_min, dt_max] (a change below 20 % is ignored: each rebuilds the per-case matrices), and a
-case whose nonlinear iteration missed ``tol`` halves its step instead of being flagged (until
-dt_min), no LCO being accepted on that interval. The peak tracker and histories use each case's
-own times.
-
-**Amplitude jumps** (``extrapolate=K``). Near the flutter boundary an LCO attracts slowly: the
-amplitude of a case approaches its limit geometrically, A_j = A* + c r^j with r close to 1,
-over tens of cycles. When the last three per-cycle changes of the decision output's amplitude
-have one sign and two consistent ratios (r ∈ (0.2, 0.98), agreeing within 15 %) and the
-extrapolated remainder δ0 r/(1−r) exceeds 10 rtol·A0, the case's state is scaled toward the
-limit — the linear coordinates, velocities, accelerations and lag states by λ = A*/A0, the
-dual coordinates (``mode_kinds`` "dual", quadratic in the linear ones on the static manifold)
-by λ², λ ∈ [½, 2] — and its extrema are forgotten, at most K times per case. This only changes
-the path: an LCO is still accepted only after ``cycles`` cycles that meet the LCO criteria.
-
-**CUDA graphs.** On a CUDA device the steps of a check interval are captured once as a CUDA graph
-(state tensors updated in place) and replayed, which removes the per-kernel launch cost that
-dominates small batches; ``cuda_graphs=True`` on a CPU runs the captured code eagerly.
-
-**No host synchronisation per step**; outputs y = C q, ẏ = C q̇ are written into a device buffer
-and scanned for extrema once per check interval (:mod:`.lco`). Finished cases leave the batch
-(every per-case tensor is compacted). No operation mixes cases (GEMMs with shared coefficients,
-per-case matrix-vector products, elementwise work), so a diverging or NaN case never changes its
-neighbours.
+Written here (torch only): B cases of a :class:`~torchrom.sim.system.CaseSystem` advance in
+lockstep; per step and case the unknown is the new acceleration a_{n+1} (no float32 cancellation
+in (q_{n+1} − q̂)/(β dt²)). The RFA lag states are affine in v_{n+1} under the scheme
+(:mod:`.schemes`) and are condensed into the iteration matrix, so they never enter the nonlinear
+iteration. With S = (1−αm) M_T + (1−αf)(γ dt C_eff + β dt² K_T) inverted once per case,
+modified Newton iterates a ← S⁻¹ [b − (1−αf) f_nl(q̂ + β dt² a, v̂ + γ dt a)]; every
+``refresh_every`` steps S is refreshed with the nonlinear tangents (Newton), which large LCOs
+need. The error left after the last correction is estimated by Aitken's formula from the last
+two corrections, and cases above ``tol`` are marked ``unconverged``. Options: per-case
+error-controlled steps (``adaptive``, Zienkiewicz & Xie 1991 local error
+(β − 1/6) dt² (a_{n+1} − a_n)), amplitude jumps toward a slowly approached LCO (``extrapolate``),
+CUDA graphs per check interval. No host synchronisation per step, and no operation mixes cases:
+a NaN or diverging case never changes its neighbours.
 """
 
 from __future__ import annotations

@@ -1,69 +1,14 @@
-"""Sweep configurations in TOML (hand-written validation; parsing by tomllib / tomli).
+"""Sweep configurations in TOML (validation written here; parsing by tomllib / tomli).
 
-A sweep configuration has these tables (every key is checked; a bad one gives a one-line
-:class:`~torchrom.errors.InputError` naming the file, the table and the key). Everything is
-checked when the file is read, before any output is written: the keys of each table
-(:data:`TABLE_KEYS`) and their values (:data:`VALUE_CHECKS`, the Newmark and LCO options'
-own checks, dt ≤ t_end and at most :data:`torchrom.sim.newmark.MAX_STEPS` steps, finite case
-values), and the ``[initial]`` state and ``[lco]`` outputs against the model. A new key is one
-entry in each table:
-
-``title``        a string shown in figures.
-``method``       ``"newmark"`` (default: batched time marching, :class:`torchrom.sim.Newmark`)
-                 or ``"hb"`` (periodic orbits by harmonic balance,
-                 :class:`torchrom.periodic.HarmonicBalanceMethod`); both write the same table.
-``[model]``      ``rom = "path/to/rom.npz"`` (relative to the configuration file), with
-                 ``aero = "aero.npz"`` (GAFs + RFA on the ROM's first modes) for an aeroelastic
-                 sweep and optionally ``span`` (reference length of amplitudes in % of span);
-                 or ``builtin = "goland"``: the built-in Goland pipeline (FE model, identified
-                 9L12D ROM, aerodynamics; a :class:`~torchrom.study.models.ModelProvider` found
-                 through the ``torchrom.models`` entry points; GolandPipeline keys,
-                 files cached in ``cache``, default ``goland`` under the cache root:
-                 ``--cache-dir``, ``$TORCHROM_CACHE`` or ``~/.cache/torchrom``); or
-                 ``builtin = "van_der_pol_duffing"`` /
-                 ``"touze_two_mode"`` with that function's keyword arguments
-                 (:mod:`torchrom.rom.analytic`).
-``[aeroelastic]`` (models with aerodynamics) :class:`~torchrom.study.models.AeroelasticModel`
-                 options: ``baseline_alpha``, ``baseline_gamma`` (the damping whose flutter
-                 altitude ``alpha = "matched"`` keeps), ``reference_altitude_ft``,
-                 ``altitude_range_ft``.
-``[initial]``    ``q0``: a number (the displacement of basis function ``mode``, 1-based, default
-                 1) or a list of n numbers; ``v0``: a number or a list (default 0);
-                 ``start = "small" | "neighbour"`` (default "small"; "neighbour": warm starts
-                 along the parameter ``along``), ``static_manifold`` (default true: the dual
-                 coordinates of a start at their nonlinear static values); see
-                 :mod:`torchrom.study.starts`.
-``[integrator]`` ``dt``, ``t_end`` (s) and the options of :class:`torchrom.sim.Newmark`
-                 (scheme, rho_inf, solver, iterations, startup_iterations, tol, predictor,
-                 check_every, refresh_every, sample_every, compile, threads, cuda_graphs,
-                 adaptive, step_tol, dt_min, dt_max: error-controlled per-case steps;
-                 extrapolate: amplitude jumps toward a slowly approached LCO).
-``[hb]``         (method "hb") :class:`torchrom.periodic.HBOptions` keys (start_harmonics,
-                 harmonics, max_harmonics, amplitude_rtol, residual_tol, start_amplitude,
-                 amplitude_scale, max_stages, metric_points) and ``stability``,
-                 ``floquet_steps``, ``start`` ("neighbour" or "cold"), ``sensitivity``
-                 (dA/dγ by the implicit-function theorem), ``seed`` ("unconverged",
-                 default, "unresolved" or "off": which cases are re-solved from a short
-                 time integration at higher H, :mod:`torchrom.periodic.seed`).
-``[lco]``        ``outputs`` (ROM outputs or generalized coordinates "q1"…; the first decides)
-                 and the options of :class:`torchrom.sim.LCOCriteria` (rtol, cycles, decay_ratio,
-                 max_amplitude, ring).
-``[cases]``      the case grid (:mod:`torchrom.study.grid`); parameters ``alpha`` (1/s),
-                 ``gamma`` (s), ``stiffness_nl``, ``damping_nl`` (true/false or a scale) and
-                 ``q0`` (scales the initial displacement); aeroelastic sweeps add
-                 ``altitude_ft``, ``mach`` and ``alpha = "matched"`` (:mod:`.cases`).
-``[history]``    cases whose output time histories are kept: ``where`` (parameter values),
-                 ``every`` (steps); see :class:`~torchrom.study.cases.HistorySpec`.
-``[branch]``     ``torchrom branch`` options (:mod:`torchrom.study.branch`).
-``[plot]``       ``x`` (a case parameter; default the first swept one), ``y`` (a table column,
-                 default "amplitude"), ``hue`` (a case parameter, optional).
-``[run]``        ``batch_size`` (largest number of cases integrated together, default 512) and
-                 ``chunk_size`` (cases per chunk of work and per part file; default: about 8
-                 chunks, see :func:`torchrom.study.runner.plan_chunks`, or with method "hb"
-                 ``batch_size``, :func:`torchrom.study.sweep.sweep_chunk_size`).
-``[variants.NAME]`` tables that replace parts of the others when the configuration is loaded as
-                 variant NAME (e.g. ``[variants.quick.cases]`` with a coarser grid); tables are
-                 merged key by key, other values replaced.
+Tables ``[model]``, ``[aeroelastic]``, ``[initial]``, ``[integrator]``, ``[hb]``, ``[lco]``,
+``[cases]``, ``[history]``, ``[branch]``, ``[plot]``, ``[run]``, ``[variants.NAME]`` and the
+keys ``title`` and ``method`` ("newmark" or "hb"); the keys each table accepts are
+:data:`TABLE_KEYS` (the user guide's table is generated from them). Everything is checked when the
+file is read, before any output is written — keys, values (:data:`VALUE_CHECKS`, the Newmark and
+LCO options' own checks, dt ≤ t_end, at most :data:`torchrom.sim.newmark.MAX_STEPS` steps), the
+initial state and outputs against the model — and a bad one is a one-line
+:class:`~torchrom.errors.InputError` naming the file, the table and the key. Paths are relative
+to the configuration file; units: dt, t_end and γ in s, α in 1/s, altitudes in ft.
 """
 
 from __future__ import annotations

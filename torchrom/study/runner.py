@@ -11,15 +11,15 @@ sent to a worker and the unit of storage. The split depends only on the number o
 run and a resumed run integrate the same batches and give bit-identical numbers. By default
 a sweep gets about :data:`TARGET_CHUNKS` chunks of at least :data:`MIN_CHUNK` cases and at most
 ``batch_size``: the batched integrator's cost per case falls steeply up to batches of ~64 and
-slowly after that (sim benchmark, 21 modes, 13 lags: 542, 35 and 29 µs per case-step at B = 1,
-64 and 512), while several chunks keep a few workers busy and keep the work lost to an interrupt
-small. Large clusters want more chunks: set ``[run] chunk_size`` or ``--chunk-size``.
+slowly after that (``benchmarks/bench_integrator.py``), while several chunks keep a few workers
+busy and keep the work lost to an interrupt small. Large clusters want more chunks: set
+``[run] chunk_size`` or ``--chunk-size``.
 
 **Executors** (:func:`open_executor`). In-process by default (a plain loop, Dask is not even
 imported; progress is reported within a chunk); ``workers=N`` starts a LocalCluster of N
 single-threaded worker processes (torch intra-op threads = 1 in each: on a CPU one process per
 core beats one process with threads; without Dask's default ``MALLOC_TRIM_THRESHOLD_``, which
-made a chunk run 2x slower in a worker than in-process); ``scheduler=ADDR`` uses an existing
+made a chunk run slower in a worker than in-process); ``scheduler=ADDR`` uses an existing
 cluster. The task is submitted once as a computed future (not scattered data), so a worker
 that dies is replaced by its nanny and everything it held — the task and the chunk it was
 integrating — is recomputed elsewhere by the scheduler; a finished chunk's future is released

@@ -1,62 +1,19 @@
-"""Initial states of a sweep's cases: the start kinds of ``[initial] start`` (hand-written).
+"""Initial states of a sweep's cases: the start kinds of ``[initial] start`` (written here).
 
-``small`` (the paper's start): the ``[initial]`` displacement pattern q0 (scaled by a case's
-``q0``), with the dual coordinates on the ROM's static manifold
-(:func:`torchrom.sim.initial.static_manifold`; ``static_manifold = false`` keeps them as given).
-Any case starts on its own, so every case of a chunk is integrated in one batch. A small start
-must first grow to the LCO: near the flutter boundary this takes most of the simulated time
-(tens of seconds on the Goland wing).
+- ``small`` (default, the paper's start): the ``[initial]`` pattern q0 with the dual coordinates
+  on the ROM's static manifold (:func:`torchrom.sim.initial.static_manifold`); every case on its
+  own, all in one batch, so a result depends on its own parameters only.
+- ``neighbour``: cases ordered along one parameter (``along``) into lines; each case starts from
+  the previous case's LCO state, scaled by λ ∈ [½, 2] toward the amplitude extrapolated from the
+  last two (linear coordinates by λ, dual by λ²); the lines run in waves.
+- ``hb``: every case starts on its harmonic-balance orbit (:func:`torchrom.periodic.solve_orbits`),
+  so the time integration only confirms it; small where there is no orbit.
 
-``neighbour`` (warm start along a sweep): the cases are ordered along one parameter (``along``,
-default the parameter with the most distinct values, e.g. the altitude) into *lines* of cases
-that share every other parameter; the first case of each line starts small, and every further
-case starts from the final state [q, q̇, ξ] of the previous case of its line when that case
-settled on an LCO (else small). The state is scaled toward the amplitude predicted by a linear
-extrapolation of the last two LCO amplitudes of the line (the linear coordinates, their
-velocities and the lag states by λ, the dual velocities by λ² — the dual coordinates follow the
-linear ones quadratically — and the dual coordinates put on the static manifold of the scaled
-linear ones unless ``static_manifold = false``, so that the neighbour's stiff-mode motion is
-not carried over; λ clipped to [½, 2]). The lines run in *waves* (the k-th case of every line
-together, one batched integration per wave), so a chunk takes as many batched runs as its
-longest line.
-
-``hb`` (start on the orbit): every case starts at τ = 0 of its periodic orbit found by harmonic
-balance (:func:`torchrom.periodic.solve_orbits` with the default
-:class:`~torchrom.periodic.HBOptions`, neighbour chains along the parameter with the most
-values, the phase and amplitude measured on the ROM's first named output), with the lag states
-of the orbit
-(:func:`torchrom.periodic.solve.orbit_state`); a case without an orbit (a decay, a failed
-solve) starts small. The time integration then only confirms the orbit — its amplitude after
-the LCO criteria are met is the integrator's own, not harmonic balance's (they differ by the
-truncation in H and the step's error). All cases in one batch. It pays where the LCO attracts
-quickly; near an undamped one it does not: the LCO criteria need several steady cycles, and the
-integrator's own orbit lies up to a few tenths of a percent from harmonic balance's and is
-approached slowly (Goland at γ = 0, 4,000 ft: dt = 0.25 ms from the H = 13 orbit meets rtol 1e-4
-only after 10 s, ``experiments/hb_orbit_time_marching.py``). On the quick Goland set
-(``benchmarks/bench_lco.py --methods newmark-hb``) it costs more than the 10 %-of-span
-static-manifold start of the ``newmark`` method, the harmonic balance solve included.
-
-A supercritical LCO is the same whatever the start (the attracting orbit; tested within the
-LCO tolerance). For a **subcritical** system the start decides which attractor a case reaches
-(the rest position or the LCO, on either side of the unstable orbit): ``neighbour`` then
-continues the LCO branch from where it exists (a hysteresis branch) while ``small`` finds the
-rest position wherever it is stable.
-
-**Default: ``small``.** With it a case's result depends on its own parameters only — not on
-which other cases share its chunk (a calibration batch, a resumed subset) — and a subcritical
-system gives the small-disturbance answer the bifurcation study (:mod:`.bifurcation`, which
-sweeps the start amplitude itself) relies on. For supercritical LCO sweeps the cheaper start is
-usually a *large* one — ``q0`` near the expected amplitude with ``static_manifold = true``, all
-cases in one batch (``benchmarks/bench_lco.py``, method ``newmark``). ``neighbour`` reaches the
-Goland LCOs in fewer simulated seconds than a small start, but its waves are batches of one case
-per line, where a step costs several times more per case: it pays with many lines (or on a
-device where small batches cost little). ``hb`` is not the default either: it costs more on the
-Goland set (above), and a case would start on whichever orbit harmonic balance finds — for a
-subcritical system possibly the unstable one, from which the integration leaves toward either
-attractor.
-
-A start kind is one function ``start(context) -> InitialState`` in :data:`START_KINDS` with a
-flag saying whether it continues from finished cases (runs in waves).
+A supercritical LCO does not depend on the start (tested); for a subcritical system the start
+decides the attractor, and ``neighbour`` follows the LCO branch (hysteresis) where ``small``
+finds the rest position. What each start costs is measured by ``benchmarks/bench_lco.py``. A
+start kind is one function ``start(context) -> InitialState`` in :data:`START_KINDS`, with a flag
+saying whether it continues from finished cases (runs in waves).
 """
 
 from __future__ import annotations

@@ -192,8 +192,7 @@ def sweep_chunk_size(cfg: SweepConfig) -> int | None:
     chunk where the cases fit); else None (:func:`~torchrom.study.runner.plan_chunks`' default
     of about 8 chunks). A harmonic-balance chunk costs nearly as much with few cases as with
     many — its time-integration seeds (:mod:`torchrom.periodic.seed`) are launch-bound at
-    these batch widths (on the paper's 59-case LCO sweep in two chunks, 7.7 s for each chunk's
-    seeds, 14 and 2 cases) — and a chunk boundary cuts the neighbour chains; a sweep for
+    these batch widths — and a chunk boundary cuts the neighbour chains; a sweep for
     several workers sets ``chunk_size``."""
     if cfg.chunk_size is not None or cfg.method != "hb":
         return cfg.chunk_size

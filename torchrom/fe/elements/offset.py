@@ -1,39 +1,14 @@
 """CQUAD4/CTRIA3 with ZOFFS: the shell's reference plane offset from the plane of its grids.
 
-MSC Nastran Quick Reference Guide (CQUAD4, CTRIA3, field ZOFFS): the element's
-reference plane lies at z0 = ZOFFS along the element normal (G1-G2-G3 right-hand rule, the
-normal of :func:`~torchrom.fe.elements.quad4.quad_frames` / ``tria_frames``) from the plane of
-the grids. Each grid is tied to its point of the reference plane by a rigid offset (small
-rotations), u_ref = u + θ × (z0 n) = u − [z0 n]× θ, θ_ref = θ, and the element's matrices, formed
-on the reference plane by the unchanged element modules, are transformed K = Tᵀ K_ref T.
-The membrane strain at the reference plane is then ε + z0 κ: the membrane–bending coupling
-B = z0 A and D + z0² A of plate theory (Reddy, *Mechanics of Laminated Composite Plates and
-Shells*, §3.3, for a laminate whose reference surface is moved by z0), with A integrated by the
-membrane's own rule (normal strains at 2×2 Gauss points, the in-plane shear at the centre for the
-quad; one point for the triangle), so the offset twisting stiffness z0² A66 of a quad is
-integrated at its centre. For the triangle the offset part z0² A acts on the constant gradient
-of the linearly interpolated grid rotations (the CST membrane), the plate's own D on DKT's
-curvatures; the two agree as the mesh converges (two plates at ZOFFS = ±t/2 vs one of 2t, tip
-deflection of a cantilever strip, ν = 0.3: 0.67 %, 0.36 %, 0.22 %, 0.11 % apart on 10×2, 20×4,
-40×8, 80×16 cells; ν = 0: 0.60 %, 0.15 %, 0.037 %, 0.009 %).
-
-Choices, stated because they change numbers:
-
-- **Linear only**: the offset is a small-rotation transformation, so an offset element enters
-  the model through its linear stiffness (membrane at u = 0, bending, drilling), and the
-  model refuses the nonlinear analyses (internal forces, tangents, nonlinear static/transient,
-  reduced-order models) of a deck with ZOFFS (:class:`~torchrom.fe.model.FEModel`); modes,
-  linear statics and flutter are unaffected.
-- **Drilling** stays at the grids: the drilling spring (θz − ω) is a numerical stabiliser, not
-  part of A, and moving it would add a spurious z0² drilling stiffness to the bending.
-- **Mass** (ρ t + NSM per area, lumped or consistent as without offset) sits on the reference
-  plane: M = Tᵀ M_ref T, which adds the rotary inertia m z0² about the in-plane axes and the
-  translation–rotation coupling of a mass at a distance z0 (the lumped mass is then no longer
-  diagonal, as for an offset CONM2). The plate's own rotary inertia about its mid-plane stays
-  neglected, as without offset.
-- Loads stay at the grids: a pressure acts along the normal, parallel to the offset, so moving
-  it to the reference plane would change nothing; a PLOAD4 with an in-plane direction (N1–N3)
-  would gain a moment z0 × F there, which is not added.
+MSC Nastran Quick Reference Guide (CQUAD4, CTRIA3, ZOFFS): the reference plane lies at z0 = ZOFFS
+along the element normal. Each grid is tied to its point of the reference plane by a rigid
+offset (small rotations), u_ref = u − [z0 n]× θ, and the element's matrices are transformed
+K = Tᵀ K_ref T: the membrane–bending coupling B = z0 A and D + z0² A of plate theory (Reddy,
+*Mechanics of Laminated Composite Plates and Shells*, §3.3), A integrated by the membrane's own
+rule. Choices: **linear only** (the model refuses nonlinear analyses of a deck with ZOFFS);
+the drilling spring stays at the grids (a stabiliser, not part of A); the mass sits on the
+reference plane (M = Tᵀ M_ref T, adding the rotary inertia m z0²); loads stay at the grids (a
+PLOAD4 with an in-plane direction gains no moment z0 × F).
 """
 
 from __future__ import annotations

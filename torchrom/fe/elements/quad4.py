@@ -1,47 +1,18 @@
 """CQUAD4/PSHELL: nonlinear membrane, linear MITC4 plate bending, drilling spring, mass, pressure.
 
-Written here (no library). Choices, documented here because they change numbers:
+Written here (no library). Choices that change numbers:
 
-- **Membrane**: bilinear isoparametric, full Green–Lagrange strain of the 3-D displacement field
-  (so in-plane stretching from out-of-plane deflection is included), St Venant–Kirchhoff plane
-  stress. Selective reduced integration: the normal strains at the 2×2 Gauss points, the shear
-  strain at the centre. This removes the parasitic shear that makes a fully integrated bilinear
-  quad too stiff in in-plane bending (the wing box's lead–lag mode) and has no spurious
-  zero-energy mode. Internal forces are exactly cubic in the displacements. What remains is
-  the bilinear field's Poisson stiffening in in-plane bending (it cannot represent the
-  transverse contraction −ν y): with ν = 0.3, −2.9 % tip deflection with two elements across
-  the depth, −1.1 % with four (tests/test_fe_solvers.py).
-- **Bending**: MITC4 (Bathe–Dvorkin 1985): bilinear rotations, curvatures at 2×2 Gauss points,
-  transverse shear interpolated from the covariant shear strains at the edge midpoints, so it
-  does not lock for thin plates. Bending is **linear** (small rotations); it is the only part
-  of the element that does not follow large rigid rotations. Shear modulus from PSHELL MID3 times
-  TS/T; where MID3 is blank (Nastran's thin-plate option) the MID2 shear modulus with 5/6 is
-  used, which for thin plates gives the same stiffness to within the plate's t/L.
-- **Residual bending flexibility** (R. H. MacNeal, "A simple quadrilateral shell element",
-  Comput. Struct. 8 (1978); "Derivation of element stiffness matrices by assumed strain
-  distributions", Nucl. Eng. Des. 70 (1982); *Finite Elements: Their Design and Performance*,
-  1994; the QUAD4 of MSC and NASTRAN-95): the bilinear rotations cannot bend with a curvature
-  that varies along its own direction, so under a constant shear (a linear moment) the element
-  misses that bending energy and is too stiff (the curved Dakota cylinder's circumferential-wave
-  modes: 2.1–2.6 % above MSC Nastran without it, within 0.26 % with it). The missing flexibility
-  ℓ²/(12 D) (exact for a beam: one-point-shear linear Timoshenko elements become exact) is added
-  to the shear flexibility of the **constant part** of the MITC4 shear only
-  (:func:`residual_bending_shear`); the linear part keeps κ G t. Derived and written here from
-  the references' description; the generalisation to non-rectangular quads (the centre
-  Jacobian's directions and lengths) is ours. It is part of the linear bending block, hence of
-  the linear stiffness and of the nonlinear model's tangent alike. Cost: where the shear comes
-  from a twist gradient (which the bilinear field does represent) it is too flexible; a
-  simply supported plate's centre deflection is +1.0 % at 8 × 8 (−0.5 % without), +0.5 % at
-  16 × 16 (tests/test_fe_solvers.py). CTRIA3 (DKT, shear-rigid) has no such term.
-- **Drilling**: a small linear penalty k Σ_n (θz_n − ω)², ω = ½(∂v/∂x − ∂u/∂y) at the centre and
-  k = ``drilling`` · G t A (default 1e-4), only on elements with bending, so that the rotation
-  about the normal is not singular; a rigid rotation gives no drilling force.
-- **Membrane only** (PSHELL MID2 blank): no bending and no drilling DOFs; the unconnected
-  rotations are removed by the automatic SPC of the model.
-- **Mass**: ρ t + NSM per unit area on the translations; consistent ∫ N_a N_b, or lumped by row
-  sums (a quarter to each node of a parallelogram). No rotary inertia (as Nastran's CQUAD4).
-- **Pressure**: consistent nodal forces ∫ p N_a n dA, 2×2 Gauss, n the element normal
-  (G1-G2-G3 right-hand rule, Nastran's convention).
+- **Membrane**: bilinear isoparametric, full Green–Lagrange strain (in-plane stretching from
+  out-of-plane deflection included), St Venant–Kirchhoff plane stress; normal strains at 2×2
+  Gauss points, shear at the centre (no parasitic shear in in-plane bending, no zero-energy
+  mode). Internal forces exactly cubic in the displacements.
+- **Bending**: MITC4 (Bathe–Dvorkin 1985), **linear** (small rotations); transverse shear from
+  PSHELL MID3 × TS/T, else MID2's with 5/6; plus MacNeal's residual bending flexibility ℓ²/(12 D)
+  on the constant part of the shear (Comput. Struct. 8, 1978; the QUAD4 of MSC Nastran;
+  :func:`residual_bending_shear`), without which curved shells are too stiff.
+- **Drilling**: a small penalty k Σ (θz_n − ω)², k = ``drilling`` · G t A, only with bending.
+- **Mass**: ρ t + NSM per unit area on the translations, consistent or lumped; no rotary inertia.
+- **Pressure**: consistent nodal forces ∫ p N_a n dA, n by the G1-G2-G3 right-hand rule.
 """
 
 from __future__ import annotations

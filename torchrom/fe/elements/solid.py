@@ -1,67 +1,19 @@
 """CHEXA (8 or 20 grids), CPENTA (6 or 15), CTETRA (4 or 10) with PSOLID: isoparametric solids,
 the 8- and 6-grid ones with condensed incompatible modes.
 
-One code path (shape functions + integration rule per number of grids) serves
-the trilinear hexahedron, the linear-triangle × linear-line wedge, the linear tetrahedron and
-the quadratic forms, with Nastran's grid order (MSC Nastran Quick Reference Guide, CHEXA,
-CPENTA, CTETRA): corners first, then the edge grids —
-
-- CTETRA 10: edges 1-2, 2-3, 3-1, 1-4, 2-4, 3-4; N = L_i (2 L_i − 1) at the corners,
-  4 L_i L_j on the edges (Zienkiewicz & Taylor Vol. 1, §6.5);
-- CHEXA 20: edges 1-2, 2-3, 3-4, 4-1, 1-5, 2-6, 3-7, 4-8, 5-6, 6-7, 7-8, 8-5; the serendipity
-  quadratic hexahedron, N = ⅛ (1 + ξξ_a)(1 + ηη_a)(1 + ζζ_a)(ξξ_a + ηη_a + ζζ_a − 2) at the
-  corners, ¼ (1 − ξ²)(1 + ηη_a)(1 + ζζ_a) on an edge along ξ (Zienkiewicz & Taylor Vol. 1,
-  §6.4.3);
-- CPENTA 15: edges 1-2, 2-3, 3-1 (face 1-2-3), 1-4, 2-5, 3-6, 4-5, 5-6, 6-4 (face 4-5-6); the
-  quadratic wedge (triangle L_i × line ζ ∈ [−1, 1]): ½ L_i (2L_i − 1)(1 ∓ ζ) − ½ L_i (1 − ζ²)
-  at the corners, 2 L_i L_j (1 ∓ ζ) on the triangle edges, L_i (1 − ζ²) on the edges 1-4, 2-5,
-  3-6 (Zienkiewicz & Taylor Vol. 1, §6.5.2).
-
-Isotropic linear elasticity (MAT1: E, ν; G taken from E and ν). Integration, full Gauss: hexa
-2×2×2 and 20-grid hexa 3×3×3 (exact for the parallelepiped's BᵀDB and mass); penta 3 × 2 and
-15-grid penta the 7-point degree-5 triangle rule × 3 Gauss points (exact for the right prism's
-BᵀDB, degree 4, and mass, degree 4 in each direction); tetra 1 point, quadratic tetra 4 points
-(exact for straight edges, where BᵀDB is quadratic). Nastran's PSOLID fields IN/ISOP select a
-reduced or the full rule for the quadratic hexa and penta; PSOLID is read for its material only
-and the full rules are always used here (the reduced 2×2×2 rule leaves a single 20-grid
-hexahedron with six spurious zero-energy modes besides the six rigid ones), so coarse-mesh
-answers can differ from a reduced-integration Nastran run by the integration error.
-**Linear** (small strains and rotations): a geometrically nonlinear analysis includes them
-through their linear stiffness only (the model warns,
-:class:`~torchrom.fe.model.LinearElementWarning`).
-
-Incompatible modes (default, :func:`solid_stiffness` ``incompatible="taylor"``). The fully
-integrated trilinear hexahedron locks in bending (its bending mode carries parasitic shear: in
-pure bending with ν = 0 it is 1 + ½ (a/h)² too stiff). The 8-grid CHEXA adds the three bubble
-functions (1 − ξ²), (1 − η²), (1 − ζ²) to each displacement component (9 internal DOFs), the
-incompatible-mode element of E. L. Wilson, R. L. Taylor, W. P. Doherty, J. Ghaboussi,
-"Incompatible displacement models" (Numerical and Computer Methods in Structural Mechanics,
-Academic Press, 1973), with the modification of R. L. Taylor, P. J. Beresford, E. L. Wilson,
-"A non-conforming element for stress analysis" (IJNME 10, 1976): the bubbles' derivatives are
-taken with the Jacobian at the element's centre and scaled by det J₀ / det J, ∂P/∂x =
-(det J₀ / det J) J₀⁻¹ ∂P/∂ξ, so that ∫ ∂P/∂x dV = det J₀ J₀⁻¹ ∫ ∂P/∂ξ dξ = 0 exactly under the
-2×2×2 rule: the bubbles do not couple to constant strain and the element passes the patch
-test on any shape (Wilson's plain J⁻¹ ∂P/∂ξ fails it on distorted elements;
-``incompatible="wilson"`` is kept to show that). The internal DOFs are condensed out per
-element (K = K_cc − K_ci K_ii⁻¹ K_ic); the mass is the compatible shape functions'. A
-rectangular element then reproduces pure bending exactly. The 6-grid CPENTA has one bubble,
-(1 − ζ²) along its axis, with the same centre-Jacobian form (centre r = s = ⅓, ζ = 0; the
-3 × 2 rule integrates ∂P/∂ζ = −2ζ exactly): a wedge bent along its axis is exact too, bent in
-the plane of its triangles it has no bubble (the linear triangle has no standard incompatible
-mode) and stays stiff. This element choice is ours, after the references above; whether MSC
-Nastran's CHEXA/CPENTA (known to add bubble functions) are exactly this element is not
-established, but it brings the MSC deck tests/decks/pynastran_solid_shell_bar to within +0.90,
-+0.15, +1.56 % (fully integrated: +1.45, +0.92, +2.37 %). A PSOLID ISOP = FULL on these
-elements is noted by the reader, not honoured (the bubbles are always added). The tetrahedra
-and the quadratic forms are unchanged (the quadratic forms bend well with one element through
-the thickness).
-
-Mass: consistent ∫ ρ N_a N_b dV, or lumped. The quadratic forms' row sums are negative at the
-corners (−ρV/20 for the tetrahedron), so they are lumped by scaling the consistent diagonal to
-the element mass (Hinton–Rock–Zienkiewicz, which is how Nastran forms its diagonal mass:
-"scaling the diagonal terms of the coupled mass matrix for the correct element mass", PARAM
-COUPMASS); the linear forms by row sums. CHEXA/CPENTA with only some of their edge grids are
-refused by the reader.
+One code path (shape functions + integration rule per number of grids), Nastran's grid order
+(corners, then edge grids; MSC Quick Reference Guide), shape functions after Zienkiewicz & Taylor
+Vol. 1, §§6.4–6.5. Isotropic linear elasticity (MAT1), **linear** (a nonlinear analysis includes
+them through their linear stiffness and warns). Full Gauss integration always (hexa 2×2×2 or
+3×3×3, penta 3 × 2 or 7 × 3, tetra 1 or 4 points): PSOLID IN/ISOP are not honoured, because the
+reduced 20-grid rule leaves spurious zero-energy modes. The 8-grid CHEXA adds the bubbles
+(1 − ξ²), (1 − η²), (1 − ζ²) (Wilson, Taylor, Doherty & Ghaboussi 1973) with the centre-Jacobian
+form of Taylor, Beresford & Wilson (IJNME 10, 1976), which passes the patch test on any shape
+(``incompatible="wilson"`` keeps the plain form for comparison); the 6-grid CPENTA one bubble
+(1 − ζ²). The internal DOFs are condensed per element, so a rectangular hexahedron bends exactly.
+Mass: consistent, or lumped (row sums; the quadratic forms by scaling the consistent diagonal to
+the element mass, Hinton–Rock–Zienkiewicz, as Nastran's COUPMASS does). Solids with only some of
+their edge grids are refused by the reader.
 """
 
 from __future__ import annotations
