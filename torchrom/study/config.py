@@ -23,6 +23,7 @@ from typing import Any
 from ..errors import InputError
 from ..io import read_toml
 from ..periodic import HarmonicBalanceMethod, HBOptions
+from ..periodic.certify import Certificate
 from ..rom import NonlinearROM
 from ..rom.analytic import BUILTIN
 from ..sim import LCOCriteria, Newmark
@@ -37,7 +38,7 @@ from .models import AeroelasticModel, model_provider, model_rom, provider_names
 from .starts import check_start
 
 SECTIONS = ("title", "method", "model", "aeroelastic", "initial", "integrator", "hb", "lco",
-            "cases", "history", "plot", "run", "branch", "variants")
+            "certificate", "cases", "history", "plot", "run", "branch", "variants")
 #: sweep methods: time marching or harmonic balance
 METHODS = ("newmark", "hb")
 _HB_OPTION_KEYS = ("start_harmonics", "harmonics", "max_harmonics", "amplitude_rtol",
@@ -123,6 +124,7 @@ class SweepConfig:
     history: HistorySpec | None = None
     method: str = "newmark"
     hb: HarmonicBalanceMethod = field(default_factory=HarmonicBalanceMethod)
+    certificate: Certificate = field(default_factory=Certificate)
 
     @property
     def solver(self):
@@ -313,6 +315,7 @@ def load_sweep_config(path, variant: str | None = None) -> SweepConfig:
     t_end = _positive(integ, "t_end", source, "[integrator]",
                       math.inf if method == "hb" else None)
     hb = hb_method(_table(raw, "hb", source), source)
+    certificate = certificate_of(_table(raw, "certificate", source), source)
     try:
         newmark = Newmark(dt=dt, **{k: integ[k] for k in _NEWMARK_KEYS if k in integ})
         if method == "newmark":
@@ -370,7 +373,7 @@ def load_sweep_config(path, variant: str | None = None) -> SweepConfig:
                       integrator=newmark, t_end=t_end, lco=lco, outputs=outputs, cases=cases,
                       plot=plot, batch_size=batch, chunk_size=run_t.get("chunk_size"), raw=raw,
                       aeroelastic=aero_t,
-                      history=history, method=method, hb=hb)
+                      history=history, method=method, hb=hb, certificate=certificate)
     if model.get("builtin") in provider_names():
         _check_provided(model, source)  # checked now; built (or reused) when the sweep runs
     else:
@@ -389,6 +392,16 @@ def hb_method(table: dict[str, Any], source: Path, where: str = "[hb]") -> Harmo
         raise _err(source, where, str(exc)) from None
     except TypeError as exc:
         raise _err(source, where, f"bad value ({exc})") from None
+
+
+def certificate_of(table: dict[str, Any], source: Path, where: str = "[certificate]"
+                   ) -> Certificate:
+    """The LCO certificate of a ``[certificate]`` table (every key checked)."""
+    _check_keys(table, tuple(f.name for f in dataclasses.fields(Certificate)), source, where)
+    try:
+        return Certificate(**table)
+    except InputError as exc:
+        raise _err(source, where, str(exc)) from None
 
 
 def with_method(cfg: SweepConfig, method: str | None) -> SweepConfig:

@@ -19,8 +19,9 @@ import numpy as np
 import pandas as pd
 import torch
 
+from ..periodic.certify import certify
 from ..rom import NonlinearROM
-from ..sim import HistoryRequest
+from ..sim import HistoryRequest, output_matrix
 from .cases import case_system, history_table, neighbour_chains, orbit_table
 from .cases import initial_displacement as initial_displacement  # noqa: F401 - public name
 from .cases import initial_velocity as initial_velocity  # noqa: F401 - public name
@@ -109,6 +110,10 @@ class SweepTask:
                 return res
 
             res = march(system, rom, cases, cfg.initial, run)
+        # every LCO row carries its certificate, whatever the method (one shooting evaluation)
+        names, C = output_matrix(rom, cfg.outputs)
+        decision = C[cfg.lco.decision_outputs[0]]
+        res = certify(system, res, C, decision, cfg.certificate, cfg.integrator.dt)
         span = getattr(self.model, "span", None) or rom.metadata.get("span")
         rows = result_rows(cases, res, config_hash=cfg.hash, span=span, case_ids=case_ids,
                            extra=extra, precision=str(dtype).replace("torch.", ""))

@@ -1,0 +1,506 @@
+"""Periodic orbits of the discrete Newmark map by shooting, with the step's own monodromy.
+
+For the Newmark step (β, γ; the paper's average acceleration by default) of a
+:class:`~torchrom.sim.CaseSystem` at h = T/N, an LCO of the simulator is a fixed point of the
+N-step map x0 ↦ Φ_N(x0; T) on the state x = (q, q̇, ξ) — the acceleration follows from the
+equations of motion (Eq. 54 with the aerodynamic additions of Eqs. 49–50), the lag states are
+stepped by the same rule as in :mod:`torchrom.sim.newmark`. Newton solves, per case,
+
+    Φ_N(x0; T) − x0 = 0,      c · q̇0 = 0        (c: the decision output; y(0) at its maximum)
+
+for (x0, T). Its Jacobian is [[∂Φ_N/∂x0 − I, ∂Φ_N/∂T], [0, c, 0 | 0]]: the monodromy ∂Φ_N/∂x0
+is propagated through every step's linearisation, which reuses the LU factors of the step's
+own Newton matrix J = M_t + γh (C + D W + C_n) + βh² (K + K_n) (the factorisation the step
+needs anyway), and ∂Φ_N/∂T is the step-size sensitivity carried as one more column (h = T/N).
+Corrections are limited to a fraction of the orbit's size per state component (the stiff dual
+coordinates), and cases leave the batch as they converge.
+
+The eigenvalues of the converged monodromy are the Floquet multipliers of the discrete orbit
+(the stability of record). The trivial multiplier is the one whose eigenvector is most nearly
+parallel to the flow ẋ(0) = (q̇, q̈, ξ̇) in the orbit-scaled metric (not merely the one
+closest to 1: near a fold another approaches 1); its distance from 1 (O(h²) for the discrete
+map) is reported and must be small for a verdict.
+
+Written here: no library integrates this model's discrete map with its monodromy in torch.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+import torch
+
+from ..checks import integer, real
+from ..errors import InputError
+from ..sim.schemes import SchemeParameters
+from ..sim.system import CaseSystem
+from .balance import HarmonicBalance
+from .fourier import parabolic_extreme
+
+Tensor = torch.Tensor
+
+#: largest |μ_trivial − 1| for which a stability verdict is given
+TRIVIAL_TOL = 1e-2
+
+
+@dataclass(frozen=True)
+class ShootingOptions:
+    """Settings of :func:`shoot`.
+
+    Attributes:
+        dt: the target time step (s); each case takes N = round(T/dt) steps of h = T/N.
+        tol: convergence: the scaled Newton correction (each state component relative to its
+            largest magnitude on the orbit; T relative) below this.
+        max_iterations: Newton iterations per case (0: one evaluation, the certificate of
+            the start: its correction and the monodromy there).
+        max_step: largest scaled correction of one Newton step (larger ones are shortened).
+        step_iterations: Newton iterations of the implicit equation in each time step (with
+            the Jacobian refreshed at every one: from the extrapolated predictor three leave an
+            error far below the orbit tolerance).
+        scheme: 'newmark' with ``beta``, ``gamma`` (default the average acceleration rule).
+    """
+
+    dt: float = 1e-3
+    tol: float = 1e-9
+    max_iterations: int = 20
+    max_step: float = 0.3
+    step_iterations: int = 3
+    beta: float = 0.25
+    gamma: float = 0.5
+
+    def __post_init__(self):
+        real("shooting.dt", self.dt, positive=True)
+        real("shooting.tol", self.tol, positive=True)
+        real("shooting.max_step", self.max_step, positive=True)
+        integer("shooting.max_iterations", self.max_iterations, minimum=0)
+        integer("shooting.step_iterations", self.step_iterations, minimum=1)
+        if not (0 < self.beta <= 0.5 and 0.5 <= self.gamma <= 1.0):
+            raise InputError(f"shooting.beta, gamma: expected an implicit Newmark rule "
+                             f"(0 < β ≤ ½, ½ ≤ γ ≤ 1), got {self.beta}, {self.gamma}")
+
+    @classmethod
+    def of_scheme(cls, params: SchemeParameters, **kw) -> ShootingOptions:
+        """The options for a simulator's scheme (Newmark family only: the generalised-α
+        schemes carry force history the fixed-point state does not hold)."""
+        if not params.is_newmark:
+            raise InputError("shooting: expected a Newmark scheme (αm = αf = 0); HHT-α and "
+                             "generalised-α orbits are not supported")
+        return cls(beta=params.beta, gamma=params.gamma, **kw)
+
+
+@dataclass
+class OrbitStart:
+    """Initial guesses of B orbits: the state at t = 0 and the period."""
+
+    q: Tensor  # (B, n)
+    v: Tensor  # (B, n)
+    xi: Tensor  # (B, na)
+    period: Tensor  # (B,) s
+
+
+@dataclass
+class ShootingResult:
+    """B discrete periodic orbits and their certificates (NaN where not converged).
+
+    Attributes:
+        q, v, xi: the state at t = 0 (on the section through the start, see :func:`shoot`).
+        period: T (s); ``steps``: N, the steps per period (h = T/N).
+        converged: (B,) bool; ``iterations``: Newton iterations used.
+        first_correction: (B,) scaled size of the first Newton correction — how far the start
+            was from the discrete orbit (state components relative to their orbit maxima).
+        first_amplitude_correction: (B,) the first Newton correction of the decision output's
+            amplitude, relative and signed (the start's amplitude × (1 + this) is the discrete
+            orbit's, to first order); ``start_amplitude``: (B,) that start's amplitude (the
+            decision output over the first pass's N steps).
+        correction: (B,) the last scaled correction; ``amplitude_correction``: (B,) the last
+            relative amplitude correction (signed).
+        amplitude: (B, O) half peak-to-peak of each output over the orbit's N samples.
+        multipliers: (B, 2n + na) complex Floquet multipliers of the discrete map.
+        trivial_error: |μ_trivial − 1|; ``critical_multiplier``: the largest other |μ|;
+        stable: True / False, None where the trivial multiplier is not resolved.
+    """
+
+    q: Tensor
+    v: Tensor
+    xi: Tensor
+    period: Tensor
+    steps: np.ndarray
+    converged: np.ndarray
+    iterations: np.ndarray
+    first_correction: np.ndarray
+    first_amplitude_correction: np.ndarray
+    start_amplitude: np.ndarray
+    correction: np.ndarray
+    amplitude_correction: np.ndarray
+    amplitude: np.ndarray
+    multipliers: np.ndarray
+    trivial_error: np.ndarray
+    critical_multiplier: np.ndarray
+    stable: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=object))
+
+    @property
+    def frequency_hz(self) -> np.ndarray:
+        return 1.0 / self.period.cpu().numpy()
+
+    def start(self) -> OrbitStart:
+        return OrbitStart(self.q, self.v, self.xi, self.period)
+
+
+# ---------------------------------------------------------------------------------------------
+# the step and its linearisation
+# ---------------------------------------------------------------------------------------------
+class _Map:
+    """The N-step Newmark map of B cases with per-case steps h (B,), and its derivatives."""
+
+    def __init__(self, system: CaseSystem, options: ShootingOptions):
+        self.system = system
+        self.o = options
+        self.hb = HarmonicBalance(system, 1)  # the per-case linear matrices and force kernels
+        self.n, self.na, self.B = system.n, system.n_lag, system.batch_size
+        self.nonlinear = self.hb.has_stiffness or self.hb.has_damping
+
+    def forces(self, q: Tensor, v: Tensor, tangent: bool = True):
+        """f_nl, and with ``tangent`` the full tangents (K_t, C_t), linear parts included."""
+        hb = self.hb
+        if not self.nonlinear:
+            return (torch.zeros_like(q), hb.Kl, hb.C0) if tangent else torch.zeros_like(q)
+        if not tangent:
+            return hb.nonlinear_force(q[:, None], v[:, None])[:, 0]
+        f, Kn, Cn = hb.nonlinear_tangents(q[:, None], v[:, None])
+        return f[:, 0], hb.Kl + Kn[:, 0], hb.C0 + Cn[:, 0]
+
+    def acceleration(self, q, v, xi) -> tuple[Tensor, Tensor, Tensor]:
+        """a from the equations of motion, and the tangents (K_t, C_t) at (q, v)."""
+        hb, sys = self.hb, self.system
+        f, Kt, Ct = self.forces(q, v)
+        rhs = -(hb.C0 @ v[..., None])[..., 0] - (hb.Kl @ q[..., None])[..., 0] - f
+        if self.na:
+            rhs = rhs - (sys.lag_D @ xi[..., None])[..., 0]
+        if sys.load is not None:
+            rhs = rhs + sys.load
+        return torch.linalg.solve(hb.Mt, rhs), Kt, Ct
+
+    def propagate(self, x0: tuple[Tensor, Tensor, Tensor], period: Tensor, N: Tensor,
+                  rows: Tensor, tangent: bool) -> dict:
+        """Integrate N (B,) steps of h = T/N from x0 = (q, v, ξ); with ``tangent``, also the
+        monodromy (B, m, m) and ∂x_N/∂T (B, m), m = 2n + na. Returns the final state, the
+        output samples y (B, max N, O), the orbit scales (B, m) and the step residual."""
+        o, hb, sys = self.o, self.hb, self.system
+        n, na, B = self.n, self.na, self.B
+        dtype, dev = hb.Mt.dtype, hb.Mt.device
+        be, ga = o.beta, o.gamma
+        h = (period / N.to(dtype)).view(B, 1)
+        h3 = h.view(B, 1, 1)
+        q, v, xi = (t.clone() for t in x0)
+        a, Kt, Ct = self.acceleration(q, v, xi)
+        xid = ((sys.lag_E @ v[..., None] + sys.lag_R @ xi[..., None])[..., 0] if na
+               else xi)
+        if na:
+            eye = torch.eye(na, dtype=dtype, device=dev)
+            Pinv = torch.linalg.inv(eye - ga * h3 * sys.lag_R)
+            W = ga * h3 * Pinv @ sys.lag_E
+            Ceff = hb.C0 + sys.lag_D @ W
+        else:
+            Ceff = hb.C0
+        m = 2 * n + na
+        if tangent:
+            # columns: perturbations of (q0, v0, ξ0), then d/dT
+            cols = m + 1
+            I = torch.eye(m, cols, dtype=dtype, device=dev).expand(B, m, cols)
+            dq, dv, dxi = I[:, :n].clone(), I[:, n:2 * n].clone(), I[:, 2 * n:].clone()
+            rhs = Kt @ dq + Ct @ dv
+            if na:
+                rhs = rhs + sys.lag_D @ dxi
+            da = -torch.linalg.solve(hb.Mt, rhs)
+            dxid = sys.lag_E @ dv + sys.lag_R @ dxi if na else dxi
+            dh = torch.zeros(B, 1, cols, dtype=dtype, device=dev)
+            dh[:, 0, -1] = 1.0 / N.to(dtype)
+        Nmax = int(N.max())
+        O = rows.shape[0]
+        y = torch.empty(B, Nmax, O, dtype=dtype, device=dev)
+        if tangent:
+            yt = torch.empty(B, Nmax, cols, dtype=dtype, device=dev)  # ∂y_k/∂(x0, T), row 0
+        scale = torch.cat([q.abs(), v.abs(), xi.abs()], dim=1)
+        step_error = torch.zeros(B, dtype=dtype, device=dev)
+        load = sys.load
+        a_prev = a
+        for k in range(Nmax):
+            y[:, k] = q @ rows.T
+            if tangent:
+                yt[:, k] = (rows[0] @ dq)
+            live = (k < N).view(B, 1)
+            qh = q + h * v + h * h * (0.5 - be) * a
+            vh = v + h * (1.0 - ga) * a
+            a1 = 2.0 * a - a_prev  # linear extrapolation
+            if na:
+                xih = xi + h * (1.0 - ga) * xid
+                xi_base = (Pinv @ xih[..., None])[..., 0]
+            # modified Newton on the step's equation, the Jacobian from the predictor (within
+            # O(h²) of the solution, so the iterations contract by O(h²)); the monodromy needs
+            # the tangent at the solution itself (at the predictor's, the trivial multiplier
+            # of the Goland orbits moves by ~1e-2), taken after the last iteration
+            for it in range(o.step_iterations):
+                q1 = qh + be * h * h * a1
+                v1 = vh + ga * h * a1
+                if it == 0:
+                    f, Kt, Ct = self.forces(q1, v1)
+                    J = hb.Mt + ga * h3 * (Ceff + Ct - hb.C0) + be * h3 * h3 * Kt
+                    LU, piv = torch.linalg.lu_factor(J)
+                else:
+                    f = self.forces(q1, v1, tangent=False)
+                G = ((hb.Mt @ a1[..., None]) + Ceff @ v1[..., None]
+                     + hb.Kl @ q1[..., None])[..., 0] + f
+                if na:
+                    G = G + (sys.lag_D @ xi_base[..., None])[..., 0]
+                if load is not None:
+                    G = G - load
+                corr = torch.linalg.lu_solve(LU, piv, G[..., None])[..., 0]
+                a1 = a1 - corr
+            scale_a = a1.abs().amax(1).clamp_min(torch.finfo(dtype).tiny)
+            step_error = torch.maximum(step_error, corr.abs().amax(1) / scale_a)
+            q1 = qh + be * h * h * a1
+            v1 = vh + ga * h * a1
+            if tangent and self.nonlinear:
+                _, Kt, Ct = self.forces(q1, v1)
+                J = hb.Mt + ga * h3 * (Ceff + Ct - hb.C0) + be * h3 * h3 * Kt
+                LU, piv = torch.linalg.lu_factor(J)
+            if na:
+                xi1 = xi_base + (W @ v1[..., None])[..., 0]
+                xid1 = (sys.lag_E @ v1[..., None] + sys.lag_R @ xi1[..., None])[..., 0]
+            if tangent:
+                # linearised step (module docstring): J da1 = −[(C_eff + C_n) r_v + K_t r_q + D r_ξ]
+                rq = dq + h3 * dv + h3 * h3 * (0.5 - be) * da + dh * (
+                    v + 2.0 * h * (0.5 - be) * a + 2.0 * be * h * a1)[..., None]
+                rv = dv + h3 * (1.0 - ga) * da + dh * ((1.0 - ga) * a + ga * a1)[..., None]
+                rhs = Kt @ rq + (Ceff + Ct - hb.C0) @ rv
+                if na:
+                    dxih = dxi + h3 * (1.0 - ga) * dxid + dh * ((1.0 - ga) * xid
+                                                                 + ga * xid1)[..., None]
+                    rxi = Pinv @ dxih
+                    rhs = rhs + sys.lag_D @ rxi
+                da1 = -torch.linalg.lu_solve(LU, piv, rhs)
+                dq1 = rq + be * h3 * h3 * da1
+                dv1 = rv + ga * h3 * da1
+                live3 = live.view(B, 1, 1)
+                dq, dv = torch.where(live3, dq1, dq), torch.where(live3, dv1, dv)
+                da = torch.where(live3, da1, da)
+                if na:
+                    dxi1 = rxi + W @ dv1
+                    dxid1 = sys.lag_E @ dv1 + sys.lag_R @ dxi1
+                    dxi, dxid = torch.where(live3, dxi1, dxi), torch.where(live3, dxid1, dxid)
+            a_prev = torch.where(live, a, a_prev)
+            q, v, a = (torch.where(live, new, old) for new, old in ((q1, q), (v1, v), (a1, a)))
+            if na:
+                xi, xid = torch.where(live, xi1, xi), torch.where(live, xid1, xid)
+            scale = torch.maximum(scale, torch.cat([q.abs(), v.abs(), xi.abs()], dim=1))
+        out = {"q": q, "v": v, "xi": xi, "y": y, "scale": scale, "step_error": step_error}
+        if tangent:
+            full = torch.cat([dq, dv, dxi], dim=1)  # (B, m, m + 1)
+            out["monodromy"], out["dT"], out["yt"] = full[:, :, :m], full[:, :, m], yt
+        return out
+
+
+# ---------------------------------------------------------------------------------------------
+def amplitude_of_samples(y: Tensor, N: np.ndarray) -> np.ndarray:
+    """(B, O) half peak-to-peak of periodic samples y (B, ≥N, O), the first N[b] of case b,
+    extremes refined by a parabola through the best sample and its neighbours."""
+    out = np.full((y.shape[0], y.shape[2]), np.nan)
+    for steps in np.unique(N):
+        idx = np.flatnonzero(N == steps)
+        ys = y[torch.as_tensor(idx), : int(steps)]
+        amp = 0.5 * (parabolic_extreme(ys, 1.0)[1] - parabolic_extreme(ys, -1.0)[1])
+        out[idx] = amp.cpu().numpy()
+    return out
+
+
+def _scale_floor(scale: Tensor, n: int, na: int) -> Tensor:
+    """Orbit scales with a floor per group (q, q̇, ξ): a component that stays near zero on the
+    orbit is measured against its group's largest, not against its own rounding."""
+    parts = torch.split(scale, [n, n, na], dim=1)
+    floored = [p.clamp_min(1e-6 * p.amax(1, keepdim=True).clamp_min(1e-300)) if p.shape[1]
+               else p for p in parts]
+    return torch.cat(floored, dim=1)
+
+
+def multipliers(monodromy: Tensor, flow: Tensor, scale: Tensor, lag: int
+                ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """(μ (B, m), |μ_trivial − 1|, critical |μ|, stable) from monodromy matrices (B, m, m).
+
+    The trivial multiplier is the one whose eigenvector's displacements are most nearly
+    parallel to the velocity q̇(0), scaled by the orbit (B, m; ``lag``: na); stable is None
+    where it is farther than :data:`TRIVIAL_TOL` from 1."""
+    Ms = monodromy / scale[:, :, None] * scale[:, None, :]
+    mu, vec = torch.linalg.eig(Ms)
+    # compared on the displacements, whose flow (the velocity) is smooth: the accelerations of
+    # a start off the discrete orbit carry its stiff coordinates' fast transient
+    n = (flow.shape[1] - lag) // 2
+    f = (flow[:, :n] / scale[:, n:2 * n]).to(vec.dtype)
+    f = f / f.norm(dim=1, keepdim=True).clamp_min(1e-300)
+    vq = vec[:, :n] * (scale[:, :n] / scale[:, n:2 * n])[:, :, None].to(vec.dtype)
+    vn = vq / vq.norm(dim=1, keepdim=True).clamp_min(1e-300)
+    align = (vn.conj() * f[:, :, None]).sum(1).abs()  # (B, m)
+    triv = align.argmax(1)
+    B = mu.shape[0]
+    mu_np = mu.cpu().numpy()
+    t = triv.cpu().numpy()
+    trivial_error = np.abs(mu_np[np.arange(B), t] - 1.0)
+    others = np.abs(mu_np).copy()
+    others[np.arange(B), t] = -np.inf
+    critical = others.max(1) if mu_np.shape[1] > 1 else np.zeros(B)
+    stable = np.array([None if not (e <= TRIVIAL_TOL) or not np.isfinite(c) else bool(c < 1.0)
+                       for e, c in zip(trivial_error, critical)], dtype=object)
+    return mu_np, trivial_error, critical, stable
+
+
+def flow(system: CaseSystem, q: Tensor, v: Tensor, xi: Tensor) -> Tensor:
+    """ẋ = (q̇, q̈, ξ̇) (B, 2n + na) of the B cases at the states (q, q̇, ξ)."""
+    a, _, _ = _Map(system, ShootingOptions()).acceleration(q, v, xi)
+    xid = ((system.lag_E @ v[..., None] + system.lag_R @ xi[..., None])[..., 0]
+           if system.n_lag else xi)
+    return torch.cat([v, a, xid], 1)
+
+
+def shoot(system: CaseSystem, start: OrbitStart, decision_row, rows=None,
+          options: ShootingOptions | None = None) -> ShootingResult:
+    """The discrete periodic orbits near ``start`` of the B cases of ``system`` (module
+    docstring); ``decision_row`` (n,): the output whose amplitude certifies the orbit;
+    ``rows`` (O, n): the outputs whose amplitudes are reported (default the decision row).
+
+    Phase condition: x0 stays on a section through the start transversal to the flow (see
+    the code), so any point of an orbit is a valid start."""
+    o = options or ShootingOptions()
+    sys64 = system.to(dtype=torch.float64)
+    dev = sys64.device
+    f64 = {"dtype": torch.float64, "device": dev}
+    c = torch.as_tensor(np.asarray(decision_row, dtype=float), **f64).reshape(-1)
+    R = c[None] if rows is None else torch.as_tensor(np.asarray(rows, dtype=float), **f64)
+    n, na, B = sys64.n, sys64.n_lag, sys64.batch_size
+    m = 2 * n + na
+    x = torch.cat([start.q.to(**f64).reshape(B, n), start.v.to(**f64).reshape(B, n),
+                   start.xi.to(**f64).reshape(B, na)], 1).clone()
+    T = start.period.to(**f64).reshape(B).clone()
+    ok = torch.isfinite(T) & (T > 0) & torch.isfinite(x).all(1)
+    N = torch.where(ok, torch.round(T / o.dt), torch.ones_like(T)).clamp_min(8).long()
+    x_ref = x.clone()
+    section = torch.zeros(B, m, **f64)  # the phase condition's row, set on the first pass
+    scale = torch.ones(B, m, **f64)
+    converged = np.zeros(B, dtype=bool)
+    failed = ~ok.cpu().numpy()
+    iterations = np.zeros(B, dtype=np.int64)
+    nan = np.full(B, np.nan)
+    first, first_amp, last = nan.copy(), nan.copy(), nan.copy()
+    start_amp, last_amp = nan.copy(), nan.copy()
+    amp = np.full((B, R.shape[0]), np.nan)
+    mu = np.full((B, m), np.nan + 0j)
+    triv, crit = nan.copy(), nan.copy()
+    stable = np.full(B, None, dtype=object)
+    for it in range(o.max_iterations + 1):
+        active = np.flatnonzero(~converged & ~failed)
+        if active.size == 0:
+            break
+        idx = torch.as_tensor(active, device=dev)
+        sub = sys64.select(idx)
+        x0, Ts, Ns = x[idx], T[idx], N[idx]
+        out = _Map(sub, o).propagate((x0[:, :n], x0[:, n:2 * n], x0[:, 2 * n:]), Ts, Ns,
+                                     torch.cat([c[None], R]), tangent=True)
+        if it == 0:
+            scale[idx] = _scale_floor(out["scale"], n, na)
+            # the section through the start whose normal, in the plane of the decision output
+            # (y, ẏ/ω), is the flow there: ẏ (y − y_ref) + (ÿ/ω²)(ẏ − ẏ_ref) = 0 (ẏ = 0 when
+            # the start is at a peak); the output, not the whole state, because a start's
+            # stiff coordinates carry a fast transient that the orbit does not have
+            fl = flow(sub, x0[:, :n], x0[:, n:2 * n], x0[:, 2 * n:])
+            w2 = (2 * math.pi / Ts) ** 2
+            section[idx, :n] = (x0[:, n:2 * n] @ c)[:, None] * c
+            section[idx, n:2 * n] = ((fl[:, n:2 * n] @ c) / w2)[:, None] * c
+        sc, p = scale[idx], section[idx]
+        res = torch.cat([out["q"], out["v"], out["xi"]], 1) - x0
+        Bm = len(active)
+        A = torch.zeros(Bm, m + 1, m + 1, **f64)
+        A[:, :m, :m] = out["monodromy"] - torch.eye(m, **f64)
+        A[:, :m, m] = out["dT"]
+        A[:, m, :m] = p
+        rhs = torch.cat([-res, -((x0 - x_ref[idx]) * p).sum(1, keepdim=True)], 1)
+        # scaled unknowns Δx/scale, ΔT/T; equations scaled alike (the phase row by |p|·scale)
+        colscale = torch.cat([sc, Ts[:, None]], 1)
+        rowscale = torch.cat([sc, (p.abs() * sc).sum(1, keepdim=True).clamp_min(1e-300)], 1)
+        As = A * colscale[:, None, :] / rowscale[:, :, None]
+        dz, info = torch.linalg.solve_ex(As, (rhs / rowscale)[..., None])
+        dz = dz[..., 0]
+        good = ((info == 0) & torch.isfinite(dz).all(1) & torch.isfinite(res).all(1)).cpu().numpy()
+        size = dz.abs().amax(1)
+        size_np = size.cpu().numpy()
+        steps_np = Ns.cpu().numpy()
+        y_dec = out["y"][:, :, :1]
+        a_now = amplitude_of_samples(y_dec, steps_np)[:, 0]
+        # first-order samples of the corrected orbit: y_k + ∂y_k/∂(x0, T) Δz
+        dy = out["yt"] @ (dz * colscale)[..., None]
+        a_new = amplitude_of_samples(y_dec + dy, steps_np)[:, 0]
+        if it == 0:
+            first[active] = size_np
+            first_amp[active] = a_new / a_now - 1.0
+            start_amp[active] = a_now
+        last[active] = size_np
+        last_amp[active] = a_new / a_now - 1.0
+        amp[active] = amplitude_of_samples(out["y"][:, :, 1:], steps_np)
+        done = (size_np <= o.tol) & good
+        final = done | (good & (it == o.max_iterations))
+        if final.any():
+            # the stability of the converged orbit (or, on the last pass, of the orbit nearest
+            # the start that was reached: the certificate's monodromy)
+            d = np.flatnonzero(final)
+            td = torch.as_tensor(d, device=dev)
+            sd = sub.select(td)
+            fl = flow(sd, x0[td, :n], x0[td, n:2 * n], x0[td, 2 * n:])
+            mus, te, cm, st = multipliers(out["monodromy"][td], fl, sc[td], na)
+            gi = active[d]
+            mu[gi], triv[gi], crit[gi], stable[gi] = mus, te, cm, st
+            converged[active[done]] = True
+        failed[active[~good]] = True
+        step = ~done & good
+        if it == o.max_iterations or not step.any():
+            continue
+        # limit the step to max_step of the orbit's size in every scaled component
+        factor = (o.max_step / size.clamp_min(1e-300)).clamp(max=1.0)
+        dzs = dz * factor[:, None]
+        sel = torch.as_tensor(np.flatnonzero(step), device=dev)
+        gsel = idx[sel]
+        x[gsel] = x[gsel] + dzs[sel, :m] * sc[sel]
+        T[gsel] = T[gsel] * (1.0 + dzs[sel, m])
+        iterations[active[step]] += 1
+    amp[~converged] = np.nan
+    return ShootingResult(q=x[:, :n], v=x[:, n:2 * n], xi=x[:, 2 * n:], period=T,
+                          steps=N.cpu().numpy(), converged=converged, iterations=iterations,
+                          first_correction=first, first_amplitude_correction=first_amp,
+                          start_amplitude=start_amp, correction=last,
+                          amplitude_correction=last_amp, amplitude=amp, multipliers=mu,
+                          trivial_error=triv,
+                          critical_multiplier=crit, stable=stable)
+
+
+def start_from_fourier(system: CaseSystem, X: Tensor, omega: Tensor, decision_row,
+                       n_points: int = 1024) -> OrbitStart:
+    """Shooting starts from Fourier orbits X (B, 2H+1, n), ω (B,): the state where the decision
+    output is largest (phase-shifted coefficients, lag states from their harmonics)."""
+    from .fourier import synthesis_matrix
+    from .solve import orbit_state
+
+    X = X.to(torch.float64)
+    omega = omega.to(torch.float64)
+    H = (X.shape[1] - 1) // 2
+    r = torch.as_tensor(np.asarray(decision_row, dtype=float), dtype=X.dtype).reshape(-1)
+    y = synthesis_matrix(H, n_points, X.device, X.dtype) @ (X @ r)[..., None]  # (B, P, 1)
+    pos, _ = parabolic_extreme(y, 1.0)
+    tau = 2 * math.pi * pos[:, 0] / n_points
+    k = torch.arange(1, H + 1, dtype=X.dtype)
+    ck, sk = torch.cos(k[None] * tau[:, None])[..., None], torch.sin(k[None] * tau[:, None])[
+        ..., None]
+    a, b = X[:, 1::2], X[:, 2::2]
+    Xs = X.clone()
+    Xs[:, 1::2] = a * ck + b * sk
+    Xs[:, 2::2] = b * ck - a * sk
+    q, v, xi = orbit_state(system.to(dtype=torch.float64), Xs, omega)
+    return OrbitStart(torch.as_tensor(q), torch.as_tensor(v), torch.as_tensor(xi),
+                      2 * math.pi / omega)
