@@ -93,16 +93,16 @@ def _starts(system: CaseSystem, result: SimulationResult, idx: np.ndarray, row
                       torch.as_tensor(1.0 / f, dtype=torch.float64))
 
 
-def certify(system: CaseSystem, result: SimulationResult, rows, decision_row,
+def certify(system: CaseSystem, result: SimulationResult, rows, decision: int,
             certificate: Certificate, dt: float) -> SimulationResult:
     """``result`` with the certificate's columns (:data:`COLUMNS`) and, where an orbit was
     finished by shooting or failed its certificate, the new amplitudes, frequencies and
-    statuses. ``rows`` (O, n): the result's output rows; ``decision_row`` (n,): the output
-    whose amplitude certifies (the LCO criteria's decision output); ``dt``: the run's step
-    (used unless the certificate names its own)."""
+    statuses. ``rows`` (O, n): the result's output rows; ``decision``: the index among them
+    of the output whose amplitude certifies (the LCO criteria's decision output); ``dt``: the
+    run's step (used unless the certificate names its own)."""
     B = result.batch_size
     C = np.asarray(rows, dtype=float).reshape(-1, system.n)
-    c = np.asarray(decision_row, dtype=float).reshape(system.n)
+    c = C[int(decision)]
     cols = {"certified": np.full(B, None, dtype=object), "orbit_error": np.full(B, np.nan),
             "dt_error": np.full(B, np.nan), "stable": np.full(B, None, dtype=object),
             "critical_multiplier": np.full(B, np.nan),
@@ -125,9 +125,11 @@ def certify(system: CaseSystem, result: SimulationResult, rows, decision_row,
     start = _starts(sub, result, idx, c)
     # one evaluation for every orbit (its certificate); Newton to the end only for the failures
     r = shoot(sub, start, c, rows=C, options=certificate.options(h, 0))
-    err = np.abs(r.first_amplitude_correction)
-    direct = err <= certificate.tol
+    # the discrete orbit's amplitude to second order in the start's distance, against the
+    # amplitude the method reported (a transient's last cycle is not the cycle that follows)
     a_h = r.start_amplitude * (1 + r.first_amplitude_correction)
+    err = np.abs(amp[idx, decision] / a_h - 1.0)
+    direct = err <= certificate.tol
     orbit_error = err.copy()
     finished = np.zeros(idx.size, dtype=bool)
     iterations = np.zeros(idx.size, dtype=np.int64)
@@ -147,7 +149,7 @@ def certify(system: CaseSystem, result: SimulationResult, rows, decision_row,
         finished[f[ok]] = True
         g, tg = f[ok], torch.as_tensor(np.flatnonzero(ok))
         orbit_error[g] = np.abs(rf.amplitude_correction[ok])
-        a_h[g] = rf.amplitude[ok, 0]
+        a_h[g] = rf.amplitude[ok, decision]
         iterations[f] = rf.iterations
         stable[g], critical[g], trivial[g] = rf.stable[ok], rf.critical_multiplier[ok], \
             rf.trivial_error[ok]

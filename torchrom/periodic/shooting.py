@@ -324,22 +324,20 @@ def _scale_floor(scale: Tensor, n: int, na: int) -> Tensor:
     return torch.cat(floored, dim=1)
 
 
-def multipliers(monodromy: Tensor, flow: Tensor, scale: Tensor, lag: int
+def multipliers(monodromy: Tensor, flow: Tensor, scale: Tensor, mask: Tensor
                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """(μ (B, m), |μ_trivial − 1|, critical |μ|, stable) from monodromy matrices (B, m, m).
 
-    The trivial multiplier is the one whose eigenvector's displacements are most nearly
-    parallel to the velocity q̇(0), scaled by the orbit (B, m; ``lag``: na); stable is None
-    where it is farther than :data:`TRIVIAL_TOL` from 1."""
+    The trivial multiplier is the one whose eigenvector is most nearly parallel to the flow
+    ẋ(0) (B, m), compared in the metric scaled by the orbit (B, m) on the state components
+    ``mask`` (m,) selects; stable is None where it is farther than :data:`TRIVIAL_TOL` from
+    1."""
     Ms = monodromy / scale[:, :, None] * scale[:, None, :]
     mu, vec = torch.linalg.eig(Ms)
-    # compared on the displacements, whose flow (the velocity) is smooth: the accelerations of
-    # a start off the discrete orbit carry its stiff coordinates' fast transient
-    n = (flow.shape[1] - lag) // 2
-    f = (flow[:, :n] / scale[:, n:2 * n]).to(vec.dtype)
+    f = (flow / scale)[:, mask].to(vec.dtype)
     f = f / f.norm(dim=1, keepdim=True).clamp_min(1e-300)
-    vq = vec[:, :n] * (scale[:, :n] / scale[:, n:2 * n])[:, :, None].to(vec.dtype)
-    vn = vq / vq.norm(dim=1, keepdim=True).clamp_min(1e-300)
+    vm = vec[:, mask]
+    vn = vm / vm.norm(dim=1, keepdim=True).clamp_min(1e-300)
     align = (vn.conj() * f[:, :, None]).sum(1).abs()  # (B, m)
     triv = align.argmax(1)
     B = mu.shape[0]
@@ -384,6 +382,13 @@ def shoot(system: CaseSystem, start: OrbitStart, decision_row, rows=None,
     ok = torch.isfinite(T) & (T > 0) & torch.isfinite(x).all(1)
     N = torch.where(ok, torch.round(T / o.dt), torch.ones_like(T)).clamp_min(8).long()
     x_ref = x.clone()
+    # the flow's components compared with the trivial eigenvector: all but the accelerations
+    # of the dual coordinates, which a start off the orbit (a truncated Fourier series, a
+    # transient) has far from the orbit's: their stiff restoring forces amplify the offset
+    compared = torch.ones(m, dtype=torch.bool, device=dev)
+    kinds = list(getattr(sys64.rom, "mode_kinds", None) or [])
+    compared[n:2 * n] = torch.as_tensor([k != "dual" for k in kinds] if len(kinds) == n
+                                        else [True] * n, device=dev)
     section = torch.zeros(B, m, **f64)  # the phase condition's row, set on the first pass
     scale = torch.ones(B, m, **f64)
     converged = np.zeros(B, dtype=bool)
@@ -454,7 +459,7 @@ def shoot(system: CaseSystem, start: OrbitStart, decision_row, rows=None,
             td = torch.as_tensor(d, device=dev)
             sd = sub.select(td)
             fl = flow(sd, x0[td, :n], x0[td, n:2 * n], x0[td, 2 * n:])
-            mus, te, cm, st = multipliers(out["monodromy"][td], fl, sc[td], na)
+            mus, te, cm, st = multipliers(out["monodromy"][td], fl, sc[td], compared)
             gi = active[d]
             mu[gi], triv[gi], crit[gi], stable[gi] = mus, te, cm, st
             converged[active[done]] = True

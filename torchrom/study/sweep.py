@@ -111,9 +111,9 @@ class SweepTask:
 
             res = march(system, rom, cases, cfg.initial, run)
         # every LCO row carries its certificate, whatever the method (one shooting evaluation)
-        names, C = output_matrix(rom, cfg.outputs)
-        decision = C[cfg.lco.decision_outputs[0]]
-        res = certify(system, res, C, decision, cfg.certificate, cfg.integrator.dt)
+        _, C = output_matrix(rom, cfg.outputs)
+        res = certify(system, res, C, cfg.lco.decision_outputs[0], cfg.certificate,
+                      cfg.integrator.dt)
         span = getattr(self.model, "span", None) or rom.metadata.get("span")
         rows = result_rows(cases, res, config_hash=cfg.hash, span=span, case_ids=case_ids,
                            extra=extra, precision=str(dtype).replace("torch.", ""))

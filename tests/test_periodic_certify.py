@@ -1,0 +1,108 @@
+"""LCO certificates (torchrom.periodic.certify): the error they state against the errors
+measured with independent orbits (converged shooting, harmonic balance at high H)."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import numpy as np
+import pytest
+import torch
+
+from torchrom.periodic import HarmonicBalanceMethod, HBOptions
+from torchrom.periodic.certify import UNCERTIFIED, Certificate, certify
+from torchrom.periodic.shooting import OrbitStart, ShootingOptions, shoot
+from torchrom.rom.analytic import van_der_pol_duffing
+from torchrom.sim import CaseSystem, LCOCriteria, Newmark
+
+ROM = van_der_pol_duffing(1.0, c1=-0.6, d3=1.0, k3=2.0)
+ROW = np.array([[1.0]])
+
+
+def _system(alphas=(0.0, 0.1, 0.8)):
+    return CaseSystem.build(ROM, len(alphas), alpha=list(alphas), gamma=1.0)
+
+
+def test_a_newmark_lco_is_certified_with_the_distance_to_the_discrete_orbit():
+    """A Newmark LCO accepted at rtol 1e-3 sits near, not on, the simulator's discrete orbit:
+    the certificate's orbit_error (one Newton correction) equals the distance to the
+    converged discrete orbit to within 10 % of it (Newton's error is quadratic in the
+    distance); the decaying case (α = 0.8 > 0.6) is not touched."""
+    system = _system()
+    dt = 5e-3
+    res = Newmark(dt=dt, iterations=3).run(system, [0.5], t_end=100.0, outputs=["sum"],
+                                          lco=LCOCriteria(rtol=1e-3, cycles=2))
+    assert list(res.status) == ["lco", "lco", "decay"]
+    out = certify(system, res, ROW, 0, Certificate(tol=1e-2), dt)
+    assert list(out.status) == ["lco", "lco", "decay"]
+    lco = slice(0, 2)
+    exact = shoot(system.select([0, 1]), OrbitStart(torch.as_tensor(res.q[lco]),
+                                                      torch.as_tensor(res.v[lco]),
+                                                      torch.zeros(2, 0),
+                                                      torch.as_tensor(1 / res.frequency_hz[lco])),
+                  ROW[0], options=ShootingOptions(dt=dt))
+    distance = np.abs(res.amplitude[lco, 0] / exact.amplitude[:, 0] - 1)
+    assert (distance > 1e-6).all()
+    assert np.allclose(out.extra["orbit_error"][lco], distance, rtol=0.1, atol=1e-7)
+    assert list(out.extra["certified"][lco]) == [True, True]
+    assert all(s is True for s in out.extra["stable"][lco])
+    assert np.isnan(out.extra["orbit_error"][2]) and out.extra["certified"][2] is None
+
+
+def test_an_orbit_off_by_two_percent_is_finished_or_flagged():
+    """An HB orbit scaled by 1.02: the certificate states ≈ 2 % (to 10 % of it); with
+    ``finish`` the row reports the discrete orbit (the converged shooting's amplitude), else
+    its status is lco_uncertified with its numbers kept."""
+    system = _system((0.0, 0.1))
+    res = HarmonicBalanceMethod(HBOptions(harmonics=9)).run(system, outputs=["sum"])
+    X, w = res.orbits
+    bad = dataclasses.replace(res, orbits=(X * 1.02, w), amplitude=res.amplitude * 1.02)
+    dt = float(1 / res.frequency_hz.max()) / 256
+    flagged = certify(system, bad, ROW, 0, Certificate(finish=False, richardson=False),
+                      dt)
+    assert list(flagged.status) == [UNCERTIFIED] * 2
+    assert np.allclose(flagged.extra["orbit_error"], 0.02 / 1.02, rtol=0.1)
+    assert np.array_equal(flagged.amplitude, bad.amplitude)
+    done = certify(system, bad, ROW, 0, Certificate(richardson=False), dt)
+    assert list(done.status) == ["lco", "lco"] and all(done.extra["finished"])
+    assert (done.extra["orbit_error"] < 1e-8).all()
+    assert np.allclose(done.amplitude[:, 0], res.amplitude[:, 0], rtol=2e-4)
+
+
+def test_the_certificate_bounds_the_error_against_the_continuous_orbit():
+    """At 512 steps per period the discrete orbit is measurably off the continuous one:
+    the reported amplitude's error against HB at H = 15 (converged in H to 1e-10 on this
+    oscillator) stays within orbit_error + dt_error, and dt_error is the Richardson estimate
+    of that error to within 10 % (Newmark is second order; the next term is O(h⁴), and the
+    amplitude read from 512 samples per period with a parabola through the peak is exact to
+    ≈ (2π/512)⁴/8 ≈ 3e-9)."""
+    system = _system((0.0, 0.1))
+    hb = HarmonicBalanceMethod(HBOptions(harmonics=15, max_harmonics=15)).run(
+        system, outputs=["sum"])
+    dt = float(1 / hb.frequency_hz.max()) / 512
+    res = Newmark(dt=dt, iterations=3).run(system, [0.5], t_end=100.0, outputs=["sum"],
+                                          lco=LCOCriteria(rtol=1e-4, cycles=2))
+    out = certify(system, res, ROW, 0, Certificate(), dt)
+    err = np.abs(out.amplitude[:, 0] / hb.amplitude[:, 0] - 1)
+    bound = out.extra["orbit_error"] + out.extra["dt_error"]
+    assert (err <= bound * 1.05).all() and (err > 1e-8).all()
+    exact = shoot(system, OrbitStart(torch.as_tensor(res.q), torch.as_tensor(res.v),
+                                     torch.zeros(2, 0), torch.as_tensor(1 / res.frequency_hz)),
+                  ROW[0], options=ShootingOptions(dt=dt))
+    dt_true = np.abs(exact.amplitude[:, 0] / hb.amplitude[:, 0] - 1)
+    assert np.allclose(out.extra["dt_error"], dt_true, rtol=0.1)
+
+
+def test_disabled_and_bad_settings():
+    system = _system((0.0,))
+    res = Newmark(dt=5e-3, iterations=3).run(system, [0.5], t_end=100.0, outputs=["sum"],
+                                             lco=LCOCriteria(rtol=1e-3, cycles=2))
+    out = certify(system, res, ROW, 0, Certificate(enabled=False), 5e-3)
+    assert list(out.status) == ["lco"] and math.isnan(out.extra["orbit_error"][0])
+    from torchrom.errors import InputError
+
+    with pytest.raises(InputError, match="certificate.tol"):
+        Certificate(tol=0.0)
+    with pytest.raises(InputError, match="certificate.finish"):
+        Certificate(finish="yes")
