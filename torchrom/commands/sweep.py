@@ -14,7 +14,10 @@ Cases run in chunks, in-process by default, on a local Dask cluster with ``--wor
 an existing one with ``--scheduler ADDR`` (:mod:`torchrom.study.runner`). Finished chunks are
 kept in ``DIR/parts`` as they complete, so an interrupted or crashed sweep is resumed by running
 the same command again (only the missing cases are computed). A folder holding results of a
-different configuration or model, or results it did not write, is refused unless ``--force``.
+different configuration or model, or results it did not write, or a table or figure edited since
+this sweep wrote it (``DIR/parts/outputs.json`` records their SHA-256), is refused unless
+``--force``. The folder is locked for the run: a second sweep on it exits with status 2, naming
+the first one's PID (:mod:`torchrom.locks`).
 """
 
 from __future__ import annotations

@@ -45,6 +45,14 @@ def source_fingerprint() -> str:
     return h.hexdigest()
 
 
+def _file_sha256(path: Path) -> str:
+    h = hashlib.sha256()
+    with open(path, "rb") as fh:
+        for block in iter(lambda: fh.read(1 << 20), b""):
+            h.update(block)
+    return h.hexdigest()
+
+
 class FileCache:
     """Intermediate files in ``folder`` keyed by the hash of their inputs.
 
@@ -72,10 +80,18 @@ class FileCache:
                             "source": source_fingerprint()})
 
     def get(self, name: str, key: str) -> Path | None:
-        """The cached file ``name`` if it exists and was made from ``key``."""
+        """The cached file ``name`` if it exists and was made from ``key``. A file whose
+        content is not what this cache wrote (its SHA-256 differs from the manifest's: edited
+        by hand) is an InputError, before any work: neither reused nor replaced without
+        ``force``."""
         path = self.folder / name
         entry = self.entries.get(name)
-        if self.force or entry is None or entry.get("key") != key or not path.exists():
+        if self.force or entry is None or not path.is_file():
+            return None
+        if "sha256" in entry and _file_sha256(path) != entry["sha256"]:
+            raise InputError(f"{path}: changed since torchrom wrote it (its SHA-256 differs "
+                             f"from the one in {self.path}); pass --force to rebuild it")
+        if entry.get("key") != key:
             return None
         self.hits.append(name)
         return path
@@ -86,7 +102,7 @@ class FileCache:
         path = self.folder / name
         path.parent.mkdir(parents=True, exist_ok=True)
         write(path)
-        self.entries[name] = {"key": key, "version": __version__}
+        self.entries[name] = {"key": key, "version": __version__, "sha256": _file_sha256(path)}
         self.built.append(name)
         write_json_atomic(self.path, {"format": CACHE_FORMAT, "files": self.entries})
         return path

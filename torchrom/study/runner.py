@@ -32,9 +32,19 @@ its sidecar ``part-<hash>.json`` with the SHA-256, size, run key and case ids;
 precision). A rerun with the same run key reads the valid parts and computes only the missing
 cases. A part whose checksum, size, run key or case ids do not match (truncated, corrupted,
 or left by a crash between the two renames) is moved to ``parts/rejected/`` with a warning and
-its cases are recomputed. Another run key in the same folder is refused unless ``force`` (then
-the old parts are deleted). The final table is always assembled from the part files, in case
-order, so an interrupted-and-resumed sweep gives exactly the table of an uninterrupted one.
+its cases are recomputed. Parts of another run key in the same folder are refused unless
+``force`` (then those parts, and only those, are deleted: parts whose sidecar names this run key
+are kept and reused, also when ``manifest.json`` itself is unreadable). The final table is
+always assembled from the part files, in case order, so an interrupted-and-resumed sweep gives
+exactly the table of an uninterrupted one. ``parts/outputs.json`` records the SHA-256 of the
+outputs written from the parts (:meth:`PartStore.record_outputs`), so that a rerun can tell an
+output it wrote from one edited since.
+
+**No lost work.** The folder is locked for the run (:mod:`torchrom.locks`). A Ctrl-C that
+arrives once a chunk's cases are integrated takes effect after its part is stored
+(:mod:`torchrom.interrupts`); a chunk that fails on a cluster does not cancel the others (every
+chunk that finishes is stored, then the failure is raised); an interrupted or failed run logs
+how many cases its parts keep.
 """
 
 from __future__ import annotations
