@@ -42,7 +42,11 @@ def test_lock_is_held_for_the_block_and_removed_after(tmp_path):
         with folder_lock(folder):  # re-entrant in the same process
             assert (folder / LOCK_NAME).is_file()
         assert (folder / LOCK_NAME).is_file()  # still held by the outer block
-    assert not (folder / LOCK_NAME).exists() and folder.is_dir()
+    assert not folder.exists()  # created for the lock and left empty: removed again
+    folder.mkdir()
+    with folder_lock(folder):
+        (folder / "result.csv").write_text("x")
+    assert list(folder.iterdir()) == [folder / "result.csv"]  # the lock file is gone
 
 
 def test_a_second_process_is_refused_with_the_holders_pid(tmp_path):

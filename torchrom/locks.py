@@ -175,6 +175,7 @@ def folder_lock(folder: str | os.PathLike, what: str = "its run", *, wait: bool 
     folder = Path(folder)
     log = log or (lambda msg: print(msg, file=sys.stderr))
     check_folder(folder, "output")
+    created = not folder.exists()  # removed again if the run leaves it empty (refused input)
     try:
         folder.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
@@ -201,3 +202,6 @@ def folder_lock(folder: str | os.PathLike, what: str = "its run", *, wait: bool 
                 del _held[key]
         if last:
             _release(folder, entry[0])
+            if created:
+                with contextlib.suppress(OSError):
+                    folder.rmdir()

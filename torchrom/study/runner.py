@@ -376,6 +376,7 @@ class PartStore:
         frames = list(self._extras.get(kind, {}).values())
         return pd.concat(frames, ignore_index=True) if frames else None
 
+
 # ----------------------------------------------------------------------------------------------
 # executors
 # ----------------------------------------------------------------------------------------------
