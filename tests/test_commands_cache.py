@@ -22,7 +22,7 @@ def _default_root(monkeypatch):
 
 def _fill(root: Path) -> None:
     cache = FileCache(root / "goland")
-    cache.put("rom.npz", "k1", lambda p: p.write_bytes(b"x" * 1500))
+    cache.put("rom.npz", FileCache.key({"stage": "rom"}), lambda p: p.write_bytes(b"x" * 1500))
     (root / "mine.txt").write_text("not torchrom's")
 
 
@@ -56,3 +56,66 @@ def test_environment_variable_is_the_root(tmp_path, monkeypatch, capsys):
     monkeypatch.setenv(cache_dir.ENV, str(tmp_path))
     assert main(["cache", "info"]) == 0
     assert "empty: nothing cached yet" in capsys.readouterr().out
+
+
+def _user_folders(root: Path, target: Path) -> None:
+    """What `cache clear` must leave: a project with its own cache.json, a torchrom-looking
+    folder holding a file its manifest does not list, symbolic links to a folder and a file."""
+    (root / "project").mkdir(parents=True)
+    (root / "project" / "cache.json").write_text('{"files": {"thesis.tex": {}}}')
+    (root / "project" / "thesis.tex").write_text("years of work")
+    cache = FileCache(root / "mixed")
+    cache.put("rom.npz", FileCache.key({"x": 1}), lambda p: p.write_bytes(b"r"))
+    (root / "mixed" / "notes.txt").write_text("mine")
+    target.mkdir()
+    FileCache(target).put("rom.npz", FileCache.key({"x": 1}), lambda p: p.write_bytes(b"r"))
+    (root / "link").symlink_to(target, target_is_directory=True)
+    (root / "filelink").symlink_to(target / "rom.npz")
+
+
+def test_clear_removes_only_what_it_can_prove_and_follows_no_link(tmp_path, capsys):
+    """Issue 26: a folder with any `cache.json` was deleted with a user's thesis, and a symbolic
+    link aborted the clear with an OSError naming no path."""
+    root = tmp_path / "root"
+    _fill(root)
+    (root / "goland" / ".rom.npz.x1y2.part.npz").write_bytes(b"left by a kill")
+    _user_folders(root, tmp_path / "elsewhere")
+    before = sorted(p.relative_to(tmp_path) for p in tmp_path.rglob("*"))
+    assert main(["cache", "clear", "--cache-dir", str(root), "--dry-run"]) == 0
+    out = capsys.readouterr().out
+    assert sorted(p.relative_to(tmp_path) for p in tmp_path.rglob("*")) == before  # nothing
+    assert (f"would remove {root / 'goland'}/ (3 files, 1.7 kB): .rom.npz.x1y2.part.npz, "
+            f"cache.json, rom.npz") in out
+    assert main(["cache", "clear", "--cache-dir", str(root)]) == 0
+    out = capsys.readouterr().out
+    assert f"removed {root / 'goland'}" in out and not (root / "goland").exists()
+    left = out.split("left in")[1]
+    for reason in ("project/ (cache.json is not a torchrom cache manifest)",
+                   "mixed/ (holds notes.txt, which its cache.json does not list)",
+                   "link (a symbolic link, not followed)", "mine.txt"):
+        assert reason in left, out
+    assert (root / "project" / "thesis.tex").read_text() == "years of work"
+    assert (root / "mixed" / "notes.txt").is_file() and (root / "mixed" / "rom.npz").is_file()
+    assert (tmp_path / "elsewhere" / "rom.npz").is_file() and (root / "link").is_symlink()
+
+
+def test_clear_leaves_a_folder_a_running_torchrom_holds(tmp_path, capsys):
+    import subprocess
+    import sys
+
+    root = tmp_path / "root"
+    _fill(root)
+    code = ("import sys, time\nfrom torchrom.locks import folder_lock\n"
+            "with folder_lock(sys.argv[1], 'building the Goland model'):\n"
+            "    print('held', flush=True)\n    time.sleep(30)\n")
+    proc = subprocess.Popen([sys.executable, "-c", code, str(root / "goland")],
+                            stdout=subprocess.PIPE, text=True)
+    try:
+        assert proc.stdout.readline().strip() == "held"
+        assert main(["cache", "clear", "--cache-dir", str(root)]) == 0
+    finally:
+        proc.kill()
+        proc.wait()
+    out = capsys.readouterr().out
+    assert f"goland/ (in use by another torchrom run (PID {proc.pid}" in out
+    assert (root / "goland" / "rom.npz").is_file()

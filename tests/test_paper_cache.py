@@ -56,3 +56,16 @@ def test_a_change_of_the_package_source_changes_every_key(tmp_path, monkeypatch)
         assert FileCache.key({"stage": "fe"}) == after  # byte-code caches do not count
     finally:
         cache_mod.source_fingerprint.cache_clear()
+
+
+def test_an_edited_file_is_neither_reused_nor_replaced_without_force(tmp_path):
+    """Issue 26: a cached table edited by hand (its SHA-256 differs from the manifest's) is an
+    error before any work, whether its key still matches or not; --force rebuilds it."""
+    key = FileCache.key({"stage": "a"})
+    FileCache(tmp_path).put("t.csv", key, lambda p: write_text_atomic(p, "x\n1\n"))
+    (tmp_path / "t.csv").write_text("x\n2\n")
+    for k in (key, FileCache.key({"stage": "b"})):
+        with pytest.raises(InputError, match=r"t.csv: changed since torchrom wrote it .*--force"):
+            FileCache(tmp_path).get("t.csv", k)
+    assert (tmp_path / "t.csv").read_text() == "x\n2\n"
+    assert FileCache(tmp_path, force=True).get("t.csv", key) is None  # rebuilt with --force

@@ -11,8 +11,10 @@ package version (:mod:`torchrom.paper.cache`), in ``<root>/goland``. The root is
 
 ``[model] cache = "DIR"`` in a configuration names the Goland folder itself and bypasses the
 root. ``torchrom cache info`` lists what is kept; ``torchrom cache clear`` deletes it (only
-folders holding a torchrom manifest, ``cache.json``). ``torchrom paper`` keeps its own model files
-inside its output folder (``OUT/model``), not here.
+folders whose torchrom manifest, ``cache.json``, lists every file in them; ``--dry-run``).
+A model folder is locked while it is built (:mod:`torchrom.locks`): a second process waits.
+``torchrom paper`` keeps its own model files inside its output folder (``OUT/model``), not
+here.
 """
 
 from __future__ import annotations

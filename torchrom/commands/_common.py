@@ -73,6 +73,19 @@ def nonnegative_int(value: str) -> int:
     return _integer(value, 0, "an integer >= 0")
 
 
+def thread_count(value: str) -> int:
+    """A number of torch threads: 1 to the machine's cores (more only multiplies threads
+    contending for the same cores; at 100000 the thread stacks exhausted the memory)."""
+    import os
+
+    cores = os.cpu_count() or 1
+    n = _integer(value, 1, f"a number of threads from 1 to {cores} (the cores of this machine)")
+    if n > cores:
+        raise argparse.ArgumentTypeError(f"expected a number of threads from 1 to {cores} (the "
+                                         f"cores of this machine), got {value!r}")
+    return n
+
+
 def positive_float(value: str) -> float:
     return _number(value, lambda x: x > 0, "a positive finite number")
 

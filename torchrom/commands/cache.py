@@ -1,9 +1,13 @@
-"""``torchrom cache info|clear [--cache-dir DIR]``: the models kept for built-in configurations.
+"""``torchrom cache info|clear [--cache-dir DIR] [--dry-run]``: the models kept for built-in
+configurations.
 
 ``info`` prints the cache root (``--cache-dir``, else ``$TORCHROM_CACHE``, else
 ``~/.cache/torchrom``; :mod:`torchrom.cache_dir`), and for each model folder in it the files, their
-sizes and the package version that wrote them. ``clear`` deletes the model folders (only those
-holding a torchrom manifest, ``cache.json``; anything else under the root is left and named).
+sizes and the package version that wrote them. ``clear`` deletes only the model folders it can
+prove torchrom wrote (:func:`torchrom.paper.cache.owned_files`: a checked torchrom manifest that
+lists every file in the folder), file by file, never following a symbolic link; it names each
+folder before deleting it and says why it leaves anything else (``--dry-run``: only the list).
+A folder that a running torchrom holds (:mod:`torchrom.locks`) is left.
 JSON (--json, info): {"root", "folders": [{"name", "path", "bytes", "files": [{"name",
 "bytes", "version"}]}]}.
 """
@@ -11,6 +15,7 @@ JSON (--json, info): {"root", "folders": [{"name", "path", "bytes", "files": [{"
 from __future__ import annotations
 
 import argparse
+import os
 from pathlib import Path
 
 from ._common import add_cache_option, add_json_option, maybe_write_json
@@ -22,16 +27,29 @@ HELP = "show (info) or delete (clear) the models cached for built-in configurati
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("action", choices=("info", "clear"), help="info: list; clear: delete")
     add_cache_option(parser)
+    parser.add_argument("--dry-run", action="store_true",
+                        help="clear: list what would be deleted, delete nothing")
     add_json_option(parser)
 
 
 def cache_folders(root: Path) -> list[Path]:
-    """Sub-folders of ``root`` written by torchrom (they hold a ``cache.json`` manifest)."""
+    """Sub-folders of ``root`` (not symbolic links) holding a ``cache.json`` manifest."""
     from ..paper.cache import MANIFEST
 
     if not root.is_dir():
         return []
-    return sorted(p for p in root.iterdir() if p.is_dir() and (p / MANIFEST).is_file())
+    return sorted(p for p in root.iterdir() if not p.is_symlink() and p.is_dir()
+                  and (p / MANIFEST).is_file())
+
+
+def _tree_bytes(folder: Path) -> int:
+    total = 0
+    for dirpath, _dirs, files in os.walk(folder, followlinks=False):
+        for name in files:
+            path = Path(dirpath) / name
+            if not path.is_symlink():
+                total += path.stat().st_size
+    return total
 
 
 def describe(folder: Path) -> dict:
@@ -42,16 +60,16 @@ def describe(folder: Path) -> dict:
 
     try:
         entries = json.loads((folder / MANIFEST).read_text()).get("files", {})
-    except (json.JSONDecodeError, AttributeError):
+    except (json.JSONDecodeError, AttributeError, UnicodeDecodeError, OSError):
         entries = {}
     files = []
-    for name, entry in sorted(entries.items()):
+    for name, entry in sorted(entries.items() if isinstance(entries, dict) else ()):
         path = folder / name
-        if path.is_file():
+        if path.is_file() and not path.is_symlink() and isinstance(entry, dict):
             files.append({"name": name, "bytes": path.stat().st_size,
                           "version": entry.get("version")})
-    total = sum(p.stat().st_size for p in folder.rglob("*") if p.is_file())
-    return {"name": folder.name, "path": str(folder), "bytes": total, "files": files}
+    return {"name": folder.name, "path": str(folder), "bytes": _tree_bytes(folder),
+            "files": files}
 
 
 def _size(n: float) -> str:
@@ -62,10 +80,27 @@ def _size(n: float) -> str:
     return f"{n:.1f} GB"
 
 
-def run(args: argparse.Namespace) -> int:
-    import shutil
+def remove_owned(folder: Path, files: list[Path]) -> None:
+    """Delete ``files`` (the manifest last: an interrupted clear leaves a folder that is still
+    provably torchrom's), then the folders they leave empty, under the folder's lock."""
+    from ..locks import LOCK_NAME, folder_lock
+    from ..paper.cache import MANIFEST
 
+    with folder_lock(folder, "a cache clear"):
+        for path in sorted(files, key=lambda p: p.name == MANIFEST):
+            if path.name != LOCK_NAME or path.parent != folder:
+                path.unlink(missing_ok=True)
+    for dirpath, _dirs, _files in sorted(os.walk(folder, followlinks=False), reverse=True):
+        try:
+            os.rmdir(dirpath)
+        except OSError:  # not empty: something appeared meanwhile; it stays
+            pass
+
+
+def run(args: argparse.Namespace) -> int:
     from ..cache_dir import ENV, cache_root, set_cache_root
+    from ..locks import FolderBusy
+    from ..paper.cache import owned_files
 
     if args.cache_dir is not None:
         set_cache_root(args.cache_dir)
@@ -82,12 +117,28 @@ def run(args: argparse.Namespace) -> int:
                 print(f"    {e['name']:<16} {_size(e['bytes']):>9}  (torchrom {e['version']})")
         maybe_write_json(args, info)
         return 0
-    for f in folders:
-        shutil.rmtree(f)
-        print(f"removed {f}")
-    if not folders:
+    entries = sorted(root.iterdir()) if root.is_dir() and not root.is_symlink() else []
+    removed, left = 0, []
+    verb = "would remove" if args.dry_run else "removing"
+    for entry in entries:
+        files, why = owned_files(entry)
+        if files is None:
+            left.append(f"{entry.name}{'/' if entry.is_dir() and not entry.is_symlink() else ''}"
+                        + (f" ({why})" if entry.is_dir() or entry.is_symlink() else ""))
+            continue
+        print(f"{verb} {entry}/ ({len(files)} files, {_size(_tree_bytes(entry))}): "
+              + ", ".join(sorted(p.relative_to(entry).as_posix() for p in files)))
+        if args.dry_run:
+            continue
+        try:
+            remove_owned(entry, files)
+        except FolderBusy as exc:
+            left.append(f"{entry.name}/ ({str(exc).split(': ', 1)[-1].split(';')[0]})")
+            continue
+        removed += 1
+        print(f"removed {entry}")
+    if not removed and not args.dry_run:
         print(f"nothing to remove in {root}")
-    left = sorted(p.name for p in root.iterdir()) if root.is_dir() else []
     if left:
-        print(f"left in {root} (not written by torchrom): {', '.join(left)}")
+        print(f"left in {root} (not provably written by torchrom): {', '.join(left)}")
     return 0

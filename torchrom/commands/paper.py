@@ -20,7 +20,10 @@ simulator against the eigenvalues, runs the LCO sweep and writes into DIR (defau
   ``decomposition_band``), ``tables/``
   (alpha_gamma, table3, linear_check) and ``sweeps/lco/``, ``sweeps/lco_exact_damping/``
   (results, histories): cached by the hash of their inputs and the package version and reused
-  on the next run; ``--force`` rebuilds everything.
+  on the next run; ``--force`` rebuilds everything (a cached file edited by hand is refused
+  without it). A sweep keeps its finished chunks in ``sweeps/<name>/parts/``: an interrupted
+  study resumes it where it stopped. The folder is locked for the run: a second study into it
+  exits with status 2, naming the first one's PID (:mod:`torchrom.locks`).
 ``--quick``: coarser grids and shorter runs (minutes instead of a quarter of an hour).
 ``--method hb``: the LCOs by harmonic balance (:mod:`torchrom.paper.hb`): Figs. 10, 12, 13
 from the periodic orbits, Fig. 11 and a side-by-side table from Newmark runs started on a subset

@@ -14,7 +14,10 @@ Cases run in chunks, in-process by default, on a local Dask cluster with ``--wor
 an existing one with ``--scheduler ADDR`` (:mod:`torchrom.study.runner`). Finished chunks are
 kept in ``DIR/parts`` as they complete, so an interrupted or crashed sweep is resumed by running
 the same command again (only the missing cases are computed). A folder holding results of a
-different configuration or model, or results it did not write, is refused unless ``--force``.
+different configuration or model, or results it did not write, or a table or figure edited since
+this sweep wrote it (``DIR/parts/outputs.json`` records their SHA-256), is refused unless
+``--force``. The folder is locked for the run: a second sweep on it exits with status 2, naming
+the first one's PID (:mod:`torchrom.locks`).
 """
 
 from __future__ import annotations
@@ -27,7 +30,7 @@ from ._common import (
     check_outputs,
     load_study,
     maybe_write_json,
-    positive_int,
+    thread_count,
     write_figure,
 )
 
@@ -41,8 +44,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     add_study_options(parser, "results.parquet, results.csv, figures, parts/")
     parser.add_argument("--compile", action="store_true",
                         help="compile the time step with torch.compile (pays off for long runs)")
-    parser.add_argument("--threads", type=positive_int, default=None,
-                        help="torch intra-op threads (default: automatic)")
+    parser.add_argument("--threads", type=thread_count, default=None,
+                        help="torch intra-op threads, at most the number of cores (default: "
+                             "automatic)")
 
 
 def _write_distribution(table, cfg, sampled: list[str], paths: dict[str, Path]) -> list[Path]:
@@ -85,30 +89,44 @@ def _check_same_cases(table_path: Path, cfg, run: dict) -> None:
 def run(args: argparse.Namespace) -> int:
     # heavy imports here, not at module level: `torchrom --help` must stay fast
 
+    from ..locks import folder_lock
     from ..study.config import check_initial, with_overrides
+
+    device, dtype, cfg = load_study(args)
+    cfg = with_overrides(cfg, compile=True if args.compile else None, threads=args.threads)
+    model = cfg.build_model()
+    check_initial(cfg, model)
+    # one run per folder: a second sweep on it refuses (exit 2, naming this one's PID)
+    with folder_lock(args.out, "torchrom sweep"):
+        return _run_in(Path(args.out), args, cfg, model, device, dtype)
+
+
+def _run_in(out: Path, args: argparse.Namespace, cfg, model, device, dtype) -> int:
+    from ..errors import InputError
     from ..study.plots import parameter_plot
     from ..study.runner import PartStore, open_executor
     from ..study.sampling import sampled_parameters
     from ..study.sweep import run_description, run_sweep
     from ..study.table import table_paths, write_histories, write_table
 
-    device, dtype, cfg = load_study(args)
-    cfg = with_overrides(cfg, compile=True if args.compile else None, threads=args.threads)
-    model = cfg.build_model()
-    check_initial(cfg, model)
-    out = Path(args.out)
     # outputs of this very run (same run key) may be rewritten: that is how a sweep resumes
-    resumable = PartStore(out, run_description(cfg, model, dtype)).check(args.force)
+    store = PartStore(out, run_description(cfg, model, dtype))
+    resumable = store.check(args.force)
     paths = table_paths(out)
     figure = out / f"{cfg.plot.y}_vs_{cfg.plot.x}.png"
     hist_path = out / "histories.parquet"
     sampled = sampled_parameters(cfg.raw.get("cases", {}))
     uq_paths = {**table_paths(out, DISTRIBUTION), "figure": out / f"{DISTRIBUTION}.png"}
+    outputs = (*paths.values(), figure, *(uq_paths.values() if sampled else ()),
+               *((hist_path,) if cfg.history else ()))
     if resumable and not args.force:
-        _check_same_cases(paths["parquet"], cfg, run_description(cfg, model, dtype))
-    check_outputs(args, (*paths.values(), figure, *(uq_paths.values() if sampled else ()),
-                         *((hist_path,) if cfg.history else ())),
-                  may_replace=args.force or resumable)
+        _check_same_cases(paths["parquet"], cfg, store.run)
+        edited = store.edited_outputs(outputs)
+        if edited:
+            more = f" (and {len(edited) - 1} more)" if len(edited) > 1 else ""
+            raise InputError(f"{edited[0]}{more}; pass --force to replace it or choose another "
+                             f"output folder")
+    check_outputs(args, outputs, may_replace=args.force or resumable)
 
     from ..progress import Progress, info
 
@@ -123,15 +141,11 @@ def run(args: argparse.Namespace) -> int:
                 bar.update_to(done)
 
             histories = []
-            try:
-                table, timing = run_sweep(cfg, model=model, device=device, dtype=dtype,
-                                          progress=progress, out=out, force=args.force,
-                                          executor=executor, chunk_size=args.chunk_size,
-                                          log=bar.write, on_history=histories.append)
-            except KeyboardInterrupt:
-                bar.write(f"interrupted: finished chunks are kept in {out / 'parts'}; run the "
-                          f"same command again to resume")
-                raise
+            # an interrupt or failure is reported by the runner with the cases its parts keep
+            table, timing = run_sweep(cfg, model=model, device=device, dtype=dtype,
+                                      progress=progress, out=out, force=args.force,
+                                      executor=executor, chunk_size=args.chunk_size,
+                                      log=bar.write, on_history=histories.append)
 
     written = write_table(table, out, force=True)
     if histories:
@@ -141,6 +155,8 @@ def run(args: argparse.Namespace) -> int:
     extra = _write_distribution(table, cfg, sampled, uq_paths) if sampled else []
     figures_ok = drawn is not None and None not in extra
     extra = [p for p in extra if p is not None]
+    # what this run wrote, hashed: a rerun replaces these, not a file edited since
+    store.record_outputs([*written.values(), *([figure] if drawn else []), *extra])
     counts = table["status"].value_counts().to_dict()
     print("status: " + ", ".join(f"{k} {v}" for k, v in sorted(counts.items())))
     confirmed = (int((table["precision"] == "float64 (confirmed)").sum())

@@ -1,7 +1,8 @@
 """A folder of intermediate files, each reused while the hash of its inputs is unchanged.
 
-``cache.json`` in the folder maps each file name to the key (a hash of its inputs, the package
-version and the package's source, :func:`source_fingerprint`) it was made from.
+``cache.json`` in the folder (format :data:`CACHE_FORMAT`) maps each file name to the key (a
+hash of its inputs, the package version and the package's source, :func:`source_fingerprint`)
+it was made from.
 :meth:`FileCache.get` returns the file when its recorded key equals the requested one, so any
 change of an input (an option, an upstream file, the package version, the code that computes the
 files) rebuilds the file and, through the keys, everything downstream of it. Files are written
@@ -23,6 +24,8 @@ from ..io import write_json_atomic
 from ..study.grid import config_hash
 
 MANIFEST = "cache.json"
+#: the manifest's "format": what ``torchrom cache clear`` checks before deleting anything
+CACHE_FORMAT = "torchrom-file-cache-1"
 #: the package folder whose source files :func:`source_fingerprint` hashes
 PACKAGE = Path(__file__).resolve().parents[1]
 
@@ -39,6 +42,14 @@ def source_fingerprint() -> str:
         if path.suffix in (".py", ".toml", ".json") and "__pycache__" not in path.parts:
             h.update(path.relative_to(PACKAGE).as_posix().encode())
             h.update(path.read_bytes())
+    return h.hexdigest()
+
+
+def _file_sha256(path: Path) -> str:
+    h = hashlib.sha256()
+    with open(path, "rb") as fh:
+        for block in iter(lambda: fh.read(1 << 20), b""):
+            h.update(block)
     return h.hexdigest()
 
 
@@ -69,10 +80,18 @@ class FileCache:
                             "source": source_fingerprint()})
 
     def get(self, name: str, key: str) -> Path | None:
-        """The cached file ``name`` if it exists and was made from ``key``."""
+        """The cached file ``name`` if it exists and was made from ``key``. A file whose
+        content is not what this cache wrote (its SHA-256 differs from the manifest's: edited
+        by hand) is an InputError, before any work: neither reused nor replaced without
+        ``force``."""
         path = self.folder / name
         entry = self.entries.get(name)
-        if self.force or entry is None or entry.get("key") != key or not path.exists():
+        if self.force or entry is None or not path.is_file():
+            return None
+        if "sha256" in entry and _file_sha256(path) != entry["sha256"]:
+            raise InputError(f"{path}: changed since torchrom wrote it (its SHA-256 differs "
+                             f"from the one in {self.path}); pass --force to rebuild it")
+        if entry.get("key") != key:
             return None
         self.hits.append(name)
         return path
@@ -83,11 +102,61 @@ class FileCache:
         path = self.folder / name
         path.parent.mkdir(parents=True, exist_ok=True)
         write(path)
-        self.entries[name] = {"key": key, "version": __version__}
+        self.entries[name] = {"key": key, "version": __version__, "sha256": _file_sha256(path)}
         self.built.append(name)
-        write_json_atomic(self.path, {"files": self.entries})
+        write_json_atomic(self.path, {"format": CACHE_FORMAT, "files": self.entries})
         return path
 
     def owns(self, name: str) -> bool:
         """Whether ``name`` was written through this cache (so it may be replaced)."""
         return name in self.entries
+
+
+def owned_files(folder) -> tuple[list[Path] | None, str]:
+    """Every file of ``folder`` if a :class:`FileCache` wrote them all — its manifest (checked:
+    :data:`CACHE_FORMAT`, or the same layout of entries written before the format field), the
+    files it lists, their leftover temporary files and the folder's lock — else (None, why
+    not). What ``torchrom cache clear`` may delete; symbolic links are never followed (one
+    anywhere in the folder makes it not provably torchrom's)."""
+    import os
+    import re
+
+    from ..locks import LOCK_NAME
+
+    folder = Path(folder)
+    manifest = folder / MANIFEST
+    if folder.is_symlink():
+        return None, "a symbolic link, not followed"
+    if not folder.is_dir():
+        return None, "not a folder"
+    if manifest.is_symlink() or not manifest.is_file():
+        return None, f"no {MANIFEST}"
+    try:
+        data = json.loads(manifest.read_text())
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError):
+        return None, f"{MANIFEST} is not JSON"
+    entries = data.get("files") if isinstance(data, dict) else None
+    if (not isinstance(entries, dict) or not entries
+            or data.get("format", CACHE_FORMAT) != CACHE_FORMAT
+            or not all(isinstance(e, dict) and re.fullmatch(r"[0-9a-f]{16}", str(e.get("key")))
+                       and isinstance(e.get("version"), str) for e in entries.values())):
+        return None, f"{MANIFEST} is not a torchrom cache manifest"
+    owned = []
+    for dirpath, dirnames, filenames in os.walk(folder, followlinks=False):
+        here = Path(dirpath)
+        for name in [*dirnames, *filenames]:
+            path = here / name
+            rel = path.relative_to(folder).as_posix()
+            if path.is_symlink():
+                return None, f"holds a symbolic link, {rel}"
+            if name in dirnames:
+                continue
+            # a temporary file of torchrom.io.atomic_path left by a kill: .<name>.<random>.part*
+            temp = ".part" in name and any(
+                (here / Path(e).name) == folder / e and name.startswith(f".{Path(e).name}.")
+                for e in entries)
+            if rel in (MANIFEST, LOCK_NAME) or rel in entries or temp:
+                owned.append(path)
+            else:
+                return None, f"holds {rel}, which its {MANIFEST} does not list"
+    return owned, ""

@@ -160,10 +160,18 @@ def _deck_text(fe) -> str:
 
 def goland_pipeline(options: GolandPipeline | None = None, folder=None, *, force: bool = False,
                     log: Callable[[str], None] = print) -> PipelineResult:
-    """Run (or reuse from ``folder``) the Goland pipeline (see the module docstring)."""
+    """Run (or reuse from ``folder``) the Goland pipeline (see the module docstring). The
+    folder is locked for the run (:mod:`torchrom.locks`): a second process building into it
+    waits, then reuses what the first one built."""
+    from ..locks import folder_lock
+
+    with folder_lock(folder, "building the Goland model", wait=True, log=log):
+        return _goland_pipeline(options or GolandPipeline(), folder, force, log)
+
+
+def _goland_pipeline(opt: GolandPipeline, folder, force: bool, log) -> PipelineResult:
     from ..fe import goland
 
-    opt = options or GolandPipeline()
     cache = FileCache(folder, force=force)
     seconds: dict[str, float] = {}
     files: dict[str, Path] = {}

@@ -99,8 +99,11 @@ class Stopwatch:
 
 def _check_folder(out: Path, force: bool) -> None:
     """Refuse a non-empty folder that this command did not write (unless ``force``)."""
+    from ..locks import LOCK_NAME
+
     check_folder(out, "--out")  # a file, or a folder that cannot be written
-    if out.is_dir() and any(out.iterdir()) and not (out / MANIFEST).is_file() and not force:
+    if (out.is_dir() and any(p.name != LOCK_NAME for p in out.iterdir())
+            and not (out / MANIFEST).is_file() and not force):
         raise InputError(f"--out {out}: the folder holds files that torchrom paper did not "
                          f"write; choose another folder or pass --force")
 
@@ -113,10 +116,19 @@ def run_paper(out, *, quick: bool = False, force: bool = False, device: str = "c
     ``method``: "newmark" (the paper's time marching) or "hb" (the LCOs of Figs. 10, 12, 13 by
     harmonic balance, with a Newmark confirmation of a subset started on the HB orbits, which
     also gives Fig. 11, and the LCO branches in altitude from the flutter point,
-    :mod:`.hb`)."""
+    :mod:`.hb`). The folder is locked for the run (:mod:`torchrom.locks`: a second study
+    into it refuses, naming this one's PID)."""
+    from ..locks import folder_lock
+
     out = Path(out)
     _check_folder(out, force)
-    out.mkdir(parents=True, exist_ok=True)
+    with folder_lock(out, "torchrom paper", log=log):
+        _check_folder(out, force)  # as it is now that no other run can write into it
+        return _run_paper(out, quick, force, device, dtype, log, method)
+
+
+def _run_paper(out: Path, quick: bool, force: bool, device: str, dtype: torch.dtype,
+               log: Callable[[str], None], method: str) -> dict[str, Any]:
     cache = FileCache(out, force=force)
     variant = "quick" if quick else None
     t_all, c_all = time.perf_counter(), time.process_time()
@@ -510,9 +522,13 @@ def _lco_sweep(cache: FileCache, cfg, model, model_hash: str, device, dtype, log
         def progress(done: int, total: int) -> None:
             bar.update_to(done)
 
+        # finished chunks are kept in sweeps/<name>/parts (keyed by this sweep's cache key,
+        # so the parts of another configuration, model or source are replaced, never reused):
+        # an interrupted study resumes the sweep where it stopped
         table, timing = run_sweep(cfg, model=model, device=torch.device(device), dtype=dtype,
                                   progress=progress, on_history=hist.append,
-                                  on_orbits=orb.append)
+                                  on_orbits=orb.append, out=cache.folder / "sweeps" / name,
+                                  force=True, context=key, log=bar.write)
     histories = pd.concat(hist, ignore_index=True) if hist else pd.DataFrame()
     orbits = pd.concat(orb, ignore_index=True) if cfg.method == "hb" and orb else None
     counts = table["status"].value_counts().to_dict()
@@ -521,7 +537,8 @@ def _lco_sweep(cache: FileCache, cfg, model, model_hash: str, device, dtype, log
          if cfg.method == "hb" else f"; {timing['us_per_case_step']:.0f} us per case-step"))
     info = {"cases": len(table), "case_steps": int(timing["case_steps"]),
             "wall_time_s": float(timing["wall_time_s"]),
-            "us_per_case_step": float(timing["us_per_case_step"])}
+            "us_per_case_step": float(timing["us_per_case_step"]),
+            "resumed_cases": int(timing["reused"])}  # from the parts of an interrupted run
 
     def write_table(p):
         from ..io import atomic_path

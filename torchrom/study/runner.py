@@ -32,9 +32,19 @@ its sidecar ``part-<hash>.json`` with the SHA-256, size, run key and case ids;
 precision). A rerun with the same run key reads the valid parts and computes only the missing
 cases. A part whose checksum, size, run key or case ids do not match (truncated, corrupted,
 or left by a crash between the two renames) is moved to ``parts/rejected/`` with a warning and
-its cases are recomputed. Another run key in the same folder is refused unless ``force`` (then
-the old parts are deleted). The final table is always assembled from the part files, in case
-order, so an interrupted-and-resumed sweep gives exactly the table of an uninterrupted one.
+its cases are recomputed. Parts of another run key in the same folder are refused unless
+``force`` (then those parts, and only those, are deleted: parts whose sidecar names this run key
+are kept and reused, also when ``manifest.json`` itself is unreadable). The final table is
+always assembled from the part files, in case order, so an interrupted-and-resumed sweep gives
+exactly the table of an uninterrupted one. ``parts/outputs.json`` records the SHA-256 of the
+outputs written from the parts (:meth:`PartStore.record_outputs`), so that a rerun can tell an
+output it wrote from one edited since.
+
+**No lost work.** The folder is locked for the run (:mod:`torchrom.locks`). A Ctrl-C that
+arrives once a chunk's cases are integrated takes effect after its part is stored
+(:mod:`torchrom.interrupts`); a chunk that fails on a cluster does not cancel the others (every
+chunk that finishes is stored, then the failure is raised); an interrupted or failed run logs
+how many cases its parts keep.
 """
 
 from __future__ import annotations
@@ -63,6 +73,8 @@ TARGET_CHUNKS = 8
 #: smallest default chunk (the batched integrator is far cheaper per case at B >= 32..64)
 MIN_CHUNK = 32
 PART_FORMAT = "torchrom-parts-1"
+#: tables a part may hold beside its rows -> their file name infix (``part-<hash>.hist.parquet``)
+EXTRAS = {"histories": "hist", "orbits": "orbits"}
 
 Progress = Callable[[int, int], None]
 
@@ -138,8 +150,9 @@ class PartStore:
     run: dict[str, str]
     warn: Callable[[str], None] = print
     _opened: bool = field(default=False, init=False, repr=False)
-    #: sidecar name -> time histories of the valid parts found by the last load()
-    _histories: dict[str, pd.DataFrame] = field(default_factory=dict, init=False, repr=False)
+    #: kind (:data:`EXTRAS`) -> sidecar name -> table, of the valid parts found by load()
+    _extras: dict[str, dict[str, pd.DataFrame]] = field(default_factory=dict, init=False,
+                                                        repr=False)
 
     @property
     def parts(self) -> Path:
@@ -158,27 +171,47 @@ class PartStore:
         if not self.manifest_path.exists():
             return None
         try:
-            return json.loads(self.manifest_path.read_text())
+            old = json.loads(self.manifest_path.read_text())
         except (json.JSONDecodeError, UnicodeDecodeError):
-            return {"run_key": "unreadable manifest"}
+            old = None
+        return old if isinstance(old, dict) else {"run_key": "unreadable manifest"}
+
+    def _part_keys(self) -> dict[Path, str | None]:
+        """Sidecar -> the run key it records (None: unreadable) for every part in the folder."""
+        keys: dict[Path, str | None] = {}
+        for sidecar in sorted(self.parts.glob("part-*.json")):
+            try:
+                keys[sidecar] = json.loads(sidecar.read_text()).get("run_key")
+            except (json.JSONDecodeError, UnicodeDecodeError, OSError, AttributeError):
+                keys[sidecar] = None
+        return keys
 
     def check(self, force: bool = False) -> bool:
-        """True when the folder holds results of this very run (resumable), False when it holds
-        none, or those of another run with ``force``; InputError naming what changed when it
-        holds another run's results and ``force`` is not set."""
+        """True when the folder holds results of this very run (resumable: the manifest, or
+        when it is unreadable the parts' own sidecars, name this run key), False when it holds
+        none, or only another run's with ``force``; InputError naming what changed when it
+        holds parts it cannot prove to be this run's and ``force`` is not set."""
         old = self.previous_run()
+        keys = self._part_keys()
+        own = any(k == self.run_key for k in keys.values())
         if old is None:
-            return False
-        if old.get("run_key") != self.run_key and not any(self.parts.glob("part-*")):
-            return False  # a manifest without results (a run stopped before its first chunk)
+            return own
         if old.get("run_key") == self.run_key:
             return True
-        if not force:
+        extra = tuple(f".{ext}.parquet" for ext in EXTRAS.values())
+        sidecar_parts = {s.with_suffix(".parquet") for s in keys}
+        unproven = [s for s, k in keys.items() if k != self.run_key] + [
+            p for p in self.parts.glob("part-*.parquet")
+            if p not in sidecar_parts and not p.name.endswith(extra)]
+        if unproven and not force:
+            what = (f"its {self.manifest_path.name} is unreadable and {len(unproven)} parts are"
+                    f" not this run's" if old.get("run_key") == "unreadable manifest" else
+                    f"{self._changed(old)}: run key {old.get('run_key')} -> {self.run_key}")
             raise InputError(
-                f"{self.folder}: holds sweep results of a different configuration "
-                f"({self._changed(old)}: run key {old.get('run_key')} -> {self.run_key}); pass "
-                f"--force to discard them or choose another output folder")
-        return False
+                f"{self.folder}: holds sweep results of a different configuration ({what}); "
+                f"pass --force to discard them (parts of this run are kept) or choose another "
+                f"output folder")
+        return own
 
     def _changed(self, old: dict[str, Any]) -> str:
         changed = [k for k in ("model_hash", "config_hash", "dtype")
@@ -187,49 +220,94 @@ class PartStore:
 
     def open(self, force: bool = False) -> None:
         """Check the folder (:meth:`check`), then write the manifest; with ``force``, the part
-        files of another run are deleted first."""
+        files of another run are deleted first — only those: parts whose sidecar names this
+        run key are kept and reused (:meth:`load` still checks each of them)."""
         old = self.previous_run()
-        if not self.check(force) and old is not None:
-            removed = 0
-            for p in list(self.parts.glob("part-*")):
-                p.unlink()
-                removed += 1
-            self.warn(f"--force: removed {removed} part files of a previous configuration "
-                      f"({self._changed(old)}) from {self.parts}")
+        self.check(force)
+        foreign = [s for s, k in self._part_keys().items() if k is not None and k != self.run_key]
+        for sidecar in foreign:
+            for p in self._files_of(sidecar):
+                p.unlink(missing_ok=True)
+        if foreign:
+            self.warn(f"--force: removed {len(foreign)} parts of a previous configuration "
+                      f"({self._changed(old or {})}) from {self.parts}")
         self.parts.mkdir(parents=True, exist_ok=True)
         write_json_atomic(self.manifest_path, {"format": PART_FORMAT, **self.run,
                                                "version": __version__})
         self._opened = True
 
-    def write(self, rows: pd.DataFrame, histories: pd.DataFrame | None = None) -> Path:
+    @property
+    def outputs_path(self) -> Path:
+        return self.parts / "outputs.json"
+
+    def record_outputs(self, paths: Sequence[Path]) -> None:
+        """Record the SHA-256 of the outputs written from the parts (results table, figures):
+        :meth:`edited_outputs` tells a file changed since from one this run may replace."""
+        files = {Path(p).name: _sha256(Path(p).read_bytes()) for p in paths if Path(p).is_file()}
+        write_json_atomic(self.outputs_path, {"format": PART_FORMAT, "run_key": self.run_key,
+                                              "files": files})
+
+    def edited_outputs(self, paths: Sequence[Path]) -> list[str]:
+        """One line for each existing file of ``paths`` that this run did not write as it is
+        now (hash differs from :meth:`record_outputs`' record, or no record of it)."""
+        try:
+            record = json.loads(self.outputs_path.read_text())
+            files = record.get("files", {}) if record.get("run_key") == self.run_key else {}
+        except (OSError, json.JSONDecodeError, UnicodeDecodeError, AttributeError):
+            files = {}
+        lines = []
+        for p in map(Path, paths):
+            if not p.is_file():
+                continue
+            if p.name not in files:
+                lines.append(f"{p}: not written by this sweep (no record of it in "
+                             f"{self.outputs_path})")
+            elif _sha256(p.read_bytes()) != files[p.name]:
+                lines.append(f"{p}: changed since this sweep wrote it (its SHA-256 differs "
+                             f"from the one in {self.outputs_path})")
+        return lines
+
+    @staticmethod
+    def _files_of(sidecar: Path) -> list[Path]:
+        """A part's files: its extra tables (:data:`EXTRAS`), the rows, then the sidecar."""
+        stem = sidecar.with_suffix("")
+        return [*(stem.with_suffix(f".{ext}.parquet") for ext in EXTRAS.values()),
+                sidecar.with_suffix(".parquet"), sidecar]
+
+    def write(self, rows: pd.DataFrame, histories: pd.DataFrame | None = None,
+              orbits: pd.DataFrame | None = None) -> Path:
         """Store one finished chunk (rows with a ``case_id`` column) and, when given, its time
-        histories: parquet files first, then the sidecar with their checksums."""
+        histories and orbits: parquet files first, then the sidecar with their checksums."""
         if not self._opened:
             raise RuntimeError("PartStore.write before open()")
         ids = [str(c) for c in rows["case_id"]]
         name = f"part-{chunk_key(ids)}"
         meta = {"format": PART_FORMAT, "run_key": self.run_key}
-        for kind, frame, path in (("", rows, self.parts / f"{name}.parquet"),
-                                  ("histories_", histories, self.parts / f"{name}.hist.parquet")):
+        for kind, frame in (("", rows), ("histories", histories), ("orbits", orbits)):
             if frame is None:
                 continue
             buf = io.BytesIO()
             frame.to_parquet(buf, index=False)
             data = buf.getvalue()
-            with atomic_path(path) as tmp:
+            with atomic_path(self._path(name, kind)) as tmp:
                 tmp.write_bytes(data)
-            meta.update({f"{kind}sha256": _sha256(data), f"{kind}bytes": len(data)})
+            prefix = f"{kind}_" if kind else ""
+            meta.update({f"{prefix}sha256": _sha256(data), f"{prefix}bytes": len(data)})
         write_json_atomic(self.parts / f"{name}.json", {**meta, "rows": len(ids), "case_ids": ids})
         return self.parts / f"{name}.parquet"
 
+    def _path(self, name: str, kind: str = "") -> Path:
+        return self.parts / (f"{name}.{EXTRAS[kind]}.parquet" if kind else f"{name}.parquet")
+
     @staticmethod
     def _read_checked(path: Path, meta: dict, kind: str = "") -> tuple[pd.DataFrame | None, str]:
+        prefix = f"{kind}_" if kind else ""
         if not path.exists():
             return None, f"{path.name} missing"
         data = path.read_bytes()
-        if len(data) != meta.get(f"{kind}bytes") or _sha256(data) != meta.get(f"{kind}sha256"):
+        if len(data) != meta.get(f"{prefix}bytes") or _sha256(data) != meta.get(f"{prefix}sha256"):
             return None, (f"checksum mismatch of {path.name} ({len(data)} bytes, expected "
-                          f"{meta.get(f'{kind}bytes')}): truncated or corrupted")
+                          f"{meta.get(f'{prefix}bytes')}): truncated or corrupted")
         try:
             return pd.read_parquet(io.BytesIO(data)), ""
         except Exception as exc:  # noqa: BLE001 - any reader failure means a bad part
@@ -241,6 +319,8 @@ class PartStore:
             meta = json.loads(sidecar.read_text())
         except (json.JSONDecodeError, UnicodeDecodeError, OSError):
             return None, "unreadable sidecar"
+        if not isinstance(meta, dict):
+            return None, "unreadable sidecar"
         if not sidecar.with_suffix(".parquet").exists():
             return None, "part file missing"
         if meta.get("run_key") != self.run_key:
@@ -250,20 +330,19 @@ class PartStore:
             return None, reason
         if "case_id" not in rows or [str(c) for c in rows["case_id"]] != meta.get("case_ids"):
             return None, "case ids do not match its sidecar"
-        if "histories_sha256" in meta:
-            hist, reason = self._read_checked(sidecar.with_suffix(".hist.parquet"), meta,
-                                              "histories_")
-            if hist is None:
-                return None, reason
-            self._histories[sidecar.name] = hist
+        for kind in EXTRAS:
+            if f"{kind}_sha256" in meta:
+                extra, reason = self._read_checked(self._path(sidecar.stem, kind), meta, kind)
+                if extra is None:
+                    return None, reason
+                self._extras[kind][sidecar.name] = extra
         return rows, ""
 
     def _reject(self, path: Path, reason: str) -> None:
         dest = self.parts / "rejected"
         dest.mkdir(exist_ok=True)
         stamp = time.strftime("%Y%m%dT%H%M%S")
-        for p in (path.with_suffix(".parquet"), path.with_suffix(".json"),
-                  path.with_suffix(".hist.parquet")):
+        for p in self._files_of(path.with_suffix(".json")):
             if p.exists():
                 shutil.move(str(p), dest / f"{p.name}.{stamp}")
         self.warn(f"warning: {path.with_suffix('.parquet')}: {reason}; moved to {dest}, its "
@@ -274,7 +353,7 @@ class PartStore:
         if not self.parts.is_dir():
             return None
         frames = []
-        self._histories = {}
+        self._extras = {kind: {} for kind in EXTRAS}
         sidecars = sorted(self.parts.glob("part-*.json"))
         for sidecar in sidecars:
             rows, reason = self._check(sidecar)
@@ -283,16 +362,18 @@ class PartStore:
             else:
                 frames.append(rows)
         covered = {s.with_suffix(".parquet") for s in sidecars}
+        extra = tuple(f".{ext}.parquet" for ext in EXTRAS.values())
         for orphan in sorted(self.parts.glob("part-*.parquet")):
-            if orphan not in covered and not orphan.name.endswith(".hist.parquet"):
+            if orphan not in covered and not orphan.name.endswith(extra):
                 self._reject(orphan, "no sidecar (interrupted while being written)")
         if not frames:
             return None
         return pd.concat(frames, ignore_index=True)
 
-    def load_histories(self) -> pd.DataFrame | None:
-        """The time histories stored with the valid parts found by the last :meth:`load`."""
-        frames = list(self._histories.values())
+    def load_extra(self, kind: str) -> pd.DataFrame | None:
+        """The ``kind`` tables (:data:`EXTRAS`: histories, orbits) stored with the valid parts
+        found by the last :meth:`load`."""
+        frames = list(self._extras.get(kind, {}).values())
         return pd.concat(frames, ignore_index=True) if frames else None
 
 
@@ -318,14 +399,22 @@ class InProcessExecutor:
     description = "in-process"
 
     def run(self, task: Task, chunks: list[tuple[list[dict], list[str]]],
-            progress: Progress | None = None) -> Iterator[tuple[int, ChunkResult]]:
+            progress: Progress | None = None, finishing: Callable[[], None] | None = None
+            ) -> Iterator[tuple[int, ChunkResult]]:
+        """Yield (k, result) chunk by chunk; ``finishing()`` is called when a chunk's last case
+        is done (before its rows are built) and again when the task returns."""
         done, total = 0, sum(len(c) for c, _ in chunks)
+        finishing = finishing or (lambda: None)
         for k, (cases, ids) in enumerate(chunks):
-            def inner(i, _n, base=done):
+            def inner(i, n, base=done):
+                if i >= n:
+                    finishing()
                 if progress is not None:
                     progress(base + i, total)
 
-            yield k, task(cases, ids, inner)
+            result = task(cases, ids, inner)
+            finishing()
+            yield k, result
             done += len(cases)
 
 
@@ -337,10 +426,15 @@ class DaskExecutor:
         self.description = description
 
     def run(self, task: Task, chunks: list[tuple[list[dict], list[str]]],
-            progress: Progress | None = None) -> Iterator[tuple[int, ChunkResult]]:
+            progress: Progress | None = None, finishing: Callable[[], None] | None = None
+            ) -> Iterator[tuple[int, ChunkResult]]:
+        """Yield (k, result) as chunks complete; ``finishing()`` is called before a finished
+        chunk's result is fetched. A failed chunk does not stop the others: every chunk that
+        finishes is still yielded (and stored), then the first failure is raised."""
         from distributed import as_completed
 
         client = self.client
+        finishing = finishing or (lambda: None)
         # a computed future (not scattered data): if the worker holding it dies, the scheduler
         # recomputes it from its recipe instead of losing it
         task_future = client.submit(_identity, task, pure=False)
@@ -348,14 +442,19 @@ class DaskExecutor:
                                  key=f"torchrom-chunk-{k}-{chunk_key(ids)}"): k
                    for k, (cases, ids) in enumerate(chunks)}
         done, total = 0, sum(len(c) for c, _ in chunks)
+        failure: TorchromError | None = None
         try:
             for fut in as_completed(list(futures)):
                 k = futures.pop(fut)
                 try:
+                    if fut.status == "finished":
+                        finishing()
                     result = fut.result()
                 except Exception as exc:
-                    raise TorchromError(f"chunk {k} ({len(chunks[k][0])} cases) failed on the "
-                                        f"cluster: {type(exc).__name__}: {exc}") from exc
+                    failure = failure or TorchromError(
+                        f"chunk {k} ({len(chunks[k][0])} cases) failed on the cluster: "
+                        f"{type(exc).__name__}: {exc}")
+                    continue
                 fut.release()  # done: never recomputed if its worker dies later
                 done += len(chunks[k][0])
                 yield k, result
@@ -365,6 +464,8 @@ class DaskExecutor:
             for fut in futures:
                 fut.cancel()
             task_future.cancel()
+        if failure is not None:
+            raise failure
 
 
 @contextlib.contextmanager
@@ -472,12 +573,28 @@ def run_cases(task: Task, cases: Sequence[dict[str, Any]], case_ids: Sequence[st
               ) -> tuple[pd.DataFrame, RunStats]:
     """Evaluate ``task`` on every case (see the module docstring); returns (table, stats).
 
-    With ``store``, finished chunks go to part files as they complete, cases already stored
-    for the same run key are skipped, and the table is assembled from the part files.
-    ``on_history(frame)`` receives the chunks' time histories (:attr:`ChunkResult.histories`):
-    chunk by chunk without a store, all of them (stored and new) at the end with one.
-    ``on_orbits(frame)`` receives the harmonic balance orbits (:attr:`ChunkResult.orbits`) of
-    the chunks computed in this call, chunk by chunk (they are not stored)."""
+    With ``store``, the folder is locked for the run (:func:`torchrom.locks.folder_lock`: a
+    second run on it refuses), finished chunks go to part files as they complete (a Ctrl-C
+    while one is being finished waits until it is stored, :mod:`torchrom.interrupts`), cases
+    already stored for the same run key are skipped, and the table is assembled from the part
+    files; an interrupted or failed run logs how many cases its parts keep.
+    ``on_history(frame)`` / ``on_orbits(frame)`` receive the chunks' time histories
+    (:attr:`ChunkResult.histories`) and harmonic balance orbits (:attr:`ChunkResult.orbits`):
+    chunk by chunk without a store, all of them (stored and new) at the end with one."""
+    if store is None:
+        return _run_cases(task, cases, case_ids, batch_size, chunk_size, executor, None, force,
+                          progress, log, on_history, on_orbits)
+    from ..locks import folder_lock
+
+    with folder_lock(store.folder, "a sweep", log=log):
+        return _run_cases(task, cases, case_ids, batch_size, chunk_size, executor, store, force,
+                          progress, log, on_history, on_orbits)
+
+
+def _run_cases(task, cases, case_ids, batch_size, chunk_size, executor, store, force, progress,
+               log, on_history, on_orbits) -> tuple[pd.DataFrame, RunStats]:
+    from ..interrupts import DeferredInterrupt
+
     t0 = time.perf_counter()
     log = log or (lambda _msg: None)
     cases = list(cases)
@@ -509,25 +626,36 @@ def run_cases(task: Task, cases: Sequence[dict[str, Any]], case_ids: Sequence[st
             progress(stats.reused + k, len(cases))
 
     report(0, 0)
-    for _k, result in executor.run(task, todo, report):
-        rows = result.rows
-        if result.orbits is not None and on_orbits is not None:
-            on_orbits(result.orbits)
+    try:
+        with DeferredInterrupt() as guard:
+            for _k, result in executor.run(task, todo, report, guard.hold):
+                rows = result.rows
+                if store is not None:
+                    store.write(rows, result.histories, result.orbits)
+                else:
+                    frames.append(rows)
+                    if result.histories is not None and on_history is not None:
+                        on_history(result.histories)
+                    if result.orbits is not None and on_orbits is not None:
+                        on_orbits(result.orbits)
+                stats.computed += len(rows)
+                stats.chunks += 1
+                stats.wall_time_s += result.wall_time_s
+                stats.case_steps += result.case_steps
+                guard.release()  # the chunk is safe: a deferred Ctrl-C stops the run here
+    except BaseException as exc:
         if store is not None:
-            store.write(rows, result.histories)
-        else:
-            frames.append(rows)
-            if result.histories is not None and on_history is not None:
-                on_history(result.histories)
-        stats.computed += len(rows)
-        stats.chunks += 1
-        stats.wall_time_s += result.wall_time_s
-        stats.case_steps += result.case_steps
+            how = "interrupted" if isinstance(exc, KeyboardInterrupt) else "stopped"
+            log(f"{how}: {stats.reused + stats.computed} of {len(cases)} cases are kept in "
+                f"{store.parts} ({stats.reused} from before, {stats.computed} computed now); run "
+                f"the same command again to resume (only the others are computed)")
+        raise
     if store is not None:
         table = store.load()
-        histories = store.load_histories()
-        if histories is not None and on_history is not None:
-            on_history(histories)
+        for kind, receive in (("histories", on_history), ("orbits", on_orbits)):
+            extra = store.load_extra(kind)
+            if extra is not None and receive is not None:
+                receive(extra)
     else:
         table = pd.concat(frames, ignore_index=True) if frames else None
     if table is None:

@@ -114,6 +114,8 @@ class SweepTask:
         _, C = output_matrix(rom, cfg.outputs)
         res = certify(system, res, C, cfg.lco.decision_outputs[0], cfg.certificate,
                       cfg.integrator.dt)
+        if progress is not None:  # every case integrated (also those run to t_end undecided)
+            progress(len(cases), len(cases))
         span = getattr(self.model, "span", None) or rom.metadata.get("span")
         rows = result_rows(cases, res, config_hash=cfg.hash, span=span, case_ids=case_ids,
                            extra=extra, precision=str(dtype).replace("torch.", ""))
@@ -148,12 +150,15 @@ def model_hash(model) -> str:
     return config_hash(info)
 
 
-def run_description(cfg: SweepConfig, model, dtype=torch.float64) -> dict[str, str]:
+def run_description(cfg: SweepConfig, model, dtype=torch.float64,
+                    context: str | None = None) -> dict[str, str]:
     """The run key of a sweep (a hash of the configuration without its case grid, the model
-    (:func:`model_hash`) and the precision) with its parts: what case ids and stored results
-    depend on. Any change of the model gives new case ids."""
+    (:func:`model_hash`), the precision and the caller's ``context``, e.g. settings it changed
+    after loading the configuration) with its parts: what case ids and stored results depend
+    on. Any change of the model gives new case ids."""
     info = {"config_hash": cfg.hash, "model_hash": model_hash(model),
-            "dtype": str(dtype).replace("torch.", "")}
+            "dtype": str(dtype).replace("torch.", ""),
+            **({"context": context} if context is not None else {})}
     return {"run_key": config_hash(info), **info, "title": cfg.title, "config": str(cfg.source)}
 
 
@@ -165,6 +170,7 @@ def run_sweep(cfg: SweepConfig, *, device=None, dtype=torch.float64,
               log: Callable[[str], None] | None = None,
               on_history: Callable[[pd.DataFrame], None] | None = None,
               on_orbits: Callable[[pd.DataFrame], None] | None = None,
+              context: str | None = None,
               ) -> tuple[pd.DataFrame, dict[str, float]]:
     """Integrate every case of ``cfg`` (or ``cases``, e.g. a calibration batch); returns
     (table, timing) with timing keys wall_time_s (Σ integration time), case_steps,
@@ -176,10 +182,11 @@ def run_sweep(cfg: SweepConfig, *, device=None, dtype=torch.float64,
     model (default ``cfg.build_model()``; ``rom`` is accepted for a structural model);
     ``on_history(frame)`` receives the time histories of the cases that ``[history]`` selects
     (see :func:`torchrom.study.cases.history_table`); ``on_orbits(frame)`` the harmonic balance
-    orbits of the computed cases (:func:`torchrom.study.cases.orbit_table`)."""
+    orbits (:func:`torchrom.study.cases.orbit_table`); ``context``: see
+    :func:`run_description`."""
     model = model if model is not None else (rom if rom is not None else cfg.build_model())
     cases = cfg.cases if cases is None else cases
-    run = run_description(cfg, model, dtype)
+    run = run_description(cfg, model, dtype, context)
     ids = [case_id(c, context=run["run_key"]) for c in cases]
     task = SweepTask(cfg, model, str(torch.device(device or "cpu")), dtype)
     store = PartStore(Path(out), run) if out is not None else None
