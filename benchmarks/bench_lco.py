@@ -9,16 +9,23 @@ pipeline's model cache (``--model``). Cases: post-flutter altitudes × γ with t
 function each): ``newmark-reference`` (the paper's setting: dt = 1 ms, small start, 2 Newton
 iterations), ``newmark`` (a 10 %-of-span start on the static manifold, error-controlled steps),
 ``newmark-fast``, ``hb`` and ``hb-unresolved`` (harmonic balance, with seeding of the LCOs not
-accepted in H), ``newmark-neighbour`` and ``newmark-hb`` (``--methods``). References:
-:func:`hb_reference` (harmonic balance up to H = 25, checked against fixed-step Newmark at
-dt = 0.25 ms) and :func:`reference` (that Newmark run). Writes ``bench_lco.json``: per method
-``cpu_s_per_lco`` (one torch thread), the largest amplitude and frequency errors over the cases
-(a case without an LCO counts as infinite) and the per-case table, with the machine and load.
+accepted in H), ``newmark-neighbour`` and ``newmark-hb`` (``--methods``). Every method's LCOs
+are certified as a sweep certifies them (:mod:`torchrom.periodic.certify`: one shooting
+evaluation each at dt = 1 ms, a shooting finish where the certificate fails, Richardson's
+dt_error), the certificate's CPU time counted in the method's. Reference: the continuous-time
+orbit, shooting at 1 ms and 0.5 ms with Richardson (:func:`shooting_reference`); ``--hb-check``
+adds harmonic balance up to H = 25 against it (:func:`hb_reference`). Writes
+``bench_lco.json``: per method ``cpu_s_per_lco`` and ``cpu_s_per_certified_lco`` (one torch
+thread), ``certified``, the largest amplitude and frequency errors over the cases (a case
+without an LCO counts as infinite), ``max_orbit_error_pct``, whether every certificate bounds
+its measured error, the stability verdicts left unknown, and the per-case table, with the
+machine and load.
 """
 
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import os
 import sys
@@ -37,14 +44,17 @@ sys.path.insert(0, str(HERE.parent))
 from results_io import machine_meta  # noqa: E402
 
 from torchrom.periodic import HarmonicBalanceMethod, HBOptions, solve_orbits  # noqa: E402
+from torchrom.periodic.certify import COLUMNS as CERT_COLUMNS  # noqa: E402
+from torchrom.periodic.certify import Certificate, certify  # noqa: E402
 from torchrom.periodic.seed import (  # noqa: E402
     SEED_HARMONICS,
     merge_seeded,
     seed_unresolved,
     seeded_orbits,
 )
+from torchrom.periodic.shooting import OrbitStart, ShootingOptions, shoot  # noqa: E402
 from torchrom.periodic.solve import orbit_state  # noqa: E402
-from torchrom.sim import LCOCriteria, Newmark  # noqa: E402
+from torchrom.sim import LCOCriteria, Newmark, SimulationResult  # noqa: E402
 from torchrom.study.cases import case_system, neighbour_chains  # noqa: E402
 from torchrom.study.starts import march  # noqa: E402
 
@@ -83,6 +93,9 @@ class MethodRun:
     q: np.ndarray
     v: np.ndarray
     xi: np.ndarray | None
+    result: SimulationResult | None = None
+    #: the certificate's columns (torchrom.periodic.certify), after :func:`certified`
+    certificate: dict | None = None
 
 
 def _timed(fn: Callable[[], object]) -> tuple[object, float]:
@@ -101,7 +114,7 @@ def _marched(bench: Bench, integ: Newmark, initial: dict, lco: LCOCriteria = PAP
 
     res, cpu = _timed(lambda: march(bench.system(), rom, bench.cases, initial, run))
     return MethodRun(res.amplitude[:, 0], res.frequency_hz, res.status, res.steps, res.time,
-                     cpu, res.q, res.v, res.xi)
+                     cpu, res.q, res.v, res.xi, res)
 
 
 # ----------------------------------------------------------------------------------------------
@@ -178,7 +191,7 @@ def harmonic_balance(bench: Bench, seed: str = "unconverged") -> MethodRun:
     res, cpu = _timed(run)
     nan = np.full(len(bench.cases), np.nan)
     return MethodRun(res.amplitude[:, 0], res.frequency_hz, res.status, res.steps, nan, cpu,
-                     res.q, res.v, None)
+                     res.q, res.v, None, res)
 
 
 #: the reference's harmonic ladder: adaptive up to H = 13 (amplitude change 1e-4), then every
@@ -253,17 +266,58 @@ METHODS: dict[str, Callable[[Bench], MethodRun]] = {
 DEFAULT_METHODS = ("newmark-reference", "newmark", "hb", "hb-unresolved")
 
 
-def reference(bench: Bench, runs: dict[str, MethodRun]) -> tuple[np.ndarray, np.ndarray]:
-    """(amplitude, frequency) per case: fixed-step Newmark at dt = 0.25 ms from the
-    ``newmark-reference`` final states, LCO rtol 1e-5 (module docstring)."""
-    start = runs["newmark-reference"]
-    integ = Newmark(dt=2.5e-4, iterations=3, refresh_every=1, tol=1e-3, threads=1,
-                    check_every=2000)
-    lco = LCOCriteria(rtol=1e-4, cycles=4, max_amplitude=10.0)
-    res = integ.run(bench.system(), start.q, start.v, start.xi, t_end=60.0, outputs=[OUTPUT],
-                    lco=lco)
-    ok = res.status == "lco"
-    return (np.where(ok, res.amplitude[:, 0], np.nan), np.where(ok, res.frequency_hz, np.nan))
+#: every method's LCOs are certified as a sweep certifies them (the certificate's step: the
+#: paper's 1 ms), the certification's CPU time counted in the method's
+CERTIFICATE = Certificate()
+CERTIFICATE_DT = 1e-3
+
+
+def certified(bench: Bench, run: MethodRun) -> MethodRun:
+    """``run`` with every LCO certified (finished by shooting where its certificate fails,
+    ``lco_uncertified`` where that fails too), the CPU time of the certificate added."""
+    rows = np.asarray(bench.model.rom.outputs[OUTPUT])[None]
+    res, cpu = _timed(lambda: certify(bench.system(), run.result, rows, 0, CERTIFICATE,
+                                      CERTIFICATE_DT))
+    return dataclasses.replace(run, amplitude=res.amplitude[:, 0], frequency_hz=res.frequency_hz,
+                               status=res.status, cpu_s=run.cpu_s + cpu, result=res,
+                               certificate={k: res.extra[k] for k in CERT_COLUMNS})
+
+
+def shooting_reference(bench: Bench, start: MethodRun) -> tuple[np.ndarray, np.ndarray, dict]:
+    """(amplitude, frequency, meta): the continuous-time orbit of every case by shooting on the
+    discrete Newmark map at h = 1 ms and 0.5 ms from ``start``'s certified orbits and
+    Richardson extrapolation (Newmark is second order): A = A(h/2) + (A(h/2) − A(h))/3."""
+    system = bench.system()
+    rows = np.asarray(system.rom.outputs[OUTPUT])
+    res = start.result
+    ok = np.flatnonzero(np.isin(res.status, ("lco", "lco_uncertified")))
+    t = torch.as_tensor(ok)
+    sub = system.select(t)
+    f = np.asarray(res.frequency_hz)[ok]
+    x = OrbitStart(torch.as_tensor(res.q[ok]), torch.as_tensor(res.v[ok]),
+                   torch.as_tensor(np.zeros((ok.size, system.n_lag)) if res.xi is None
+                                   else res.xi[ok]), torch.as_tensor(1 / f))
+    if res.orbits is not None:
+        from torchrom.periodic.shooting import start_from_fourier
+
+        X, w = res.orbits
+        x = start_from_fourier(sub, torch.as_tensor(X[ok]), torch.as_tensor(w[ok]), rows)
+    out = {}
+    for h in (1e-3, 5e-4):
+        r = shoot(sub, x, rows, options=ShootingOptions(dt=h, max_iterations=30))
+        out[h] = r
+        x = r.start()
+    a1, a2 = out[1e-3].amplitude[:, 0], out[5e-4].amplitude[:, 0]
+    f1, f2 = out[1e-3].frequency_hz, out[5e-4].frequency_hz
+    conv = out[1e-3].converged & out[5e-4].converged
+    amp = np.full(len(bench.cases), np.nan)
+    freq = np.full(len(bench.cases), np.nan)
+    amp[ok] = np.where(conv, a2 + (a2 - a1) / 3, np.nan)
+    freq[ok] = np.where(conv, f2 + (f2 - f1) / 3, np.nan)
+    meta = {"richardson_amplitude_change_pct": [float(v) for v in 100 * (a2 / a1 - 1)],
+            "stable": [None if s is None else bool(s) for s in out[5e-4].stable],
+            "critical_multiplier": [float(v) for v in out[5e-4].critical_multiplier]}
+    return amp, freq, meta
 
 
 # ----------------------------------------------------------------------------------------------
@@ -279,18 +333,41 @@ def summarize(name: str, run: MethodRun, cases: list[dict], ref_amp: np.ndarray,
     lco = run.status == "lco"
     amp_err = np.where(lco, 100 * np.abs(run.amplitude / ref_amp - 1), np.inf)
     freq_err = np.where(lco, 100 * np.abs(run.frequency_hz / ref_freq - 1), np.inf)
+    cert = run.certificate or {}
+    nan = np.full(len(cases), np.nan)
+    orbit_err = 100 * np.asarray(cert.get("orbit_error", nan), dtype=float)
+    dt_err = 100 * np.asarray(cert.get("dt_error", nan), dtype=float)
+    certified = np.array([c is True for c in cert.get("certified", [None] * len(cases))])
+    stable = list(cert.get("stable", [None] * len(cases)))
+    # the certificate must bound the measured error (to first order; 5 % slack)
+    bounded = np.where(certified, amp_err <= 1.05 * (orbit_err + dt_err) + 1e-6, True)
     rows = [{**{k: v for k, v in c.items() if k != "alpha"}, "status": str(run.status[i]),
              "amplitude": float(run.amplitude[i]), "frequency_hz": float(run.frequency_hz[i]),
              "reference_amplitude": float(ref_amp[i]), "reference_frequency_hz":
              float(ref_freq[i]), "amplitude_error_pct": float(amp_err[i]),
              "frequency_error_pct": float(freq_err[i]), "steps": int(run.steps[i]),
-             "simulated_s": float(run.time_s[i])} for i, c in enumerate(cases)]
+             "simulated_s": float(run.time_s[i]), "certified": bool(certified[i]),
+             "orbit_error_pct": float(orbit_err[i]), "dt_error_pct": float(dt_err[i]),
+             "certificate_bounds_error": bool(bounded[i]),
+             "stable": None if stable[i] is None else bool(stable[i]),
+             "critical_multiplier": float(np.asarray(cert.get("critical_multiplier", nan))[i]),
+             "finished_by_shooting": bool(cert.get("finished", [False] * len(cases))[i]
+                                          is True)}
+            for i, c in enumerate(cases)]
     n_lco = int(lco.sum())
-    return {"method": name, "cpu_s": run.cpu_s, "lco_cases": n_lco,
+    n_cert = int(certified.sum())
+    return {"method": name, "cpu_s": run.cpu_s, "lco_cases": n_lco, "certified": n_cert,
             "cpu_s_per_lco": run.cpu_s / n_lco if n_lco else float("inf"),
+            "cpu_s_per_certified_lco": run.cpu_s / n_cert if n_cert else float("inf"),
             "steps_per_lco": float(run.steps.sum() / n_lco) if n_lco else float("inf"),
             "max_amplitude_error_pct": float(np.nanmax(amp_err)),
-            "max_frequency_error_pct": float(np.nanmax(freq_err)), "cases": rows}
+            "max_frequency_error_pct": float(np.nanmax(freq_err)),
+            "max_orbit_error_pct": float(np.nanmax(np.where(certified, orbit_err, np.nan)))
+            if n_cert else float("nan"),
+            "certificates_bound_errors": bool(bounded.all()),
+            "stability_unknown": int(sum(1 for i in range(len(cases))
+                                         if lco[i] and stable[i] is None)),
+            "cases": rows}
 
 
 def load_model(folder: Path | None):
@@ -310,6 +387,8 @@ def main(argv=None) -> int:
     ap.add_argument("--methods", nargs="*", default=list(DEFAULT_METHODS),
                     choices=list(METHODS))
     ap.add_argument("--device", default="cpu")
+    ap.add_argument("--hb-check", action="store_true",
+                    help="also HB up to H = 25 against the reference (cross-check; minutes)")
     ap.add_argument("--out", type=Path, default=HERE / "results")
     args = ap.parse_args(argv)
     torch.set_num_threads(1)
@@ -317,51 +396,42 @@ def main(argv=None) -> int:
     bench = Bench(load_model(args.model), case_set(args.quick), args.device)
     runs = {}
     for name in dict.fromkeys(["newmark-reference", *args.methods]):
-        runs[name] = METHODS[name](bench)
+        runs[name] = certified(bench, METHODS[name](bench))
         print(f"{name}: {runs[name].cpu_s:.1f} CPU s, statuses "
               f"{dict(zip(*np.unique(runs[name].status, return_counts=True)))}", flush=True)
-    ref_amp, ref_freq = reference(bench, runs)
-    hb_amp, hb_freq, hb_check = hb_reference(bench)
-    # errors against the tight HB reference (issue 13) and against fixed-step Newmark at
-    # dt = 0.25 ms (issue 14), both in one run
-    methods = [summarize(name, runs[name], bench.cases, hb_amp, hb_freq) for name in runs]
-    for m, name in zip(methods, runs):
-        nm = summarize(name, runs[name], bench.cases, ref_amp, ref_freq)
-        m["max_amplitude_error_vs_newmark_025ms_pct"] = nm["max_amplitude_error_pct"]
-        m["max_frequency_error_vs_newmark_025ms_pct"] = nm["max_frequency_error_pct"]
-        for row, row_nm in zip(m["cases"], nm["cases"]):
-            row.update({f"{k}_vs_newmark_025ms": row_nm[k] for k in (
-                "reference_amplitude", "reference_frequency_hz", "amplitude_error_pct",
-                "frequency_error_pct")})
-    base = methods[0]["cpu_s_per_lco"]
+    # the reference: the continuous-time orbit (shooting at 1 and 0.5 ms, Richardson) from the
+    # orbits of the most accurate method run
+    best = next(m for m in ("hb-unresolved", "hb", "newmark", "newmark-reference") if m in runs)
+    ref_amp, ref_freq, ref_meta = shooting_reference(bench, runs[best])
+    methods = [summarize(name, runs[name], bench.cases, ref_amp, ref_freq) for name in runs]
+    check = None
+    if args.hb_check:
+        _, _, check = hb_reference(bench)
+        for c in check:
+            i = next(j for j, k in enumerate(bench.cases) if k["altitude_ft"] ==
+                     c["altitude_ft"] and k["gamma"] == c["gamma"])
+            c["shooting_reference_amplitude"] = float(ref_amp[i])
+            c["hb_vs_shooting_reference_pct"] = float(100 * (c["hb_amplitude"] / ref_amp[i]
+                                                             - 1))
+    base = methods[0]["cpu_s_per_certified_lco"]
     for m in methods:
-        m["cpu_ratio_vs_reference_method"] = base / m["cpu_s_per_lco"]
-        print(f"{m['method']:20s} {m['cpu_s_per_lco']:8.4f} CPU s per LCO "
-              f"({m['steps_per_lco']:8.0f} steps)  x{m['cpu_ratio_vs_reference_method']:.1f}  "
-              f"max errors vs the HB reference: amplitude "
-              f"{m['max_amplitude_error_pct']:.3f} %, frequency "
-              f"{m['max_frequency_error_pct']:.3f} %; vs Newmark 0.25 ms: "
-              f"{m['max_amplitude_error_vs_newmark_025ms_pct']:.3f} %, "
-              f"{m['max_frequency_error_vs_newmark_025ms_pct']:.3f} %")
-    # a case whose Newmark check did not settle within its window has NaN differences (listed)
-    diffs = [abs(c["amplitude_diff_pct"]) for c in hb_check]
-    worst = max((d for d in diffs if d == d), default=float("nan"))
-    unsettled = [f"{c['altitude_ft']:g} ft, gamma {c['gamma']:g}" for c in hb_check
-                 if c["amplitude_diff_pct"] != c["amplitude_diff_pct"]]
-    print(f"reference check: Newmark dt 0.25 ms started on the HB reference orbits keeps "
-          f"their amplitude within {worst:.3f} %"
-          + (f" (not settled in {REFERENCE_CHECK_T_END:g} s: {'; '.join(unsettled)})"
-             if unsettled else ""))
+        m["cpu_ratio_vs_reference_method"] = base / m["cpu_s_per_certified_lco"]
+        print(f"{m['method']:20s} {m['cpu_s_per_certified_lco']:8.4f} CPU s per certified "
+              f"LCO ({m['certified']}/{len(bench.cases)} certified)  "
+              f"x{m['cpu_ratio_vs_reference_method']:.1f}  max errors vs the continuous "
+              f"orbit: amplitude {m['max_amplitude_error_pct']:.3f} %, frequency "
+              f"{m['max_frequency_error_pct']:.3f} %; max orbit_error "
+              f"{m['max_orbit_error_pct']:.3f} %; certificates bound the errors: "
+              f"{m['certificates_bound_errors']}; stability unknown: {m['stability_unknown']}")
     meta = machine_meta(quick=args.quick, device=args.device, threads=1, output=OUTPUT,
                         cases=len(bench.cases),
-                        reference=f"harmonic balance adaptive up to H = {REFERENCE_HARMONICS} "
-                        "(amplitude rtol 1e-4), then every LCO seeded by time integration and "
-                        "raised up to H = 25 (highest converged H kept); checked against "
-                        "fixed-step Newmark dt 0.25 ms started on its orbits (reference_check)",
-                        reference_check=hb_check,
-                        newmark_025ms_reference="fixed-step Newmark dt 0.25 ms, LCO rtol 1e-4, "
-                        "from the newmark-reference states",
-                        wall_s=time.perf_counter() - t0)
+                        reference="the continuous-time orbit: shooting on the discrete Newmark "
+                        f"map at h = 1 ms and 0.5 ms from the certified orbits of {best!r}, "
+                        "Richardson-extrapolated (A(h/2) + (A(h/2) - A(h))/3)",
+                        reference_detail=ref_meta,
+                        certificate=dataclasses.asdict(CERTIFICATE)
+                        | {"dt": CERTIFICATE_DT},
+                        hb_reference_check=check, wall_s=time.perf_counter() - t0)
     args.out.mkdir(parents=True, exist_ok=True)
     path = args.out / "bench_lco.json"
     path.write_text(json.dumps({"meta": meta, "methods": methods}, indent=1, default=float)

@@ -26,6 +26,7 @@ files byte for byte, so running it twice changes nothing.
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import re
 import shutil
@@ -314,7 +315,8 @@ def block_config_keys() -> str:
     from torchrom.study import config as cfg
 
     keys = {**cfg.TABLE_KEYS, "aeroelastic": cfg.AEROELASTIC_KEYS,
-            "hb": (*cfg._HB_OPTION_KEYS, *cfg._HB_METHOD_KEYS)}
+            "hb": (*cfg._HB_OPTION_KEYS, *cfg._HB_METHOD_KEYS),
+            "certificate": tuple(f.name for f in dataclasses.fields(cfg.Certificate))}
     rows = ["| section | keys |", "|---|---|"]
     for name in cfg.SECTIONS:
         if name in keys:

@@ -217,6 +217,9 @@ class _Map:
             dxid = sys.lag_E @ dv + sys.lag_R @ dxi if na else dxi
             dh = torch.zeros(B, 1, cols, dtype=dtype, device=dev)
             dh[:, 0, -1] = 1.0 / N.to(dtype)
+        # the step's Newton matrix at the current state (see the step below)
+        LU, piv = torch.linalg.lu_factor(hb.Mt + ga * h3 * (Ceff + Ct - hb.C0)
+                                         + be * h3 * h3 * Kt)
         Nmax = int(N.max())
         O = rows.shape[0]
         y = torch.empty(B, Nmax, O, dtype=dtype, device=dev)
@@ -237,21 +240,16 @@ class _Map:
             if na:
                 xih = xi + h * (1.0 - ga) * xid
                 xi_base = (Pinv @ xih[..., None])[..., 0]
-            # modified Newton on the step's equation, the Jacobian from the predictor (within
-            # O(h²) of the solution, so the iterations contract by O(h²)); the monodromy needs
-            # the tangent at the solution itself (at the predictor's, the trivial multiplier
-            # of the Goland orbits moves by ~1e-2), taken after the last iteration
-            for it in range(o.step_iterations):
+            # modified Newton on the step's equation with the Jacobian of the last step's
+            # solution (O(h) away, so the iterations contract by O(h²)); the monodromy needs
+            # the tangent at this step's solution itself (at a predictor's, the trivial
+            # multiplier of the Goland orbits moves by ~1e-2): taken after the last iteration,
+            # it is also the next step's iteration matrix
+            for _ in range(o.step_iterations):
                 q1 = qh + be * h * h * a1
                 v1 = vh + ga * h * a1
-                if it == 0:
-                    f, Kt, Ct = self.forces(q1, v1)
-                    J = hb.Mt + ga * h3 * (Ceff + Ct - hb.C0) + be * h3 * h3 * Kt
-                    LU, piv = torch.linalg.lu_factor(J)
-                else:
-                    f = self.forces(q1, v1, tangent=False)
                 G = ((hb.Mt @ a1[..., None]) + Ceff @ v1[..., None]
-                     + hb.Kl @ q1[..., None])[..., 0] + f
+                     + hb.Kl @ q1[..., None])[..., 0] + self.forces(q1, v1, tangent=False)
                 if na:
                     G = G + (sys.lag_D @ xi_base[..., None])[..., 0]
                 if load is not None:
@@ -262,10 +260,10 @@ class _Map:
             step_error = torch.maximum(step_error, corr.abs().amax(1) / scale_a)
             q1 = qh + be * h * h * a1
             v1 = vh + ga * h * a1
-            if tangent and self.nonlinear:
+            if self.nonlinear:
                 _, Kt, Ct = self.forces(q1, v1)
-                J = hb.Mt + ga * h3 * (Ceff + Ct - hb.C0) + be * h3 * h3 * Kt
-                LU, piv = torch.linalg.lu_factor(J)
+                LU, piv = torch.linalg.lu_factor(
+                    hb.Mt + ga * h3 * (Ceff + Ct - hb.C0) + be * h3 * h3 * Kt)
             if na:
                 xi1 = xi_base + (W @ v1[..., None])[..., 0]
                 xid1 = (sys.lag_E @ v1[..., None] + sys.lag_R @ xi1[..., None])[..., 0]
