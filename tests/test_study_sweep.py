@@ -57,3 +57,23 @@ def test_float32_cases_within_tolerance_keep_float32(tmp_path):
     t64 = run_sweep(cfg, dtype=torch.float64)[0]
     assert (t32["precision"] == "float32").all() and (t32["status"] == "lco").all()
     np.testing.assert_allclose(t32["amplitude"], t64["amplitude"], rtol=1e-3)
+
+
+def test_every_lco_row_carries_its_certificate(tmp_path):
+    """A sweep's LCO rows carry the shooting certificate (orbit_error within the default 1e-3,
+    dt_error, a resolved stability); a config can turn finishing off, which leaves a loosely
+    accepted LCO (rtol 1e-2 at one cycle) flagged ``lco_uncertified`` instead of finished."""
+    path = tmp_path / "c.toml"
+    path.write_text(CONFIG.format(tol=1e-6))
+    table = run_sweep(load_sweep_config(path))[0]
+    lco = table[table.status == "lco"]
+    assert len(lco) == 4 and lco.certified.all()
+    assert (lco.orbit_error <= 1e-3).all() and (lco.dt_error < 1e-3).all()
+    assert lco.stable.map(lambda s: s is True).all()
+    loose = CONFIG.format(tol=1e-6).replace("[cases]", "[lco]\nrtol = 0.3\ncycles = 1\n"
+                                            "[certificate]\nfinish = false\ntol = 1e-6\n"
+                                            "richardson = false\n[cases]")
+    path.write_text(loose)
+    flagged = run_sweep(load_sweep_config(path))[0]
+    assert set(flagged.status) == {"lco_uncertified"}
+    assert (flagged.orbit_error > 1e-6).all() and flagged.dt_error.isna().all()

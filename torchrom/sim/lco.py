@@ -235,14 +235,16 @@ class PeakTracker:
         # geometric fall toward a limit below the decay level (two successive Aitken estimates)
         mono = have & (delta[..., :c] < 0).all(-1)
         limits = []
-        for j in range(2):
+        # two successive estimates where the ring holds them (one with cycles = 1)
+        for j in range(min(2, delta.shape[-1] - 1)):
             rj = delta[..., j] / delta[..., j + 1].clamp(max=-tiny)
             rj = torch.where(mono & (rj > 0) & (rj < 1), rj, torch.nan)
             limits.append(A[..., j] + delta[..., j] * rj / (1.0 - rj))
         # |limit|: an amplitude falling slowly toward an LCO (a start above it) has r near 1,
         # where the extrapolated limit is far below zero and meaningless — not a decay
-        geometric = mono & (limits[0].abs() <= crit.decay_ratio * ref) & (
-            limits[1].abs() <= crit.decay_ratio * ref)
+        geometric = mono
+        for limit in limits:
+            geometric = geometric & (limit.abs() <= crit.decay_ratio * ref)
         decay = (low | geometric).all(-1)
 
         big = (self.y_abs_max[:, outs] > crit.max_amplitude).any(-1)
