@@ -88,7 +88,7 @@ def test_cbeam_tip_deflection_includes_shear_exactly():
         assert tip == pytest.approx(P * L**3 / (3 * E * I) + P * L / (K * G * A), rel=1e-10)
 
 
-def test_cbeam_torsional_inertia_and_tapered_refused():
+def test_cbeam_torsional_inertia_and_tapered_area():
     """CBEAM lumps ρ (I1 + I2) L / 2 of torsional inertia at each end (as Nastran's CBEAM;
     CBAR has none): the first torsion mode of the 4-element cantilever equals the lumped chain's
     ω_1 = 2 √(G J / (h I_p)) sin(π / (4N)) with end inertia half the interior one I_p."""
@@ -111,5 +111,26 @@ def test_cbeam_torsional_inertia_and_tapered_refused():
     m.add_pbeam(1, 1, [0.0, 1.0], ["C", "YES"], [0.01, 0.02], [2e-5, 2e-5], [3e-5, 3e-5],
                 [0.0, 0.0], [4e-5, 4e-5], [0.0, 0.0])
     m.add_cbeam(1, 1, [1, 2], [0.0, 0.0, 1.0], None)
-    with pytest.raises(InputError, match="PBEAM 1: field A: tapered PBEAM"):
-        model_of(m)
+    # tapered (A from 0.01 to 0.02, linear): the axial stiffness E ΔA / (L ln(A_B / A_A))
+    K = model_of(m, autospc=False).stiffness_matrix().toarray()
+    assert K[0, 0] == pytest.approx(2.0e11 * 0.01 / np.log(2.0), rel=1e-12)
+
+
+def test_tapered_pbeaml_stations():
+    """PBEAML ROD with radius 0.05 at end A and 0.08 at end B: each station's section from its
+    dimensions (A = π r², J = π r⁴ / 2), linear between stations; the axial stiffness of the
+    element is then E (A_B − A_A) / (L ln(A_B / A_A)) (round-off) and NSM per station is kept."""
+    m = new_deck()
+    m.add_grid(1, [0.0, 0.0, 0.0])
+    m.add_grid(2, [1.5, 0.0, 0.0])
+    m.add_mat1(1, 2.0e11, 8.0e10, None, rho=7800.0)
+    m.add_pbeaml(1, 1, "ROD", [0.0, 1.0], [[0.05], [0.08]], so=["YES", "YES"], nsm=[0.2, 0.6])
+    m.add_cbeam(1, 1, [1, 2], [0.0, 0.0, 1.0], None)
+    fe = model_of(m, autospc=False)
+    (taper,) = fe.mesh.bars.taper.values()
+    Aa, Ab = np.pi * 0.05**2, np.pi * 0.08**2
+    np.testing.assert_allclose(taper.A, [Aa, Ab], rtol=1e-14)
+    np.testing.assert_allclose(taper.J, [np.pi * 0.05**4 / 2, np.pi * 0.08**4 / 2], rtol=1e-14)
+    np.testing.assert_allclose(taper.nsm, [0.2, 0.6])
+    K = fe.stiffness_matrix().toarray()
+    assert K[0, 0] == pytest.approx(2.0e11 * (Ab - Aa) / (1.5 * np.log(Ab / Aa)), rel=1e-12)

@@ -31,6 +31,7 @@ import logging
 import re
 import warnings
 from collections import Counter
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -384,6 +385,7 @@ class _Reader(ExtraCards):
         mesh.coupled_mass = self._param("COUPMASS", -1) > 0
         wtmass = float(self._param("WTMASS", 1.0))
         rods, quads, shears, bars, trias = [], [], [], [], []
+        self.tapers = {}
         solids: dict[int, list] = {8: [], 6: [], 4: [], 10: [], 20: [], 15: []}
         for eid in sorted(self.m.elements):
             e = self.m.elements[eid]
@@ -413,6 +415,10 @@ class _Reader(ExtraCards):
         self._check_surfaces("CQUAD4", mesh.quads.eids, mesh.quads.nodes)
         self._check_surfaces("CSHEAR", mesh.shears.eids, mesh.shears.nodes)
         mesh.bars = _stack(BarSet, bars)
+        row = {int(eid): k for k, eid in enumerate(mesh.bars.eids)}
+        for eid, taper in self.tapers.items():
+            mesh.bars.taper[row[eid]] = replace(taper, nsm=taper.nsm * wtmass,
+                                                nsi=taper.nsi * wtmass)
         for k in mechanism_pins(mesh.bars, xyz):
             eid = int(mesh.bars.eids[k])
             card = self.m.elements[eid].type
@@ -586,6 +592,11 @@ class _Reader(ExtraCards):
         if p.type in ("PBARL", "PBEAML") and not sec.k1 and note not in self.notes:
             self.notes.append(note)
         polar = rho * (sec.I1 + sec.I2) if card == "CBEAM" else 0.0
+        if card == "CBEAM" and (e.sa or e.sb):
+            raise self.err(f"{where}: fields SA/SB: warping scalar points are not supported "
+                           f"(got {e.sa}, {e.sb})")
+        if sec.taper is not None:
+            self.tapers[eid] = sec.taper
         pins = [np.isin(np.arange(6), _comps(flag or "", self.f, f"{where}: field {name}"))
                 for name, flag in (("PA", e.pa), ("PB", e.pb))]
         return dict(eids=eid, nodes=[n1, n2], v=v, A=sec.A, I1=sec.I1, I2=sec.I2, J=sec.J, E=E,
