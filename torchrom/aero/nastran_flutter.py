@@ -11,8 +11,9 @@ numbers, reduced frequencies or velocities, negative velocities taken by magnitu
 form is expanded by pyNastran), MKAERO1/MKAERO2, AERO (ACSID, REFC, RHOREF, SYMXZ, SYMXY: image
 boxes about the aero xy plane, -1 = ground effect), AEROS, CAERO1/PAERO1 (+AEFACT),
 SPLINE1/SPLINE2/SET1, SPLINE4 (IPS)/SPLINE5 with AELIST, EIGR/EIGRL (ND, frequency range),
-PARAM LMODES, RESVEC and VREF; case control FMETHOD, METHOD and RESVEC. The boxes, spline grids
-and grid motions are expressed in the aero frame (ACSID), where the flow runs along +x.
+TABDMP1, PARAM LMODES, RESVEC, VREF and KDAMP; case control FMETHOD, METHOD, RESVEC and SDAMP.
+The boxes, spline grids and grid motions are expressed in the aero frame (ACSID), where the flow
+runs along +x.
 :func:`compare_f06` puts Nastran's flutter points (FLUTTER SUMMARY of an f06) beside ours.
 
 Symmetry: the reflection plane is the deck's AERO SYMXZ (AEROS when there is no AERO card):
@@ -39,9 +40,11 @@ point within 0.5 % (quartic: frequency −2.4 %); tests/test_public_decks.py.
 Documented differences from Nastran: GAFs are computed directly at each FLFACT Mach number (on
 the reduced frequencies of the nearest MKAERO Mach for PK; at the FLFACT reduced frequencies
 themselves for K/KE) instead of being interpolated between MKAERO points; K and KE use the same
-solver (KE without viscous damping, as in Nastran); structural damping tables (TABDMP1) are not
-read; splines interpolate exactly (see :mod:`torchrom.aero.splines`); a beam spline's deflection
-(along the z axis of its CID) is projected on the box normals, which the DLM's h is measured along.
+solver (KE without viscous damping, as in Nastran); modal damping (case control SDAMP, TABDMP1,
+PARAM KDAMP = +1) is the PK equation's viscous B (:mod:`torchrom.aero.modal_damping`; refused
+with K/KE or KDAMP = -1); splines interpolate exactly (see :mod:`torchrom.aero.splines`); a beam
+spline's deflection (along the z axis of its CID) is projected on the box normals, which the DLM's
+h is measured along.
 Modal matrices are those of mass-normalised modes (M = I, K = diag ω²). The modes are the lowest
 min(LMODES, ND) eigenmodes; when LMODES exceeds ND (or there is no LMODES) they are augmented, as
 Nastran does by default (its "AFTER AUGMENTATION OF RESIDUAL VECTORS" table), with residual
@@ -82,6 +85,7 @@ from .flutter import (
     refine_pk_crossings,
     zero_crossings,
 )
+from .modal_damping import ModalDamping, modal_damping, subcase_sdamp
 from .panels import (
     AeroFrame,
     AeroPanels,
@@ -122,6 +126,8 @@ class FlutterCase:
     imeth: str
     nvalue: int | None
     eps: float
+    #: the subcase's SDAMP table (viscous modal damping), None without SDAMP
+    damping: ModalDamping | None = None
 
 
 @dataclass
@@ -346,6 +352,7 @@ def load_deck(path, require_flutter: bool = True, *, symxz: int | None = None,
             mkaero += [(float(m), float(k)) for m, k in zip(mk.machs, mk.reduced_freqs)]
 
     fmethods = _case_ids(model, "FMETHOD") or sorted(model.flutters)
+    sdamp = subcase_sdamp(model)
     if not fmethods and require_flutter:
         raise InputError(f"{path}: FLUTTER: no flutter card (and no FMETHOD in case control)")
     cases = []
@@ -357,6 +364,7 @@ def load_deck(path, require_flutter: bool = True, *, symxz: int | None = None,
         method = str(fl.method).upper()
         if method not in FLUTTER_METHODS:
             raise InputError(f"{where}: METHOD: expected one of {FLUTTER_METHODS}, got {method}")
+        damping = modal_damping(model, where, sdamp[sid], method) if sid in sdamp else None
         dens_id = fl.density if isinstance(fl.density, int) else fl.density.sid
         mach_id = fl.mach if isinstance(fl.mach, int) else fl.mach.sid
         rv = fl.reduced_freq_velocity
@@ -384,6 +392,7 @@ def load_deck(path, require_flutter: bool = True, *, symxz: int | None = None,
                 str(fl.imethod or "L").upper(),
                 fl.nvalue,
                 float(fl.epsilon or 1e-3),
+                damping,
             )
         )
 
@@ -615,7 +624,13 @@ def run_deck(deck_or_path, fe=None, kernel: str = NASTRAN_KERNEL, log=print) -> 
         # V = 30 in bah_plane, real +-9e-4 in its f06)
         return sorted(k_list | ({0.0} if n_rigid else set()))
 
+    undamped = structure
     for case in deck.cases:
+        structure = undamped
+        if case.damping is not None:
+            structure = ModalStructure(undamped.M, undamped.K,
+                                       C0=np.diag(case.damping.viscous(freqs)))
+            notes.append(f"FLUTTER {case.sid}: {case.damping.describe()}")
         if case.method == "PKNL":
             # PKNL: the i-th density, Mach number and velocity form one flight condition (no
             # loops over the lists, MSC QRG FLUTTER); one p-k path per Mach number.
