@@ -97,21 +97,30 @@ def test_flutter_pt145_ke_against_its_f06():
     assert np.abs(sw.damping[order, 1] - nastran_g).max() <= 0.005
 
 
-def test_flutter_two_mode_pknl_against_its_f06():
-    """0012_flutter (PKNL matched path, 93 points): measured speed -0.35 % (within 2 %),
-    frequency -5.5 % (NOT within 2 %, asserted within 6 %): the crossing is a coalescence where
-    the f06's root jumps from 6.93 to 6.24 to 6.10 Hz (damping -0.118, -0.025, +0.145) over 1 %
-    of speed, so its frequency at zero damping is fixed to a few % only by the rows the path
-    happens to sample; ours crosses at 5.88 Hz (quartic kernel: 5.74 Hz, -7.7 %)."""
+def test_flutter_two_mode_pknl_against_its_f06s():
+    """0012_flutter (PKNL matched path, 93 points) against its two f06s. Simcenter Nastran 2024
+    (0012_flutter2.f06): speed +0.01 %, frequency +1.24 % (target 2 %: met), and both roots'
+    damping at each of the first 20 rows within 0.0005 (measured 0.00013: the pitch root
+    -0.00622 vs -0.00626 at the first row). MSC Nastran 2005 (0012_flutter.f06): speed -0.35 %,
+    frequency -5.5 % (asserted within 6 %): its pitch root's aerodynamic damping is 20 % below
+    both torchrom's and Simcenter's (-0.00520 at the first row), so its roots coalesce later in
+    frequency; the f06 of the old MSC run, not torchrom, is the outlier (quartic kernel against
+    Simcenter: frequency -1.1 %)."""
     from torchrom.aero.nastran_flutter import compare_f06, run_deck
+    from torchrom.f06 import read_flutter_summary
 
     folder = DECKS / "pynastran_2_mode_flutter"
     res = run_deck(folder / "0012_flutter.bdf", log=lambda *_: None)
-    text, records = compare_f06(res, folder / "0012_flutter.f06")
-    print(text)
-    (rec,) = [r for r in records if r["velocity"] is not None]
-    assert abs(rec["velocity_diff_pct"]) <= 2.0
-    assert abs(rec["frequency_diff_pct"]) <= 6.0
+    for f06, freq_tol in (("0012_flutter2.f06", 2.0), ("0012_flutter.f06", 6.0)):
+        text, records = compare_f06(res, folder / f06)
+        print(f06, text)
+        (rec,) = [r for r in records if r["velocity"] is not None]
+        assert abs(rec["velocity_diff_pct"]) <= 2.0
+        assert abs(rec["frequency_diff_pct"]) <= freq_tol
+    sweep = res.results[0].sweep
+    for table in read_flutter_summary(folder / "0012_flutter2.f06"):
+        ours = sweep.damping[:20, table.point - 1]
+        np.testing.assert_allclose(ours, table.damping[:20], rtol=0, atol=5e-4)
 
 
 def _bah_plane_both_subcases(tmp_path) -> Path:
