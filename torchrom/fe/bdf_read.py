@@ -16,7 +16,9 @@ offsets with every CBAR OFFT code, pin flags, I12: :mod:`torchrom.fe.elements.ba
 CELAS2, CONM1, CONM2, CMASS1/PMASS, CMASS2, CBUSH/PBUSH, GENEL, RBE1, RBE2, RBAR, RBE3, EIGR,
 EIGRL, FORCE,
 MOMENT, PLOAD2, PLOAD4, LOAD, PARAM (COUPMASS, WTMASS are used). Cards without effect on modes
-and flutter are accepted with a note (:data:`torchrom.fe.bdf_cards.NOTED_CARDS`).
+and flutter are accepted with a note (:data:`torchrom.fe.bdf_cards.NOTED_CARDS`); a SOL 200
+deck's cards must agree with its design relations at the initial design
+(:mod:`torchrom.fe.design`).
 Aerodynamic and solution-control cards (CAERO1, PAERO1, SPLINE*, SET1, AERO, AEROS, MKAERO*,
 FLFACT, FLUTTER, ...) are kept in ``fe.bdf`` for :mod:`torchrom.aero` and ignored here. Any other
 card is an error listing the card names and counts (``unsupported="warn"`` demotes it to a
@@ -43,6 +45,7 @@ from .bdf_checks import check_complete, check_fields, duplicate_message
 from .bdf_extra import SOLID_GRIDS, ExtraCards
 from .coords import axes_at
 from .coords import components as _comps
+from .design import check_initial_design
 from .elements.bar import frames_between, mechanism_pins
 from .elements.quad4 import quad_frames, shape
 from .goland_geometry import (  # noqa: F401 - GOLAND_* re-exported (public names of this module)
@@ -230,6 +233,7 @@ def from_pynastran(
         raise InputError(f"unsupported: expected 'error' or 'warn', got {unsupported!r}")
     notes = _check_cards(model, fname, unsupported)
     refuse_gset_matrices(model, fname)
+    notes += check_initial_design(model, fname)
     if autospc is None:
         autospc = _deck_autospc(model)
     check_fields(model, fname)
