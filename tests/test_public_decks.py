@@ -176,6 +176,31 @@ def test_flutter_bah_plane_free_free_pk_against_its_f06(tmp_path):
     assert abs(s.real / -0.64477 - 1) <= 0.03 and abs(s.imag / 0.56398 - 1) <= 0.03
 
 
+def test_flutter_bah_plane_at_mach_0_equals_mach_0_2(tmp_path):
+    """bah_plane's FLUTTER 502 (30 to 450, free-free, AERO ACSID 2) at Mach 0 instead of 0.2:
+    no f06 at Mach 0 is public, so the reference is physics: compressibility at Mach 0.2
+    (β = 0.98) moves a subsonic flutter point by well under 1 %. Measured: the first crossing
+    is still POINT 4's, at 393.88 (Mach 0.2: 393.23 here, 394.04 in the f06), 3.1822 Hz (3.1791;
+    f06 3.1784); asserted within 0.5 % of the f06's Mach 0.2 point, with no earlier crossing
+    of any root (rigid-body roots included: the Mach 0 steady GAF and the Mach 0 DLM kernel)."""
+    from torchrom.aero.nastran_flutter import run_deck
+
+    path = _bah_plane_both_subcases(tmp_path)
+    text = path.read_text().replace("FLFACT,5,.2 $mach", "FLFACT,5,0. $mach")
+    # 15 speeds instead of 30 (test time): the crossing is refined between speeds anyway
+    text = text.replace("FLFACT,6,30., THRU, 450., 30", "FLFACT,6,30., THRU, 450., 15")
+    assert "FLFACT,5,0. $mach" in text and "450., 15" in text
+    path.write_text(text.replace("SUBCASE 1\n  FMETHOD = 501\n", ""))
+    res = run_deck(path, log=lambda *_: None)
+    (m0,) = [r for r in res.results if r.case.sid == 502]
+    assert m0.mach == 0.0
+    first = min(m0.points, key=lambda p: p.velocity)
+    print("Mach 0:", first.velocity, first.frequency_hz, first.mode)
+    assert first.mode == 3  # the 4th root, the f06's POINT 4
+    assert first.velocity == pytest.approx(394.04, rel=5e-3)
+    assert first.frequency_hz == pytest.approx(3.1784, rel=5e-3)
+
+
 def test_cbush_static_against_its_punch_file():
     """cbush (SOL 101): a CBUSH between two coincident grids, one clamped, 1000 along x on the
     other: its displacement equals MSC Nastran's (the run's punch file; the f06 prints the
