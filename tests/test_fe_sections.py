@@ -30,6 +30,10 @@ def test_library_sections_match_closed_forms():
     assert s.A == pytest.approx(12 - 3.4 * 2.6)
     assert s.I1 == pytest.approx((4 * 27 - 3.4 * 2.6**3) / 12)
     assert s.J == pytest.approx(4 * (3.7 * 2.8) ** 2 / (2 * 3.7 / 0.2 + 2 * 2.8 / 0.3))
+    # its shear factors: the side walls' share between top and bottom (plane 1, shear along
+    # y), the top and bottom walls' between the sides (plane 2); TUBE 0.5 (thin-walled tube)
+    assert (s.k1, s.k2) == pytest.approx((2 * 2.6 * 0.3 / s.A, 2 * 3.4 * 0.2 / s.A))
+    assert section(PBARL(1, 1, "TUBE", [1.0, 0.8]), "p").k1 == 0.5
     # I: depth 10, flanges 6 x 0.8, web 0.5: Σ w h³/12 + a d², thin-walled J = Σ b t³/3
     s = section(PBARL(1, 1, "I", [10.0, 6.0, 6.0, 0.5, 0.8, 0.8]), "PBARL 1")
     web = 10 - 1.6

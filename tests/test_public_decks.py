@@ -34,6 +34,8 @@ MODES = [
     ("ekm_bar_beam", "test_case.bdf", "test_case.f06", {}),
     # CROD with PARAM COUPMASS and CMASS1: MSC's coupled rod mass (axial [5 1; 1 5] / 12)
     ("cofe_ten_bar_truss", "modes.dat", "modes.f06", {}),
+    # glider: tapered PBEAML TUBE, BOX (their shear factors), RBAR, free-free
+    ("pynastran_fmondsp", "fmondsp.dat", "fmondsp.f06", {}),
     ("pynastran_ha144d", "ha144da.bdf", "ha144da.f06", {}),
     ("pynastran_bah_ha146c", "ha146c.bdf", "ha146c.f06", {}),
     ("pynastran_actuator_tf", "actuator_tf_modeling.bdf", "actuator_tf_modeling.f06", {}),

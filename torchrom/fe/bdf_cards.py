@@ -57,6 +57,10 @@ NOTED_CARDS: dict[str, str] = {
     "TABRND1": "power spectral density table: random response only",
     "RANDPS": "power spectral density: random response only",
     "MONPNT3": "monitor point: output only",
+    "MONPNT2": "monitor point: output only",
+    "MONDSP1": "displacement monitor point: output only",
+    "AECOMP": "aerodynamic component for monitor points: output only",
+    "AECOMPL": "aerodynamic component list for monitor points: output only",
     "TEMPD": "default temperature: no thermal loads in modes/flutter",
     "TEMP": "temperatures: no thermal loads in modes/flutter",
     "EPOINT": "extra points: dynamic response and transfer functions only, not in the real "
