@@ -36,6 +36,7 @@ MODES = [
     ("cofe_ten_bar_truss", "modes.dat", "modes.f06", {}),
     # glider: tapered PBEAML TUBE, BOX (their shear factors), RBAR, free-free
     ("pynastran_fmondsp", "fmondsp.dat", "fmondsp.f06", {}),
+    ("pynastran_bah_plane_mach0", "BAH_Plane.bdf", "BAH_Plane.f06", {}),
     ("pynastran_ha144d", "ha144da.bdf", "ha144da.f06", {}),
     ("pynastran_bah_ha146c", "ha146c.bdf", "ha146c.f06", {}),
     ("pynastran_actuator_tf", "actuator_tf_modeling.bdf", "actuator_tf_modeling.f06", {}),
@@ -201,6 +202,43 @@ def test_flutter_bah_plane_at_mach_0_equals_mach_0_2(tmp_path):
     assert first.mode == 3  # the 4th root, the f06's POINT 4
     assert first.velocity == pytest.approx(394.04, rel=5e-3)
     assert first.frequency_hz == pytest.approx(3.1784, rel=5e-3)
+
+
+def test_flutter_bah_plane_mach_0_coarse_speeds_against_its_f06():
+    """BAH_Plane (pyNastran's MATLAB example, MSC 2012 f06): bah_plane at Mach 0 with speeds
+    250 apart, no residual vectors. The f06's unstable root (its POINT 3 from 500 on; at 250
+    its POINT 3 is another, damped root: Nastran's branches swap in the first step) has g
+    +0.0523, -0.0239, +0.4027 at 500, 750, 1000: the root goes unstable, stable, unstable, and
+    the summary's linear interpolation puts crossings at 458 (across the swap) and 764. Ours is
+    the same root on the branch of the 3.75 Hz mode: +0.0601, -0.0209, +0.4121 (asserted
+    within 0.01) at 3.046, 3.088, 3.236 Hz (f06 3.048, 3.090, 3.253; within 1 %); interpolated
+    as the f06 does, its second crossing is at 762.1 (f06 763.89, -0.23 %). Solved at speeds
+    between (refine_pk_crossings) the first crossing is 393.8, where the Mach 0.2 f06 with
+    fine speeds has it (394.04): the coarse list, not the aerodynamics, moves Nastran's.
+    Before the p-k steps were halved when tracking fails, two of our branches (2.45 and
+    3.75 Hz) converged to this one root from 500 on and the damped one was lost. (The 9.0 and
+    14.5 Hz branches still end on one root at some of these speeds, halvings or not: not
+    resolved.)"""
+    from dataclasses import replace
+
+    from torchrom.aero.flutter import _mac
+    from torchrom.aero.nastran_flutter import load_deck, run_deck
+
+    folder = DECKS / "pynastran_bah_plane_mach0"
+    deck = load_deck(folder / "BAH_Plane.bdf")
+    deck.cases = [replace(deck.cases[0], values=np.array([250.0, 500.0, 750.0, 1000.0]))]
+    res = run_deck(deck, log=lambda *_: None)
+    sw = res.results[0].sweep
+    # the 2.45 and 3.75 Hz branches stay on two roots (they shared one before)
+    for s, vec in zip(sw.eigenvalues, sw.vectors):
+        assert (abs(s[2] - s[3]) > 1e-6 * np.abs(s).max()
+                or _mac(vec[:, 2], vec[:, 3]) < 0.99)
+    g = sw.damping[1:, 3]
+    f = np.abs(sw.eigenvalues[1:, 3].imag) / (2 * np.pi)
+    np.testing.assert_allclose(g, [0.052279, -0.023851, 0.40266], rtol=0, atol=0.01)
+    np.testing.assert_allclose(f, [3.04824, 3.08958, 3.25317], rtol=0.01)
+    crossing = 750 + 250 * -g[1] / (g[2] - g[1])
+    assert crossing == pytest.approx(763.89, rel=0.02)
 
 
 def test_cbush_static_against_its_punch_file():
