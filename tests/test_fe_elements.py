@@ -284,3 +284,43 @@ def test_cquad4_shell_tangent_at_zero_is_linear_stiffness():
     eps = 1e-7
     lin = K @ u
     assert np.linalg.norm(fe.internal_force(eps * u) / eps - lin) <= 1e-5 * np.linalg.norm(lin)
+
+
+@pytest.mark.parametrize("coupled", [False, True])
+def test_rod_mass_is_msc_coupled_or_lumped(coupled):
+    """CROD mass (MSC Nastran's, as CoFE's Crod.m writes it and the ten-bar truss of
+    tests/decks/cofe_ten_bar_truss confirms to 1e-6 against MSC's f06): with PARAM COUPMASS
+    m/12 [5 1; 1 5] along the rod and m/2 per end across it; lumped m/2 per end otherwise.
+    Exact (round-off) on a skew rod with non-structural mass; and the closed-form frequency of
+    the one-element fixed-free rod, ω² = (E A / L) / M₂₂ with M₂₂ = 5 m / 12 (coupled) or m / 2."""
+    from torchrom.fe.model import assemble_mass
+
+    m = single_element("rod")
+    m.properties[1].nsm = 0.05
+    if coupled:
+        m.add_param("COUPMASS", [1])
+    fe = model_of(m)
+    x1, x2 = fe.grid_xyz
+    L = np.linalg.norm(x2 - x1)
+    e = (x2 - x1) / L
+    mass = (2700.0 * 1e-4 + 0.05) * L
+    M = assemble_mass(fe.mesh).toarray()
+    T = np.ix_([0, 1, 2, 6, 7, 8], [0, 1, 2, 6, 7, 8])
+    axial = np.array([[5.0, 1.0], [1.0, 5.0]]) / 12.0 if coupled else np.eye(2) / 2.0
+    P = np.outer(e, e)
+    expected = mass * (np.kron(axial, P) + np.kron(np.eye(2) / 2.0, np.eye(3) - P))
+    np.testing.assert_allclose(M[T], expected, rtol=0, atol=1e-14 * mass)
+    assert np.abs(M).sum() == pytest.approx(np.abs(M[T]).sum(), rel=1e-15)  # no rotary mass
+
+    rod = new_deck()
+    rod.add_mat1(1, 7.0e10, None, 0.3, rho=2700.0)
+    rod.add_grid(1, [0.0, 0.0, 0.0], ps="123456")
+    rod.add_grid(2, [2.0, 0.0, 0.0], ps="23456")
+    rod.add_prod(1, 1, 1e-4)
+    rod.add_crod(1, 1, [1, 2])
+    if coupled:
+        rod.add_param("COUPMASS", [1])
+    M22 = 2700.0 * 1e-4 * 2.0 * (5.0 / 12.0 if coupled else 0.5)
+    omega = np.sqrt(7.0e10 * 1e-4 / 2.0 / M22)
+    assert model_of(rod).modes(1).frequencies_hz[0] == pytest.approx(omega / (2 * np.pi),
+                                                                    rel=1e-10)

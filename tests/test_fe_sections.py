@@ -30,6 +30,10 @@ def test_library_sections_match_closed_forms():
     assert s.A == pytest.approx(12 - 3.4 * 2.6)
     assert s.I1 == pytest.approx((4 * 27 - 3.4 * 2.6**3) / 12)
     assert s.J == pytest.approx(4 * (3.7 * 2.8) ** 2 / (2 * 3.7 / 0.2 + 2 * 2.8 / 0.3))
+    # its shear factors: the side walls' share between top and bottom (plane 1, shear along
+    # y), the top and bottom walls' between the sides (plane 2); TUBE 0.5 (thin-walled tube)
+    assert (s.k1, s.k2) == pytest.approx((2 * 2.6 * 0.3 / s.A, 2 * 3.4 * 0.2 / s.A))
+    assert section(PBARL(1, 1, "TUBE", [1.0, 0.8]), "p").k1 == 0.5
     # I: depth 10, flanges 6 x 0.8, web 0.5: Σ w h³/12 + a d², thin-walled J = Σ b t³/3
     s = section(PBARL(1, 1, "I", [10.0, 6.0, 6.0, 0.5, 0.8, 0.8]), "PBARL 1")
     web = 10 - 1.6
@@ -88,7 +92,7 @@ def test_cbeam_tip_deflection_includes_shear_exactly():
         assert tip == pytest.approx(P * L**3 / (3 * E * I) + P * L / (K * G * A), rel=1e-10)
 
 
-def test_cbeam_torsional_inertia_and_tapered_refused():
+def test_cbeam_torsional_inertia_and_tapered_area():
     """CBEAM lumps ρ (I1 + I2) L / 2 of torsional inertia at each end (as Nastran's CBEAM;
     CBAR has none): the first torsion mode of the 4-element cantilever equals the lumped chain's
     ω_1 = 2 √(G J / (h I_p)) sin(π / (4N)) with end inertia half the interior one I_p."""
@@ -111,5 +115,26 @@ def test_cbeam_torsional_inertia_and_tapered_refused():
     m.add_pbeam(1, 1, [0.0, 1.0], ["C", "YES"], [0.01, 0.02], [2e-5, 2e-5], [3e-5, 3e-5],
                 [0.0, 0.0], [4e-5, 4e-5], [0.0, 0.0])
     m.add_cbeam(1, 1, [1, 2], [0.0, 0.0, 1.0], None)
-    with pytest.raises(InputError, match="PBEAM 1: field A: tapered PBEAM"):
-        model_of(m)
+    # tapered (A from 0.01 to 0.02, linear): the axial stiffness E ΔA / (L ln(A_B / A_A))
+    K = model_of(m, autospc=False).stiffness_matrix().toarray()
+    assert K[0, 0] == pytest.approx(2.0e11 * 0.01 / np.log(2.0), rel=1e-12)
+
+
+def test_tapered_pbeaml_stations():
+    """PBEAML ROD with radius 0.05 at end A and 0.08 at end B: each station's section from its
+    dimensions (A = π r², J = π r⁴ / 2), linear between stations; the axial stiffness of the
+    element is then E (A_B − A_A) / (L ln(A_B / A_A)) (round-off) and NSM per station is kept."""
+    m = new_deck()
+    m.add_grid(1, [0.0, 0.0, 0.0])
+    m.add_grid(2, [1.5, 0.0, 0.0])
+    m.add_mat1(1, 2.0e11, 8.0e10, None, rho=7800.0)
+    m.add_pbeaml(1, 1, "ROD", [0.0, 1.0], [[0.05], [0.08]], so=["YES", "YES"], nsm=[0.2, 0.6])
+    m.add_cbeam(1, 1, [1, 2], [0.0, 0.0, 1.0], None)
+    fe = model_of(m, autospc=False)
+    (taper,) = fe.mesh.bars.taper.values()
+    Aa, Ab = np.pi * 0.05**2, np.pi * 0.08**2
+    np.testing.assert_allclose(taper.A, [Aa, Ab], rtol=1e-14)
+    np.testing.assert_allclose(taper.J, [np.pi * 0.05**4 / 2, np.pi * 0.08**4 / 2], rtol=1e-14)
+    np.testing.assert_allclose(taper.nsm, [0.2, 0.6])
+    K = fe.stiffness_matrix().toarray()
+    assert K[0, 0] == pytest.approx(2.0e11 * (Ab - Aa) / (1.5 * np.log(Ab / Aa)), rel=1e-12)

@@ -417,6 +417,56 @@ def pk_damping(eigenvalues: np.ndarray, velocity, semichord: float,
         return np.where(real, g_real, 2 * eig.real / np.abs(eig.imag))
 
 
+#: p-k path steps are halved (at most this many times) while a branch's mode shape changes by
+#: more than half (MAC below TRACK_MAC) or two branches land on one root: coarse velocity lists
+#: otherwise let a branch jump to a neighbour's root (bah_plane's Mach 0 deck with steps of
+#: 250: two branches on one root from the second speed on)
+TRACK_HALVINGS = 8
+TRACK_MAC = 0.5
+
+
+def _pk_solve_all(structure, aero, V, rho, s_prev, v_prev, eps, max_iter):
+    m = len(s_prev)
+    s_all = np.empty(m, complex)
+    v_all = np.empty((m, m), complex)
+    k_all = np.empty(m)
+    failed = []
+    for j in range(m):
+        s_all[j], v_all[:, j], k_all[j], ok = _pk_mode(structure, aero, V, rho, s_prev[j],
+                                                        v_prev[:, j], eps, max_iter)
+        if not ok:
+            failed.append(j)
+    return s_all, v_all, k_all, failed
+
+
+def _tracked(s_new, v_new, v_old) -> bool:
+    """Each branch keeps its shape (MAC ≥ TRACK_MAC with its previous vector) and no two
+    branches converged to the same root (away from 0)."""
+    m = len(s_new)
+    if any(_mac(v_new[:, j], v_old[:, j]) < TRACK_MAC for j in range(m)):
+        return False
+    scale = max(float(np.abs(s_new).max()), 1e-12)
+    for a in range(m):
+        for b in range(a + 1, m):
+            # roots at ~0 (rigid-body motions with no aerodynamic stiffness) may share a shape
+            if (abs(s_new[a]) > 1e-4 * scale and abs(s_new[a] - s_new[b]) <= 1e-6 * scale
+                    and _mac(v_new[:, a], v_new[:, b]) > 0.99):
+                return False
+    return True
+
+
+def _pk_step(structure, aero, start, end, s_prev, v_prev, eps, max_iter, halvings=0):
+    """All branches from the flight condition ``start`` (V, ρ) to ``end``, the step halved
+    (V and ρ linearly) while the tracking fails (:func:`_tracked`)."""
+    res = _pk_solve_all(structure, aero, *end, s_prev, v_prev, eps, max_iter)
+    if halvings >= TRACK_HALVINGS or start == end or _tracked(res[0], res[1], v_prev):
+        return res
+    mid = tuple(0.5 * (a + b) for a, b in zip(start, end))
+    s_mid, v_mid, _, _ = _pk_step(structure, aero, start, mid, s_prev, v_prev, eps, max_iter,
+                                  halvings + 1)
+    return _pk_step(structure, aero, mid, end, s_mid, v_mid, eps, max_iter, halvings + 1)
+
+
 def pk_sweep(
     structure: ModalStructure,
     aero: AeroTable,
@@ -455,13 +505,11 @@ def pk_sweep(
     vecs = np.empty((len(V), m, m), complex)
     notes = []
     for i in range(len(V)):
-        for j in range(m):
-            s, vec, k, ok = _pk_mode(
-                structure, aero, V[i], rho[i], s_prev[j], v_prev[:, j], eps, max_iter
-            )
-            if not ok:
-                notes.append(f"p-k: mode {j + 1} not converged at V={V[i]:.6g}")
-            eig[i, j], vecs[i, :, j], kk[i, j] = s, vec, k
+        start = (V[i - 1], rho[i - 1]) if i else (V[0], rho[0])
+        s_all, v_all, k_all, failed = _pk_step(structure, aero, start, (V[i], rho[i]), s_prev,
+                                               v_prev, eps, max_iter)
+        notes += [f"p-k: mode {j + 1} not converged at V={V[i]:.6g}" for j in failed]
+        eig[i], vecs[i], kk[i] = s_all, v_all, k_all
         s_prev, v_prev = eig[i].copy(), vecs[i].copy()
     g = pk_damping(eig, V, aero.semichord, real_root_damping)
     if aero.extrapolated:

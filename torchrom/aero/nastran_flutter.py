@@ -7,17 +7,20 @@ errors, and the Nastran-style output (V-g table, flutter summary); :func:`compar
 f06's FLUTTER SUMMARY beside ours.
 
 Cards: FLUTTER (PK, PKNL, KE, K), FLFACT, MKAERO1/2, AERO/AEROS (ACSID, REFC, RHOREF, SYMXZ,
-SYMXY), CAERO1/PAERO1 (+AEFACT), SPLINE1/2/4/5 with SET1/AELIST, EIGR/EIGRL, PARAM LMODES, RESVEC,
-VREF; case control FMETHOD, METHOD, RESVEC. Geometry is in the aero frame (ACSID), flow along +x.
+SYMXY), CAERO1/PAERO1 (+AEFACT), SPLINE1/2/4/5 with SET1/AELIST, EIGR/EIGRL, TABDMP1, PARAM
+LMODES, RESVEC, VREF, KDAMP; case control FMETHOD, METHOD, RESVEC, SDAMP. Geometry is in the
+aero frame (ACSID), flow along +x.
 The reflection plane is the deck's SYMXZ (+1 image wing, −1 antisymmetric, 0/blank isolated half
 wing) unless ``symxz`` overrides it. Results are in the deck's units (velocities in its length
 unit per second over PARAM VREF, frequencies in Hz), labelled from DTI,UNITS or the caller.
 The DLM kernel is Nastran's parabolic approximation (:data:`NASTRAN_KERNEL`, Rodden, Giesing &
 Kalman 1971/72); ``kernel="quartic"`` the later refinement. Differences from Nastran: GAFs are
-computed at each FLFACT Mach number instead of interpolated; TABDMP1 is not read; residual
-vectors are the inertia-relief kind (:mod:`torchrom.fe.resvec`); branches are tracked by mode
-shape. Rigid-body modes of a free-free deck stay in the basis at 0 Hz, with quasi-steady
-aerodynamics below the lowest positive k and a real root's damping g = 2sb/(V ln 2).
+computed at each FLFACT Mach number instead of interpolated; modal damping (SDAMP, TABDMP1)
+is the PK equation's viscous term (:mod:`torchrom.aero.modal_damping`; refused with K/KE and
+KDAMP = −1); residual vectors are the inertia-relief kind (:mod:`torchrom.fe.resvec`);
+branches are tracked by mode shape. Rigid-body modes of a free-free deck stay in the basis at
+0 Hz, with quasi-steady aerodynamics below the lowest positive k and a real root's damping
+g = 2sb/(V ln 2).
 """
 
 from __future__ import annotations
@@ -39,6 +42,7 @@ from .flutter import (
     refine_pk_crossings,
     zero_crossings,
 )
+from .modal_damping import ModalDamping, modal_damping, subcase_sdamp
 from .panels import (
     AeroFrame,
     AeroPanels,
@@ -79,6 +83,8 @@ class FlutterCase:
     imeth: str
     nvalue: int | None
     eps: float
+    #: the subcase's SDAMP table (viscous modal damping), None without SDAMP
+    damping: ModalDamping | None = None
 
 
 @dataclass
@@ -303,6 +309,7 @@ def load_deck(path, require_flutter: bool = True, *, symxz: int | None = None,
             mkaero += [(float(m), float(k)) for m, k in zip(mk.machs, mk.reduced_freqs)]
 
     fmethods = _case_ids(model, "FMETHOD") or sorted(model.flutters)
+    sdamp = subcase_sdamp(model)
     if not fmethods and require_flutter:
         raise InputError(f"{path}: FLUTTER: no flutter card (and no FMETHOD in case control)")
     cases = []
@@ -314,6 +321,7 @@ def load_deck(path, require_flutter: bool = True, *, symxz: int | None = None,
         method = str(fl.method).upper()
         if method not in FLUTTER_METHODS:
             raise InputError(f"{where}: METHOD: expected one of {FLUTTER_METHODS}, got {method}")
+        damping = modal_damping(model, where, sdamp[sid], method) if sid in sdamp else None
         dens_id = fl.density if isinstance(fl.density, int) else fl.density.sid
         mach_id = fl.mach if isinstance(fl.mach, int) else fl.mach.sid
         rv = fl.reduced_freq_velocity
@@ -341,6 +349,7 @@ def load_deck(path, require_flutter: bool = True, *, symxz: int | None = None,
                 str(fl.imethod or "L").upper(),
                 fl.nvalue,
                 float(fl.epsilon or 1e-3),
+                damping,
             )
         )
 
@@ -572,7 +581,13 @@ def run_deck(deck_or_path, fe=None, kernel: str = NASTRAN_KERNEL, log=print) -> 
         # V = 30 in bah_plane, real +-9e-4 in its f06)
         return sorted(k_list | ({0.0} if n_rigid else set()))
 
+    undamped = structure
     for case in deck.cases:
+        structure = undamped
+        if case.damping is not None:
+            structure = ModalStructure(undamped.M, undamped.K,
+                                       C0=np.diag(case.damping.viscous(freqs)))
+            notes.append(f"FLUTTER {case.sid}: {case.damping.describe()}")
         if case.method == "PKNL":
             # PKNL: the i-th density, Mach number and velocity form one flight condition (no
             # loops over the lists, MSC QRG FLUTTER); one p-k path per Mach number.

@@ -16,7 +16,9 @@ offsets with every CBAR OFFT code, pin flags, I12: :mod:`torchrom.fe.elements.ba
 CELAS2, CONM1, CONM2, CMASS1/PMASS, CMASS2, CBUSH/PBUSH, GENEL, RBE1, RBE2, RBAR, RBE3, EIGR,
 EIGRL, FORCE,
 MOMENT, PLOAD2, PLOAD4, LOAD, PARAM (COUPMASS, WTMASS are used). Cards without effect on modes
-and flutter are accepted with a note (:data:`torchrom.fe.bdf_cards.NOTED_CARDS`).
+and flutter are accepted with a note (:data:`torchrom.fe.bdf_cards.NOTED_CARDS`); a SOL 200
+deck's cards must agree with its design relations at the initial design
+(:mod:`torchrom.fe.design`).
 Aerodynamic and solution-control cards (CAERO1, PAERO1, SPLINE*, SET1, AERO, AEROS, MKAERO*,
 FLFACT, FLUTTER, ...) are kept in ``fe.bdf`` for :mod:`torchrom.aero` and ignored here. Any other
 card is an error listing the card names and counts (``unsupported="warn"`` demotes it to a
@@ -31,6 +33,7 @@ import logging
 import re
 import warnings
 from collections import Counter
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -42,6 +45,7 @@ from .bdf_checks import check_complete, check_fields, duplicate_message
 from .bdf_extra import SOLID_GRIDS, ExtraCards
 from .coords import axes_at
 from .coords import components as _comps
+from .design import check_initial_design
 from .elements.bar import frames_between, mechanism_pins
 from .elements.quad4 import quad_frames, shape
 from .goland_geometry import (  # noqa: F401 - GOLAND_* re-exported (public names of this module)
@@ -229,6 +233,7 @@ def from_pynastran(
         raise InputError(f"unsupported: expected 'error' or 'warn', got {unsupported!r}")
     notes = _check_cards(model, fname, unsupported)
     refuse_gset_matrices(model, fname)
+    notes += check_initial_design(model, fname)
     if autospc is None:
         autospc = _deck_autospc(model)
     check_fields(model, fname)
@@ -384,6 +389,7 @@ class _Reader(ExtraCards):
         mesh.coupled_mass = self._param("COUPMASS", -1) > 0
         wtmass = float(self._param("WTMASS", 1.0))
         rods, quads, shears, bars, trias = [], [], [], [], []
+        self.tapers = {}
         solids: dict[int, list] = {8: [], 6: [], 4: [], 10: [], 20: [], 15: []}
         for eid in sorted(self.m.elements):
             e = self.m.elements[eid]
@@ -413,6 +419,10 @@ class _Reader(ExtraCards):
         self._check_surfaces("CQUAD4", mesh.quads.eids, mesh.quads.nodes)
         self._check_surfaces("CSHEAR", mesh.shears.eids, mesh.shears.nodes)
         mesh.bars = _stack(BarSet, bars)
+        row = {int(eid): k for k, eid in enumerate(mesh.bars.eids)}
+        for eid, taper in self.tapers.items():
+            mesh.bars.taper[row[eid]] = replace(taper, nsm=taper.nsm * wtmass,
+                                                nsi=taper.nsi * wtmass)
         for k in mechanism_pins(mesh.bars, xyz):
             eid = int(mesh.bars.eids[k])
             card = self.m.elements[eid].type
@@ -586,6 +596,11 @@ class _Reader(ExtraCards):
         if p.type in ("PBARL", "PBEAML") and not sec.k1 and note not in self.notes:
             self.notes.append(note)
         polar = rho * (sec.I1 + sec.I2) if card == "CBEAM" else 0.0
+        if card == "CBEAM" and (e.sa or e.sb):
+            raise self.err(f"{where}: fields SA/SB: warping scalar points are not supported "
+                           f"(got {e.sa}, {e.sb})")
+        if sec.taper is not None:
+            self.tapers[eid] = sec.taper
         pins = [np.isin(np.arange(6), _comps(flag or "", self.f, f"{where}: field {name}"))
                 for name, flag in (("PA", e.pa), ("PB", e.pb))]
         return dict(eids=eid, nodes=[n1, n2], v=v, A=sec.A, I1=sec.I1, I2=sec.I2, J=sec.J, E=E,

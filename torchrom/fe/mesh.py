@@ -134,13 +134,42 @@ class ShearSet:
 
 
 @dataclass
+class Taper:
+    """A CBEAM's section along its length (tapered PBEAM/PBEAML, MSC QRG PBEAM): stations ``x``
+    (fractions of the length from end A, 0 first, 1 last, increasing) and the area, moments of
+    inertia, torsion constant, non-structural mass per length and its torsional inertia per
+    length at each; each varies linearly between stations."""
+
+    x: np.ndarray
+    A: np.ndarray
+    I1: np.ndarray
+    I2: np.ndarray
+    I12: np.ndarray
+    J: np.ndarray
+    nsm: np.ndarray
+    nsi: np.ndarray
+
+    @property
+    def varies(self) -> bool:
+        """True if the stiffness properties (A, I1, I2, I12, J) differ between stations."""
+        return not all(np.allclose(v, v[0], rtol=1e-12, atol=0.0)
+                       for v in (self.A, self.I1, self.I2, self.I12, self.J))
+
+    def at(self, xi: np.ndarray) -> dict[str, np.ndarray]:
+        """The properties at the fractions ``xi`` of the length (linear between stations)."""
+        return {name: np.interp(xi, self.x, getattr(self, name))
+                for name in ("A", "I1", "I2", "I12", "J", "nsm", "nsi")}
+
+
+@dataclass
 class BarSet:
     """CBAR/CBEAM: linear beam; ``v`` is the orientation vector in basic axes; ``k1``/``k2``
     the shear area factors of planes 1/2 (0: no shear flexibility, Euler–Bernoulli);
     ``polar`` the torsional mass moment of inertia per length (CBEAM: ρ (I1 + I2); CBAR: 0);
     ``I12`` the product of inertia ∫ y z dA; ``wa``/``wb`` the rigid offsets (basic) from grid
     A/B to the element's ends; ``pa``/``pb`` (n, 6) 1.0 where a component (element system) is
-    released by a pin flag at end A/B."""
+    released by a pin flag at end A/B; ``taper`` maps the row of a tapered CBEAM to its
+    :class:`Taper` (its scalar section fields then hold end A's values)."""
 
     eids: np.ndarray = field(default_factory=lambda: _empty(0, dtype=int))
     nodes: np.ndarray = field(default_factory=lambda: _empty(0, 2, dtype=int))
@@ -161,6 +190,7 @@ class BarSet:
     wb: np.ndarray = field(default_factory=lambda: _empty(0, 3))
     pa: np.ndarray = field(default_factory=lambda: _empty(0, 6))
     pb: np.ndarray = field(default_factory=lambda: _empty(0, 6))
+    taper: dict[int, Taper] = field(default_factory=dict)
 
     def __post_init__(self):
         n = len(self.eids)

@@ -101,7 +101,7 @@ def _first_offset(mesh: Mesh) -> tuple[str, int, float, int] | None:
 
 def assemble_mass(mesh: Mesh) -> sp.csr_matrix:
     """Mass matrix of a mesh on all its grid DOFs (basic axes, 6 per grid): elements'
-    structural and non-structural mass (lumped, or consistent with PARAM COUPMASS > 0), CONM1s,
+    structural and non-structural mass (lumped, or coupled with PARAM COUPMASS > 0), CONM1s,
     CONM2s and CMASS2s. Model updating re-assembles it for changed mass cards (the grids, and so the
     constraints, unchanged)."""
     xyz, cm = mesh.xyz, mesh.coupled_mass
@@ -357,7 +357,7 @@ class FEModel:
 
     # -- matrices --------------------------------------------------------------------------------
     def mass_matrix(self) -> sp.csr_matrix:
-        """Mass matrix on the free DOFs (lumped, or consistent with PARAM COUPMASS > 0)."""
+        """Mass matrix on the free DOFs (lumped, or coupled with PARAM COUPMASS > 0)."""
         return self._M_free.copy()
 
     def stiffness_matrix(self) -> sp.csr_matrix:

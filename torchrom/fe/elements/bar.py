@@ -21,6 +21,10 @@ Structural Analysis, Eq. 5.116; Φ = 0, Euler–Bernoulli, when K = 0).
 Pin flags PA/PB (components 1-6 in the element system) release the force there: the released
 element DOFs are condensed out statically, K* = K_kk − K_kr K_rr⁻¹ K_rk, before the
 transformation to basic (a release that leaves the element a mechanism is refused by the reader).
+Tapered CBEAM (PBEAM/PBEAML stations, :class:`~torchrom.fe.mesh.Taper`, properties linear
+between stations): the same element from the flexibility integrated along it
+(:func:`tapered_stiffness`, exact for end loads) and the mass integrated with the same shapes
+(:func:`tapered_mass`).
 CBAR/CBEAM are **linear**: in a geometrically nonlinear analysis they contribute K u with their
 small-rotation stiffness (the model warns once, :class:`LinearElementWarning`).
 Mass (at the offset ends, through the same rigid links): lumped (half of (ρA + NSM) L on each
@@ -38,7 +42,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..mass import rigid_links
-from ..mesh import BarSet
+from ..mesh import BarSet, Taper
 
 
 def bar_ends(bars: BarSet, xyz: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -92,16 +96,19 @@ BENDING_DOFS = np.array([1, 2, 5, 4])
 BENDING_SIGNS = np.array([1.0, 1.0, 1.0, -1.0])
 
 
-def _add_hermite(M: np.ndarray, coeff: np.ndarray, pattern: np.ndarray, plane, L) -> None:
+def _add_plane(M: np.ndarray, Mh: np.ndarray, plane) -> None:
+    """Add the (n, 4, 4) mass Mh of one bending plane, on (w_A, θ_A, w_B, θ_B) with θ = dw/dx,
+    to the element matrices M (n, 12, 12)."""
     w, th, sgn = plane
-    idx = [w, th, w + 6, th + 6]
+    idx = np.array([w, th, w + 6, th + 6])
     scale = np.array([1.0, sgn, 1.0, sgn])
-    rot = np.array([0, 1, 0, 1])
-    for a in range(4):
-        for b in range(4):
-            M[:, idx[a], idx[b]] += (
-                coeff * pattern[a, b] * scale[a] * scale[b] * L ** (rot[a] + rot[b])
-            )
+    M[:, idx[:, None], idx[None, :]] += Mh * np.outer(scale, scale)
+
+
+def hermite(xi: np.ndarray, L: float) -> np.ndarray:
+    """(m, 4) cubic Hermite shapes of (w_A, θ_A, w_B, θ_B) at the fractions ξ of length L."""
+    return np.stack((1 - 3 * xi**2 + 2 * xi**3, L * (xi - 2 * xi**2 + xi**3),
+                     3 * xi**2 - 2 * xi**3, L * (xi**3 - xi**2)), axis=1)
 
 
 def bending_stiffness(L: np.ndarray, D: np.ndarray, s: np.ndarray) -> np.ndarray:
@@ -116,6 +123,14 @@ def bending_stiffness(L: np.ndarray, D: np.ndarray, s: np.ndarray) -> np.ndarray
     Kbb[:, :2, :2] = Kqq
     Kbb[:, :2, 2:] = Kbb[:, 2:, :2] = -0.5 * L3 * Kqq
     Kbb[:, 2:, 2:] = D / L3 + 0.25 * L3**2 * Kqq
+    return bending_from_end_b(L, Kbb)
+
+
+def bending_from_end_b(L: np.ndarray, Kbb: np.ndarray) -> np.ndarray:
+    """(n, 8, 8) bending stiffness of both ends from Kbb (n, 4, 4), the stiffness of end B's
+    (q, φ) with end A clamped, completed by equilibrium."""
+    n = len(L)
+    L3 = L[:, None, None]
     # End B relative to the rigid motion carried from end A: d = u_B − Rig u_A
     rig = np.tile(np.eye(4), (n, 1, 1))
     rig[:, :2, 2:] = L3 * np.eye(2)
@@ -125,6 +140,57 @@ def bending_stiffness(L: np.ndarray, D: np.ndarray, s: np.ndarray) -> np.ndarray
     K[:, :4, 4:] = -KR.transpose(0, 2, 1)
     K[:, 4:, :4] = -KR
     K[:, 4:, 4:] = Kbb
+    return K
+
+
+#: Gauss–Legendre points per segment between the stations of a tapered CBEAM (the integrands
+#: 1/A, x²/I of linear A, I are smooth: 16 points give round-off for station ratios below 10)
+TAPER_POINTS = 16
+
+
+def taper_quadrature(taper: Taper, L: float) -> tuple[np.ndarray, np.ndarray]:
+    """Points (fractions ξ of the length) and weights (length units) over each segment."""
+    g, w = np.polynomial.legendre.leggauss(TAPER_POINTS)
+    a, b = taper.x[:-1, None], taper.x[1:, None]
+    return (a + (b - a) * (g + 1.0) / 2.0).ravel(), ((b - a) / 2.0 * w * L).ravel()
+
+
+def tapered_stiffness(taper: Taper, E: float, G: float, k: tuple[float, float],
+                      L: float) -> np.ndarray:
+    """(12, 12) element-system stiffness of a tapered CBEAM: the inverse of its cantilever
+    flexibility (end A clamped, end B loaded), integrated along the element with the section
+    of :class:`~torchrom.fe.mesh.Taper` at each point — exact for end loads (the internal
+    forces are statically determinate):
+
+        f_axial = ∫ dx / (E A),  f_torsion = ∫ dx / (G J),
+        F = ∫ [[(L−x)² D⁻¹ + s, (L−x) D⁻¹], [(L−x) D⁻¹, D⁻¹]] dx,
+
+    D(x) = E [[I1, I12], [I12, I2]], s(x) = diag(1 / (K1 G A), 1 / (K2 G A)); for a prismatic
+    section F is the module docstring's closed form."""
+    xi, w = taper_quadrature(taper, L)
+    p = taper.at(xi)
+    K = np.zeros((12, 12))
+    ka = 1.0 / np.sum(w / (E * p["A"]))
+    kt = 1.0 / np.sum(w / (G * p["J"])) if np.all(p["J"] > 0) else 0.0
+    for i, j, sg in ((0, 0, 1), (0, 6, -1), (6, 0, -1), (6, 6, 1)):
+        K[i, j] = sg * ka
+        K[i + 3, j + 3] = sg * kt
+    D = E * np.stack((np.stack((p["I1"], p["I12"]), 1), np.stack((p["I12"], p["I2"]), 1)), 1)
+    Dinv = np.linalg.inv(D)
+    arm = (L - xi * L)[:, None, None]
+    F = np.zeros((4, 4))
+    F[:2, :2] = np.einsum("m,mij->ij", w, arm**2 * Dinv)
+    for c, factor in enumerate(k):
+        if factor > 0:
+            F[c, c] += np.sum(w / (factor * G * p["A"]))
+    F[:2, 2:] = F[2:, :2] = np.einsum("m,mij->ij", w, arm * Dinv)
+    F[2:, 2:] = np.einsum("m,mij->ij", w, Dinv)
+    Kbb = np.linalg.inv(F)
+    Kbb = 0.5 * (Kbb + Kbb.T)
+    idx = np.concatenate((BENDING_DOFS, BENDING_DOFS + 6))
+    sgn = np.concatenate((BENDING_SIGNS, BENDING_SIGNS))
+    K[idx[:, None], idx[None, :]] += (bending_from_end_b(np.array([L]), Kbb[None])[0]
+                                      * np.outer(sgn, sgn))
     return K
 
 
@@ -146,6 +212,9 @@ def element_stiffness(bars: BarSet, L: np.ndarray) -> np.ndarray:
     idx = np.concatenate((BENDING_DOFS, BENDING_DOFS + 6))
     sgn = np.concatenate((BENDING_SIGNS, BENDING_SIGNS))
     K[:, idx[:, None], idx[None, :]] += bending_stiffness(L, D, s) * np.outer(sgn, sgn)
+    for e, taper in bars.taper.items():
+        if taper.varies:
+            K[e] = tapered_stiffness(taper, bars.E[e], bars.G[e], (bars.k1[e], bars.k2[e]), L[e])
     return K
 
 
@@ -215,17 +284,21 @@ def bar_mass_blocks(bars: BarSet, xyz: np.ndarray, coupled: bool):
         for i in (0, 1, 2, 6, 7, 8):
             M[:, i, i] = m / 2.0
         M[:, 3, 3] = M[:, 9, 9] = ip / 2.0
-        return bar_dofs(bars.nodes), _to_grids(bars, R, M)
-    for i, j, sg in ((0, 0, 2.0), (0, 6, 1.0), (6, 0, 1.0), (6, 6, 2.0)):
-        M[:, i, j] = m * sg / 6.0
-    # the torsional inertia stays lumped in the coupled mass too (MSC's CBEAM: the strut-braced
-    # wing of tests/decks/pynastran_buckled, 14 modes within 0.1 %; linear ip [2 1; 1 2] / 6:
-    # its torsion mode +20 %)
-    M[:, 3, 3] = M[:, 9, 9] = ip / 2.0
-    for plane in PLANES:
-        _add_hermite(M, m / 420.0, HERMITE_M, plane, L)
+    else:
+        for i, j, sg in ((0, 0, 2.0), (0, 6, 1.0), (6, 0, 1.0), (6, 6, 2.0)):
+            M[:, i, j] = m * sg / 6.0
+        # the torsional inertia stays lumped in the coupled mass too (MSC's CBEAM: the
+        # strut-braced wing of tests/decks/pynastran_buckled, 14 modes within 0.1 %; linear ip
+        # [2 1; 1 2] / 6: its torsion mode +20 %)
+        M[:, 3, 3] = M[:, 9, 9] = ip / 2.0
+        rot = np.array([0, 1, 0, 1])
+        Lp = L[:, None, None] ** (rot[:, None] + rot[None, :])
+        for plane in PLANES:
+            _add_plane(M, (m / 420.0)[:, None, None] * HERMITE_M * Lp, plane)
+    for e, taper in bars.taper.items():
+        M[e] = tapered_mass(taper, bars.rho[e], L[e], coupled)
     rel = released(bars)
-    if rel.any():
+    if coupled and rel.any():
         # the consistent mass follows the condensed shape of the stiffness (Rayleigh–Ritz with
         # one interpolation); without it a pinned end keeps the clamped slope's kinetic energy
         K = element_stiffness(bars, L)
@@ -233,3 +306,29 @@ def bar_mass_blocks(bars: BarSet, xyz: np.ndarray, coupled: bool):
             C = pin_shape(K[e], rel[e])
             M[e] = C.T @ M[e] @ C
     return bar_dofs(bars.nodes), _to_grids(bars, R, M)
+
+
+def tapered_mass(taper: Taper, rho: float, L: float, coupled: bool) -> np.ndarray:
+    """(12, 12) element-system mass of a tapered CBEAM, μ = ρ A + NSM and the torsional
+    inertia ρ (I1 + I2) + NSI per length varying along it: lumped, each end gets its linear
+    share, ∫ μ (1 − ξ) dx and ∫ μ ξ dx (total mass and centre of mass kept); coupled, ∫ μ N Nᵀ
+    dx with the linear axial and the cubic Hermite transverse shapes, the torsional inertia
+    lumped as in the prismatic element. Prismatic stations give the prismatic matrices."""
+    xi, w = taper_quadrature(taper, L)
+    p = taper.at(xi)
+    mu = w * (rho * p["A"] + p["nsm"])
+    ip = w * (rho * (p["I1"] + p["I2"]) + p["nsi"])
+    lin = np.stack((1.0 - xi, xi), axis=1)
+    M = np.zeros((12, 12))
+    ends = lin.T @ ip
+    M[3, 3], M[9, 9] = ends
+    if not coupled:
+        for i, share in zip((0, 6), lin.T @ mu):
+            M[i, i] = M[i + 1, i + 1] = M[i + 2, i + 2] = share
+        return M
+    M[np.ix_((0, 6), (0, 6))] = lin.T @ (mu[:, None] * lin)
+    H = hermite(xi, L)
+    Mh = (H.T @ (mu[:, None] * H))[None]
+    for plane in PLANES:
+        _add_plane(M[None], Mh, plane)
+    return M
