@@ -13,6 +13,7 @@ from ..progress import info
 from ._common import (
     add_force_option,
     add_json_option,
+    case_parameter,
     check_outputs,
     maybe_write_json,
     nonnegative_float,
@@ -28,7 +29,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument(
         "model", help="Nastran deck (.bdf) or 'goland' for the built-in heavy Goland wing"
     )
-    p.add_argument("--mach", type=nonnegative_float, required=True, help="Mach number (subsonic)")
+    p.add_argument("--mach", type=case_parameter("mach"), required=True,
+                   help="Mach number (subsonic)")
     p.add_argument("--out", type=Path, required=True, help="output aero.npz")
     p.add_argument("--modes", type=positive_int, default=9,
                    help="number of structural modes m (default 9)")

@@ -25,10 +25,11 @@ import numpy as np
 from ._common import (
     add_force_option,
     add_json_option,
+    case_parameter,
     check_outputs,
+    figure_file,
     finite_float,
     maybe_write_json,
-    nonnegative_float,
     nonnegative_int,
     positive_int,
     write_figure,
@@ -44,7 +45,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument(
         "inputs", nargs="+", metavar="INPUT", help="DECK.bdf | ROM.npz AERO.npz | goland"
     )
-    p.add_argument("--mach", type=nonnegative_float, help="Mach number (default: the aero file's)")
+    p.add_argument("--mach", type=case_parameter("mach"),
+                   help="Mach number (default: the aero file's)")
     p.add_argument(
         "--alt-range",
         type=finite_float,
@@ -56,7 +58,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--alpha", type=finite_float,
                    help="mass-proportional damping α (1/s; default 0.2565)")
     p.add_argument(
-        "--gamma", type=nonnegative_float,
+        "--gamma", type=case_parameter("gamma"),
         help="stiffness-proportional damping γ (s; default 1.338e-4)",
     )
     p.add_argument("--method", choices=["both", "pk", "state-space"], default="both")
@@ -91,7 +93,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     )
     p.add_argument(
         "--alpha-for-gamma",
-        type=nonnegative_float,
+        type=case_parameter("gamma"),
         nargs="+",
         metavar="GAMMA",
         help="for each γ (s), the α (1/s) that keeps the state-space flutter altitude of the "
@@ -102,7 +104,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--compare", type=Path, metavar="RUN.f06",
                    help="deck form: print Nastran's flutter points and modes from this f06 beside "
                    "torchrom's, with the differences")
-    p.add_argument("--plot", type=Path, help="write a V-g / V-f figure (PNG/PDF)")
+    p.add_argument("--plot", type=figure_file, help="write a V-g / V-f figure (PNG/PDF)")
     p.add_argument("--symxz", type=int, choices=(-1, 0, 1), default=None,
                    help="deck form: override the deck's AERO/AEROS SYMXZ (1: reflection plane, "
                         "e.g. a wall-mounted model; -1: antisymmetric; 0: isolated half wing)")

@@ -85,7 +85,7 @@ def _check_same_cases(table_path: Path, cfg, run: dict) -> None:
 def run(args: argparse.Namespace) -> int:
     # heavy imports here, not at module level: `torchrom --help` must stay fast
 
-    from ..study.config import check_initial, with_overrides
+    from ..study.config import check_initial, check_memory, check_work, with_overrides
     from ..study.plots import parameter_plot
     from ..study.runner import PartStore, open_executor
     from ..study.sampling import sampled_parameters
@@ -94,8 +94,10 @@ def run(args: argparse.Namespace) -> int:
 
     device, dtype, cfg = load_study(args)
     cfg = with_overrides(cfg, compile=True if args.compile else None, threads=args.threads)
+    check_work(cfg)  # --threads is checked with the configuration's own bounds
     model = cfg.build_model()
     check_initial(cfg, model)
+    check_memory(cfg, model, device, dtype)
     out = Path(args.out)
     # outputs of this very run (same run key) may be rewritten: that is how a sweep resumes
     resumable = PartStore(out, run_description(cfg, model, dtype)).check(args.force)

@@ -28,6 +28,7 @@ from __future__ import annotations
 import contextlib
 import io
 import logging
+import math
 import re
 import warnings
 from collections import Counter
@@ -382,7 +383,7 @@ class _Reader(ExtraCards):
         self.xyz = xyz
         mesh = Mesh(grid_ids=ids, xyz=xyz, cd_axes=cd)
         mesh.coupled_mass = self._param("COUPMASS", -1) > 0
-        wtmass = float(self._param("WTMASS", 1.0))
+        wtmass = self._param_number("WTMASS", 1.0)
         rods, quads, shears, bars, trias = [], [], [], [], []
         solids: dict[int, list] = {8: [], 6: [], 4: [], 10: [], 20: [], 15: []}
         for eid in sorted(self.m.elements):
@@ -454,6 +455,16 @@ class _Reader(ExtraCards):
         if p is None or not p.values:
             return default
         return p.values[0]
+
+    def _param_number(self, key: str, default: float) -> float:
+        """A PARAM that scales a physical quantity (WTMASS: mass units): a positive finite
+        number, else the error names the PARAM."""
+        value = self._param(key, default)
+        ok = isinstance(value, (int, float)) and not isinstance(value, bool) \
+            and math.isfinite(value) and value > 0
+        if not ok:
+            raise self.err(f"PARAM {key}: expected a positive finite number, got {value!r}")
+        return float(value)
 
     def _rod(self, e):
         eid = e.eid

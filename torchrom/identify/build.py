@@ -153,6 +153,11 @@ def identify(fe, options: IdentifyOptions | None = None,
 
     timings: dict[str, float] = {}
     t0 = time.perf_counter()
+    n_dof = getattr(be, "n_dof", None)
+    if n_dof is not None and opt.n_linear + opt.n_dual > n_dof:
+        raise InputError(f"basis: {opt.n_linear} linear + {opt.n_dual} dual modes asked for "
+                         f"(--linear, --dual), but the model has {n_dof} DOFs; a basis holds "
+                         f"at most that many independent vectors")
     basis = linear_basis(be, opt.n_linear)
     timings["linear_modes"] = time.perf_counter() - t0
     if opt.n_dual > 0:

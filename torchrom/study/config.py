@@ -57,10 +57,12 @@ entry in each table:
 ``[branch]``     ``torchrom branch`` options (:mod:`torchrom.study.branch`).
 ``[plot]``       ``x`` (a case parameter; default the first swept one), ``y`` (a table column,
                  default "amplitude"), ``hue`` (a case parameter, optional).
-``[run]``        ``batch_size`` (largest number of cases integrated together, default 512) and
+``[run]``        ``batch_size`` (largest number of cases integrated together, default 512),
                  ``chunk_size`` (cases per chunk of work and per part file; default: about 8
                  chunks, see :func:`torchrom.study.runner.plan_chunks`, or with method "hb"
-                 ``batch_size``, :func:`torchrom.study.sweep.sweep_chunk_size`).
+                 ``batch_size``, :func:`torchrom.study.sweep.sweep_chunk_size`) and
+                 ``allow_large`` (run over the resource bounds of :mod:`torchrom.bounds`,
+                 like ``--allow-large``; default false).
 ``[variants.NAME]`` tables that replace parts of the others when the configuration is loaded as
                  variant NAME (e.g. ``[variants.quick.cases]`` with a coarser grid); tables are
                  merged key by key, other values replaced.
@@ -112,7 +114,7 @@ TABLE_KEYS = {
     "integrator": ("dt", "t_end", *_NEWMARK_KEYS),
     "lco": ("outputs", *_LCO_KEYS),
     "plot": ("x", "y", "hue"),
-    "run": ("batch_size", "chunk_size"),
+    "run": ("batch_size", "chunk_size", "allow_large"),
 }
 
 
@@ -135,6 +137,7 @@ VALUE_CHECKS = {
     ("initial", "mode"): (_positive_integer, "a basis function number >= 1"),
     ("run", "batch_size"): (_positive_integer, "a positive integer"),
     ("run", "chunk_size"): (_positive_integer, "a positive integer"),
+    ("run", "allow_large"): (lambda v: isinstance(v, bool), "true or false"),
 }
 
 
@@ -178,6 +181,7 @@ class SweepConfig:
     history: HistorySpec | None = None
     method: str = "newmark"
     hb: HarmonicBalanceMethod = field(default_factory=HarmonicBalanceMethod)
+    allow_large: bool = False
 
     @property
     def solver(self):
@@ -401,8 +405,10 @@ def load_sweep_config(path, variant: str | None = None) -> SweepConfig:
     except InputError as exc:
         raise InputError(f"{source}: {exc}") from None
     cases_t = _table(raw, "cases", source)
+    run_t = _checked_table(raw, "run", source)
+    allow_large = run_t.get("allow_large", False)
     try:
-        cases = expand_cases(cases_t, "[cases]", allowed=parameters)
+        cases = expand_cases(cases_t, "[cases]", allowed=parameters, allow_large=allow_large)
         check_case_values(cases, aeroelastic)
         history = HistorySpec.from_table(_table(raw, "history", source), parameters)
     except InputError as exc:
@@ -418,14 +424,14 @@ def load_sweep_config(path, variant: str | None = None) -> SweepConfig:
                        f"{parameters}, got {value!r}")
     plot = PlotSpec(x=x, y=plot_t.get("y", "amplitude"), hue=hue)
 
-    run_t = _checked_table(raw, "run", source)
     batch = run_t.get("batch_size", 512)
 
     cfg = SweepConfig(source=source, title=title, model=model, initial=initial,
                       integrator=newmark, t_end=t_end, lco=lco, outputs=outputs, cases=cases,
                       plot=plot, batch_size=batch, chunk_size=run_t.get("chunk_size"), raw=raw,
                       aeroelastic=aero_t,
-                      history=history, method=method, hb=hb)
+                      history=history, method=method, hb=hb, allow_large=allow_large)
+    check_work(cfg)
     if model.get("builtin") in provider_names():
         _check_provided(model, source)  # checked now; built (or reused) when the sweep runs
     else:
@@ -458,9 +464,55 @@ def with_method(cfg: SweepConfig, method: str | None) -> SweepConfig:
     return dataclasses.replace(cfg, method=method, raw={**cfg.raw, "method": method})
 
 
+def check_work(cfg: SweepConfig) -> None:
+    """The bounds of :mod:`torchrom.bounds` that the configuration alone decides: case-steps ×
+    iterations of time marching and the integrator's thread count (InputError naming the
+    estimate and ``--allow-large``)."""
+    from ..bounds import MAX_ITERATIONS, MAX_WORK, check_count, check_threads
+
+    check_threads(f"{cfg.source}: [integrator] threads", cfg.integrator.threads,
+                  override=cfg.allow_large)
+    for key in ("iterations", "startup_iterations"):
+        check_count(f"{cfg.source}: [integrator] {key}", "iterations per step",
+                    getattr(cfg.integrator, key) or 0, MAX_ITERATIONS, override=cfg.allow_large)
+    if cfg.method != "newmark":
+        return
+    steps = cfg.integrator.step_count(cfg.t_end)
+    iterations = max(cfg.integrator.iterations, cfg.integrator.startup_iterations or 0)
+    check_count(f"{cfg.source}: [cases] x [integrator]",
+                f"cases x steps x iterations ({len(cfg.cases)} x {steps} x {iterations})",
+                float(len(cfg.cases)) * steps * iterations, MAX_WORK, override=cfg.allow_large)
+
+
+def check_memory(cfg: SweepConfig, model, device=None, dtype=None) -> None:
+    """The largest allocation of the run, estimated from the model's size before any work:
+    the harmonic balance Jacobians (B × (n(2H+1))²) or the integrator's B × n² matrices
+    (:func:`torchrom.bounds.check_memory`)."""
+    import torch
+
+    from .. import bounds
+
+    n = model_rom(model).n
+    batch = min(cfg.batch_size, max(len(cfg.cases), 1))
+    itemsize = torch.empty((), dtype=dtype or torch.float64).element_size()
+    if cfg.method == "hb":
+        H = cfg.hb.options.max_harmonics
+        bounds.check_memory(f"{cfg.source}: [hb] max_harmonics", f"harmonic balance with "
+                            f"H = {H}, {n} modes, {batch} cases at once",
+                            bounds.hb_jacobian_bytes(n, H, batch, itemsize), device=device,
+                            override=cfg.allow_large)
+    else:
+        bounds.check_memory(f"{cfg.source}: [run] batch_size", f"time marching of {batch} "
+                            f"cases at once with {n} modes",
+                            bounds.integrator_bytes(n, batch, itemsize), device=device,
+                            override=cfg.allow_large)
+
+
 def check_initial(cfg: SweepConfig, model) -> None:
     """InputError unless the ``[initial]`` state (q0 / v0 sizes, mode number) and the ``[lco]``
-    outputs fit the model."""
+    outputs fit the model, and the run's memory estimate is within bounds
+    (:func:`check_memory`)."""
+    check_memory(cfg, model)
     from ..sim import output_matrix
     from .cases import initial_displacement, initial_velocity
 
