@@ -12,7 +12,7 @@ the bound and the way to run it anyway: ``--allow-large`` on the command line (e
   integrator's B × n² matrices); an estimate above all of the available memory is refused even
   with ``--allow-large``: it cannot run;
 - :data:`THREADS_PER_CORE` × cores intra-op threads (more only wait on each other);
-- :data:`MAX_ITERATIONS` fixed iterations per time step.
+- :data:`MAX_ITERATIONS` fixed iterations per time step, :data:`MAX_HARMONICS` harmonics.
 """
 
 from __future__ import annotations
@@ -31,6 +31,9 @@ MEMORY_FRACTION = 0.5
 THREADS_PER_CORE = 4
 #: fixed nonlinear iterations per time step (a converging step needs a handful)
 MAX_ITERATIONS = 1000
+#: harmonics of a periodic orbit (the paper's orbits converge with 5 to 13; each Newton step
+#: costs (n(2H+1))³ per case)
+MAX_HARMONICS = 100
 #: how to run over a bound anyway (named in every refusal)
 OVERRIDE = "pass --allow-large (or set [run] allow_large = true) to run it anyway"
 
@@ -110,15 +113,27 @@ def check_threads(where: str, threads, *, override: bool = False) -> None:
                     THREADS_PER_CORE * cores, override=override)
 
 
-def hb_jacobian_bytes(n: int, harmonics: int, batch: int, itemsize: int = 8) -> float:
-    """Bytes of the harmonic balance Newton system: ``batch`` Jacobians of the n(2H+1) + 1
-    unknowns (Fourier coefficients and the frequency), with a factor 3 for the factorisation
-    and the tangent evaluated on the time grid."""
+def hb_bytes(n: int, harmonics: int, batch: int, itemsize: int = 8) -> float:
+    """Bytes of harmonic balance at H harmonics: ``batch`` Newton Jacobians of the n(2H+1) + 1
+    unknowns (Fourier coefficients and the frequency; × 3 for the factorisation and the
+    tangent on the time grid), plus the Fourier matrices E, dE, P of the truncation residual,
+    which samples harmonics up to 3H at 4·3H + 1 points (:mod:`torchrom.periodic.fourier`)."""
     unknowns = n * (2 * harmonics + 1) + 1
-    return 3.0 * batch * unknowns**2 * itemsize
+    fourier = 3.0 * (12 * harmonics + 1) * (6 * harmonics + 1)
+    return (3.0 * batch * unknowns**2 + fourier) * itemsize
 
 
 def integrator_bytes(n: int, batch: int, itemsize: int = 8) -> float:
     """Bytes of the time integrator's per-case matrices: about ten B × n × n tensors (mass,
     damping, stiffness, iteration matrix and its inverse, tangents)."""
     return 10.0 * batch * n * n * itemsize
+
+
+def check_harmonic_balance(where: str, n: int, harmonics: int, batch: int, *, device=None,
+                           itemsize: int = 8, override: bool = False) -> None:
+    """The bounds of a harmonic balance run at up to ``harmonics`` harmonics: the count
+    (:data:`MAX_HARMONICS`) and the memory (:func:`hb_bytes`)."""
+    check_count(where, "harmonics", harmonics, MAX_HARMONICS, override=override)
+    check_memory(where, f"harmonic balance with H = {harmonics}, {n} modes, {batch} case(s) "
+                 f"at once", hb_bytes(n, harmonics, batch, itemsize), device=device,
+                 override=override)

@@ -486,8 +486,8 @@ def check_work(cfg: SweepConfig) -> None:
 
 def check_memory(cfg: SweepConfig, model, device=None, dtype=None) -> None:
     """The largest allocation of the run, estimated from the model's size before any work:
-    the harmonic balance Jacobians (B × (n(2H+1))²) or the integrator's B × n² matrices
-    (:func:`torchrom.bounds.check_memory`)."""
+    harmonic balance (:func:`torchrom.bounds.check_harmonic_balance`) or the integrator's
+    B × n² matrices (:func:`torchrom.bounds.check_memory`)."""
     import torch
 
     from .. import bounds
@@ -496,11 +496,9 @@ def check_memory(cfg: SweepConfig, model, device=None, dtype=None) -> None:
     batch = min(cfg.batch_size, max(len(cfg.cases), 1))
     itemsize = torch.empty((), dtype=dtype or torch.float64).element_size()
     if cfg.method == "hb":
-        H = cfg.hb.options.max_harmonics
-        bounds.check_memory(f"{cfg.source}: [hb] max_harmonics", f"harmonic balance with "
-                            f"H = {H}, {n} modes, {batch} cases at once",
-                            bounds.hb_jacobian_bytes(n, H, batch, itemsize), device=device,
-                            override=cfg.allow_large)
+        bounds.check_harmonic_balance(f"{cfg.source}: [hb] max_harmonics", n,
+                                      cfg.hb.options.max_harmonics, batch, device=device,
+                                      itemsize=itemsize, override=cfg.allow_large)
     else:
         bounds.check_memory(f"{cfg.source}: [run] batch_size", f"time marching of {batch} "
                             f"cases at once with {n} modes",
