@@ -168,6 +168,27 @@ def check_folder(folder: str | os.PathLike, what: str = "output") -> Path:
     return folder
 
 
+def check_referenced_path(path: str | os.PathLike, referrer: str | os.PathLike,
+                          what: str) -> Path:
+    """A file named inside another (an INCLUDE of a deck, a targets file's reference deck, a
+    configuration's model file), checked before it is read. Policy: it must be a regular file
+    inside the referring file's folder or the current working directory (or below them), so
+    that a deck or configuration from elsewhere cannot make torchrom read, and quote in an
+    error, any file on the machine (/etc/passwd, /dev/zero)."""
+    path = Path(path)
+    base = Path(referrer).resolve().parent
+    full = (path if path.is_absolute() else base / path).resolve()
+    roots = (base, Path.cwd().resolve())
+    if not any(full == r or r in full.parents for r in roots):
+        raise InputError(f"{referrer}: {what} {path}: outside the folder of {Path(referrer).name} "
+                         f"and the working directory; files it names are read only from there "
+                         f"(copy the file beside it)")
+    if not full.is_file():
+        raise InputError(f"{referrer}: {what} {path}: no such file"
+                         + (" (not a regular file)" if full.exists() else ""))
+    return full
+
+
 def check_figure_path(path: str | os.PathLike, what: str = "figure") -> Path:
     """InputError unless ``path`` ends in a format the plotting library writes (png, pdf,
     svg, ...): checked before any work, so that no run ends on a figure it cannot save."""

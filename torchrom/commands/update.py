@@ -66,7 +66,7 @@ def report_lines(result) -> list[str]:
 
 def run(args: argparse.Namespace) -> int:
     from ..fe import read_bdf, write_bdf
-    from ..fe.update import update_model
+    from ..fe.update import check_final_misfit, update_model
     from ..fe.update_config import load_update_spec
     from ..io import check_can_write
 
@@ -81,6 +81,7 @@ def run(args: argparse.Namespace) -> int:
           f"{len(spec.parameters)} parameters")
     new, result = update_model(fe, spec, reference=reference)
     print("\n".join(report_lines(result)))
+    check_final_misfit(result)
     write_bdf(new, args.out, force=args.force)
     print(f"wrote {args.out}")
     maybe_write_json(args, result.as_dict())

@@ -121,6 +121,32 @@ def _pynastran_error(fname: str, exc: Exception) -> InputError:
     return InputError(f"{fname}: {where}{first}")
 
 
+_INCLUDE = re.compile(r"^\s*INCLUDE\s+'([^']*)'?", re.IGNORECASE)
+
+
+def _check_includes(text: str, path: Path) -> None:
+    """Every INCLUDE of the deck (and of the files it includes) names a regular file inside the
+    deck's folder or the working directory (:func:`torchrom.io.check_referenced_path`)."""
+    from ..io import check_referenced_path
+
+    seen = {path.resolve()}
+    todo = [(text, path)]
+    while todo:
+        body, owner = todo.pop()
+        for line in body.splitlines():
+            m = _INCLUDE.match(line)
+            if m is None:
+                continue
+            inc = check_referenced_path(m.group(1).strip(), owner, "INCLUDE")
+            if inc not in seen:
+                seen.add(inc)
+                try:
+                    todo.append((inc.read_text(errors="replace"), inc))
+                except OSError as exc:
+                    raise InputError(f"{owner}: INCLUDE {m.group(1)}: cannot read: "
+                                     f"{exc.strerror or exc}") from None
+
+
 def _read_pynastran(path: Path):
     from pyNastran.bdf.bdf import read_bdf as pn_read_bdf
 
@@ -129,6 +155,7 @@ def _read_pynastran(path: Path):
     except OSError as exc:
         raise InputError(f"{path}: cannot read the deck: {exc.strerror or exc}") from None
     check_complete(text, path.name)
+    _check_includes(text, path)
     upper = [ln.split("$")[0].strip().upper() for ln in text.splitlines()]
     has_cend = any(ln == "CEND" for ln in upper)
     has_begin = any(ln.startswith("BEGIN") and "BULK" in ln for ln in upper)
