@@ -819,7 +819,24 @@ class _Reader(ExtraCards):
         if sid is None and len(methods) == 1:
             sid = next(iter(methods))
         card = methods.get(sid) if sid is not None else None
+        if card is not None:
+            self._note_method_fields(card)
         return int(card.nd) if card is not None and card.nd else None
+
+    def _note_method_fields(self, card) -> None:
+        """Notes for the fields of the eigenvalue card that change what Nastran computes but
+        not what is computed here (the lowest ND modes, mass-normalised)."""
+        name = f"{card.type} {card.sid}"
+        lo, hi = (getattr(card, "v1", None), getattr(card, "v2", None)) if card.type == "EIGRL" \
+            else (getattr(card, "f1", None), getattr(card, "f2", None))
+        if lo not in (None, "") or hi not in (None, ""):
+            band = f"{'' if lo in (None, '') else lo} .. {'' if hi in (None, '') else hi}"
+            self.notes.append(f"{name}: frequency band {band} Hz not applied: the lowest "
+                              f"{card.nd or 'requested'} modes are computed (modes --n sets "
+                              f"how many)")
+        norm = getattr(card, "norm", None)
+        if norm not in (None, "", "MASS"):
+            self.notes.append(f"{name}: NORM={norm} not applied: shapes are mass-normalised")
 
     # -- loads ---------------------------------------------------------------------------------
     def loads(self, mesh: Mesh) -> dict[int, np.ndarray]:
