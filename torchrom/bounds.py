@@ -12,7 +12,8 @@ the bound and the way to run it anyway: ``--allow-large`` on the command line (e
   integrator's B × n² matrices); an estimate above all of the available memory is refused even
   with ``--allow-large``: it cannot run;
 - :data:`THREADS_PER_CORE` × cores intra-op threads (more only wait on each other);
-- :data:`MAX_ITERATIONS` fixed iterations per time step, :data:`MAX_HARMONICS` harmonics.
+- :data:`MAX_ITERATIONS` fixed iterations per time step, :data:`MAX_HARMONICS` harmonics,
+  :data:`MAX_MODES` modes of one eigen-solve.
 """
 
 from __future__ import annotations
@@ -34,6 +35,8 @@ MAX_ITERATIONS = 1000
 #: harmonics of a periodic orbit (the paper's orbits converge with 5 to 13; each Newton step
 #: costs (n(2H+1))³ per case)
 MAX_HARMONICS = 100
+#: modes of one eigen-solve (a shift-invert Lanczos run costs about n² DOF-vectors)
+MAX_MODES = 2000
 #: how to run over a bound anyway (named in every refusal)
 OVERRIDE = "pass --allow-large (or set [run] allow_large = true) to run it anyway"
 

@@ -175,6 +175,10 @@ def _read_pynastran(path: Path):
     return model
 
 
+#: a deck at least this large (bytes) reports its reading stages (parse, mesh, assembly)
+LARGE_DECK_BYTES = 1_000_000
+
+
 def read_bdf(
     path,
     *,
@@ -193,12 +197,18 @@ def read_bdf(
     ``output_points`` maps names to (grid id, component 1..6) — decks written by
     ``torchrom goland`` get the Goland point A automatically.
     """
+    from ..progress import Stages
+
     path = Path(path)
     if not path.is_file():
         raise InputError(f"{path}: no such deck")
+    size = path.stat().st_size
+    stages = Stages(f"reading {path.name}", size >= LARGE_DECK_BYTES)
+    stages.start(f"parsing {size / 1e6:.0f} MB of cards")
     model = _read_pynastran(path)
     return from_pynastran(
         model,
+        stages=stages,
         source=str(path),
         name=path.stem,
         spc_id=spc_id,
@@ -248,10 +258,14 @@ def from_pynastran(
     autospc: bool | None = None,
     output_points: dict[str, tuple[int, int]] | None = None,
     units: dict[str, str] | None = None,
+    stages=None,
 ):
-    """Build an FEModel from a pyNastran ``BDF`` object (read from a file or built in memory)."""
+    """Build an FEModel from a pyNastran ``BDF`` object (read from a file or built in memory);
+    ``stages`` (:class:`torchrom.progress.Stages`) reports the mesh and assembly stages."""
+    from ..progress import Stages
     from .model import FEModel
 
+    stages = stages or Stages(name, enabled=False)
     fname = Path(source).name
     if unsupported not in ("error", "warn"):
         raise InputError(f"unsupported: expected 'error' or 'warn', got {unsupported!r}")
@@ -261,8 +275,11 @@ def from_pynastran(
         autospc = _deck_autospc(model)
     check_fields(model, fname)
     reader = _Reader(model, fname)
+    stages.start(f"building the mesh of {len(model.nodes)} grids and {len(model.elements)} "
+                 f"elements")
     mesh = reader.mesh(spc_id)
     loads = reader.loads(mesh)
+    stages.start("assembling the stiffness and mass matrices")
     title = _title(model)
     wing_chord = None
     if title.startswith(GOLAND_TITLE):
@@ -284,6 +301,7 @@ def from_pynastran(
     )
     fe.wing_chord = wing_chord
     fe.notes = notes + reader.notes + fe.notes
+    stages.done()
     return fe
 
 

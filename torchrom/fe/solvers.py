@@ -295,9 +295,12 @@ def _elastic_and_rigid(K: sp.spmatrix, M: sp.spmatrix, n: int, sigma: float | No
     elastic modes are computed past them. Asking for more modes than the model has returns all
     its finite ones, with a note (appended to ``notes``), as Nastran does.
     """
+    from ..bounds import MAX_MODES, check_count
+
     N = K.shape[0]
     if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 1:
         raise InputError(f"modes: n: expected a positive number of modes, got {n!r}")
+    check_count("modes: n", "modes asked for", n, MAX_MODES)
     found: list[str] = []
     scale = stiffness_mass_scale(K, M)
     tol = RIGID_BODY_TOL * scale
