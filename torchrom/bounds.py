@@ -136,7 +136,7 @@ def check_harmonic_balance(where: str, n: int, harmonics: int, batch: int, *, de
                            itemsize: int = 8, override: bool = False) -> None:
     """The bounds of a harmonic balance run at up to ``harmonics`` harmonics: the count
     (:data:`MAX_HARMONICS`) and the memory (:func:`hb_bytes`)."""
-    check_count(where, "harmonics", harmonics, MAX_HARMONICS, override=override)
     check_memory(where, f"harmonic balance with H = {harmonics}, {n} modes, {batch} case(s) "
                  f"at once", hb_bytes(n, harmonics, batch, itemsize), device=device,
                  override=override)
+    check_count(where, "harmonics", harmonics, MAX_HARMONICS, override=override)
