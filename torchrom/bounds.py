@@ -13,7 +13,9 @@ the bound and the way to run it anyway: ``--allow-large`` on the command line (e
   with ``--allow-large``: it cannot run;
 - :data:`THREADS_PER_CORE` × cores intra-op threads (more only wait on each other);
 - :data:`MAX_ITERATIONS` fixed iterations per time step, :data:`MAX_HARMONICS` harmonics,
-  :data:`MAX_MODES` modes of one eigen-solve.
+  :data:`MAX_MODES` modes of one eigen-solve, :data:`MAX_HB_EFFORT` stages and samples per
+  harmonic balance case, :data:`MAX_BOXES` doublet-lattice boxes (and their AIC memory),
+  :data:`MAX_LAGS` RFA lag states.
 """
 
 from __future__ import annotations
@@ -35,6 +37,12 @@ MAX_ITERATIONS = 1000
 #: harmonics of a periodic orbit (the paper's orbits converge with 5 to 13; each Newton step
 #: costs (n(2H+1))³ per case)
 MAX_HARMONICS = 100
+#: harmonic balance effort per case: cold-start stages, samples per period of the metrics and
+#: of the Floquet monodromy (defaults 40, 512 and 2^8..2^10 respectively)
+MAX_HB_EFFORT = {"max_stages": 1000, "metric_points": 100_000, "floquet_steps": 100_000}
+#: doublet-lattice boxes (the AIC matrix is boxes² complex per reduced frequency) and RFA lags
+MAX_BOXES = 20_000
+MAX_LAGS = 100
 #: modes of one eigen-solve (a shift-invert Lanczos run costs about n² DOF-vectors)
 MAX_MODES = 2000
 #: how to run over a bound anyway (named in every refusal)
@@ -94,6 +102,14 @@ def _number(x: float) -> str:
     return f"{int(x)}" if float(x).is_integer() and abs(x) < 1e6 else f"{x:.3g}"
 
 
+def check_boxes(where: str, boxes: int, *, override: bool = False) -> None:
+    """The doublet-lattice bounds: :data:`MAX_BOXES` boxes, and the AIC matrices (boxes²
+    complex, about eight such arrays while a reduced frequency is computed) in memory."""
+    check_memory(where, f"the doublet-lattice matrices of {boxes} boxes", 8.0 * 16 * boxes**2,
+                 override=override)
+    check_count(where, "boxes", boxes, MAX_BOXES, override=override)
+
+
 def check_memory(where: str, what: str, nbytes: float, *, device=None,
                  override: bool = False) -> None:
     """InputError when the estimated allocation ``nbytes`` is over :data:`MEMORY_FRACTION` of
@@ -140,3 +156,11 @@ def check_harmonic_balance(where: str, n: int, harmonics: int, batch: int, *, de
                  f"at once", hb_bytes(n, harmonics, batch, itemsize), device=device,
                  override=override)
     check_count(where, "harmonics", harmonics, MAX_HARMONICS, override=override)
+
+
+def check_harmonic_balance_effort(where: str, values: dict, *, override: bool = False) -> None:
+    """The per-case effort settings of harmonic balance (:data:`MAX_HB_EFFORT`, e.g.
+    ``metric_points = 1e9`` would allocate and loop for hours)."""
+    for key, bound in MAX_HB_EFFORT.items():
+        if key in values:
+            check_count(f"{where} {key}", key, values[key], bound, override=override)

@@ -186,6 +186,10 @@ def load_study(args: argparse.Namespace):
     if getattr(args, "cache_dir", None) is not None:
         set_cache_root(args.cache_dir)
     cfg = with_method(load_sweep_config(args.config), getattr(args, "method", None))
+    if getattr(args, "workers", None) is not None:  # processes, bounded like threads
+        from ..bounds import check_threads
+
+        check_threads("--workers", args.workers, override=cfg.allow_large)
     return torch_device(args.device), getattr(torch, args.dtype), cfg
 
 

@@ -88,8 +88,13 @@ def load_fe(model: str):
 def run(args: argparse.Namespace) -> int:
     from ..aero.build import GOLAND_K_LIST, build_from_deck, build_from_modes, modal_data
     from ..aero.panels import goland_panels
+    from ..bounds import MAX_LAGS, check_boxes, check_count
+
     check_outputs(args, [args.out])
     goland = args.model == "goland" or args.planform == "goland"
+    if goland:  # sizes before any work (a deck's own boxes are checked when it is read)
+        check_boxes("--boxes", 2 * args.boxes[0] * args.boxes[1])
+    check_count("--lags", "lag states", args.lags, MAX_LAGS)
     info(f"torchrom aero: {args.model}: modal analysis ({args.modes} modes)")
     fe = load_fe(args.model)
     bar = _progress()

@@ -124,6 +124,7 @@ def run(args: argparse.Namespace) -> int:
     from ..errors import InputError
 
     check_outputs(args, [p for p in (args.plot, args.root_locus) if p is not None])
+    _check_options(args)
     inputs = args.inputs
     if len(inputs) == 1 and inputs[0] != "goland":
         return _run_deck(args, Path(inputs[0]))
@@ -134,6 +135,26 @@ def run(args: argparse.Namespace) -> int:
     raise InputError(
         f"flutter: expected DECK.bdf, ROM.npz AERO.npz or goland, got {len(inputs)} inputs"
     )
+
+
+def _check_options(args) -> None:
+    """The altitudes (in the atmosphere's range, LO < HI), boxes and lags, before any work."""
+    from ..aero.atmosphere import atmosphere
+    from ..bounds import MAX_LAGS, check_boxes, check_count
+    from ..errors import InputError
+
+    lo, hi = args.alt_range
+    if not lo < hi:
+        raise InputError(f"--alt-range: expected LO < HI (ft), got {lo:g} {hi:g}")
+    for option, values in (("--alt-range", [lo, hi]), ("--at", args.at or [])):
+        if not values:
+            continue
+        try:
+            atmosphere(values, "ft")
+        except InputError as exc:
+            raise InputError(f"{option}: {exc}") from None
+    check_boxes("--boxes", 2 * args.boxes[0] * args.boxes[1])
+    check_count("--lags", "lag states", args.lags, MAX_LAGS)
 
 
 def _run_deck(args, path: Path) -> int:

@@ -464,11 +464,20 @@ def with_method(cfg: SweepConfig, method: str | None) -> SweepConfig:
     return dataclasses.replace(cfg, method=method, raw={**cfg.raw, "method": method})
 
 
-def check_work(cfg: SweepConfig) -> None:
+def check_work(cfg: SweepConfig, n_cases: int | None = None, what: str = "cases") -> None:
     """The bounds of :mod:`torchrom.bounds` that the configuration alone decides: case-steps ×
     iterations of time marching and the integrator's thread count (InputError naming the
-    estimate and ``--allow-large``)."""
-    from ..bounds import MAX_ITERATIONS, MAX_WORK, check_count, check_threads
+    estimate and ``--allow-large``). ``n_cases``: the cases a command will run in all (e.g. a
+    calibration's rounds × values × base cases; default the configuration's cases), named
+    ``what`` in the message."""
+    from ..bounds import (
+        MAX_CASES,
+        MAX_ITERATIONS,
+        MAX_WORK,
+        check_count,
+        check_harmonic_balance_effort,
+        check_threads,
+    )
 
     check_threads(f"{cfg.source}: [integrator] threads", cfg.integrator.threads,
                   override=cfg.allow_large)
@@ -476,12 +485,20 @@ def check_work(cfg: SweepConfig) -> None:
         check_count(f"{cfg.source}: [integrator] {key}", "iterations per step",
                     getattr(cfg.integrator, key) or 0, MAX_ITERATIONS, override=cfg.allow_large)
     if cfg.method != "newmark":
+        hb = cfg.hb
+        check_harmonic_balance_effort(f"{cfg.source}: [hb]", {
+            "max_stages": hb.options.max_stages, "metric_points": hb.options.metric_points,
+            "floquet_steps": hb.floquet_steps}, override=cfg.allow_large)
+    n = len(cfg.cases) if n_cases is None else n_cases
+    if n_cases is not None:
+        check_count(f"{cfg.source}", what, n, MAX_CASES, override=cfg.allow_large)
+    if cfg.method != "newmark":
         return
     steps = cfg.integrator.step_count(cfg.t_end)
     iterations = max(cfg.integrator.iterations, cfg.integrator.startup_iterations or 0)
     check_count(f"{cfg.source}: [cases] x [integrator]",
-                f"cases x steps x iterations ({len(cfg.cases)} x {steps} x {iterations})",
-                float(len(cfg.cases)) * steps * iterations, MAX_WORK, override=cfg.allow_large)
+                f"{what} x steps x iterations ({n} x {steps} x {iterations})",
+                float(n) * steps * iterations, MAX_WORK, override=cfg.allow_large)
 
 
 def check_memory(cfg: SweepConfig, model, device=None, dtype=None) -> None:
