@@ -267,8 +267,13 @@ def modal_analysis(fe, n: int, sigma: float | None = None) -> Modes:
         raise InputError(f"{fe.source or fe.name}: modes: the model has no mass (no finite modes): "
                          "expected densities (MAT1 RHO), non-structural mass or mass elements "
                          "(CONM1/CONM2/CMASS)")
-    vals, vecs, rigid_vals, rigid_vecs = _elastic_and_rigid(fe.stiffness_matrix(), M, n, sigma,
-                                                            notes)
+    K = fe.stiffness_matrix()
+    for name, A in (("stiffness", K), ("mass", M)):
+        if not np.isfinite(A.data).all():
+            raise InputError(f"{fe.source or fe.name}: modes: the assembled {name} matrix has "
+                             f"non-finite entries (a product of the deck's values overflowed: "
+                             f"check the largest properties and materials)")
+    vals, vecs, rigid_vals, rigid_vecs = _elastic_and_rigid(K, M, n, sigma, notes)
     freqs = np.sqrt(vals) / (2 * np.pi)
     kinds, fractions = classify(fe, vecs)
     return Modes(freqs, vecs, kinds, vals, fractions, notes, rigid_eigenvalues=rigid_vals,

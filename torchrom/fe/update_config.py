@@ -57,6 +57,10 @@ FIELDS: dict[str, dict[str, tuple[str, int | None, bool]]] = {
               "i33": ("I", 5, False)},
 }
 PAIRINGS = ("mac", "kind")
+#: smallest optimizer tolerance (a few float64 epsilons: SciPy refuses less than one)
+MIN_TOLERANCE = 1e-15
+#: most model evaluations of one update (each is an eigen-solve of the model)
+MAX_EVALUATIONS = 100_000
 #: Fields that must stay positive (a dimension) or non-negative (a mass or density).
 _POSITIVE = {"t", "a", "i1", "i2"}
 _NON_NEGATIVE = {"nsm", "rho", "mass", "i11", "i22", "i33", "j"}
@@ -252,6 +256,14 @@ def load_update_spec(path) -> UpdateSpec:
     )
     if options.regularization < 0:
         raise _err(source, "[optimizer]: regularization", "expected a value ≥ 0")
+    if not MIN_TOLERANCE <= options.tolerance < 1:
+        raise _err(source, "[optimizer]: tolerance", f"expected a value in [{MIN_TOLERANCE:g}, 1)"
+                                                     f" (float64 resolves no less), got "
+                                                     f"{options.tolerance:g}")
+    from ..bounds import check_count
+
+    check_count(f"{source}: [optimizer] max_evaluations", "evaluations (eigen-solves)",
+                options.max_evaluations, MAX_EVALUATIONS)
     ref = raw.get("reference", {})
     _keys(source, "[reference]", ref, ("deck",))
     deck = None
