@@ -2,10 +2,11 @@
 
 pyNastran parses the fields but accepts any number, NaN and ±inf included, and Nastran itself
 only rejects some signs at run time. Here every numeric field of every card is checked to be
-finite and below :data:`MAX_FIELD` in magnitude, and the fields whose sign or range the physics fixes (areas, thicknesses, densities,
-masses ≥ 0; E > 0; −1 < ν ≤ 0.5; coordinates below :data:`MAX_COORDINATE`) follow the table
-:data:`FIELD_RULES`, so that a bad value is reported on its own card and field — never as a
-singular matrix, an "infs or NaNs" error or a misleading complaint about another card.
+finite and below :data:`MAX_FIELD` in magnitude, and the fields whose sign or range the physics
+fixes (areas, thicknesses, densities, masses ≥ 0; E > 0; −1 < ν ≤ 0.5; coordinates below
+:data:`MAX_COORDINATE`) follow the table :data:`FIELD_RULES`, so that a bad value is reported on
+its own card and field — never as a singular matrix, an "infs or NaNs" error or a misleading
+complaint about another card.
 
 Also here: the truncation check of a deck's text (a bulk data section without ``ENDDATA``, the way
 Nastran reports a file cut off) and the one-line message of pyNastran's duplicate-ID error.
