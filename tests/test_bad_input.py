@@ -769,7 +769,7 @@ def test_unsupported_warn_prints_no_python_warning_line(tmp_path):
                                  "1\nPDAMP   7       10.0\n"))
     env = {**os.environ, "PYTHONPATH": str(Path(torchrom.__file__).parents[1])}
     run = subprocess.run([sys.executable, "-m", "torchrom", "modes", str(deck), "--unsupported",
-                          "warn"], capture_output=True, text=True, env=env, timeout=120)
+                          "warn"], capture_output=True, text=True, env=env, timeout=600)
     assert run.returncode == 0, run.stderr
     assert "Warning" not in run.stderr and "warnings.warn" not in run.stderr, run.stderr
     assert "note: ignored unsupported cards: CDAMP1" in run.stdout
