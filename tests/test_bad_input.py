@@ -848,7 +848,7 @@ def test_damaged_cache_files_are_rebuilt(tmp_path):
     again = FileCache(tmp_path)
     assert again.get_json("flutter.json", key) is None and not again.hits
     (tmp_path / MANIFEST).write_text("{ not json")
-    with pytest.raises(InputError, match="--force"):
+    with pytest.raises(InputError, match="paper --force"):
         FileCache(tmp_path)
     forced = FileCache(tmp_path, force=True)
     forced.put("flutter.json", key, lambda p: p.write_text('{"ok": 2}'))

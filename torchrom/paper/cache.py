@@ -63,8 +63,9 @@ class FileCache:
                 # with --force every file is rebuilt and the manifest rewritten: a damaged one
                 # is replaced, as the message below advises
                 if not force:
-                    raise InputError(f"{self.path}: not a torchrom cache manifest (delete it or "
-                                     f"pass --force)") from None
+                    raise InputError(f"{self.path}: not a torchrom cache manifest (it is left "
+                                     f"as it is: delete it, choose another --cache-dir, or "
+                                     f"rebuild the folder with torchrom paper --force)") from None
         self.hits: list[str] = []
         self.built: list[str] = []
 
