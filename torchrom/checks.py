@@ -68,15 +68,27 @@ PHYSICAL_RANGES = {
 }
 
 
+def _range(name: str) -> tuple[float, float, str, str]:
+    """The physical range of ``name``: :data:`PHYSICAL_RANGES`, or for ``altitude_ft`` the
+    atmosphere model's (its own table, read when asked so that this base module imports no
+    subpackage at import time)."""
+    if name == "altitude_ft":
+        from .aero.atmosphere import ALTITUDE_RANGE_M
+
+        lo, hi = (h / 0.3048 for h in ALTITUDE_RANGE_M)
+        return lo, math.nextafter(hi, math.inf), "ft", "the USSA-76 atmosphere's range"
+    return PHYSICAL_RANGES.get(name, (-math.inf, math.inf, "", ""))
+
+
 def physical(name: str, value, where: str = "") -> float:
     """``value`` of case parameter ``name`` checked against :data:`PHYSICAL_RANGES` (and
     finite); InputError naming ``where`` and ``name`` otherwise."""
     label = f"{where} {name}".strip()
     x = real(label, value)
-    lo, hi, units, why = PHYSICAL_RANGES.get(name, (-math.inf, math.inf, "", ""))
+    lo, hi, units, why = _range(name)
     if not (lo <= x and (x < hi or hi == math.inf)):
-        span = (f">= {lo:g}" if hi == math.inf else f"in [{lo:g}, {hi:g})" if lo > -math.inf
-                else f"<= {hi:g}")
+        span = (f">= {lo:g}" if hi == math.inf else f"in [{lo:.6g}, {hi:.6g})"
+                if lo > -math.inf else f"<= {hi:g}")
         raise InputError(f"{label}: expected a value {span}{' ' + units if units else ''}, got "
                          f"{value!r} ({why})")
     return x
@@ -87,7 +99,7 @@ def physical_values(name: str, values, where: str = "") -> None:
     import numpy as np
 
     flat = np.asarray(values, dtype=np.float64).reshape(-1)
-    lo, hi = PHYSICAL_RANGES.get(name, (-math.inf, math.inf))[:2]
+    lo, hi = _range(name)[:2]
     bad = np.flatnonzero(~((flat >= lo) & ((flat < hi) | (hi == math.inf))))
     if bad.size:
         k = int(bad[0])
