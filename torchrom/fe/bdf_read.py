@@ -300,9 +300,22 @@ def from_pynastran(
         autospc=autospc,
     )
     fe.wing_chord = wing_chord
-    fe.notes = notes + reader.notes + fe.notes
+    fe.notes = notes + reader.notes + _unused_params(model) + fe.notes
     stages.done()
     return fe
+
+
+#: PARAMs that torchrom reads: the FE reader's, and the flutter solution's (torchrom.aero)
+READ_PARAMS = frozenset({"AUTOSPC", "COUPMASS", "WTMASS", "LGDISP", "POST", "LMODES", "VREF",
+                         "RESVEC"})
+
+
+def _unused_params(model) -> list[str]:
+    """One note naming the deck's PARAMs that no solution here reads (a K6ROT, a G, a GRDPNT
+    changes what Nastran computes or prints, not what is computed here)."""
+    unused = sorted(k for k in model.params if str(k).upper() not in READ_PARAMS)
+    return [f"PARAM {', '.join(unused)}: not applied (read: "
+            f"{', '.join(sorted(READ_PARAMS))})"] if unused else []
 
 
 def _check_cards(model, fname: str, unsupported: str) -> list[str]:
