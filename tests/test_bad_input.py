@@ -853,3 +853,72 @@ def test_damaged_cache_files_are_rebuilt(tmp_path):
     forced = FileCache(tmp_path, force=True)
     forced.put("flutter.json", key, lambda p: p.write_text('{"ok": 2}'))
     assert FileCache(tmp_path).get_json("flutter.json", key) == {"ok": 2}
+
+
+@pytest.mark.parametrize("argv, words", [
+    (["--alt-range", "40000", "0"], ("--alt-range", "LO < HI")),
+    (["--alt-range", "0", "1e9"], ("--alt-range", "USSA-76")),
+    (["--at", "1e9"], ("--at", "USSA-76")),
+])
+def test_flutter_altitudes(argv, words, capsys):
+    rc, err = _cli(capsys, ["flutter", "goland", *argv])
+    assert rc == 2
+    _one_line_error(err, *words)
+
+
+def test_altitude_of_a_case_in_the_atmosphere(tmp_path, capsys):
+    from torchrom.checks import physical
+
+    assert physical("altitude_ft", 11000.0) == 11000.0
+    with pytest.raises(InputError, match=r"\[cases\] altitude_ft.*USSA-76"):
+        physical("altitude_ft", 1e9, "[cases]")
+
+
+@pytest.mark.parametrize("old, new, words", [
+    ("0.01    1.-5", "1.+300  1.-5", ("PBAR 1", "1e+100")),
+    ("7.+10", "1.+300", ("MAT1 1", "1e+100")),
+])
+def test_absurd_field_magnitude(old, new, words, tmp_path, capsys):
+    """A field of 1e300 overflowed the assembled matrices (an "infs or NaNs" traceback)."""
+    deck = tmp_path / "wing.bdf"
+    deck.write_text(DECK.replace(old, new))
+    rc, err = _cli(capsys, ["modes", deck])
+    assert rc == 2
+    _one_line_error(err, "wing.bdf", *words)
+
+
+@pytest.mark.parametrize("optimizer, words", [
+    ("tolerance = 1e-300", ("tolerance", "1e-15")),
+    ("max_evaluations = 1000000000", ("max_evaluations", "--allow-large")),
+])
+def test_update_optimizer_settings(optimizer, words, tmp_path, capsys):
+    deck = tmp_path / "wing.bdf"
+    deck.write_text(DECK)
+    spec = tmp_path / "targets.toml"
+    spec.write_text(f"[[target]]\nfrequency_hz = 9.0\nmode = 1\n[optimizer]\n{optimizer}\n"
+                    f"{UPDATE_PARAMETER}")
+    rc, err = _cli(capsys, ["update", deck, "--targets", spec, "--out", tmp_path / "new.bdf"])
+    assert rc == 2
+    _one_line_error(err, *words)
+    assert not (tmp_path / "new.bdf").exists()
+
+
+def test_unread_params_are_noted(tmp_path, capsys):
+    deck = tmp_path / "wing.bdf"
+    deck.write_text(DECK.replace("BEGIN BULK\n", "BEGIN BULK\nPARAM   K6ROT   100.\n"))
+    assert main(["modes", str(deck)]) == 0
+    assert "note: PARAM K6ROT: not applied" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize("param, words", [("VREF    -1.", ("PARAM VREF", "positive")),
+                                          ("LMODES  -3", ("PARAM LMODES", ">= 0"))])
+def test_flutter_deck_params(param, words, shared, tmp_path, capsys):
+    text = (shared / "nastran" / "pt145.bdf").read_text()
+    key = param.split()[0]
+    lines = [ln for ln in text.splitlines() if not ln.startswith(f"PARAM   {key}")]
+    text = "\n".join(lines).replace("ENDDATA", f"PARAM   {param}\nENDDATA") + "\n"
+    deck = tmp_path / "pt145.bdf"
+    deck.write_text(text)
+    rc, err = _cli(capsys, ["flutter", deck])
+    assert rc == 2
+    _one_line_error(err, "pt145.bdf", *words)

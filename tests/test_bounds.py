@@ -8,6 +8,7 @@ from __future__ import annotations
 import os
 import time
 
+import numpy as np
 import pytest
 
 from tests.test_bad_input import CONFIG, DECK, _cli, _one_line_error
@@ -202,3 +203,65 @@ def test_large_deck_reports_its_reading_stages(tmp_path, capsys, monkeypatch):
         assert f"reading wing.bdf: {stage}" in err and "done in" in err
     rc, err = _cli(capsys, ["modes", deck, "--quiet"])
     assert rc == 0 and "reading wing.bdf" not in err
+
+
+@pytest.mark.parametrize("key", ["metric_points", "max_stages", "floquet_steps"])
+def test_hb_effort_bounded(key, tmp_path, capsys):
+    """metric_points / max_stages / floquet_steps = 1e9 ran past a minute: refused."""
+    text = CONFIG.replace("title = \"bad input\"", "title = \"bad input\"\nmethod = \"hb\"")
+    text = text.replace("[lco]", f"[hb]\n{key} = 1000000000\n[lco]")
+    rc, err = _cli(capsys, ["sweep", _config(tmp_path, text), "--out", tmp_path / "out"])
+    assert rc == 2
+    _one_line_error(err, f"[hb] {key}", "--allow-large")
+
+
+def test_solve_orbits_api_checks_its_memory():
+    from torchrom.periodic import HBOptions
+    from torchrom.periodic.solve import solve_orbits
+    from torchrom.rom.analytic import van_der_pol_duffing
+    from torchrom.sim import CaseSystem
+
+    rom = van_der_pol_duffing([1.0, 2.0], c1=[-0.6, 0.05])
+    opts = HBOptions(start_harmonics=3, harmonics=5, max_harmonics=20000)
+    with pytest.raises(InputError, match="harmonic balance: max_harmonics.*GB"):
+        solve_orbits(CaseSystem.build(rom), [1.0, 0.0], opts)
+
+
+@pytest.mark.parametrize("argv", [
+    ["calibrate", "{cfg}", "--target", "0.1", "--num", "100000000"],
+    ["calibrate", "{cfg}", "--target", "0.1", "--rounds", "1000000000"],
+    ["bifurcation", "{cfg}", "--refine", "1000000000"],
+    ["sweep", "{cfg}", "--workers", "100000"],
+])
+def test_command_totals_bounded(argv, tmp_path, capsys):
+    """Totals a command derives from its options (rounds x values x base cases, refinement
+    rounds x points, worker processes): refused before any work."""
+    cfg = _config(tmp_path, CONFIG)
+    rc, err = _cli(capsys, [a.format(cfg=cfg) for a in argv] + ["--out", tmp_path / "out"])
+    assert rc == 2
+    _one_line_error(err, "--allow-large")
+    assert not (tmp_path / "out").exists()
+
+
+@pytest.mark.parametrize("argv, words", [
+    (["flutter", "goland", "--boxes", "10000", "10000"], ("--boxes", "TB")),
+    (["flutter", "goland", "--lags", "100000"], ("--lags", "--allow-large")),
+    (["aero", "goland", "--mach", "0.5", "--boxes", "100", "100"], ("--boxes", "GB")),
+])
+def test_aerodynamic_sizes_bounded(argv, words, tmp_path, capsys):
+    t0 = time.perf_counter()
+    rc, err = _cli(capsys, [*argv, *(["--out", tmp_path / "a.npz"] if argv[0] == "aero" else [])])
+    assert rc == 2
+    _one_line_error(err, *words)
+    assert time.perf_counter() - t0 < 30
+
+
+def test_lattice_and_rfa_bounds_in_the_api():
+    from torchrom.aero.panels import lattice
+    from torchrom.aero.rfa import default_lag_roots
+
+    with pytest.raises(InputError, match="CAERO1 7.*boxes"):
+        lattice([0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0], np.linspace(0, 1, 2001),
+                np.linspace(0, 1, 2001), caero_id=7)
+    with pytest.raises(InputError, match="RFA: lag states"):
+        default_lag_roots(100000, 1.0)

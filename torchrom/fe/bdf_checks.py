@@ -131,15 +131,17 @@ def check_fields(model, fname: str, aero: bool = False) -> None:
                 where = f"field #{k}" if k <= 9 else f"value #{k - 1} after the card name"
                 raise InputError(f"{fname}: {_card_id(card)}: {where}: expected a finite "
                                  f"number, got {value}")
-            if isinstance(value, float) and abs(value) > MAX_FIELD:
-                where = f"field #{k}" if k <= 9 else f"value #{k - 1} after the card name"
-                raise InputError(f"{fname}: {_card_id(card)}: {where}: expected a magnitude "
-                                 f"<= {MAX_FIELD:g} (an exponent typo?), got {value:g}")
         for attr, field, (rule, expected) in FIELD_RULES.get(card.type, ()):
             for x in _numbers(getattr(card, attr, None)):
                 if not math.isfinite(x) or not rule(x):
                     raise InputError(f"{fname}: {_card_id(card)}: field {field}: expected "
                                      f"{expected}, got {x:g}")
+        # after the rules, which name the field (a coordinate's own bound is tighter)
+        for k, value in enumerate(fields[1:], start=2):
+            if isinstance(value, float) and abs(value) > MAX_FIELD:
+                where = f"field #{k}" if k <= 9 else f"value #{k - 1} after the card name"
+                raise InputError(f"{fname}: {_card_id(card)}: {where}: expected a magnitude "
+                                 f"<= {MAX_FIELD:g} (an exponent typo?), got {value:g}")
 
 
 def check_complete(text: str, fname: str) -> None:
