@@ -922,3 +922,14 @@ def test_flutter_deck_params(param, words, shared, tmp_path, capsys):
     rc, err = _cli(capsys, ["flutter", deck])
     assert rc == 2
     _one_line_error(err, "pt145.bdf", *words)
+
+
+def test_identification_amplitude_beyond_the_span(tmp_path, capsys):
+    """--amplitude 1e6 (a million spans) identified a ROM and exited 0: refused."""
+    deck = tmp_path / "wing.bdf"
+    deck.write_text(DECK)
+    rc, err = _cli(capsys, ["identify", deck, "--linear", "2", "--dual", "1", "--combinations",
+                            "1:1", "--amplitude", "1e6", "--out", tmp_path / "rom.npz"])
+    assert rc == 2
+    _one_line_error(err, "amplitude", "0.5")
+    assert not (tmp_path / "rom.npz").exists()

@@ -17,6 +17,7 @@ from dataclasses import asdict, dataclass, field, replace
 import numpy as np
 
 from .._version import __version__
+from ..checks import real
 from ..errors import InputError
 from ..rom import NonlinearROM
 from .backend import FEBackend
@@ -71,6 +72,15 @@ class IdentifyOptions:
                              f"{self.n_dual}")
         if self.damping == "exact" and self.stiffness == "step":
             raise InputError("damping 'exact' needs the tangent plan (stiffness 'tangent')")
+        amp = real("amplitude", self.amplitude, positive=True)
+        if amp > MAX_AMPLITUDE:
+            raise InputError(f"amplitude: expected a fraction of the span in (0, "
+                             f"{MAX_AMPLITUDE:g}] (the paper identifies at 0.01), got {amp:g}")
+
+
+#: largest identification amplitude, a fraction of the span: a basis function displaced by more
+#: than half the span is far beyond the cubic ROM's range (and any wing's)
+MAX_AMPLITUDE = 0.5
 
 
 @dataclass
