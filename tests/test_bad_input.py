@@ -933,3 +933,20 @@ def test_identification_amplitude_beyond_the_span(tmp_path, capsys):
     assert rc == 2
     _one_line_error(err, "amplitude", "0.5")
     assert not (tmp_path / "rom.npz").exists()
+
+
+def test_update_report_says_a_target_was_re_paired():
+    """A target whose paired mode changed during the fit is reported as a note (report and
+    JSON), not re-paired silently."""
+    from torchrom.commands.update import report_lines
+    from torchrom.fe.update import UpdateResult
+
+    target = {"name": "1st bending", "target_hz": 9.0, "initial_hz": 9.3,
+              "initial_diff_pct": 3.3, "final_hz": 9.0, "final_diff_pct": 0.0, "mode": 2,
+              "kind": "bending", "kind_ok": True, "mac": 0.97}
+    res = UpdateResult({}, [target], [], [[0.1, 0.97]], 1.0, 1.0, True, "ok", 3, 2,
+                       notes=["target 1st bending: paired with mode 1 at the start, mode 2 at "
+                              "the end (MAC 0.970)"])
+    assert any(line.startswith("note: target 1st bending: paired with mode 1")
+               for line in report_lines(res))
+    assert res.as_dict()["notes"] == res.notes

@@ -56,6 +56,7 @@ def report_lines(result) -> list[str]:
         lines.append(f"{name[:22]:<22} {p['card']:<6} {p['field']:<5} {p['initial']:12.6g} "
                      f"{p['final']:12.6g} {bounds:>24}" + ("  at bound" if p["at_bound"] else ""))
     s = result.summary()
+    lines.extend(f"note: {n}" for n in result.notes)
     lines.append("")
     lines.append(f"{result.n_iterations} iterations, {result.n_evaluations} evaluations: "
                  f"{result.message}; rms {s['rms_diff_pct']:.3g} %, max |diff| "

@@ -106,6 +106,7 @@ class UpdateResult:
     n_evaluations: int
     n_iterations: int
     final_modes: list[dict] = field(default_factory=list)
+    notes: list[str] = field(default_factory=list)
 
     def summary(self) -> dict:
         res = np.array([t["final_diff_pct"] for t in self.targets])
@@ -119,7 +120,7 @@ class UpdateResult:
                 "total_mass_final": self.total_mass_final, "converged": self.converged,
                 "message": self.message, "n_evaluations": self.n_evaluations,
                 "n_iterations": self.n_iterations, "final_modes": self.final_modes,
-                **self.summary()}
+                "notes": self.notes, **self.summary()}
 
 
 class ModelUpdater:
@@ -365,12 +366,18 @@ class ModelUpdater:
                                                              (p.upper - p.lower)))}
         modes = [{"mode": k + 1, "frequency_hz": float(ev["freq"][k]), "kind": ev["kinds"][k]}
                  for k in range(len(ev["freq"]))]
+        # a target whose paired mode changed during the fit (shapes tracked by MAC, or modes
+        # swapping order) is said so, never re-paired silently
+        notes = [f"target {t.name}: paired with mode {int(a) + 1} at the start, mode "
+                 f"{int(b) + 1} at the end (MAC {float(mac[i, int(b)]):.3f})"
+                 for i, (t, a, b) in enumerate(zip(self.targets, ev0["pairs"], pairs))
+                 if int(a) != int(b)]
         return UpdateResult(
             parameters=params, targets=targets, history=self.history,
             mac=[[float(v) for v in row] for row in mac],
             total_mass_initial=mass0, total_mass_final=total_mass(self.fe, mesh),
             converged=bool(sol.success), message=str(sol.message), n_evaluations=self.n_eval,
-            n_iterations=len(self.history) - 1, final_modes=modes)
+            n_iterations=len(self.history) - 1, final_modes=modes, notes=notes)
 
 
 #: a target more than this factor from its paired mode's initial frequency is no update (the
