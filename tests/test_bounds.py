@@ -121,15 +121,18 @@ def test_cli_threads_over_the_cores(tmp_path, capsys):
     assert not (tmp_path / "out").exists()
 
 
-def test_allow_large_key_lifts_the_case_bound(tmp_path):
-    """[run] allow_large = true: a grid over MAX_CASES is accepted by the loader (counted only;
-    the 3e6 cases are built as dicts, a few seconds) and the override is the config's own."""
+def test_allow_large_key_lifts_the_case_bound(tmp_path, monkeypatch):
+    """[run] allow_large = true: a grid over MAX_CASES (lowered to 10 here, so that the test
+    builds 11 cases, not a million) is accepted by the loader; without it, refused."""
     from torchrom.study.config import load_sweep_config
 
-    text = CONFIG.replace("alpha = [0.0, 0.3]", "alpha = {start = 0.0, stop = 1.0, "
-                          "num = 1000001}").replace("chunk_size = 1", "allow_large = true")
-    cfg = load_sweep_config(_config(tmp_path, text))
-    assert cfg.allow_large and len(cfg.cases) == 1000001
+    monkeypatch.setattr(bounds, "MAX_CASES", 10)
+    text = CONFIG.replace("alpha = [0.0, 0.3]", "alpha = {start = 0.0, stop = 1.0, num = 11}")
+    with pytest.raises(InputError, match="cases = 11, over the bound of 10"):
+        load_sweep_config(_config(tmp_path, text))
+    cfg = load_sweep_config(_config(tmp_path, text.replace("chunk_size = 1",
+                                                           "allow_large = true")))
+    assert cfg.allow_large and len(cfg.cases) == 11
 
 
 def test_allow_large_option_lifts_the_iteration_bound(tmp_path, capsys):
