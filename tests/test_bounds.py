@@ -67,6 +67,8 @@ def test_threads_bound_follows_the_cores():
     bounds.check_threads("x", "auto")
     with pytest.raises(InputError, match="threads"):
         bounds.check_threads("x", bounds.THREADS_PER_CORE * cores + 1)
+    with pytest.raises(InputError, match="per core"):  # a hard bound: thread stacks, no gain
+        bounds.check_threads("x", 100000, override=True)
 
 
 # -- configurations and options over a bound: refused before any work --
@@ -113,11 +115,21 @@ def test_batch_memory_over_the_available(tmp_path, capsys, monkeypatch):
     assert not (tmp_path / "out").exists()
 
 
+def test_workers_over_the_cores(tmp_path, capsys):
+    cfg = _config(tmp_path, CONFIG)
+    rc, err = _cli(capsys, ["sweep", cfg, "--out", tmp_path / "out", "--workers", "100000"])
+    assert rc == 2
+    _one_line_error(err, "--workers", "per core")
+    assert not (tmp_path / "out").exists()
+
+
 def test_cli_threads_over_the_cores(tmp_path, capsys):
     cfg = _config(tmp_path, CONFIG)
-    rc, err = _cli(capsys, ["sweep", cfg, "--out", tmp_path / "out", "--threads", "100000"])
-    assert rc == 2
-    _one_line_error(err, "threads", "--allow-large")
+    for extra in ([], ["--allow-large"]):
+        rc, err = _cli(capsys, ["sweep", cfg, "--out", tmp_path / "out", "--threads", "100000",
+                                *extra])
+        assert rc == 2
+        _one_line_error(err, "threads", "per core")
     assert not (tmp_path / "out").exists()
 
 
@@ -234,7 +246,6 @@ def test_solve_orbits_api_checks_its_memory():
     ["calibrate", "{cfg}", "--target", "0.1", "--num", "100000000"],
     ["calibrate", "{cfg}", "--target", "0.1", "--rounds", "1000000000"],
     ["bifurcation", "{cfg}", "--refine", "1000000000"],
-    ["sweep", "{cfg}", "--workers", "100000"],
 ])
 def test_command_totals_bounded(argv, tmp_path, capsys):
     """Totals a command derives from its options (rounds x values x base cases, refinement

@@ -11,7 +11,8 @@ the bound and the way to run it anyway: ``--allow-large`` on the command line (e
   the largest allocation estimated (the harmonic balance Jacobians B × (n(2H+1))², the
   integrator's B × n² matrices); an estimate above all of the available memory is refused even
   with ``--allow-large``: it cannot run;
-- :data:`THREADS_PER_CORE` × cores intra-op threads (more only wait on each other);
+- :data:`THREADS_PER_CORE` × cores intra-op threads or worker processes (more only wait on
+  each other; not lifted by ``--allow-large``);
 - :data:`MAX_ITERATIONS` fixed iterations per time step, :data:`MAX_HARMONICS` harmonics,
   :data:`MAX_MODES` modes of one eigen-solve, :data:`MAX_HB_EFFORT` stages and samples per
   harmonic balance case, :data:`MAX_BOXES` doublet-lattice boxes (and their AIC memory),
@@ -125,11 +126,15 @@ def check_memory(where: str, what: str, nbytes: float, *, device=None,
 
 
 def check_threads(where: str, threads, *, override: bool = False) -> None:
-    """InputError when an integer thread count exceeds :data:`THREADS_PER_CORE` × cores."""
+    """InputError when an integer thread (or worker process) count exceeds
+    :data:`THREADS_PER_CORE` × cores: more only wait on each other, and thousands exhaust the
+    process's memory for stacks, so ``--allow-large`` does not lift this bound (``override``
+    is accepted for a uniform call)."""
     cores = os.cpu_count() or 1
-    if isinstance(threads, int) and not isinstance(threads, bool):
-        check_count(where, f"threads ({cores} cores here)", threads,
-                    THREADS_PER_CORE * cores, override=override)
+    bound = THREADS_PER_CORE * cores
+    if isinstance(threads, int) and not isinstance(threads, bool) and threads > bound:
+        raise InputError(f"{where}: {threads} threads, more than {THREADS_PER_CORE} per core "
+                         f"({cores} cores here, at most {bound}): more only wait on each other")
 
 
 def hb_bytes(n: int, harmonics: int, batch: int, itemsize: int = 8) -> float:

@@ -89,6 +89,7 @@ def main(argv: list[str] | None = None) -> int:
             return _run(args)
     finally:
         sys.stdout, sys.stderr = streams
+        set_allow_large(False)  # the option is this run's; the API keeps its own bounds
 
 
 def _one_line_warning(command: str):
