@@ -950,3 +950,20 @@ def test_update_report_says_a_target_was_re_paired():
     assert any(line.startswith("note: target 1st bending: paired with mode 1")
                for line in report_lines(res))
     assert res.as_dict()["notes"] == res.notes
+
+
+@pytest.mark.parametrize("line, words", [
+    ("baseline_gamma = -1e-3", ("[aeroelastic] baseline_gamma", ">= 0")),
+    ("baseline_alpha = 'x'", ("[aeroelastic] baseline_alpha", "number")),
+    ("altitude_range_ft = ['a', 1]", ("[aeroelastic] altitude_range_ft",)),
+])
+def test_aeroelastic_table_values(line, words, tmp_path, capsys):
+    """The [aeroelastic] values of a built-in Goland sweep are checked when the file is read
+    (before the model is built): a string range raised a TypeError before."""
+    cfg = tmp_path / "goland.toml"
+    cfg.write_text("method = 'hb'\n[model]\nbuiltin = 'goland'\n[lco]\noutputs = ['A_Tz']\n"
+                   f"[aeroelastic]\n{line}\n[cases]\naltitude_ft = 11000.0\ngamma = 0.0\n")
+    rc, err = _cli(capsys, ["sweep", cfg, "--out", tmp_path / "out"])
+    assert rc == 2
+    _one_line_error(err, "goland.toml", *words)
+    assert not (tmp_path / "out").exists()

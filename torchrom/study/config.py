@@ -77,6 +77,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from ..checks import physical
 from ..errors import InputError
 from ..io import read_toml
 from ..periodic import HarmonicBalanceMethod, HBOptions
@@ -285,9 +286,15 @@ def _aeroelastic_options(table: dict[str, Any] | None, source: Path) -> dict[str
     _check_keys(table, AEROELASTIC_KEYS, source, "[aeroelastic]")
     if "altitude_range_ft" in table:
         rng = table["altitude_range_ft"]
-        if not (isinstance(rng, list) and len(rng) == 2 and rng[0] < rng[1]):
+        if not (isinstance(rng, list) and len(rng) == 2 and _finite_numbers(rng)
+                and rng[0] < rng[1]):
             raise _err(source, "[aeroelastic] altitude_range_ft", f"expected [LO, HI], got {rng!r}")
         table["altitude_range_ft"] = (float(rng[0]), float(rng[1]))
+    # the baseline damping and reference altitude: the physical ranges of the case parameters
+    for key, name in (("baseline_alpha", "alpha"), ("baseline_gamma", "gamma"),
+                      ("reference_altitude_ft", "altitude_ft")):
+        if key in table and not (name == "altitude_ft" and table[key] is None):
+            table[key] = physical(name, table[key], f"{source}: [aeroelastic] {key}:")
     return table
 
 
