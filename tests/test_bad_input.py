@@ -549,3 +549,421 @@ def test_flutter_figure_failure_keeps_the_json(pt145_deck, tmp_path, capsys, mon
                             tmp_path / "vg.png"])
     assert rc == 1 and "warning: figure not written" in err and "Traceback" not in err
     assert js.exists() and not (tmp_path / "vg.png").exists()
+
+
+# -- issue 26: tracebacks, silent answers with exit 0, output hygiene --
+def test_negative_wtmass(tmp_path, capsys):
+    deck = tmp_path / "wing.bdf"
+    for value, words in (("-0.5", ("PARAM WTMASS", "positive")), ("0.0", ("PARAM WTMASS",))):
+        deck.write_text(DECK.replace("BEGIN BULK\n", f"BEGIN BULK\nPARAM   WTMASS  {value}\n"))
+        rc, err = _cli(capsys, ["modes", deck])
+        assert rc == 2
+        _one_line_error(err, "wing.bdf", *words)
+
+
+@pytest.mark.parametrize("device", ["meta", "xla", "cuda:99", "nonsense"])
+def test_device_types(device, tmp_path, capsys):
+    import torch
+
+    if device == "cuda:99" and torch.cuda.is_available() and torch.cuda.device_count() > 99:
+        pytest.skip("a machine with 100 GPUs")
+    cfg = tmp_path / "sweep.toml"
+    cfg.write_text(CONFIG)
+    rc, err = _cli(capsys, ["sweep", cfg, "--out", tmp_path / "out", "--device", device])
+    assert rc == 2
+    _one_line_error(err, "--device")
+    assert not (tmp_path / "out").exists()
+
+
+@pytest.mark.parametrize("name", ["fig.exe", "fig", "fig.png.txt"])
+def test_plot_figure_suffix(name, tmp_path, capsys):
+    table = tmp_path / "t.csv"
+    table.write_text("gamma,alpha\n1e-4,0.1\n2e-4,0.2\n")
+    rc, err = _cli(capsys, ["plot", table, "--figure", "fig9", "--out", tmp_path / name])
+    assert rc == 2
+    _one_line_error(err, "--out", ".png")
+    assert not (tmp_path / name).exists()
+
+
+PHYSICAL_CASES = {
+    # [cases] replacement -> words
+    "negative gamma": (("gamma = 1.0", "gamma = -1.0"), ("[cases] gamma", ">= 0")),
+    "negative gamma in a list": (("gamma = 1.0", "gamma = [1.0, -1e-4]"),
+                                 ("[cases] gamma", "case")),
+    "negative damping scale": (("gamma = 1.0", "gamma = 1.0\ndamping_nl = -1.0"),
+                               ("[cases] damping_nl",)),
+    "negative stiffness scale": (("gamma = 1.0", "gamma = 1.0\nstiffness_nl = -2.0"),
+                                 ("[cases] stiffness_nl",)),
+}
+
+
+@pytest.mark.parametrize("name", sorted(PHYSICAL_CASES))
+def test_physical_range_of_case_parameters(name, tmp_path, capsys):
+    """γ < 0 was accepted by sweep (exit 0, a "matched" α and "diverged") while flutter --gamma
+    refused it: one table (checks.PHYSICAL_RANGES) now serves every entry point."""
+    (old, new), words = PHYSICAL_CASES[name]
+    cfg = tmp_path / "sweep.toml"
+    cfg.write_text(CONFIG.replace(old, new))
+    rc, err = _cli(capsys, ["sweep", cfg, "--out", tmp_path / "out"])
+    assert rc == 2
+    _one_line_error(err, *words)
+    assert not (tmp_path / "out").exists()
+
+
+def test_physical_range_in_every_entry_point(tmp_path, capsys):
+    from torchrom.aero.flutter import ModalStructure, alpha_for_gammas
+    from torchrom.sim import CaseSystem
+
+    rom = _rom()
+    with pytest.raises(InputError, match="CaseSystem.build: gamma"):
+        CaseSystem.build(rom, gamma=[1e-3, -1e-3])
+    with pytest.raises(InputError, match="damping_nl"):
+        CaseSystem.build(rom, damping_nl=-1.0)
+    with pytest.raises(InputError, match="modal structure: gamma"):
+        ModalStructure.from_modes([1.0, 2.0], gamma=-1e-4)
+    with pytest.raises(InputError, match="matched alpha: gamma"):
+        alpha_for_gammas(ModalStructure.from_modes([1.0, 2.0]), None, [-1.0], 0.5, 0.0)
+    # the command line options use the same table
+    rc, err = _cli(capsys, ["flutter", "goland", "--gamma=-1e-4"])
+    assert rc == 2 and "--gamma" in err and ">= 0" in err
+    rc, err = _cli(capsys, ["flutter", "goland", "--mach", "1.2"])
+    assert rc == 2 and "--mach" in err and "subsonic" in err
+    # branch bounds
+    cfg = tmp_path / "sweep.toml"
+    cfg.write_text(CONFIG)
+    rc, err = _cli(capsys, ["branch", cfg, "--out", tmp_path / "b", "--parameter", "gamma",
+                            "--range", "-1", "1"])
+    assert rc == 2
+    _one_line_error(err, "branch bounds gamma", ">= 0")
+    for bad in (["--range", "nan", "1"], ["--harmonics", "-3"], ["--max-points", "0"]):
+        rc, err = _cli(capsys, ["branch", cfg, "--out", tmp_path / "b", "--parameter", "alpha",
+                                *bad])
+        assert rc == 2 and bad[0] in err
+
+
+def _plate_deck(n: int = 2, width: float = 1.0, depth: float = 0.5) -> str:
+    """A clamped n x n CQUAD4 plate, width (x) by depth (y)."""
+    lines = ["SOL 103", "CEND", "SPC = 1", "METHOD = 10", "BEGIN BULK"]
+    for j in range(n + 1):
+        for i in range(n + 1):
+            lines.append(f"GRID,{1 + i + (n + 1) * j},,{width * i / n},{depth * j / n},0.0")
+    for j in range(n):
+        for i in range(n):
+            g = 1 + i + (n + 1) * j
+            lines.append(f"CQUAD4,{1 + i + n * j},1,{g},{g + 1},{g + n + 2},{g + n + 1}")
+    lines += ["PSHELL,1,1,0.01,1,,1", "MAT1,1,7.+10,,0.3,2700.",
+              f"SPC1,1,123456,1,THRU,{n + 1}", "EIGRL,10,,,4", "ENDDATA"]
+    return "\n".join(lines) + "\n"
+
+
+def test_goland_planform_on_a_small_plate(tmp_path, capsys):
+    """The 6 x 20 ft Goland planform splined onto a 1 x 0.5 plate (exit 0 before): refused."""
+    deck = tmp_path / "plate.bdf"
+    deck.write_text(_plate_deck())
+    rc, err = _cli(capsys, ["aero", deck, "--mach", "0.5", "--planform", "goland", "--modes",
+                            "2", "--out", tmp_path / "aero.npz"])
+    assert rc == 2
+    _one_line_error(err, "span y = 0 .. 0.5", "Goland", "CAERO")
+    assert not (tmp_path / "aero.npz").exists()
+
+
+def test_eigrl_band_is_noted(tmp_path, capsys):
+    deck = tmp_path / "wing.bdf"
+    deck.write_text(DECK.replace("EIGRL   10                      4",
+                                 "EIGRL   10      20.0    100.0   4"))
+    rc = main(["modes", str(deck)])
+    out = capsys.readouterr().out
+    assert rc == 0
+    assert "note: EIGRL 10: frequency band 20.0 .. 100.0 Hz not applied" in out
+
+
+UPDATE_PARAMETER = """
+[[parameter]]
+name = "rho"
+card = "MAT1"
+ids = [1]
+field = "rho"
+lower = 1000.0
+upper = 5000.0
+"""
+
+
+@pytest.mark.parametrize("case", ["1 MHz", "1 mHz", "same mode", "unreachable"])
+def test_update_implausible_targets(case, tmp_path, capsys):
+    """Targets 1 MHz away (100 % misfit, deck written, exit 0 before), two targets on one mode
+    (silently re-paired before), a target the bounds cannot reach: exit 2, no deck written."""
+    deck = tmp_path / "wing.bdf"
+    deck.write_text(DECK)  # mode 1: 9.32 Hz
+    targets = {
+        "1 MHz": ("[[target]]\nfrequency_hz = 1e6\nmode = 1\n", ("target 1", "factor 10")),
+        "1 mHz": ("[[target]]\nfrequency_hz = 1e-3\nmode = 1\n", ("target 1", "factor 10")),
+        "same mode": ("[[target]]\nfrequency_hz = 9.0\nmode = 1\n"
+                      "[[target]]\nfrequency_hz = 9.5\nmode = 1\n",
+                      ("targets 1 and 2", "mode 1")),
+        # rho in [1000, 5000] moves mode 1 by at most 26 %: 2 Hz stays > 50 % off
+        "unreachable": ("[[target]]\nfrequency_hz = 2.0\nmode = 1\n",
+                        ("still", "not written")),
+    }[case]
+    spec = tmp_path / "targets.toml"
+    spec.write_text(targets[0] + UPDATE_PARAMETER)
+    rc, err = _cli(capsys, ["update", deck, "--targets", spec, "--out", tmp_path / "new.bdf"])
+    assert rc == 2
+    _one_line_error(err, *targets[1])
+    assert not (tmp_path / "new.bdf").exists()
+
+
+@pytest.mark.parametrize("where", ["absolute", "parent", "device"])
+def test_include_outside_the_deck_folder(where, tmp_path, capsys, monkeypatch):
+    """An INCLUDE of a file outside the deck's folder and the working directory is refused by
+    policy before it is read, and nothing of its content reaches the message."""
+    secret = tmp_path / "secret.txt"
+    secret.write_text("root:SECRETHASH:0:0:root\n")
+    decks = tmp_path / "decks"
+    decks.mkdir()
+    cwd = tmp_path / "work"
+    cwd.mkdir()
+    monkeypatch.chdir(cwd)
+    target = {"absolute": str(secret), "parent": "../secret.txt", "device": "/dev/zero"}[where]
+    deck = decks / "wing.bdf"
+    deck.write_text(DECK.replace("BEGIN BULK\n", f"BEGIN BULK\nINCLUDE '{target}'\n"))
+    rc, err = _cli(capsys, ["modes", deck])
+    assert rc == 2
+    _one_line_error(err, "wing.bdf", "INCLUDE", "outside")
+    assert "SECRET" not in err
+
+
+def test_include_beside_the_deck_is_read(tmp_path, capsys):
+    (tmp_path / "mass.inc").write_text("CONM2   11      3               0.5\n")
+    deck = tmp_path / "wing.bdf"
+    deck.write_text(DECK.replace("BEGIN BULK\n", "BEGIN BULK\nINCLUDE 'mass.inc'\n"))
+    assert _cli(capsys, ["modes", deck])[0] == 0
+
+
+def test_reference_deck_outside_is_refused(tmp_path, capsys, monkeypatch):
+    secret = tmp_path / "secret.bdf"
+    secret.write_text("root:SECRETHASH\n")
+    work = tmp_path / "work"
+    work.mkdir()
+    monkeypatch.chdir(work)
+    (work / "wing.bdf").write_text(DECK)
+    (work / "targets.toml").write_text(f"[reference]\ndeck = '{secret}'\n[[target]]\n"
+                                       f"frequency_hz = 9.0\nmode = 1\n{UPDATE_PARAMETER}")
+    rc, err = _cli(capsys, ["update", "wing.bdf", "--targets", "targets.toml", "--out",
+                            "new.bdf"])
+    assert rc == 2
+    _one_line_error(err, "[reference] deck", "outside")
+    assert "SECRET" not in err and not (work / "new.bdf").exists()
+
+
+def test_unsupported_warn_prints_no_python_warning_line(tmp_path):
+    """--unsupported warn printed Python's raw warning line (file:line: UnsupportedCardWarning
+    and the source line) before its note; run as a process, where Python prints warnings."""
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    import torchrom
+
+    deck = tmp_path / "wing.bdf"
+    deck.write_text(DECK.replace("BEGIN BULK\n", "BEGIN BULK\nCDAMP1  100     7       2       "
+                                 "1\nPDAMP   7       10.0\n"))
+    env = {**os.environ, "PYTHONPATH": str(Path(torchrom.__file__).parents[1])}
+    run = subprocess.run([sys.executable, "-m", "torchrom", "modes", str(deck), "--unsupported",
+                          "warn"], capture_output=True, text=True, env=env, timeout=600)
+    assert run.returncode == 0, run.stderr
+    assert "Warning" not in run.stderr and "warnings.warn" not in run.stderr, run.stderr
+    assert "note: ignored unsupported cards: CDAMP1" in run.stdout
+
+
+def test_other_python_warnings_are_one_line(tmp_path, capsys, monkeypatch):
+    import warnings
+
+    import torchrom.commands.modes as modes_cmd
+
+    original = modes_cmd.run
+
+    def noisy(args):
+        warnings.warn("something odd\nover two lines", RuntimeWarning, stacklevel=1)
+        return original(args)
+
+    monkeypatch.setattr(modes_cmd, "run", noisy)
+    deck = tmp_path / "wing.bdf"
+    deck.write_text(DECK)
+    from torchrom.cli import build_parser
+
+    args = build_parser().parse_args(["modes", str(deck)])
+    assert args._run is noisy
+    rc = main(["modes", str(deck)])
+    err = capsys.readouterr().err
+    assert rc == 0
+    assert "torchrom modes: warning: something odd over two lines" in err
+    assert "RuntimeWarning" not in err
+
+
+def test_stale_temporary_figure_is_removed(tmp_path):
+    """A writer killed mid-write (SIGKILL: no finally) leaves .NAME.PID.*.part.png: the next
+    write of NAME removes it (its process is gone); a live writer's is kept."""
+    import subprocess
+    import sys
+
+    from torchrom.io import atomic_path, remove_stale_parts
+
+    fig = tmp_path / "fig.png"
+    dead = subprocess.run([sys.executable, "-c", "import os; print(os.getpid())"],
+                          capture_output=True, text=True, check=True)
+    stale = tmp_path / f".fig.png.{int(dead.stdout)}.abc123.part.png"
+    stale.write_bytes(b"half a figure")
+    live = tmp_path / f".fig.png.{os.getpid()}.def456.part.png"
+    live.write_bytes(b"being written")
+    old = tmp_path / ".fig.png.xyz.part.png"  # no process id, older than an hour
+    old.write_bytes(b"old")
+    os.utime(old, (0, 0))
+    with atomic_path(fig) as tmp:
+        tmp.write_bytes(b"new figure")
+    assert fig.read_bytes() == b"new figure"
+    assert not stale.exists() and not old.exists() and live.exists()
+    assert remove_stale_parts(fig) == []
+
+
+def test_star_import_exports_existing_modules():
+    import torchrom
+
+    ns: dict = {}
+    exec("from torchrom import *", ns)
+    for name in ("periodic", "paper", "study", "NonlinearROM", "InputError"):
+        assert name in ns
+    assert "plots" not in torchrom.__all__
+
+
+def test_damaged_cache_files_are_rebuilt(tmp_path):
+    """A cached JSON that no longer parses (flutter.json truncated) is a miss, not a
+    traceback; a damaged cache.json is replaced under --force, as its message advises."""
+    from torchrom.paper.cache import MANIFEST, FileCache
+
+    cache = FileCache(tmp_path)
+    key = FileCache.key({"a": 1})
+    cache.put("flutter.json", key, lambda p: p.write_text('{"ok": 1}'))
+    assert FileCache(tmp_path).get_json("flutter.json", key) == {"ok": 1}
+    (tmp_path / "flutter.json").write_text('{"ok": ')
+    again = FileCache(tmp_path)
+    assert again.get_json("flutter.json", key) is None and not again.hits
+    (tmp_path / MANIFEST).write_text("{ not json")
+    with pytest.raises(InputError, match="paper --force"):
+        FileCache(tmp_path)
+    forced = FileCache(tmp_path, force=True)
+    forced.put("flutter.json", key, lambda p: p.write_text('{"ok": 2}'))
+    assert FileCache(tmp_path).get_json("flutter.json", key) == {"ok": 2}
+
+
+@pytest.mark.parametrize("argv, words", [
+    (["--alt-range", "40000", "0"], ("--alt-range", "LO < HI")),
+    (["--alt-range", "0", "1e9"], ("--alt-range", "USSA-76")),
+    (["--at", "1e9"], ("--at", "USSA-76")),
+])
+def test_flutter_altitudes(argv, words, capsys):
+    rc, err = _cli(capsys, ["flutter", "goland", *argv])
+    assert rc == 2
+    _one_line_error(err, *words)
+
+
+def test_altitude_of_a_case_in_the_atmosphere(tmp_path, capsys):
+    from torchrom.checks import physical
+
+    assert physical("altitude_ft", 11000.0) == 11000.0
+    with pytest.raises(InputError, match=r"\[cases\] altitude_ft.*USSA-76"):
+        physical("altitude_ft", 1e9, "[cases]")
+
+
+@pytest.mark.parametrize("old, new, words", [
+    ("0.01    1.-5", "1.+300  1.-5", ("PBAR 1", "1e+100")),
+    ("7.+10", "1.+300", ("MAT1 1", "1e+100")),
+])
+def test_absurd_field_magnitude(old, new, words, tmp_path, capsys):
+    """A field of 1e300 overflowed the assembled matrices (an "infs or NaNs" traceback)."""
+    deck = tmp_path / "wing.bdf"
+    deck.write_text(DECK.replace(old, new))
+    rc, err = _cli(capsys, ["modes", deck])
+    assert rc == 2
+    _one_line_error(err, "wing.bdf", *words)
+
+
+@pytest.mark.parametrize("optimizer, words", [
+    ("tolerance = 1e-300", ("tolerance", "1e-15")),
+    ("max_evaluations = 1000000000", ("max_evaluations", "--allow-large")),
+])
+def test_update_optimizer_settings(optimizer, words, tmp_path, capsys):
+    deck = tmp_path / "wing.bdf"
+    deck.write_text(DECK)
+    spec = tmp_path / "targets.toml"
+    spec.write_text(f"[[target]]\nfrequency_hz = 9.0\nmode = 1\n[optimizer]\n{optimizer}\n"
+                    f"{UPDATE_PARAMETER}")
+    rc, err = _cli(capsys, ["update", deck, "--targets", spec, "--out", tmp_path / "new.bdf"])
+    assert rc == 2
+    _one_line_error(err, *words)
+    assert not (tmp_path / "new.bdf").exists()
+
+
+def test_unread_params_are_noted(tmp_path, capsys):
+    deck = tmp_path / "wing.bdf"
+    deck.write_text(DECK.replace("BEGIN BULK\n", "BEGIN BULK\nPARAM   K6ROT   100.\n"))
+    assert main(["modes", str(deck)]) == 0
+    assert "note: PARAM K6ROT: not applied" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize("param, words", [("VREF    -1.", ("PARAM VREF", "positive")),
+                                          ("LMODES  -3", ("PARAM LMODES", ">= 0"))])
+def test_flutter_deck_params(param, words, pt145_deck, tmp_path, capsys):
+    text = pt145_deck.read_text()
+    key = param.split()[0]
+    lines = [ln for ln in text.splitlines() if not ln.startswith(f"PARAM   {key}")]
+    text = "\n".join(lines).replace("ENDDATA", f"PARAM   {param}\nENDDATA") + "\n"
+    deck = tmp_path / "pt145.bdf"
+    deck.write_text(text)
+    rc, err = _cli(capsys, ["flutter", deck])
+    assert rc == 2
+    _one_line_error(err, "pt145.bdf", *words)
+
+
+def test_identification_amplitude_beyond_the_span(tmp_path, capsys):
+    """--amplitude 1e6 (a million spans) identified a ROM and exited 0: refused."""
+    deck = tmp_path / "wing.bdf"
+    deck.write_text(DECK)
+    rc, err = _cli(capsys, ["identify", deck, "--linear", "2", "--dual", "1", "--combinations",
+                            "1:1", "--amplitude", "1e6", "--out", tmp_path / "rom.npz"])
+    assert rc == 2
+    _one_line_error(err, "amplitude", "0.5")
+    assert not (tmp_path / "rom.npz").exists()
+
+
+def test_update_report_says_a_target_was_re_paired():
+    """A target whose paired mode changed during the fit is reported as a note (report and
+    JSON), not re-paired silently."""
+    from torchrom.commands.update import report_lines
+    from torchrom.fe.update import UpdateResult
+
+    target = {"name": "1st bending", "target_hz": 9.0, "initial_hz": 9.3,
+              "initial_diff_pct": 3.3, "final_hz": 9.0, "final_diff_pct": 0.0, "mode": 2,
+              "kind": "bending", "kind_ok": True, "mac": 0.97}
+    res = UpdateResult({}, [target], [], [[0.1, 0.97]], 1.0, 1.0, True, "ok", 3, 2,
+                       notes=["target 1st bending: paired with mode 1 at the start, mode 2 at "
+                              "the end (MAC 0.970)"])
+    assert any(line.startswith("note: target 1st bending: paired with mode 1")
+               for line in report_lines(res))
+    assert res.as_dict()["notes"] == res.notes
+
+
+@pytest.mark.parametrize("line, words", [
+    ("baseline_gamma = -1e-3", ("[aeroelastic] baseline_gamma", ">= 0")),
+    ("baseline_alpha = 'x'", ("[aeroelastic] baseline_alpha", "number")),
+    ("altitude_range_ft = ['a', 1]", ("[aeroelastic] altitude_range_ft",)),
+])
+def test_aeroelastic_table_values(line, words, tmp_path, capsys):
+    """The [aeroelastic] values of a built-in Goland sweep are checked when the file is read
+    (before the model is built): a string range raised a TypeError before."""
+    cfg = tmp_path / "goland.toml"
+    cfg.write_text("method = 'hb'\n[model]\nbuiltin = 'goland'\n[lco]\noutputs = ['A_Tz']\n"
+                   f"[aeroelastic]\n{line}\n[cases]\naltitude_ft = 11000.0\ngamma = 0.0\n")
+    rc, err = _cli(capsys, ["sweep", cfg, "--out", tmp_path / "out"])
+    assert rc == 2
+    _one_line_error(err, "goland.toml", *words)
+    assert not (tmp_path / "out").exists()

@@ -8,6 +8,8 @@ Subpackages (imported on first use so that ``import torchrom`` stays fast):
 - :mod:`torchrom.identify` non-intrusive ROM identification (stiffness and damping)
 - :mod:`torchrom.aero`     atmosphere, doublet-lattice GAFs, RFA, flutter
 - :mod:`torchrom.study`    case grids from TOML, chunked/resumable sweeps, result tables
+- :mod:`torchrom.periodic` periodic orbits by harmonic balance, continuation, Floquet stability
+- :mod:`torchrom.paper`    the paper's study (modes, flutter, LCO figures) end to end
 """
 
 from __future__ import annotations
@@ -18,7 +20,8 @@ from typing import Any
 from ._version import __version__
 from .errors import ConvergenceError, InputError, TorchromError
 
-_SUBMODULES = {"rom", "sim", "fe", "identify", "aero", "study", "plots", "io", "cli"}
+# every name here is a module of the package (tests/test_layering.py imports each)
+_SUBMODULES = {"rom", "sim", "fe", "identify", "aero", "study", "periodic", "paper", "io", "cli"}
 
 __all__ = [
     "__version__",

@@ -49,3 +49,62 @@ def real_array(name: str, value):
         return np.asarray(value, dtype=np.float64)
     except (TypeError, ValueError) as exc:
         raise InputError(f"{name}: expected numbers ({exc})") from None
+
+
+#: Physical range of every case parameter, checked in one place (:func:`physical`) by every
+#: entry point: sweep / branch / calibrate configurations, the flutter command's options and the
+#: Python API (:meth:`torchrom.sim.CaseSystem.build`, the flutter structure, the aeroelastic
+#: model). name -> (lowest, highest (excluded unless infinite), units, why). α may be negative
+#: (a matched α of a large γ is), γ may not: a negative Kelvin-Voigt factor feeds energy into
+#: every mode, which is no damping model at all.
+PHYSICAL_RANGES = {
+    "gamma": (0.0, math.inf, "s", "the Kelvin-Voigt factor (stiffness-proportional damping) "
+              "cannot be negative"),
+    "stiffness_nl": (0.0, math.inf, "", "a scale of the nonlinear stiffness (0 off, 1 as "
+                     "identified)"),
+    "damping_nl": (0.0, math.inf, "", "a scale of the nonlinear damping (0 off, 1 as "
+                   "identified)"),
+    "mach": (0.0, 1.0, "", "the doublet-lattice method is subsonic"),
+}
+
+
+def _range(name: str) -> tuple[float, float, str, str]:
+    """The physical range of ``name``: :data:`PHYSICAL_RANGES`, or for ``altitude_ft`` the
+    atmosphere model's (its own table, read when asked so that this base module imports no
+    subpackage at import time)."""
+    if name == "altitude_ft":
+        from .aero.atmosphere import ALTITUDE_RANGE_M
+
+        lo, hi = (h / 0.3048 for h in ALTITUDE_RANGE_M)
+        return lo, math.nextafter(hi, math.inf), "ft", "the USSA-76 atmosphere's range"
+    return PHYSICAL_RANGES.get(name, (-math.inf, math.inf, "", ""))
+
+
+def physical(name: str, value, where: str = "") -> float:
+    """``value`` of case parameter ``name`` checked against :data:`PHYSICAL_RANGES` (and
+    finite); InputError naming ``where`` and ``name`` otherwise."""
+    label = f"{where} {name}".strip()
+    x = real(label, value)
+    lo, hi, units, why = _range(name)
+    if not (lo <= x and (x < hi or hi == math.inf)):
+        span = (f">= {lo:g}" if hi == math.inf else f"in [{lo:.6g}, {hi:.6g})"
+                if lo > -math.inf else f"<= {hi:g}")
+        raise InputError(f"{label}: expected a value {span}{' ' + units if units else ''}, got "
+                         f"{value!r} ({why})")
+    return x
+
+
+def physical_values(name: str, values, where: str = "") -> None:
+    """:func:`physical` of every value of a sequence (or array) of case parameter ``name``."""
+    import numpy as np
+
+    flat = np.asarray(values, dtype=np.float64).reshape(-1)
+    lo, hi = _range(name)[:2]
+    bad = np.flatnonzero(~((flat >= lo) & ((flat < hi) | (hi == math.inf))))
+    if bad.size:
+        k = int(bad[0])
+        suffix = f" (case {k})" if flat.size > 1 else ""
+        try:
+            physical(name, float(flat[k]), where)
+        except InputError as exc:
+            raise InputError(f"{exc}{suffix}") from None

@@ -6,7 +6,11 @@ Modules are discovered automatically, so adding a command never touches this fil
 
 Bad input raises :class:`torchrom.errors.TorchromError`; it is printed as one line
 (``torchrom <cmd>: error: ...``) and the exit status is 2; so is an ``OSError`` of the file
-system (a full disk, no permission), which is not a bug either.
+system (a full disk, no permission), which is not a bug either, and a ``MemoryError`` (a problem
+too large for this machine even after the up-front bounds of :mod:`torchrom.bounds`).
+Everything a command prints goes through :class:`torchrom.text.SafeStream` (no terminal control
+sequence from a title or a file name reaches the terminal), and a Python warning is one line
+``torchrom <cmd>: warning: ...``.
 """
 
 from __future__ import annotations
@@ -15,9 +19,11 @@ import argparse
 import importlib
 import pkgutil
 import sys
+import warnings
 
 from . import __version__
 from .errors import TorchromError
+from .text import SafeStream, printable
 
 
 def _command_modules():
@@ -33,13 +39,17 @@ def _command_modules():
     return mods
 
 
-def _add_verbosity_options(parser: argparse.ArgumentParser) -> None:
-    """--quiet / --verbose of every command (:mod:`torchrom.progress`)."""
+def _add_common_options(parser: argparse.ArgumentParser) -> None:
+    """--quiet / --verbose (:mod:`torchrom.progress`) and --allow-large (:mod:`torchrom.bounds`) of
+    every command."""
     group = parser.add_mutually_exclusive_group()
     group.add_argument("-q", "--quiet", action="store_true",
                        help="no progress output and no stage messages (results and errors only)")
     group.add_argument("-v", "--verbose", action="store_true",
                        help="a progress line at every update (instead of a bar or one per 10 %%)")
+    parser.add_argument("--allow-large", action="store_true",
+                        help="run even when the up-front estimate of cases x steps or memory is "
+                             "over the bound (see torchrom.bounds)")
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -55,7 +65,7 @@ def build_parser() -> argparse.ArgumentParser:
     for mod in _command_modules():
         p = sub.add_parser(mod.NAME, help=mod.HELP, description=mod.HELP)
         mod.add_arguments(p)
-        _add_verbosity_options(p)
+        _add_common_options(p)
         p.set_defaults(_run=mod.run, _name=mod.NAME)
     return parser
 
@@ -66,9 +76,37 @@ def main(argv: list[str] | None = None) -> int:
     if not getattr(args, "command", None):
         parser.print_help()
         return 0
+    from .bounds import set_allow_large
     from .progress import NORMAL, QUIET, VERBOSE, set_verbosity
 
     set_verbosity(QUIET if args.quiet else VERBOSE if args.verbose else NORMAL)
+    set_allow_large(args.allow_large)
+    streams = sys.stdout, sys.stderr
+    sys.stdout, sys.stderr = SafeStream(sys.stdout), SafeStream(sys.stderr)
+    try:
+        with warnings.catch_warnings():
+            warnings.showwarning = _one_line_warning(args._name)
+            return _run(args)
+    finally:
+        sys.stdout, sys.stderr = streams
+        set_allow_large(False)  # the option is this run's; the API keeps its own bounds
+
+
+def _one_line_warning(command: str):
+    """``warnings.showwarning`` of the command line: one line, no source line; a warning that
+    a command also reports as a note (an ignored card) is not printed twice."""
+    def show(message, category, filename, lineno, file=None, line=None):
+        from .fe.bdf_read import UnsupportedCardWarning
+
+        if issubclass(category, UnsupportedCardWarning):
+            return
+        text = " ".join(str(message).split())
+        print(f"torchrom {command}: warning: {printable(text)}", file=sys.stderr)
+
+    return show
+
+
+def _run(args: argparse.Namespace) -> int:
     try:
         rc = args._run(args)
     except TorchromError as exc:
@@ -77,7 +115,12 @@ def main(argv: list[str] | None = None) -> int:
     except OSError as exc:
         # the file system refused (disk full, permission, a folder that is a file): not a bug
         where = f"{exc.filename}: " if exc.filename else ""
-        print(f"torchrom {args._name}: error: {where}{exc.strerror or exc}", file=sys.stderr)
+        print(f"torchrom {args._name}: error: {printable(where)}{exc.strerror or exc}",
+              file=sys.stderr)
+        return 2
+    except MemoryError:
+        print(f"torchrom {args._name}: error: out of memory; the problem is too large for this "
+              f"machine (fewer cases, a smaller batch_size or fewer harmonics)", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
         print(f"torchrom {args._name}: interrupted; finished results were kept", file=sys.stderr)

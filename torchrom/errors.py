@@ -13,8 +13,10 @@ class TorchromError(Exception):
     """A one-line, user-facing error about bad input or an impossible request."""
 
     def __init__(self, message: str):
-        # Keep the message on one line: the CLI prints it as-is.
-        super().__init__(" ".join(str(message).split()))
+        # One line, and no control character of an untrusted name or field reaches the terminal
+        from .text import printable
+
+        super().__init__(printable(" ".join(str(message).split())))
 
 
 class InputError(TorchromError, ValueError):

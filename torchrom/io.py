@@ -8,6 +8,7 @@ of any new file (0666 less the umask), not the temporary file's private 0600.
 from __future__ import annotations
 
 import contextlib
+import glob
 import json
 import os
 import sys
@@ -36,8 +37,9 @@ def atomic_path(path: str | os.PathLike, suffix: str | None = None) -> Iterator[
     tmp_path = None
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
-        fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=f".part{suffix}",
-                                   dir=path.parent)
+        remove_stale_parts(path)
+        fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.{os.getpid()}.",
+                                   suffix=f".part{suffix}", dir=path.parent)
         os.close(fd)
         tmp_path = Path(tmp)
         yield tmp_path
@@ -53,6 +55,42 @@ def atomic_path(path: str | os.PathLike, suffix: str | None = None) -> Iterator[
     finally:
         if tmp_path is not None and tmp_path.exists():
             tmp_path.unlink()
+
+
+#: a temporary file of a writer whose process id cannot be read is stale after this (s)
+STALE_PART_AGE_S = 3600.0
+
+
+def remove_stale_parts(path: Path) -> list[Path]:
+    """Remove the temporary files (``.NAME.PID.*.partSUFFIX``) that a killed writer of ``path``
+    left (SIGKILL, power loss: no ``finally`` ran): those of a process that no longer runs, and
+    those without a process id older than :data:`STALE_PART_AGE_S`. A live writer's are kept."""
+    import time
+
+    removed = []
+    for tmp in path.parent.glob(f".{glob.escape(path.name)}.*.part*"):
+        pid_text = tmp.name[len(path.name) + 2:].split(".", 1)[0]
+        try:
+            stale = not process_alive(int(pid_text))
+        except ValueError:
+            stale = time.time() - tmp.stat().st_mtime > STALE_PART_AGE_S
+        if stale and tmp.is_file() and not tmp.is_symlink():
+            tmp.unlink(missing_ok=True)
+            removed.append(tmp)
+    return removed
+
+
+def process_alive(pid: int) -> bool:
+    """Whether a process ``pid`` exists on this machine (it may belong to another user)."""
+    if pid <= 0:
+        return False
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:
+        return True
+    return True
 
 
 def current_umask() -> int:
@@ -128,6 +166,40 @@ def check_folder(folder: str | os.PathLike, what: str = "output") -> Path:
     if probe.exists() and not os.access(probe, os.W_OK | os.X_OK):
         raise InputError(f"{what} folder {folder}: {probe} is not writable")
     return folder
+
+
+def check_referenced_path(path: str | os.PathLike, referrer: str | os.PathLike,
+                          what: str) -> Path:
+    """A file named inside another (an INCLUDE of a deck, a targets file's reference deck, a
+    configuration's model file), checked before it is read. Policy: it must be a regular file
+    inside the referring file's folder or the current working directory (or below them), so
+    that a deck or configuration from elsewhere cannot make torchrom read, and quote in an
+    error, any file on the machine (/etc/passwd, /dev/zero)."""
+    path = Path(path)
+    base = Path(referrer).resolve().parent
+    full = (path if path.is_absolute() else base / path).resolve()
+    roots = (base, Path.cwd().resolve())
+    if not any(full == r or r in full.parents for r in roots):
+        raise InputError(f"{referrer}: {what} {path}: outside the folder of {Path(referrer).name} "
+                         f"and the working directory; files it names are read only from there "
+                         f"(copy the file beside it)")
+    if not full.is_file():
+        raise InputError(f"{referrer}: {what} {path}: no such file"
+                         + (" (not a regular file)" if full.exists() else ""))
+    return full
+
+
+def check_figure_path(path: str | os.PathLike, what: str = "figure") -> Path:
+    """InputError unless ``path`` ends in a format the plotting library writes (png, pdf,
+    svg, ...): checked before any work, so that no run ends on a figure it cannot save."""
+    from matplotlib.backend_bases import FigureCanvasBase
+
+    path = Path(path)
+    formats = sorted(FigureCanvasBase.get_supported_filetypes())
+    if path.suffix.lower().lstrip(".") not in formats:
+        raise InputError(f"{what} {path}: expected a file name ending in one of "
+                         f"{', '.join('.' + f for f in formats)}")
+    return path
 
 
 def write_figure(draw, *args, **kwargs):

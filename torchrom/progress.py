@@ -125,3 +125,30 @@ class Progress:
         if self._bar is not None:
             self._bar.close()
             self._bar = None
+
+
+class Stages:
+    """Stage lines of one long task without a countable loop (e.g. reading a large deck:
+    parsing, the mesh, the assembly): ``start(name)`` prints ``<desc>: <name> ...`` on stderr and
+    the previous stage's elapsed time; ``done()`` ends the last one. Nothing when ``enabled`` is
+    False or when quiet."""
+
+    def __init__(self, desc: str, enabled: bool = True, *, stream: IO | None = None):
+        self.desc = desc
+        self.enabled = enabled and verbosity() > QUIET
+        self.stream = stream if stream is not None else sys.stderr
+        self._name: str | None = None
+        self._t0 = time.perf_counter()
+
+    def start(self, name: str) -> None:
+        self.done()
+        self._name, self._t0 = name, time.perf_counter()
+        if self.enabled:
+            print(f"{self.desc}: {name} ...", file=self.stream, flush=True)
+
+    def done(self) -> None:
+        if self._name is not None and self.enabled:
+            print(f"{self.desc}: {self._name} done in "
+                  f"{format_seconds(time.perf_counter() - self._t0)}", file=self.stream,
+                  flush=True)
+        self._name = None

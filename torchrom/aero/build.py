@@ -130,6 +130,25 @@ def planform_grid_mask(
 
 
 SPLINES = ("section", "plate")
+#: least share of the planform's span that the splined structural grids must cover (beyond
+#: it the spline extrapolates the motion of a small structure over a large wing)
+MIN_SPAN_COVERAGE = 0.5
+
+
+def check_structure_spans_planform(xyz, panels: AeroPanels) -> None:
+    """InputError when the structural grids of the spline cover less than
+    :data:`MIN_SPAN_COVERAGE` of the half planform's span (e.g. the 20 ft Goland planform on
+    a 0.5 m plate deck)."""
+    y = np.asarray(xyz, dtype=float)[:, 1]
+    half = panels.doublet_points[~panels.mirrored][:, 1]
+    span = float(half.max() - min(half.min(), 0.0)) if half.size else 0.0
+    covered = float(y.max() - y.min())
+    if span > 0 and covered < MIN_SPAN_COVERAGE * span:
+        raise InputError(f"aero spline: the structure's grids span y = {y.min():.4g} .. "
+                         f"{y.max():.4g} but the planform's boxes span {span:.4g} (the built-in "
+                         f"planform is the Goland wing, {GOLAND_CHORD_FT:g} x "
+                         f"{GOLAND_SEMISPAN_FT:g} ft); expected the structure to cover at least "
+                         f"{MIN_SPAN_COVERAGE:.0%} of it: use the deck's own CAERO planform")
 
 
 def planform_box_motion(
@@ -148,6 +167,7 @@ def planform_box_motion(
         mask = np.asarray(grid_mask)
     if mask.sum() < 3:
         raise InputError("aero spline: fewer than three structural grids inside the planform")
+    check_structure_spans_planform(modes.grid_xyz[mask], panels)
     if spline == "section":
         xyz = modes.grid_xyz[mask]
         spline_op = SectionSpline(xyz, x_ref=float(np.mean(xyz[:, 0])))

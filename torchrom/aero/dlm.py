@@ -121,6 +121,9 @@ def compute_gaf(
     """
     from panelaero import DLM, VLM
 
+    from ..bounds import check_boxes
+
+    check_boxes("GAF", panels.n)  # all the boxes together (several CAERO panels, mirrored)
     if kernel not in KERNELS:
         raise InputError(f"GAF: kernel: expected one of {KERNELS}, got {kernel!r}")
     if not (0.0 <= mach < 1.0):

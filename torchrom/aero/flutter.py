@@ -29,6 +29,7 @@ import scipy.linalg
 from scipy.interpolate import CubicSpline
 from scipy.optimize import brentq, linear_sum_assignment
 
+from ..checks import physical, physical_values, real
 from ..errors import ConvergenceError, InputError
 from .atmosphere import flight_condition
 from .dlm import GAF
@@ -90,6 +91,8 @@ class ModalStructure:
     names: list[str] | None = None
 
     def __post_init__(self):
+        self.alpha = real("modal structure: alpha", self.alpha)
+        self.gamma = physical("gamma", self.gamma, "modal structure:")
         self.M = _as_numpy(self.M)
         self.K = _as_numpy(self.K)
         m = self.M.shape[0]
@@ -814,6 +817,7 @@ def alpha_for_gammas(
     bracket) to |Δα| ≤ ``xtol`` (1/s). A γ whose iteration does not settle falls back to
     :func:`alpha_for_gamma`."""
     g = np.asarray(gammas, dtype=float).reshape(-1)
+    physical_values("gamma", g, "matched alpha:")
     if g.size == 0:
         return np.zeros(0)
     c = flight_condition(mach, float(altitude), units)

@@ -25,6 +25,7 @@ g = 2sb/(V ln 2).
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
@@ -358,7 +359,7 @@ def load_deck(path, require_flutter: bool = True, *, symxz: int | None = None,
     use_resvec, resvec_source = _resvec(model, path)
     if resvec is not None:
         use_resvec, resvec_source = bool(resvec), "the command line"
-    vref = float(model.params["VREF"].values[0]) if "VREF" in model.params else 1.0
+    vref = _param_number(model, path, "VREF", 1.0, lambda x: x > 0, "a positive number")
     title = ""
     cc = model.case_control_deck
     if cc is not None and cc.subcases[0].has_parameter("TITLE")[0]:
@@ -375,9 +376,22 @@ def load_deck(path, require_flutter: bool = True, *, symxz: int | None = None,
     )
 
 
+def _param_number(model, path: Path, key: str, default, ok, expected: str) -> float:
+    """PARAM ``key`` of the deck as a finite number for which ``ok`` holds (else an InputError
+    naming it); ``default`` when the deck has none."""
+    p = model.params.get(key)
+    value = p.values[0] if p is not None and p.values else default
+    good = (isinstance(value, (int, float)) and not isinstance(value, bool)
+            and math.isfinite(value) and ok(value))
+    if not good:
+        raise InputError(f"{path.name}: PARAM {key}: expected {expected}, got {value!r}")
+    return float(value)
+
+
 def _mode_count(model, path: Path):
     """(modes used without residual vectors, EIGR/EIGRL frequency range, ND, LMODES)."""
-    lmodes = int(model.params["LMODES"].values[0]) if "LMODES" in model.params else 0
+    lmodes = int(_param_number(model, path, "LMODES", 0,
+                               lambda x: x >= 0 and float(x).is_integer(), "an integer >= 0"))
     methods = _case_ids(model, "METHOD")
     nd, frange = None, (0.0, None)
     if methods:

@@ -21,6 +21,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..bounds import check_boxes
 from ..errors import InputError
 
 #: built-in Goland planform (paper Sec. III.A: classic Goland chord 6 ft, 20 ft semispan)
@@ -277,6 +278,7 @@ def lattice(
                 f"CAERO1 {caero_id}: {name} divisions: expected increasing fractions from 0 to 1, "
                 f"got {np.round(f, 6).tolist()}"
             )
+    check_boxes(f"CAERO1 {caero_id}", (len(xc) - 1) * (len(ys) - 1))
 
     def point(s, c):  # s spanwise, c chordwise fraction
         le = p1 + s * (p4 - p1)

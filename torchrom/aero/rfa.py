@@ -32,6 +32,9 @@ from .dlm import GAF
 
 def default_lag_roots(n_lags: int, k_max: float) -> np.ndarray:
     """γ_l = 1.7 k_max (l / (n_L + 1))², l = 1..n_L (the common minimum-state default)."""
+    from ..bounds import MAX_LAGS, check_count
+
+    check_count("RFA", "lag states", n_lags, MAX_LAGS)
     if n_lags < 0 or not k_max > 0:
         raise InputError(
             f"RFA: lag roots: expected n_lags >= 0 and k_max > 0, got {n_lags}, {k_max}"

@@ -17,8 +17,13 @@ def add_precision_options(parser: argparse.ArgumentParser) -> None:
                         help="floating-point precision of the integration (default float64)")
 
 
+#: device types the integrators run on (meta, xla, ... hold no values to compute with)
+DEVICE_TYPES = ("cpu", "cuda")
+
+
 def torch_device(name: str):
-    """The torch device ``name`` (InputError when it is not one or CUDA is missing)."""
+    """The torch device ``name`` (InputError when it is not one, not a type in
+    :data:`DEVICE_TYPES`, or a CUDA device this machine does not have)."""
     import torch
 
     from ..errors import InputError
@@ -27,8 +32,14 @@ def torch_device(name: str):
         dev = torch.device(name)
     except (RuntimeError, ValueError) as exc:
         raise InputError(f"--device: not a torch device: {name!r} ({exc})") from None
+    if dev.type not in DEVICE_TYPES:
+        raise InputError(f"--device: expected a device of type {' or '.join(DEVICE_TYPES)} "
+                         f"(e.g. cpu, cuda:0), got {name!r}")
     if dev.type == "cuda" and not torch.cuda.is_available():
         raise InputError(f"--device: {name} requested but CUDA is not available")
+    if dev.type == "cuda" and dev.index is not None and dev.index >= torch.cuda.device_count():
+        raise InputError(f"--device: {name}: this machine has {torch.cuda.device_count()} CUDA "
+                         f"device(s)")
     return dev
 
 
@@ -98,6 +109,35 @@ def finite_float(value: str) -> float:
     return _number(value, lambda x: True, "a finite number")
 
 
+def case_parameter(name: str):
+    """argparse type of an option that sets case parameter ``name``: a finite number in its
+    physical range (:data:`torchrom.checks.PHYSICAL_RANGES`, the table every entry point uses)."""
+    def parse(value: str) -> float:
+        from ..checks import physical
+        from ..errors import InputError
+
+        x = finite_float(value)
+        try:
+            return physical(name, x)
+        except InputError as exc:
+            raise argparse.ArgumentTypeError(str(exc)) from None
+
+    parse.__name__ = name  # argparse names the type in its message
+    return parse
+
+
+def figure_file(value: str) -> Path:
+    """argparse type of a figure file option: a name whose suffix is a format matplotlib
+    writes (:func:`torchrom.io.check_figure_path`)."""
+    from ..errors import InputError
+    from ..io import check_figure_path
+
+    try:
+        return check_figure_path(value, "")
+    except InputError as exc:
+        raise argparse.ArgumentTypeError(str(exc).strip()) from None
+
+
 def add_executor_options(parser: argparse.ArgumentParser) -> None:
     """--workers N | --scheduler ADDR and --chunk-size (commands that run many cases; see
     :mod:`torchrom.study.runner`). Default: in-process."""
@@ -159,6 +199,10 @@ def load_study(args: argparse.Namespace):
     if getattr(args, "cache_dir", None) is not None:
         set_cache_root(args.cache_dir)
     cfg = with_method(load_sweep_config(args.config), getattr(args, "method", None))
+    if getattr(args, "workers", None) is not None:  # processes, bounded like threads
+        from ..bounds import check_threads
+
+        check_threads("--workers", args.workers, override=cfg.allow_large)
     return torch_device(args.device), getattr(torch, args.dtype), cfg
 
 

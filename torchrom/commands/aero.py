@@ -13,6 +13,7 @@ from ..progress import info
 from ._common import (
     add_force_option,
     add_json_option,
+    case_parameter,
     check_outputs,
     maybe_write_json,
     nonnegative_float,
@@ -28,7 +29,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument(
         "model", help="Nastran deck (.bdf) or 'goland' for the built-in heavy Goland wing"
     )
-    p.add_argument("--mach", type=nonnegative_float, required=True, help="Mach number (subsonic)")
+    p.add_argument("--mach", type=case_parameter("mach"), required=True,
+                   help="Mach number (subsonic)")
     p.add_argument("--out", type=Path, required=True, help="output aero.npz")
     p.add_argument("--modes", type=positive_int, default=9,
                    help="number of structural modes m (default 9)")
@@ -86,8 +88,13 @@ def load_fe(model: str):
 def run(args: argparse.Namespace) -> int:
     from ..aero.build import GOLAND_K_LIST, build_from_deck, build_from_modes, modal_data
     from ..aero.panels import goland_panels
+    from ..bounds import MAX_LAGS, check_boxes, check_count
+
     check_outputs(args, [args.out])
     goland = args.model == "goland" or args.planform == "goland"
+    if goland:  # sizes before any work (a deck's own boxes are checked when it is read)
+        check_boxes("--boxes", 2 * args.boxes[0] * args.boxes[1])
+    check_count("--lags", "lag states", args.lags, MAX_LAGS)
     info(f"torchrom aero: {args.model}: modal analysis ({args.modes} modes)")
     fe = load_fe(args.model)
     bar = _progress()

@@ -62,6 +62,7 @@ def run(args: argparse.Namespace) -> int:
 
     from ..sim import output_matrix
     from ..study.bifurcation import bifurcation_sweep
+    from ..study.config import check_work
     from ..study.grid import case_label, distinct_cases
     from ..study.models import model_rom
     from ..study.plots import bifurcation_plot
@@ -88,6 +89,9 @@ def run(args: argparse.Namespace) -> int:
     if not (0 < lo < hi) or args.num < 2:
         raise InputError(f"--q0 {lo} {hi} --num {args.num}: expected 0 < LO < HI and at least "
                          f"2 initial amplitudes")
+    # at least one boundary refined per round: the fewest cases the command runs
+    check_work(cfg, len(controls) * (args.num + args.refine * args.points),
+               "cases (control cases x (--num + --refine x --points))")
     # the decision output's initial value per unit q0: thresholds in the LCO amplitude's units
     _, C = output_matrix(rom, cfg.outputs)
     scale = float(abs(C[cfg.lco.decision_outputs[0]]

@@ -18,7 +18,14 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from ._common import add_json_option, check_outputs, load_study, maybe_write_json
+from ._common import (
+    add_json_option,
+    check_outputs,
+    finite_float,
+    load_study,
+    maybe_write_json,
+    positive_int,
+)
 
 NAME = "branch"
 HELP = "follow LCO branches from the flutter (Hopf) point by continuation, with stability"
@@ -30,10 +37,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--parameter", default=None,
                         help="the case parameter to follow (altitude_ft, gamma, alpha, ...; "
                              "default [branch] parameter)")
-    parser.add_argument("--range", type=float, nargs=2, metavar=("LO", "HI"), default=None,
+    parser.add_argument("--range", type=finite_float, nargs=2, metavar=("LO", "HI"),
+                        default=None,
                         help="parameter bounds (default [branch] bounds)")
-    parser.add_argument("--harmonics", type=int, default=None, help="harmonics H (default 5)")
-    parser.add_argument("--max-points", type=int, default=None,
+    parser.add_argument("--harmonics", type=positive_int, default=None,
+                        help="harmonics H (default 5)")
+    parser.add_argument("--max-points", type=positive_int, default=None,
                         help="points per branch (default 60)")
     parser.add_argument("--out", type=Path, required=True, metavar="DIR",
                         help="output folder (branch.parquet/.csv, hopf.csv, branch.png)")

@@ -58,6 +58,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
 
     from ..study.calibrate import calibrate_gamma
+    from ..study.config import check_work
     from ..study.grid import case_label, distinct_cases
     from ..study.plots import calibration_plot
     from ..study.runner import open_executor
@@ -70,6 +71,9 @@ def run(args: argparse.Namespace) -> int:
 
         cfg = dataclasses.replace(cfg, hb=dataclasses.replace(cfg.hb, sensitivity=True))
     bases = distinct_cases(cfg.cases, ("gamma", "sample"))
+    # every round scans --num values of γ per base case (and per open bracket: at most one)
+    check_work(cfg, (args.rounds + 1) * args.num * max(len(bases), 1),
+               "cases of all rounds (--rounds + 1) x --num x base cases")
     if args.gamma is None:
         gammas = [float(c["gamma"]) for c in cfg.cases if float(c.get("gamma", 0.0)) > 0]
         if not gammas:

@@ -25,10 +25,11 @@ import numpy as np
 from ._common import (
     add_force_option,
     add_json_option,
+    case_parameter,
     check_outputs,
+    figure_file,
     finite_float,
     maybe_write_json,
-    nonnegative_float,
     nonnegative_int,
     positive_int,
     write_figure,
@@ -44,7 +45,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument(
         "inputs", nargs="+", metavar="INPUT", help="DECK.bdf | ROM.npz AERO.npz | goland"
     )
-    p.add_argument("--mach", type=nonnegative_float, help="Mach number (default: the aero file's)")
+    p.add_argument("--mach", type=case_parameter("mach"),
+                   help="Mach number (default: the aero file's)")
     p.add_argument(
         "--alt-range",
         type=finite_float,
@@ -56,7 +58,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--alpha", type=finite_float,
                    help="mass-proportional damping α (1/s; default 0.2565)")
     p.add_argument(
-        "--gamma", type=nonnegative_float,
+        "--gamma", type=case_parameter("gamma"),
         help="stiffness-proportional damping γ (s; default 1.338e-4)",
     )
     p.add_argument("--method", choices=["both", "pk", "state-space"], default="both")
@@ -91,7 +93,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     )
     p.add_argument(
         "--alpha-for-gamma",
-        type=nonnegative_float,
+        type=case_parameter("gamma"),
         nargs="+",
         metavar="GAMMA",
         help="for each γ (s), the α (1/s) that keeps the state-space flutter altitude of the "
@@ -102,7 +104,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--compare", type=Path, metavar="RUN.f06",
                    help="deck form: print Nastran's flutter points and modes from this f06 beside "
                    "torchrom's, with the differences")
-    p.add_argument("--plot", type=Path, help="write a V-g / V-f figure (PNG/PDF)")
+    p.add_argument("--plot", type=figure_file, help="write a V-g / V-f figure (PNG/PDF)")
     p.add_argument("--symxz", type=int, choices=(-1, 0, 1), default=None,
                    help="deck form: override the deck's AERO/AEROS SYMXZ (1: reflection plane, "
                         "e.g. a wall-mounted model; -1: antisymmetric; 0: isolated half wing)")
@@ -122,6 +124,7 @@ def run(args: argparse.Namespace) -> int:
     from ..errors import InputError
 
     check_outputs(args, [p for p in (args.plot, args.root_locus) if p is not None])
+    _check_options(args)
     inputs = args.inputs
     if len(inputs) == 1 and inputs[0] != "goland":
         return _run_deck(args, Path(inputs[0]))
@@ -132,6 +135,26 @@ def run(args: argparse.Namespace) -> int:
     raise InputError(
         f"flutter: expected DECK.bdf, ROM.npz AERO.npz or goland, got {len(inputs)} inputs"
     )
+
+
+def _check_options(args) -> None:
+    """The altitudes (in the atmosphere's range, LO < HI), boxes and lags, before any work."""
+    from ..aero.atmosphere import atmosphere
+    from ..bounds import MAX_LAGS, check_boxes, check_count
+    from ..errors import InputError
+
+    lo, hi = args.alt_range
+    if not lo < hi:
+        raise InputError(f"--alt-range: expected LO < HI (ft), got {lo:g} {hi:g}")
+    for option, values in (("--alt-range", [lo, hi]), ("--at", args.at or [])):
+        if not values:
+            continue
+        try:
+            atmosphere(values, "ft")
+        except InputError as exc:
+            raise InputError(f"{option}: {exc}") from None
+    check_boxes("--boxes", 2 * args.boxes[0] * args.boxes[1])
+    check_count("--lags", "lag states", args.lags, MAX_LAGS)
 
 
 def _run_deck(args, path: Path) -> int:

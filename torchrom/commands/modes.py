@@ -27,6 +27,8 @@ from ._common import (
 )
 
 NAME = "modes"
+#: a model with at least this many free DOFs reports its eigen-solve stage
+LARGE_MODEL_DOFS = 50_000
 HELP = "linear modal analysis table of a Nastran deck (MODEL.bdf)"
 
 
@@ -71,6 +73,7 @@ def run(args: argparse.Namespace) -> int:
     from ..fe.goland import TABLE2_HZ
     from ..fe.report import mode_table
     from ..fe.solvers import RIGID_BODY_TOL
+    from ..progress import Stages
 
     check_outputs(args, [])
     fe = read_bdf(args.model, unsupported=args.unsupported)
@@ -88,7 +91,10 @@ def run(args: argparse.Namespace) -> int:
             raise InputError(f"{args.compare}: no REAL EIGENVALUES table")
         nastran_hz = tables[0].cycles
     n = args.n or (len(nastran_hz) if nastran_hz is not None else None)
+    stages = Stages(f"modes of {args.model.name}", fe.n_dof >= LARGE_MODEL_DOFS)
+    stages.start(f"eigen-solve on {fe.n_dof} DOFs")
     modes = fe.modes(n)
+    stages.done()
     is_goland = _title(fe.bdf).startswith(GOLAND_TITLE)
     records = modes.records(reference_hz=TABLE2_HZ if is_goland else None)
     if modes.n_rigid:

@@ -26,7 +26,13 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from ._common import add_force_option, write_figure
+from ._common import (
+    add_force_option,
+    figure_file,
+    finite_float,
+    positive_int,
+    write_figure,
+)
 
 NAME = "plot"
 HELP = "draw any result table (--x/--y/--hue/--facet) or a paper figure (--figure fig9..fig13)"
@@ -35,7 +41,8 @@ FIGURE_NAMES = ("fig9", "fig10", "fig11", "fig12", "fig13", "table2")
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("table", type=Path, help="results table (.parquet or .csv)")
-    parser.add_argument("--out", type=Path, required=True, help="figure file (.png, .pdf, .svg)")
+    parser.add_argument("--out", type=figure_file, required=True,
+                        help="figure file (.png, .pdf, .svg)")
     parser.add_argument("--x", help="general form: column on the x axis")
     parser.add_argument("--y", default="amplitude",
                         help="general form: column on the y axis (default amplitude)")
@@ -45,9 +52,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--figure", choices=FIGURE_NAMES, help="paper form: which figure")
     parser.add_argument("--histories", type=Path, default=None,
                         help="time histories for fig11 (default: histories.parquet beside TABLE)")
-    parser.add_argument("--q4-mode", type=int, default=4, metavar="N",
+    parser.add_argument("--q4-mode", type=positive_int, default=4, metavar="N",
                         help="fig13: our mode compared with the paper's mode 4 (default 4)")
-    parser.add_argument("--flutter-altitude", type=float, default=None, metavar="FT",
+    parser.add_argument("--flutter-altitude", type=finite_float, default=None, metavar="FT",
                         help="fig10/12/13: mark our flutter altitude (ft)")
     add_force_option(parser)
 

@@ -90,12 +90,14 @@ def run(args: argparse.Namespace) -> int:
     # heavy imports here, not at module level: `torchrom --help` must stay fast
 
     from ..locks import folder_lock
-    from ..study.config import check_initial, with_overrides
+    from ..study.config import check_initial, check_memory, check_work, with_overrides
 
     device, dtype, cfg = load_study(args)
     cfg = with_overrides(cfg, compile=True if args.compile else None, threads=args.threads)
+    check_work(cfg)  # --threads is checked with the configuration's own bounds
     model = cfg.build_model()
     check_initial(cfg, model)
+    check_memory(cfg, model, device, dtype)
     # one run per folder: a second sweep on it refuses (exit 2, naming this one's PID)
     with folder_lock(args.out, "torchrom sweep"):
         return _run_in(Path(args.out), args, cfg, model, device, dtype)

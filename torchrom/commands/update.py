@@ -56,6 +56,7 @@ def report_lines(result) -> list[str]:
         lines.append(f"{name[:22]:<22} {p['card']:<6} {p['field']:<5} {p['initial']:12.6g} "
                      f"{p['final']:12.6g} {bounds:>24}" + ("  at bound" if p["at_bound"] else ""))
     s = result.summary()
+    lines.extend(f"note: {n}" for n in result.notes)
     lines.append("")
     lines.append(f"{result.n_iterations} iterations, {result.n_evaluations} evaluations: "
                  f"{result.message}; rms {s['rms_diff_pct']:.3g} %, max |diff| "
@@ -66,7 +67,7 @@ def report_lines(result) -> list[str]:
 
 def run(args: argparse.Namespace) -> int:
     from ..fe import read_bdf, write_bdf
-    from ..fe.update import update_model
+    from ..fe.update import check_final_misfit, update_model
     from ..fe.update_config import load_update_spec
     from ..io import check_can_write
 
@@ -81,6 +82,7 @@ def run(args: argparse.Namespace) -> int:
           f"{len(spec.parameters)} parameters")
     new, result = update_model(fe, spec, reference=reference)
     print("\n".join(report_lines(result)))
+    check_final_misfit(result)
     write_bdf(new, args.out, force=args.force)
     print(f"wrote {args.out}")
     maybe_write_json(args, result.as_dict())

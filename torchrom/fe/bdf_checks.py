@@ -2,10 +2,11 @@
 
 pyNastran parses the fields but accepts any number, NaN and ±inf included, and Nastran itself
 only rejects some signs at run time. Here every numeric field of every card is checked to be
-finite, and the fields whose sign or range the physics fixes (areas, thicknesses, densities,
-masses ≥ 0; E > 0; −1 < ν ≤ 0.5; coordinates below :data:`MAX_COORDINATE`) follow the table
-:data:`FIELD_RULES`, so that a bad value is reported on its own card and field — never as a
-singular matrix, an "infs or NaNs" error or a misleading complaint about another card.
+finite and below :data:`MAX_FIELD` in magnitude, and the fields whose sign or range the physics
+fixes (areas, thicknesses, densities, masses ≥ 0; E > 0; −1 < ν ≤ 0.5; coordinates below
+:data:`MAX_COORDINATE`) follow the table :data:`FIELD_RULES`, so that a bad value is reported on
+its own card and field — never as a singular matrix, an "infs or NaNs" error or a misleading
+complaint about another card.
 
 Also here: the truncation check of a deck's text (a bulk data section without ``ENDDATA``, the way
 Nastran reports a file cut off) and the one-line message of pyNastran's duplicate-ID error.
@@ -22,6 +23,9 @@ from ..errors import InputError
 #: Largest coordinate magnitude accepted: beyond it, element lengths of order 1 are lost to the
 #: rounding of float64 (ε ≈ 1.1e-16) — a deck there is a typo (1.+20 for 1.+2), not a model.
 MAX_COORDINATE = 1e15
+#: Largest magnitude of any numeric field: products of two such values (E × A, ρ × t) stay far
+#: from float64's overflow (1.8e308); a value beyond is an exponent typo, never a model
+MAX_FIELD = 1e100
 
 
 def _positive(x: float) -> bool:
@@ -132,6 +136,12 @@ def check_fields(model, fname: str, aero: bool = False) -> None:
                 if not math.isfinite(x) or not rule(x):
                     raise InputError(f"{fname}: {_card_id(card)}: field {field}: expected "
                                      f"{expected}, got {x:g}")
+        # after the rules, which name the field (a coordinate's own bound is tighter)
+        for k, value in enumerate(fields[1:], start=2):
+            if isinstance(value, float) and abs(value) > MAX_FIELD:
+                where = f"field #{k}" if k <= 9 else f"value #{k - 1} after the card name"
+                raise InputError(f"{fname}: {_card_id(card)}: {where}: expected a magnitude "
+                                 f"<= {MAX_FIELD:g} (an exponent typo?), got {value:g}")
 
 
 def check_complete(text: str, fname: str) -> None:

@@ -30,6 +30,7 @@ from __future__ import annotations
 import contextlib
 import io
 import logging
+import math
 import re
 import warnings
 from collections import Counter
@@ -124,6 +125,32 @@ def _pynastran_error(fname: str, exc: Exception) -> InputError:
     return InputError(f"{fname}: {where}{first}")
 
 
+_INCLUDE = re.compile(r"^\s*INCLUDE\s+'([^']*)'?", re.IGNORECASE)
+
+
+def _check_includes(text: str, path: Path) -> None:
+    """Every INCLUDE of the deck (and of the files it includes) names a regular file inside the
+    deck's folder or the working directory (:func:`torchrom.io.check_referenced_path`)."""
+    from ..io import check_referenced_path
+
+    seen = {path.resolve()}
+    todo = [(text, path)]
+    while todo:
+        body, owner = todo.pop()
+        for line in body.splitlines():
+            m = _INCLUDE.match(line)
+            if m is None:
+                continue
+            inc = check_referenced_path(m.group(1).strip(), owner, "INCLUDE")
+            if inc not in seen:
+                seen.add(inc)
+                try:
+                    todo.append((inc.read_text(errors="replace"), inc))
+                except OSError as exc:
+                    raise InputError(f"{owner}: INCLUDE {m.group(1)}: cannot read: "
+                                     f"{exc.strerror or exc}") from None
+
+
 def _read_pynastran(path: Path):
     from pyNastran.bdf.bdf import read_bdf as pn_read_bdf
 
@@ -132,6 +159,7 @@ def _read_pynastran(path: Path):
     except OSError as exc:
         raise InputError(f"{path}: cannot read the deck: {exc.strerror or exc}") from None
     check_complete(text, path.name)
+    _check_includes(text, path)
     upper = [ln.split("$")[0].strip().upper() for ln in text.splitlines()]
     has_cend = any(ln == "CEND" for ln in upper)
     has_begin = any(ln.startswith("BEGIN") and "BULK" in ln for ln in upper)
@@ -149,6 +177,10 @@ def _read_pynastran(path: Path):
     except Exception as exc:  # pyNastran raises many types for bad cards
         raise _pynastran_error(path.name, exc) from None
     return model
+
+
+#: a deck at least this large (bytes) reports its reading stages (parse, mesh, assembly)
+LARGE_DECK_BYTES = 1_000_000
 
 
 def read_bdf(
@@ -169,12 +201,18 @@ def read_bdf(
     ``output_points`` maps names to (grid id, component 1..6) — decks written by
     ``torchrom goland`` get the Goland point A automatically.
     """
+    from ..progress import Stages
+
     path = Path(path)
     if not path.is_file():
         raise InputError(f"{path}: no such deck")
+    size = path.stat().st_size
+    stages = Stages(f"reading {path.name}", size >= LARGE_DECK_BYTES)
+    stages.start(f"parsing {size / 1e6:.0f} MB of cards")
     model = _read_pynastran(path)
     return from_pynastran(
         model,
+        stages=stages,
         source=str(path),
         name=path.stem,
         spc_id=spc_id,
@@ -224,10 +262,14 @@ def from_pynastran(
     autospc: bool | None = None,
     output_points: dict[str, tuple[int, int]] | None = None,
     units: dict[str, str] | None = None,
+    stages=None,
 ):
-    """Build an FEModel from a pyNastran ``BDF`` object (read from a file or built in memory)."""
+    """Build an FEModel from a pyNastran ``BDF`` object (read from a file or built in memory);
+    ``stages`` (:class:`torchrom.progress.Stages`) reports the mesh and assembly stages."""
+    from ..progress import Stages
     from .model import FEModel
 
+    stages = stages or Stages(name, enabled=False)
     fname = Path(source).name
     if unsupported not in ("error", "warn"):
         raise InputError(f"unsupported: expected 'error' or 'warn', got {unsupported!r}")
@@ -238,8 +280,11 @@ def from_pynastran(
         autospc = _deck_autospc(model)
     check_fields(model, fname)
     reader = _Reader(model, fname)
+    stages.start(f"building the mesh of {len(model.nodes)} grids and {len(model.elements)} "
+                 f"elements")
     mesh = reader.mesh(spc_id)
     loads = reader.loads(mesh)
+    stages.start("assembling the stiffness and mass matrices")
     title = _title(model)
     wing_chord = None
     if title.startswith(GOLAND_TITLE):
@@ -260,8 +305,22 @@ def from_pynastran(
         autospc=autospc,
     )
     fe.wing_chord = wing_chord
-    fe.notes = notes + reader.notes + fe.notes
+    fe.notes = notes + reader.notes + _unused_params(model) + fe.notes
+    stages.done()
     return fe
+
+
+#: PARAMs that torchrom reads: the FE reader's, and the flutter solution's (torchrom.aero)
+READ_PARAMS = frozenset({"AUTOSPC", "COUPMASS", "WTMASS", "LGDISP", "POST", "LMODES", "VREF",
+                         "RESVEC"})
+
+
+def _unused_params(model) -> list[str]:
+    """One note naming the deck's PARAMs that no solution here reads (a K6ROT, a G, a GRDPNT
+    changes what Nastran computes or prints, not what is computed here)."""
+    unused = sorted(k for k in model.params if str(k).upper() not in READ_PARAMS)
+    return [f"PARAM {', '.join(unused)}: not applied (read: "
+            f"{', '.join(sorted(READ_PARAMS))})"] if unused else []
 
 
 def _check_cards(model, fname: str, unsupported: str) -> list[str]:
@@ -387,7 +446,7 @@ class _Reader(ExtraCards):
         self.xyz = xyz
         mesh = Mesh(grid_ids=ids, xyz=xyz, cd_axes=cd)
         mesh.coupled_mass = self._param("COUPMASS", -1) > 0
-        wtmass = float(self._param("WTMASS", 1.0))
+        wtmass = self._param_number("WTMASS", 1.0)
         rods, quads, shears, bars, trias = [], [], [], [], []
         self.tapers = {}
         solids: dict[int, list] = {8: [], 6: [], 4: [], 10: [], 20: [], 15: []}
@@ -464,6 +523,16 @@ class _Reader(ExtraCards):
         if p is None or not p.values:
             return default
         return p.values[0]
+
+    def _param_number(self, key: str, default: float) -> float:
+        """A PARAM that scales a physical quantity (WTMASS: mass units): a positive finite
+        number, else the error names the PARAM."""
+        value = self._param(key, default)
+        ok = isinstance(value, (int, float)) and not isinstance(value, bool) \
+            and math.isfinite(value) and value > 0
+        if not ok:
+            raise self.err(f"PARAM {key}: expected a positive finite number, got {value!r}")
+        return float(value)
 
     def _rod(self, e):
         eid = e.eid
@@ -796,7 +865,24 @@ class _Reader(ExtraCards):
         if sid is None and len(methods) == 1:
             sid = next(iter(methods))
         card = methods.get(sid) if sid is not None else None
+        if card is not None:
+            self._note_method_fields(card)
         return int(card.nd) if card is not None and card.nd else None
+
+    def _note_method_fields(self, card) -> None:
+        """Notes for the fields of the eigenvalue card that change what Nastran computes but
+        not what is computed here (the lowest ND modes, mass-normalised)."""
+        name = f"{card.type} {card.sid}"
+        lo, hi = (getattr(card, "v1", None), getattr(card, "v2", None)) if card.type == "EIGRL" \
+            else (getattr(card, "f1", None), getattr(card, "f2", None))
+        if lo not in (None, "") or hi not in (None, ""):
+            band = f"{'' if lo in (None, '') else lo} .. {'' if hi in (None, '') else hi}"
+            self.notes.append(f"{name}: frequency band {band} Hz not applied: the lowest "
+                              f"{card.nd or 'requested'} modes are computed (modes --n sets "
+                              f"how many)")
+        norm = getattr(card, "norm", None)
+        if norm not in (None, "", "MASS"):
+            self.notes.append(f"{name}: NORM={norm} not applied: shapes are mass-normalised")
 
     # -- loads ---------------------------------------------------------------------------------
     def loads(self, mesh: Mesh) -> dict[int, np.ndarray]:

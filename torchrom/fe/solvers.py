@@ -267,8 +267,13 @@ def modal_analysis(fe, n: int, sigma: float | None = None) -> Modes:
         raise InputError(f"{fe.source or fe.name}: modes: the model has no mass (no finite modes): "
                          "expected densities (MAT1 RHO), non-structural mass or mass elements "
                          "(CONM1/CONM2/CMASS)")
-    vals, vecs, rigid_vals, rigid_vecs = _elastic_and_rigid(fe.stiffness_matrix(), M, n, sigma,
-                                                            notes)
+    K = fe.stiffness_matrix()
+    for name, A in (("stiffness", K), ("mass", M)):
+        if not np.isfinite(A.data).all():
+            raise InputError(f"{fe.source or fe.name}: modes: the assembled {name} matrix has "
+                             f"non-finite entries (a product of the deck's values overflowed: "
+                             f"check the largest properties and materials)")
+    vals, vecs, rigid_vals, rigid_vecs = _elastic_and_rigid(K, M, n, sigma, notes)
     freqs = np.sqrt(vals) / (2 * np.pi)
     kinds, fractions = classify(fe, vecs)
     return Modes(freqs, vecs, kinds, vals, fractions, notes, rigid_eigenvalues=rigid_vals,
@@ -295,9 +300,12 @@ def _elastic_and_rigid(K: sp.spmatrix, M: sp.spmatrix, n: int, sigma: float | No
     elastic modes are computed past them. Asking for more modes than the model has returns all
     its finite ones, with a note (appended to ``notes``), as Nastran does.
     """
+    from ..bounds import MAX_MODES, check_count
+
     N = K.shape[0]
     if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 1:
         raise InputError(f"modes: n: expected a positive number of modes, got {n!r}")
+    check_count("modes: n", "modes asked for", n, MAX_MODES)
     found: list[str] = []
     scale = stiffness_mass_scale(K, M)
     tol = RIGID_BODY_TOL * scale

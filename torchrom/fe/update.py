@@ -28,6 +28,7 @@ Method (hand-written; the optimiser and the assignment are SciPy's):
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -105,6 +106,7 @@ class UpdateResult:
     n_evaluations: int
     n_iterations: int
     final_modes: list[dict] = field(default_factory=list)
+    notes: list[str] = field(default_factory=list)
 
     def summary(self) -> dict:
         res = np.array([t["final_diff_pct"] for t in self.targets])
@@ -118,7 +120,7 @@ class UpdateResult:
                 "total_mass_final": self.total_mass_final, "converged": self.converged,
                 "message": self.message, "n_evaluations": self.n_evaluations,
                 "n_iterations": self.n_iterations, "final_modes": self.final_modes,
-                **self.summary()}
+                "notes": self.notes, **self.summary()}
 
 
 class ModelUpdater:
@@ -323,6 +325,7 @@ class ModelUpdater:
 
         ev0 = self.evaluate(self.p0)
         f0 = ev0["freq"][ev0["pairs"]]
+        check_plausible_targets(self.targets, f0)
         self._model_at(self.p0)
         mass0 = total_mass(self.fe, self._mesh())
         self.x0 = self._x(self.p0)
@@ -363,12 +366,48 @@ class ModelUpdater:
                                                              (p.upper - p.lower)))}
         modes = [{"mode": k + 1, "frequency_hz": float(ev["freq"][k]), "kind": ev["kinds"][k]}
                  for k in range(len(ev["freq"]))]
+        # a target whose paired mode changed during the fit (shapes tracked by MAC, or modes
+        # swapping order) is said so, never re-paired silently
+        notes = [f"target {t.name}: paired with mode {int(a) + 1} at the start, mode "
+                 f"{int(b) + 1} at the end (MAC {float(mac[i, int(b)]):.3f})"
+                 for i, (t, a, b) in enumerate(zip(self.targets, ev0["pairs"], pairs))
+                 if int(a) != int(b)]
         return UpdateResult(
             parameters=params, targets=targets, history=self.history,
             mac=[[float(v) for v in row] for row in mac],
             total_mass_initial=mass0, total_mass_final=total_mass(self.fe, mesh),
             converged=bool(sol.success), message=str(sol.message), n_evaluations=self.n_eval,
-            n_iterations=len(self.history) - 1, final_modes=modes)
+            n_iterations=len(self.history) - 1, final_modes=modes, notes=notes)
+
+
+#: a target more than this factor from its paired mode's initial frequency is no update (the
+#: declared cards move frequencies by tens of percent; a factor 10 is a unit slip, e.g. kHz)
+MAX_TARGET_RATIO = 10.0
+#: the updated deck is not written when a target is still this far off (%) after the fit
+MAX_FINAL_MISFIT_PCT = 50.0
+
+
+def check_plausible_targets(targets, initial_hz) -> None:
+    """InputError when a target frequency is more than :data:`MAX_TARGET_RATIO` from the
+    initial frequency of the mode paired with it."""
+    for i, (t, f) in enumerate(zip(targets, initial_hz)):
+        ratio = max(t.frequency_hz / f, f / t.frequency_hz) if f > 0 else math.inf
+        if ratio > MAX_TARGET_RATIO:
+            raise InputError(f"update: target {i + 1} ({t.name}): {t.frequency_hz:g} Hz is "
+                             f"{ratio:.3g} times the {f:.6g} Hz of its paired mode; expected "
+                             f"within a factor {MAX_TARGET_RATIO:g} (a unit slip? an update "
+                             f"moves frequencies by tens of percent)")
+
+
+def check_final_misfit(result) -> None:
+    """InputError (the deck is then not written) when a target is still more than
+    :data:`MAX_FINAL_MISFIT_PCT` off after the fit."""
+    worst = max(result.targets, key=lambda t: abs(t["final_diff_pct"]))
+    if not abs(worst["final_diff_pct"]) <= MAX_FINAL_MISFIT_PCT:
+        raise InputError(f"update: target {worst['name']} is still {worst['final_diff_pct']:+.3g}"
+                         f" % off after the fit (more than {MAX_FINAL_MISFIT_PCT:g} %); the "
+                         f"updated deck is not written: widen the parameters' bounds or check "
+                         f"the target")
 
 
 def update_model(fe, spec: UpdateSpec, *, reference=None, drilling: float = 1e-4):

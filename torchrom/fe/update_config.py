@@ -39,7 +39,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from ..errors import InputError
-from ..io import read_toml
+from ..io import check_referenced_path, read_toml
 from .mac import TARGET_KINDS
 
 #: Updatable card fields: card → field → (pyNastran attribute, index in it or None, whether the
@@ -57,6 +57,10 @@ FIELDS: dict[str, dict[str, tuple[str, int | None, bool]]] = {
               "i33": ("I", 5, False)},
 }
 PAIRINGS = ("mac", "kind")
+#: smallest optimizer tolerance (a few float64 epsilons: SciPy refuses less than one)
+MIN_TOLERANCE = 1e-15
+#: most model evaluations of one update (each is an eigen-solve of the model)
+MAX_EVALUATIONS = 100_000
 #: Fields that must stay positive (a dimension) or non-negative (a mass or density).
 _POSITIVE = {"t", "a", "i1", "i2"}
 _NON_NEGATIVE = {"nsm", "rho", "mass", "i11", "i22", "i33", "j"}
@@ -211,6 +215,12 @@ def load_update_spec(path) -> UpdateSpec:
     if not isinstance(params, list) or not params:
         raise _err(source, "[[parameter]]", "expected at least one parameter")
     targets = tuple(_target(source, i, t) for i, t in enumerate(targets))
+    modes_named = [t.mode for t in targets if t.mode is not None]
+    same = sorted({m for m in modes_named if modes_named.count(m) > 1})
+    if same:
+        which = [i + 1 for i, t in enumerate(targets) if t.mode == same[0]]
+        raise _err(source, "[[target]]", f"targets {' and '.join(map(str, which))} both name "
+                                         f"mode {same[0]}; each mode can match one target only")
     params = tuple(_parameter(source, i, p) for i, p in enumerate(params))
     names = [p.name for p in params]
     dup = sorted({n for n in names if names.count(n) > 1})
@@ -246,12 +256,19 @@ def load_update_spec(path) -> UpdateSpec:
     )
     if options.regularization < 0:
         raise _err(source, "[optimizer]: regularization", "expected a value ≥ 0")
+    if not MIN_TOLERANCE <= options.tolerance < 1:
+        raise _err(source, "[optimizer]: tolerance", f"expected a value in [{MIN_TOLERANCE:g}, 1)"
+                                                     f" (float64 resolves no less), got "
+                                                     f"{options.tolerance:g}")
+    from ..bounds import check_count
+
+    check_count(f"{source}: [optimizer] max_evaluations", "evaluations (eigen-solves)",
+                options.max_evaluations, MAX_EVALUATIONS)
     ref = raw.get("reference", {})
     _keys(source, "[reference]", ref, ("deck",))
     deck = None
     if "deck" in ref:
-        deck = Path(ref["deck"])
-        deck = deck if deck.is_absolute() else source.parent / deck
-        if not deck.is_file():
-            raise _err(source, "[reference]: deck", f"no such deck {deck}")
+        if not isinstance(ref["deck"], str):
+            raise _err(source, "[reference]: deck", f"expected a file name, got {ref['deck']!r}")
+        deck = check_referenced_path(ref["deck"], source, "[reference] deck")
     return UpdateSpec(targets, params, options, deck)

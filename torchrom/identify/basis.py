@@ -157,9 +157,15 @@ class Basis:
 
 
 def linear_basis(backend, n_linear: int) -> Basis:
-    """The n_linear lowest mass-normalised linear modes of the backend."""
+    """The n_linear lowest mass-normalised linear modes of the backend (InputError when the
+    model has fewer finite modes: a basis cannot hold more modes than the model's DOFs)."""
     t0 = time.perf_counter()
     f, V = backend.modes(n_linear)
+    found = np.asarray(V).shape[1] if np.ndim(V) == 2 else 0
+    if found < n_linear:
+        raise InputError(f"basis: {n_linear} linear modes asked for (--linear), but the model "
+                         f"has {found} finite modes ({getattr(backend, 'n_dof', '?')} DOFs); "
+                         f"expected at most {found}")
     return Basis(V, ["linear"] * n_linear, np.asarray(f, float), seconds=time.perf_counter() - t0)
 
 

@@ -17,6 +17,7 @@ from dataclasses import asdict, dataclass, field, replace
 import numpy as np
 
 from .._version import __version__
+from ..checks import real
 from ..errors import InputError
 from ..rom import NonlinearROM
 from .backend import FEBackend
@@ -71,6 +72,15 @@ class IdentifyOptions:
                              f"{self.n_dual}")
         if self.damping == "exact" and self.stiffness == "step":
             raise InputError("damping 'exact' needs the tangent plan (stiffness 'tangent')")
+        amp = real("amplitude", self.amplitude, positive=True)
+        if amp > MAX_AMPLITUDE:
+            raise InputError(f"amplitude: expected a fraction of the span in (0, "
+                             f"{MAX_AMPLITUDE:g}] (the paper identifies at 0.01), got {amp:g}")
+
+
+#: largest identification amplitude, a fraction of the span: a basis function displaced by more
+#: than half the span is far beyond the cubic ROM's range (and any wing's)
+MAX_AMPLITUDE = 0.5
 
 
 @dataclass
@@ -153,6 +163,11 @@ def identify(fe, options: IdentifyOptions | None = None,
 
     timings: dict[str, float] = {}
     t0 = time.perf_counter()
+    n_dof = getattr(be, "n_dof", None)
+    if n_dof is not None and opt.n_linear + opt.n_dual > n_dof:
+        raise InputError(f"basis: {opt.n_linear} linear + {opt.n_dual} dual modes asked for "
+                         f"(--linear, --dual), but the model has {n_dof} DOFs; a basis holds "
+                         f"at most that many independent vectors")
     basis = linear_basis(be, opt.n_linear)
     timings["linear_modes"] = time.perf_counter() - t0
     if opt.n_dual > 0:

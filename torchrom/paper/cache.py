@@ -66,10 +66,17 @@ class FileCache:
         self.entries: dict[str, dict[str, Any]] = {}
         if self.path.is_file():
             try:
-                self.entries = json.loads(self.path.read_text()).get("files", {})
-            except (json.JSONDecodeError, AttributeError):
-                raise InputError(f"{self.path}: not a torchrom cache manifest (delete it or pass "
-                                 f"--force)") from None
+                entries = json.loads(self.path.read_text()).get("files", {})
+                if not isinstance(entries, dict):
+                    raise AttributeError("files")
+                self.entries = entries
+            except (json.JSONDecodeError, UnicodeDecodeError, AttributeError):
+                # with --force every file is rebuilt and the manifest rewritten: a damaged one
+                # is replaced, as the message below advises
+                if not force:
+                    raise InputError(f"{self.path}: not a torchrom cache manifest (it is left "
+                                     f"as it is: delete it, choose another --cache-dir, or "
+                                     f"rebuild the folder with torchrom paper --force)") from None
         self.hits: list[str] = []
         self.built: list[str] = []
 
@@ -95,6 +102,19 @@ class FileCache:
             return None
         self.hits.append(name)
         return path
+
+    def get_json(self, name: str, key: str) -> Any | None:
+        """The parsed JSON file ``name`` if cached under ``key`` and readable; a damaged one
+        (truncated, edited) is a miss, rebuilt by the caller."""
+        path = self.get(name, key)
+        if path is None:
+            return None
+        try:
+            return json.loads(path.read_text())
+        except (json.JSONDecodeError, UnicodeDecodeError, OSError):
+            self.hits.remove(name)
+            self.entries.pop(name, None)
+            return None
 
     def put(self, name: str, key: str, write: Callable[[Path], Any]) -> Path:
         """Write the file ``name`` with ``write(path)`` (which must write atomically) and record

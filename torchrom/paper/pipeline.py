@@ -23,7 +23,6 @@ Glue over torchrom.fe, torchrom.identify and torchrom.aero.
 from __future__ import annotations
 
 import hashlib
-import json
 import tempfile
 import time
 from collections.abc import Callable
@@ -241,15 +240,15 @@ def _goland_pipeline(opt: GolandPipeline, folder, force: bool, log) -> PipelineR
                  "alpha": opt.baseline_alpha, "gamma": opt.baseline_gamma,
                  "range": list(opt.altitude_range_ft)}
     fl_key = FileCache.key(fl_inputs)
-    fl_path = cache.get("flutter.json", fl_key)
+    summary = cache.get_json("flutter.json", fl_key)
+    fl_path = cache.folder / "flutter.json"
     t0 = time.perf_counter()
-    if fl_path is None:
+    if summary is None:
         log("flutter: baseline damping, state space (Eqs. 49-50) and p-k; Table 3")
         summary = flutter_summary(model, kinds)
         fl_path = cache.put("flutter.json", fl_key, lambda p: write_json_atomic(p, summary))
     else:
         log(f"flutter: reusing {fl_path}")
-        summary = json.loads(fl_path.read_text())
     files["flutter.json"] = fl_path
     seconds["flutter"] = time.perf_counter() - t0
     return PipelineResult(model, summary, files, seconds, list(cache.hits), identification)

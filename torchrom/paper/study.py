@@ -156,14 +156,12 @@ def _run_paper(out: Path, quick: bool, force: bool, device: str, dtype: torch.dt
     kind = "quick" if quick else "full"
     lin_key = FileCache.key({"model": model_hash, "t_end": LINEAR_T_END[kind],
                              "window": LINEAR_WINDOW})
-    lin_path = cache.get("tables/linear_check.json", lin_key)
-    if lin_path is None:
+    lin = cache.get_json("tables/linear_check.json", lin_key)
+    if lin is None:
         log(f"linear checks: growth rate around the flutter altitude and Table 3 "
             f"({LINEAR_T_END[kind]:g} s runs, both nonlinearities off)")
         lin = linear_checks(model, t_end=LINEAR_T_END[kind], window=LINEAR_WINDOW).as_dict()
         cache.put("tables/linear_check.json", lin_key, lambda p: write_json_atomic(p, lin))
-    else:
-        lin = json.loads(lin_path.read_text())
     _write_table(cache, "tables/table3.csv", pd.DataFrame(lin["table3"]), lin_key)
     log(f"  simulated flutter altitude {lin['flutter_altitude_sim_ft']:,.1f} ft vs eigenvalues "
         f"{lin['flutter_altitude_eig_ft']:,.1f} ft")
@@ -410,9 +408,9 @@ def _dissipation_check(cache: FileCache, cfg, main, exact, log, orbit=None) -> d
     altitude = min(DAMPING_CHECK_ALTITUDES)
     key = FileCache.key({"config": cfg.hash, "altitude": altitude,
                          "models": [main.content_hash(), exact.content_hash()]})
-    path = cache.get("tables/dissipation_check.json", key)
-    if path is not None:
-        return json.loads(path.read_text())
+    cached = cache.get_json("tables/dissipation_check.json", key)
+    if cached is not None:
+        return cached
     q, qd, status = lco_cycle(main, cfg, altitude, orbit=orbit)
     report = main.rom.metadata.get("damping", {}).get("report", {})
     out = {"altitude_ft": altitude, "status": status,

@@ -711,6 +711,10 @@ def solve_orbits(system: CaseSystem, output_row, options: HBOptions = HBOptions(
         raise InputError(f"harmonic balance: output_row: expected {system.n} finite numbers, "
                          f"not all zero")
     B, n = system.batch_size, system.n
+    from ..bounds import check_harmonic_balance
+
+    check_harmonic_balance("harmonic balance: max_harmonics", n, options.max_harmonics, B,
+                           device=system.device, itemsize=r.element_size())
     # no chains: every case starts cold
     chains = [[i] for i in range(B)] if chains is None else [list(c) for c in chains if c]
     flat = sorted(i for c in chains for i in c)

@@ -21,7 +21,7 @@ from dataclasses import dataclass
 import numpy as np
 import torch
 
-from ..checks import integer
+from ..checks import integer, physical_values
 from ..errors import InputError
 from ..rom import NonlinearROM
 
@@ -105,6 +105,8 @@ class CaseSystem:
                 bad = torch.nonzero(~torch.isfinite(tensors[k].reshape(-1)))[0].item()
                 raise InputError(f"CaseSystem.build: {k}: expected finite values, got "
                                  f"{float(tensors[k].reshape(-1)[bad])} (case {bad})")
+            if k in _PER_CASE_SCALARS:  # γ >= 0, scales >= 0 (one table for every entry point)
+                physical_values(k, tensors[k].detach().cpu().numpy(), "CaseSystem.build:")
         if batch is None:
             batch = 1
             for name, t in tensors.items():

@@ -28,6 +28,7 @@ import pandas as pd
 import torch
 
 from .._version import __version__
+from ..checks import physical
 from ..errors import InputError
 from ..periodic import BranchOptions, follow_branches
 from ..periodic.solve import orbit_amplitude
@@ -74,6 +75,8 @@ def branch_options(cfg: SweepConfig, parameter: str | None = None,
     table.pop("bounds", None)
     if b is None or len(b) != 2:
         raise InputError("branch bounds: give --range LO HI or [branch] bounds = [LO, HI]")
+    for end in b:  # both ends in the parameter's physical range (the same table as the cases)
+        physical(parameter, end, "branch bounds")
     kw = {**table, **{k: v for k, v in overrides.items() if v is not None}}
     if "amplitude_scale" not in kw and math.isfinite(cfg.lco.max_amplitude):
         kw["amplitude_scale"] = cfg.lco.max_amplitude / 10
@@ -88,11 +91,15 @@ def branch_options(cfg: SweepConfig, parameter: str | None = None,
 def run_branches(cfg: SweepConfig, parameter: str, options: BranchOptions, model=None,
                  device=None) -> BranchStudy:
     """Follow one branch per distinct case (without ``parameter``) of ``cfg``."""
+    from .. import bounds
+
     model = model if model is not None else cfg.build_model()
     rom = model_rom(model)
     base = distinct_cases(cfg.cases, (parameter, "q0", "sample"))
     if not base:
         raise InputError(f"{cfg.source}: [cases]: no case to follow")
+    bounds.check_harmonic_balance(f"{cfg.source}: branch harmonics", rom.n, options.harmonics,
+                                  len(base), device=device, override=cfg.allow_large)
     device = torch.device(device or "cpu")
 
     def builder(p: np.ndarray, branches: np.ndarray):

@@ -25,6 +25,7 @@ import numpy as np
 import pandas as pd
 import torch
 
+from ..checks import physical
 from ..errors import InputError
 from ..rom import NonlinearROM
 from ..sim import CaseSystem, SimulationResult
@@ -47,7 +48,8 @@ def case_parameters(aeroelastic: bool) -> tuple[str, ...]:
 def check_case_values(cases: Sequence[Mapping[str, Any]], aeroelastic: bool,
                       where: str = "[cases]") -> None:
     """InputError naming the parameter and case unless every value is a finite number or a
-    bool (``alpha`` may also be "matched" in an aeroelastic sweep, which needs ``altitude_ft``)."""
+    bool in the parameter's physical range (:func:`torchrom.checks.physical`; ``alpha`` may also
+    be "matched" in an aeroelastic sweep, which needs ``altitude_ft``)."""
     for k, case in enumerate(cases):
         for name, value in case.items():
             if aeroelastic and name == "alpha" and value == MATCHED:
@@ -57,6 +59,10 @@ def check_case_values(cases: Sequence[Mapping[str, Any]], aeroelastic: bool,
                 extra = " or 'matched'" if aeroelastic and name == "alpha" else ""
                 raise InputError(f"{where} {name}: expected a number{extra} or true/false, got "
                                  f"{value!r} (case {k})")
+            try:
+                physical(name, float(value), where)
+            except InputError as exc:
+                raise InputError(f"{exc} (case {k})") from None
         if aeroelastic and "altitude_ft" not in case:
             raise InputError(f"{where} altitude_ft: missing (case {k}); an aeroelastic sweep needs "
                              f"the altitude of every case")

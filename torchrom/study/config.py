@@ -1,14 +1,16 @@
 """Sweep configurations in TOML (validation written here; parsing by tomllib / tomli).
 
 Tables ``[model]``, ``[aeroelastic]``, ``[initial]``, ``[integrator]``, ``[hb]``, ``[lco]``,
-``[cases]``, ``[history]``, ``[branch]``, ``[plot]``, ``[run]``, ``[variants.NAME]`` and the
-keys ``title`` and ``method`` ("newmark" or "hb"); the keys each table accepts are
-:data:`TABLE_KEYS` (the user guide's table is generated from them). Everything is checked when the
-file is read, before any output is written — keys, values (:data:`VALUE_CHECKS`, the Newmark and
-LCO options' own checks, dt ≤ t_end, at most :data:`torchrom.sim.newmark.MAX_STEPS` steps), the
-initial state and outputs against the model — and a bad one is a one-line
-:class:`~torchrom.errors.InputError` naming the file, the table and the key. Paths are relative
-to the configuration file; units: dt, t_end and γ in s, α in 1/s, altitudes in ft.
+``[certificate]``, ``[cases]``, ``[history]``, ``[branch]``, ``[plot]``, ``[run]``,
+``[variants.NAME]`` and the keys ``title`` and ``method`` ("newmark" or "hb"); the keys each
+table accepts are :data:`TABLE_KEYS` (the user guide's table is generated from them).
+Everything is checked when the file is read, before any output is written — keys, values
+(:data:`VALUE_CHECKS`, the Newmark and LCO options' own checks, physical ranges, the work and
+memory bounds of :mod:`torchrom.bounds`, dt ≤ t_end, at most
+:data:`torchrom.sim.newmark.MAX_STEPS` steps), the initial state and outputs against the model
+— and a bad one is a one-line :class:`~torchrom.errors.InputError` naming the file, the table
+and the key. Paths are relative to the configuration file; units: dt, t_end and γ in s, α in
+1/s, altitudes in ft.
 """
 
 from __future__ import annotations
@@ -20,6 +22,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from ..checks import physical
 from ..errors import InputError
 from ..io import read_toml
 from ..periodic import HarmonicBalanceMethod, HBOptions
@@ -58,7 +61,7 @@ TABLE_KEYS = {
     "integrator": ("dt", "t_end", *_NEWMARK_KEYS),
     "lco": ("outputs", *_LCO_KEYS),
     "plot": ("x", "y", "hue"),
-    "run": ("batch_size", "chunk_size"),
+    "run": ("batch_size", "chunk_size", "allow_large"),
 }
 
 
@@ -81,6 +84,7 @@ VALUE_CHECKS = {
     ("initial", "mode"): (_positive_integer, "a basis function number >= 1"),
     ("run", "batch_size"): (_positive_integer, "a positive integer"),
     ("run", "chunk_size"): (_positive_integer, "a positive integer"),
+    ("run", "allow_large"): (lambda v: isinstance(v, bool), "true or false"),
 }
 
 
@@ -125,6 +129,7 @@ class SweepConfig:
     method: str = "newmark"
     hb: HarmonicBalanceMethod = field(default_factory=HarmonicBalanceMethod)
     certificate: Certificate = field(default_factory=Certificate)
+    allow_large: bool = False
 
     @property
     def solver(self):
@@ -228,9 +233,15 @@ def _aeroelastic_options(table: dict[str, Any] | None, source: Path) -> dict[str
     _check_keys(table, AEROELASTIC_KEYS, source, "[aeroelastic]")
     if "altitude_range_ft" in table:
         rng = table["altitude_range_ft"]
-        if not (isinstance(rng, list) and len(rng) == 2 and rng[0] < rng[1]):
+        if not (isinstance(rng, list) and len(rng) == 2 and _finite_numbers(rng)
+                and rng[0] < rng[1]):
             raise _err(source, "[aeroelastic] altitude_range_ft", f"expected [LO, HI], got {rng!r}")
         table["altitude_range_ft"] = (float(rng[0]), float(rng[1]))
+    # the baseline damping and reference altitude: the physical ranges of the case parameters
+    for key, name in (("baseline_alpha", "alpha"), ("baseline_gamma", "gamma"),
+                      ("reference_altitude_ft", "altitude_ft")):
+        if key in table and not (name == "altitude_ft" and table[key] is None):
+            table[key] = physical(name, table[key], f"{source}: [aeroelastic] {key}:")
     return table
 
 
@@ -349,8 +360,10 @@ def load_sweep_config(path, variant: str | None = None) -> SweepConfig:
     except InputError as exc:
         raise InputError(f"{source}: {exc}") from None
     cases_t = _table(raw, "cases", source)
+    run_t = _checked_table(raw, "run", source)
+    allow_large = run_t.get("allow_large", False)
     try:
-        cases = expand_cases(cases_t, "[cases]", allowed=parameters)
+        cases = expand_cases(cases_t, "[cases]", allowed=parameters, allow_large=allow_large)
         check_case_values(cases, aeroelastic)
         history = HistorySpec.from_table(_table(raw, "history", source), parameters)
     except InputError as exc:
@@ -366,14 +379,15 @@ def load_sweep_config(path, variant: str | None = None) -> SweepConfig:
                        f"{parameters}, got {value!r}")
     plot = PlotSpec(x=x, y=plot_t.get("y", "amplitude"), hue=hue)
 
-    run_t = _checked_table(raw, "run", source)
     batch = run_t.get("batch_size", 512)
 
     cfg = SweepConfig(source=source, title=title, model=model, initial=initial,
                       integrator=newmark, t_end=t_end, lco=lco, outputs=outputs, cases=cases,
                       plot=plot, batch_size=batch, chunk_size=run_t.get("chunk_size"), raw=raw,
                       aeroelastic=aero_t,
-                      history=history, method=method, hb=hb, certificate=certificate)
+                      history=history, method=method, hb=hb, certificate=certificate,
+                      allow_large=allow_large)
+    check_work(cfg)
     if model.get("builtin") in provider_names():
         _check_provided(model, source)  # checked now; built (or reused) when the sweep runs
     else:
@@ -416,9 +430,70 @@ def with_method(cfg: SweepConfig, method: str | None) -> SweepConfig:
     return dataclasses.replace(cfg, method=method, raw={**cfg.raw, "method": method})
 
 
+def check_work(cfg: SweepConfig, n_cases: int | None = None, what: str = "cases") -> None:
+    """The bounds of :mod:`torchrom.bounds` that the configuration alone decides: case-steps ×
+    iterations of time marching and the integrator's thread count (InputError naming the
+    estimate and ``--allow-large``). ``n_cases``: the cases a command will run in all (e.g. a
+    calibration's rounds × values × base cases; default the configuration's cases), named
+    ``what`` in the message."""
+    from ..bounds import (
+        MAX_CASES,
+        MAX_ITERATIONS,
+        MAX_WORK,
+        check_count,
+        check_harmonic_balance_effort,
+        check_threads,
+    )
+
+    check_threads(f"{cfg.source}: [integrator] threads", cfg.integrator.threads,
+                  override=cfg.allow_large)
+    for key in ("iterations", "startup_iterations"):
+        check_count(f"{cfg.source}: [integrator] {key}", "iterations per step",
+                    getattr(cfg.integrator, key) or 0, MAX_ITERATIONS, override=cfg.allow_large)
+    if cfg.method != "newmark":
+        hb = cfg.hb
+        check_harmonic_balance_effort(f"{cfg.source}: [hb]", {
+            "max_stages": hb.options.max_stages, "metric_points": hb.options.metric_points,
+            "floquet_steps": hb.floquet_steps}, override=cfg.allow_large)
+    n = len(cfg.cases) if n_cases is None else n_cases
+    if n_cases is not None:
+        check_count(f"{cfg.source}", what, n, MAX_CASES, override=cfg.allow_large)
+    if cfg.method != "newmark":
+        return
+    steps = cfg.integrator.step_count(cfg.t_end)
+    iterations = max(cfg.integrator.iterations, cfg.integrator.startup_iterations or 0)
+    check_count(f"{cfg.source}: [cases] x [integrator]",
+                f"{what} x steps x iterations ({n} x {steps} x {iterations})",
+                float(n) * steps * iterations, MAX_WORK, override=cfg.allow_large)
+
+
+def check_memory(cfg: SweepConfig, model, device=None, dtype=None) -> None:
+    """The largest allocation of the run, estimated from the model's size before any work:
+    harmonic balance (:func:`torchrom.bounds.check_harmonic_balance`) or the integrator's
+    B × n² matrices (:func:`torchrom.bounds.check_memory`)."""
+    import torch
+
+    from .. import bounds
+
+    n = model_rom(model).n
+    batch = min(cfg.batch_size, max(len(cfg.cases), 1))
+    itemsize = torch.empty((), dtype=dtype or torch.float64).element_size()
+    if cfg.method == "hb":
+        bounds.check_harmonic_balance(f"{cfg.source}: [hb] max_harmonics", n,
+                                      cfg.hb.options.max_harmonics, batch, device=device,
+                                      itemsize=itemsize, override=cfg.allow_large)
+    else:
+        bounds.check_memory(f"{cfg.source}: [run] batch_size", f"time marching of {batch} "
+                            f"cases at once with {n} modes",
+                            bounds.integrator_bytes(n, batch, itemsize), device=device,
+                            override=cfg.allow_large)
+
+
 def check_initial(cfg: SweepConfig, model) -> None:
     """InputError unless the ``[initial]`` state (q0 / v0 sizes, mode number) and the ``[lco]``
-    outputs fit the model."""
+    outputs fit the model, and the run's memory estimate is within bounds
+    (:func:`check_memory`)."""
+    check_memory(cfg, model)
     from ..sim import output_matrix
     from .cases import initial_displacement, initial_velocity
 

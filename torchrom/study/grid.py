@@ -81,9 +81,48 @@ def parameter_values(value: Any, where: str) -> tuple[list[Any], bool]:
     return [value], False
 
 
+def _axis_length(spec: Any) -> int:
+    """Entries of one parameter's axis, counted without building it (1 when malformed: the
+    expansion then names the problem)."""
+    if isinstance(spec, list):
+        return max(len(spec), 1)
+    if isinstance(spec, dict):
+        if is_distribution(spec):
+            return 0  # counted with the sampled block
+        if isinstance(spec.get("values"), list):
+            return max(len(spec["values"]), 1)
+        num = spec.get("num")
+        if isinstance(num, int) and not isinstance(num, bool) and num >= 1:
+            return num
+    return 1
+
+
+def grid_size(table: Mapping[str, Any]) -> int:
+    """Number of cases a ``[cases]`` table describes, counted before any case is built (for
+    the bound :data:`torchrom.bounds.MAX_CASES`)."""
+    table = dict(table)
+    explicit = table.pop("list", [])
+    combine = table.pop("combine", "product")
+    sampling = {k: table.pop(k) for k in SAMPLING_KEYS if k in table}
+    lengths = [_axis_length(spec) for spec in table.values()]
+    if any(is_distribution(spec) for spec in table.values()):
+        samples = sampling.get("samples")
+        lengths.append(samples if isinstance(samples, int) and samples >= 1 else 1)
+    lengths = [n for n in lengths if n]
+    count = (max(lengths, default=1) if combine == "zip" else math.prod(lengths)) if lengths \
+        else 0
+    return count + (len(explicit) if isinstance(explicit, list) else 0)
+
+
 def expand_cases(table: Mapping[str, Any], where: str = "[cases]",
-                 allowed: Iterable[str] | None = None) -> list[dict[str, Any]]:
-    """The list of cases (parameter dicts) described by a ``[cases]`` table."""
+                 allowed: Iterable[str] | None = None, *,
+                 allow_large: bool = False) -> list[dict[str, Any]]:
+    """The list of cases (parameter dicts) described by a ``[cases]`` table; InputError when it
+    holds more than :data:`torchrom.bounds.MAX_CASES` (unless ``allow_large`` or
+    ``--allow-large``), before any case is built."""
+    from ..bounds import MAX_CASES, check_count
+
+    check_count(where, "cases", grid_size(table), MAX_CASES, override=allow_large)
     table = dict(table)
     combine = table.pop("combine", "product")
     if combine not in COMBINE:
