@@ -68,7 +68,7 @@ def write_deck(path, n_chord: int = 35, n_span: int = 100, n_box_chord: int = 36
     xs = np.linspace(*BOX_X, n_chord)
     ys = np.linspace(0.0, SEMISPAN, n_span)
     out = ["SOL 145\nCEND\nTITLE = GENERATED SHELL WING BOX, DLM FLUTTER\n",
-           "ECHO = NONE\nSPC = 1\nMETHOD = 10\nFMETHOD = 30\nBEGIN BULK\n"]
+           "ECHO = NONE\nSPC = 1\nMETHOD = 10\nFMETHOD = 30\nRESVEC = NO\nBEGIN BULK\n"]
 
     def gid(surface, i, j):  # surface 0 upper, 1 lower; i chordwise, j spanwise
         return 1 + surface * n_chord * n_span + j * n_chord + i
