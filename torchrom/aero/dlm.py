@@ -118,12 +118,15 @@ def compute_gaf(
     kernel: str = "quartic",
     progress=None,
     engine: str = "torch",
+    k_exact: int | None = None,
 ) -> GAF:
     """Q(ik) for every reduced frequency k (= ω b / V, b = ``semichord``) in ``k_list``.
 
     ``motion`` gives the modal box motion on *these* panels (already mirrored if full span).
     ``progress``: optional callable(i, nk) called after each frequency.
     ``engine``: "torch" (:mod:`torchrom.aero.dlm_kernel`) or "panelaero" (the reference).
+    ``k_exact``: solve the DLM at no more than this many of the k (:func:`exact_k_indices`) and
+    interpolate Q at the others by a cubic spline in k per entry (None: every k solved).
     """
     if engine not in ENGINES:
         raise InputError(f"GAF: engine: expected one of {ENGINES}, got {engine!r}")
@@ -140,11 +143,31 @@ def compute_gaf(
     # mirrored (full-span) aero model the image boxes shape the flow, but their loads act on the
     # image wing, so only the half-model boxes are integrated.
     weights = motion.h_load * panels.areas * ~panels.mirrored  # (m, n): h_i(p) A_p
-    if engine == "torch":
-        q = _gaf_torch(panels, motion, weights, mach, k, semichord, kernel, progress)
-    else:
-        q = _gaf_panelaero(panels, motion, weights, mach, k, semichord, kernel, progress)
+    solved = exact_k_indices(k, k_exact)
+    solver = _gaf_torch if engine == "torch" else _gaf_panelaero
+    q = solver(panels, motion, weights, mach, k[solved], semichord, kernel, progress)
+    if len(solved) < len(k):
+        from scipy.interpolate import CubicSpline
+
+        order = np.argsort(k[solved])
+        q_solved = q
+        q = CubicSpline(k[solved][order], q_solved[order], axis=0)(k)
+        q[solved] = q_solved  # the spline passes through them: keep them to the last bit
     return GAF(mach=float(mach), semichord=float(semichord), k=k, Q=q, kernel=kernel)
+
+
+def exact_k_indices(k: np.ndarray, k_exact: int | None) -> np.ndarray:
+    """Indices of the k at which the DLM is solved when at most ``k_exact`` may be: all of them,
+    or ``k_exact`` (≥ 4, for a cubic spline) spread evenly over the sorted list — its
+    clustering kept — with both ends and k = 0 (the steady limit) always included."""
+    if k_exact is None or k_exact >= len(k):
+        return np.arange(len(k))
+    if isinstance(k_exact, bool) or not isinstance(k_exact, (int, np.integer)) or k_exact < 4:
+        raise InputError(f"GAF: k_exact: expected an integer >= 4, got {k_exact!r}")
+    order = np.argsort(k, kind="stable")
+    picks = set(order[np.unique(np.linspace(0, len(k) - 1, k_exact).round().astype(int))])
+    picks |= set(np.flatnonzero(k == 0.0))
+    return np.array(sorted(picks))
 
 
 def _gaf_panelaero(panels, motion, weights, mach, k, semichord, kernel, progress):
