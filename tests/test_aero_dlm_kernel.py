@@ -150,3 +150,16 @@ def test_exact_k_indices_and_interpolated_gaf():
     assert 0 < np.abs(finer - full).max() / np.abs(full).max() < err < 5e-2
     with pytest.raises(InputError, match="k_exact"):
         compute_gaf(wing, _modes(wing), 0.5, k, 1.0, k_exact=3)
+
+
+@pytest.mark.slow
+def test_compiled_kernel_matches_eager():
+    """The torch.compile'd kernel (used for large lattices) computes the same AICs as the eager
+    one (slow: compiling takes 0.5–4 min on 2 shared cores); bah_plane exercises the nonplanar
+    graph too."""
+    geom = LatticeGeometry.from_panels(_panels("bah_plane"))
+    for kernel in ("quartic", "parabolic"):
+        k_pa = [0.03, 0.4, 1.2]
+        fast = np.concatenate([d for _, d in oscillatory_aic(geom, 0.45, k_pa, kernel, True)])
+        slow = np.concatenate([d for _, d in oscillatory_aic(geom, 0.45, k_pa, kernel, False)])
+        assert _rel(fast, slow) < REL
