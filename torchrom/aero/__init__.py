@@ -5,7 +5,8 @@ Modules (one concern each):
 - :mod:`~torchrom.aero.atmosphere`  USSA-76 at geometric altitude (ambiance), ft and SI helpers
 - :mod:`~torchrom.aero.panels`      CAERO1 boxes, built-in Goland planform, full-span mirroring
 - :mod:`~torchrom.aero.splines`     infinite-plate (SPLINE1-like) and beam (SPLINE2-like) splines
-- :mod:`~torchrom.aero.dlm`         doublet-lattice GAF Q(k) through PanelAero
+- :mod:`~torchrom.aero.dlm`         doublet-lattice GAF Q(k) (torch kernel, or PanelAero)
+- :mod:`~torchrom.aero.dlm_kernel`  vortex/doublet-lattice AICs in torch, batched over k
 - :mod:`~torchrom.aero.rfa`         Roger and minimum-state rational function approximations
 - :mod:`~torchrom.aero.theodorsen`  Theodorsen's function and the typical section
 - :mod:`~torchrom.aero.flutter`     p-k, KE, state space, matched-point altitude, α(γ)

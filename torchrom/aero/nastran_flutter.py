@@ -32,7 +32,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import InputError
-from .dlm import BoxMotion, compute_gaf
+from .dlm import BoxMotion, compute_gaf, exact_k_indices
 from .flutter import (
     AeroTable,
     FlutterPoint,
@@ -557,8 +557,12 @@ def _with_residual_vectors(deck: FlutterDeck, fe, notes: list[str]):
             np.concatenate([shapes, vectors[:, :used]], axis=1))
 
 
-def run_deck(deck_or_path, fe=None, kernel: str = NASTRAN_KERNEL, log=print) -> DeckResult:
-    """Run every FLUTTER case of a deck (modes from ``fe`` or :func:`torchrom.fe.read_bdf`)."""
+def run_deck(deck_or_path, fe=None, kernel: str = NASTRAN_KERNEL, log=print,
+             k_exact: int | None = None) -> DeckResult:
+    """Run every FLUTTER case of a deck (modes from ``fe`` or :func:`torchrom.fe.read_bdf`).
+
+    ``k_exact``: solve the DLM at no more than this many of each case's reduced frequencies and
+    interpolate the GAFs at the others (:func:`torchrom.aero.dlm.compute_gaf`)."""
     deck = deck_or_path if isinstance(deck_or_path, FlutterDeck) else load_deck(deck_or_path)
     if fe is None:
         from ..fe import read_bdf
@@ -577,11 +581,14 @@ def run_deck(deck_or_path, fe=None, kernel: str = NASTRAN_KERNEL, log=print) -> 
     panels = deck.aero_panels
     results, notes = [], list(deck.notes) + list(getattr(fe, "notes", [])) + mode_notes
     def table_at(mach, k_list, case):
+        solved = len(exact_k_indices(np.asarray(k_list, float), k_exact))
         log(
             f"FLUTTER {case.sid} ({case.method}): DLM at Mach {mach:g}, {len(k_list)} reduced "
             f"frequencies, {panels.n} boxes"
+            + (f" (solved at {solved}, interpolated at the others)" if solved < len(k_list)
+               else "")
         )
-        gaf = compute_gaf(panels, motion, mach, k_list, b, kernel)
+        gaf = compute_gaf(panels, motion, mach, k_list, b, kernel, k_exact=k_exact)
         return AeroTable.from_gaf(gaf, interpolation="linear" if case.imeth == "L" else "cubic")
 
     n_rigid = int(np.sum(freqs == 0.0))

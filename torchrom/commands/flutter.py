@@ -115,6 +115,10 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--length-unit", default=None, metavar="UNIT",
                    help="deck form: label of the deck's length unit (e.g. in) when it has no "
                         "DTI,UNITS card; velocities are printed in UNIT/s")
+    p.add_argument("--dlm-k", type=positive_int, default=None, metavar="N",
+                   help="deck form: solve the DLM at no more than N (>= 4) of the MKAERO reduced "
+                        "frequencies, spread over them with both ends kept, and interpolate the "
+                        "GAFs at the others (cubic spline in k); default: every k solved")
     p.add_argument("--root-locus", type=Path, help="write a state-space root-locus figure")
     add_json_option(p)
     add_force_option(p)
@@ -167,7 +171,7 @@ def _run_deck(args, path: Path) -> int:
         f"torchrom flutter: {path}: {len(deck.cases)} FLUTTER case(s), {deck.aero_panels.n} boxes"
     )
     res = run_deck(deck, fe=read_bdf(path, unsupported=args.unsupported),
-                   kernel=args.kernel or NASTRAN_KERNEL)
+                   kernel=args.kernel or NASTRAN_KERNEL, k_exact=args.dlm_k)
     print(format_deck_result(res))
     out = res.as_dict()
     if args.compare is not None:

@@ -243,7 +243,7 @@ class FEModel:
         # point blocks scattered through precomputed patterns (assembly.ProjectedPattern).
         self._const = assemble(self._lin_parts, self.n_all)
         self._K_const_free = project(self._const, self.T)
-        self._patterns = [ProjectedPattern(p.dof_index(), self.T) for p in self._points]
+        self._pattern_cache: list[ProjectedPattern] | None = None  # built on first use
         self._M_free = project(self._mass_all(), self.T)
         self._M_free.eliminate_zeros()
         self._loads_all = dict(loads or {})
@@ -257,6 +257,15 @@ class FEModel:
         self.prepare_torch()
 
     # -- assembly helpers ------------------------------------------------------------------------
+    @property
+    def _patterns(self) -> list[ProjectedPattern]:
+        """Where the point blocks land in K_free: built on the first tangent assembly, not at
+        reading (a linear modal analysis never needs them; on shell models they cost more than
+        the rest of the model build)."""
+        if self._pattern_cache is None:
+            self._pattern_cache = [ProjectedPattern(p.dof_index(), self.T) for p in self._points]
+        return self._pattern_cache
+
     def _linear_all(self, kernels: list[GreenKernel]) -> sp.csr_matrix:
         zero = np.zeros(self.n_all)
         parts = [(k.dof_np, k.point_matrices(zero, geometric=0.0)) for k in kernels]
