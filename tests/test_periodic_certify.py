@@ -74,9 +74,9 @@ def test_the_certificate_bounds_the_error_against_the_continuous_orbit():
     """At 512 steps per period the discrete orbit is measurably off the continuous one:
     the reported amplitude's error against HB at H = 15 (converged in H to 1e-10 on this
     oscillator) stays within orbit_error + dt_error, and dt_error is the Richardson estimate
-    of that error to within 10 % (Newmark is second order; the next term is O(h⁴), and the
-    amplitude read from 512 samples per period with a parabola through the peak is exact to
-    ≈ (2π/512)⁴/8 ≈ 3e-9)."""
+    of that error to within 25 % (Newmark is second order; the estimate from dt and 2 dt leaves
+    the O(dt⁴) term, and the amplitude read at 2 dt from 256 samples per period with a parabola
+    through the peak carries ≈ (2π/256)⁴/8 ≈ 5e-8, 15 % of these 3e-7 errors)."""
     system = _system((0.0, 0.1))
     hb = HarmonicBalanceMethod(HBOptions(harmonics=15, max_harmonics=15)).run(
         system, outputs=["sum"])
@@ -91,7 +91,7 @@ def test_the_certificate_bounds_the_error_against_the_continuous_orbit():
                                      torch.zeros(2, 0), torch.as_tensor(1 / res.frequency_hz)),
                   ROW[0], options=ShootingOptions(dt=dt))
     dt_true = np.abs(exact.amplitude[:, 0] / hb.amplitude[:, 0] - 1)
-    assert np.allclose(out.extra["dt_error"], dt_true, rtol=0.1)
+    assert np.allclose(out.extra["dt_error"], dt_true, rtol=0.25)
 
 
 def test_disabled_and_bad_settings():
