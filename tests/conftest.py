@@ -43,3 +43,26 @@ def shared() -> Path:
     if not path.is_dir():
         pytest.fail(f"shared folder not found at {path}; set TORCHROM_SHARED")
     return path
+
+
+@pytest.fixture
+def drawn(monkeypatch):
+    """``drawn(module, fn, *args, **kw)``: calls the plotting function ``fn`` of ``module`` (its
+    ``_save`` replaced) and returns the matplotlib figure it made, drawn and still open."""
+    figs = []
+
+    def keep(fig, path, *_):
+        fig.canvas.draw()
+        figs.append(fig)
+        return path
+
+    def draw(module, fn, *args, **kw):
+        monkeypatch.setattr(module, "_save", keep)
+        fn(*args, **kw)
+        return figs[-1]
+
+    yield draw
+    import matplotlib.pyplot as plt
+
+    for fig in figs:
+        plt.close(fig)
