@@ -129,7 +129,11 @@ def test_quick_both_wing_variants_side_by_side(quick):
     assert summary["variant"] == "updated"
     other = summary["variants"]["calibrated"]
     assert [r["kind"] for r in other["flutter"]["table2"]][3] == "in-plane"
-    assert summary["flutter"]["table2"][4]["kind"] == "in-plane"
+    # the updated wing's mode 5 has the largest in-plane share (its label wins by 0.013 only:
+    # the report states the margin, tests/test_fe_goland.py shows it flip with the store)
+    t2 = summary["flutter"]["table2"]
+    assert max(t2, key=lambda r: r["content"]["in-plane"])["mode"] == 5
+    assert "mode 5 in-plane by" in (quick / "report.md").read_text()
     assert {f["key"] for f in other["findings"]} == {f["key"] for f in summary["findings"]}
     text = (quick / "report.md").read_text()
     assert "## The two wing variants side by side" in text

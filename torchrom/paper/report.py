@@ -15,6 +15,7 @@ import numpy as np
 import pandas as pd
 
 from .findings import AGREE, DIFFER, PAPER_GAMMAS, Finding, curve_table
+from .modes import kind_label, kind_margin
 
 #: reasons our model can differ from the paper's, cited by the findings that differ
 CAUSES = {
@@ -82,14 +83,15 @@ def variants_section(summary: dict[str, Any]) -> list[str]:
              "NAME`): *updated* (the default: non-structural masses and store offsets updated to "
              "Table 2 by `torchrom update`) and *calibrated* (uniform density for mode 1, store "
              "position for the flutter altitude). Everything else — ROM recipe, aerodynamics, "
-             "LCO cases — is the same.", "", "Table 2 (Hz, difference to the paper in %, kind):",
-             ""]
+             "LCO cases — is the same.", "", "Table 2 (Hz, difference to the paper in %, kind "
+             "with its content shares):", ""]
     t2 = {n: r["flutter"]["table2"] for n, r in runs.items()}
     rows = []
     for i, ref in enumerate(t2[main]):
         rows.append([ref["mode"], _f(ref["paper_hz"], "{:.3f}"), ref.get("paper_kind") or "–"]
                     + [f"{_f(t2[n][i]['frequency_hz'], '{:.3f}')} "
-                       f"({_f(t2[n][i]['diff_pct'], '{:+.1f}')}, {t2[n][i].get('kind') or '–'})"
+                       f"({_f(t2[n][i]['diff_pct'], '{:+.1f}')}, "
+                       f"{kind_label(t2[n][i].get('kind'), t2[n][i].get('content'))})"
                        for n in names])
     lines += _table(rows, ["mode", "paper", "paper kind"] + head)
     lines += ["", "Flutter at Mach 0.70 (paper 11,275 ft, 1.975 Hz):", ""]
@@ -145,6 +147,7 @@ def band_section(band: dict[str, Any]) -> list[str]:
                       "yes" if m.get("strict") else "no"] for m in band["members"]],
                     ["member", "θ", "λ_min (scaled)", "K2 reproduced to", "K3 reproduced to",
                      "admissible", "strictly"])
+    lines += sdp_status_lines(band)
     lines += ["", "LCO amplitude of point A (% of span), smallest–largest over the members "
               "(members without a converged LCO left out); the findings below are judged on "
               "these altitudes only (the main findings use every altitude of the study):", ""]
@@ -172,6 +175,27 @@ def band_section(band: dict[str, Any]) -> list[str]:
                                                  for m in band["members"])
                      + f" | **{verdict}** | {strict.get(key, '–')} |")
     return lines
+
+
+def sdp_status_lines(band: dict[str, Any]) -> list[str]:
+    """What the SDP solver reported for the member ``sdp``: converged to its tolerance, or
+    stopped (e.g. at its iteration limit) — then the member is the solver's last iterate made
+    admissible and checked, not the certified optimum."""
+    rep = next((m["solver"] for m in band["members"] if m.get("solver")), None)
+    if not rep:
+        return []
+    solved = str(rep.get("status")) == "solved"
+    text = (f"SDP solver: {rep.get('solver', 'SCS')} status \"{rep.get('status')}\" after "
+            f"{int(rep.get('iterations', 0)):,} iterations, optimum t = "
+            f"{_f(rep.get('optimum_t'), '{:.3g}')} (smallest scaled eigenvalue after "
+            "re-imposing the identified coefficients "
+            f"{_f(rep.get('min_eigenvalue_scaled_projected'), '{:.2g}')}, then raised to the "
+            "floor by the Schur-complement step). ")
+    text += ("It converged to its tolerance." if solved else
+             "It did **not** converge to its tolerance: the member `sdp` is the solver's last "
+             "iterate, made admissible and checked like the others (its row above), so it is "
+             "an admissible decomposition but not certified as the criterion's optimum.")
+    return ["", text]
 
 
 def damping_check_section(check: dict[str, Any]) -> list[str]:
@@ -300,6 +324,36 @@ def findings_section(findings: list[Finding], causes: dict[str, str]) -> list[st
     return lines
 
 
+#: a mode whose kind beats the runner-up by less than this is called mixed in the report
+MIXED_MARGIN = 0.2
+
+
+def mixed_mode_lines(t2: list[dict[str, Any]]) -> list[str]:
+    """A note on the modes whose kind is decided by a small margin (the kind is the largest
+    content share, :func:`torchrom.fe.kinds.classify`): the margin, and what holds robustly."""
+    rows = [(r["mode"], *kind_margin(r["content"])) for r in t2 if r.get("content")]
+    mixed = [r for r in rows if r[2] - r[4] < MIXED_MARGIN]
+    if not mixed:
+        return []
+    text = ("The kind is the largest content share (squared displacement: bending, torsion, "
+            "in-plane, axial); mixed modes, decided by less than "
+            f"{MIXED_MARGIN:g}: " + "; ".join(
+                f"mode {m} {k} by {a:.3f} vs {b:.3f} {kb} (margin {a - b:.3f})"
+                for m, k, a, kb, b in mixed) + ".")
+    inplane = [(r["content"].get("in-plane", 0.0), r["mode"]) for r in t2 if r.get("content")]
+    if inplane:
+        share, mode = max(inplane)
+        second = sorted(inplane, reverse=True)[1] if len(inplane) > 1 else (0.0, None)
+        text += (f" What holds with a margin is where the in-plane (lead–lag) content lies: mode "
+                 f"{mode} has the largest in-plane share of the {len(inplane)} modes ({share:.3f}; "
+                 f"next mode {second[1]}, {second[0]:.3f}), the paper's mode 5 being its in-plane "
+                 "mode. A kind decided by a margin of a few hundredths flips with a small "
+                 "change of the model (the updated wing's mode 5 turns torsion with the store "
+                 "0.1 ft higher, tests/test_fe_goland.py), so the tests assert the largest "
+                 "in-plane share, not the label.")
+    return ["", text]
+
+
 def _sci(x: float) -> str:
     """A small number as the paper writes it, e.g. 1.338e-4."""
     return np.format_float_scientific(x, trim="-", exp_digits=1)
@@ -349,10 +403,11 @@ def render(summary: dict[str, Any], findings: list[Finding], table: pd.DataFrame
 
     lines += ["## Table 2: natural frequencies (Hz)", ""]
     lines += _table([[r["mode"], _f(r["frequency_hz"], "{:.3f}"), _f(r["paper_hz"], "{:.3f}"),
-                      _f(r["diff_pct"], "{:+.1f}"), r.get("kind") or "–",
+                      _f(r["diff_pct"], "{:+.1f}"), kind_label(r.get("kind"), r.get("content")),
                       r.get("paper_kind") or "–"] for r in t2],
-                    ["mode", "torchrom", "paper", "difference %", "torchrom kind",
-                     "paper kind"])
+                    ["mode", "torchrom", "paper", "difference %",
+                     "torchrom kind (content shares)", "paper kind"])
+    lines += mixed_mode_lines(t2)
     lines += ["", f"## Flutter point, Mach {fl['mach']:.2f}, baseline damping "
               f"(α0 = {fl['baseline_alpha']:g} 1/s, β0 = {_sci(fl['baseline_gamma'])} s)", ""]
     lines += _table([
@@ -399,15 +454,17 @@ def render(summary: dict[str, Any], findings: list[Finding], table: pd.DataFrame
                              + (f" ({q4['note']})" if q4.get("note") else ""), "{:.1f}")):
         C = curve_table(table, col, lco_only=False)
         S = curve_table(table, "status", lco_only=False)
-        lines += ["", f"## {title}", "", "Non-LCO cases are marked with their status."]
+        lines += ["", f"## {title}", "", "A case without a converged LCO shows its status; "
+                  "altitudes where none of these curves has a case are left out (e.g. the "
+                  "linear system's checks above the flutter altitude, under `linear_statuses` "
+                  "in the findings)."]
         rows = []
         for h in C.index:
-            cells = []
-            for k in C.columns:
-                st = S.loc[h, k]
-                v = C.loc[h, k]
-                cells.append(_f(v, fmt) if st == "lco" else (f"{st}" if isinstance(st, str)
-                                                              else "–"))
+            if S.loc[h].isna().all():
+                continue
+            cells = [_f(C.loc[h, k], fmt) if S.loc[h, k] == "lco" else
+                     str(S.loc[h, k]) if isinstance(S.loc[h, k], str) else "not run"
+                     for k in C.columns]
             rows.append([_f(h, "{:,.0f}")] + cells)
         lines += [""] + _table(rows, ["altitude ft"] + [_curve_name(k) for k in C.columns])
     lines += [""] + findings_section(findings, causes)

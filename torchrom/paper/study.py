@@ -52,7 +52,7 @@ from .cache import MANIFEST, FileCache
 from .dissipation import dissipation_ratio, lco_cycle, scaled_min_eigenvalue
 from .hb import branch_summary, goland_branches, newmark_confirmation
 from .linear import linear_checks
-from .modes import paper_mode_map
+from .modes import kind_label, paper_mode_map
 from .pipeline import GolandPipeline, goland_pipeline
 from .report import render
 from .variants import COMPARISON_VARIANTS, variant_study
@@ -221,7 +221,7 @@ def run_paper(out, *, quick: bool = False, force: bool = False, device: str = "c
     watch.start()
     fig_dir = out / "figures"
     kinds = [r.get("kind") for r in fl["table2"]]
-    q4 = paper_q4(kinds)
+    q4 = paper_q4(fl["table2"])
     h_f = float(fl["state_space"]["altitude"])
     # a figure that fails is a warning (missing from "figures"): the tables and the report stay
     paths = {"table2": write_figure(figures.table2, pd.DataFrame(fl["table2"]),
@@ -281,16 +281,19 @@ def run_paper(out, *, quick: bool = False, force: bool = False, device: str = "c
     return summary
 
 
-def paper_q4(kinds) -> dict[str, Any]:
+def paper_q4(table2: list[dict[str, Any]]) -> dict[str, Any]:
     """Our mode compared with the paper's mode 4 (Fig. 13b), matched by kind
-    (:func:`.modes.paper_mode_map`; our mode 4 when the kinds are unknown)."""
+    (:func:`.modes.paper_mode_map`; our mode 4 when the kinds are unknown); ``table2``: the
+    flutter summary's rows (``kind``, ``content``)."""
     ref = paper_reference()
+    kinds = [r.get("kind") for r in table2]
     mapping = paper_mode_map(kinds, ref.table2_kinds) if any(kinds) else {}
     ours = mapping.get(4, 4)
-    kind = kinds[ours - 1] if ours - 1 < len(kinds) and kinds[ours - 1] else "unknown kind"
-    note = (f"our mode {ours} ({kind}) for the paper's mode 4 ({ref.table2_kinds[3]})"
-            if ours != 4 else None)
-    return {"mode": ours, "kind": kind, "note": note}
+    row = table2[ours - 1] if ours - 1 < len(table2) else {}
+    kind = kind_label(row.get("kind"), row.get("content"))
+    note = (f"our mode {ours}, {kind}, for the paper's mode 4 ({ref.table2_kinds[3]})"
+            if ours != 4 or row.get("content") else None)
+    return {"mode": ours, "kind": row.get("kind") or "unknown kind", "note": note}
 
 
 def _secondary(cfg):
