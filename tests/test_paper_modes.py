@@ -31,6 +31,7 @@ def test_kind_label_gives_the_shares_of_a_mixed_mode():
 
     mixed = {"bending": 0.438, "torsion": 0.262, "in-plane": 0.294, "axial": 0.007}
     assert kind_label("bending", mixed) == "bending (0.44 bending, 0.29 in-plane, 0.26 torsion)"
+    assert kind_label("bending", mixed, short=True) == "bending (b .44, ip .29, t .26)"
     assert kind_label("bending", {"bending": 0.999, "torsion": 0.001}) == "bending"
     assert kind_label("torsion") == "torsion" and kind_label(None) == "unknown kind"
     assert kind_margin(mixed) == ("bending", 0.438, "in-plane", 0.294)

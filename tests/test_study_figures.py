@@ -97,3 +97,15 @@ def test_fig9_draws_every_alpha_the_paper_states(drawn):
     assert any(ref.fig9_note in t.get_text() for t in ax.texts)
     # ours labelled at the paper's γ levels that the table holds (0 and 1e-3 here)
     assert {t.get_text() for t in ax.texts} >= {"0.2700", "0.1800"}
+
+
+def test_table2_names_a_mixed_mode_with_its_shares(drawn):
+    import pandas as pd
+
+    modes = pd.DataFrame({"mode": [1, 2], "frequency_hz": [1.66, 10.78],
+                          "kind": ["bending", "bending"],
+                          "content": [{"bending": 0.999, "torsion": 0.001},
+                                      {"bending": 0.438, "torsion": 0.262, "in-plane": 0.294}]})
+    fig = drawn(figures, figures.table2, modes, "x.png")
+    texts = [t.get_text() for t in fig.axes[0].texts]
+    assert "bending" in texts and "bending (b .44, ip .29, t .26)" in texts

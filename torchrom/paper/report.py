@@ -214,10 +214,11 @@ def stiffness_cause_lines(cause: dict[str, Any], heading: bool = True) -> list[s
     at = {(r["switch"], r["altitude_ft"]): r for r in rows}
     low = alts[0]
     lines = [f"## {STIFFNESS_CAUSE_HEADING}", ""] if heading else []
-    lines += [f"The paper finds that for γ = {cause['gamma']:g} s the stiffness nonlinearity "
+    g = f"{cause['gamma']:.0e}".replace("e-0", "e-")
+    lines += [f"The paper finds that for γ = {g} s the stiffness nonlinearity "
               "matters little; ours doubles the amplitude (finding "
               "`stiffness_nl_small_at_gamma_1e-3`, for every admissible damping decomposition). "
-              "Harmonic balance orbits of the γ = 1e-3 s case (matched α) with the stiffness "
+              f"Harmonic balance orbits of the γ = {g} s case (matched α) with the stiffness "
               "nonlinearity whole, off, and in parts (`torchrom.paper.stiffness_cause`); LCO "
               f"amplitude of {cause['output']} (% of span):", ""]
 
@@ -235,9 +236,10 @@ def stiffness_cause_lines(cause: dict[str, Any], heading: bool = True) -> list[s
               and abs(at[(n, low)]["amplitude"] / a_b - 1) <= CLOSE]
     near_n = [n for n in names[2:] if at[(n, low)]["status"] == "lco"
               and abs(at[(n, low)]["amplitude"] / a_n - 1) <= CLOSE]
-    lines += ["", f"At {low:,.0f} ft, within {CLOSE:.0%} of the full model's amplitude: "
+    close = f"{100 * CLOSE:g} %"
+    lines += ["", f"At {low:,.0f} ft, within {close} of the full model's amplitude: "
               + (", ".join(f"*{n}*" for n in near_b) or "none")
-              + f"; within {CLOSE:.0%} of the amplitude without stiffness nonlinearity: "
+              + f"; within {close} of the amplitude without stiffness nonlinearity: "
               + (", ".join(f"*{n}*" for n in near_n) or "none") + ".", "",
               f"Cycle mean power of each term of Eq. 54 at {low:,.0f} ft (share of the "
               "total dissipation, which equals the aerodynamic input; the stiffness terms are "
@@ -273,10 +275,14 @@ def stiffness_cause_lines(cause: dict[str, Any], heading: bool = True) -> list[s
               "With it, K2 drives the dual coordinates to follow the bending (their quasi-static "
               f"response reproduces the ratio: {fn['dual coordinates quasi-static']:+.3f} on "
               f"the same linear-mode motion, {fb['as solved']:+.3f} as solved), the motion is "
-              "nearly inextensional, and the nonlinear damping of the dual modes "
-              f"(γ D̄1 + γ D̄2 + γ D̄3 on them: {_f(nonlin_b, '{:,.0f}')} of "
-              f"{_f(tb, '{:,.0f}')}) cancels most of what the stretching would dissipate "
-              f"(ratio {fb['dual coordinates zero']:+.1f} with the dual coordinates zeroed): "
+              "nearly inextensional: the dual modes' linear damping γ D̄1 "
+              f"({_f(both['terms']['γ D̄1, dual modes'], '{:,.0f}')}) and the nonlinear terms "
+              f"γ D̄2 ({_f(both['terms']['γ D̄2(q)'], '{:,.0f}')}) and γ D̄3 "
+              f"({_f(both['terms']['γ D̄3(q, q)'], '{:,.0f}')}) nearly cancel, together "
+              f"{_f(nonlin_b, '{:,.0f}')} of the {_f(tb, '{:,.0f}')} dissipated, where the "
+              "same linear-mode motion with the dual coordinates held at zero (stretching) "
+              f"would have its nonlinear damping {fb['dual coordinates zero']:+.1f} times the "
+              "linear one; "
               f"the amplitude grows to {both['amplitude_pct_span']:.2f} % before the "
               "dissipation balances the aerodynamic input."]
     causes = [n for n in ("K3 off (K2 kept)", "K2 off (K3 kept)", "dual-mode couplings off",

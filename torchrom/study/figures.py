@@ -345,7 +345,8 @@ def plain_log_ticks(axis) -> None:
 def table2(modes: pd.DataFrame, path, *, force: bool = False,
            reference: PaperReference | None = None) -> Path:
     """Our natural frequencies against the paper's Table 2, mode by mode (``modes``: columns
-    mode, frequency_hz and optionally kind), each bar labelled with the mode's kind."""
+    mode, frequency_hz and optionally kind and content, the content shares), each bar labelled
+    with the mode's kind (and the shares of a mixed mode)."""
     _require(modes, ("mode", "frequency_hz"), "table2")
     ref = reference or paper_reference()
     plt = _plt()
@@ -355,10 +356,14 @@ def table2(modes: pd.DataFrame, path, *, force: bool = False,
     x = np.arange(1, n + 1)
     ax.bar(x - 0.2, m["frequency_hz"], 0.4, label="torchrom (FE reconstruction)")
     ax.bar(x + 0.2, ref.table2_hz[:n], 0.4, color="0.6", label="paper Table 2")
+    from ..paper.modes import kind_label
+
     kinds = list(m["kind"]) if "kind" in m else [None] * n
-    for xi, f, k in zip(x, m["frequency_hz"], kinds):
-        if k:
-            ax.annotate(str(k), (xi - 0.2, f), textcoords="offset points", xytext=(0, 3),
+    contents = list(m["content"]) if "content" in m else [None] * n
+    for xi, f, k, c in zip(x, m["frequency_hz"], kinds, contents):
+        if k:  # a mixed mode with its content shares
+            ax.annotate(kind_label(k, c if isinstance(c, dict) else None, short=True),
+                        (xi - 0.2, f), textcoords="offset points", xytext=(0, 3),
                         ha="center", fontsize=6.5, rotation=90)
     for xi, f, k in zip(x, ref.table2_hz[:n], ref.table2_kinds):
         ax.annotate(k, (xi + 0.2, f), textcoords="offset points", xytext=(0, 3), ha="center",
