@@ -48,8 +48,11 @@ def test_one_line_per_series_sorted_by_x(drawn):
     assert (ax.get_xlabel(), ax.get_ylabel()) == ("altitude (ft)", "LCO frequency (Hz)")
     renderer = fig.canvas.get_renderer()
     title = fig._suptitle.get_window_extent(renderer)
+    whole = fig.bbox
     for lg in fig.legends:
-        assert not lg.get_window_extent(renderer).overlaps(title)
+        box = lg.get_window_extent(renderer)
+        assert not box.overlaps(title)
+        assert whole.x0 <= box.x0 and box.x1 <= whole.x1  # not cut off at the figure's edge
         assert not lg.get_window_extent(renderer).overlaps(ax.get_window_extent(renderer))
 
 

@@ -122,8 +122,11 @@ def parameter_plot(table: pd.DataFrame, path, *, x: str, y: str = "amplitude",
                            mfc="0.3" if f else "none", label=STATUS_NAMES.get(s, s))
                 for s, (m, f) in _MARKERS.items() if s in drawn]
     if handles:
-        fig.legend(handles=handles, loc="outside lower center", fontsize=8,
-                   ncol=min(3, len(handles)))
+        # as many columns as the longest label lets fit in the figure's width (8 pt text:
+        # ~0.065 in per character, plus the marker)
+        widest = 0.065 * max(len(h.get_label()) for h in handles) + 0.6
+        ncol = max(1, min(3, len(handles), int(fig.get_figwidth() // widest)))
+        fig.legend(handles=handles, loc="outside lower center", fontsize=8, ncol=ncol)
     if title:
         fig.suptitle(title, fontsize=10)
     return _save(fig, path)
