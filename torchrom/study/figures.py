@@ -13,9 +13,11 @@ Each function takes the tables a sweep wrote and draws one figure of paper Sec. 
 - :func:`table2` our natural frequencies against the paper's Table 2, mode by mode, with kinds.
 
 A *curve* is a group of cases with the same (γ, stiffness_nl, damping_nl); curves with a single
-altitude (e.g. the extra Fig. 11 cases) are left out of the altitude plots. Markers show each
-case's status (filled: converged LCO); the legend, outside the axes, lists only the curves and
-statuses drawn. Where the paper states a value (Table 2, the flutter point, Table 3) it is drawn
+altitude (e.g. the extra Fig. 11 cases) are left out of the altitude plots. Each curve has its
+own line style and marker, later curves thinner, so that coincident curves (γ = 1e-5 on γ = 0)
+stay visible; a converged LCO is the curve's marker filled, other statuses are marked apart;
+the legend, outside the axes, lists only the curves and statuses drawn. Log axes read plain
+numbers. Where the paper states a value (Table 2, the flutter point, Table 3) it is drawn
 from the package's reference data (:func:`torchrom.reference.paper_reference`), never typed
 here; the flutter altitude (ours when given, and the paper's) is marked on the altitude axes.
 Hand-written layout; drawing delegated to matplotlib.
@@ -154,8 +156,7 @@ def _curve_axes(ax, table: pd.DataFrame, y: str, x: str = "altitude_ft") -> set[
     return drawn
 
 
-def _flutter_lines(ax, flutter_altitude_ft: float | None, ref: PaperReference,
-                   label_lines: bool = True) -> None:
+def _flutter_lines(ax, flutter_altitude_ft: float | None, ref: PaperReference) -> None:
     """Vertical lines at our flutter altitude (when known; red, dashed) and at the paper's
     (blue, dotted), each named beside its line on the side away from the other (they are
     ~75 ft apart on a several-thousand-foot axis), and in the legend."""
@@ -170,11 +171,10 @@ def _flutter_lines(ax, flutter_altitude_ft: float | None, ref: PaperReference,
     trans = blended_transform_factory(ax.transData, ax.transAxes)
     for i, (h, color, ls, lw, short, long) in enumerate(lines):
         ax.axvline(h, color=color, lw=lw, ls=ls, label=f"{long} {h:,.0f} ft", zorder=1)
-        if label_lines:
-            right = i == len(lines) - 1  # the higher one's name to its right, the other's left
-            ax.text(h, 0.97, f" {short} {h:,.0f} ft " if right else f"{short} {h:,.0f} ft ",
-                    transform=trans, rotation=90, va="top", ha="left" if right else "right",
-                    color=color, fontsize=7.5)
+        right = i == len(lines) - 1  # the higher one's name to its right, the other's left
+        ax.text(h, 0.97, f" {short} {h:,.0f} ft " if right else f"{short} {h:,.0f} ft ",
+                transform=trans, rotation=90, va="top", ha="left" if right else "right",
+                color=color, fontsize=7.5)
 
 
 def _title(table: pd.DataFrame, what: str) -> str:
