@@ -168,6 +168,8 @@ def _flutter_lines(ax, flutter_altitude_ft: float | None, ref: PaperReference) -
         lines.append((float(flutter_altitude_ft), "tab:red", "--", 1.3, "ours",
                       "our flutter altitude"))
     lines.sort(key=lambda line: line[0])
+    lo, hi = ax.get_xlim()  # room right of the higher line for its name
+    ax.set_xlim(lo, max(hi, lines[-1][0] + 0.04 * (lines[-1][0] - lo)))
     trans = blended_transform_factory(ax.transData, ax.transAxes)
     for i, (h, color, ls, lw, short, long) in enumerate(lines):
         ax.axvline(h, color=color, lw=lw, ls=ls, label=f"{long} {h:,.0f} ft", zorder=1)
@@ -322,7 +324,10 @@ def fig13(table: pd.DataFrame, path, *, force: bool = False, q4_mode: int = 4,
         ax.set_ylabel(f"LCO amplitude ratio {what} (-)")
     _legend_outside(axes[1], axes[1].get_legend_handles_labels()[0] + _status_legend(plt, drawn))
     axes[0].set_title("a) q1/q2 (bending / torsion)", fontsize=10)
-    axes[1].set_title(f"b) q1/q{q4_mode}" + (f"\n{q4_note}" if q4_note else ""), fontsize=10)
+    import textwrap
+
+    note = "\n" + "\n".join(textwrap.wrap(q4_note, 60)) if q4_note else ""
+    axes[1].set_title(f"b) q1/q{q4_mode}{note}", fontsize=10)
     fig.suptitle(_title(table, "Fig. 13: ratios of LCO generalized-coordinate amplitudes"),
                  fontsize=10)
     return _save(fig, path, force)
