@@ -36,6 +36,9 @@ from pathlib import Path
 from typing import Any
 
 ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+from torchrom.paper.report import STIFFNESS_CAUSE_HEADING  # noqa: E402
+
 README = ROOT / "README.md"
 DOCS = ROOT / "docs" / "paper"
 RESULTS = ROOT / "benchmarks" / "results"
@@ -98,10 +101,19 @@ def block_flutter(paper: dict[str, Any]) -> str:
         f"| paper (ZAERO) | {_ft(ref['altitude'])} | {ref['frequency_hz']:.3f} |"])
 
 
+#: findings whose cause the report investigates in a section of its own: (summary key of the
+#: section's data, the section's heading in report.md)
+INVESTIGATED = {"stiffness_nl_small_at_gamma_1e-3": ("stiffness_cause", STIFFNESS_CAUSE_HEADING)}
+
+
 def block_findings(paper: dict[str, Any]) -> str:
     rows = ["| | the paper | ours | verdict |", "|---|---|---|---|"]
     for f in paper["findings"]:
-        rows.append(f"| {_cell(f['figure'])} | {_cell(f['paper'])} | {_cell(f['ours'])} | "
+        ours = _cell(f["ours"])
+        data, heading = INVESTIGATED.get(f["key"], (None, None))
+        if data and paper.get(data):
+            ours += f" — why: [report.md](docs/paper/report.md), section “{heading}”"
+        rows.append(f"| {_cell(f['figure'])} | {_cell(f['paper'])} | {ours} | "
                     f"{f['verdict']} |")
     return "\n".join(rows)
 

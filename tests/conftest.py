@@ -39,3 +39,26 @@ def pytest_collection_modifyitems(config, items):
 def pt145_deck() -> Path:
     """The pt145 deck in the repository (``tests/decks/pynastran_pt145/SOURCE.md``)."""
     return PT145_DECK
+
+
+@pytest.fixture
+def drawn(monkeypatch):
+    """``drawn(module, fn, *args, **kw)``: calls the plotting function ``fn`` of ``module`` (its
+    ``_save`` replaced) and returns the matplotlib figure it made, drawn and still open."""
+    figs = []
+
+    def keep(fig, path, *_):
+        fig.canvas.draw()
+        figs.append(fig)
+        return path
+
+    def draw(module, fn, *args, **kw):
+        monkeypatch.setattr(module, "_save", keep)
+        fn(*args, **kw)
+        return figs[-1]
+
+    yield draw
+    import matplotlib.pyplot as plt
+
+    for fig in figs:
+        plt.close(fig)

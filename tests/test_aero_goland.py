@@ -9,7 +9,8 @@ first torsion mode is 3.99 Hz against the paper's 3.05 Hz (see tests/test_fe_gol
 updated wing (the default since issue 15: masses updated to Table 2, the store position fitted
 again) they are within 0.5 % and 1.2 %. Default tests use the default (updated) wing, as
 ``torchrom aero goland`` does, on a coarse 4 × 10 mesh (+4.9 % in altitude against the default
-mesh); the default mesh is in the ``slow`` tests, one per variant.
+mesh); the default (full-resolution) mesh runs too, one test per variant, its GAFs built once
+per module for the updated wing.
 """
 
 import json
@@ -111,9 +112,18 @@ def test_flutter_command_compares_with_the_paper(coarse_aero, capsys):
     assert rec["alpha"] == 0.2565 and rec["gamma"] == 1.338e-4
 
 
-@pytest.mark.slow
+@pytest.fixture(scope="module")
+def default_aero(tmp_path_factory):
+    """``torchrom aero goland`` on the default 8 x 20 mesh of the default (updated) wing: the
+    doublet-lattice GAFs the two full-resolution updated-wing tests below share (built once)."""
+    d = tmp_path_factory.mktemp("goland_default")
+    assert main(["aero", "goland", "--mach", "0.7", "--out", str(d / "aero.npz")]) == 0
+    return d / "aero.npz"
+
+
 def test_goland_flutter_default_mesh():
-    """The calibrated variant, whose store position was calibrated on this mesh."""
+    """The calibrated variant, whose store position was calibrated on this mesh (full
+    resolution; runs by default, ~10 s)."""
     from torchrom.aero.goland import DEFAULT_BOXES, goland_flutter, goland_modes
 
     res = goland_flutter(boxes=DEFAULT_BOXES, modes=goland_modes())
@@ -121,28 +131,29 @@ def test_goland_flutter_default_mesh():
     _check(res, altitude_tol_ft=25.0, table3_rel=0.10)
 
 
-@pytest.mark.slow
-def test_flutter_command_default_wing_meets_the_paper(tmp_path):
-    """Issue 15 acceptance: ``torchrom flutter goland --json`` (the default, updated wing, the
-    default 8 x 20 mesh): p-k altitude within 1 % of 11,275 ft (observed 11,274 ft), frequency
-    within 2 % of 1.975 Hz (observed 1.965 Hz)."""
+def test_flutter_command_default_wing_meets_the_paper(default_aero, tmp_path):
+    """Issue 15 acceptance: ``torchrom flutter goland --json`` on the default, updated wing and
+    the default 8 x 20 mesh (its GAFs from the shared fixture through ``--aero``): p-k altitude
+    within 1 % of 11,275 ft (observed 11,274 ft), frequency within 2 % of 1.975 Hz (observed
+    1.965 Hz)."""
     out = tmp_path / "flutter.json"
-    assert main(["flutter", "goland", "--json", str(out)]) == 0
+    assert main(["flutter", "goland", "--aero", str(default_aero), "--json", str(out)]) == 0
     pk = next(r for r in json.loads(out.read_text())["flutter"] if r["method"] == "p-k")
     assert pk["altitude"] == pytest.approx(PAPER_FLUTTER_ALTITUDE_FT, rel=0.01)
     assert pk["frequency_hz"] == pytest.approx(PAPER_FLUTTER_FREQUENCY_HZ, rel=0.02)
 
 
-@pytest.mark.slow
-def test_updated_goland_flutter_and_table3():
-    """Updated variant (torchrom/fe/goland.py, issue 15 acceptance): the store position was fitted
-    to the altitude (observed 11,274 ft); the flutter frequency (observed 1.965 Hz, −0.5 %) and
-    Table 3 (observed +0.2 … +1.2 %) are predictions of the mass update to Table 2."""
+def test_updated_goland_flutter_and_table3(default_aero):
+    """Updated variant (torchrom/fe/goland.py, issue 15 acceptance), default mesh: the store
+    position was fitted to the altitude (observed 11,274 ft); the flutter frequency (observed
+    1.965 Hz, −0.5 %) and Table 3 (observed +0.2 … +1.2 %, tolerance 2 %) are predictions of
+    the mass update to Table 2."""
     from torchrom.aero.build import modal_data
-    from torchrom.aero.goland import DEFAULT_BOXES, goland_flutter
+    from torchrom.aero.goland import goland_flutter
     from torchrom.fe import goland
 
-    res = goland_flutter(boxes=DEFAULT_BOXES, modes=modal_data(goland(variant="updated"), 9))
+    res = goland_flutter(modes=modal_data(goland(variant="updated"), 9),
+                         aero=load_aero(default_aero))
     assert res.pk_altitude == pytest.approx(PAPER_FLUTTER_ALTITUDE_FT, rel=0.01)
     assert res.pk_frequency_hz == pytest.approx(PAPER_FLUTTER_FREQUENCY_HZ, rel=0.02)
     assert res.ss_altitude == pytest.approx(res.pk_altitude, rel=0.01)

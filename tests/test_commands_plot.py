@@ -44,9 +44,10 @@ def test_general_plot_with_hue_and_facet(tmp_path, capsys):
                        x="altitude_ft", y="amplitude", hue="gamma", facet="branch")
     finally:
         plt.Figure.savefig = orig
-    assert captured["labels"][0] == "amplitude (ft)"
+    assert captured["labels"][0] == "LCO amplitude (ft)"
     assert captured["titles"] == ["branch = 0", "branch = 1"]
-    assert "gamma = 0.0001 s" in captured["legend"] and "converged LCO" in captured["legend"]
+    assert "γ = 0.0001 s" in captured["legend"]
+    assert "converged LCO (filled)" in captured["legend"]
     assert "diverged" not in captured["legend"]  # only statuses that are drawn
 
 

@@ -62,7 +62,9 @@ def test_sweep_writes_table_figure_and_json(small_config, tmp_path, capsys):
     assert (out / "amplitude_vs_alpha.png").stat().st_size > 10_000
     records = json.loads(js.read_text())
     assert len(records) == 6 and set(records[0]) == set(table.columns)
-    assert "status:" in capsys.readouterr().out
+    printed = capsys.readouterr().out
+    assert "status:" in printed
+    assert "6 computed in 1 chunk, 0 reused" in printed  # one chunk: singular
 
     # the same configuration again resumes: nothing recomputed, the same table
     assert main(["sweep", str(small_config), "--out", str(out)]) == 0

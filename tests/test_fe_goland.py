@@ -6,6 +6,7 @@ since issue 15, has its own tests at the end (the stiffness is the same bit for 
 from __future__ import annotations
 
 import json
+import sys
 
 import numpy as np
 import pytest
@@ -203,14 +204,48 @@ def updated():
     return goland(variant="updated")
 
 
+def _inplane_mode(modes) -> int:
+    """The mode (1-based) with the largest in-plane content share."""
+    return 1 + int(np.argmax([c["in-plane"] for c in modes.fractions]))
+
+
 def test_updated_variant_matches_table2_in_order(updated):
     """Issue acceptance: all nine Table 2 modes within 3 % in the paper's order, mode 1 bending,
-    mode 2 the first torsion, modes 1-4 transverse, mode 5 in-plane (observed max 1.7 %)."""
+    mode 2 the first torsion, modes 1-3 transverse, mode 5 the in-plane (lead–lag) mode
+    (observed max 1.7 %). Modes 4 and 5 are mixed (0.44 bending / 0.26 torsion / 0.29 in-plane
+    and 0.19 / 0.39 / 0.41): mode 5's label "in-plane" wins by 0.013 only, so what is asserted
+    is the robust fact: mode 5 carries the largest in-plane share of the nine (0.41, next
+    0.29), and mode 4 is out-of-plane by most of its content."""
     m = updated.modes(9)
     diff = 100 * (m.frequencies_hz - np.array(TABLE2_HZ)) / np.array(TABLE2_HZ)
     assert np.abs(diff).max() < 3.0, diff
     assert m.kinds[:2] == ["bending", "torsion"]
-    assert all(k in ("bending", "torsion") for k in m.kinds[:4]) and m.kinds[4] == "in-plane"
+    assert all(k in ("bending", "torsion") for k in m.kinds[:3])
+    assert _inplane_mode(m) == 5 and m.fractions[4]["in-plane"] > 0.3
+    assert m.fractions[3]["bending"] + m.fractions[3]["torsion"] > 0.6
+
+
+@pytest.mark.parametrize("offset", [("store_z", -0.1), ("store_z", 0.1), ("store_x", -0.1),
+                                    ("store_x", 0.1)])
+def test_updated_variant_inplane_mode_is_robust_to_the_store(monkeypatch, offset):
+    """The store moved by 0.1 ft (height or chordwise): mode 5 still has the largest in-plane
+    share (observed 0.37-0.44, next 0.26-0.33), while its label flips to torsion at +0.1 ft of
+    height (observed 0.382 in-plane vs 0.397 torsion; the margin the report states is 0.013),
+    hence the tests assert the share."""
+    from torchrom.fe.bdf_read import from_pynastran
+
+    G = sys.modules["torchrom.fe.goland"]  # the module (torchrom.fe.goland is the function)
+    name, delta = offset
+    if name == "store_z":
+        monkeypatch.setitem(G.UPDATED_PARAMETERS, "store_z",
+                            G.UPDATED_PARAMETERS["store_z"] + delta)
+    else:
+        monkeypatch.setattr(G, "UPDATED_STORE_X", G.UPDATED_STORE_X + delta)
+    m = from_pynastran(G.updated_goland_bdf(10), source="goland", name="moved store",
+                       units=G.GOLAND_UNITS, drilling=1e-4).modes(9)
+    assert _inplane_mode(m) == 5 and m.fractions[4]["in-plane"] > 0.3
+    if offset == ("store_z", 0.1):
+        assert m.kinds[4] == "torsion"  # the label is fragile, the share is not
 
 
 def test_updated_variant_changes_only_what_reference_allows(fe, updated):

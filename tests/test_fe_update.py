@@ -66,6 +66,22 @@ def test_update_recovers_perturbed_parameters():
                                                  rel=1e-6)
 
 
+def test_initial_frequencies_are_the_decks_own():
+    """With 'initial' values in the targets file the update starts from them, but the report's
+    "initial Hz" are the frequencies of the deck as given (its own parameter values), computed
+    from the deck: here those of the perturbed beam, not of the start at the true values."""
+    import dataclasses
+
+    targets = _targets(model_of(tip_mass_beam(**TRUE)), 4)
+    start = {"nsm_in": 1.0, "nsm_out": 0.5, "tip_mass": 4.0, "tip_x": 0.05}
+    params = tuple(dataclasses.replace(p, initial=start[p.name]) for p in MASS_PARAMETERS)
+    fe = model_of(tip_mass_beam(**PERTURBED))
+    _, res = update_model(fe, UpdateSpec(targets, params, UpdateOptions(tolerance=1e-10)))
+    deck = model_of(tip_mass_beam(**PERTURBED)).modes(4).frequencies_hz
+    np.testing.assert_allclose([t["initial_hz"] for t in res.targets], deck, rtol=1e-9)
+    assert [p["initial"] for p in res.parameters.values()] == list(start.values())
+
+
 @pytest.mark.parametrize("which", ["nsm_out", "tip_x", "i1"])
 def test_sensitivities_match_finite_differences(which):
     """Analytic df/dp (φᵀ(dK − λ dM)φ) against central differences of the eigenvalue solution

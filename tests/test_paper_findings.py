@@ -129,6 +129,21 @@ def test_report_and_figures_from_the_table(tmp_path):
                     "## Fig. 12", "## Fig. 13a", "## The paper's findings"):
         assert heading in text
     assert "diverged" in text  # the linear curve's status is shown, not a number
+    # an altitude where none of the curves has a case is left out, not a row of dashes
+    fig10 = text.split("## Fig. 10")[1].split("## Fig. 12")[0]
+    assert "12,000" not in fig10 and "| –" not in fig10
+    # modes are named with their content shares, a small margin stated
+    assert "bending (0.44 bending, 0.29 in-plane, 0.26 torsion)" in text
+    assert "mode 2 in-plane by 0.405 vs 0.392 torsion (margin 0.013)" in text
+    assert "mode 2 has the largest in-plane share" in text
+    # the SDP solver's status: not converged, said so
+    summary["decomposition_band"] = {"members": [{"name": "sdp", "solver": {
+        "solver": "SCS", "status": "solved (inaccurate - reached max_iters)",
+        "iterations": 2000, "optimum_t": 3.6e-3, "min_eigenvalue_scaled_projected": -8e-3}}]}
+    from torchrom.paper.report import sdp_status_lines
+
+    status = " ".join(sdp_status_lines(summary["decomposition_band"]))
+    assert "reached max_iters" in status and "did **not** converge" in status
 
 
 def test_plot_command(tmp_path):
@@ -143,8 +158,12 @@ def test_plot_command(tmp_path):
 
 
 def _summary() -> dict:
-    modes = [{"mode": i + 1, "frequency_hz": f, "paper_hz": p, "diff_pct": 100 * (f / p - 1)}
-             for i, (f, p) in enumerate(((1.69, 1.69), (4.03, 3.051)))]
+    contents = ({"bending": 0.438, "torsion": 0.262, "in-plane": 0.294, "axial": 0.006},
+                {"bending": 0.194, "torsion": 0.392, "in-plane": 0.405, "axial": 0.009})
+    modes = [{"mode": i + 1, "frequency_hz": f, "paper_hz": p, "diff_pct": 100 * (f / p - 1),
+              "kind": kind, "content": c}
+             for i, ((f, p), kind, c) in enumerate(zip(((1.69, 1.69), (4.03, 3.051)),
+                                                       ("bending", "in-plane"), contents))]
     point = {"altitude": 11252.0, "frequency_hz": 2.09, "velocity": 750.7,
              "dynamic_pressure": 475.5}
     return {"quick": True, "version": "x", "seconds": {"total": 1.0}, "cpu_seconds": {},

@@ -24,3 +24,14 @@ def test_reference_values_are_the_papers():
     assert ref.table2_hz[0] == 1.690 and len(ref.table2_hz) == 9
     assert (ref.flutter_altitude_ft, ref.flutter_frequency_hz) == (11275.0, 1.975)
     assert ref.table3_hz[4000.0] == 1.851 and ref.alpha0_per_s == 0.2565
+
+
+def test_kind_label_gives_the_shares_of_a_mixed_mode():
+    from torchrom.paper.modes import kind_label, kind_margin
+
+    mixed = {"bending": 0.438, "torsion": 0.262, "in-plane": 0.294, "axial": 0.007}
+    assert kind_label("bending", mixed) == "bending (0.44 bending, 0.29 in-plane, 0.26 torsion)"
+    assert kind_label("bending", mixed, short=True) == "bending (b .44, ip .29, t .26)"
+    assert kind_label("bending", {"bending": 0.999, "torsion": 0.001}) == "bending"
+    assert kind_label("torsion") == "torsion" and kind_label(None) == "unknown kind"
+    assert kind_margin(mixed) == ("bending", 0.438, "in-plane", 0.294)

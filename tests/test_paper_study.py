@@ -114,6 +114,27 @@ def test_quick_damping_cause_check(quick):
     assert "nonlinear / linear dissipation" in text
 
 
+def test_quick_stiffness_cause_section(quick):
+    """Issue 28: the γ = 1e-3 s LCO at 4,000 ft with and without the stiffness nonlinearity by
+    harmonic balance, the energy per cycle of each term, and the dual modes' effect; in the
+    report under its heading. Measured (full study): 13.1 vs 6.4 % of span; the dual modes'
+    quasi-static following turns the nonlinear damping from adding ~12x the linear one to
+    cancelling ~0.8 of it."""
+    from torchrom.paper.report import STIFFNESS_CAUSE_HEADING
+
+    cause = _summary(quick)["stiffness_cause"]
+    rows = {r["switch"]: r for r in cause["rows"]}
+    both, none = rows["both nonlinearities"], rows["no stiffness nonlinearity"]
+    assert both["status"] == none["status"] == "lco"
+    assert both["amplitude"] > 1.5 * none["amplitude"]
+    for r in (both, none):  # the stiffness terms do no work over a cycle (rounding)
+        total = sum(v for k, v in r["terms"].items() if "conservative" not in k)
+        assert abs(r["terms"]["K2 (conservative)"]) < 1e-6 * total
+    assert none["following"]["dual coordinates zero"] > 1.0
+    assert none["following"]["dual coordinates quasi-static"] < 0.0
+    assert f"## {STIFFNESS_CAUSE_HEADING}" in (quick / "report.md").read_text()
+
+
 @pytest.mark.parametrize("key", list(_acceptance_params()))
 def test_quick_acceptance_findings(quick, key):
     found = {f["key"]: f for f in _summary(quick)["findings"]}
@@ -129,7 +150,11 @@ def test_quick_both_wing_variants_side_by_side(quick):
     assert summary["variant"] == "updated"
     other = summary["variants"]["calibrated"]
     assert [r["kind"] for r in other["flutter"]["table2"]][3] == "in-plane"
-    assert summary["flutter"]["table2"][4]["kind"] == "in-plane"
+    # the updated wing's mode 5 has the largest in-plane share (its label wins by 0.013 only:
+    # the report states the margin, tests/test_fe_goland.py shows it flip with the store)
+    t2 = summary["flutter"]["table2"]
+    assert max(t2, key=lambda r: r["content"]["in-plane"])["mode"] == 5
+    assert "mode 5 in-plane by" in (quick / "report.md").read_text()
     assert {f["key"] for f in other["findings"]} == {f["key"] for f in summary["findings"]}
     text = (quick / "report.md").read_text()
     assert "## The two wing variants side by side" in text

@@ -210,7 +210,9 @@ def test_sigint_keeps_finished_chunks_and_resume_matches(slow_config, tmp_path, 
     assert main(["sweep", str(config), "--out", str(out)]) == 0
     printed = capsys.readouterr().out
     done = 2 * kept
-    assert f"{N_CASES - done} computed in {N_CHUNKS - kept} chunks, {done} reused" in printed
+    left = N_CHUNKS - kept
+    assert (f"{N_CASES - done} computed in {left} chunk{'' if left == 1 else 's'}, {done} reused"
+            in printed)
     pd.testing.assert_frame_equal(pd.read_parquet(out / "results.parquet"), reference)
 
 

@@ -25,8 +25,22 @@ def test_units_survive_parquet_and_label_axes(tmp_path):
     back = pd.read_parquet(tmp_path / "t.parquet")
     assert column_units(back) == {"gamma": "s", "amplitude": "ft", "speed": "ft/s"}
     assert axis_label(back, "speed") == "speed (ft/s)"
-    assert axis_label(back, "gamma") == "gamma (s)"
-    # a CSV has no metadata: known columns are still labelled, the unit in the name not repeated
-    csv = pd.DataFrame({"altitude_ft": [1.0], "amplitude": [1.0]})
-    assert axis_label(csv, "altitude_ft") == "altitude_ft" and axis_label(csv, "amplitude") == \
-        "amplitude"
+    assert axis_label(back, "gamma") == "γ (s)"
+    # a CSV has no metadata: known columns are still named and labelled with their units
+    csv = pd.DataFrame({"altitude_ft": [1.0], "amplitude": [1.0], "frequency_hz": [2.0],
+                        "ratio_q1_q2": [3.0]})
+    assert axis_label(csv, "altitude_ft") == "altitude (ft)"
+    assert axis_label(csv, "frequency_hz") == "LCO frequency (Hz)"
+    assert axis_label(csv, "ratio_q1_q2") == "amplitude ratio q1/q2"
+    assert axis_label(csv, "amplitude") == "LCO amplitude"  # its unit is the output's: unknown
+
+
+def test_every_known_column_has_a_name_and_its_label_a_unit():
+    """One table names every known column; a known unit always reaches the label."""
+    from torchrom.study.units import KNOWN, LABELS
+
+    assert set(KNOWN) <= set(LABELS)
+    t = pd.DataFrame({k: [1.0] for k in KNOWN})
+    for k, unit in KNOWN.items():
+        if unit:
+            assert axis_label(t, k) == f"{LABELS[k]} ({unit})"

@@ -34,6 +34,9 @@ class PaperReference:
     table3_hz: dict[float, float]
     gammas_s: tuple[float, ...]
     steps_to_converge: tuple[int, int]
+    fig9_points: tuple[tuple[float, float], ...]
+    fig9_source: str
+    fig9_note: str
 
 
 @lru_cache(maxsize=1)
@@ -54,4 +57,8 @@ def paper_reference() -> PaperReference:
         table3_hz={float(a): float(f) for a, f in zip(t3["altitudes_ft"], t3["frequencies_hz"])},
         gammas_s=tuple(float(g) for g in d["lco"]["gammas_s"]),
         steps_to_converge=tuple(int(n) for n in d["lco"]["steps_to_converge"]),
+        fig9_points=tuple((float(g), float(a)) for g, a in zip(d["fig9"]["gammas_s"],
+                                                               d["fig9"]["alphas_per_s"])),
+        fig9_source=d["fig9"]["source"],
+        fig9_note=d["fig9"]["note"],
     )

@@ -58,7 +58,7 @@ def run(args: argparse.Namespace) -> int:
 
     from ..study.branch import PARAMETER_UNITS, branch_options, run_branches
     from ..study.grid import case_label
-    from ..study.plots import branch_diagram
+    from ..study.plots import amplitude_label, branch_diagram
     from ..study.table import table_paths, write_table
 
     args.method = None
@@ -90,8 +90,7 @@ def run(args: argparse.Namespace) -> int:
         and study.hopf[k].astype(str).nunique() > 1]
     if len(table):
         branch_diagram(table, figure, parameter=parameter, units=units, y=y,
-                       y_label="LCO amplitude (% of span)" if pct else "LCO amplitude "
-                       "(output units)", title=cfg.title, force=args.force,
+                       y_label=amplitude_label(table, y), title=cfg.title, force=args.force,
                        label_of=lambda row: case_label({k: row[k] for k in others}, others,
                                                        empty=f"branch {row['branch']}"))
     for _, h in study.hopf.iterrows():

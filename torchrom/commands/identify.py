@@ -42,9 +42,12 @@ def add_arguments(parser) -> None:
                         help="number of dual modes (12)")
     parser.add_argument("--combinations", default="transverse", metavar="SET",
                         help="linear-mode pairs loaded for the dual modes: 'transverse' "
-                             "(default: the first two transverse modes with the first three, "
-                             "from the modes' kinds), 'paper' (the paper's nine), "
-                             "'bending-torsion' ((1,1),(1,2),(1,3),(2,2),(2,3)) or J:L,J:L,...")
+                             "(default, from the modes' kinds: the first two transverse, i.e. "
+                             "bending or torsion, modes, each alone and with the next "
+                             "transverse modes up to the third one or the second bending "
+                             "mode, whichever comes later; in-plane modes left out), 'paper' "
+                             "(the paper's nine pairs of modes 1-5), 'bending-torsion' "
+                             "((1,1),(1,2),(1,3),(2,2),(2,3)) or J:L,J:L,...")
     parser.add_argument("--damping", choices=("decomposition", "exact"),
                         default="decomposition",
                         help="damping identification: the paper's optimum decomposition, or "

@@ -166,7 +166,8 @@ def _run_in(out: Path, args: argparse.Namespace, cfg, model, device, dtype) -> i
     if confirmed:
         print(f"precision: {confirmed} float32 case(s) above the solver tolerance rerun in "
               f"float64 (column precision)")
-    print(f"cases: {timing['computed']} computed in {timing['chunks']} chunks, "
+    chunks = f"{timing['chunks']} chunk{'' if timing['chunks'] == 1 else 's'}"
+    print(f"cases: {timing['computed']} computed in {chunks}, "
           f"{timing['reused']} reused from {out / 'parts'}")
     if cfg.method == "hb":
         print(f"time: {timing['elapsed_s']:.1f} s elapsed, {timing['wall_time_s']:.1f} s "

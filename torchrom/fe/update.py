@@ -146,6 +146,7 @@ class ModelUpdater:
             raise InputError(f"update: {nt} targets but only {self.n_modes} modes computed")
         self.stiffness = any(p.stiffness for p in self.params)
         self.K0 = fe.stiffness_matrix()
+        self.M_deck = fe.mass_matrix()  # the deck as read, before any parameter is set
         self.lower = np.array([p.lower for p in self.params])
         self.upper = np.array([p.upper for p in self.params])
         self.p0 = np.array([p.initial if p.initial is not None else get_value(self.bdf, p)
@@ -209,23 +210,35 @@ class ModelUpdater:
     # -- modes and pairing -----------------------------------------------------------------------
     def evaluate(self, values, pair: bool = True) -> dict:
         """Modes at ``values`` and (``pair``) the paired modes of the targets."""
-        from .kinds import classify
-        from .solvers import eigenpairs
-
         values = np.asarray(values, dtype=float)
         key = values.tobytes()
         ev = self._cache.get(key)
         if ev is None:
-            K, M = self._model_at(values)
-            lam, phi = eigenpairs(K, M, self.n_modes)
-            kinds, _ = classify(self.fe, phi)
-            ev = {"values": values, "K": K, "M": M, "lam": lam, "phi": phi, "kinds": kinds,
-                  "freq": np.sqrt(np.clip(lam, 0, None)) / (2 * np.pi)}
+            ev = self._modes(*self._model_at(values), values)
             self.n_eval += 1
             if len(self._cache) > 64:
                 self._cache.clear()
             self._cache[key] = ev
-        if pair and ev.get("paired_with") is not self.ref_shapes:
+        return self._paired(ev) if pair else ev
+
+    def _modes(self, K, M, values) -> dict:
+        from .kinds import classify
+        from .solvers import eigenpairs
+
+        lam, phi = eigenpairs(K, M, self.n_modes)
+        kinds, _ = classify(self.fe, phi)
+        return {"values": values, "K": K, "M": M, "lam": lam, "phi": phi, "kinds": kinds,
+                "freq": np.sqrt(np.clip(lam, 0, None)) / (2 * np.pi)}
+
+    def deck_modes(self) -> dict:
+        """The modes of the deck as read (its own parameter values, whatever 'initial' values
+        the targets file starts the update from), paired with the targets."""
+        return self._paired(self._modes(self.K0, self.M_deck, None))
+
+    def _paired(self, ev) -> dict:
+        """``ev`` with the targets' paired modes (by MAC against the reference shapes, or by
+        kind)."""
+        if ev.get("paired_with") is not self.ref_shapes:
             mac = mac_matrix(self.ref_shapes, ev["phi"], ev["M"])
             ev["mac"] = mac
             ev["pairs"] = (self._pair_by_kind(ev) if self.options.pairing == "kind"
@@ -323,9 +336,10 @@ class ModelUpdater:
     def run(self) -> UpdateResult:
         from scipy.optimize import least_squares
 
-        ev0 = self.evaluate(self.p0)
-        f0 = ev0["freq"][ev0["pairs"]]
-        check_plausible_targets(self.targets, f0)
+        deck = self.deck_modes()
+        f0 = deck["freq"][deck["pairs"]]  # the "initial" column: the deck's own frequencies
+        ev0 = self.evaluate(self.p0)  # where the fit starts (the re-pairing note's "start")
+        check_plausible_targets(self.targets, ev0["freq"][ev0["pairs"]])
         self._model_at(self.p0)
         mass0 = total_mass(self.fe, self._mesh())
         self.x0 = self._x(self.p0)

@@ -7,11 +7,17 @@ modes not yet taken whose kind is compatible: ``bending`` / ``torsion`` / ``in-p
 kind, ``transverse`` and ``bending-torsion`` any out-of-plane mode (bending or torsion). So the
 paper's q4 (its transverse bending–torsion mode) is compared with our first out-of-plane mode
 after those matched to its modes 1–3, not with our in-plane mode 4.
+
+A mode's kind is the largest of its content shares (:func:`torchrom.fe.kinds.classify`:
+bending, torsion, in-plane, axial; shares of the squared displacement, summing to 1). Where a
+mode is named, :func:`kind_label` gives its kind with the shares, so a mixed mode (e.g. 0.44
+bending, 0.26 torsion, 0.29 in-plane) is not read as a pure one; :func:`kind_margin` says by
+how much the kind beats the runner-up.
 """
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 
 #: our kinds each paper kind accepts
 COMPATIBLE = {"bending": ("bending",), "torsion": ("torsion",), "in-plane": ("in-plane",),
@@ -30,3 +36,35 @@ def paper_mode_map(ours: Sequence[str | None], paper: Sequence[str]) -> dict[int
                 out[i + 1] = j + 1
                 break
     return out
+
+
+#: a share below this is left out of a kind's label
+SHOWN_SHARE = 0.05
+
+
+#: short names of the kinds (figure annotations)
+SHORT = {"bending": "b", "torsion": "t", "in-plane": "ip", "axial": "ax"}
+
+
+def kind_label(kind: str | None, content: Mapping[str, float] | None = None,
+               short: bool = False) -> str:
+    """``kind`` with the content shares of at least :data:`SHOWN_SHARE`, largest first, e.g.
+    "bending (0.44 bending, 0.29 in-plane, 0.26 torsion)" (``short``: "bending (b .44, ip .29,
+    t .26)"); the kind alone for a pure mode (no second share of :data:`SHOWN_SHARE`) or when
+    the shares are unknown."""
+    kind = kind or "unknown kind"
+    if not content:
+        return kind
+    shares = sorted(((v, k) for k, v in content.items() if v >= SHOWN_SHARE), reverse=True)
+    if len(shares) < 2:
+        return kind
+    if short:
+        parts = (f"{SHORT.get(k, k)} {v:.2f}".replace(" 0.", " .") for v, k in shares)
+        return f"{kind} ({', '.join(parts)})"
+    return f"{kind} ({', '.join(f'{v:.2f} {k}' for v, k in shares)})"
+
+
+def kind_margin(content: Mapping[str, float]) -> tuple[str, float, str, float]:
+    """(kind, its share, runner-up kind, its share) of a mode's content shares."""
+    (a, ka), (b, kb) = sorted(((v, k) for k, v in content.items()), reverse=True)[:2]
+    return ka, a, kb, b

@@ -235,8 +235,11 @@ def _goland_pipeline(opt: GolandPipeline, folder, force: bool, log) -> PipelineR
                              altitude_range_ft=tuple(opt.altitude_range_ft))
 
     # -- flutter --------------------------------------------------------------------------------
-    kinds = [str(k) for k in fe.modes(opt.aero_modes).kinds]
+    fe_modes = fe.modes(opt.aero_modes)
+    kinds = [str(k) for k in fe_modes.kinds]
+    contents = [{k: round(float(v), 4) for k, v in c.items()} for c in fe_modes.fractions]
     fl_inputs = {"stage": "flutter", "rom": rom_key, "aero": aero_key, "kinds": kinds,
+                 "contents": contents,
                  "alpha": opt.baseline_alpha, "gamma": opt.baseline_gamma,
                  "range": list(opt.altitude_range_ft)}
     fl_key = FileCache.key(fl_inputs)
@@ -245,7 +248,7 @@ def _goland_pipeline(opt: GolandPipeline, folder, force: bool, log) -> PipelineR
     t0 = time.perf_counter()
     if summary is None:
         log("flutter: baseline damping, state space (Eqs. 49-50) and p-k; Table 3")
-        summary = flutter_summary(model, kinds)
+        summary = flutter_summary(model, kinds, contents)
         fl_path = cache.put("flutter.json", fl_key, lambda p: write_json_atomic(p, summary))
     else:
         log(f"flutter: reusing {fl_path}")
@@ -303,9 +306,11 @@ def aero_on_basis(fe, Phi: np.ndarray, rom: NonlinearROM, opt: GolandPipeline) -
     return aero
 
 
-def flutter_summary(model: AeroelasticModel, mode_kinds=None) -> dict[str, Any]:
+def flutter_summary(model: AeroelasticModel, mode_kinds=None, contents=None) -> dict[str, Any]:
     """Baseline flutter (state space and p-k), Table 3 and Table 2 comparisons (JSON-ready);
-    ``mode_kinds``: the FE's classification of the modes (bending, torsion, in-plane, ...)."""
+    ``mode_kinds``: the FE's classification of the modes (bending, torsion, in-plane, ...),
+    ``contents``: each mode's content shares ({kind: share}, :func:`torchrom.fe.kinds.classify`).
+    """
     from ..aero.flutter import (
         AeroTable,
         flutter_altitude_pk,
@@ -335,6 +340,7 @@ def flutter_summary(model: AeroelasticModel, mode_kinds=None) -> dict[str, Any]:
         "table2": [{"mode": i + 1, "frequency_hz": f, "paper_hz": p,
                     "diff_pct": 100.0 * (f - p) / p,
                     "kind": None if mode_kinds is None or i >= len(mode_kinds) else mode_kinds[i],
+                    "content": None if contents is None or i >= len(contents) else contents[i],
                     "paper_kind": PAPER_MODE_KINDS[i] if i < len(PAPER_MODE_KINDS) else None}
                    for i, (f, p) in enumerate(zip(freqs, PAPER_TABLE2_HZ))],
         "rfa_fit_error": model.aero.rfa.fit_error,

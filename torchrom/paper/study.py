@@ -52,9 +52,10 @@ from .cache import MANIFEST, FileCache
 from .dissipation import dissipation_ratio, lco_cycle, scaled_min_eigenvalue
 from .hb import branch_summary, goland_branches, newmark_confirmation
 from .linear import linear_checks
-from .modes import paper_mode_map
+from .modes import kind_label, paper_mode_map
 from .pipeline import GolandPipeline, goland_pipeline
 from .report import render
+from .stiffness_cause import CAUSE_ALTITUDE_FT, CAUSE_GAMMA, SWITCHES, stiffness_cause
 from .variants import COMPARISON_VARIANTS, variant_study
 
 #: the full pipeline is the paper's (9L12D, 8 x 20 boxes); --quick keeps the basis and uses
@@ -214,6 +215,11 @@ def _run_paper(out: Path, quick: bool, force: bool, device: str, dtype: torch.dt
         log(f"  {key}: {verdict}")
     watch.stop("damping decomposition band")
 
+    # -- why the stiffness nonlinearity matters at gamma = 1e-3 --------------------------------
+    watch.start()
+    cause = _stiffness_cause(cache, cfg, model, quick, log)
+    watch.stop("stiffness nonlinearity at gamma = 1e-3 (cause)")
+
     # -- the other wing variant(s) -------------------------------------------------------------
     watch.start()
     base = QUICK_PIPELINE if quick else FULL_PIPELINE
@@ -231,7 +237,7 @@ def _run_paper(out: Path, quick: bool, force: bool, device: str, dtype: torch.dt
     watch.start()
     fig_dir = out / "figures"
     kinds = [r.get("kind") for r in fl["table2"]]
-    q4 = paper_q4(kinds)
+    q4 = paper_q4(fl["table2"])
     h_f = float(fl["state_space"]["altitude"])
     # a figure that fails is a warning (missing from "figures"): the tables and the report stay
     paths = {"table2": write_figure(figures.table2, pd.DataFrame(fl["table2"]),
@@ -280,6 +286,7 @@ def _run_paper(out: Path, quick: bool, force: bool, device: str, dtype: torch.dt
         "alpha_gamma": alpha_gamma.to_dict(orient="records"),
         "findings": [f.as_dict() for f in found],
         "damping_check": check, "decomposition_band": band, "method": method, "hb": hb_info,
+        "stiffness_cause": cause,
         "variant": (QUICK_PIPELINE if quick else FULL_PIPELINE).variant, "variants": variants,
         "figures": {k: str(v) for k, v in paths.items()},
         "paper_q4": {**q4, "column": ratio4},
@@ -291,16 +298,19 @@ def _run_paper(out: Path, quick: bool, force: bool, device: str, dtype: torch.dt
     return summary
 
 
-def paper_q4(kinds) -> dict[str, Any]:
+def paper_q4(table2: list[dict[str, Any]]) -> dict[str, Any]:
     """Our mode compared with the paper's mode 4 (Fig. 13b), matched by kind
-    (:func:`.modes.paper_mode_map`; our mode 4 when the kinds are unknown)."""
+    (:func:`.modes.paper_mode_map`; our mode 4 when the kinds are unknown); ``table2``: the
+    flutter summary's rows (``kind``, ``content``)."""
     ref = paper_reference()
+    kinds = [r.get("kind") for r in table2]
     mapping = paper_mode_map(kinds, ref.table2_kinds) if any(kinds) else {}
     ours = mapping.get(4, 4)
-    kind = kinds[ours - 1] if ours - 1 < len(kinds) and kinds[ours - 1] else "unknown kind"
-    note = (f"our mode {ours} ({kind}) for the paper's mode 4 ({ref.table2_kinds[3]})"
-            if ours != 4 else None)
-    return {"mode": ours, "kind": kind, "note": note}
+    row = table2[ours - 1] if ours - 1 < len(table2) else {}
+    kind = kind_label(row.get("kind"), row.get("content"))
+    note = (f"our mode {ours}, {kind}, for the paper's mode 4 ({ref.table2_kinds[3]})"
+            if ours != 4 or row.get("content") else None)
+    return {"mode": ours, "kind": row.get("kind") or "unknown kind", "note": note}
 
 
 def _secondary(cfg):
@@ -426,6 +436,28 @@ def _dissipation_check(cache: FileCache, cfg, main, exact, log, orbit=None) -> d
     log(f"  dissipation on the gamma = 0 LCO at {altitude:,.0f} ft (nonlinear / linear): "
         f"decomposition {out['decomposition_ratio']:+.3f}, exact {out['exact_ratio']:+.3f}")
     cache.put("tables/dissipation_check.json", key, lambda p: write_json_atomic(p, out))
+    return out
+
+
+#: the stiffness nonlinearity's parts switched off in the report's cause section (the quick
+#: run: whole and off only)
+CAUSE_SWITCHES = {"full": tuple(SWITCHES), "quick": tuple(SWITCHES)[:2]}
+
+
+def _stiffness_cause(cache: FileCache, cfg, model, quick: bool, log) -> dict[str, Any]:
+    """:func:`.stiffness_cause.stiffness_cause` at 4,000 ft, γ = 1e-3 s (harmonic balance with
+    the paper configuration's options), cached with the model."""
+    switches = CAUSE_SWITCHES["quick" if quick else "full"]
+    hb = with_method(cfg, "hb").hb.options
+    key = FileCache.key({"model": model.content_hash(), "hb": repr(hb), "switches": switches,
+                         "altitude": CAUSE_ALTITUDE_FT, "gamma": CAUSE_GAMMA})
+    path = cache.get("tables/stiffness_cause.json", key)
+    if path is not None:
+        return json.loads(path.read_text())
+    log(f"stiffness nonlinearity at gamma = {CAUSE_GAMMA:g} s, {CAUSE_ALTITUDE_FT:,.0f} ft: "
+        f"{len(switches)} settings by harmonic balance, energy per cycle of each term")
+    out = stiffness_cause(model, hb, altitudes=(CAUSE_ALTITUDE_FT,), switches=switches)
+    cache.put("tables/stiffness_cause.json", key, lambda p: write_json_atomic(p, out))
     return out
 
 

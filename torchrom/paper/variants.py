@@ -37,7 +37,7 @@ def variant_study(variant: str, base: GolandPipeline, folder: Path, gammas, swee
     alpha_gamma = alpha_gamma_table(model, gammas)
     table, histories, info = sweep(model, f"lco_{variant}")
     kinds = [r.get("kind") for r in fl["table2"]]
-    q4 = q4_of(kinds)
+    q4 = q4_of(fl["table2"])
     table = table.copy()
     found = fnd.evaluate(table, histories, alpha_gamma, float(fl["state_space"]["altitude"]),
                          kinds, q4_column=figures.ratio_column(table, q4["mode"]),

@@ -13,9 +13,11 @@ Each function takes the tables a sweep wrote and draws one figure of paper Sec. 
 - :func:`table2` our natural frequencies against the paper's Table 2, mode by mode, with kinds.
 
 A *curve* is a group of cases with the same (γ, stiffness_nl, damping_nl); curves with a single
-altitude (e.g. the extra Fig. 11 cases) are left out of the altitude plots. Markers show each
-case's status (filled: converged LCO); the legend, outside the axes, lists only the curves and
-statuses drawn. Where the paper states a value (Table 2, the flutter point, Table 3) it is drawn
+altitude (e.g. the extra Fig. 11 cases) are left out of the altitude plots. Each curve has its
+own line style and marker, later curves thinner, so that coincident curves (γ = 1e-5 on γ = 0)
+stay visible; a converged LCO is the curve's marker filled, other statuses are marked apart;
+the legend, outside the axes, lists only the curves and statuses drawn. Log axes read plain
+numbers. Where the paper states a value (Table 2, the flutter point, Table 3) it is drawn
 from the package's reference data (:func:`torchrom.reference.paper_reference`), never typed
 here; the flutter altitude (ours when given, and the paper's) is marked on the altitude axes.
 Layout; drawing delegated to matplotlib.
@@ -33,10 +35,15 @@ from ..errors import InputError
 from ..io import atomic_path, check_can_write
 from ..reference import PaperReference, paper_reference
 
-#: marker per status: settled LCOs filled, everything else hollow or crossed
-MARKERS = {"lco": ("o", True), "decay": ("v", False), "unconverged": ("s", False),
-           "diverged": ("^", False), "failed": ("x", True)}
+#: marker per status other than a converged LCO (drawn with the curve's own marker, filled)
+MARKERS = {"decay": ("v", False), "diverged": ("^", False), "failed": ("x", True)}
 CURVE_KEYS = ("gamma", "stiffness_nl", "damping_nl")
+#: (line style, marker, line width, marker size) of the curves in drawing order: every curve
+#: its own style and marker, widths and sizes shrinking so that a curve drawn on top of an
+#: identical one leaves the one below visible around it (Fig. 10: γ = 1e-5 on γ = 0)
+CURVE_STYLES = (("-", "o", 3.6, 10.0), ("--", "s", 2.8, 8.0), ("-.", "D", 2.2, 6.5),
+                (":", "^", 1.8, 5.5), ((0, (6, 2)), "v", 1.4, 4.5),
+                ((0, (3, 1, 1, 1, 1, 1)), "P", 1.1, 3.8), ((0, (1, 1)), "X", 0.9, 3.2))
 
 
 def _plt():
@@ -91,11 +98,17 @@ def curves(table: pd.DataFrame, x: str = "altitude_ft", min_points: int = 2):
 
 
 def _status_legend(plt, statuses) -> list:
-    """Legend entries for the statuses actually drawn."""
+    """Legend entries for the statuses actually drawn (a converged LCO: the curve's marker,
+    filled; an unconverged case: the curve's marker, hollow)."""
     names = {"diverged": "diverged (drawn at the top)", "failed": "failed (drawn at the top)",
-             "unconverged": "unconverged (value when stopped)", "lco": "converged LCO"}
-    return [plt.Line2D([], [], marker=m, ls="none", color="0.3", mfc="0.3" if f else "none",
-                       label=names.get(s, s)) for s, (m, f) in MARKERS.items() if s in statuses]
+             "decay": "decay"}
+    out = [plt.Line2D([], [], marker="o", ls="none", color="0.3", mfc=mfc, label=label)
+           for s, mfc, label in (("lco", "0.3", "converged LCO (curve marker, filled)"),
+                                 ("unconverged", "none", "unconverged (hollow, value when "
+                                                         "stopped)")) if s in statuses]
+    return out + [plt.Line2D([], [], marker=m, ls="none", color="0.3",
+                             mfc="0.3" if f else "none", label=names.get(s, s))
+                  for s, (m, f) in MARKERS.items() if s in statuses]
 
 
 def _legend_outside(ax, handles, **kw) -> None:
@@ -105,39 +118,65 @@ def _legend_outside(ax, handles, **kw) -> None:
 
 
 def _curve_axes(ax, table: pd.DataFrame, y: str, x: str = "altitude_ft") -> set[str]:
-    """One line per curve through its converged LCOs, status markers on every case; cases that
-    diverged or failed are drawn at the top of the axis (their values are off any useful scale).
-    Returns the statuses drawn."""
+    """One line per curve through its converged LCOs, each curve with its own line style and
+    marker (:data:`CURVE_STYLES`, so coincident curves stay visible); cases that did not
+    converge are hollow markers at their value when stopped, decays ▽, cases that diverged or
+    failed are drawn at the top of the axis (their values are off any useful scale). Returns
+    the statuses drawn."""
     last = f"last_{y}" if f"last_{y}" in table else y  # an unconverged case's value when stopped
     ys = pd.concat([table[table["status"].isin(["lco", "decay"])][y],
                     table[table["status"] == "unconverged"][last]]).astype(float)
     shown = ys[np.isfinite(ys)]
     top = float(shown.max()) * 1.08 if len(shown) else 1.0
     drawn: set[str] = set()
-    for label, grp in curves(table, x):
-        ok = grp[grp["status"] == "lco"]
-        (line,) = ax.plot(ok[x], ok[y], "-", lw=1.4, label=label)
-        for status, (marker, filled) in MARKERS.items():
+    for i, (label, grp) in enumerate(curves(table, x)):
+        ls, marker, lw, ms = CURVE_STYLES[i % len(CURVE_STYLES)]
+        ok = grp[(grp["status"] == "lco") & np.isfinite(grp[y].astype(float))]
+        (line,) = ax.plot(ok[x], ok[y], ls=ls, lw=lw, marker=marker, ms=ms, label=label,
+                          zorder=2 + i)
+        color = line.get_color()
+        if len(ok):
+            drawn.add("lco")
+        sel = grp[grp["status"] == "unconverged"]
+        sel = sel[np.isfinite(sel[last].astype(float))]
+        if len(sel):
+            drawn.add("unconverged")
+            ax.plot(sel[x], sel[last], marker, ms=ms, color=color, mfc="none", ls="none",
+                    zorder=2 + i)
+        for status, (smarker, filled) in MARKERS.items():
             sel = grp[grp["status"] == status]
-            if status in ("lco", "unconverged", "decay"):
+            if status == "decay":
                 sel = sel[np.isfinite(sel[y].astype(float))]
             if len(sel):
                 drawn.add(status)
-                vals = (sel[y] if status in ("lco", "decay") else sel[last]
-                        if status == "unconverged" else np.full(len(sel), top))
-                ax.plot(sel[x], vals, marker, ms=5, color=line.get_color(),
-                        mfc=line.get_color() if filled else "none", ls="none")
+                vals = sel[y] if status == "decay" else np.full(len(sel), top)
+                ax.plot(sel[x], vals, smarker, ms=6, color=color,
+                        mfc=color if filled else "none", ls="none", zorder=2 + i)
     ax.grid(alpha=0.3)
     return drawn
 
 
 def _flutter_lines(ax, flutter_altitude_ft: float | None, ref: PaperReference) -> None:
-    """Vertical lines at our flutter altitude (when known) and at the paper's."""
-    if flutter_altitude_ft is not None and np.isfinite(flutter_altitude_ft):
-        ax.axvline(flutter_altitude_ft, color="k", lw=0.9, ls="--",
-                   label=f"flutter altitude {flutter_altitude_ft:,.0f} ft")
-    ax.axvline(ref.flutter_altitude_ft, color="0.55", lw=0.9, ls=":",
-               label=f"paper's flutter altitude {ref.flutter_altitude_ft:,.0f} ft")
+    """Vertical lines at our flutter altitude (when known; red, dashed) and at the paper's
+    (blue, dotted), each named beside its line on the side away from the other (they are
+    ~75 ft apart on a several-thousand-foot axis), and in the legend."""
+    from matplotlib.transforms import blended_transform_factory
+
+    ours = flutter_altitude_ft is not None and np.isfinite(flutter_altitude_ft)
+    lines = [(ref.flutter_altitude_ft, "tab:blue", ":", 1.6, "paper", "paper's flutter altitude")]
+    if ours:
+        lines.append((float(flutter_altitude_ft), "tab:red", "--", 1.3, "ours",
+                      "our flutter altitude"))
+    lines.sort(key=lambda line: line[0])
+    lo, hi = ax.get_xlim()  # room right of the higher line for its name
+    ax.set_xlim(lo, max(hi, lines[-1][0] + 0.04 * (lines[-1][0] - lo)))
+    trans = blended_transform_factory(ax.transData, ax.transAxes)
+    for i, (h, color, ls, lw, short, long) in enumerate(lines):
+        ax.axvline(h, color=color, lw=lw, ls=ls, label=f"{long} {h:,.0f} ft", zorder=1)
+        right = i == len(lines) - 1  # the higher one's name to its right, the other's left
+        ax.text(h, 0.97, f" {short} {h:,.0f} ft " if right else f"{short} {h:,.0f} ft ",
+                transform=trans, rotation=90, va="top", ha="left" if right else "right",
+                color=color, fontsize=7.5)
 
 
 def _title(table: pd.DataFrame, what: str) -> str:
@@ -147,8 +186,10 @@ def _title(table: pd.DataFrame, what: str) -> str:
 
 def fig9(table: pd.DataFrame, path, *, force: bool = False, reference_altitude=None,
          reference: PaperReference | None = None) -> Path:
-    """α (1/s) vs γ (s) that keep the flutter altitude constant (paper Fig. 9), with the paper's
-    baseline Rayleigh damping (Eq. 46) that the curve must pass through."""
+    """α (1/s) vs γ (s) that keep the flutter altitude constant (paper Fig. 9), with every
+    α(γ) value the paper states (:attr:`PaperReference.fig9_points`: its baseline Rayleigh
+    damping, Eq. 46, which the curve must pass through) and ours labelled at the γ of the
+    paper's Fig. 10 curves."""
     ref = reference or paper_reference()
     _require(table, ("gamma", "alpha"), "fig9")
     t = table.drop_duplicates(["gamma", "alpha"]).sort_values("gamma")
@@ -159,11 +200,18 @@ def fig9(table: pd.DataFrame, path, *, force: bool = False, reference_altitude=N
         h = float(t["reference_altitude_ft"].iloc[0])
     label = "α(γ) keeping the flutter altitude" + (f" at {h:,.0f} ft" if h is not None else "")
     ax.plot(t["gamma"], t["alpha"], "o-", ms=4, lw=1.4, label=label)
-    ax.plot(ref.beta0_s, ref.alpha0_per_s, "k*", ms=11,
-            label=f"paper's FE Rayleigh damping (Eq. 46): α0 = {ref.alpha0_per_s:g} 1/s, "
-                  f"β0 = {ref.beta0_s:g} s")
+    for g, a in ref.fig9_points:
+        ax.plot(g, a, "k*", ms=11, ls="none",
+                label=f"paper: α = {a:g} 1/s at γ = {g:g} s ({ref.fig9_source})")
+    for g in ref.gammas_s:  # our α at the γ of the paper's Figs. 10-13 curves
+        hit = t[np.isclose(t["gamma"], g, rtol=1e-9, atol=1e-12)]
+        if len(hit):
+            ax.annotate(f"{float(hit['alpha'].iloc[0]):.4f}", (g, float(hit["alpha"].iloc[0])),
+                        textcoords="offset points", xytext=(4, 5), fontsize=7)
     ax.set_xlabel("γ (s)")
     ax.set_ylabel("α (1/s)")
+    ax.text(0.99, 0.97, ref.fig9_note, transform=ax.transAxes, ha="right", va="top",
+            fontsize=7, color="0.3", wrap=True)
     ax.ticklabel_format(axis="x", style="sci", scilimits=(-3, -3))
     ax.grid(alpha=0.3)
     ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.16), fontsize=8)
@@ -227,12 +275,12 @@ def fig12(table: pd.DataFrame, path, *, force: bool = False,
         if table3:
             ours = sorted(table3)
             ax.plot(ours, [table3[a] for a in ours], "k+", ms=9, mew=1.4, ls="none",
-                    label="Table 3: growing response (linear)")
+                    label="ours, Table 3: growing response (linear)")
         ax.plot(ref.flutter_altitude_ft, ref.flutter_frequency_hz, "*", color="0.45", ms=12,
                 label=f"paper's flutter point ({ref.flutter_frequency_hz:g} Hz)")
         if flutter_altitude_ft is not None and flutter_frequency_hz is not None:
             ax.plot(flutter_altitude_ft, flutter_frequency_hz, "k*", ms=12,
-                    label=f"flutter point ({flutter_frequency_hz:.3f} Hz)")
+                    label=f"our flutter point ({flutter_frequency_hz:.3f} Hz)")
 
     return _altitude_figure(table, path, "frequency_hz", "LCO frequency (Hz)",
                             "Fig. 12: LCO frequency vs altitude", force, paper_points,
@@ -271,20 +319,39 @@ def fig13(table: pd.DataFrame, path, *, force: bool = False, q4_mode: int = 4,
         drawn |= _curve_axes(ax, table, col)
         _flutter_lines(ax, flutter_altitude_ft, ref)
         ax.set_yscale("log")
+        plain_log_ticks(ax.yaxis)
         ax.set_xlabel("altitude (ft)")
         ax.set_ylabel(f"LCO amplitude ratio {what} (-)")
     _legend_outside(axes[1], axes[1].get_legend_handles_labels()[0] + _status_legend(plt, drawn))
     axes[0].set_title("a) q1/q2 (bending / torsion)", fontsize=10)
-    axes[1].set_title(f"b) q1/q{q4_mode}" + (f"\n{q4_note}" if q4_note else ""), fontsize=10)
+    import textwrap
+
+    note = "\n" + "\n".join(textwrap.wrap(q4_note, 60)) if q4_note else ""
+    axes[1].set_title(f"b) q1/q{q4_mode}{note}", fontsize=10)
     fig.suptitle(_title(table, "Fig. 13: ratios of LCO generalized-coordinate amplitudes"),
                  fontsize=10)
     return _save(fig, path, force)
 
 
+def plain_log_ticks(axis) -> None:
+    """Tick labels of a log axis as plain numbers (10, 20, 50, 100; not 2×10¹ or 10¹): the
+    decades and, between them, 2 and 5 × each decade."""
+    from matplotlib.ticker import FuncFormatter, LogLocator
+
+    def plain(v, _pos=None) -> str:
+        return f"{v:.10g}" if v > 0 else ""
+
+    axis.set_major_locator(LogLocator(base=10.0))
+    axis.set_major_formatter(FuncFormatter(plain))
+    axis.set_minor_locator(LogLocator(base=10.0, subs=(2.0, 5.0)))
+    axis.set_minor_formatter(FuncFormatter(plain))
+
+
 def table2(modes: pd.DataFrame, path, *, force: bool = False,
            reference: PaperReference | None = None) -> Path:
     """Our natural frequencies against the paper's Table 2, mode by mode (``modes``: columns
-    mode, frequency_hz and optionally kind), each bar labelled with the mode's kind."""
+    mode, frequency_hz and optionally kind and content, the content shares), each bar labelled
+    with the mode's kind (and the shares of a mixed mode)."""
     _require(modes, ("mode", "frequency_hz"), "table2")
     ref = reference or paper_reference()
     plt = _plt()
@@ -294,10 +361,14 @@ def table2(modes: pd.DataFrame, path, *, force: bool = False,
     x = np.arange(1, n + 1)
     ax.bar(x - 0.2, m["frequency_hz"], 0.4, label="torchrom (FE reconstruction)")
     ax.bar(x + 0.2, ref.table2_hz[:n], 0.4, color="0.6", label="paper Table 2")
+    from ..paper.modes import kind_label
+
     kinds = list(m["kind"]) if "kind" in m else [None] * n
-    for xi, f, k in zip(x, m["frequency_hz"], kinds):
-        if k:
-            ax.annotate(str(k), (xi - 0.2, f), textcoords="offset points", xytext=(0, 3),
+    contents = list(m["content"]) if "content" in m else [None] * n
+    for xi, f, k, c in zip(x, m["frequency_hz"], kinds, contents):
+        if k:  # a mixed mode with its content shares
+            ax.annotate(kind_label(k, c if isinstance(c, dict) else None, short=True),
+                        (xi - 0.2, f), textcoords="offset points", xytext=(0, 3),
                         ha="center", fontsize=6.5, rotation=90)
     for xi, f, k in zip(x, ref.table2_hz[:n], ref.table2_kinds):
         ax.annotate(k, (xi + 0.2, f), textcoords="offset points", xytext=(0, 3), ha="center",

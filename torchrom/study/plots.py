@@ -15,12 +15,35 @@ _MARKERS = {"lco": ("o", True), "decay": ("v", False), "unconverged": ("s", Fals
             "diverged": ("^", False), "failed": ("x", True)}
 
 
+#: line styles and markers of the series that share a colour (a hue value), in order
+SERIES_STYLES = (("-", "o"), ("--", "s"), ("-.", "D"), (":", "^"), ((0, (5, 1, 1, 1)), "v"),
+                 ((0, (1, 1)), "P"))
+
+
+def series_keys(table: pd.DataFrame, x: str, hue: str | None, facet: str | None) -> list[str]:
+    """The columns that tell one series of a parameter plot from another: ``hue`` and every
+    case parameter (:data:`torchrom.study.cases.AEROELASTIC_PARAMETERS`) other than ``x`` and
+    ``facet`` that takes several values among the rows of one hue value (e.g. the stiffness
+    switch at one γ), so a line never joins cases of different series."""
+    from .cases import AEROELASTIC_PARAMETERS
+
+    keys = [hue] if hue else []
+    groups = table.groupby(hue, sort=False) if hue else [(None, table)]
+    for c in AEROELASTIC_PARAMETERS:
+        if c in table.columns and c not in (x, facet, hue) and any(
+                g[c].astype(str).nunique() > 1 for _, g in groups):
+            keys.append(c)
+    return keys
+
+
 def parameter_plot(table: pd.DataFrame, path, *, x: str, y: str = "amplitude",
                    hue: str | None = None, facet: str | None = None, title: str | None = None,
                    force: bool = False) -> Path:
-    """y against x, one line per value of ``hue``, one panel per value of ``facet``; markers
-    show the status (filled circle: converged LCO) when the table has one. Axis labels carry the
-    units of the table's column metadata (:mod:`.units`); the legend sits outside the data and
+    """y against x, one series per value of ``hue`` and of any other case parameter that
+    varies (:func:`series_keys`; a colour per hue value, a line style and marker per other
+    series), sorted by x; one panel per value of ``facet``; markers show the status (filled:
+    converged LCO; a series with a single x value is drawn as markers only). Axis labels carry
+    units (:func:`.units.axis_label`); the legend sits below the axes, clear of the title, and
     lists only what is drawn. Returns the path written (PNG/PDF/SVG by its suffix)."""
     import numpy as np
 
@@ -35,32 +58,53 @@ def parameter_plot(table: pd.DataFrame, path, *, x: str, y: str = "amplitude",
     panels = sorted(table[facet].dropna().unique()) if facet else [None]
     ncol = min(len(panels), 3)
     nrow = -(-len(panels) // ncol)
-    fig, axes = plt.subplots(nrow, ncol, figsize=(4.6 * ncol + 1.8, 3.8 * nrow), squeeze=False,
-                             sharex=True, sharey=True, constrained_layout=True)
+    fig, axes = plt.subplots(nrow, ncol, figsize=(4.6 * ncol + 1.8, 3.8 * nrow + 0.8),
+                             squeeze=False, sharex=True, sharey=True, constrained_layout=True)
     has_status = "status" in table.columns
     drawn: set[str] = set()
+    keys = series_keys(table, x, hue, facet)
+    series = ([tuple(r) for r in table[keys].drop_duplicates().sort_values(keys).itertuples(
+        index=False)] if keys else [()])
     hue_values = sorted(table[hue].dropna().unique()) if hue else [None]
     colors = plt.rcParams["axes.prop_cycle"].by_key()["color"]
+    styles: dict[tuple, tuple] = {}
+    for key in series:
+        color = colors[(hue_values.index(key[0]) if hue and key[0] in hue_values else 0)
+                       % len(colors)]
+        shared = sum(1 for k in styles if (k[:1] == key[:1] if hue else True))
+        styles[key] = (color, *SERIES_STYLES[shared % len(SERIES_STYLES)])
+    labelled: set[tuple] = set()
     for ax, value in zip(axes.flat, panels):
         sub = table if facet is None else table[table[facet] == value]
-        for i, key in enumerate(hue_values):
-            grp = (sub if hue is None else sub[sub[hue] == key]).sort_values(x)
+        for key in series:
+            sel_rows = np.ones(len(sub), dtype=bool)
+            for k, v in zip(keys, key):
+                sel_rows &= (sub[k].astype(str) == str(v)).to_numpy()
+            grp = sub[sel_rows].sort_values(x)
             if grp.empty:
                 continue
-            color = colors[i % len(colors)]
-            label = _value_label(table, hue, key) if hue else None
+            color, ls, marker = styles[key]
+            label = None
+            if keys and key not in labelled:
+                labelled.add(key)
+                label = ", ".join(_value_label(table, k, v) for k, v in zip(keys, key))
             ok = grp[grp["status"] == "lco"] if has_status else grp
-            ax.plot(ok[x], ok[y], "-", lw=1.2, color=color, label=label)
+            single = grp[x].nunique() < 2
+            ax.plot(ok[x], ok[y], ls="none" if single else ls, lw=1.3, color=color,
+                    marker=marker, ms=5, label=label)
             if not has_status:
-                ax.plot(grp[x], grp[y], "o", ms=4, color=color)
                 continue
-            for status, (marker, filled) in _MARKERS.items():
+            for status, (smarker, filled) in _MARKERS.items():
+                if status == "lco":
+                    if len(ok):
+                        drawn.add(status)
+                    continue
                 # an unconverged case at its value when stopped (hollow): its amplitude is NaN
                 col = f"last_{y}" if status == "unconverged" and f"last_{y}" in grp else y
                 sel = grp[(grp["status"] == status) & np.isfinite(grp[col].astype(float))]
                 if len(sel):
                     drawn.add(status)
-                    ax.plot(sel[x], sel[col], marker, ms=5, color=color,
+                    ax.plot(sel[x], sel[col], smarker, ms=6, color=color,
                             mfc=color if filled else "none", ls="none")
         ax.grid(alpha=0.3)
         if facet:
@@ -72,28 +116,42 @@ def parameter_plot(table: pd.DataFrame, path, *, x: str, y: str = "amplitude",
     for ax in axes[:, 0]:
         ax.set_ylabel(axis_label(table, y))
     handles = [h for h in axes.flat[0].get_legend_handles_labels()[0]]
-    handles += [plt.Line2D([], [], marker=m, ls="none", color="0.3", mfc="0.3" if f else "none",
-                           label=STATUS_NAMES.get(s, s)) for s, (m, f) in _MARKERS.items()
-                if s in drawn]
+    for ax in axes.flat[1:len(panels)]:
+        handles += ax.get_legend_handles_labels()[0]
+    handles += [plt.Line2D([], [], marker="o" if s == "lco" else m, ls="none", color="0.3",
+                           mfc="0.3" if f else "none", label=STATUS_NAMES.get(s, s))
+                for s, (m, f) in _MARKERS.items() if s in drawn]
     if handles:
-        fig.legend(handles=handles, loc="outside right upper", fontsize=8)
+        # as many columns as the longest label lets fit in the figure's width (8 pt text:
+        # ~0.065 in per character, plus the marker)
+        widest = 0.065 * max(len(h.get_label()) for h in handles) + 0.6
+        ncol = max(1, min(3, len(handles), int(fig.get_figwidth() // widest)))
+        fig.legend(handles=handles, loc="outside lower center", fontsize=8, ncol=ncol)
     if title:
         fig.suptitle(title, fontsize=10)
     return _save(fig, path)
 
 
 #: legend text of each status
-STATUS_NAMES = {"lco": "converged LCO", "decay": "decay", "unconverged": "unconverged (value "
-                "when stopped)", "diverged": "diverged", "failed": "failed"}
+STATUS_NAMES = {"lco": "converged LCO (filled)", "decay": "decay", "unconverged": "unconverged "
+                "(value when stopped)", "diverged": "diverged", "failed": "failed"}
 
 
 def _value_label(table: pd.DataFrame, column: str, value) -> str:
-    """``column = value unit`` for a legend or panel title."""
-    from .units import column_units
+    """``name = value unit`` for a legend or panel title (names from :mod:`.units`; the
+    nonlinearity switches as on/off)."""
+    from .units import column_name, column_units
 
+    name = column_name(column)
+    if column in ("stiffness_nl", "damping_nl") and str(value) in ("0", "0.0", "False", "1",
+                                                                    "1.0", "True"):
+        return f"{name} {'on' if str(value) in ('1', '1.0', 'True') else 'off'}"
     unit = column_units(table).get(column)
-    v = f"{value:g}" if isinstance(value, (int, float)) and not isinstance(value, bool) else value
-    return f"{column} = {v}" + (f" {unit}" if unit and unit != "-" else "")
+    try:
+        v = f"{float(value):g}" if not isinstance(value, bool) else str(value)
+    except (TypeError, ValueError):
+        v = str(value)
+    return f"{name} = {v}" + (f" {unit}" if unit and unit != "-" else "")
 
 
 def _pyplot():
@@ -190,7 +248,7 @@ def calibration_plot(evaluations: pd.DataFrame, result: pd.DataFrame, path, *,
     ax.set_xscale("log")
     from .units import axis_label
 
-    ax.set_xlabel("gamma (s)")
+    ax.set_xlabel(axis_label(evaluations, "gamma"))
     ax.set_ylabel(f"{axis_label(evaluations, column)}, decay = 0")
     ax.grid(alpha=0.3, which="both")
     ax.legend(fontsize=8)
@@ -267,8 +325,52 @@ def bifurcation_plot(runs: pd.DataFrame, summary: pd.DataFrame, path, *, x: str 
     return _save(fig, path)
 
 
-#: axis names of case parameters (their units come separately)
-PARAMETER_NAMES = {"altitude_ft": "altitude", "gamma": "γ", "alpha": "α"}
+def amplitude_label(table: pd.DataFrame, column: str) -> str:
+    """Axis label of a branch or sweep amplitude column: the decision output it measures
+    (``table.attrs["decision_output"]``) and its unit, e.g. "LCO amplitude of A_Tz (ft)"."""
+    from .units import axis_label
+
+    out = table.attrs.get("decision_output")
+    label = axis_label(table, column)
+    if out and column in ("amplitude", "amplitude_pct_span"):
+        label = label.replace("LCO amplitude", f"LCO amplitude of {out}", 1)
+    return label
+
+
+def branch_polyline(grp: pd.DataFrame, parameter: str, y: str):
+    """(x, y, kind of the segment ending at each point) of one branch in point order, with each
+    refined fold (``fold_parameter``, ``fold_<y>``) inserted into the segment near its detecting
+    point that it lengthens least (axes scaled to the branch's extent), so the curve turns at
+    the fold itself. A segment's kind ("stable", "unstable", "unknown") is the stability of its
+    end point, of its start point when it ends on the fold (stability changes there)."""
+    import numpy as np
+
+    fold_y = "fold_" + y
+    x = grp[parameter].to_numpy(dtype=float)
+    v = grp[y].to_numpy(dtype=float)
+    st = ["unknown" if s is None or pd.isna(s) else "stable" if bool(s) else "unstable"
+          for s in grp["stable"]]
+    pts = [[a, b, k, False] for a, b, k in zip(x, v, st)]
+    if fold_y in grp:
+        sx = max(float(np.ptp(x)), 1e-300)
+        sy = max(float(np.ptp(v)), 1e-300)
+
+        def dist(p, q) -> float:
+            return float(np.hypot((p[0] - q[0]) / sx, (p[1] - q[1]) / sy))
+        for r in np.flatnonzero((grp["kind"] == "fold").to_numpy()):
+            fx, fy = float(grp["fold_parameter"].iloc[r]), float(grp[fold_y].iloc[r])
+            if not (np.isfinite(fx) and np.isfinite(fy)):
+                continue
+            row = next(i for i, p in enumerate(pts) if p[0] == x[r] and p[1] == v[r])
+
+            near = range(max(1, row - 3), min(len(pts), row + 2))
+            if len(near):
+                f = (fx, fy)
+                j = min(near, key=lambda k, f=f: dist(pts[k - 1], f) + dist(f, pts[k])
+                        - dist(pts[k - 1], pts[k]))
+                pts.insert(j, [fx, fy, pts[j - 1][2], True])
+    kinds = [pts[i - 1][2] if p[3] else p[2] for i, p in enumerate(pts)]
+    return (np.array([p[0] for p in pts]), np.array([p[1] for p in pts]), kinds)
 
 
 def branch_diagram(table: pd.DataFrame, path, *, parameter: str, units: str = "",
@@ -277,8 +379,9 @@ def branch_diagram(table: pd.DataFrame, path, *, parameter: str, units: str = ""
     """Bifurcation diagram of branch tables (:mod:`torchrom.study.branch`): ``y`` against the
     parameter, one colour per branch, stable orbits solid, unstable dashed, dotted where the
     Floquet verdict is unknown (``floquet_error``), the Hopf points
-    as open circles at zero amplitude, folds as diamonds (at their refined parameter). Only
-    what is drawn gets a legend entry; the legend sits outside the axes."""
+    as open circles at zero amplitude, folds as diamonds at their refined limit point, which
+    the curve passes through (:func:`branch_polyline`). Only what is drawn gets a legend entry;
+    the legend sits outside the axes."""
     import numpy as np
 
     path = check_can_write(path, force, "figure")
@@ -288,29 +391,25 @@ def branch_diagram(table: pd.DataFrame, path, *, parameter: str, units: str = ""
     drew = {"stable": False, "unstable": False, "unknown": False, "hopf": False, "fold": False}
     for b, grp in table.groupby("branch", sort=True):
         color = colors[int(b) % len(colors)]
-        grp = grp.sort_values("point")
-        x = grp[parameter].to_numpy(dtype=float)
-        v = grp[y].to_numpy(dtype=float)
-        st = grp["stable"].to_numpy(dtype=object)
         name = label_of(grp.iloc[0]) if label_of else f"branch {b}"
         ax.plot([], [], color=color, label=name)
-        for i in range(1, len(grp)):
-            stable = bool(st[i]) if st[i] is not None and not pd.isna(st[i]) else None
-            kind = "unknown" if stable is None else "stable" if stable else "unstable"
+        x, v, kinds = branch_polyline(grp.sort_values("point"), parameter, y)
+        for i in range(1, len(x)):
             ax.plot(x[i - 1: i + 1], v[i - 1: i + 1], color=color, lw=1.6,
-                    ls={"stable": "-", "unstable": "--", "unknown": ":"}[kind])
-            drew[kind] = True
-        hopf = (grp["kind"] == "hopf").to_numpy()
+                    ls={"stable": "-", "unstable": "--", "unknown": ":"}[kinds[i]])
+            drew[kinds[i]] = True
+        hopf = grp["kind"] == "hopf"
         if hopf.any():
-            ax.plot(x[hopf], v[hopf], "o", mfc="white", color=color, ms=7, zorder=3)
+            ax.plot(grp[parameter][hopf], grp[y][hopf], "o", mfc="white", color=color, ms=7,
+                    zorder=3)
             drew["hopf"] = True
-        folds = grp[grp["kind"] == "fold"]
-        fold_y = "fold_" + y if "fold_" + y in grp else None
-        for _, row in folds.iterrows():
-            if fold_y is None or not np.isfinite(row["fold_parameter"]):
-                continue
-            ax.plot(row["fold_parameter"], row[fold_y], "D", color=color, ms=7, zorder=3)
-            drew["fold"] = True
+        fold_y = "fold_" + y
+        if fold_y in grp:
+            for _, row in grp[grp["kind"] == "fold"].iterrows():
+                if np.isfinite(row["fold_parameter"]) and np.isfinite(row[fold_y]):
+                    ax.plot(row["fold_parameter"], row[fold_y], "D", color=color, ms=7,
+                            zorder=3)
+                    drew["fold"] = True
     handles = [plt.Line2D([], [], color="k", ls="-", label="stable LCO")] if drew["stable"] \
         else []
     if drew["unstable"]:
@@ -325,9 +424,11 @@ def branch_diagram(table: pd.DataFrame, path, *, parameter: str, units: str = ""
     first = ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=8, title="branch")
     ax.add_artist(first)
     ax.legend(handles=handles, loc="lower left", bbox_to_anchor=(1.01, 0.0), fontsize=8)
-    name = PARAMETER_NAMES.get(parameter, parameter)
+    from .units import column_name
+
+    name = column_name(parameter)
     ax.set_xlabel(f"{name} ({units})" if units else name)
-    ax.set_ylabel(y_label or y)
+    ax.set_ylabel(y_label or amplitude_label(table, y))
     ax.grid(alpha=0.3)
     if title:
         ax.set_title(title, fontsize=10)

@@ -5,7 +5,8 @@ pandas stores in the parquet file's metadata) and used to label figure axes.
 columns (:data:`KNOWN`) and the amplitudes in the units of the decision output (the model's
 length unit for a physical output such as point A's ``A_Tz``, ``-`` for generalized coordinates).
 :func:`column_units` reads them back (a CSV has no metadata: the known columns are still
-labelled).
+labelled). :func:`axis_label` names a column for a figure axis from :data:`LABELS` (one
+table for every plot of the package) with its unit.
 """
 
 from __future__ import annotations
@@ -50,9 +51,36 @@ def column_units(table: pd.DataFrame) -> dict[str, str]:
     return {**known, **dict(table.attrs.get("units", {}) or {})}
 
 
+#: what each known column measures, as figure axes and legends name it
+LABELS = {
+    "altitude_ft": "altitude", "mach": "Mach number", "alpha": "α", "gamma": "γ",
+    "stiffness_nl": "stiffness nonlinearity", "damping_nl": "damping nonlinearity",
+    "amplitude": "LCO amplitude", "amplitude_pct_span": "LCO amplitude",
+    "frequency_hz": "LCO frequency", "steps": "time steps", "t_end": "simulated time",
+    "amplitude_change": "amplitude change per cycle", "solver_error": "solver error",
+    "reference_altitude_ft": "reference altitude", "flutter_frequency_hz": "flutter frequency",
+    "growth_rate": "growth rate", "initial_amplitude": "initial amplitude",
+    "threshold_amplitude": "threshold amplitude", "floquet_multiplier": "Floquet multiplier",
+    "harmonic_distortion": "harmonic distortion", "q0": "initial q",
+}
+
+
+def column_name(column: str) -> str:
+    """What ``column`` measures (:data:`LABELS`; ``amplitude_<output>`` and ``ratio_<a>_<b>``
+    by pattern; the column's own name otherwise)."""
+    if column in LABELS:
+        return LABELS[column]
+    if column.startswith("ratio_") and column.count("_") == 2:
+        a, b = column.split("_")[1:]
+        return f"amplitude ratio {a}/{b}"
+    if column.startswith("amplitude_"):
+        return f"LCO amplitude of {column[len('amplitude_'):]}"
+    return column
+
+
 def axis_label(table: pd.DataFrame, column: str) -> str:
-    """``column (unit)``; ``column`` alone when the unit is unknown."""
+    """``name (unit)`` of a column (:func:`column_name`; ``-`` for a dimensionless one); the
+    name alone when the unit is unknown."""
     unit = column_units(table).get(column)
-    if not unit or column.lower().endswith(f"_{unit.lower()}"):  # altitude_ft, frequency_hz
-        return column
-    return f"{column} ({unit})"
+    name = column_name(column)
+    return f"{name} ({unit})" if unit else name
