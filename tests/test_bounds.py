@@ -128,8 +128,8 @@ def test_cli_threads_over_the_cores(tmp_path, capsys):
     for extra in ([], ["--allow-large"]):
         rc, err = _cli(capsys, ["sweep", cfg, "--out", tmp_path / "out", "--threads", "100000",
                                 *extra])
-        assert rc == 2
-        _one_line_error(err, "threads", "per core")
+        assert rc == 2  # the option's own check (1 to the cores), before the config's bound
+        _one_line_error(err, "--threads", "cores of this machine")
     assert not (tmp_path / "out").exists()
 
 

@@ -12,6 +12,9 @@ import numbers
 
 from .errors import InputError
 
+#: geometric altitude range of ambiance's USSA-76 model, m (torchrom.aero.atmosphere's)
+ALTITUDE_RANGE_M = (-5004.0, 81020.0)
+
 
 def real(name: str, value, *, positive: bool = False, nonnegative: bool = False,
          finite: bool = True) -> float:
@@ -70,11 +73,8 @@ PHYSICAL_RANGES = {
 
 def _range(name: str) -> tuple[float, float, str, str]:
     """The physical range of ``name``: :data:`PHYSICAL_RANGES`, or for ``altitude_ft`` the
-    atmosphere model's (its own table, read when asked so that this base module imports no
-    subpackage at import time)."""
+    atmosphere model's (:data:`ALTITUDE_RANGE_M`, which the atmosphere module uses too)."""
     if name == "altitude_ft":
-        from .aero.atmosphere import ALTITUDE_RANGE_M
-
         lo, hi = (h / 0.3048 for h in ALTITUDE_RANGE_M)
         return lo, math.nextafter(hi, math.inf), "ft", "the USSA-76 atmosphere's range"
     return PHYSICAL_RANGES.get(name, (-math.inf, math.inf, "", ""))

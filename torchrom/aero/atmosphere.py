@@ -21,6 +21,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..checks import ALTITUDE_RANGE_M
 from ..errors import InputError
 
 #: metres per foot (exact, international foot)
@@ -30,8 +31,6 @@ SLUG_PER_FT3 = 14.593902937206364 / FT**3
 #: Pa per lbf/ft²
 PSF = 4.4482216152605 / FT**2
 
-#: geometric altitude range of ambiance's USSA-76 model, m
-ALTITUDE_RANGE_M = (-5004.0, 81020.0)
 
 _UNITS = {
     # name: (metres per altitude unit, kg/m³ per density unit, Pa per pressure unit)

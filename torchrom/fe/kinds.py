@@ -13,6 +13,8 @@ translations "axial" content. The kind is the largest of the four sums of square
 
 from __future__ import annotations
 
+from collections.abc import Mapping
+
 import numpy as np
 
 KINDS = ("bending", "torsion", "in-plane", "axial")
@@ -87,3 +89,29 @@ def classify(fe, shapes: np.ndarray) -> tuple[list[str], list[dict[str, float]]]
         kinds.append(KINDS[int(np.argmax(parts))])
         fractions.append({k: float(v) for k, v in zip(KINDS, frac)})
     return kinds, fractions
+
+
+#: a share below this is left out of a kind's label
+SHOWN_SHARE = 0.05
+
+
+#: short names of the kinds (figure annotations)
+SHORT = {"bending": "b", "torsion": "t", "in-plane": "ip", "axial": "ax"}
+
+
+def kind_label(kind: str | None, content: Mapping[str, float] | None = None,
+               short: bool = False) -> str:
+    """``kind`` with the content shares of at least :data:`SHOWN_SHARE`, largest first, e.g.
+    "bending (0.44 bending, 0.29 in-plane, 0.26 torsion)" (``short``: "bending (b .44, ip .29,
+    t .26)"); the kind alone for a pure mode (no second share of :data:`SHOWN_SHARE`) or when
+    the shares are unknown."""
+    kind = kind or "unknown kind"
+    if not content:
+        return kind
+    shares = sorted(((v, k) for k, v in content.items() if v >= SHOWN_SHARE), reverse=True)
+    if len(shares) < 2:
+        return kind
+    if short:
+        parts = (f"{SHORT.get(k, k)} {v:.2f}".replace(" 0.", " .") for v, k in shares)
+        return f"{kind} ({', '.join(parts)})"
+    return f"{kind} ({', '.join(f'{v:.2f} {k}' for v, k in shares)})"

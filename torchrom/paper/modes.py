@@ -19,6 +19,8 @@ from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 
+from ..fe.kinds import kind_label as kind_label  # noqa: F401 - used by report and study
+
 #: our kinds each paper kind accepts
 COMPATIBLE = {"bending": ("bending",), "torsion": ("torsion",), "in-plane": ("in-plane",),
               "transverse": ("bending", "torsion"), "bending-torsion": ("bending", "torsion")}
@@ -36,32 +38,6 @@ def paper_mode_map(ours: Sequence[str | None], paper: Sequence[str]) -> dict[int
                 out[i + 1] = j + 1
                 break
     return out
-
-
-#: a share below this is left out of a kind's label
-SHOWN_SHARE = 0.05
-
-
-#: short names of the kinds (figure annotations)
-SHORT = {"bending": "b", "torsion": "t", "in-plane": "ip", "axial": "ax"}
-
-
-def kind_label(kind: str | None, content: Mapping[str, float] | None = None,
-               short: bool = False) -> str:
-    """``kind`` with the content shares of at least :data:`SHOWN_SHARE`, largest first, e.g.
-    "bending (0.44 bending, 0.29 in-plane, 0.26 torsion)" (``short``: "bending (b .44, ip .29,
-    t .26)"); the kind alone for a pure mode (no second share of :data:`SHOWN_SHARE`) or when
-    the shares are unknown."""
-    kind = kind or "unknown kind"
-    if not content:
-        return kind
-    shares = sorted(((v, k) for k, v in content.items() if v >= SHOWN_SHARE), reverse=True)
-    if len(shares) < 2:
-        return kind
-    if short:
-        parts = (f"{SHORT.get(k, k)} {v:.2f}".replace(" 0.", " .") for v, k in shares)
-        return f"{kind} ({', '.join(parts)})"
-    return f"{kind} ({', '.join(f'{v:.2f} {k}' for v, k in shares)})"
 
 
 def kind_margin(content: Mapping[str, float]) -> tuple[str, float, str, float]:

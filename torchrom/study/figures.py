@@ -361,7 +361,7 @@ def table2(modes: pd.DataFrame, path, *, force: bool = False,
     x = np.arange(1, n + 1)
     ax.bar(x - 0.2, m["frequency_hz"], 0.4, label="torchrom (FE reconstruction)")
     ax.bar(x + 0.2, ref.table2_hz[:n], 0.4, color="0.6", label="paper Table 2")
-    from ..paper.modes import kind_label
+    from ..fe.kinds import kind_label
 
     kinds = list(m["kind"]) if "kind" in m else [None] * n
     contents = list(m["content"]) if "content" in m else [None] * n
