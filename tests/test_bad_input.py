@@ -836,8 +836,12 @@ def test_star_import_exports_existing_modules():
 
 
 def test_damaged_cache_files_are_rebuilt(tmp_path):
-    """A cached JSON that no longer parses (flutter.json truncated) is a miss, not a
-    traceback; a damaged cache.json is replaced under --force, as its message advises."""
+    """A cached JSON damaged since it was written (flutter.json truncated: its SHA-256 differs
+    from the manifest's) is refused in one line naming --force, not a traceback, and rebuilt
+    under force; one that no longer parses without a recorded hash (an older manifest) is a
+    miss; a damaged cache.json is replaced under --force, as its message advises."""
+    import json
+
     from torchrom.paper.cache import MANIFEST, FileCache
 
     cache = FileCache(tmp_path)
@@ -845,6 +849,12 @@ def test_damaged_cache_files_are_rebuilt(tmp_path):
     cache.put("flutter.json", key, lambda p: p.write_text('{"ok": 1}'))
     assert FileCache(tmp_path).get_json("flutter.json", key) == {"ok": 1}
     (tmp_path / "flutter.json").write_text('{"ok": ')
+    with pytest.raises(InputError, match="--force"):
+        FileCache(tmp_path).get_json("flutter.json", key)
+    assert FileCache(tmp_path, force=True).get_json("flutter.json", key) is None
+    manifest = json.loads((tmp_path / MANIFEST).read_text())
+    manifest["files"]["flutter.json"].pop("sha256")
+    (tmp_path / MANIFEST).write_text(json.dumps(manifest))
     again = FileCache(tmp_path)
     assert again.get_json("flutter.json", key) is None and not again.hits
     (tmp_path / MANIFEST).write_text("{ not json")

@@ -104,8 +104,10 @@ class FileCache:
         return path
 
     def get_json(self, name: str, key: str) -> Any | None:
-        """The parsed JSON file ``name`` if cached under ``key`` and readable; a damaged one
-        (truncated, edited) is a miss, rebuilt by the caller."""
+        """The parsed JSON file ``name`` if cached under ``key`` and readable. A file changed
+        since it was written is refused as :meth:`get` refuses it (``force`` rebuilds it); one
+        that no longer parses without a recorded hash (an older manifest) is a miss, rebuilt
+        by the caller."""
         path = self.get(name, key)
         if path is None:
             return None

@@ -79,12 +79,11 @@ class Certificate:
 
 def _starts(system: CaseSystem, result: SimulationResult, idx: np.ndarray, row
             ) -> OrbitStart:
-    """The method's orbits of the cases ``idx`` as shooting starts."""
+    """The method's orbits of the cases ``idx`` of ``result`` as shooting starts (``system``:
+    those cases alone)."""
     if result.orbits is not None:
         X, w = result.orbits
-        t = torch.as_tensor(idx)
-        return start_from_fourier(system.select(t), torch.as_tensor(X[idx]),
-                                  torch.as_tensor(w[idx]), row)
+        return start_from_fourier(system, torch.as_tensor(X[idx]), torch.as_tensor(w[idx]), row)
     na = system.n_lag
     xi = (np.zeros((len(idx), na)) if result.xi is None else result.xi[idx])
     f = np.asarray(result.frequency_hz, dtype=float)[idx]
