@@ -14,7 +14,6 @@ import dataclasses
 import json
 import shutil
 
-import numpy as np
 import pandas as pd
 import pytest
 
@@ -227,24 +226,8 @@ def quick_hb(quick, tmp_path_factory):
     return out
 
 
-#: the largest LCO (4,000 ft, γ = 0, ~25 % of span): on the calibrated wing HB stayed ~0.7 %
-#: below the paper-setting Newmark at every H (twice its frequency lies near the first torsion
-#: mode); on the updated wing (issue 15) its harmonics converge slowly (below)
+#: the largest LCO (4,000 ft, γ = 0, ~25 % of span)
 LARGEST_LCO = {"altitude_ft": 4000.0, "gamma": 0.0, "stiffness_nl": 1.0, "damping_nl": 1.0}
-#: HB on the updated wing's large, nearly undamped LCOs (measured on the quick study). Their
-#: harmonics converge slowly (the flutter frequency's 5th and 6th harmonics straddle the
-#: in-plane mode 5): H ≈ 17–25 is needed, reached from a short time integration
-#: (torchrom.periodic.seed; experiments/hb_harmonic_convergence.py). Seeded: 4,000 ft γ = 0
-#: and 1e-5 s −0.83 % and −0.51 % from the quick Newmark sweep — whose own convergence test
-#: (0.1 % per cycle) leaves ~1 % on these slowly attracting orbits (Floquet multipliers ~0.9
-#: per period; on the full ROM at 4,000 ft HB is −0.36 % from a 60 s Newmark run) —, 7,000 ft
-#: γ = 1e-5 and 1e-4 s within 0.11 % (were +1.3 %, −0.77 %). Not seeded: 7,000 ft γ = 0 at
-#: H = 9, +1.8 % — a spurious orbit of the truncated problem that passes the adaptive-H test
-#: (amplitude change and truncation residual within the tolerances); every other case agrees
-#: (≤ 0.39 %)
-HB_KNOWN_FAILURES = [LARGEST_LCO] + [
-    {"altitude_ft": h, "gamma": g, "stiffness_nl": 1.0, "damping_nl": 1.0}
-    for h, g in ((4000.0, 1e-5), (7000.0, 0.0))]
 
 
 def _hb_newmark(quick, quick_hb):
@@ -253,33 +236,30 @@ def _hb_newmark(quick, quick_hb):
     keys = ["altitude_ft", "gamma", "stiffness_nl", "damping_nl"]
     both = nm.merge(hb, on=keys, suffixes=("_nm", "_hb"))
     assert len(both) == len(nm) == len(hb)
-    known = np.zeros(len(both), dtype=bool)
-    for case in HB_KNOWN_FAILURES:
-        known |= np.isclose(both["altitude_ft"], case["altitude_ft"]) & np.isclose(
-            both["gamma"], case["gamma"]) & (both["stiffness_nl"] == 1) & (both["damping_nl"] == 1)
-    return both, pd.Series(known, index=both.index)
+    return both
 
 
 def test_quick_hb_agrees_with_newmark(quick, quick_hb):
     """The Goland quick-study cases: every status as time marching decides it, LCO amplitudes
     within 0.5 % and frequencies within 0.2 % of the paper-setting Newmark sweep (issue
-    acceptance; the Newmark LCOs are themselves converged to 0.1 % per cycle), the known HB
-    failures on the updated wing apart (:data:`HB_KNOWN_FAILURES`)."""
-    both, known = _hb_newmark(quick, quick_hb)
-    assert (both.loc[~known, "status_nm"] == both.loc[~known, "status_hb"]).all()
-    lco = both[(both["status_nm"] == "lco") & ~known]
-    assert len(lco) >= 14
+    acceptance). Both sweeps certify every LCO by shooting on the same discrete map (the
+    updated wing's large, nearly undamped γ = 0 orbits, where HB at H ≤ 13 stopped 1–2 % away
+    and the Newmark transient ~1 % short, are finished to the same orbit), so their verdicts
+    agree and none is unknown."""
+    both = _hb_newmark(quick, quick_hb)
+    assert (both["status_nm"] == both["status_hb"]).all()
+    lco = both[both["status_nm"] == "lco"]
+    assert len(lco) >= 17
+    assert lco["certified_nm"].all() and lco["certified_hb"].all()
     amp = (lco["amplitude_hb"] / lco["amplitude_nm"] - 1).abs()
     freq = (lco["frequency_hz_hb"] / lco["frequency_hz_nm"] - 1).abs()
     assert amp.max() <= 5e-3, lco.loc[amp.idxmax(), ["altitude_ft", "gamma"]].to_dict()
     assert freq.max() <= 2e-3
-    # no damped LCO judged unstable, those with γ >= 5e-4 s judged stable (the nearly undamped
-    # dual modes of γ = 0 make its verdicts unreliable — README, report: on the updated wing
-    # 10,000 ft γ = 0 is judged unstable, largest multiplier 1.13 with floquet_error 0.045,
-    # although Newmark converges to it)
-    damped = lco[lco["gamma"] > 0]
-    assert not (damped["stable"] == False).any()  # noqa: E712 - nullable boolean column
-    assert lco.loc[lco["gamma"] >= 5e-4, "stable"].all()
+    # the stability of record is the shooting monodromy's: resolved for every LCO, the same
+    # verdict from both starts, and the paper's supercritical LCOs are stable
+    for suffix in ("_nm", "_hb"):
+        assert lco["stable" + suffix].notna().all()
+        assert lco["stable" + suffix].astype(bool).all()
     text = (quick_hb / "report.md").read_text()
     assert "## Harmonic balance confirmed by time marching" in text
     assert "## LCO branches from the flutter point" in text
@@ -289,19 +269,10 @@ def test_quick_hb_agrees_with_newmark(quick, quick_hb):
     ok = confirm[confirm["newmark_status"] == "lco"]
     big = (ok[list(LARGEST_LCO)] == pd.Series(LARGEST_LCO)).all(axis=1)
     assert len(ok[~big]) >= 6 and (ok.loc[~big, "amplitude_diff_pct"].abs() <= 0.5).all()
-    # the largest LCO: time marching from the HB orbit ends within 1 % (LARGEST_LCO)
+    # the largest LCO: time marching from the HB orbit ends within 1 % (its transient attracts
+    # by ~1 % per period, so a finite run stops short)
     assert (ok.loc[big, "amplitude_diff_pct"].abs() <= 1.0).all()
     assert (quick_hb / "figures" / FIGURE_FILES["branches"]).stat().st_size > 10_000
-
-
-@pytest.mark.xfail(strict=True, reason="HB fails on the updated wing's largest, nearly undamped "
-                                       "LCOs (HB_KNOWN_FAILURES)")
-def test_quick_hb_known_failures_agree_with_newmark(quick, quick_hb):
-    both, known = _hb_newmark(quick, quick_hb)
-    rows = both[known]
-    assert len(rows) == len(HB_KNOWN_FAILURES)
-    assert (rows["status_nm"] == rows["status_hb"]).all()
-    assert ((rows["amplitude_hb"] / rows["amplitude_nm"] - 1).abs() <= 5e-3).all()
 
 
 def test_quick_branches_are_supercritical(quick):
