@@ -5,7 +5,9 @@ final state of a time integration) the discrete periodic orbit of the Newmark ma
 certificate's step h (:mod:`.shooting`) is evaluated once from the method's orbit:
 
 - ``orbit_error``: the relative change of the decision output's amplitude that the Newton
-  correction makes — how far the reported orbit is from the exact discrete orbit;
+  correction makes — how far the reported orbit is from the exact discrete orbit; for a
+  continuous-time orbit (harmonic balance) from the Richardson extrapolation of the discrete
+  orbits at h and 2h, the continuous orbit to third order in h;
 - ``dt_error``: the discretisation error of the discrete orbit's amplitude by Richardson on
   two steps, |A(2h) − A(h)| / (3 A(h)) (Newmark is second order), A(2h) from one shooting
   evaluation at 2h;
@@ -74,7 +76,7 @@ class Certificate:
         integer("certificate.max_iterations", self.max_iterations, minimum=1)
 
     def options(self, dt: float, iterations: int) -> ShootingOptions:
-        return ShootingOptions(dt=dt, max_iterations=iterations)
+        return ShootingOptions(dt=dt, max_iterations=iterations, accept=self.tol)
 
 
 def _starts(system: CaseSystem, result: SimulationResult, idx: np.ndarray, row
@@ -91,6 +93,18 @@ def _starts(system: CaseSystem, result: SimulationResult, idx: np.ndarray, row
                       torch.as_tensor(result.v[idx], dtype=torch.float64),
                       torch.as_tensor(xi, dtype=torch.float64).reshape(len(idx), na),
                       torch.as_tensor(1.0 / f, dtype=torch.float64))
+
+
+def _state(start: OrbitStart) -> tuple:
+    return start.q, start.v, start.xi, start.period
+
+
+def _coarse_amplitude(system: CaseSystem, state: tuple, c, h: float) -> np.ndarray:
+    """The amplitude of the discrete orbit at 2h near ``state``, to second order in the
+    distance (one evaluation: half the steps of one at h)."""
+    r = shoot(system, OrbitStart(*state), c, options=ShootingOptions(dt=2 * h,
+                                                                       max_iterations=0))
+    return r.start_amplitude * (1 + r.first_amplitude_correction)
 
 
 def certify(system: CaseSystem, result: SimulationResult, rows, decision: int,
@@ -123,53 +137,79 @@ def certify(system: CaseSystem, result: SimulationResult, rows, decision: int,
         raise InputError(f"certificate.dt: expected a positive step, got {h}")
     sub = system.select(torch.as_tensor(idx)).to(dtype=torch.float64)
     start = _starts(sub, result, idx, c)
-    # one evaluation for every orbit (its certificate); Newton to the end only for the failures
-    r = shoot(sub, start, c, rows=C, options=certificate.options(h, 0))
+    start.amplitude = torch.as_tensor(amp[idx, decision])
+    # a time integration's orbit is one of the discrete map at h; a Fourier orbit is the
+    # continuous one, compared with the Richardson extrapolation of the discrete orbits at h
+    # and 2h (otherwise an exact continuous orbit would "fail" by the step's own error)
+    continuous = result.orbits is not None
+    one_pass = certificate.finish and not continuous
+    # one evaluation for every orbit (its certificate); in one pass, those that fail it or
+    # whose stability the start's monodromy leaves unknown (a start off a weakly attracting
+    # orbit moves the trivial multiplier) are iterated on to the discrete orbit (the finish)
+    r = shoot(sub, start, c, rows=C, options=certificate.options(
+        h, certificate.max_iterations if one_pass else 0))
     # the discrete orbit's amplitude to second order in the start's distance, against the
     # amplitude the method reported (a transient's last cycle is not the cycle that follows)
     a_h = r.start_amplitude * (1 + r.first_amplitude_correction)
-    err = np.abs(amp[idx, decision] / a_h - 1.0)
-    direct = err <= certificate.tol
-    orbit_error = err.copy()
-    finished = np.zeros(idx.size, dtype=bool)
-    iterations = np.zeros(idx.size, dtype=np.int64)
-    stable, critical, trivial = r.stable.copy(), r.critical_multiplier, r.trivial_error
-    state = (r.q, r.v, r.xi, r.period)
-    # finished: the orbits that failed their certificate, and those whose stability the
-    # start's monodromy leaves unknown (a start off a weakly attracting orbit moves the
-    # trivial multiplier): the converged orbit's monodromy resolves it
-    redo = ~direct | np.array([s is None for s in r.stable])
-    if certificate.finish and redo.any():
-        f = np.flatnonzero(redo)
-        tf = torch.as_tensor(f)
-        rf = shoot(sub.select(tf), OrbitStart(start.q[tf], start.v[tf], start.xi[tf],
-                                              start.period[tf]), c, rows=C,
-                   options=certificate.options(h, certificate.max_iterations))
-        ok = rf.converged
-        finished[f[ok]] = True
-        g, tg = f[ok], torch.as_tensor(np.flatnonzero(ok))
-        orbit_error[g] = np.abs(rf.amplitude_correction[ok])
-        a_h[g] = rf.amplitude[ok, decision]
-        iterations[f] = rf.iterations
-        stable[g], critical[g], trivial[g] = rf.stable[ok], rf.critical_multiplier[ok], \
-            rf.trivial_error[ok]
-        amp[idx[g]] = rf.amplitude[ok]
-        freq[idx[g]] = rf.frequency_hz[ok]
-        tgi = torch.as_tensor(g)
-        state = tuple(t.clone() for t in state)
-        for dst, src in zip(state, (rf.q, rf.v, rf.xi, rf.period)):
-            dst[tgi] = src[tg]
+    target, dt_error = a_h, np.full(idx.size, np.nan)
+    if continuous and certificate.richardson:
+        a_2h = _coarse_amplitude(sub, _state(start), c, h)
+        target = a_h + (a_h - a_2h) / 3.0
+        dt_error = np.abs(a_2h / a_h - 1.0) / 3.0
+    orbit_error = np.abs(amp[idx, decision] / target - 1.0)
+    stable, critical, trivial = r.stable.copy(), r.critical_multiplier.copy(), \
+        r.trivial_error.copy()
+    state = _state(start)
+    iterations = r.iterations.copy()
+    if one_pass:
+        fin = r
+        finished = r.converged & ~(r.accepted | (r.iterations == 0))
+        # a finish only for the stability that failed leaves the start's verdict unknown
+        stable[~finished & (r.iterations > 0)] = None
+        rows_f = np.arange(idx.size)
+    else:
+        redo = np.zeros(idx.size, dtype=bool)
+        if certificate.finish:
+            redo = (orbit_error > certificate.tol) | np.array([v is None for v in stable])
+        rows_f = np.flatnonzero(redo)
+        finished = np.zeros(idx.size, dtype=bool)
+        fin = None
+        if rows_f.size:
+            t = torch.as_tensor(rows_f)
+            fin = shoot(sub.select(t), OrbitStart(*(x[t] for x in state)), c, rows=C,
+                        options=dataclasses.replace(certificate.options(
+                            h, certificate.max_iterations), accept=None))
+            finished[rows_f] = fin.converged
+            iterations[rows_f] = fin.iterations
+    direct = (orbit_error <= certificate.tol) & ~finished
+    g = np.flatnonzero(finished)
+    if g.size:
+        j = np.searchsorted(rows_f, g)  # the finished rows in ``fin``
+        tj, tg = torch.as_tensor(j), torch.as_tensor(g)
+        orbit_error[g] = np.abs(fin.amplitude_correction[j])
+        amp[idx[g]] = fin.amplitude[j]
+        freq[idx[g]] = fin.frequency_hz[j]
+        stable[g], critical[g], trivial[g] = fin.stable[j], fin.critical_multiplier[j], \
+            fin.trivial_error[j]
+        state = tuple(x.clone() for x in state)
+        for dst, src in zip(state, (fin.q, fin.v, fin.xi, fin.period)):
+            dst[tg] = src[tj]
+        # Richardson for the discrete orbits finished to
+        dt_error[g] = np.nan
+        if continuous:
+            target = target.copy()
+            target[g] = fin.amplitude[j, decision]
     certified = direct | finished
-    # Richardson: the certified orbit (the method's, or the discrete one it was finished to)
+    # Richardson: the certified discrete orbits (a time integration's, or those finished to)
     # evaluated once at 2h (half the steps of one evaluation at h)
-    dt_error = np.full(idx.size, np.nan)
-    if certificate.richardson and certified.any():
-        cert = np.flatnonzero(certified)
-        tc = torch.as_tensor(cert)
-        coarse = shoot(sub.select(tc), OrbitStart(*(t[tc] for t in state)), c,
-                       options=certificate.options(2 * h, 0))
-        a_2h = coarse.start_amplitude * (1 + coarse.first_amplitude_correction)
-        dt_error[cert] = np.abs(a_2h / a_h[cert] - 1.0) / 3.0
+    coarse = np.flatnonzero(certified & np.isnan(dt_error))
+    if certificate.richardson and coarse.size:
+        tc = torch.as_tensor(coarse)
+        a_ref = (a_h if not continuous else target)[coarse]
+        if not continuous:
+            a_ref = np.where(finished[coarse], amp[idx[coarse], decision], a_ref)
+        a_2h = _coarse_amplitude(sub.select(tc), tuple(x[tc] for x in state), c, h)
+        dt_error[coarse] = np.abs(a_2h / a_ref - 1.0) / 3.0
     cols["certified"][idx] = certified
     cols["orbit_error"][idx] = orbit_error
     cols["dt_error"][idx] = dt_error

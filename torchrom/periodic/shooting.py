@@ -56,6 +56,13 @@ class ShootingOptions:
         max_iterations: Newton iterations per case (0: one evaluation, the certificate of
             the start: its correction and the monodromy there).
         max_step: largest scaled correction of one Newton step (larger ones are shortened).
+            The orbit's small, lightly damped coordinates take corrections a few times their
+            own size that are nearly linear: a tighter limit (0.3) slowed the finishes of the
+            Goland γ = 0 orbits to linear convergence without making any converge.
+        accept: with a start amplitude (:attr:`OrbitStart.amplitude`), a case whose first
+            evaluation puts the discrete orbit's amplitude within this (relative) of it, with
+            its stability resolved, is accepted as it is and not iterated (the certificate's
+            evaluation and its finish in one pass); None: every case is iterated.
         step_iterations: Newton iterations of the implicit equation in each time step (with
             the Jacobian refreshed at every one: from the extrapolated predictor three leave an
             error far below the orbit tolerance).
@@ -65,7 +72,8 @@ class ShootingOptions:
     dt: float = 1e-3
     tol: float = 1e-9
     max_iterations: int = 20
-    max_step: float = 0.3
+    max_step: float = 1.0
+    accept: float | None = None
     step_iterations: int = 3
     beta: float = 0.25
     gamma: float = 0.5
@@ -74,6 +82,8 @@ class ShootingOptions:
         real("shooting.dt", self.dt, positive=True)
         real("shooting.tol", self.tol, positive=True)
         real("shooting.max_step", self.max_step, positive=True)
+        if self.accept is not None:
+            real("shooting.accept", self.accept, positive=True)
         integer("shooting.max_iterations", self.max_iterations, minimum=0)
         integer("shooting.step_iterations", self.step_iterations, minimum=1)
         if not (0 < self.beta <= 0.5 and 0.5 <= self.gamma <= 1.0):
@@ -98,6 +108,8 @@ class OrbitStart:
     v: Tensor  # (B, n)
     xi: Tensor  # (B, na)
     period: Tensor  # (B,) s
+    #: (B,) the amplitude the method reports for each orbit (what ``accept`` compares with)
+    amplitude: Tensor | None = None
 
 
 @dataclass
@@ -107,7 +119,9 @@ class ShootingResult:
     Attributes:
         q, v, xi: the state at t = 0 (on the section through the start, see :func:`shoot`).
         period: T (s); ``steps``: N, the steps per period (h = T/N).
-        converged: (B,) bool; ``iterations``: Newton iterations used.
+        converged: (B,) bool; ``iterations``: Newton iterations used; ``accepted``: (B,)
+            bool, the starts accepted by ``options.accept`` (not iterated; their multipliers
+            are the start's).
         first_correction: (B,) scaled size of the first Newton correction — how far the start
             was from the discrete orbit (state components relative to their orbit maxima).
         first_amplitude_correction: (B,) the first Newton correction of the decision output's
@@ -139,6 +153,7 @@ class ShootingResult:
     trivial_error: np.ndarray
     critical_multiplier: np.ndarray
     stable: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=object))
+    accepted: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=bool))
 
     @property
     def frequency_hz(self) -> np.ndarray:
@@ -390,6 +405,9 @@ def shoot(system: CaseSystem, start: OrbitStart, decision_row, rows=None,
     section = torch.zeros(B, m, **f64)  # the phase condition's row, set on the first pass
     scale = torch.ones(B, m, **f64)
     converged = np.zeros(B, dtype=bool)
+    accepted = np.zeros(B, dtype=bool)
+    reported = (None if start.amplitude is None or o.accept is None
+                else np.asarray(start.amplitude.detach().cpu(), dtype=float).reshape(B))
     failed = ~ok.cpu().numpy()
     iterations = np.zeros(B, dtype=np.int64)
     nan = np.full(B, np.nan)
@@ -400,7 +418,7 @@ def shoot(system: CaseSystem, start: OrbitStart, decision_row, rows=None,
     triv, crit = nan.copy(), nan.copy()
     stable = np.full(B, None, dtype=object)
     for it in range(o.max_iterations + 1):
-        active = np.flatnonzero(~converged & ~failed)
+        active = np.flatnonzero(~converged & ~failed & ~accepted)
         if active.size == 0:
             break
         idx = torch.as_tensor(active, device=dev)
@@ -449,7 +467,13 @@ def shoot(system: CaseSystem, start: OrbitStart, decision_row, rows=None,
         last_amp[active] = a_new / a_now - 1.0
         amp[active] = amplitude_of_samples(out["y"][:, :, 1:], steps_np)
         done = (size_np <= o.tol) & good
-        final = done | (good & (it == o.max_iterations))
+        candidate = np.zeros_like(done)
+        if it == 0 and reported is not None:
+            # the start is accepted where the discrete orbit's amplitude (to second order in
+            # the start's distance) is within ``accept`` of the reported one
+            with np.errstate(invalid="ignore", divide="ignore"):
+                candidate = good & ~done & (np.abs(reported[active] / a_new - 1.0) <= o.accept)
+        final = done | candidate | (good & (it == o.max_iterations))
         if final.any():
             # the stability of the converged orbit (or, on the last pass, of the orbit nearest
             # the start that was reached: the certificate's monodromy)
@@ -461,8 +485,10 @@ def shoot(system: CaseSystem, start: OrbitStart, decision_row, rows=None,
             gi = active[d]
             mu[gi], triv[gi], crit[gi], stable[gi] = mus, te, cm, st
             converged[active[done]] = True
+        take = candidate & np.array([s is not None for s in stable[active]], dtype=bool)
+        accepted[active[take]] = True
         failed[active[~good]] = True
-        step = ~done & good
+        step = ~done & ~take & good
         if it == o.max_iterations or not step.any():
             continue
         # limit the step to max_step of the orbit's size in every scaled component
@@ -473,14 +499,14 @@ def shoot(system: CaseSystem, start: OrbitStart, decision_row, rows=None,
         x[gsel] = x[gsel] + dzs[sel, :m] * sc[sel]
         T[gsel] = T[gsel] * (1.0 + dzs[sel, m])
         iterations[active[step]] += 1
-    amp[~converged] = np.nan
+    amp[~(converged | accepted)] = np.nan
     return ShootingResult(q=x[:, :n], v=x[:, n:2 * n], xi=x[:, 2 * n:], period=T,
                           steps=N.cpu().numpy(), converged=converged, iterations=iterations,
                           first_correction=first, first_amplitude_correction=first_amp,
                           start_amplitude=start_amp, correction=last,
                           amplitude_correction=last_amp, amplitude=amp, multipliers=mu,
                           trivial_error=triv,
-                          critical_multiplier=crit, stable=stable)
+                          critical_multiplier=crit, stable=stable, accepted=accepted)
 
 
 def start_from_fourier(system: CaseSystem, X: Tensor, omega: Tensor, decision_row,
