@@ -29,6 +29,12 @@ def test_branch_of_the_subcritical_oscillator(tmp_path, capsys):
     fold = table[table["kind"] == "fold"]
     assert len(fold) == 1 and math.isfinite(fold["fold_parameter"].iloc[0])
     lco = table[table["kind"] != "hopf"]
+    # every orbit point certified by shooting on the Newmark map, its stability resolved (the
+    # monodromy's: the stability of record)
+    assert lco["certified"].astype(bool).all() and lco["stable"].notna().all()
+    # (dt_error is large near the Hopf point: the discrete map's Hopf point moves with the
+    # step and A ∝ √(α − α*) there, so it is only required to be reported)
+    assert (lco["orbit_error"] <= 1e-3).all() and lco["dt_error"].notna().all()
     assert not lco[lco["amplitude"] < fold["fold_amplitude"].iloc[0] * 0.95]["stable"].any()
     assert lco[lco["amplitude"] > fold["fold_amplitude"].iloc[0] * 1.05]["stable"].all()
     summary = json.loads((tmp_path / "br.json").read_text())

@@ -278,15 +278,20 @@ def test_quick_hb_agrees_with_newmark(quick, quick_hb):
 def test_quick_branches_are_supercritical(quick):
     """The branches from the flutter point in altitude (γ = 0 and 1e-3 s): both leave the Hopf
     point stable, without folds, down to 4,000 ft (the paper's supercritical LCOs); the damped
-    branch is stable all along. (At γ = 0 the large orbits, slow to converge in H, leave the
-    monodromy matrix short of the trivial multiplier: their verdicts are unknown, stated in the
-    report.)"""
+    branch is stable all along. Every orbit point is certified by shooting and its stability
+    (the shooting monodromy's) resolved, except the points listed as uncertified (their finish
+    failed), at most one per branch."""
     for row in _summary(quick)["hb"]["branches"]:
         assert row["stable_from_hopf"] and not row["folds_ft"]
         assert row["lowest_altitude_ft"] == pytest.approx(4000.0)
         assert 0 < row["amplitude_pct_span_there"] < 50
+        assert len(row["uncertified_altitudes_ft"]) <= 1
         if row["gamma"] > 0:
             assert not row["unstable_altitudes_ft"]
+    table = pd.read_csv(quick / "tables" / "lco_branches.csv")
+    lco = table[table["status"] == "lco"]
+    assert lco["certified"].astype(bool).all() and lco["stable"].notna().all()
+    assert (lco["orbit_error"] <= 1e-3).all()
 
 
 def test_secondary_sweeps_seed_only_unconverged_cases_and_are_cached_apart():

@@ -114,6 +114,7 @@ def branch_summary(branches: pd.DataFrame) -> list[dict[str, Any]]:
         lco = grp[grp["kind"] != "hopf"]
         low = lco.loc[lco["altitude_ft"].idxmin()] if len(lco) else None
         unstable = lco[lco["stable"] == False]  # noqa: E712 - nullable boolean column
+        uncertified = lco[lco["status"] != "lco"]
         out.append({"branch": int(b), "gamma": float(hopf["gamma"]),
                     "hopf_altitude_ft": float(hopf["altitude_ft"]),
                     "hopf_frequency_hz": float(hopf["frequency_hz"]),
@@ -122,6 +123,7 @@ def branch_summary(branches: pd.DataFrame) -> list[dict[str, Any]]:
                     "folds_ft": [float(x) for x in grp.loc[grp["kind"] == "fold",
                                                            "fold_parameter"]],
                     "unstable_altitudes_ft": [float(x) for x in unstable["altitude_ft"]],
+                    "uncertified_altitudes_ft": [float(x) for x in uncertified["altitude_ft"]],
                     "lowest_altitude_ft": float(low["altitude_ft"]) if low is not None else None,
                     "amplitude_pct_span_there": float(low["amplitude_pct_span"])
                     if low is not None and "amplitude_pct_span" in low else None,

@@ -390,13 +390,13 @@ def branches_section(rows: list[dict[str, Any]], figure: str | None) -> list[str
     """The LCO branches in altitude from the flutter (Hopf) point."""
     lines = ["## LCO branches from the flutter point", "",
              "Pseudo-arclength continuation of the periodic orbits (harmonic balance, H = 5) in "
-             "altitude from the Hopf point of each γ (matched α) down to 4,000 ft; stability "
-             "from the Floquet multipliers of every orbit. A branch that leaves the Hopf point "
+             "altitude from the Hopf point of each γ (matched α) down to 4,000 ft. Every orbit "
+             "is certified by shooting on the Newmark map at the sweep's step (the orbits H = 5 "
+             "leaves too far off are finished to the discrete orbit); the stability is the "
+             "shooting monodromy's (the stability of record), an orbit whose finish failed is "
+             "counted as uncertified, its stability unknown. A branch that leaves the Hopf point "
              "stable and has no fold is supercritical: no hysteresis, no LCO above the flutter "
-             "altitude. Where the monodromy matrix misses the trivial multiplier by more than "
-             "5 % the verdict is unknown (at γ = 0 the large orbits, which converge only slowly "
-             "in the number of harmonics near the 2:1 resonance with torsion); a multiplier "
-             "within the matrix's accuracy of 1 (near the Hopf point) is not called unstable.",
+             "altitude.",
              ""]
     lines += _table([[_f(r["gamma"], "{:g}"), _f(r["hopf_altitude_ft"], "{:,.1f}"),
                       _f(r["hopf_frequency_hz"], "{:.4f}"),
@@ -407,11 +407,13 @@ def branches_section(rows: list[dict[str, Any]], figure: str | None) -> list[str
                        f"{_f(max(r['unstable_altitudes_ft']), '{:,.0f}')} ft")
                       if r["unstable_altitudes_ft"] else "none",
                       _f(r["lowest_altitude_ft"], "{:,.0f}"),
-                      _f(r["amplitude_pct_span_there"], "{:.2f}"), r["points"]]
+                      _f(r["amplitude_pct_span_there"], "{:.2f}"), r["points"],
+                      ", ".join(_f(a, "{:,.0f}") for a in r.get("uncertified_altitudes_ft", []))
+                      or "none"]
                      for r in rows],
                     ["γ s", "Hopf altitude ft", "Hopf Hz", "leaves the Hopf point",
                      "folds (ft)", "unstable orbits", "lowest altitude ft",
-                     "amplitude there % span", "orbits"])
+                     "amplitude there % span", "orbits", "uncertified (ft)"])
     if figure:
         lines += ["", f"![LCO branches](figures/{Path(figure).name})"]
     return lines

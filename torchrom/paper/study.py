@@ -493,7 +493,7 @@ def _confirmation(cache: FileCache, cfg, model, model_hash: str, table: pd.DataF
 def _branches(cache: FileCache, cfg, model, model_hash: str, device, log) -> pd.DataFrame:
     """:func:`.hb.goland_branches`, cached by the model."""
     key = FileCache.key({"model": model_hash, "lco": repr(cfg.lco), "outputs": cfg.outputs,
-                         "branches": "altitude"})
+                         "branches": "altitude", "certificate": repr(cfg.certificate)})
     name = "tables/lco_branches.csv"
     found = cache.get(name, key)
     if found is not None:

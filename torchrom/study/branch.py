@@ -13,7 +13,12 @@ output), ``amplitude_pct_span``, ``frequency_hz``, ``amplitude_<output>`` and th
 ``ratio_q1_q2`` / ``ratio_q1_q4`` (when tracked), ``harmonic_distortion``, ``stable``,
 ``floquet_multiplier`` (modulus of the critical multiplier), ``harmonics`` (H),
 ``hb_residual``, ``iterations``, ``method`` ("hb"), and for fold rows the refined limit
-point ``fold_parameter`` / ``fold_amplitude`` (output units, half peak-to-peak).
+point ``fold_parameter`` / ``fold_amplitude`` (output units, half peak-to-peak). Every orbit
+point carries the LCO certificate (:mod:`torchrom.periodic.certify`, the configuration's
+``[certificate]``): its columns, ``stable`` from the shooting monodromy (the stability of
+record; ``floquet_multiplier`` stays the harmonic balance's), and where the certificate
+finished the orbit by shooting, the discrete orbit's amplitude and frequency (status
+``lco_uncertified`` where that failed).
 Glue; pandas for the table.
 """
 
@@ -31,9 +36,12 @@ from .._version import __version__
 from ..checks import physical
 from ..errors import InputError
 from ..periodic import BranchOptions, follow_branches
+from ..periodic.certify import COLUMNS as CERTIFICATE_COLUMNS
+from ..periodic.certify import certify
 from ..periodic.solve import orbit_amplitude
 from ..sim.metrics import amplitude_ratio
 from ..sim.newmark import output_matrix
+from ..sim.result import SimulationResult
 from .cases import case_system
 from .config import SweepConfig
 from .grid import distinct_cases
@@ -88,6 +96,40 @@ def branch_options(cfg: SweepConfig, parameter: str | None = None,
         raise InputError(f"[branch]: bad value ({exc})") from None
 
 
+def certify_points(builder, br, names: list[str], C: np.ndarray, cfg: SweepConfig
+                   ) -> list[dict] | None:
+    """Per orbit point of ``br`` (branch by branch, in order), the certificate's columns and
+    what they change (status, amplitudes, frequency, the stability of record); None when the
+    configuration's certificate is disabled or there is no orbit point."""
+    pts = [(b, pt) for b, pts in enumerate(br.points) for pt in pts if pt.kind != "hopf"]
+    if not cfg.certificate.enabled or not pts:
+        return None
+    system = builder(np.array([pt.parameter for _, pt in pts]), np.array([b for b, _ in pts]))
+    X = torch.stack([pt.X for _, pt in pts])
+    omega = np.array([pt.omega for _, pt in pts])
+    rows_t = torch.as_tensor(C, dtype=X.dtype)
+    status = np.full(len(pts), "lco", dtype=object)
+    amp = orbit_amplitude(X @ rows_t.T, status)
+    nan = np.full(len(pts), np.nan)
+    zeros = np.zeros((len(pts), system.n))
+    res = SimulationResult(names, status, np.zeros(len(pts), dtype=np.int64), nan, amp,
+                           omega / (2 * math.pi), nan, nan, zeros, zeros,
+                           orbits=(X.cpu().numpy(), omega))
+    res = certify(system, res, C, cfg.lco.decision_outputs[0], cfg.certificate,
+                  cfg.integrator.dt)
+    out = []
+    for i in range(len(pts)):
+        row = {k: res.extra[k][i] for k in CERTIFICATE_COLUMNS}
+        row["status"] = str(res.status[i])
+        if res.extra["finished"][i]:
+            row.update({"amplitude": float(res.amplitude[i, 0]),
+                        "frequency_hz": float(res.frequency_hz[i]),
+                        **{f"amplitude_{n}": float(res.amplitude[i, j])
+                           for j, n in enumerate(names)}})
+        out.append(row)
+    return out
+
+
 def run_branches(cfg: SweepConfig, parameter: str, options: BranchOptions, model=None,
                  device=None) -> BranchStudy:
     """Follow one branch per distinct case (without ``parameter``) of ``cfg``."""
@@ -111,6 +153,7 @@ def run_branches(cfg: SweepConfig, parameter: str, options: BranchOptions, model
     br = follow_branches(builder, len(base), decide, options)
     span = getattr(model, "span", None) or rom.metadata.get("span")
     rows_t = torch.as_tensor(C, dtype=torch.float64)
+    certificate = certify_points(builder, br, names, C, cfg)
     records = []
     for b, pts in enumerate(br.points):
         lco = [pt for pt in pts if pt.kind != "hopf"]
@@ -141,6 +184,8 @@ def run_branches(cfg: SweepConfig, parameter: str, options: BranchOptions, model
                             "harmonic_distortion": float(dist[k]),
                             **{f"amplitude_{n}": float(amp[k, j]) for j, n in enumerate(names)}})
                 k += 1
+                if certificate is not None:
+                    row.update(certificate.pop(0))
             fold_amp = math.nan
             if pt.fold:  # the refined limit point's amplitude, measured like the others
                 fold_amp = float(orbit_amplitude((pt.fold[2] @ rows_t.T)[None],
