@@ -14,7 +14,8 @@ certificate's step h (:mod:`.shooting`) is evaluated once from the method's orbi
 - ``stable``, ``critical_multiplier``, ``trivial_multiplier_error``: from the monodromy
   (the stability of record);
 - ``certified``: ``orbit_error`` ≤ ``tol``. Otherwise the orbit is finished by shooting
-  (``finish``; the row then reports the discrete orbit, ``finished`` True) or its status
+  (``finish``; the row then reports the discrete orbit, its state in ``q``, ``v``, ``xi``,
+  ``finished`` True) or its status
   becomes ``lco_uncertified`` with its numbers kept. An orbit whose start leaves the
   stability unknown (trivial multiplier not resolved) is finished too.
 
@@ -219,5 +220,12 @@ def certify(system: CaseSystem, result: SimulationResult, rows, decision: int,
     cols["finished"][idx] = finished
     cols["shooting_iterations"][idx] = iterations
     status[idx[~certified]] = UNCERTIFIED
+    # a finished row's state is its discrete orbit's (at the section through the start)
+    q, v = np.array(result.q, dtype=float, copy=True), np.array(result.v, dtype=float, copy=True)
+    xi = (np.zeros((B, system.n_lag)) if result.xi is None
+          else np.array(result.xi, dtype=float, copy=True))
+    for dst, src in zip((q, v, xi), state[:3]):
+        dst[idx[g]] = src[torch.as_tensor(g)].cpu().numpy()
     return dataclasses.replace(result, status=status, amplitude=amp, frequency_hz=freq,
+                               q=q, v=v, xi=xi if (result.xi is not None or g.size) else None,
                                extra={**result.extra, **cols})

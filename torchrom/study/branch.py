@@ -24,6 +24,7 @@ Glue; pandas for the table.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass
 from typing import Any
@@ -37,7 +38,8 @@ from ..checks import physical
 from ..errors import InputError
 from ..periodic import BranchOptions, follow_branches
 from ..periodic.certify import COLUMNS as CERTIFICATE_COLUMNS
-from ..periodic.certify import certify
+from ..periodic.certify import UNCERTIFIED, certify
+from ..periodic.shooting import start_from_fourier
 from ..periodic.solve import orbit_amplitude
 from ..sim.metrics import amplitude_ratio
 from ..sim.newmark import output_matrix
@@ -111,12 +113,14 @@ def certify_points(builder, br, names: list[str], C: np.ndarray, cfg: SweepConfi
     status = np.full(len(pts), "lco", dtype=object)
     amp = orbit_amplitude(X @ rows_t.T, status)
     nan = np.full(len(pts), np.nan)
-    zeros = np.zeros((len(pts), system.n))
+    # each orbit's state where the decision output peaks (a retry's start from a neighbour)
+    at = start_from_fourier(system, X, torch.as_tensor(omega), C[cfg.lco.decision_outputs[0]])
     res = SimulationResult(names, status, np.zeros(len(pts), dtype=np.int64), nan, amp,
-                           omega / (2 * math.pi), nan, nan, zeros, zeros,
-                           orbits=(X.cpu().numpy(), omega))
+                           omega / (2 * math.pi), nan, nan, at.q.numpy(), at.v.numpy(),
+                           xi=at.xi.numpy(), orbits=(X.cpu().numpy(), omega))
     res = certify(system, res, C, cfg.lco.decision_outputs[0], cfg.certificate,
                   cfg.integrator.dt)
+    res = _finish_from_neighbours(system, res, [b for b, _ in pts], C, cfg)
     out = []
     for i in range(len(pts)):
         row = {k: res.extra[k][i] for k in CERTIFICATE_COLUMNS}
@@ -128,6 +132,49 @@ def certify_points(builder, br, names: list[str], C: np.ndarray, cfg: SweepConfi
                            for j, n in enumerate(names)}})
         out.append(row)
     return out
+
+
+def _finish_from_neighbours(system, res: SimulationResult, branch: list[int], C: np.ndarray,
+                            cfg: SweepConfig) -> SimulationResult:
+    """``res`` with the points whose finish from their harmonic-balance orbit failed finished
+    again from the nearest certified point of the same branch: its discrete orbit carries the
+    small coordinates' high harmonics that a low-H orbit lacks (on the Goland γ = 0 branch the
+    H = 5 orbits of the largest LCOs are too far for Newton to reach from)."""
+    status = np.asarray(res.status)
+    bad = np.flatnonzero(status == UNCERTIFIED)
+    if not bad.size or not cfg.certificate.finish:
+        return res
+    branch_a = np.asarray(branch)
+    good = np.flatnonzero(status == "lco")
+    src = []
+    for i in bad:
+        same = good[branch_a[good] == branch_a[i]]
+        src.append(int(same[np.argmin(np.abs(same - i))]) if same.size else -1)
+    src = np.asarray(src)
+    bad, src = bad[src >= 0], src[src >= 0]
+    if not bad.size:
+        return res
+    t = torch.as_tensor(bad)
+    nan = np.full(bad.size, np.nan)
+    retry = SimulationResult(res.output_names, np.full(bad.size, "lco", dtype=object),
+                             np.zeros(bad.size, dtype=np.int64), nan, res.amplitude[src],
+                             res.frequency_hz[src], nan, nan, res.q[src], res.v[src],
+                             xi=res.xi[src])
+    again = certify(system.select(t), retry, C, cfg.lco.decision_outputs[0], cfg.certificate,
+                    cfg.integrator.dt)
+    ok = np.flatnonzero(np.asarray(again.extra["finished"], dtype=object) == True)  # noqa: E712
+    if not ok.size:
+        return res
+    rows = bad[ok]
+    status = status.copy()
+    status[rows] = again.status[ok]
+    amp, freq = res.amplitude.copy(), res.frequency_hz.copy()
+    amp[rows], freq[rows] = again.amplitude[ok], again.frequency_hz[ok]
+    extra = {k: np.array(v, copy=True) for k, v in res.extra.items()}
+    for k in CERTIFICATE_COLUMNS:
+        extra[k][rows] = np.asarray(again.extra[k])[ok]
+    return dataclasses.replace(res, status=status, amplitude=amp, frequency_hz=freq,
+                               extra=extra)
 
 
 def run_branches(cfg: SweepConfig, parameter: str, options: BranchOptions, model=None,
