@@ -70,6 +70,37 @@ def test_an_orbit_off_by_two_percent_is_finished_or_flagged():
     assert all(done.extra["finished"][lco]) and done.extra["finished"][1] is None
     assert (done.extra["orbit_error"][lco] < 1e-8).all()
     assert np.allclose(done.amplitude[lco, 0], res.amplitude[lco, 0], rtol=2e-4)
+    # a finished row's state is its discrete orbit's: one evaluation from it corrects nothing
+    again = shoot(system.select(lco), OrbitStart(torch.as_tensor(done.q[lco]),
+                                                 torch.as_tensor(done.v[lco]),
+                                                 torch.as_tensor(done.xi[lco]),
+                                                 torch.as_tensor(1 / done.frequency_hz[lco])),
+                  ROW[0], options=ShootingOptions(dt=dt, max_iterations=0))
+    assert (again.first_correction < 1e-8).all()
+
+
+def test_a_continuous_orbit_is_judged_against_the_extrapolated_discrete_orbits():
+    """An HB orbit converged in H (continuous time) against a tolerance of 1e-6: at 256 steps
+    per period the discrete orbit at dt is ~1.3e-6 off it (the map's (ωh)² error), so a
+    comparison with the discrete orbit alone would fail it; measured against the Richardson
+    extrapolation of the discrete orbits at dt and 2 dt it is certified as it is (not
+    finished), and its dt_error states the step's error (to 50 %: at 2 dt the extrapolation
+    leaves the O(dt⁴) term and the parabola's reading of 128 samples per period)."""
+    system = _system((0.0, 0.1))
+    res = HarmonicBalanceMethod(HBOptions(harmonics=15, max_harmonics=15)).run(
+        system, outputs=["sum"])
+    dt = float(1 / np.nanmax(res.frequency_hz)) / 256
+    tol = 1e-6
+    out = certify(system, res, ROW, 0, Certificate(tol=tol), dt)
+    assert list(out.status) == ["lco", "lco"]
+    assert not any(out.extra["finished"]) and all(out.extra["certified"])
+    assert (out.extra["orbit_error"] < tol).all()
+    discrete = shoot(system, OrbitStart(torch.as_tensor(res.q), torch.as_tensor(res.v),
+                                        torch.zeros(2, 0), torch.as_tensor(1 / res.frequency_hz)),
+                     ROW[0], options=ShootingOptions(dt=dt))
+    step_error = np.abs(discrete.amplitude[:, 0] / res.amplitude[:, 0] - 1)
+    assert (step_error > tol).all()
+    assert np.allclose(out.extra["dt_error"].astype(float), step_error, rtol=0.5)
 
 
 def test_the_certificate_bounds_the_error_against_the_continuous_orbit():
