@@ -178,8 +178,7 @@ def certify(system: CaseSystem, result: SimulationResult, rows, decision: int,
         if rows_f.size:
             t = torch.as_tensor(rows_f)
             fin = shoot(sub.select(t), OrbitStart(*(x[t] for x in state)), c, rows=C,
-                        options=dataclasses.replace(certificate.options(
-                            h, certificate.max_iterations), accept=None))
+                        options=certificate.options(h, certificate.max_iterations))
             finished[rows_f] = fin.converged
             iterations[rows_f] = fin.iterations
     direct = (orbit_error <= certificate.tol) & ~finished
@@ -197,18 +196,14 @@ def certify(system: CaseSystem, result: SimulationResult, rows, decision: int,
             dst[tg] = src[tj]
         # Richardson for the discrete orbits finished to
         dt_error[g] = np.nan
-        if continuous:
-            target = target.copy()
-            target[g] = fin.amplitude[j, decision]
     certified = direct | finished
     # Richardson: the certified discrete orbits (a time integration's, or those finished to)
     # evaluated once at 2h (half the steps of one evaluation at h)
     coarse = np.flatnonzero(certified & np.isnan(dt_error))
     if certificate.richardson and coarse.size:
         tc = torch.as_tensor(coarse)
-        a_ref = (a_h if not continuous else target)[coarse]
-        if not continuous:
-            a_ref = np.where(finished[coarse], amp[idx[coarse], decision], a_ref)
+        # the discrete orbit's amplitude at h: the finished one's, else the start's estimate
+        a_ref = np.where(finished[coarse], amp[idx[coarse], decision], a_h[coarse])
         a_2h = _coarse_amplitude(sub.select(tc), tuple(x[tc] for x in state), c, h)
         dt_error[coarse] = np.abs(a_2h / a_ref - 1.0) / 3.0
     cols["certified"][idx] = certified

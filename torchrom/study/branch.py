@@ -201,6 +201,7 @@ def run_branches(cfg: SweepConfig, parameter: str, options: BranchOptions, model
     span = getattr(model, "span", None) or rom.metadata.get("span")
     rows_t = torch.as_tensor(C, dtype=torch.float64)
     certificate = certify_points(builder, br, names, C, cfg)
+    certified_rows = iter(certificate or ())
     records = []
     for b, pts in enumerate(br.points):
         lco = [pt for pt in pts if pt.kind != "hopf"]
@@ -231,8 +232,7 @@ def run_branches(cfg: SweepConfig, parameter: str, options: BranchOptions, model
                             "harmonic_distortion": float(dist[k]),
                             **{f"amplitude_{n}": float(amp[k, j]) for j, n in enumerate(names)}})
                 k += 1
-                if certificate is not None:
-                    row.update(certificate.pop(0))
+                row.update(next(certified_rows, {}))
             fold_amp = math.nan
             if pt.fold:  # the refined limit point's amplitude, measured like the others
                 fold_amp = float(orbit_amplitude((pt.fold[2] @ rows_t.T)[None],
