@@ -339,7 +339,7 @@ def block_config_keys() -> str:
             rows.append(f"| `[{name}]` | " + ", ".join(f"`{k}`" for k in keys[name]) + " |")
     others = [f"`{n}`" for n in cfg.SECTIONS if n not in keys]
     return "\n".join([*rows, "", "Also at the top level: " + ", ".join(others)
-                       + f"; `method` is one of {', '.join(cfg.METHODS)}."])
+                       + f"; `method` is one of {', '.join(cfg.SOLVERS)}."])
 
 
 def bench_results() -> dict[str, Any]:

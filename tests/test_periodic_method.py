@@ -59,7 +59,7 @@ def test_same_table_as_time_marching(tables):
     """Statuses agree; LCO amplitudes and frequencies within 1e-3 (Newmark's own error at
     dt = 2 ms, see test_periodic_solve); HB's own columns are filled."""
     cfg, hb, nm = tables
-    assert cfg.method == "hb" and isinstance(cfg.solver, HarmonicBalanceMethod)
+    assert cfg.method == "hb" and isinstance(cfg.solver.method, HarmonicBalanceMethod)
     assert list(hb["status"]) == list(nm["status"]) == ["lco", "lco", "lco", "decay"]
     lco = hb["status"] == "lco"
     assert np.allclose(hb.loc[lco, "amplitude"], nm.loc[lco, "amplitude"], rtol=1e-3)
@@ -123,6 +123,6 @@ def test_bad_hb_options(tmp_path):
     path.write_text(CONFIG.replace("sensitivity = true", 'seed = "maybe"'))
     with pytest.raises(InputError, match="hb.seed: expected one of"):
         load_sweep_config(path)
-    path.write_text(CONFIG.replace('method = "hb"', 'method = "shooting"'))
+    path.write_text(CONFIG.replace('method = "hb"', 'method = "collocation"'))
     with pytest.raises(InputError, match="method"):
         load_sweep_config(path)

@@ -9,6 +9,10 @@ from typing import Any
 from ..io import write_figure as write_figure  # noqa: F401 - the commands' name for it
 from ..io import write_json_atomic
 
+#: the sweep solvers' names (torchrom.study.solvers.SOLVERS; spelled out here so that building
+#: the parser imports no torch)
+METHODS = ("newmark", "hb", "shooting")
+
 
 def add_precision_options(parser: argparse.ArgumentParser) -> None:
     """--device and --dtype of the batched integration."""
@@ -150,7 +154,7 @@ def add_executor_options(parser: argparse.ArgumentParser) -> None:
                             "(e.g. tcp://host:8786)")
     parser.add_argument("--chunk-size", type=positive_int, default=None, metavar="N",
                         help="cases per chunk of work (default: [run] chunk_size, else about 8 "
-                             "chunks, or one with method hb)")
+                             "chunks, or one with method hb or shooting)")
 
 
 def add_json_option(parser: argparse.ArgumentParser) -> None:
@@ -173,9 +177,11 @@ def add_study_options(parser: argparse.ArgumentParser, outputs: str) -> None:
     --json and --force: the options of the commands that simulate cases of a configuration."""
     parser.add_argument("--out", type=Path, required=True, metavar="DIR",
                         help=f"output folder ({outputs})")
-    parser.add_argument("--method", choices=("newmark", "hb"), default=None,
-                        help="time marching (newmark) or periodic orbits by harmonic balance "
-                             "(hb); default: the configuration's 'method' (newmark)")
+    parser.add_argument("--method", choices=METHODS, default=None,
+                        help="time marching (newmark), periodic orbits by harmonic balance "
+                             "(hb) or by shooting on the Newmark map from harmonic balance at "
+                             "the first H (shooting); default: the configuration's 'method' "
+                             "(newmark)")
     add_precision_options(parser)
     add_executor_options(parser)
     add_json_option(parser)

@@ -66,10 +66,8 @@ def run(args: argparse.Namespace) -> int:
     from ..study.table import table_paths, write_table
 
     device, dtype, cfg = load_study(args)
-    if cfg.method == "hb":  # Newton on γ with dA/dγ from the implicit-function theorem
-        import dataclasses
-
-        cfg = dataclasses.replace(cfg, hb=dataclasses.replace(cfg.hb, sensitivity=True))
+    # harmonic balance: Newton on γ with dA/dγ from the implicit-function theorem
+    cfg = cfg.solver.with_gamma_sensitivity(cfg)
     bases = distinct_cases(cfg.cases, ("gamma", "sample"))
     # every round scans --num values of γ per base case (and per open bracket: at most one)
     check_work(cfg, (args.rounds + 1) * args.num * max(len(bases), 1),

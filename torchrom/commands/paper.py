@@ -38,6 +38,10 @@ from pathlib import Path
 
 from ._common import add_force_option, add_json_option, check_outputs, maybe_write_json
 
+#: the study's LCO solvers (names of torchrom.study.solvers.SOLVERS; the default first): the
+#: paper's time marching, or harmonic balance with a Newmark confirmation of a subset
+PAPER_METHODS = ("newmark", "hb")
+
 NAME = "paper"
 HELP = "the paper's whole post-flutter LCO study: model, flutter, sweeps, figures, report.md"
 
@@ -47,7 +51,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="output folder (default: paper, or paper-quick with --quick)")
     parser.add_argument("--quick", action="store_true",
                         help="reduced study: coarser grids, shorter runs (a few minutes)")
-    parser.add_argument("--method", choices=("newmark", "hb"), default="newmark",
+    parser.add_argument("--method", choices=PAPER_METHODS, default=PAPER_METHODS[0],
                         help="LCOs by time marching (newmark, the paper's) or by harmonic "
                              "balance (hb: periodic orbits, a Newmark confirmation of a subset "
                              "and the branches from the flutter point)")
@@ -64,7 +68,7 @@ def run(args: argparse.Namespace) -> int:
     from ._common import torch_device
 
     out = args.out or Path(("paper-quick" if args.quick else "paper")
-                           + ("-hb" if args.method == "hb" else ""))
+                           + ("" if args.method == PAPER_METHODS[0] else f"-{args.method}"))
     check_outputs(args, [])  # --json; the folder itself is checked by run_paper
     device = torch_device(args.device)
     t0 = time.perf_counter()

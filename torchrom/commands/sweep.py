@@ -133,9 +133,7 @@ def _run_in(out: Path, args: argparse.Namespace, cfg, model, device, dtype) -> i
     from ..progress import Progress, info
 
     with open_executor(args.workers, args.scheduler) as executor:
-        how = (f"harmonic balance (H {cfg.hb.options.harmonics}..{cfg.hb.options.max_harmonics}"
-               f", {cfg.hb.start} starts)" if cfg.method == "hb" else
-               f"dt = {cfg.integrator.dt:g} s, t_end = {cfg.t_end:g} s")
+        how = cfg.solver.describe(cfg)
         info(f"torchrom sweep: {len(cfg.cases)} cases of '{cfg.title}' ({args.config}) on "
              f"{device}/{args.dtype}, {executor.description}, {how}")
         with Progress(len(cfg.cases), "cases done") as bar:
@@ -169,14 +167,7 @@ def _run_in(out: Path, args: argparse.Namespace, cfg, model, device, dtype) -> i
     chunks = f"{timing['chunks']} chunk{'' if timing['chunks'] == 1 else 's'}"
     print(f"cases: {timing['computed']} computed in {chunks}, "
           f"{timing['reused']} reused from {out / 'parts'}")
-    if cfg.method == "hb":
-        print(f"time: {timing['elapsed_s']:.1f} s elapsed, {timing['wall_time_s']:.1f} s "
-              f"solving, {timing['case_steps']} Newton iterations, "
-              f"{1e3 * timing['wall_time_s'] / max(timing['computed'], 1):.1f} ms per case")
-    else:
-        print(f"time: {timing['elapsed_s']:.1f} s elapsed, {timing['wall_time_s']:.1f} s "
-              f"integrating, {timing['case_steps']} case-steps, "
-              f"{timing['us_per_case_step']:.2f} us per case-step")
+    print(f"time: {timing['elapsed_s']:.1f} s elapsed, {cfg.solver.cost_line(timing)}")
     for p in (*written.values(), *([figure] if drawn else []), *extra):
         print(f"wrote {p}")
     maybe_write_json(args, table.to_dict(orient="records"))

@@ -64,7 +64,7 @@ def lco_cycle(model, cfg, altitude_ft: float, t_end: float | None = None,
     system, _ = case_system(model, cases, torch.device("cpu"), torch.float64)
     # the sweep's deciding output (its first; the ROM's first output if it names none)
     names, C = rom.output_matrix([(cfg.outputs or list(rom.outputs))[0]])
-    if getattr(cfg, "method", "newmark") == "hb":  # the orbit itself, sampled finely
+    if not cfg.solver.marches_time:  # a periodic orbit itself, sampled finely
         # reached along a chain of altitudes from near flutter (warm starts, robust)
         alts = [float(altitude_ft) + HB_CHAIN_STEP_FT * k for k in range(
             int((model.reference_altitude() - float(altitude_ft)) // HB_CHAIN_STEP_FT) + 1)]

@@ -14,6 +14,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from ..study.solvers import DEFAULT_METHOD, SOLVERS
 from .findings import AGREE, DIFFER, PAPER_GAMMAS, Finding, curve_table
 from .modes import kind_label, kind_margin
 
@@ -499,9 +500,9 @@ def render(summary: dict[str, Any], findings: list[Finding], table: pd.DataFrame
     rows = [[k, _f(v, "{:.1f}"), _f(summary["cpu_seconds"].get(k), "{:.1f}")]
             for k, v in summary["seconds"].items()]
     lines += _table(rows, ["stage", "wall time (s)", "CPU time (s)"])
-    if summary.get("method") == "hb":
+    if not SOLVERS[summary.get("method", DEFAULT_METHOD)].marches_time:
         ms = 1e3 * summary["lco"]["wall_time_s"] / max(summary["lco"]["cases"], 1)
-        sweep = (f" LCO sweep by harmonic balance: {summary['lco']['cases']} cases, "
+        sweep = (f" LCO sweep by {summary['method']}: {summary['lco']['cases']} cases, "
                  f"{summary['lco']['case_steps']:,} Newton iterations, {_f(ms, '{:.1f}')}"
                  f" ms per case{' (reused)' if summary['lco']['reused'] else ''}.")
     else:

@@ -44,6 +44,7 @@ from ..study.config import load_sweep_config, with_method
 from ..study.grid import config_hash
 from ..study.models import alpha_gamma_table
 from ..study.plots import branch_diagram
+from ..study.solvers import DEFAULT_METHOD
 from ..study.sweep import run_sweep
 from ..study.table import write_histories
 from . import findings as fnd
@@ -111,10 +112,11 @@ def _check_folder(out: Path, force: bool) -> None:
 
 def run_paper(out, *, quick: bool = False, force: bool = False, device: str = "cpu",
               dtype: torch.dtype = torch.float64, log: Callable[[str], None] = print,
-              method: str = "newmark") -> dict[str, Any]:
+              method: str = DEFAULT_METHOD) -> dict[str, Any]:
     """Run the study into ``out`` and return the summary written to ``paper.json``.
 
-    ``method``: "newmark" (the paper's time marching) or "hb" (the LCOs of Figs. 10, 12, 13 by
+    ``method``: a sweep solver (:mod:`torchrom.study.solvers`): "newmark" (the paper's time
+    marching) or one of periodic orbits, e.g. "hb" (the LCOs of Figs. 10, 12, 13 by
     harmonic balance, with a Newmark confirmation of a subset started on the HB orbits, which
     also gives Fig. 11, and the LCO branches in altitude from the flutter point,
     :mod:`.hb`). The folder is locked for the run (:mod:`torchrom.locks`: a second study
@@ -172,10 +174,10 @@ def _run_paper(out: Path, quick: bool, force: bool, device: str, dtype: torch.dt
     watch.start()
     cfg = with_method(load_sweep_config(config_path("paper_lco.toml"), variant), method)
     hb_info: dict[str, Any] = {}
-    if method == "hb":
+    if not cfg.solver.marches_time:  # periodic orbits: histories from a Newmark confirmation
         table, _, lco_info, orbits = _lco_sweep(cache, dataclasses.replace(cfg, history=None),
                                                 model, model_hash, device, dtype, log,
-                                                name="lco_hb")
+                                                name=_sweep_name("lco", cfg))
         watch.stop("LCO sweep (Figs. 10-13)")
         watch.start()
         confirm, histories = _confirmation(cache, cfg, model, model_hash, table, orbits, device,
@@ -223,7 +225,8 @@ def _run_paper(out: Path, quick: bool, force: bool, device: str, dtype: torch.dt
     # -- the other wing variant(s) -------------------------------------------------------------
     watch.start()
     base = QUICK_PIPELINE if quick else FULL_PIPELINE
-    cfg_v = cfg if method == "newmark" else dataclasses.replace(_secondary(cfg), history=None)
+    cfg_v = (cfg if cfg.solver.marches_time
+             else dataclasses.replace(_secondary(cfg), history=None))
     variants = {
         name: variant_study(
             name, base, out / f"model_{name}", [c.get("gamma", 0.0) for c in cfg9.cases],
@@ -323,7 +326,7 @@ def _secondary(cfg):
     share the step; a third of the certificate's cost)."""
     cfg = dataclasses.replace(cfg, certificate=dataclasses.replace(cfg.certificate,
                                                                    richardson=False))
-    if cfg.method != "hb" or cfg.hb.seed == "off":
+    if cfg.hb.seed == "off":  # (the [hb] method: a time-marching solver does not read it)
         return cfg
     return dataclasses.replace(cfg, hb=dataclasses.replace(cfg.hb, seed="unconverged"))
 
@@ -386,8 +389,7 @@ def _damping_check(cache: FileCache, cfg, main, quick: bool, out: Path, force: b
     model = res.model
     cfg_x = dataclasses.replace(_secondary(cfg), cases=damping_check_cases(cfg), history=None)
     table, _, info, _ = _lco_sweep(cache, cfg_x, model, model.content_hash(), device, dtype,
-                                   log, name="lco_exact_damping" + ("_hb" if cfg.method == "hb"
-                                                                    else ""))
+                                   log, name=_sweep_name("lco_exact_damping", cfg))
     found = fnd.fig10_acceptance(table)
     for f in found:
         log(f"  exact damping: {f.key}: {f.verdict} ({f.ours})")
@@ -519,6 +521,12 @@ def _branches(cache: FileCache, cfg, model, model_hash: str, device, log) -> pd.
     return table
 
 
+def _sweep_name(name: str, cfg) -> str:
+    """A sweep's cache folder name: ``name``, suffixed with the method unless it is the
+    default (the paper's time marching)."""
+    return name if cfg.method == DEFAULT_METHOD else f"{name}_{cfg.method}"
+
+
 def _sweep_key(cfg, model_hash: str, device, dtype) -> str:
     """The cache key of a sweep: the configuration, its cases and history, and the solver's
     own settings too — the study adjusts them after loading (:func:`_secondary`), which the
@@ -536,7 +544,7 @@ def _lco_sweep(cache: FileCache, cfg, model, model_hash: str, device, dtype, log
     key = _sweep_key(cfg, model_hash, device, dtype)
     names = (f"sweeps/{name}/results.parquet", f"sweeps/{name}/histories.parquet",
              f"sweeps/{name}/timing.json") + ((f"sweeps/{name}/orbits.parquet",)
-                                              if cfg.method == "hb" else ())
+                                              if cfg.solver.writes_orbits else ())
     found = [cache.get(n, key) for n in names]
     if all(p is not None for p in found):
         log(f"LCO sweep: reusing {found[0]}")
@@ -544,8 +552,7 @@ def _lco_sweep(cache: FileCache, cfg, model, model_hash: str, device, dtype, log
         return (pd.read_parquet(found[0]), pd.read_parquet(found[1]),
                 {**timing, "reused": True, "reused_files": list(names)},
                 pd.read_parquet(found[3]) if len(found) > 3 else None)
-    how = ("harmonic balance" if cfg.method == "hb" else
-           f"dt = {cfg.integrator.dt:g} s, up to {cfg.t_end:g} s")
+    how = cfg.solver.describe(cfg)
     log(f"LCO sweep: {len(cfg.cases)} cases of '{cfg.title}', {how}")
     from ..progress import Progress
 
@@ -563,11 +570,10 @@ def _lco_sweep(cache: FileCache, cfg, model, model_hash: str, device, dtype, log
                                   on_orbits=orb.append, out=cache.folder / "sweeps" / name,
                                   force=True, context=key, log=bar.write)
     histories = pd.concat(hist, ignore_index=True) if hist else pd.DataFrame()
-    orbits = pd.concat(orb, ignore_index=True) if cfg.method == "hb" and orb else None
+    orbits = pd.concat(orb, ignore_index=True) if cfg.solver.writes_orbits and orb else None
     counts = table["status"].value_counts().to_dict()
     log("  status: " + ", ".join(f"{k} {v}" for k, v in sorted(counts.items())) +
-        (f"; {1e3 * timing['wall_time_s'] / max(len(table), 1):.1f} ms per case"
-         if cfg.method == "hb" else f"; {timing['us_per_case_step']:.0f} us per case-step"))
+        f"; {cfg.solver.cost_line(timing)}")
     info = {"cases": len(table), "case_steps": int(timing["case_steps"]),
             "wall_time_s": float(timing["wall_time_s"]),
             "us_per_case_step": float(timing["us_per_case_step"]),

@@ -57,6 +57,8 @@ class Certificate:
         dt: the step of the discrete orbit (s); None: the run's integrator step.
         max_iterations: Newton iterations of a finish (the Goland γ = 0 orbits of harmonic
             balance at H ≤ 9, 1.5–3.5 % off, need more than 12).
+        always_finish: finish every LCO to the discrete orbit, also those within ``tol`` (the
+            shooting solver's rows are discrete orbits, not its predictor's).
     """
 
     enabled: bool = True
@@ -65,9 +67,10 @@ class Certificate:
     richardson: bool = True
     dt: float | None = None
     max_iterations: int = 20
+    always_finish: bool = False
 
     def __post_init__(self):
-        for name in ("enabled", "finish", "richardson"):
+        for name in ("enabled", "finish", "richardson", "always_finish"):
             if not isinstance(getattr(self, name), bool):
                 raise InputError(f"certificate.{name}: expected true or false, got "
                                  f"{getattr(self, name)!r}")
@@ -77,7 +80,8 @@ class Certificate:
         integer("certificate.max_iterations", self.max_iterations, minimum=1)
 
     def options(self, dt: float, iterations: int) -> ShootingOptions:
-        return ShootingOptions(dt=dt, max_iterations=iterations, accept=self.tol)
+        return ShootingOptions(dt=dt, max_iterations=iterations,
+                               accept=None if self.always_finish else self.tol)
 
 
 def _starts(system: CaseSystem, result: SimulationResult, idx: np.ndarray, row
@@ -171,7 +175,8 @@ def certify(system: CaseSystem, result: SimulationResult, rows, decision: int,
     else:
         redo = np.zeros(idx.size, dtype=bool)
         if certificate.finish:
-            redo = (orbit_error > certificate.tol) | np.array([v is None for v in stable])
+            redo = ((orbit_error > certificate.tol) | np.array([v is None for v in stable])
+                    | certificate.always_finish)
         rows_f = np.flatnonzero(redo)
         finished = np.zeros(idx.size, dtype=bool)
         fin = None

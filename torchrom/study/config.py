@@ -2,7 +2,8 @@
 
 Tables ``[model]``, ``[aeroelastic]``, ``[initial]``, ``[integrator]``, ``[hb]``, ``[lco]``,
 ``[certificate]``, ``[cases]``, ``[history]``, ``[branch]``, ``[plot]``, ``[run]``,
-``[variants.NAME]`` and the keys ``title`` and ``method`` ("newmark" or "hb"); the keys each
+``[variants.NAME]`` and the keys ``title`` and ``method`` ("newmark", "hb" or "shooting": the
+solvers of :mod:`.solvers`); the keys each
 table accepts are :data:`TABLE_KEYS` (the user guide's table is generated from them).
 Everything is checked when the file is read, before any output is written — keys, values
 (:data:`VALUE_CHECKS`, the Newmark and LCO options' own checks, physical ranges, the work and
@@ -38,12 +39,11 @@ from .cases import (
 )
 from .grid import config_hash, expand_cases
 from .models import AeroelasticModel, model_provider, model_rom, provider_names
+from .solvers import DEFAULT_METHOD, SOLVERS, Solver, make_solver
 from .starts import check_start
 
 SECTIONS = ("title", "method", "model", "aeroelastic", "initial", "integrator", "hb", "lco",
             "certificate", "cases", "history", "plot", "run", "branch", "variants")
-#: sweep methods: time marching or harmonic balance
-METHODS = ("newmark", "hb")
 _HB_OPTION_KEYS = ("start_harmonics", "harmonics", "max_harmonics", "amplitude_rtol",
                    "residual_tol", "start_amplitude", "amplitude_scale", "max_stages",
                    "metric_points")
@@ -126,16 +126,16 @@ class SweepConfig:
     raw: dict[str, Any] = field(default_factory=dict, repr=False)
     aeroelastic: dict[str, Any] | None = None
     history: HistorySpec | None = None
-    method: str = "newmark"
+    method: str = DEFAULT_METHOD
     hb: HarmonicBalanceMethod = field(default_factory=HarmonicBalanceMethod)
     certificate: Certificate = field(default_factory=Certificate)
     allow_large: bool = False
 
     @property
-    def solver(self):
-        """What runs the cases: the time integrator or the harmonic balance method (both have
-        ``run(system, q0, v0, t_end=…, outputs=…, lco=…, …) -> SimulationResult``)."""
-        return self.hb if self.method == "hb" else self.integrator
+    def solver(self) -> Solver:
+        """What runs the cases (:mod:`.solvers`): the solver named by ``method``, built from the
+        integrator and the ``[hb]`` method."""
+        return make_solver(self.method, self.integrator, self.hb)
 
     @property
     def hash(self) -> str:
@@ -317,19 +317,19 @@ def load_sweep_config(path, variant: str | None = None) -> SweepConfig:
     model = _table(raw, "model", source)
     initial = _checked_table(raw, "initial", source)
 
-    method = raw.get("method", "newmark")
-    if method not in METHODS:
-        raise _err(source, "method", f"expected one of {list(METHODS)}, got {method!r}")
+    method = raw.get("method", DEFAULT_METHOD)
+    if method not in SOLVERS:
+        raise _err(source, "method", f"expected one of {list(SOLVERS)}, got {method!r}")
     integ = _checked_table(raw, "integrator", source)
     dt = _positive(integ, "dt", source, "[integrator]", 1e-3)
-    # harmonic balance simulates no time: t_end is needed by time marching only
+    # periodic-orbit solvers simulate no time: t_end is needed by time marching only
     t_end = _positive(integ, "t_end", source, "[integrator]",
-                      math.inf if method == "hb" else None)
+                      None if SOLVERS[method].marches_time else math.inf)
     hb = hb_method(_table(raw, "hb", source), source)
     certificate = certificate_of(_table(raw, "certificate", source), source)
     try:
         newmark = Newmark(dt=dt, **{k: integ[k] for k in _NEWMARK_KEYS if k in integ})
-        if method == "newmark":
+        if SOLVERS[method].marches_time:
             newmark.step_count(t_end)
     except InputError as exc:
         raise _err(source, "[integrator]", str(exc)) from None
@@ -419,13 +419,13 @@ def certificate_of(table: dict[str, Any], source: Path, where: str = "[certifica
 
 
 def with_method(cfg: SweepConfig, method: str | None) -> SweepConfig:
-    """A copy that runs with ``method`` ("newmark" or "hb"; None: unchanged). The method is
-    part of the configuration's hash, so the two never share stored results."""
+    """A copy that runs with ``method`` (a key of :data:`~.solvers.SOLVERS`; None: unchanged).
+    The method is part of the configuration's hash, so two never share stored results."""
     if method is None or method == cfg.method:
         return cfg
-    if method not in METHODS:
-        raise InputError(f"--method: expected one of {list(METHODS)}, got {method!r}")
-    if method == "newmark" and not math.isfinite(cfg.t_end):
+    if method not in SOLVERS:
+        raise InputError(f"--method: expected one of {list(SOLVERS)}, got {method!r}")
+    if SOLVERS[method].marches_time and not math.isfinite(cfg.t_end):
         raise InputError(f"{cfg.source}: [integrator] t_end: missing (time marching needs it)")
     return dataclasses.replace(cfg, method=method, raw={**cfg.raw, "method": method})
 
@@ -436,57 +436,28 @@ def check_work(cfg: SweepConfig, n_cases: int | None = None, what: str = "cases"
     estimate and ``--allow-large``). ``n_cases``: the cases a command will run in all (e.g. a
     calibration's rounds × values × base cases; default the configuration's cases), named
     ``what`` in the message."""
-    from ..bounds import (
-        MAX_CASES,
-        MAX_ITERATIONS,
-        MAX_WORK,
-        check_count,
-        check_harmonic_balance_effort,
-        check_threads,
-    )
+    from ..bounds import MAX_CASES, MAX_ITERATIONS, check_count, check_threads
 
     check_threads(f"{cfg.source}: [integrator] threads", cfg.integrator.threads,
                   override=cfg.allow_large)
     for key in ("iterations", "startup_iterations"):
         check_count(f"{cfg.source}: [integrator] {key}", "iterations per step",
                     getattr(cfg.integrator, key) or 0, MAX_ITERATIONS, override=cfg.allow_large)
-    if cfg.method != "newmark":
-        hb = cfg.hb
-        check_harmonic_balance_effort(f"{cfg.source}: [hb]", {
-            "max_stages": hb.options.max_stages, "metric_points": hb.options.metric_points,
-            "floquet_steps": hb.floquet_steps}, override=cfg.allow_large)
     n = len(cfg.cases) if n_cases is None else n_cases
     if n_cases is not None:
         check_count(f"{cfg.source}", what, n, MAX_CASES, override=cfg.allow_large)
-    if cfg.method != "newmark":
-        return
-    steps = cfg.integrator.step_count(cfg.t_end)
-    iterations = max(cfg.integrator.iterations, cfg.integrator.startup_iterations or 0)
-    check_count(f"{cfg.source}: [cases] x [integrator]",
-                f"{what} x steps x iterations ({n} x {steps} x {iterations})",
-                float(n) * steps * iterations, MAX_WORK, override=cfg.allow_large)
+    cfg.solver.check_effort(cfg, n, what)
 
 
 def check_memory(cfg: SweepConfig, model, device=None, dtype=None) -> None:
     """The largest allocation of the run, estimated from the model's size before any work:
-    harmonic balance (:func:`torchrom.bounds.check_harmonic_balance`) or the integrator's
-    B × n² matrices (:func:`torchrom.bounds.check_memory`)."""
+    the solver's (harmonic balance: :func:`torchrom.bounds.check_harmonic_balance`; time
+    marching: the integrator's B × n² matrices)."""
     import torch
 
-    from .. import bounds
-
-    n = model_rom(model).n
     batch = min(cfg.batch_size, max(len(cfg.cases), 1))
     itemsize = torch.empty((), dtype=dtype or torch.float64).element_size()
-    if cfg.method == "hb":
-        bounds.check_harmonic_balance(f"{cfg.source}: [hb] max_harmonics", n,
-                                      cfg.hb.options.max_harmonics, batch, device=device,
-                                      itemsize=itemsize, override=cfg.allow_large)
-    else:
-        bounds.check_memory(f"{cfg.source}: [run] batch_size", f"time marching of {batch} "
-                            f"cases at once with {n} modes",
-                            bounds.integrator_bytes(n, batch, itemsize), device=device,
-                            override=cfg.allow_large)
+    cfg.solver.check_memory(cfg, model_rom(model).n, batch, itemsize, device)
 
 
 def check_initial(cfg: SweepConfig, model) -> None:

@@ -15,14 +15,13 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-import numpy as np
 import pandas as pd
 import torch
 
 from ..periodic.certify import certify
 from ..rom import NonlinearROM
-from ..sim import HistoryRequest, output_matrix
-from .cases import case_system, history_table, neighbour_chains, orbit_table
+from ..sim import output_matrix
+from .cases import case_system, history_table, orbit_table
 from .cases import initial_displacement as initial_displacement  # noqa: F401 - public name
 from .cases import initial_velocity as initial_velocity  # noqa: F401 - public name
 from .cases import structural_system as structural_system  # noqa: F401 - public name
@@ -30,7 +29,7 @@ from .config import SweepConfig
 from .grid import case_id, config_hash
 from .models import AeroelasticModel, model_rom
 from .runner import ChunkResult, PartStore, run_cases
-from .starts import march
+from .solvers import ChunkRun
 from .table import result_rows
 from .units import sweep_units
 
@@ -85,34 +84,12 @@ class SweepTask:
         cfg, rom = self.cfg, model_rom(self.model)
         system, extra = case_system(self.model, cases, torch.device(self.device), dtype)
         keep = cfg.history.indices(cases) if cfg.history is not None else []
-        if cfg.method == "hb":  # periodic orbits: neighbours start from each other's orbits
-            kw = {}
-            kw["chains"], kw["positions"] = neighbour_chains(cases)
-            if cfg.hb.sensitivity:
-                kw["parameter_systems"] = gamma_perturbed_systems(self.model, cases,
-                                                                  torch.device(self.device))
-            res = cfg.solver.run(system, t_end=cfg.t_end, outputs=cfg.outputs, lco=cfg.lco,
-                                 progress=progress, **kw)
-        else:
-            done = [0]  # cases finished in earlier waves (progress over the whole chunk)
-
-            def wave_progress(k, _n):
-                if progress is not None:
-                    progress(done[0] + k, len(cases))
-
-            def run(sub, q0, v0, xi0, index):
-                # histories of the kept cases among these (positions within this run)
-                mine = tuple(j for j, i in enumerate(index) if i in keep)
-                history = HistoryRequest(mine, cfg.history.every) if mine else None
-                res = cfg.integrator.run(sub, q0, v0, xi0, t_end=cfg.t_end, outputs=cfg.outputs,
-                                         lco=cfg.lco, history=history, progress=wave_progress)
-                done[0] += len(index)
-                return res
-
-            res = march(system, rom, cases, cfg.initial, run)
+        solver = cfg.solver
+        res = solver.run(ChunkRun(cfg, self.model, rom, system, cases, keep,
+                                  torch.device(self.device), progress))
         # every LCO row carries its certificate, whatever the method (one shooting evaluation)
         _, C = output_matrix(rom, cfg.outputs)
-        res = certify(system, res, C, cfg.lco.decision_outputs[0], cfg.certificate,
+        res = certify(system, res, C, cfg.lco.decision_outputs[0], solver.certificate(cfg),
                       cfg.integrator.dt)
         if progress is not None:  # every case integrated (also those run to t_end undecided)
             progress(len(cases), len(cases))
@@ -123,21 +100,6 @@ class SweepTask:
                 res.case_steps, orbit_table(res, case_ids))
 
 
-
-
-def gamma_perturbed_systems(model, cases, device, rel: float = 1e-4, floor: float = 1e-9):
-    """(plus, minus, δγ): the cases with γ ± δγ (δγ = rel·|γ|, at least ``floor`` s; a matched α
-    is matched again), in float64: the central difference of the harmonic balance residual
-    in γ that the implicit-function theorem needs (:mod:`torchrom.periodic.sensitivity`)."""
-    g = np.array([float(c.get("gamma", 0.0)) for c in cases])
-    dg = np.maximum(rel * np.abs(g), floor)
-    # one-sided at γ = 0 would leave the model's domain only in name: γ − δγ < 0 is a valid
-    # (slightly negative) Kelvin–Voigt factor for a residual evaluation
-    plus = case_system(model, [{**c, "gamma": float(x)} for c, x in zip(cases, g + dg)],
-                       device, torch.float64)[0]
-    minus = case_system(model, [{**c, "gamma": float(x)} for c, x in zip(cases, g - dg)],
-                        device, torch.float64)[0]
-    return plus, minus, dg
 
 
 def model_hash(model) -> str:
@@ -200,13 +162,14 @@ def run_sweep(cfg: SweepConfig, *, device=None, dtype=torch.float64,
 
 
 def sweep_chunk_size(cfg: SweepConfig) -> int | None:
-    """Cases per chunk: ``[run] chunk_size``; else, for harmonic balance, ``batch_size`` (one
-    chunk where the cases fit); else None (:func:`~torchrom.study.runner.plan_chunks`' default
+    """Cases per chunk: ``[run] chunk_size``; else, for a solver that chains neighbours
+    (harmonic balance, shooting), ``batch_size`` (one chunk where the cases fit); else None
+    (:func:`~torchrom.study.runner.plan_chunks`' default
     of about 8 chunks). A harmonic-balance chunk costs nearly as much with few cases as with
     many — its time-integration seeds (:mod:`torchrom.periodic.seed`) are launch-bound at
     these batch widths — and a chunk boundary cuts the neighbour chains; a sweep for
     several workers sets ``chunk_size``."""
-    if cfg.chunk_size is not None or cfg.method != "hb":
+    if cfg.chunk_size is not None or not cfg.solver.chains_neighbours:
         return cfg.chunk_size
     return cfg.batch_size
 

@@ -1,0 +1,109 @@
+"""The sweep solvers' contract (torchrom.study.solvers) and the shooting solver."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import numpy as np
+import pytest
+
+from torchrom.commands._common import METHODS
+from torchrom.errors import InputError
+from torchrom.study.config import load_sweep_config, with_method
+from torchrom.study.solvers import SOLVERS, Shooting
+from torchrom.study.sweep import run_sweep
+
+# two coupled Van der Pol–Duffing modes: three LCOs and a decaying case (the HB test's cases)
+CONFIG = """
+title = "two VdP-Duffing modes"
+method = "shooting"
+[model]
+builtin = "van_der_pol_duffing"
+frequencies_hz = [1.0, 2.3]
+c1 = [-0.6, 0.05]
+d3 = [1.0, 1.0]
+k3 = [4.0, 0.0]
+coupling = [[0.0, 3.0], [3.0, 0.0]]
+[initial]
+q0 = 0.5
+[integrator]
+dt = 0.002
+t_end = 120.0
+iterations = 3
+[lco]
+outputs = ["q1", "q2"]
+rtol = 1e-5
+[cases]
+combine = "product"
+alpha = [0.0, 0.2, 0.4, 0.8]
+gamma = [1.0]
+"""
+
+
+@pytest.fixture(scope="module")
+def configs(tmp_path_factory):
+    path = tmp_path_factory.mktemp("solvers") / "vdp.toml"
+    path.write_text(CONFIG)
+    return load_sweep_config(path)
+
+
+def test_every_solver_keeps_the_contract(configs):
+    """Each named solver is built from a configuration and answers every question of the
+    contract; the CLI's --method choices are the solvers' names."""
+    assert METHODS == tuple(SOLVERS)
+    for name in SOLVERS:
+        cfg = with_method(configs, name)
+        solver = cfg.solver
+        assert solver.name == name
+        assert isinstance(solver.marches_time, bool) and isinstance(solver.writes_orbits, bool)
+        assert solver.certificate(cfg).enabled
+        solver.check_effort(cfg, len(cfg.cases), "cases")
+        solver.check_memory(cfg, 2, len(cfg.cases), 8)
+        assert solver.describe(cfg)
+        assert solver.with_gamma_sensitivity(cfg).method == name
+    assert SOLVERS["newmark"].marches_time and not SOLVERS["shooting"].marches_time
+
+
+def test_shooting_needs_no_t_end_and_always_finishes(configs, tmp_path):
+    """A periodic-orbit solver reads no t_end; shooting's certificate is always on and
+    finishing, whatever ``[certificate]`` says."""
+    path = tmp_path / "no_t_end.toml"
+    path.write_text(CONFIG.replace("t_end = 120.0\n", "")
+                    + "[certificate]\nenabled = false\nfinish = false\n")
+    cfg = load_sweep_config(path)
+    assert math.isinf(cfg.t_end)
+    cert = cfg.solver.certificate(cfg)
+    assert cert.enabled and cert.finish and cert.always_finish
+    with pytest.raises(InputError, match="t_end"):
+        with_method(cfg, "newmark")
+
+
+def test_shooting_rows_are_the_discrete_orbits(configs):
+    """Every LCO of the shooting solver is certified and finished (the H = 5 predictor is not
+    the discrete orbit), its stability known; amplitudes agree with a long Newmark transient at
+    the same step within 2e-4 (the transients stop at rtol 1e-5 per cycle, their amplitudes
+    measured on the sampled outputs, ~1e-4 at 500 steps per period) and with harmonic balance
+    within 1e-3 (H ≤ 9 against the discrete orbit's step error, dt_error)."""
+    sh, _ = run_sweep(configs)
+    nm, _ = run_sweep(with_method(configs, "newmark"))
+    hb, _ = run_sweep(with_method(configs, "hb"))
+    assert list(sh["status"]) == list(nm["status"]) == ["lco", "lco", "lco", "decay"]
+    lco = sh["status"] == "lco"
+    assert set(sh["method"]) == {Shooting.name}
+    assert sh.loc[lco, "certified"].all() and sh.loc[lco, "finished"].all()
+    assert (sh.loc[lco, "shooting_iterations"] >= 1).all()
+    assert sh.loc[lco, "stable"].notna().all() and sh.loc[lco, "stable"].astype(bool).all()
+    assert np.allclose(sh.loc[lco, "amplitude"], nm.loc[lco, "amplitude"], rtol=2e-4)
+    assert np.allclose(sh.loc[lco, "amplitude"], hb.loc[lco, "amplitude"], rtol=1e-3)
+    assert np.allclose(sh.loc[lco, "frequency_hz"], nm.loc[lco, "frequency_hz"], rtol=1e-4)
+
+
+def test_predictor_holds_the_first_harmonics(configs):
+    """The predictor is harmonic balance at the first stage's H without Floquet (the shooting
+    monodromy gives the stability of record)."""
+    cfg = with_method(configs, "shooting")
+    hb = dataclasses.replace(cfg.hb.options, harmonics=7, max_harmonics=15)
+    pred = Shooting.predictor(dataclasses.replace(cfg.hb, options=hb))
+    assert pred.options.harmonics == pred.options.max_harmonics == 7
+    assert not pred.stability and not pred.sensitivity
