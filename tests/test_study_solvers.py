@@ -80,11 +80,12 @@ def test_shooting_needs_no_t_end_and_always_finishes(configs, tmp_path):
 
 
 def test_shooting_rows_are_the_discrete_orbits(configs):
-    """Every LCO of the shooting solver is certified and finished (the H = 5 predictor is not
-    the discrete orbit), its stability known; amplitudes agree with a long Newmark transient at
-    the same step within 2e-4 (the transients stop at rtol 1e-5 per cycle, their amplitudes
-    measured on the sampled outputs, ~1e-4 at 500 steps per period) and with harmonic balance
-    within 1e-3 (H ≤ 9 against the discrete orbit's step error, dt_error)."""
+    """Every LCO of the shooting solver is certified and finished (the harmonic-balance
+    predictor is not the discrete orbit), its stability known; amplitudes agree with a long
+    Newmark transient at the same step within 2e-4 (the transients stop at rtol 1e-5 per
+    cycle, their amplitudes measured on the sampled outputs, ~1e-4 at 500 steps per period)
+    and with harmonic balance within 1e-3 (H ≤ 9 against the discrete orbit's step error,
+    dt_error)."""
     sh, _ = run_sweep(configs)
     nm, _ = run_sweep(with_method(configs, "newmark"))
     hb, _ = run_sweep(with_method(configs, "hb"))
@@ -99,11 +100,11 @@ def test_shooting_rows_are_the_discrete_orbits(configs):
     assert np.allclose(sh.loc[lco, "frequency_hz"], nm.loc[lco, "frequency_hz"], rtol=1e-4)
 
 
-def test_predictor_holds_the_first_harmonics(configs):
-    """The predictor is harmonic balance at the first stage's H without Floquet (the shooting
-    monodromy gives the stability of record)."""
+def test_predictor_is_harmonic_balance_without_its_floquet(configs):
+    """The predictor keeps the [hb] ladder in H and drops the Floquet multipliers and the
+    γ-derivatives (the shooting finish's monodromy gives the stability of record)."""
     cfg = with_method(configs, "shooting")
     hb = dataclasses.replace(cfg.hb.options, harmonics=7, max_harmonics=15)
-    pred = Shooting.predictor(dataclasses.replace(cfg.hb, options=hb))
-    assert pred.options.harmonics == pred.options.max_harmonics == 7
+    pred = Shooting.predictor(dataclasses.replace(cfg.hb, options=hb, sensitivity=True))
+    assert pred.options == hb
     assert not pred.stability and not pred.sensitivity

@@ -179,8 +179,8 @@ def add_study_options(parser: argparse.ArgumentParser, outputs: str) -> None:
                         help=f"output folder ({outputs})")
     parser.add_argument("--method", choices=METHODS, default=None,
                         help="time marching (newmark), periodic orbits by harmonic balance "
-                             "(hb) or by shooting on the Newmark map from harmonic balance at "
-                             "the first H (shooting); default: the configuration's 'method' "
+                             "(hb) or by shooting on the Newmark map from harmonic balance "
+                             "(shooting); default: the configuration's 'method' "
                              "(newmark)")
     add_precision_options(parser)
     add_executor_options(parser)
