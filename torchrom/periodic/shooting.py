@@ -187,7 +187,10 @@ class _Map:
         self.hb = HarmonicBalance(system, 1)  # the per-case linear matrices and force kernels
         self.n, self.na, self.B = system.n, system.n_lag, system.batch_size
         self.nonlinear = self.hb.has_stiffness or self.hb.has_damping
-        self.s, self.g = self.hb.s[:, None], self.hb.g[:, None]  # (B, 1) force factors
+        # (B, 1) force factors (the stiffness's, where not all 1, and the damping's)
+        s = self.hb.s[:, None]
+        self.s = None if bool((s == 1).all()) else s
+        self.g = self.hb.g[:, None]
         k = self.hb.kernels
         # the kernels' monomials as positions in outer products: m2 = (q ⊗ q)[pairs],
         # m3 = (m2 ⊗ q)[triples] (one gather each instead of two: a third less at B ≤ 10)
@@ -204,12 +207,17 @@ class _Map:
         m3 = torch.index_select((m2[:, :, None] * q[:, None, :]).flatten(1), 1, self.triples)
         return torch.cat([m2, m3], dim=1) @ self.hb.kernels.Kc
 
+    def _scaled(self, t: Tensor) -> Tensor:
+        """A stiffness term (B, ...) times the cases' stiffness factors."""
+        return t if self.s is None else self.s.view(-1, *[1] * (t.dim() - 1)) * t
+
     def nonlinear_force(self, q: Tensor, v: Tensor) -> Tensor:
         """f_nl (B, n) at (q, q̇): :meth:`HarmonicBalance.nonlinear_force` without its sample
         axis (the kernels' monomial GEMMs; the damping kernel only where a case has it)."""
         hb, k = self.hb, self.hb.kernels
         m2 = self._pairs(q)
-        f = self.s * self._cubic_force(q, m2) if hb.has_stiffness else torch.zeros_like(q)
+        f = (self._scaled(self._cubic_force(q, m2)) if hb.has_stiffness
+             else torch.zeros_like(q))
         if hb.has_damping:
             f = f + self.g * (k.damping_nl_matrix(q, m2) @ v[..., None])[..., 0]
         return f
@@ -223,7 +231,7 @@ class _Map:
         f, Kn, Cn = torch.zeros_like(q), q.new_zeros(q.shape[0], self.n, self.n), None
         if hb.has_stiffness:
             fs, T = k.stiffness_and_tangent(q, m2)
-            f, Kn = self.s * fs, self.s[..., None] * T
+            f, Kn = self._scaled(fs), self._scaled(T)
         if hb.has_damping:
             Dm = k.damping_nl_matrix(q, m2)
             f = f + self.g * (Dm @ v[..., None])[..., 0]
@@ -268,7 +276,8 @@ class _Map:
                   rows: Tensor, tangent: bool) -> dict:
         """Integrate N (B,) steps of h = T/N from x0 = (q, v, ξ); with ``tangent``, also the
         monodromy (B, m, m) and ∂x_N/∂T (B, m), m = 2n + na. Returns the final state, the
-        output samples y (B, max N, O), the orbit scales (B, m) and the step residual.
+        output samples y (B, max N, O), the orbit scales (B, m) and the step residual (the
+        largest last correction of a step's iterations relative to the largest |a|).
 
         Each step solves G(a1) = M_t a1 + C_eff q̇1 + K_l q1 + f_nl(q1, q̇1) + D P⁻¹ ξ̂ − load = 0
         with q1 = q̂ + βh² a1, q̇1 = v̂ + γh a1 (the Newmark predictors q̂, v̂, ξ̂): its linear
@@ -285,6 +294,11 @@ class _Map:
         # q̂ = q + h q̇ + ca a, v̂ = q̇ + cb a (ξ̂ alike with ξ̇)
         cq, cv, ca, cb = be * h * h, ga * h, (0.5 - be) * h * h, (1.0 - ga) * h
         cq3, cv3, ca3, cb3 = (c.view(B, 1, 1) for c in (cq, cv, ca, cb))
+        # ∂/∂T of the predictors through h = T/N: ∂q̂/∂T = (q̇ + ta a + ta1 a1)/N...,
+        # ∂v̂/∂T = (tb a + tb1 a1)/N (ξ̂ alike with ξ̇), the 1/N folded in
+        inv_N = 1.0 / Nf
+        ta, ta1 = 2.0 * (0.5 - be) * h * inv_N, 2.0 * be * h * inv_N
+        tb, tb1 = (1.0 - ga) * inv_N, ga * inv_N
         q, v, xi = (t.clone() for t in x0)
         a, Kt, Ct = self.acceleration(q, v, xi)
         if na:
@@ -316,14 +330,15 @@ class _Map:
         if tangent:
             yt = torch.empty(B, Nmax, cols, dtype=dtype, device=dev)  # ∂y_k/∂(x0, T), row 0
         scale = torch.cat([q.abs(), v.abs(), xi.abs()], dim=1)
-        step_error = torch.zeros(B, dtype=dtype, device=dev)
+        # the last iteration's correction and the acceleration, largest |·| per component
+        last_corr, a_max = torch.zeros_like(q), a.abs()
         load = sys.load
         a_prev = a
         for k in range(Nmax):
             y[:, k] = q @ rows.T
             if tangent:
                 yt[:, k] = rows[0] @ dq
-            qh = torch.addcmul(q + h * v, ca, a)
+            qh = torch.addcmul(torch.addcmul(q, h, v), ca, a)
             vh = torch.addcmul(v, cb, a)
             a1 = 2.0 * a - a_prev  # linear extrapolation
             if na:
@@ -348,8 +363,8 @@ class _Map:
                 G = torch.baddbmm(G0[..., None], S, a1[..., None])[..., 0] + f
                 corr = (Jinv @ G[..., None])[..., 0]
                 a1 = a1 - corr
-            scale_a = a1.abs().amax(1).clamp_min(torch.finfo(dtype).tiny)
-            step_error = torch.maximum(step_error, corr.abs().amax(1) / scale_a)
+            last_corr = torch.maximum(last_corr, corr.abs())
+            a_max = torch.maximum(a_max, a1.abs())
             q1, v1 = torch.addcmul(qh, cq, a1), torch.addcmul(vh, cv, a1)
             if self.nonlinear:
                 _, Kn, Cn_new = self.nonlinear_tangents(q1, v1)
@@ -365,12 +380,12 @@ class _Map:
                 # the step-size terms (dh/dT = 1/N)
                 rq = torch.addcmul(torch.addcmul(dq, h3, dv), ca3, da)
                 rv = torch.addcmul(dv, cb3, da)
-                rq[..., -1] += (v + 2.0 * h * (0.5 - be) * a + 2.0 * be * h * a1) / Nf
-                rv[..., -1] += ((1.0 - ga) * a + ga * a1) / Nf
+                rq[..., -1] += torch.addcmul(torch.addcmul(v * inv_N, ta, a), ta1, a1)
+                rv[..., -1] += torch.addcmul(tb * a, tb1, a1)
                 rhs = torch.baddbmm(Kt @ rq, Ceff + Cn, rv)
                 if na:
                     dxih = torch.addcmul(dxi, cb3, dxid)
-                    dxih[..., -1] += ((1.0 - ga) * xid + ga * xid1) / Nf
+                    dxih[..., -1] += torch.addcmul(tb * xid, tb1, xid1)
                     images = lag["PD"] @ dxih
                     rxi = images[:, :na]
                     rhs = rhs + images[:, na:]
@@ -402,7 +417,8 @@ class _Map:
                     if na:
                         dxi, dxid = (torch.where(live3, new, old)
                                      for new, old in ((dxi1, dxi), (dxid1, dxid)))
-            scale = torch.maximum(scale, torch.cat([q.abs(), v.abs(), xi.abs()], dim=1))
+            scale = torch.maximum(scale, torch.cat([q, v, xi], dim=1).abs())
+        step_error = last_corr.amax(1) / a_max.amax(1).clamp_min(torch.finfo(dtype).tiny)
         out = {"q": q, "v": v, "xi": xi, "y": y, "scale": scale, "step_error": step_error}
         if tangent:
             full = torch.cat([dq, dv, dxi], dim=1)  # (B, m, m + 1)
