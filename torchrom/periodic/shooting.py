@@ -382,23 +382,25 @@ class _Map:
                 # linearised step (module docstring): J da1 = −[(C_eff + C_n) r_v + K_t r_q
                 # + D r_ξ], r the predictors' perturbations; only the last column (d/dT) has
                 # the step-size terms (dh/dT = 1/N)
-                rq = torch.addcmul(torch.addcmul(dq, h3, dv), ca3, da)
+                # (in place on the step's own new tensors: at large B each (B, n, m + 1)
+                # allocation costs as much as the arithmetic)
+                rq = torch.addcmul(dq, h3, dv).addcmul_(ca3, da)
                 rv = torch.addcmul(dv, cb3, da)
                 rq[..., -1] += torch.addcmul(torch.addcmul(v * inv_N, ta, a), ta1, a1)
                 rv[..., -1] += torch.addcmul(tb * a, tb1, a1)
-                rhs = torch.baddbmm(Kt @ rq, Ceff + Cn, rv)
+                rhs = torch.bmm(Kt, rq).baddbmm_(Ceff + Cn, rv)
                 if na:
                     dxih = torch.addcmul(dxi, cb3, dxid)
                     dxih[..., -1] += torch.addcmul(tb * xid, tb1, xid1)
                     images = lag["PD"] @ dxih
                     rxi = images[:, :na]
-                    rhs = rhs + images[:, na:]
-                da1 = -(Jinv @ rhs)
-                dq1 = torch.addcmul(rq, cq3, da1)
-                dv1 = torch.addcmul(rv, cv3, da1)
+                    rhs += images[:, na:]
+                da1 = torch.bmm(Jinv, rhs).neg_()
+                dq1 = rq.addcmul_(cq3, da1)
+                dv1 = rv.addcmul_(cv3, da1)
                 if na:
                     dxi1 = torch.baddbmm(rxi, lag["W"], dv1)
-                    dxid1 = torch.baddbmm(sys.lag_E @ dv1, sys.lag_R, dxi1)
+                    dxid1 = torch.bmm(sys.lag_E, dv1).baddbmm_(sys.lag_R, dxi1)
             if k < Nmin:  # every case still stepping: no masks
                 a_prev, q, v, a = a, q1, v1, a1
                 if na:
