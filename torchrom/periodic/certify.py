@@ -19,6 +19,11 @@ certificate's step h (:mod:`.shooting`) is evaluated once from the method's orbi
   becomes ``lco_uncertified`` with its numbers kept. An orbit whose start leaves the
   stability unknown (trivial multiplier not resolved) is finished too.
 
+The evaluation at h and the finish are one shooting pass (the finish's first Newton iteration
+is the certificate's evaluation; a Fourier orbit's coarse amplitude at 2h is evaluated first,
+so that the pass can judge it against the extrapolation); a finished orbit's dt_error comes
+from one more evaluation at 2h from the discrete orbit.
+
 The true amplitude lies within (orbit_error + dt_error) × amplitude of the reported one, to
 first order. Written here: the certificate composes this project's own solvers.
 """
