@@ -10,8 +10,8 @@ stepped by the same rule as in :mod:`torchrom.sim.newmark`. Newton solves, per c
 
 for (x0, T). Its Jacobian is [[∂Φ_N/∂x0 − I, ∂Φ_N/∂T], [0, c, 0 | 0]]: the monodromy ∂Φ_N/∂x0
 is propagated through every step's linearisation, which reuses the inverse of the step's
-own Newton matrix J = M_t + γh (C + D W + C_n) + βh² (K + K_n) (the factorisation the step
-needs anyway), and ∂Φ_N/∂T is the step-size sensitivity carried as one more column (h = T/N).
+own Newton matrix J = M_t + γh (C + D W + C_n) + βh² (K + K_n) (the inverse the step needs
+anyway), and ∂Φ_N/∂T is the step-size sensitivity carried as one more column (h = T/N).
 Corrections are limited to a fraction of the orbit's size per state component (the stiff dual
 coordinates), and cases leave the batch as they converge.
 
@@ -217,7 +217,8 @@ class _Map:
 
     def nonlinear_force(self, q: Tensor, v: Tensor) -> Tensor:
         """f_nl (B, n) at (q, q̇): :meth:`HarmonicBalance.nonlinear_force` without its sample
-        axis (the kernels' monomial GEMMs; the damping kernel only where a case has it)."""
+        axis (the kernels' monomial GEMMs; the damping kernel only when a case has nonlinear
+        damping)."""
         hb, k = self.hb, self.hb.kernels
         m2 = self._pairs(q)
         f = (self._scaled(self._cubic_force(q, m2)) if hb.has_stiffness
@@ -430,7 +431,6 @@ class _Map:
             full = torch.cat([dq, dv, dxi], dim=1)  # (B, m, m + 1)
             out["monodromy"], out["dT"], out["yt"] = full[:, :, :m], full[:, :, m], yt
         return out
-
 
 
 # ---------------------------------------------------------------------------------------------
