@@ -172,8 +172,8 @@ def certify(system: CaseSystem, result: SimulationResult, rows, decision: int,
     state = _state(start)
     iterations = r.iterations.copy()
     # finished: iterated to the discrete orbit (or already on it and failing the certificate)
-    finished = r.converged & ~r.accepted & ((r.iterations > 0)
-                                            | (orbit_error > certificate.tol))
+    finished = certificate.finish & r.converged & ~r.accepted & (
+        (r.iterations > 0) | (orbit_error > certificate.tol))
     # a finish only for the stability that failed leaves the start's verdict unknown
     stable[~finished & (r.iterations > 0)] = None
     direct = (orbit_error <= certificate.tol) & ~finished
