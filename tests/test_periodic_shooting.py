@@ -160,3 +160,29 @@ def test_bad_options():
         ShootingOptions(dt=-1.0)
     with pytest.raises(InputError, match="implicit Newmark"):
         ShootingOptions(beta=0.0)
+
+
+def test_accept_against_the_richardson_extrapolation():
+    """``OrbitStart.coarse_amplitude`` (the discrete orbit's amplitude at 2h): ``accept``
+    compares the reported amplitude with the Richardson extrapolation (4 A(h) − A(2h))/3
+    instead of A(h). A start reporting that extrapolation (from its own evaluations at h and
+    2h, 64 steps per period, where it lies 1.6e-4 from A(h)) is accepted after one evaluation
+    with the coarse amplitude and iterated to the discrete orbit without it."""
+    rom = van_der_pol_duffing(1.0, c1=-0.6, d3=1.0, k3=2.0)
+    system = CaseSystem.build(rom, 1, alpha=0.0, gamma=1.0)
+    orb = solve_orbits(system, [1.0])
+    start = start_from_fourier(system, orb.X, orb.omega, [1.0])
+    dt = float(2 * math.pi / orb.omega[0]) / 64
+    a = {}
+    for h in (dt, 2 * dt):
+        r = shoot(system, start, [1.0], options=ShootingOptions(dt=h, max_iterations=0))
+        a[h] = r.start_amplitude * (1 + r.first_amplitude_correction)
+    reported = torch.as_tensor((4 * a[dt] - a[2 * dt]) / 3)
+    assert abs(float(reported[0] / a[dt][0]) - 1) > 1e-4
+    options = ShootingOptions(dt=dt, accept=5e-5)
+    alone = shoot(system, OrbitStart(start.q, start.v, start.xi, start.period, reported),
+                  [1.0], options=options)
+    assert not alone.accepted[0] and alone.converged[0] and alone.iterations[0] >= 1
+    both = shoot(system, OrbitStart(start.q, start.v, start.xi, start.period, reported,
+                                    torch.as_tensor(a[2 * dt])), [1.0], options=options)
+    assert both.accepted[0] and both.iterations[0] == 0 and both.stable[0] is True

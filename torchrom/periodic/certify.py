@@ -19,6 +19,11 @@ certificate's step h (:mod:`.shooting`) is evaluated once from the method's orbi
   becomes ``lco_uncertified`` with its numbers kept. An orbit whose start leaves the
   stability unknown (trivial multiplier not resolved) is finished too.
 
+The evaluation at h and the finish are one shooting pass (the finish's first Newton iteration
+is the certificate's evaluation; a Fourier orbit's coarse amplitude at 2h is evaluated first,
+so that the pass can judge it against the extrapolation); a finished orbit's dt_error comes
+from one more evaluation at 2h from the discrete orbit.
+
 The true amplitude lies within (orbit_error + dt_error) × amplitude of the reported one, to
 first order. Written here: the certificate composes this project's own solvers.
 """
@@ -145,20 +150,24 @@ def certify(system: CaseSystem, result: SimulationResult, rows, decision: int,
     start.amplitude = torch.as_tensor(amp[idx, decision])
     # a time integration's orbit is one of the discrete map at h; a Fourier orbit is the
     # continuous one, compared with the Richardson extrapolation of the discrete orbits at h
-    # and 2h (otherwise an exact continuous orbit would "fail" by the step's own error)
+    # and 2h (otherwise an exact continuous orbit would "fail" by the step's own error): the
+    # coarse amplitude first, so that the pass at h can accept against it
     continuous = result.orbits is not None
-    one_pass = certificate.finish and not continuous
-    # one evaluation for every orbit (its certificate); in one pass, those that fail it or
-    # whose stability the start's monodromy leaves unknown (a start off a weakly attracting
-    # orbit moves the trivial multiplier) are iterated on to the discrete orbit (the finish)
+    dt_error = np.full(idx.size, np.nan)
+    if continuous and certificate.richardson:
+        a_2h = _coarse_amplitude(sub, _state(start), c, h)
+        start.coarse_amplitude = torch.as_tensor(a_2h)
+    # one evaluation for every orbit (its certificate); with ``finish``, in the same pass,
+    # those that fail it or whose stability the start's monodromy leaves unknown (a start off
+    # a weakly attracting orbit moves the trivial multiplier) are iterated on to the discrete
+    # orbit (the finish: its first iteration is the certificate's evaluation)
     r = shoot(sub, start, c, rows=C, options=certificate.options(
-        h, certificate.max_iterations if one_pass else 0))
+        h, certificate.max_iterations if certificate.finish else 0))
     # the discrete orbit's amplitude to second order in the start's distance, against the
     # amplitude the method reported (a transient's last cycle is not the cycle that follows)
     a_h = r.start_amplitude * (1 + r.first_amplitude_correction)
-    target, dt_error = a_h, np.full(idx.size, np.nan)
-    if continuous and certificate.richardson:
-        a_2h = _coarse_amplitude(sub, _state(start), c, h)
+    target = a_h
+    if start.coarse_amplitude is not None:
         target = a_h + (a_h - a_2h) / 3.0
         dt_error = np.abs(a_2h / a_h - 1.0) / 3.0
     orbit_error = np.abs(amp[idx, decision] / target - 1.0)
@@ -166,39 +175,21 @@ def certify(system: CaseSystem, result: SimulationResult, rows, decision: int,
         r.trivial_error.copy()
     state = _state(start)
     iterations = r.iterations.copy()
-    if one_pass:
-        fin = r
-        finished = r.converged & ~(r.accepted | (r.iterations == 0))
-        # a finish only for the stability that failed leaves the start's verdict unknown
-        stable[~finished & (r.iterations > 0)] = None
-        rows_f = np.arange(idx.size)
-    else:
-        redo = np.zeros(idx.size, dtype=bool)
-        if certificate.finish:
-            redo = ((orbit_error > certificate.tol) | np.array([v is None for v in stable])
-                    | certificate.always_finish)
-        rows_f = np.flatnonzero(redo)
-        finished = np.zeros(idx.size, dtype=bool)
-        fin = None
-        if rows_f.size:
-            t = torch.as_tensor(rows_f)
-            fin = shoot(sub.select(t), OrbitStart(*(x[t] for x in state)), c, rows=C,
-                        options=certificate.options(h, certificate.max_iterations))
-            finished[rows_f] = fin.converged
-            iterations[rows_f] = fin.iterations
+    # finished: iterated to the discrete orbit (or already on it and failing the certificate)
+    finished = certificate.finish & r.converged & ~r.accepted & (
+        (r.iterations > 0) | (orbit_error > certificate.tol))
+    # a finish only for the stability that failed leaves the start's verdict unknown
+    stable[~finished & (r.iterations > 0)] = None
     direct = (orbit_error <= certificate.tol) & ~finished
     g = np.flatnonzero(finished)
     if g.size:
-        j = np.searchsorted(rows_f, g)  # the finished rows in ``fin``
-        tj, tg = torch.as_tensor(j), torch.as_tensor(g)
-        orbit_error[g] = np.abs(fin.amplitude_correction[j])
-        amp[idx[g]] = fin.amplitude[j]
-        freq[idx[g]] = fin.frequency_hz[j]
-        stable[g], critical[g], trivial[g] = fin.stable[j], fin.critical_multiplier[j], \
-            fin.trivial_error[j]
+        tg = torch.as_tensor(g)
+        orbit_error[g] = np.abs(r.amplitude_correction[g])
+        amp[idx[g]] = r.amplitude[g]
+        freq[idx[g]] = r.frequency_hz[g]
         state = tuple(x.clone() for x in state)
-        for dst, src in zip(state, (fin.q, fin.v, fin.xi, fin.period)):
-            dst[tg] = src[tj]
+        for dst, src in zip(state, (r.q, r.v, r.xi, r.period)):
+            dst[tg] = src[tg]
         # Richardson for the discrete orbits finished to
         dt_error[g] = np.nan
     certified = direct | finished

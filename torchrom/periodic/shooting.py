@@ -9,9 +9,9 @@ stepped by the same rule as in :mod:`torchrom.sim.newmark`. Newton solves, per c
     Φ_N(x0; T) − x0 = 0,      c · q̇0 = 0        (c: the decision output; y(0) at its maximum)
 
 for (x0, T). Its Jacobian is [[∂Φ_N/∂x0 − I, ∂Φ_N/∂T], [0, c, 0 | 0]]: the monodromy ∂Φ_N/∂x0
-is propagated through every step's linearisation, which reuses the LU factors of the step's
-own Newton matrix J = M_t + γh (C + D W + C_n) + βh² (K + K_n) (the factorisation the step
-needs anyway), and ∂Φ_N/∂T is the step-size sensitivity carried as one more column (h = T/N).
+is propagated through every step's linearisation, which reuses the inverse of the step's
+own Newton matrix J = M_t + γh (C + D W + C_n) + βh² (K + K_n) (the inverse the step needs
+anyway), and ∂Φ_N/∂T is the step-size sensitivity carried as one more column (h = T/N).
 Corrections are limited to a fraction of the orbit's size per state component (the stiff dual
 coordinates), and cases leave the batch as they converge.
 
@@ -60,8 +60,9 @@ class ShootingOptions:
             own size that are nearly linear: a tighter limit (0.3) slowed the finishes of the
             Goland γ = 0 orbits to linear convergence without making any converge.
         accept: with a start amplitude (:attr:`OrbitStart.amplitude`), a case whose first
-            evaluation puts the discrete orbit's amplitude within this (relative) of it, with
-            its stability resolved, is accepted as it is and not iterated (the certificate's
+            evaluation puts the discrete orbit's amplitude within this (relative) of it (with
+            :attr:`OrbitStart.coarse_amplitude`: its Richardson extrapolation), with its
+            stability resolved, is accepted as it is and not iterated (the certificate's
             evaluation and its finish in one pass); None: every case is iterated.
         step_iterations: Newton iterations of the implicit equation in each time step (with
             the Jacobian refreshed at every one: from the extrapolated predictor three leave an
@@ -110,6 +111,10 @@ class OrbitStart:
     period: Tensor  # (B,) s
     #: (B,) the amplitude the method reports for each orbit (what ``accept`` compares with)
     amplitude: Tensor | None = None
+    #: (B,) the discrete orbit's amplitude at twice the step near this start: with it,
+    #: ``accept`` compares ``amplitude`` with the Richardson extrapolation of the discrete
+    #: orbits at h and 2h, (4 A(h) − A(2h))/3 (a continuous-time orbit's certificate)
+    coarse_amplitude: Tensor | None = None
 
 
 @dataclass
@@ -166,6 +171,13 @@ class ShootingResult:
 # ---------------------------------------------------------------------------------------------
 # the step and its linearisation
 # ---------------------------------------------------------------------------------------------
+def _step_inverse(J: Tensor) -> Tensor:
+    """J⁻¹ (B, n, n) of the steps' Newton matrices J = M_t + γh C + βh² K (mass-dominated,
+    well conditioned): each step applies it to 3 + (m + 1) right-hand sides, and a factor with
+    those products costs ~15 % less than an LU factor with its solves (B = 1–512)."""
+    return torch.linalg.inv_ex(J)[0]
+
+
 class _Map:
     """The N-step Newmark map of B cases with per-case steps h (B,), and its derivatives."""
 
@@ -175,6 +187,62 @@ class _Map:
         self.hb = HarmonicBalance(system, 1)  # the per-case linear matrices and force kernels
         self.n, self.na, self.B = system.n, system.n_lag, system.batch_size
         self.nonlinear = self.hb.has_stiffness or self.hb.has_damping
+        # (B, 1) force factors (the stiffness's, where not all 1, and the damping's)
+        s = self.hb.s[:, None]
+        self.s = None if bool((s == 1).all()) else s
+        self.g = self.hb.g[:, None]
+        k = self.hb.kernels
+        # the kernels' quadratic monomials as positions in the outer product: m2 = (q ⊗ q)[pairs]
+        # (one gather instead of two)
+        self.pairs = k.pair_i * self.n + k.pair_j
+        # the stiffness force by Euler's theorem, (½ T2(q) + ⅓ T3(q, q)) q, from the tangent's
+        # coefficients (CompactForces.stiffness_and_tangent): no cubic monomials to gather,
+        # as fast as they at B ≤ 10 and twice as fast at B = 512
+        self.euler = (k.Tc[:self.n] / 2.0, k.Tc[self.n:] / 3.0)
+
+    def _pairs(self, q: Tensor) -> Tensor:
+        """m2 (B, P): the kernels' quadratic monomials q_i q_j (CompactForces.monomials)."""
+        return torch.index_select((q[:, :, None] * q[:, None, :]).flatten(1), 1, self.pairs)
+
+    def _cubic_force(self, q: Tensor, m2: Tensor) -> Tensor:
+        """K2(q, q) + K3(q, q, q) (B, n) = (½ T2 + ⅓ T3) q with T2 = 2 K2(q, ·) and
+        T3 = 3 K3(q, q, ·) (homogeneous forms of degree 2 and 3)."""
+        half2, third3 = self.euler
+        T = torch.addmm(q @ half2, m2, third3).view(-1, self.n, self.n)
+        return (T @ q[..., None])[..., 0]
+
+    def _scaled(self, t: Tensor) -> Tensor:
+        """A stiffness term (B, ...) times the cases' stiffness factors."""
+        return t if self.s is None else self.s.view(-1, *[1] * (t.dim() - 1)) * t
+
+    def nonlinear_force(self, q: Tensor, v: Tensor) -> Tensor:
+        """f_nl (B, n) at (q, q̇): :meth:`HarmonicBalance.nonlinear_force` without its sample
+        axis (the kernels' monomial GEMMs; the damping kernel only when a case has nonlinear
+        damping)."""
+        hb, k = self.hb, self.hb.kernels
+        m2 = self._pairs(q)
+        f = (self._scaled(self._cubic_force(q, m2)) if hb.has_stiffness
+             else torch.zeros_like(q))
+        if hb.has_damping:
+            f = f + self.g * (k.damping_nl_matrix(q, m2) @ v[..., None])[..., 0]
+        return f
+
+    def nonlinear_tangents(self, q: Tensor, v: Tensor) -> tuple[Tensor, Tensor, Tensor | None]:
+        """(f_nl, K_n, C_n) at (q, q̇): the force (B, n) and its derivatives in q and q̇
+        (B, n, n) from one set of the kernels' GEMMs (the force by Euler's theorem from the
+        stiffness tangent); C_n is None without nonlinear damping."""
+        hb, k = self.hb, self.hb.kernels
+        m2 = self._pairs(q)
+        f, Kn, Cn = torch.zeros_like(q), q.new_zeros(q.shape[0], self.n, self.n), None
+        if hb.has_stiffness:
+            fs, T = k.stiffness_and_tangent(q, m2)
+            f, Kn = self._scaled(fs), self._scaled(T)
+        if hb.has_damping:
+            Dm = k.damping_nl_matrix(q, m2)
+            f = f + self.g * (Dm @ v[..., None])[..., 0]
+            Kn = Kn + self.g[..., None] * k.damping_force_tangent(q, v, m2)
+            Cn = self.g[..., None] * Dm
+        return f, Kn, Cn
 
     def forces(self, q: Tensor, v: Tensor, tangent: bool = True):
         """f_nl, and with ``tangent`` the full tangents (K_t, C_t), linear parts included."""
@@ -182,9 +250,9 @@ class _Map:
         if not self.nonlinear:
             return (torch.zeros_like(q), hb.Kl, hb.C0) if tangent else torch.zeros_like(q)
         if not tangent:
-            return hb.nonlinear_force(q[:, None], v[:, None])[:, 0]
-        f, Kn, Cn = hb.nonlinear_tangents(q[:, None], v[:, None])
-        return f[:, 0], hb.Kl + Kn[:, 0], hb.C0 + Cn[:, 0]
+            return self.nonlinear_force(q, v)
+        f, Kn, Cn = self.nonlinear_tangents(q, v)
+        return f, hb.Kl + Kn, hb.C0 if Cn is None else hb.C0 + Cn
 
     def acceleration(self, q, v, xi) -> tuple[Tensor, Tensor, Tensor]:
         """a from the equations of motion, and the tangents (K_t, C_t) at (q, v)."""
@@ -197,28 +265,57 @@ class _Map:
             rhs = rhs + sys.load
         return torch.linalg.solve(hb.Mt, rhs), Kt, Ct
 
+    def _lag_step(self, h3: Tensor) -> dict:
+        """The lag states' implicit update at γh (B, 1, 1): ξ1 = P⁻¹ ξ̂ + W q̇1 with
+        P = I − γh R, W = γh P⁻¹ E, so that their force on the structure is D P⁻¹ ξ̂ + D W q̇1
+        (the damping C_eff = C0 + D W). ``PD``: [P⁻¹; D P⁻¹] (B, na + n, na), both images of
+        the predictor ξ̂ in one product."""
+        sys, hb = self.system, self.hb
+        eye = torch.eye(self.na, dtype=hb.Mt.dtype, device=hb.Mt.device)
+        Pinv = torch.linalg.inv(eye - self.o.gamma * h3 * sys.lag_R)
+        W = self.o.gamma * h3 * Pinv @ sys.lag_E
+        return {"Pinv": Pinv, "W": W, "Ceff": hb.C0 + sys.lag_D @ W,
+                "PD": torch.cat([Pinv, sys.lag_D @ Pinv], dim=1)}
+
     def propagate(self, x0: tuple[Tensor, Tensor, Tensor], period: Tensor, N: Tensor,
                   rows: Tensor, tangent: bool) -> dict:
         """Integrate N (B,) steps of h = T/N from x0 = (q, v, ξ); with ``tangent``, also the
         monodromy (B, m, m) and ∂x_N/∂T (B, m), m = 2n + na. Returns the final state, the
-        output samples y (B, max N, O), the orbit scales (B, m) and the step residual."""
+        output samples y (B, max N, O), the orbit scales (B, m) and the step residual (the
+        largest last correction of a step's iterations relative to the largest |a|).
+
+        Each step solves G(a1) = M_t a1 + C_eff q̇1 + K_l q1 + f_nl(q1, q̇1) + D P⁻¹ ξ̂ − load = 0
+        with q1 = q̂ + βh² a1, q̇1 = v̂ + γh a1 (the Newmark predictors q̂, v̂, ξ̂): its linear
+        part is S a1 + G0 with S = M_t + γh C_eff + βh² K_l (per case, fixed) and G0 from the
+        predictors (per step), so an iteration costs one product, the force and a solve."""
         o, hb, sys = self.o, self.hb, self.system
         n, na, B = self.n, self.na, self.B
         dtype, dev = hb.Mt.dtype, hb.Mt.device
         be, ga = o.beta, o.gamma
-        h = (period / N.to(dtype)).view(B, 1)
+        Nf = N.to(dtype).view(B, 1)
+        h = period.view(B, 1) / Nf
         h3 = h.view(B, 1, 1)
+        # Newmark's coefficients per case: q1 = q̂ + cq a1, q̇1 = v̂ + cv a1, and the predictors'
+        # q̂ = q + h q̇ + ca a, v̂ = q̇ + cb a (ξ̂ alike with ξ̇)
+        cq, cv, ca, cb = be * h * h, ga * h, (0.5 - be) * h * h, (1.0 - ga) * h
+        cq3, cv3, ca3, cb3 = (c.view(B, 1, 1) for c in (cq, cv, ca, cb))
+        # ∂/∂T of the predictors through h = T/N: ∂q̂/∂T = (q̇ + ta a + ta1 a1)/N...,
+        # ∂v̂/∂T = (tb a + tb1 a1)/N (ξ̂ alike with ξ̇), the 1/N folded in
+        inv_N = 1.0 / Nf
+        ta, ta1 = 2.0 * (0.5 - be) * h * inv_N, 2.0 * be * h * inv_N
+        tb, tb1 = (1.0 - ga) * inv_N, ga * inv_N
         q, v, xi = (t.clone() for t in x0)
         a, Kt, Ct = self.acceleration(q, v, xi)
-        xid = ((sys.lag_E @ v[..., None] + sys.lag_R @ xi[..., None])[..., 0] if na
-               else xi)
         if na:
-            eye = torch.eye(na, dtype=dtype, device=dev)
-            Pinv = torch.linalg.inv(eye - ga * h3 * sys.lag_R)
-            W = ga * h3 * Pinv @ sys.lag_E
-            Ceff = hb.C0 + sys.lag_D @ W
+            lag = self._lag_step(h3)
+            Ceff = lag["Ceff"]
+            xid = (sys.lag_E @ v[..., None] + sys.lag_R @ xi[..., None])[..., 0]
+            linear = torch.cat([Ceff, hb.Kl, lag["PD"][:, na:]], dim=2)  # G0's [C_eff K_l DP⁻¹]
         else:
-            Ceff = hb.C0
+            Ceff, xid = hb.C0, xi
+            linear = torch.cat([Ceff, hb.Kl], dim=2)
+        S = hb.Mt + cv3 * Ceff + cq3 * hb.Kl
+        Cn = Ct - hb.C0  # the nonlinear damping tangent (zero without it)
         m = 2 * n + na
         if tangent:
             # columns: perturbations of (q0, v0, ξ0), then d/dT
@@ -230,84 +327,105 @@ class _Map:
                 rhs = rhs + sys.lag_D @ dxi
             da = -torch.linalg.solve(hb.Mt, rhs)
             dxid = sys.lag_E @ dv + sys.lag_R @ dxi if na else dxi
-            dh = torch.zeros(B, 1, cols, dtype=dtype, device=dev)
-            dh[:, 0, -1] = 1.0 / N.to(dtype)
         # the step's Newton matrix at the current state (see the step below)
-        LU, piv = torch.linalg.lu_factor(hb.Mt + ga * h3 * (Ceff + Ct - hb.C0)
-                                         + be * h3 * h3 * Kt)
-        Nmax = int(N.max())
+        Jinv = _step_inverse(S + cv3 * Cn + cq3 * (Kt - hb.Kl))
+        Nmax, Nmin = int(N.max()), int(N.min())
         O = rows.shape[0]
         y = torch.empty(B, Nmax, O, dtype=dtype, device=dev)
         if tangent:
             yt = torch.empty(B, Nmax, cols, dtype=dtype, device=dev)  # ∂y_k/∂(x0, T), row 0
         scale = torch.cat([q.abs(), v.abs(), xi.abs()], dim=1)
-        step_error = torch.zeros(B, dtype=dtype, device=dev)
+        # the last iteration's correction and the acceleration, largest |·| per component
+        last_corr, a_max = torch.zeros_like(q), a.abs()
         load = sys.load
         a_prev = a
         for k in range(Nmax):
             y[:, k] = q @ rows.T
             if tangent:
-                yt[:, k] = (rows[0] @ dq)
-            live = (k < N).view(B, 1)
-            qh = q + h * v + h * h * (0.5 - be) * a
-            vh = v + h * (1.0 - ga) * a
+                yt[:, k] = rows[0] @ dq
+            qh = torch.addcmul(torch.addcmul(q, h, v), ca, a)
+            vh = torch.addcmul(v, cb, a)
             a1 = 2.0 * a - a_prev  # linear extrapolation
             if na:
-                xih = xi + h * (1.0 - ga) * xid
-                xi_base = (Pinv @ xih[..., None])[..., 0]
+                xih = torch.addcmul(xi, cb, xid)
+                lag_images = (lag["PD"] @ xih[..., None])[..., 0]
+                xi_base = lag_images[:, :na]
+                G0 = (linear @ torch.cat([vh, qh, xih], 1)[..., None])[..., 0]
+            else:
+                G0 = (linear @ torch.cat([vh, qh], 1)[..., None])[..., 0]
+            if load is not None:
+                G0 = G0 - load
             # modified Newton on the step's equation with the Jacobian of the last step's
             # solution (O(h) away, so the iterations contract by O(h²)); the monodromy needs
             # the tangent at this step's solution itself (at a predictor's, the trivial
-            # multiplier of the Goland orbits moves by ~1e-2): taken after the last iteration,
-            # it is also the next step's iteration matrix
+            # multiplier of the Goland orbits moves by ~1e-2; even at the last iterate's, one
+            # correction away, which would save a force evaluation, the finished γ = 0 orbits'
+            # |μ_trivial − 1| grows tenfold to ~5e-7): taken after the last iteration, it is
+            # also the next step's iteration matrix
             for _ in range(o.step_iterations):
-                q1 = qh + be * h * h * a1
-                v1 = vh + ga * h * a1
-                G = ((hb.Mt @ a1[..., None]) + Ceff @ v1[..., None]
-                     + hb.Kl @ q1[..., None])[..., 0] + self.forces(q1, v1, tangent=False)
-                if na:
-                    G = G + (sys.lag_D @ xi_base[..., None])[..., 0]
-                if load is not None:
-                    G = G - load
-                corr = torch.linalg.lu_solve(LU, piv, G[..., None])[..., 0]
+                q1, v1 = torch.addcmul(qh, cq, a1), torch.addcmul(vh, cv, a1)
+                f = self.nonlinear_force(q1, v1) if self.nonlinear else 0.0
+                G = torch.baddbmm(G0[..., None], S, a1[..., None])[..., 0] + f
+                corr = (Jinv @ G[..., None])[..., 0]
                 a1 = a1 - corr
-            scale_a = a1.abs().amax(1).clamp_min(torch.finfo(dtype).tiny)
-            step_error = torch.maximum(step_error, corr.abs().amax(1) / scale_a)
-            q1 = qh + be * h * h * a1
-            v1 = vh + ga * h * a1
+            last_corr = torch.maximum(last_corr, corr.abs())
+            a_max = torch.maximum(a_max, a1.abs())
+            q1, v1 = torch.addcmul(qh, cq, a1), torch.addcmul(vh, cv, a1)
             if self.nonlinear:
-                _, Kt, Ct = self.forces(q1, v1)
-                LU, piv = torch.linalg.lu_factor(
-                    hb.Mt + ga * h3 * (Ceff + Ct - hb.C0) + be * h3 * h3 * Kt)
+                _, Kn, Cn_new = self.nonlinear_tangents(q1, v1)
+                Kt = hb.Kl + Kn
+                Cn = Cn if Cn_new is None else Cn_new
+                Jinv = _step_inverse(S + cv3 * Cn + cq3 * Kn)
             if na:
-                xi1 = xi_base + (W @ v1[..., None])[..., 0]
+                xi1 = xi_base + (lag["W"] @ v1[..., None])[..., 0]
                 xid1 = (sys.lag_E @ v1[..., None] + sys.lag_R @ xi1[..., None])[..., 0]
             if tangent:
-                # linearised step (module docstring): J da1 = −[(C_eff + C_n) r_v + K_t r_q + D r_ξ]
-                rq = dq + h3 * dv + h3 * h3 * (0.5 - be) * da + dh * (
-                    v + 2.0 * h * (0.5 - be) * a + 2.0 * be * h * a1)[..., None]
-                rv = dv + h3 * (1.0 - ga) * da + dh * ((1.0 - ga) * a + ga * a1)[..., None]
-                rhs = Kt @ rq + (Ceff + Ct - hb.C0) @ rv
+                # linearised step (module docstring): J da1 = −[(C_eff + C_n) r_v + K_t r_q
+                # + D r_ξ], r the predictors' perturbations; only the last column (d/dT) has
+                # the step-size terms (dh/dT = 1/N)
+                # (in place on the step's own new tensors: at large B each (B, n, m + 1)
+                # allocation costs as much as the arithmetic)
+                rq = torch.addcmul(dq, h3, dv).addcmul_(ca3, da)
+                rv = torch.addcmul(dv, cb3, da)
+                rq[..., -1] += torch.addcmul(torch.addcmul(v * inv_N, ta, a), ta1, a1)
+                rv[..., -1] += torch.addcmul(tb * a, tb1, a1)
+                rhs = torch.bmm(Kt, rq).baddbmm_(Ceff + Cn, rv)
                 if na:
-                    dxih = dxi + h3 * (1.0 - ga) * dxid + dh * ((1.0 - ga) * xid
-                                                                 + ga * xid1)[..., None]
-                    rxi = Pinv @ dxih
-                    rhs = rhs + sys.lag_D @ rxi
-                da1 = -torch.linalg.lu_solve(LU, piv, rhs)
-                dq1 = rq + be * h3 * h3 * da1
-                dv1 = rv + ga * h3 * da1
+                    dxih = torch.addcmul(dxi, cb3, dxid)
+                    dxih[..., -1] += torch.addcmul(tb * xid, tb1, xid1)
+                    images = lag["PD"] @ dxih
+                    rxi = images[:, :na]
+                    rhs += images[:, na:]
+                da1 = torch.bmm(Jinv, rhs).neg_()
+                dq1 = rq.addcmul_(cq3, da1)
+                dv1 = rv.addcmul_(cv3, da1)
+                if na:
+                    dxi1 = torch.baddbmm(rxi, lag["W"], dv1)
+                    dxid1 = torch.bmm(sys.lag_E, dv1).baddbmm_(sys.lag_R, dxi1)
+            if k < Nmin:  # every case still stepping: no masks
+                a_prev, q, v, a = a, q1, v1, a1
+                if na:
+                    xi, xid = xi1, xid1
+                if tangent:
+                    dq, dv, da = dq1, dv1, da1
+                    if na:
+                        dxi, dxid = dxi1, dxid1
+            else:
+                live = (k < N).view(B, 1)
                 live3 = live.view(B, 1, 1)
-                dq, dv = torch.where(live3, dq1, dq), torch.where(live3, dv1, dv)
-                da = torch.where(live3, da1, da)
+                a_prev = torch.where(live, a, a_prev)
+                q, v, a = (torch.where(live, new, old)
+                           for new, old in ((q1, q), (v1, v), (a1, a)))
                 if na:
-                    dxi1 = rxi + W @ dv1
-                    dxid1 = sys.lag_E @ dv1 + sys.lag_R @ dxi1
-                    dxi, dxid = torch.where(live3, dxi1, dxi), torch.where(live3, dxid1, dxid)
-            a_prev = torch.where(live, a, a_prev)
-            q, v, a = (torch.where(live, new, old) for new, old in ((q1, q), (v1, v), (a1, a)))
-            if na:
-                xi, xid = torch.where(live, xi1, xi), torch.where(live, xid1, xid)
-            scale = torch.maximum(scale, torch.cat([q.abs(), v.abs(), xi.abs()], dim=1))
+                    xi, xid = torch.where(live, xi1, xi), torch.where(live, xid1, xid)
+                if tangent:
+                    dq, dv, da = (torch.where(live3, new, old)
+                                  for new, old in ((dq1, dq), (dv1, dv), (da1, da)))
+                    if na:
+                        dxi, dxid = (torch.where(live3, new, old)
+                                     for new, old in ((dxi1, dxi), (dxid1, dxid)))
+            scale = torch.maximum(scale, torch.cat([q, v, xi], dim=1).abs())
+        step_error = last_corr.amax(1) / a_max.amax(1).clamp_min(torch.finfo(dtype).tiny)
         out = {"q": q, "v": v, "xi": xi, "y": y, "scale": scale, "step_error": step_error}
         if tangent:
             full = torch.cat([dq, dv, dxi], dim=1)  # (B, m, m + 1)
@@ -408,6 +526,8 @@ def shoot(system: CaseSystem, start: OrbitStart, decision_row, rows=None,
     accepted = np.zeros(B, dtype=bool)
     reported = (None if start.amplitude is None or o.accept is None
                 else np.asarray(start.amplitude.detach().cpu(), dtype=float).reshape(B))
+    coarse = (None if start.coarse_amplitude is None
+              else np.asarray(start.coarse_amplitude.detach().cpu(), dtype=float).reshape(B))
     failed = ~ok.cpu().numpy()
     iterations = np.zeros(B, dtype=np.int64)
     nan = np.full(B, np.nan)
@@ -470,9 +590,11 @@ def shoot(system: CaseSystem, start: OrbitStart, decision_row, rows=None,
         candidate = np.zeros_like(done)
         if it == 0 and reported is not None:
             # the start is accepted where the discrete orbit's amplitude (to second order in
-            # the start's distance) is within ``accept`` of the reported one
+            # the start's distance), or its Richardson extrapolation with the coarse one, is
+            # within ``accept`` of the reported one
+            target = a_new if coarse is None else a_new + (a_new - coarse[active]) / 3.0
             with np.errstate(invalid="ignore", divide="ignore"):
-                candidate = good & ~done & (np.abs(reported[active] / a_new - 1.0) <= o.accept)
+                candidate = good & ~done & (np.abs(reported[active] / target - 1.0) <= o.accept)
         final = done | candidate | (good & (it == o.max_iterations))
         if final.any():
             # the stability of the converged orbit (or, on the last pass, of the orbit nearest
