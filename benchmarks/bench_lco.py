@@ -9,7 +9,8 @@ pipeline's model cache (``--model``). Cases: post-flutter altitudes × γ with t
 function each): ``newmark-reference`` (the paper's setting: dt = 1 ms, small start, 2 Newton
 iterations), ``newmark`` (a 10 %-of-span start on the static manifold, error-controlled steps),
 ``newmark-fast``, ``hb`` and ``hb-unresolved`` (harmonic balance, with seeding of the LCOs not
-accepted in H), ``newmark-neighbour`` and ``newmark-hb`` (``--methods``). Every method's LCOs
+accepted in H), ``shooting`` (the ``hb`` orbits finished to the discrete orbit, every one),
+``newmark-neighbour`` and ``newmark-hb`` (``--methods``). Every method's LCOs
 are certified as a sweep certifies them (:mod:`torchrom.periodic.certify`: one shooting
 evaluation each at dt = 1 ms, a shooting finish where the certificate fails, Richardson's
 dt_error), the certificate's CPU time counted in the method's. Reference: the continuous-time
@@ -56,6 +57,7 @@ from torchrom.periodic.shooting import OrbitStart, ShootingOptions, shoot  # noq
 from torchrom.periodic.solve import orbit_state  # noqa: E402
 from torchrom.sim import LCOCriteria, Newmark, SimulationResult  # noqa: E402
 from torchrom.study.cases import case_system, neighbour_chains  # noqa: E402
+from torchrom.study.solvers import Shooting  # noqa: E402
 from torchrom.study.starts import march  # noqa: E402
 
 OUTPUT = "A_Tz"
@@ -96,6 +98,8 @@ class MethodRun:
     result: SimulationResult | None = None
     #: the certificate's columns (torchrom.periodic.certify), after :func:`certified`
     certificate: dict | None = None
+    #: certify with ``always_finish`` (the shooting solver: every LCO finished)
+    always_finish: bool = False
 
 
 def _timed(fn: Callable[[], object]) -> tuple[object, float]:
@@ -175,13 +179,14 @@ def newmark_hb(bench: Bench) -> MethodRun:
 
 
 # --- harmonic balance (issue 13) ----------------------------------------------------------------
-def harmonic_balance(bench: Bench, seed: str = "unconverged") -> MethodRun:
+def harmonic_balance(bench: Bench, seed: str = "unconverged",
+                     method: HarmonicBalanceMethod | None = None) -> MethodRun:
     """Periodic orbits by harmonic balance (:class:`torchrom.periodic.HarmonicBalanceMethod`,
     the sweep's ``method = "hb"`` with its defaults: adaptive H 5..9, neighbour chains along
     the altitude, Floquet stability of every orbit, time-integration seeds for the
     unconverged cases): cold starts and stability included. ``seed = "unresolved"`` (method
     ``hb-unresolved``, the paper study's setting) also seeds the LCOs not accepted in H."""
-    method = HarmonicBalanceMethod(seed=seed)
+    method = method or HarmonicBalanceMethod(seed=seed)
 
     def run():
         chains, positions = neighbour_chains(bench.cases)
@@ -192,6 +197,14 @@ def harmonic_balance(bench: Bench, seed: str = "unconverged") -> MethodRun:
     nan = np.full(len(bench.cases), np.nan)
     return MethodRun(res.amplitude[:, 0], res.frequency_hz, res.status, res.steps, nan, cpu,
                      res.q, res.v, None, res)
+
+
+def shooting(bench: Bench) -> MethodRun:
+    """The sweep's ``method = "shooting"`` (:class:`torchrom.study.solvers.Shooting`): the
+    ``hb`` method's orbits without Floquet as the predictor, every LCO then finished to the
+    discrete orbit by the certificate (``always_finish``; its CPU counted as for the others)."""
+    run = harmonic_balance(bench, method=Shooting.predictor(HarmonicBalanceMethod()))
+    return dataclasses.replace(run, always_finish=True)
 
 
 #: the reference's harmonic ladder: adaptive up to H = 13 (amplitude change 1e-4), then every
@@ -261,9 +274,10 @@ METHODS: dict[str, Callable[[Bench], MethodRun]] = {
     "newmark-fast": newmark_fast,
     "hb": harmonic_balance,
     "hb-unresolved": lambda bench: harmonic_balance(bench, seed="unresolved"),
+    "shooting": shooting,
 }
 #: run by default (``--methods`` adds others)
-DEFAULT_METHODS = ("newmark-reference", "newmark", "hb", "hb-unresolved")
+DEFAULT_METHODS = ("newmark-reference", "newmark", "hb", "hb-unresolved", "shooting")
 
 
 #: every method's LCOs are certified as a sweep certifies them (the certificate's step: the
@@ -276,7 +290,8 @@ def certified(bench: Bench, run: MethodRun) -> MethodRun:
     """``run`` with every LCO certified (finished by shooting where its certificate fails,
     ``lco_uncertified`` where that fails too), the CPU time of the certificate added."""
     rows = np.asarray(bench.model.rom.outputs[OUTPUT])[None]
-    res, cpu = _timed(lambda: certify(bench.system(), run.result, rows, 0, CERTIFICATE,
+    cert = dataclasses.replace(CERTIFICATE, always_finish=run.always_finish)
+    res, cpu = _timed(lambda: certify(bench.system(), run.result, rows, 0, cert,
                                       CERTIFICATE_DT))
     return dataclasses.replace(run, amplitude=res.amplitude[:, 0], frequency_hz=res.frequency_hz,
                                status=res.status, cpu_s=run.cpu_s + cpu, result=res,
