@@ -326,7 +326,7 @@ def _secondary(cfg):
     share the step; a third of the certificate's cost)."""
     cfg = dataclasses.replace(cfg, certificate=dataclasses.replace(cfg.certificate,
                                                                    richardson=False))
-    if cfg.hb.seed == "off":  # (the [hb] method: a time-marching solver does not read it)
+    if cfg.solver.marches_time or cfg.hb.seed == "off":  # no [hb] method to lighten
         return cfg
     return dataclasses.replace(cfg, hb=dataclasses.replace(cfg.hb, seed="unconverged"))
 
