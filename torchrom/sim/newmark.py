@@ -500,6 +500,9 @@ class _Run:
         mats["s"] = None if s is None else (1.0 - p.alpha_f) * s
         mats["g"] = None if g is None else (1.0 - p.alpha_f) * g
         self.mats = {k: _fm(t) for k, t in mats.items() if t is not None}
+        if self.nonlinear and self.forces.small is not None:
+            self.mats["z_scale"], self.mats["sg"] = self.forces.small_scales(
+                self.mats.get("s"), self.mats.get("g"))
         if self.adaptive:
             self.mats.update(self._dt_coefficients(self.dtc))
         self.state = {k: _fm(t) for k, t in state.items()}
@@ -569,7 +572,9 @@ class _Run:
         coef = {"dt": dt, "c_qa": dt * dt * (0.5 - p.beta), "c_va": dt * (1.0 - p.gamma),
                 "bdt2": p.beta * dt * dt, "gdt": p.gamma * dt,
                 "e_dt2": abs(p.beta - 1.0 / 6.0) * dt * dt}
-        return {k: v.to(self.kw["dtype"]).unsqueeze(0).contiguous() for k, v in coef.items()}
+        coef = {k: v.to(self.kw["dtype"]).unsqueeze(0).contiguous() for k, v in coef.items()}
+        coef["c_vq"] = torch.stack([coef["gdt"], coef["bdt2"]])  # (2, 1, B), see _make_step
+        return coef
 
     def _adapt_steps(self, shrink: Tensor) -> None:
         """New per-case steps from the interval's local error estimate (adaptive runs).
@@ -655,16 +660,25 @@ class _Run:
         ``iters``: nonlinear iterations; ``refresh``: evaluate the Jacobian at the predicted
         state and make (S + J)⁻¹ the iteration matrix from this step on; ``rho``: also record
         the ratio of the last two corrections (the measured contraction ratio, used by the
-        error estimate of single-iteration steps)."""
+        error estimate of single-iteration steps).
+
+        Returns (new state, outputs (2, O, B) = C [q̇; q], diagnostics (k, B)): the largest
+        |correction| of the last two iterations (one with one iteration, none on the linear
+        path) and the largest |a|, folded into the interval's error estimate once per check
+        interval (:meth:`_fold_diagnostics`), not once per step."""
         integ, p, dt = self.integ, self.p, self.integ.dt
         c_qa, c_va = dt * dt * (0.5 - p.beta), dt * (1.0 - p.gamma)
         bdt2, gdt = p.beta * dt * dt, p.gamma * dt
+        # [q̇; q] advance together, x + c a with c = (γ dt, β dt²): one kernel for both
+        c_vq = torch.tensor([gdt, bdt2], **self.kw).view(2, 1, 1)
         adaptive = self.adaptive
         am, af = p.alpha_m, p.alpha_f
         lag, newmark, nonlinear = self.na > 0, p.is_newmark, self.nonlinear
         predictor, forces, C = integ.predictor, self.forces, self.C
+        small = nonlinear and forces.small is not None
         has_load = "F" in self.mats
         iterative = self.iterative
+        n2 = 2 * self.n
         tiny = torch.finfo(self.kw["dtype"]).tiny
 
         def step(st: dict, m: dict):
@@ -674,8 +688,9 @@ class _Run:
             if adaptive:
                 # per-case steps: the coefficients are (1, B) rows of the per-case matrices
                 h, h_qa, h_va, h_b, h_g = (m[k] for k in ("dt", "c_qa", "c_va", "bdt2", "gdt"))
+                cz = m["c_vq"]
             else:
-                h, h_qa, h_va, h_b, h_g = dt, c_qa, c_va, bdt2, gdt
+                h, h_qa, h_va, h_b, h_g, cz = dt, c_qa, c_va, bdt2, gdt, c_vq
             qh = _axpy(_axpy(q, v, h), a, h_qa)
             vh = _axpy(v, a, h_va)
             parts = [vh, qh]
@@ -687,9 +702,12 @@ class _Run:
             if not newmark:
                 parts += [a, st["fint"]]
             new = dict(st)
+            corrs = []
             if not iterative:
                 # linear, modified Newton: S is the exact Jacobian, one solve is exact
-                ak = _cmv(m["ZL"], torch.cat(parts))
+                x = torch.cat(parts)
+                zh = x[:n2].view(2, n2 // 2, -1)  # the predicted [q̇; q]
+                ak = _cmv(m["ZL"], x)
                 if has_load:
                     ak = ak.add_(m["uF"])
             else:
@@ -700,42 +718,37 @@ class _Run:
                 else:
                     ak = torch.sub(a, st["a1"]).mul_(3.0).add_(st["a2"])
                 # residual of the linear part at the predictor: b − S a_p in one product
-                res_lin = _cmv(m["LS"], torch.cat(parts + [ak]))
+                x = torch.cat(parts + [ak])
+                res_lin = _cmv(m["LS"], x)
                 if has_load:
                     res_lin = res_lin.add_(m["F"])
                 a_p, Z = ak, st["Z"]
                 s, g = m.get("s"), m.get("g")
-                prev = last = None
+                zh = x[:n2].view(2, n2 // 2, -1)  # the predicted [q̇; q]
                 for it in range(iters):
                     r = res_lin if it == 0 else res_lin - _cmv(m["S"], ak - a_p)
                     if nonlinear:
-                        qk, vk = _axpy(qh, ak, h_b), _axpy(vh, ak, h_g)
+                        zk = torch.addcmul(zh, ak, cz)
                         if refresh and it == 0:
-                            f, K, D = forces.evaluate_T(qk, vk, s, g, jacobian=True)
+                            f, K, D = forces.evaluate_T(zk[1], zk[0], s, g, jacobian=True)
                             Z = _refreshed_inverse(m["S"], K, D, s, g, h_b, h_g, Z)
                             new["Z"] = Z
+                        elif small:
+                            f = forces.evaluate_small(zk.view(n2, -1), m["z_scale"], m["sg"])
                         else:
-                            f = forces.evaluate_T(qk, vk, s, g)
+                            f = forces.evaluate_T(zk[1], zk[0], s, g)
                         r = r - f
                     corr = _cmv(Z, r)
                     ak = ak + corr
-                    # abs().amax(): vector_norm(ord=inf) is several times slower on CPU
-                    prev, last = last, corr.abs().amax(0)
-                if prev is None:
-                    # one iteration: its correction times r/(1−r), r the contraction ratio
-                    # measured on the sampled steps (see Newmark.sample_every)
-                    new["c1"] = torch.maximum(st["c1"], last)
-                else:
-                    # error left after the last correction: Aitken |Δa_K|²/(|Δa_{K−1}|−|Δa_K|)
-                    # = |Δa_K| r/(1−r), r the contraction ratio, capped at r = 0.99 (≈ 100|Δa_K|)
-                    err = last * last / torch.maximum(prev - last, 0.01 * prev).clamp_min(tiny)
-                    new["err"] = torch.maximum(st["err"], err)
-                    if rho:
-                        new["rho"] = torch.maximum(st["rho"], last / prev.clamp_min(tiny))
-            q1 = _axpy(qh, ak, h_b)
-            v1 = _axpy(vh, ak, h_g)
-            new.update(q=q1, v=v1, a=ak, a1=a, a2=st["a1"],
-                       amax=torch.maximum(st["amax"], ak.abs().amax(0)))
+                    corrs = corrs[-1:] + [corr]
+            # rows: the last two corrections' and a_{n+1}'s largest magnitudes
+            diag = torch.stack(corrs + [ak]).abs_().amax(1)
+            if rho:
+                # the contraction ratio of the last two corrections (Newmark.sample_every)
+                new["rho"] = torch.maximum(st["rho"], diag[1] / diag[0].clamp_min(tiny))
+            z1 = torch.addcmul(zh, ak, cz)  # [q̇; q] at t_{n+1}
+            v1, q1 = z1[0], z1[1]
+            new.update(q=q1, v=v1, a=ak, a1=a, a2=st["a1"])
             if lag:
                 xid1 = xid_star + _cmv(m["W"], v1)
                 new["xid"] = xid1
@@ -748,15 +761,39 @@ class _Run:
                 if has_load:
                     fint = fint.add_(m["F"])
                 new["fint"] = fint.div_(1.0 - af)
-            y = C @ q1
+            yy = C @ z1
             if adaptive:
                 # local error estimate on the outputs (see _Run._adapt_steps)
                 e = (C @ (ak - a)).abs().amax(0) * m["e_dt2"][0]
                 new["lerr"] = torch.maximum(st["lerr"], e)
-                new["ymax"] = torch.maximum(st["ymax"], y.abs().amax(0))
-            return new, y, C @ v1
+                new["ymax"] = torch.maximum(st["ymax"], yy[1].abs().amax(0))
+            return new, yy, diag
 
         return step
+
+    def _fold_diagnostics(self, st: dict, diags: list[Tensor]) -> dict:
+        """The state with the interval accumulators updated from the steps' diagnostics (see
+        :meth:`_make_step`): the largest |a|; for steps of two or more iterations the error
+        left after the last correction, Aitken |Δa_K|²/(|Δa_{K−1}|−|Δa_K|) = |Δa_K| r/(1−r), r
+        the contraction ratio, capped at r = 0.99 (≈ 100|Δa_K|); for single-iteration steps
+        their largest correction (times r/(1−r), r measured on the sampled steps, later:
+        Newmark.sample_every). Elementwise and max operations only: the numbers the steps
+        would have accumulated one by one, bit for bit."""
+        st = dict(st)
+        tiny = torch.finfo(self.kw["dtype"]).tiny
+        by_rows: dict[int, list[Tensor]] = {}
+        for d in diags:
+            by_rows.setdefault(d.shape[0], []).append(d)
+        for rows, ds in by_rows.items():
+            D = torch.stack(ds)  # (steps, rows, B)
+            st["amax"] = torch.maximum(st["amax"], D[:, -1].amax(0))
+            if rows == 3:
+                prev, last = D[:, 0], D[:, 1]
+                err = last * last / torch.maximum(prev - last, 0.01 * prev).clamp_min(tiny)
+                st["err"] = torch.maximum(st["err"], err.amax(0))
+            elif rows == 2:
+                st["c1"] = torch.maximum(st["c1"], D[:, 0].amax(0))
+        return st
 
     def _step_function(self, step_no: int):
         """The step function of global step ``step_no`` (host decision, no synchronisation)."""
@@ -776,13 +813,14 @@ class _Run:
 
     def _steps(self, st: dict, step0: int, N: int) -> tuple[dict, Tensor, Tensor]:
         """Advance N steps from ``st``: the new state and the outputs Y, Ẏ (N, O, B)."""
-        ys, yds = [], []
+        yys, diags = [], []
         m = self.mats
         for i in range(N):
-            st, y, yd = self._step_function(step0 + i)(st, m)
-            ys.append(y)
-            yds.append(yd)
-        return st, torch.stack(ys), torch.stack(yds)
+            st, yy, diag = self._step_function(step0 + i)(st, m)
+            yys.append(yy)
+            diags.append(diag)
+        YY = torch.stack(yys)  # (N, 2, O, B): C q̇, C q
+        return self._fold_diagnostics(st, diags), YY[:, 1], YY[:, 0]
 
     def _steps_in_place(self, step0: int, N: int) -> tuple[Tensor, Tensor]:
         """:meth:`_steps` writing the new state into the current state tensors: the form a CUDA
