@@ -403,10 +403,31 @@ def _cmv(A: Tensor, x: Tensor) -> Tensor:
     """Per-case matrix-vector product, feature-major: A (k, m, B), x (k, B) -> (m, B).
 
     Σ_k A[k] ⊙ x[k] over the leading dimension streams the B small matrices once with unit
-    stride (faster than a batched GEMM of B 21 x 21 products on a CPU); one case is one GEMV."""
+    stride (faster than a batched GEMM of B 21 x 21 products on a CPU); one case is one GEMV,
+    on A given as that case's (m, k) matrix (:func:`_single`) or taken from A (k, m, 1)."""
+    if A.dim() == 2:
+        return torch.mm(A, x)
     if x.shape[1] == 1:
         return A.squeeze(2).T @ x
     return (A * x.unsqueeze(1)).sum(0)
+
+
+def _cmv_from(r: Tensor, A: Tensor, x: Tensor) -> Tensor:
+    """r − A x per case (:func:`_cmv`); one kernel for a single case's (m, k) matrix."""
+    if A.dim() == 2:
+        return torch.addmm(r, A, x, alpha=-1.0)
+    return r - _cmv(A, x)
+
+
+def _single(A: Tensor) -> Tensor:
+    """The (m, k) matrix of a single case's (k, m, 1) per-case matrix (a view): what
+    :func:`_cmv` multiplies without two views per product."""
+    return A[:, :, 0].T
+
+
+#: per-case matrices the step only multiplies vectors by; with a single case left in the batch
+#: (the tail of every chunk) it receives them as plain matrices (see _Run._step_mats)
+_MV_ONLY = ("LS", "ZL", "Q", "W", "MT")
 
 
 class _Run:
@@ -662,7 +683,7 @@ class _Run:
         the ratio of the last two corrections (the measured contraction ratio, used by the
         error estimate of single-iteration steps).
 
-        Returns (new state, outputs (2, O, B) = C [q̇; q], diagnostics (k, B)): the largest
+        Returns (new state, outputs C q and C q̇ (O, B), diagnostics (k, B)): the largest
         |correction| of the last two iterations (one with one iteration, none on the linear
         path) and the largest |a|, folded into the interval's error estimate once per check
         interval (:meth:`_fold_diagnostics`), not once per step."""
@@ -685,6 +706,7 @@ class _Run:
             # written for a small number of kernels per step: eager CPU time is op overhead
             # for small batches
             q, v, a = st["q"], st["v"], st["a"]
+            one = q.shape[1] == 1
             if adaptive:
                 # per-case steps: the coefficients are (1, B) rows of the per-case matrices
                 h, h_qa, h_va, h_b, h_g = (m[k] for k in ("dt", "c_qa", "c_va", "bdt2", "gdt"))
@@ -723,22 +745,24 @@ class _Run:
                 if has_load:
                     res_lin = res_lin.add_(m["F"])
                 a_p, Z = ak, st["Z"]
+                Zmv = _single(Z) if one else Z
                 s, g = m.get("s"), m.get("g")
                 zh = x[:n2].view(2, n2 // 2, -1)  # the predicted [q̇; q]
                 for it in range(iters):
-                    r = res_lin if it == 0 else res_lin - _cmv(m["S"], ak - a_p)
+                    r = res_lin if it == 0 else _cmv_from(res_lin, m["S_mv"], ak - a_p)
                     if nonlinear:
                         zk = torch.addcmul(zh, ak, cz)
                         if refresh and it == 0:
                             f, K, D = forces.evaluate_T(zk[1], zk[0], s, g, jacobian=True)
                             Z = _refreshed_inverse(m["S"], K, D, s, g, h_b, h_g, Z)
                             new["Z"] = Z
+                            Zmv = _single(Z) if one else Z
                         elif small:
                             f = forces.evaluate_small(zk.view(n2, -1), m["z_scale"], m["sg"])
                         else:
                             f = forces.evaluate_T(zk[1], zk[0], s, g)
                         r = r - f
-                    corr = _cmv(Z, r)
+                    corr = _cmv(Zmv, r)
                     ak = ak + corr
                     corrs = corrs[-1:] + [corr]
             # rows: the last two corrections' and a_{n+1}'s largest magnitudes
@@ -761,13 +785,13 @@ class _Run:
                 if has_load:
                     fint = fint.add_(m["F"])
                 new["fint"] = fint.div_(1.0 - af)
-            yy = C @ z1
+            y = torch.mm(C, q1)
             if adaptive:
                 # local error estimate on the outputs (see _Run._adapt_steps)
                 e = (C @ (ak - a)).abs().amax(0) * m["e_dt2"][0]
                 new["lerr"] = torch.maximum(st["lerr"], e)
-                new["ymax"] = torch.maximum(st["ymax"], yy[1].abs().amax(0))
-            return new, yy, diag
+                new["ymax"] = torch.maximum(st["ymax"], y.abs().amax(0))
+            return new, y, torch.mm(C, v1), diag
 
         return step
 
@@ -795,6 +819,18 @@ class _Run:
                 st["c1"] = torch.maximum(st["c1"], D[:, 0].amax(0))
         return st
 
+    def _step_mats(self, B: int) -> dict[str, Tensor]:
+        """The per-case matrices as the step reads them: S also as ``S_mv``, the form it
+        multiplies vectors by; with a single case, the matrices of _MV_ONLY and ``S_mv`` as
+        that case's (m, k) matrices (one GEMV per product, no views; once per chunk)."""
+        m = self.mats
+        if B != 1:
+            return {**m, "S_mv": m["S"]} if "S" in m else m
+        single = {k: _single(m[k]) for k in _MV_ONLY if k in m}
+        if "S" in m:
+            single["S_mv"] = _single(m["S"])
+        return {**m, **single}
+
     def _step_function(self, step_no: int):
         """The step function of global step ``step_no`` (host decision, no synchronisation)."""
         integ = self.integ
@@ -813,14 +849,14 @@ class _Run:
 
     def _steps(self, st: dict, step0: int, N: int) -> tuple[dict, Tensor, Tensor]:
         """Advance N steps from ``st``: the new state and the outputs Y, Ẏ (N, O, B)."""
-        yys, diags = [], []
-        m = self.mats
+        ys, yds, diags = [], [], []
+        m = self._step_mats(st["q"].shape[1])
         for i in range(N):
-            st, yy, diag = self._step_function(step0 + i)(st, m)
-            yys.append(yy)
+            st, y, yd, diag = self._step_function(step0 + i)(st, m)
+            ys.append(y)
+            yds.append(yd)
             diags.append(diag)
-        YY = torch.stack(yys)  # (N, 2, O, B): C q̇, C q
-        return self._fold_diagnostics(st, diags), YY[:, 1], YY[:, 0]
+        return self._fold_diagnostics(st, diags), torch.stack(ys), torch.stack(yds)
 
     def _steps_in_place(self, step0: int, N: int) -> tuple[Tensor, Tensor]:
         """:meth:`_steps` writing the new state into the current state tensors: the form a CUDA
