@@ -905,55 +905,14 @@ class _Run:
     # ------------------------------------------------------------------------------------------
     def execute(self) -> SimulationResult:
         t0 = time.perf_counter()
-        integ, crit = self.integ, self.crit
-        dt = integ.dt
         case_steps = 0
-        tol = integ.tolerance(self.kw["dtype"])
-        adaptive = self.adaptive
-        while len(self.active) and (adaptive or self.step_no < self.steps_total):
-            N = (integ.check_every if adaptive
-                 else min(integ.check_every, self.steps_total - self.step_no))
-            Bc = len(self.active)
-            step0 = self.step_no
-            Y, Yd = self._advance(step0, N)
-            st = self.state
-            self.step_no += N
-            case_steps += N * Bc
-            Y, Yd = Y.transpose(1, 2), Yd.transpose(1, 2)  # (N, B, O) for the tracker
-            if adaptive:
-                # each case at its own time and step: the tracker times its extrema per case
-                t_start = self.t.clone()
-                self.t += N * self.dtc
-                self.tracker.update(Y, Yd, t_start, self.dtc)
-                self._record_history(Y, step0, t_start)
-                final = self.t >= self.t_end * (1.0 - 1e-12)
-            else:
-                self.tracker.update(Y, Yd, step0, dt)
-                self._record_history(Y, step0)
-                final = self.step_no >= self.steps_total
-            # per-case checks: one host synchronisation per chunk
-            rel = self._solver_error(st)
-            shrink = None
-            if adaptive:
-                # a nonlinear iteration that did not meet its tolerance asks for a smaller step
-                # (until dt_min): such a case is judged from its next interval on, and no LCO
-                # is accepted on this one
-                shrink = (rel > tol) & (self.dtc > integ.step_bounds[0] * (1 + 1e-9))
-                rel = torch.where(shrink, 0.0, rel)
-            self.solver_rel = torch.maximum(self.solver_rel, rel)
-            solver_ok = rel <= tol
-            finite = torch.isfinite(st["q"]).all(0) & torch.isfinite(st["v"]).all(0)
-            status = self.tracker.decide(crit, finite, solver_ok, final)
-            if adaptive:
-                status = torch.where(shrink & (status == LCO), RUNNING, status)
-                self._adapt_steps(shrink)
-            if integ.extrapolate:
-                self._jump(status)
-            status = status.cpu().numpy()
-            self._reset_error()
-            done = np.nonzero(status != RUNNING)[0]
-            if len(done):
-                self._finish(done, status[done])
+        tol = self.integ.tolerance(self.kw["dtype"])
+        while len(self.active) and (self.adaptive or self.step_no < self.steps_total):
+            # inference mode: no version counters nor view records on the thousands of small
+            # tensors of an interval (about a fifth of a small batch's step); what leaves the
+            # run is host arrays, and the state tensors never leave it
+            with torch.inference_mode():
+                case_steps += self._check_interval(tol)
             if self.progress is not None:
                 self.progress(self.B - len(self.active), self.B)
         res = self.res
@@ -966,6 +925,56 @@ class _Run:
             histories={c: History(np.array([s[0] for s in h]), np.stack([s[1] for s in h]),
                                   self.names) for c, h in self.hist.items()},
             wall_time_s=time.perf_counter() - t0, case_steps=case_steps, xi=res["xi"])
+
+    def _check_interval(self, tol: float) -> int:
+        """One check interval: advance the batch, track its extrema, decide, compact; returns
+        the case-steps computed."""
+        integ, crit = self.integ, self.crit
+        dt = integ.dt
+        adaptive = self.adaptive
+        N = (integ.check_every if adaptive
+             else min(integ.check_every, self.steps_total - self.step_no))
+        Bc = len(self.active)
+        step0 = self.step_no
+        Y, Yd = self._advance(step0, N)
+        st = self.state
+        self.step_no += N
+        Y, Yd = Y.transpose(1, 2), Yd.transpose(1, 2)  # (N, B, O) for the tracker
+        if adaptive:
+            # each case at its own time and step: the tracker times its extrema per case
+            t_start = self.t.clone()
+            self.t += N * self.dtc
+            self.tracker.update(Y, Yd, t_start, self.dtc)
+            self._record_history(Y, step0, t_start)
+            final = self.t >= self.t_end * (1.0 - 1e-12)
+        else:
+            self.tracker.update(Y, Yd, step0, dt)
+            self._record_history(Y, step0)
+            final = self.step_no >= self.steps_total
+        # per-case checks: one host synchronisation per chunk
+        rel = self._solver_error(st)
+        shrink = None
+        if adaptive:
+            # a nonlinear iteration that did not meet its tolerance asks for a smaller step
+            # (until dt_min): such a case is judged from its next interval on, and no LCO
+            # is accepted on this one
+            shrink = (rel > tol) & (self.dtc > integ.step_bounds[0] * (1 + 1e-9))
+            rel = torch.where(shrink, 0.0, rel)
+        self.solver_rel = torch.maximum(self.solver_rel, rel)
+        solver_ok = rel <= tol
+        finite = torch.isfinite(st["q"]).all(0) & torch.isfinite(st["v"]).all(0)
+        status = self.tracker.decide(crit, finite, solver_ok, final)
+        if adaptive:
+            status = torch.where(shrink & (status == LCO), RUNNING, status)
+            self._adapt_steps(shrink)
+        if integ.extrapolate:
+            self._jump(status)
+        status = status.cpu().numpy()
+        self._reset_error()
+        done = np.nonzero(status != RUNNING)[0]
+        if len(done):
+            self._finish(done, status[done])
+        return N * Bc
 
     def _solver_error(self, st: dict) -> Tensor:
         """(B,) estimated error left in the acceleration, relative to the largest |a| of the
