@@ -412,13 +412,6 @@ def _cmv(A: Tensor, x: Tensor) -> Tensor:
     return (A * x.unsqueeze(1)).sum(0)
 
 
-def _cmv_from(r: Tensor, A: Tensor, x: Tensor) -> Tensor:
-    """r − A x per case (:func:`_cmv`); one kernel for a single case's (m, k) matrix."""
-    if A.dim() == 2:
-        return torch.addmm(r, A, x, alpha=-1.0)
-    return r - _cmv(A, x)
-
-
 def _single(A: Tensor) -> Tensor:
     """The (m, k) matrix of a single case's (k, m, 1) per-case matrix (a view): what
     :func:`_cmv` multiplies without two views per product."""
@@ -569,6 +562,7 @@ class _Run:
         self.graphs = integ.cuda_graphs is True or (integ.cuda_graphs == "auto"
                                                     and dev.type == "cuda")
         self._graph = None
+        self._inference = not (self.graphs and dev.type == "cuda")
         bad = ~ok
         if bool(bad.any()):
             self._finish(np.nonzero(bad.cpu().numpy())[0], np.full(int(bad.sum()), FAILED))
@@ -699,7 +693,7 @@ class _Run:
         small = nonlinear and forces.small is not None
         has_load = "F" in self.mats
         iterative = self.iterative
-        n2 = 2 * self.n
+        n, n2 = self.n, 2 * self.n
         tiny = torch.finfo(self.kw["dtype"]).tiny
 
         def step(st: dict, m: dict):
@@ -728,7 +722,7 @@ class _Run:
             if not iterative:
                 # linear, modified Newton: S is the exact Jacobian, one solve is exact
                 x = torch.cat(parts)
-                zh = x[:n2].view(2, n2 // 2, -1)  # the predicted [q̇; q]
+                zh = x[:n2].view(2, n, -1)  # the predicted [q̇; q]
                 ak = _cmv(m["ZL"], x)
                 if has_load:
                     ak = ak.add_(m["uF"])
@@ -747,9 +741,9 @@ class _Run:
                 a_p, Z = ak, st["Z"]
                 Zmv = _single(Z) if one else Z
                 s, g = m.get("s"), m.get("g")
-                zh = x[:n2].view(2, n2 // 2, -1)  # the predicted [q̇; q]
+                zh = x[:n2].view(2, n, -1)  # the predicted [q̇; q]
                 for it in range(iters):
-                    r = res_lin if it == 0 else _cmv_from(res_lin, m["S_mv"], ak - a_p)
+                    r = res_lin if it == 0 else res_lin - _cmv(m["S_mv"], ak - a_p)
                     if nonlinear:
                         zk = torch.addcmul(zh, ak, cz)
                         if refresh and it == 0:
@@ -765,7 +759,8 @@ class _Run:
                     corr = _cmv(Zmv, r)
                     ak = ak + corr
                     corrs = corrs[-1:] + [corr]
-            # rows: the last two corrections' and a_{n+1}'s largest magnitudes
+            # rows: the last two corrections' and a_{n+1}'s largest magnitudes (abs().amax():
+            # vector_norm(ord=inf) is several times slower on CPU)
             diag = torch.stack(corrs + [ak]).abs_().amax(1)
             if rho:
                 # the contraction ratio of the last two corrections (Newmark.sample_every)
@@ -800,9 +795,9 @@ class _Run:
         :meth:`_make_step`): the largest |a|; for steps of two or more iterations the error
         left after the last correction, Aitken |Δa_K|²/(|Δa_{K−1}|−|Δa_K|) = |Δa_K| r/(1−r), r
         the contraction ratio, capped at r = 0.99 (≈ 100|Δa_K|); for single-iteration steps
-        their largest correction (times r/(1−r), r measured on the sampled steps, later:
-        Newmark.sample_every). Elementwise and max operations only: the numbers the steps
-        would have accumulated one by one, bit for bit."""
+        their largest correction (:meth:`_solver_error` multiplies it by r/(1−r), r measured on
+        the sampled steps, see Newmark.sample_every). Elementwise and max operations only: the
+        numbers the steps accumulated one by one before, bit for bit, for fewer kernels."""
         st = dict(st)
         tiny = torch.finfo(self.kw["dtype"]).tiny
         by_rows: dict[int, list[Tensor]] = {}
@@ -910,8 +905,9 @@ class _Run:
         while len(self.active) and (self.adaptive or self.step_no < self.steps_total):
             # inference mode: no version counters nor view records on the thousands of small
             # tensors of an interval (about a fifth of a small batch's step); what leaves the
-            # run is host arrays, and the state tensors never leave it
-            with torch.inference_mode():
+            # run is host arrays, and the state tensors never leave it. Not around CUDA graph
+            # capture (replays have no per-op overhead to save; capture is left as it was)
+            with torch.inference_mode(self._inference):
                 case_steps += self._check_interval(tol)
             if self.progress is not None:
                 self.progress(self.B - len(self.active), self.B)
