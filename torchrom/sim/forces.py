@@ -27,8 +27,8 @@ coefficient matrix and no large temporaries:
 
 For small ROMs the force of a nonlinear iteration has its own form (:meth:`evaluate_small`):
 every monomial with a nonzero coefficient, per-case scale included, is gathered from the state
-[q̇; q] and one GEMM sums them — about 8 kernels instead of ~15, which is what a launch-bound
-step of a few modes needs (a 3-mode ROM spends its time in kernel dispatch at any batch size).
+[q̇; q] and one GEMM sums them — 5 kernels instead of ~15, which is what a launch-bound step
+of a few modes needs (a 3-mode ROM spends its time in kernel dispatch at any batch size).
 
 Nothing mixes cases: every operation is a GEMM with a shared coefficient matrix or an elementwise
 / per-column operation, so a NaN in one case never reaches another.
@@ -55,8 +55,9 @@ BLOCKED_MIN_N = 8
 BLOCKED_MIN_BATCH = 128
 #: from this many modes on only the upper triangle of the symmetric damping matrix is computed
 SYMMETRIC_MIN_N = 6
-#: up to this many monomials (stiffness and damping together, e.g. 37 for the 3-mode demo ROM,
-#: ~500 at n = 8) the integrator's iterations evaluate the force with :meth:`evaluate_small`
+#: up to this many monomials with a coefficient (stiffness and damping together: 4 for the sparse
+#: 3-mode demo ROM, 43 for a dense 3-mode one, ~500 at n = 8) the integrator's iterations
+#: evaluate the force with :meth:`evaluate_small`
 SMALL_MAX_MONOMIALS = 512
 
 

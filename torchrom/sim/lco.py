@@ -149,7 +149,9 @@ class PeakTracker:
         is_max = (d0 > 0) & (d1 <= 0)
         is_min = (d0 < 0) & (d1 >= 0)
         # the extrema's values and times are computed where there is one (a few per cycle
-        # among the N·B·O samples: the chunk's work drops from ~50 passes over all of them)
+        # among the N·B·O samples: the chunk's work drops from ~50 passes over all of them;
+        # on a GPU one more host synchronisation per chunk, which synchronises for its
+        # decisions anyway)
         at = (is_max | is_min).nonzero(as_tuple=True)
         d0, d1 = d0[at], d1[at]
         if per_case:
