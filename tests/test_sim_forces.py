@@ -81,6 +81,35 @@ def test_switches_and_sparse_analytic_rom():
     assert (linear(q[:, :1], v[:, :1], None, None) == 0).all()
 
 
+@pytest.mark.parametrize("n", [1, 3, 5])
+@pytest.mark.parametrize("stiffness,damping", [(True, True), (True, False), (False, True)])
+def test_small_rom_kernel(n, stiffness, damping):
+    """The one-GEMM monomial kernel of small ROMs (the integrator's iterations) against the
+    general kernel, with either term switched off; nonsymmetric damping included."""
+    rom, _, _ = random_gram_model(n, seed=n)
+    gen = torch.Generator().manual_seed(4)
+    rom = rom.replace(D2=torch.randn(n, n, n, generator=gen, dtype=torch.float64))
+    forces = NonlinearForces(rom, stiffness=stiffness, damping=damping)
+    assert forces.small is not None
+    q, v, s, g = _random_states(n)
+    qT, vT = q.T.contiguous(), v.T.contiguous()
+    s = s[None] if stiffness else None
+    g = g[None] if damping else None
+    ref = forces.evaluate_T(qT, vT, s, g)
+    got = forces.evaluate_small(torch.cat([vT, qT]), *forces.small_scales(s, g))
+    assert torch.allclose(got, ref, rtol=0, atol=1e-13 * ref.abs().max())
+
+
+def test_small_kernel_keeps_only_the_rom_monomials():
+    """A sparse analytic ROM gathers only its nonzero monomials; a large ROM has no small
+    kernel (more monomials than SMALL_MAX_MONOMIALS)."""
+    rom = van_der_pol_duffing([1.0, 2.0, 3.0], c1=-0.1, d3=[0.5, 0.0, 0.2], k3=[2.0, 0.0, 1.0])
+    W, _ = NonlinearForces(rom).small
+    assert W.shape == (3, 4)  # k3 q1³, k3 q3³, d3 q1² q̇1, d3 q3² q̇3
+    big, _, _ = random_gram_model(BLOCKED_MIN_N + 1, seed=1)
+    assert NonlinearForces(big).small is None
+
+
 def test_float32_kernel():
     rom, _, _ = random_gram_model(BLOCKED_MIN_N + 1, seed=2)
     q, v, s, g = _random_states(rom.n)

@@ -64,6 +64,28 @@ def test_extrema_values_times_and_ring_order_across_chunks():
     assert abs(vmin.item() + 1.5) < 1e-8
 
 
+def test_ring_keeps_the_newest_extrema_of_a_chunk_holding_more_than_it():
+    """A chunk with more extrema of a case than the ring holds keeps the newest, in order, per
+    case (the extrema are written at their own positions only)."""
+    t = np.arange(801) * DT
+    signals = [_cosine(1.0, omega=3 * W), _cosine(2.0, omega=5 * W)]
+    Y = torch.tensor(np.stack([s[0](t) for s in signals], axis=1)[:, :, None])
+    Yd = torch.tensor(np.stack([s[1](t) for s in signals], axis=1)[:, :, None])
+    tr = PeakTracker(Y[0], Yd[0], ring=4)
+    tr.update(Y[1:401], Yd[1:401], 0, DT)
+    tr.update(Y[401:], Yd[401:], 400, DT)
+    assert tr.count[:, 0, 0].tolist() == [12, 20]  # 3 and 5 maxima per second over 4 s
+    for c, (amp, omega) in enumerate([(1.0, 3 * W), (2.0, 5 * W)]):
+        v, tm, ok = zip(*(tr.recent([0], 0, j) for j in range(4)))
+        assert all(o[c].item() for o in ok)
+        times = [x[c, 0].item() for x in tm]
+        # the newest four maxima, newest first: ω t + 0.3 = 2π k for the last four k
+        k_last = math.floor((omega * 4.0 + 0.3) / (2 * math.pi))
+        expected = [(2 * math.pi * (k_last - j) - 0.3) / omega for j in range(4)]
+        assert np.allclose(times, expected, atol=1e-6)
+        assert np.allclose([x[c, 0].item() for x in v], amp, atol=1e-6)
+
+
 def test_decisions_per_case():
     crit = LCOCriteria(rtol=1e-4, cycles=4, decay_ratio=1e-2, max_amplitude=10.0)
 

@@ -25,6 +25,11 @@ coefficient matrix and no large temporaries:
   (upper triangle of its symmetric part; exact for a conservative ROM), which with the damping
   matrix forms the Jacobian the integrator's iteration matrix is refreshed with.
 
+For small ROMs the force of a nonlinear iteration has its own form (:meth:`evaluate_small`):
+every monomial with a nonzero coefficient, per-case scale included, is gathered from the state
+[q̇; q] and one GEMM sums them — 5 kernels instead of ~15, which is what a launch-bound step
+of a few modes needs (a 3-mode ROM spends its time in kernel dispatch at any batch size).
+
 Nothing mixes cases: every operation is a GEMM with a shared coefficient matrix or an elementwise
 / per-column operation, so a NaN in one case never reaches another.
 """
@@ -50,6 +55,10 @@ BLOCKED_MIN_N = 8
 BLOCKED_MIN_BATCH = 128
 #: from this many modes on only the upper triangle of the symmetric damping matrix is computed
 SYMMETRIC_MIN_N = 6
+#: up to this many monomials with a coefficient (stiffness and damping together: 4 for the sparse
+#: 3-mode demo ROM, 43 for a dense 3-mode one, ~500 at n = 8) the integrator's iterations
+#: evaluate the force with :meth:`evaluate_small`
+SMALL_MAX_MONOMIALS = 512
 
 
 def colex_pairs(n: int) -> np.ndarray:
@@ -64,6 +73,41 @@ def _full_of_upper(pairs: np.ndarray) -> np.ndarray:
     full_of = np.empty((n, n), dtype=np.int64)
     full_of[pairs[:, 0], pairs[:, 1]] = full_of[pairs[:, 1], pairs[:, 0]] = np.arange(len(pairs))
     return full_of
+
+
+def _small_monomials(n: int, cp: np.ndarray, K2c: Tensor | None, K3: Tensor | None,
+                     m3_pair: Tensor, m3_k: Tensor, dcoef: Tensor | None
+                     ) -> tuple[Tensor, tuple[np.ndarray, np.ndarray, np.ndarray]]:
+    """Coefficients (n, M) and factor indices (i0, i1, i2) of the monomials x_{i0} x_{i1} y_{i2}
+    of :meth:`NonlinearForces.evaluate_small` (x = [q̇; q], y = [g q̇; s q; s; g]) with a
+    nonzero coefficient: s q_i q_j (K2, pair (i, j) colex), q_i q_j (s q_k) (gathered K3),
+    q_l (g q̇_p) · 1 as q_l q̇_p g (D̄2) and q_i q_j (g q̇_p) (D̄3); ``dcoef`` (n + N2, m, p):
+    the damping matrix D[m, p] = Σ_r x_r dcoef[r, m, p], x = [q; m2]."""
+    S_ROW, G_ROW = 2 * n, 2 * n + 1  # rows of s and g in y
+    cols, idx = [], []
+    if K2c is not None:
+        cols.append(K2c)
+        idx.append(np.stack([n + cp[:, 0], n + cp[:, 1], np.full(len(cp), S_ROW)], 1))
+    if K3 is not None:
+        cols.append(K3)
+        pair, k = m3_pair.numpy(), m3_k.numpy()
+        idx.append(np.stack([n + cp[pair, 0], n + cp[pair, 1], n + k], 1))
+    if dcoef is not None:
+        # column (r, p): coefficient dcoef[r, :, p] of x_r q̇_p
+        cols.append(dcoef.permute(1, 0, 2).reshape(n, -1))
+        r, p = np.meshgrid(np.arange(dcoef.shape[0]), np.arange(n), indexing="ij")
+        r, p = r.reshape(-1), p.reshape(-1)
+        lin = r < n  # x_r = q_r: the monomial q_r q̇_p g
+        pr = cp[np.maximum(r - n, 0)]
+        i0 = np.where(lin, n + r, n + pr[:, 0])
+        i1 = np.where(lin, p, n + pr[:, 1])
+        i2 = np.where(lin, G_ROW, p)
+        idx.append(np.stack([i0, i1, i2], 1))
+    W = torch.cat([c.to(torch.float64) for c in cols], dim=1)
+    index = np.concatenate(idx)
+    keep = (W != 0).any(0).numpy()  # a monomial without a coefficient costs nothing
+    index = index[keep]
+    return W[:, torch.as_tensor(keep)], (index[:, 0], index[:, 1], index[:, 2])
 
 
 class NonlinearForces:
@@ -153,10 +197,39 @@ class NonlinearForces:
             T = 0.5 * (T + T.transpose(1, 2))
             rows.append(T[:, cp[:, 0], cp[:, 1]].T)  # (N2, n + N2): entries (i ≤ j)
             self.W_jacobian = torch.cat(rows).to(**kw).contiguous()
+        self.small = None
+        if self.active:
+            dcoef = torch.cat([D2.permute(1, 0, 2), D3c.permute(1, 0, 2)], dim=0)
+            W, idx = _small_monomials(n, cp, K2c if self.has_k2 else None,
+                                      self.K3_gathered.cpu() if self.has_k3 else None,
+                                      self.m3_pair.cpu(), self.m3_k.cpu(),
+                                      dcoef if self.has_damping else None)
+            if W.shape[1] <= SMALL_MAX_MONOMIALS:
+                # factor rows in [x; y] = [q̇; q; g q̇; s q; s; g]: x_{i0}, x_{i1}, y_{i2}
+                factors = np.concatenate([idx[0], idx[1], 2 * n + idx[2]])
+                self.small = (W.to(**kw).contiguous(), torch.as_tensor(factors, **ikw))
 
     @property
     def active(self) -> bool:
         return self.has_stiffness or self.has_damping
+
+    def small_scales(self, s: Tensor | None, g: Tensor | None) -> tuple[Tensor, Tensor]:
+        """The per-case scales of :meth:`evaluate_small` for scales s, g (1, B) (None: unused):
+        (2n, B) rows [g…g; s…s] for the state [q̇; q], and (2, B) rows [s; g]."""
+        ref = s if s is not None else g
+        s = s if s is not None else torch.zeros_like(ref)
+        g = g if g is not None else torch.zeros_like(ref)
+        B = ref.shape[-1]
+        return torch.cat([g.expand(self.n, B), s.expand(self.n, B)]), torch.cat([s, g])
+
+    def evaluate_small(self, z: Tensor, z_scale: Tensor, sg: Tensor) -> Tensor:
+        """f_nl (n, B) of the state z = [q̇; q] (2n, B), feature-major, with the scales of
+        :meth:`small_scales`: every monomial x_a x_b y_c of a nonzero coefficient, y the scaled
+        state [g q̇; s q; s; g], in one GEMM (for ROMs with ``small`` set: a few modes)."""
+        W, factors = self.small
+        # rows [x; y]: the three factors of every monomial in one gather, multiplied by prod
+        xy = torch.cat([z, z * z_scale, sg])
+        return W @ xy.index_select(0, factors).view(3, W.shape[1], -1).prod(0)
 
     def features_T(self, qT: Tensor) -> Tensor:
         """x = [q; m2(colex)], feature-major (n + N2, B), from q feature-major (n, B)."""

@@ -148,20 +148,29 @@ class PeakTracker:
         d0, d1 = yd[:-1], yd[1:]
         is_max = (d0 > 0) & (d1 <= 0)
         is_min = (d0 < 0) & (d1 >= 0)
-        found = is_max | is_min
-        th = torch.where(found, d0 / torch.where(found, d0 - d1, 1.0), 0.0).clamp(0.0, 1.0)
-        y0, y1, s0, s1 = y[:-1], y[1:], d0 * dt, d1 * dt
+        # the extrema's values and times are computed where there is one (a few per cycle
+        # among the N·B·O samples: the chunk's work drops from ~50 passes over all of them;
+        # on a GPU one more host synchronisation per chunk, which synchronises for its
+        # decisions anyway)
+        at = (is_max | is_min).nonzero(as_tuple=True)
+        d0, d1 = d0[at], d1[at]
+        if per_case:
+            t_start, dt = t_start.expand(N, -1, Y.shape[2])[at], dt.expand(N, -1, Y.shape[2])[at]
+        th = (d0 / (d0 - d1)).clamp(0.0, 1.0)
+        y0, y1, s0, s1 = y[:-1][at], y[1:][at], d0 * dt, d1 * dt
         # one Newton step on the Hermite interpolant's derivative (a quadratic in th) moves the
         # linear-interpolation estimate to the interpolant's own extremum (about twice as
         # accurate; the interpolant itself is off by O(dt (ω dt)²) in time, O((ω dt)⁴) in value)
         th2 = th * th
         dp = (6 * th2 - 6 * th) * (y0 - y1) + (3 * th2 - 4 * th + 1) * s0 + (3 * th2 - 2 * th) * s1
         ddp = (12 * th - 6) * (y0 - y1) + (6 * th - 4) * s0 + (6 * th - 2) * s1
-        step = torch.where(found & (ddp != 0), dp / torch.where(ddp != 0, ddp, 1.0), 0.0)
+        step = torch.where(ddp != 0, dp / torch.where(ddp != 0, ddp, 1.0), 0.0)
         th = (th - step).clamp(0.0, 1.0)
-        val = hermite(y0, s0, y1, s1, th)
-        steps = torch.arange(N, device=Y.device, dtype=torch.float64).view(N, 1, 1)
-        t = t_start + (steps + th) * dt if per_case else (steps + float(step0) + th) * dt
+        steps = at[0].to(torch.float64)
+        val = torch.zeros_like(Y, dtype=torch.float64)
+        t = torch.zeros_like(val)
+        val[at] = hermite(y0, s0, y1, s1, th)
+        t[at] = t_start + (steps + th) * dt if per_case else (steps + float(step0) + th) * dt
         self._push(0, is_max, val, t)
         self._push(1, is_min, val, t)
         self.last_y = y[-1]
@@ -170,20 +179,16 @@ class PeakTracker:
         self.y_abs_max = torch.maximum(self.y_abs_max, absY)
 
     def _push(self, kind: int, mask: Tensor, val: Tensor, t: Tensor) -> None:
-        N, B, O = mask.shape
         K = self.ring
         cum = mask.to(torch.long).cumsum(0)
         total = cum[-1]
         keep = mask & (total.unsqueeze(0) - cum < K)
-        slot = (self.count[:, :, kind].unsqueeze(0) + cum - 1) % K
-        base = (torch.arange(B, device=mask.device).view(1, B, 1) * O
-                + torch.arange(O, device=mask.device).view(1, 1, O)) * K
-        dummy = B * O * K
-        idx = torch.where(keep, base + slot, dummy).reshape(-1)
-        for buf, src in ((self.values, val), (self.times, t)):
-            flat = torch.cat([buf[:, :, kind].reshape(-1), buf.new_zeros(1)])
-            flat.scatter_(0, idx, src.reshape(-1))
-            buf[:, :, kind] = flat[:-1].view(B, O, K)
+        # the K newest extrema of each (case, output) go to distinct ring slots: written at
+        # their positions only (no pass over all N·B·O samples)
+        n, b, o = keep.nonzero(as_tuple=True)
+        slot = (self.count[b, o, kind] + cum[n, b, o] - 1) % K
+        self.values[b, o, kind, slot] = val[n, b, o]
+        self.times[b, o, kind, slot] = t[n, b, o]
         self.count[:, :, kind] += total
 
     # ------------------------------------------------------------------------------------------

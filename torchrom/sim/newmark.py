@@ -403,10 +403,24 @@ def _cmv(A: Tensor, x: Tensor) -> Tensor:
     """Per-case matrix-vector product, feature-major: A (k, m, B), x (k, B) -> (m, B).
 
     Σ_k A[k] ⊙ x[k] over the leading dimension streams the B small matrices once with unit
-    stride (faster than a batched GEMM of B 21 x 21 products on a CPU); one case is one GEMV."""
+    stride (faster than a batched GEMM of B 21 x 21 products on a CPU); one case is one GEMV,
+    on A given as that case's (m, k) matrix (:func:`_single`) or taken from A (k, m, 1)."""
+    if A.dim() == 2:
+        return torch.mm(A, x)
     if x.shape[1] == 1:
         return A.squeeze(2).T @ x
     return (A * x.unsqueeze(1)).sum(0)
+
+
+def _single(A: Tensor) -> Tensor:
+    """The (m, k) matrix of a single case's (k, m, 1) per-case matrix (a view): what
+    :func:`_cmv` multiplies without two views per product."""
+    return A[:, :, 0].T
+
+
+#: per-case matrices the step only multiplies vectors by; with a single case left in the batch
+#: (the tail of every chunk) it receives them as plain matrices (see _Run._step_mats)
+_MV_ONLY = ("LS", "ZL", "Q", "W", "MT")
 
 
 class _Run:
@@ -500,6 +514,9 @@ class _Run:
         mats["s"] = None if s is None else (1.0 - p.alpha_f) * s
         mats["g"] = None if g is None else (1.0 - p.alpha_f) * g
         self.mats = {k: _fm(t) for k, t in mats.items() if t is not None}
+        if self.nonlinear and self.forces.small is not None:
+            self.mats["z_scale"], self.mats["sg"] = self.forces.small_scales(
+                self.mats.get("s"), self.mats.get("g"))
         if self.adaptive:
             self.mats.update(self._dt_coefficients(self.dtc))
         self.state = {k: _fm(t) for k, t in state.items()}
@@ -545,6 +562,7 @@ class _Run:
         self.graphs = integ.cuda_graphs is True or (integ.cuda_graphs == "auto"
                                                     and dev.type == "cuda")
         self._graph = None
+        self._inference = not (self.graphs and dev.type == "cuda")
         bad = ~ok
         if bool(bad.any()):
             self._finish(np.nonzero(bad.cpu().numpy())[0], np.full(int(bad.sum()), FAILED))
@@ -569,7 +587,9 @@ class _Run:
         coef = {"dt": dt, "c_qa": dt * dt * (0.5 - p.beta), "c_va": dt * (1.0 - p.gamma),
                 "bdt2": p.beta * dt * dt, "gdt": p.gamma * dt,
                 "e_dt2": abs(p.beta - 1.0 / 6.0) * dt * dt}
-        return {k: v.to(self.kw["dtype"]).unsqueeze(0).contiguous() for k, v in coef.items()}
+        coef = {k: v.to(self.kw["dtype"]).unsqueeze(0).contiguous() for k, v in coef.items()}
+        coef["c_vq"] = torch.stack([coef["gdt"], coef["bdt2"]])  # (2, 1, B), see _make_step
+        return coef
 
     def _adapt_steps(self, shrink: Tensor) -> None:
         """New per-case steps from the interval's local error estimate (adaptive runs).
@@ -655,27 +675,38 @@ class _Run:
         ``iters``: nonlinear iterations; ``refresh``: evaluate the Jacobian at the predicted
         state and make (S + J)⁻¹ the iteration matrix from this step on; ``rho``: also record
         the ratio of the last two corrections (the measured contraction ratio, used by the
-        error estimate of single-iteration steps)."""
+        error estimate of single-iteration steps).
+
+        Returns (new state, outputs C q and C q̇ (O, B), diagnostics (k, B)): the largest
+        |correction| of the last two iterations (one with one iteration, none on the linear
+        path) and the largest |a|, folded into the interval's error estimate once per check
+        interval (:meth:`_fold_diagnostics`), not once per step."""
         integ, p, dt = self.integ, self.p, self.integ.dt
         c_qa, c_va = dt * dt * (0.5 - p.beta), dt * (1.0 - p.gamma)
         bdt2, gdt = p.beta * dt * dt, p.gamma * dt
+        # [q̇; q] advance together, x + c a with c = (γ dt, β dt²): one kernel for both
+        c_vq = torch.tensor([gdt, bdt2], **self.kw).view(2, 1, 1)
         adaptive = self.adaptive
         am, af = p.alpha_m, p.alpha_f
         lag, newmark, nonlinear = self.na > 0, p.is_newmark, self.nonlinear
         predictor, forces, C = integ.predictor, self.forces, self.C
+        small = nonlinear and forces.small is not None
         has_load = "F" in self.mats
         iterative = self.iterative
+        n, n2 = self.n, 2 * self.n
         tiny = torch.finfo(self.kw["dtype"]).tiny
 
         def step(st: dict, m: dict):
             # written for a small number of kernels per step: eager CPU time is op overhead
             # for small batches
             q, v, a = st["q"], st["v"], st["a"]
+            one = q.shape[1] == 1
             if adaptive:
                 # per-case steps: the coefficients are (1, B) rows of the per-case matrices
                 h, h_qa, h_va, h_b, h_g = (m[k] for k in ("dt", "c_qa", "c_va", "bdt2", "gdt"))
+                cz = m["c_vq"]
             else:
-                h, h_qa, h_va, h_b, h_g = dt, c_qa, c_va, bdt2, gdt
+                h, h_qa, h_va, h_b, h_g, cz = dt, c_qa, c_va, bdt2, gdt, c_vq
             qh = _axpy(_axpy(q, v, h), a, h_qa)
             vh = _axpy(v, a, h_va)
             parts = [vh, qh]
@@ -687,9 +718,12 @@ class _Run:
             if not newmark:
                 parts += [a, st["fint"]]
             new = dict(st)
+            corrs = []
             if not iterative:
                 # linear, modified Newton: S is the exact Jacobian, one solve is exact
-                ak = _cmv(m["ZL"], torch.cat(parts))
+                x = torch.cat(parts)
+                zh = x[:n2].view(2, n, -1)  # the predicted [q̇; q]
+                ak = _cmv(m["ZL"], x)
                 if has_load:
                     ak = ak.add_(m["uF"])
             else:
@@ -700,42 +734,40 @@ class _Run:
                 else:
                     ak = torch.sub(a, st["a1"]).mul_(3.0).add_(st["a2"])
                 # residual of the linear part at the predictor: b − S a_p in one product
-                res_lin = _cmv(m["LS"], torch.cat(parts + [ak]))
+                x = torch.cat(parts + [ak])
+                res_lin = _cmv(m["LS"], x)
                 if has_load:
                     res_lin = res_lin.add_(m["F"])
                 a_p, Z = ak, st["Z"]
+                Zmv = _single(Z) if one else Z
                 s, g = m.get("s"), m.get("g")
-                prev = last = None
+                zh = x[:n2].view(2, n, -1)  # the predicted [q̇; q]
                 for it in range(iters):
-                    r = res_lin if it == 0 else res_lin - _cmv(m["S"], ak - a_p)
+                    r = res_lin if it == 0 else res_lin - _cmv(m["S_mv"], ak - a_p)
                     if nonlinear:
-                        qk, vk = _axpy(qh, ak, h_b), _axpy(vh, ak, h_g)
+                        zk = torch.addcmul(zh, ak, cz)
                         if refresh and it == 0:
-                            f, K, D = forces.evaluate_T(qk, vk, s, g, jacobian=True)
+                            f, K, D = forces.evaluate_T(zk[1], zk[0], s, g, jacobian=True)
                             Z = _refreshed_inverse(m["S"], K, D, s, g, h_b, h_g, Z)
                             new["Z"] = Z
+                            Zmv = _single(Z) if one else Z
+                        elif small:
+                            f = forces.evaluate_small(zk.view(n2, -1), m["z_scale"], m["sg"])
                         else:
-                            f = forces.evaluate_T(qk, vk, s, g)
+                            f = forces.evaluate_T(zk[1], zk[0], s, g)
                         r = r - f
-                    corr = _cmv(Z, r)
+                    corr = _cmv(Zmv, r)
                     ak = ak + corr
-                    # abs().amax(): vector_norm(ord=inf) is several times slower on CPU
-                    prev, last = last, corr.abs().amax(0)
-                if prev is None:
-                    # one iteration: its correction times r/(1−r), r the contraction ratio
-                    # measured on the sampled steps (see Newmark.sample_every)
-                    new["c1"] = torch.maximum(st["c1"], last)
-                else:
-                    # error left after the last correction: Aitken |Δa_K|²/(|Δa_{K−1}|−|Δa_K|)
-                    # = |Δa_K| r/(1−r), r the contraction ratio, capped at r = 0.99 (≈ 100|Δa_K|)
-                    err = last * last / torch.maximum(prev - last, 0.01 * prev).clamp_min(tiny)
-                    new["err"] = torch.maximum(st["err"], err)
-                    if rho:
-                        new["rho"] = torch.maximum(st["rho"], last / prev.clamp_min(tiny))
-            q1 = _axpy(qh, ak, h_b)
-            v1 = _axpy(vh, ak, h_g)
-            new.update(q=q1, v=v1, a=ak, a1=a, a2=st["a1"],
-                       amax=torch.maximum(st["amax"], ak.abs().amax(0)))
+                    corrs = corrs[-1:] + [corr]
+            # rows: the last two corrections' and a_{n+1}'s largest magnitudes (abs().amax():
+            # vector_norm(ord=inf) is several times slower on CPU)
+            diag = torch.stack(corrs + [ak]).abs_().amax(1)
+            if rho:
+                # the contraction ratio of the last two corrections (Newmark.sample_every)
+                new["rho"] = torch.maximum(st["rho"], diag[1] / diag[0].clamp_min(tiny))
+            z1 = torch.addcmul(zh, ak, cz)  # [q̇; q] at t_{n+1}
+            v1, q1 = z1[0], z1[1]
+            new.update(q=q1, v=v1, a=ak, a1=a, a2=st["a1"])
             if lag:
                 xid1 = xid_star + _cmv(m["W"], v1)
                 new["xid"] = xid1
@@ -748,15 +780,51 @@ class _Run:
                 if has_load:
                     fint = fint.add_(m["F"])
                 new["fint"] = fint.div_(1.0 - af)
-            y = C @ q1
+            y = torch.mm(C, q1)
             if adaptive:
                 # local error estimate on the outputs (see _Run._adapt_steps)
                 e = (C @ (ak - a)).abs().amax(0) * m["e_dt2"][0]
                 new["lerr"] = torch.maximum(st["lerr"], e)
                 new["ymax"] = torch.maximum(st["ymax"], y.abs().amax(0))
-            return new, y, C @ v1
+            return new, y, torch.mm(C, v1), diag
 
         return step
+
+    def _fold_diagnostics(self, st: dict, diags: list[Tensor]) -> dict:
+        """The state with the interval accumulators updated from the steps' diagnostics (see
+        :meth:`_make_step`): the largest |a|; for steps of two or more iterations the error
+        left after the last correction, Aitken |Δa_K|²/(|Δa_{K−1}|−|Δa_K|) = |Δa_K| r/(1−r), r
+        the contraction ratio, capped at r = 0.99 (≈ 100|Δa_K|); for single-iteration steps
+        their largest correction (:meth:`_solver_error` multiplies it by r/(1−r), r measured on
+        the sampled steps, see Newmark.sample_every). Elementwise and max operations only: the
+        numbers the steps accumulated one by one before, bit for bit, for fewer kernels."""
+        st = dict(st)
+        tiny = torch.finfo(self.kw["dtype"]).tiny
+        by_rows: dict[int, list[Tensor]] = {}
+        for d in diags:
+            by_rows.setdefault(d.shape[0], []).append(d)
+        for rows, ds in by_rows.items():
+            D = torch.stack(ds)  # (steps, rows, B)
+            st["amax"] = torch.maximum(st["amax"], D[:, -1].amax(0))
+            if rows == 3:
+                prev, last = D[:, 0], D[:, 1]
+                err = last * last / torch.maximum(prev - last, 0.01 * prev).clamp_min(tiny)
+                st["err"] = torch.maximum(st["err"], err.amax(0))
+            elif rows == 2:
+                st["c1"] = torch.maximum(st["c1"], D[:, 0].amax(0))
+        return st
+
+    def _step_mats(self, B: int) -> dict[str, Tensor]:
+        """The per-case matrices as the step reads them: S also as ``S_mv``, the form it
+        multiplies vectors by; with a single case, the matrices of _MV_ONLY and ``S_mv`` as
+        that case's (m, k) matrices (one GEMV per product, no views; once per chunk)."""
+        m = self.mats
+        if B != 1:
+            return {**m, "S_mv": m["S"]} if "S" in m else m
+        single = {k: _single(m[k]) for k in _MV_ONLY if k in m}
+        if "S" in m:
+            single["S_mv"] = _single(m["S"])
+        return {**m, **single}
 
     def _step_function(self, step_no: int):
         """The step function of global step ``step_no`` (host decision, no synchronisation)."""
@@ -776,13 +844,14 @@ class _Run:
 
     def _steps(self, st: dict, step0: int, N: int) -> tuple[dict, Tensor, Tensor]:
         """Advance N steps from ``st``: the new state and the outputs Y, Ẏ (N, O, B)."""
-        ys, yds = [], []
-        m = self.mats
+        ys, yds, diags = [], [], []
+        m = self._step_mats(st["q"].shape[1])
         for i in range(N):
-            st, y, yd = self._step_function(step0 + i)(st, m)
+            st, y, yd, diag = self._step_function(step0 + i)(st, m)
             ys.append(y)
             yds.append(yd)
-        return st, torch.stack(ys), torch.stack(yds)
+            diags.append(diag)
+        return self._fold_diagnostics(st, diags), torch.stack(ys), torch.stack(yds)
 
     def _steps_in_place(self, step0: int, N: int) -> tuple[Tensor, Tensor]:
         """:meth:`_steps` writing the new state into the current state tensors: the form a CUDA
@@ -831,55 +900,15 @@ class _Run:
     # ------------------------------------------------------------------------------------------
     def execute(self) -> SimulationResult:
         t0 = time.perf_counter()
-        integ, crit = self.integ, self.crit
-        dt = integ.dt
         case_steps = 0
-        tol = integ.tolerance(self.kw["dtype"])
-        adaptive = self.adaptive
-        while len(self.active) and (adaptive or self.step_no < self.steps_total):
-            N = (integ.check_every if adaptive
-                 else min(integ.check_every, self.steps_total - self.step_no))
-            Bc = len(self.active)
-            step0 = self.step_no
-            Y, Yd = self._advance(step0, N)
-            st = self.state
-            self.step_no += N
-            case_steps += N * Bc
-            Y, Yd = Y.transpose(1, 2), Yd.transpose(1, 2)  # (N, B, O) for the tracker
-            if adaptive:
-                # each case at its own time and step: the tracker times its extrema per case
-                t_start = self.t.clone()
-                self.t += N * self.dtc
-                self.tracker.update(Y, Yd, t_start, self.dtc)
-                self._record_history(Y, step0, t_start)
-                final = self.t >= self.t_end * (1.0 - 1e-12)
-            else:
-                self.tracker.update(Y, Yd, step0, dt)
-                self._record_history(Y, step0)
-                final = self.step_no >= self.steps_total
-            # per-case checks: one host synchronisation per chunk
-            rel = self._solver_error(st)
-            shrink = None
-            if adaptive:
-                # a nonlinear iteration that did not meet its tolerance asks for a smaller step
-                # (until dt_min): such a case is judged from its next interval on, and no LCO
-                # is accepted on this one
-                shrink = (rel > tol) & (self.dtc > integ.step_bounds[0] * (1 + 1e-9))
-                rel = torch.where(shrink, 0.0, rel)
-            self.solver_rel = torch.maximum(self.solver_rel, rel)
-            solver_ok = rel <= tol
-            finite = torch.isfinite(st["q"]).all(0) & torch.isfinite(st["v"]).all(0)
-            status = self.tracker.decide(crit, finite, solver_ok, final)
-            if adaptive:
-                status = torch.where(shrink & (status == LCO), RUNNING, status)
-                self._adapt_steps(shrink)
-            if integ.extrapolate:
-                self._jump(status)
-            status = status.cpu().numpy()
-            self._reset_error()
-            done = np.nonzero(status != RUNNING)[0]
-            if len(done):
-                self._finish(done, status[done])
+        tol = self.integ.tolerance(self.kw["dtype"])
+        while len(self.active) and (self.adaptive or self.step_no < self.steps_total):
+            # inference mode: no version counters nor view records on the thousands of small
+            # tensors of an interval (about a fifth of a small batch's step); what leaves the
+            # run is host arrays, and the state tensors never leave it. Not around CUDA graph
+            # capture (replays have no per-op overhead to save; capture is left as it was)
+            with torch.inference_mode(self._inference):
+                case_steps += self._check_interval(tol)
             if self.progress is not None:
                 self.progress(self.B - len(self.active), self.B)
         res = self.res
@@ -892,6 +921,56 @@ class _Run:
             histories={c: History(np.array([s[0] for s in h]), np.stack([s[1] for s in h]),
                                   self.names) for c, h in self.hist.items()},
             wall_time_s=time.perf_counter() - t0, case_steps=case_steps, xi=res["xi"])
+
+    def _check_interval(self, tol: float) -> int:
+        """One check interval: advance the batch, track its extrema, decide, compact; returns
+        the case-steps computed."""
+        integ, crit = self.integ, self.crit
+        dt = integ.dt
+        adaptive = self.adaptive
+        N = (integ.check_every if adaptive
+             else min(integ.check_every, self.steps_total - self.step_no))
+        Bc = len(self.active)
+        step0 = self.step_no
+        Y, Yd = self._advance(step0, N)
+        st = self.state
+        self.step_no += N
+        Y, Yd = Y.transpose(1, 2), Yd.transpose(1, 2)  # (N, B, O) for the tracker
+        if adaptive:
+            # each case at its own time and step: the tracker times its extrema per case
+            t_start = self.t.clone()
+            self.t += N * self.dtc
+            self.tracker.update(Y, Yd, t_start, self.dtc)
+            self._record_history(Y, step0, t_start)
+            final = self.t >= self.t_end * (1.0 - 1e-12)
+        else:
+            self.tracker.update(Y, Yd, step0, dt)
+            self._record_history(Y, step0)
+            final = self.step_no >= self.steps_total
+        # per-case checks: one host synchronisation per chunk
+        rel = self._solver_error(st)
+        shrink = None
+        if adaptive:
+            # a nonlinear iteration that did not meet its tolerance asks for a smaller step
+            # (until dt_min): such a case is judged from its next interval on, and no LCO
+            # is accepted on this one
+            shrink = (rel > tol) & (self.dtc > integ.step_bounds[0] * (1 + 1e-9))
+            rel = torch.where(shrink, 0.0, rel)
+        self.solver_rel = torch.maximum(self.solver_rel, rel)
+        solver_ok = rel <= tol
+        finite = torch.isfinite(st["q"]).all(0) & torch.isfinite(st["v"]).all(0)
+        status = self.tracker.decide(crit, finite, solver_ok, final)
+        if adaptive:
+            status = torch.where(shrink & (status == LCO), RUNNING, status)
+            self._adapt_steps(shrink)
+        if integ.extrapolate:
+            self._jump(status)
+        status = status.cpu().numpy()
+        self._reset_error()
+        done = np.nonzero(status != RUNNING)[0]
+        if len(done):
+            self._finish(done, status[done])
+        return N * Bc
 
     def _solver_error(self, st: dict) -> Tensor:
         """(B,) estimated error left in the acceleration, relative to the largest |a| of the
