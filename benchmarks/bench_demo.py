@@ -3,24 +3,26 @@
     PYTHONPATH=. python benchmarks/bench_demo.py [--baseline DIR | --rev REV] [--repeats 3]
         [--steps 4000] [--out benchmarks/results]
 
-Both trees run the same configuration (this tree's ``configs/demo_vdp.toml``), each as a whole
-``python -m torchrom sweep CONFIG --out TMP --force`` process into a fresh folder (imports,
-model, integration, certificates, table and figure: what a user waits for), alternating
-baseline and current, ``--repeats`` times; min and median wall seconds per tree, the seconds
-of integration the sweep reports, and the ratios baseline / current.
+Each tree runs its own ``configs/demo_vdp.toml`` — the baseline's (time marching) and this
+tree's (``method = "shooting"``: every LCO the certified discrete orbit) — and this tree runs it
+once more with ``--method newmark`` (the same transients as the baseline, now with their
+certificates), each as a whole ``python -m torchrom sweep CONFIG --out TMP --force`` process
+into a fresh folder (imports, model, solve, certificates, table and figure: what a user waits
+for), alternating, ``--repeats`` times; min and median wall seconds per run, the solver seconds
+the sweep reports, and the ratios baseline / run.
 Then, per tree in a fresh process, the integrator alone: µs per batched step of the demo's
 model and integrator settings at B = 1 (the tail of every chunk: a case at a Hopf point runs
 to t_end alone) and B = 39 (the whole grid), every case kept running (``LCOCriteria(stop=
 False)``), the best of 3 runs of ``--steps`` steps after a warm-up, alternating trees
-``--repeats`` times (the best per tree kept, every sample written). The two results tables are
-compared column by column (the largest relative difference of the numeric columns other than
-timings; 0 when the numbers are the same bit for bit).
+``--repeats`` times (the best per tree kept, every sample written). The results tables are
+compared with the baseline's: statuses, and the largest relative difference of the LCO
+amplitudes where both have one.
 
-Baseline: ``--baseline DIR`` (any checkout of torchrom), else ``--rev`` (default cff45cc, the
-commit before the per-step work) extracted with ``git archive`` into a temporary folder that is
-removed afterwards (no git worktree is left behind). Writes ``bench_demo.json`` with the
-machine and its load average: the wall times move with other work on the machine, the ratio
-of alternating runs much less.
+Baseline: ``--baseline DIR`` (any checkout of torchrom), else ``--rev`` (default fb9d981, the
+tree when the certified-LCO issue was filed: its demo took 17–21 s on this 2-core machine, 41 s
+in the issue's own measurement) extracted with ``git archive`` into a temporary folder that is
+removed afterwards. Writes ``bench_demo.json`` with the machine and its load average: the wall
+times move with other work on the machine, the ratio of alternating runs much less.
 """
 
 from __future__ import annotations
@@ -46,10 +48,12 @@ sys.path.insert(0, str(HERE))
 
 from results_io import machine_meta  # noqa: E402
 
-CONFIG = ROOT / "configs" / "demo_vdp.toml"
+#: the demo configuration, relative to a tree
+CONFIG = Path("configs") / "demo_vdp.toml"
+#: the sweeps timed: (label, tree name, extra command-line arguments)
+RUNS = (("baseline", "baseline", ()), ("current", "current", ()),
+        ("current-newmark", "current", ("--method", "newmark")))
 BATCHES = (1, 39)
-#: table columns that are not results (timings, identities) and are left out of the comparison
-NOT_COMPARED = {"case_id", "config_hash", "version", "precision"}
 
 #: run in a fresh process with the tree on PYTHONPATH: µs per batched step of the demo's
 #: integrator at the batch sizes of argv[3:], argv[1] the config, argv[2] the steps
@@ -93,16 +97,17 @@ def _env(tree: Path) -> dict[str, str]:
     return {**os.environ, "PYTHONPATH": str(tree)}
 
 
-def sweep_wall(tree: Path, out: Path) -> tuple[float, float | None]:
-    """(wall seconds, seconds integrating as the sweep reports them) of one demo sweep process
-    running the code of ``tree``."""
-    cmd = [sys.executable, "-m", "torchrom", "sweep", str(CONFIG), "--out", str(out), "--force"]
+def sweep_wall(tree: Path, out: Path, extra: tuple[str, ...] = ()) -> tuple[float, float | None]:
+    """(wall seconds, solver seconds as the sweep reports them) of one demo sweep process
+    running the code and the demo configuration of ``tree``."""
+    cmd = [sys.executable, "-m", "torchrom", "sweep", str(CONFIG), "--out", str(out), "--force",
+           *extra]
     t = time.perf_counter()
     proc = subprocess.run(cmd, env=_env(tree), cwd=tree, capture_output=True, text=True)
     wall = time.perf_counter() - t
     if proc.returncode != 0:
         raise RuntimeError(f"demo sweep of {tree} failed:\n{proc.stderr[-3000:]}")
-    m = re.search(r"([\d.]+) s integrating", proc.stdout + proc.stderr)
+    m = re.search(r"time: [\d.]+ s elapsed, ([\d.]+) s", proc.stdout + proc.stderr)
     return wall, float(m.group(1)) if m else None
 
 
@@ -117,21 +122,17 @@ def step_costs(tree: Path, steps: int) -> dict[str, float]:
 
 
 def table_difference(a: Path, b: Path) -> dict:
-    """Largest relative difference of the numeric result columns of two results tables, and
-    whether the statuses agree."""
+    """How the results table ``b`` differs from ``a``: the cases whose status differs, and the
+    largest relative difference of the amplitudes where both found an LCO."""
     ta, tb = pd.read_csv(a), pd.read_csv(b)
-    diff = 0.0
-    for col in ta.columns.intersection(tb.columns):
-        if col in NOT_COMPARED or not pd.api.types.is_numeric_dtype(ta[col]):
-            continue
-        x, y = ta[col].to_numpy(float), tb[col].to_numpy(float)
-        both = np.isfinite(x) & np.isfinite(y)
-        if (np.isfinite(x) != np.isfinite(y)).any():
-            diff = np.inf
-        scale = np.abs(x[both]).max(initial=0.0) or 1.0
-        diff = max(diff, float(np.abs(x[both] - y[both]).max(initial=0.0) / scale))
-    return {"max_relative_difference": diff,
-            "same_status": bool((ta["status"] == tb["status"]).all())}
+    both = (ta["status"] == "lco") & (tb["status"] == "lco")
+    x, y = ta.loc[both, "amplitude"].to_numpy(float), tb.loc[both, "amplitude"].to_numpy(float)
+    changed = ta["status"] != tb["status"]
+    return {"lco_cases_compared": int(both.sum()),
+            "max_relative_amplitude_difference": float(np.max(np.abs(y / x - 1), initial=0.0)),
+            "status_changes": [f"{ta.loc[i, 'alpha']:g}/{ta.loc[i, 'gamma']:g}: "
+                               f"{ta.loc[i, 'status']} -> {tb.loc[i, 'status']}"
+                               for i in np.flatnonzero(changed)]}
 
 
 def summary(walls: list[float]) -> dict:
@@ -141,8 +142,8 @@ def summary(walls: list[float]) -> dict:
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--baseline", type=Path, default=None, help="a baseline checkout")
-    ap.add_argument("--rev", default="cff45cc", help="baseline commit (without --baseline)")
-    ap.add_argument("--repeats", type=int, default=3, help="sweeps per tree (alternating)")
+    ap.add_argument("--rev", default="fb9d981", help="baseline commit (without --baseline)")
+    ap.add_argument("--repeats", type=int, default=3, help="sweeps per run (alternating)")
     ap.add_argument("--steps", type=int, default=4000, help="steps per step-cost run")
     ap.add_argument("--out", type=Path, default=HERE / "results")
     args = ap.parse_args()
@@ -152,20 +153,21 @@ def main() -> None:
     try:
         base = args.baseline.resolve() if args.baseline else extract(args.rev, scratch / "base")
         trees = {"baseline": base, "current": ROOT}
-        walls: dict[str, list[float]] = {k: [] for k in trees}
-        integrating: dict[str, list[float]] = {k: [] for k in trees}
+        walls: dict[str, list[float]] = {label: [] for label, _, _ in RUNS}
+        solving: dict[str, list[float]] = {label: [] for label, _, _ in RUNS}
         for r in range(args.repeats):
-            for name, tree in trees.items():
+            for label, tree, extra in RUNS:
                 # a fresh folder each time: a sweep reuses the finished parts of its --out
-                out = scratch / f"out_{name}"
+                out = scratch / f"out_{label}"
                 shutil.rmtree(out, ignore_errors=True)
-                wall, integ = sweep_wall(tree, out)
-                walls[name].append(wall)
-                if integ is not None:
-                    integrating[name].append(integ)
-                print(f"repeat {r + 1}: {name} {wall:.2f} s (integrating {integ} s)", flush=True)
-        same = table_difference(scratch / "out_baseline" / "results.csv",
-                                scratch / "out_current" / "results.csv")
+                wall, solver_s = sweep_wall(trees[tree], out, extra)
+                walls[label].append(wall)
+                if solver_s is not None:
+                    solving[label].append(solver_s)
+                print(f"repeat {r + 1}: {label} {wall:.2f} s (solver {solver_s} s)", flush=True)
+        tables = {label: table_difference(scratch / "out_baseline" / "results.csv",
+                                          scratch / f"out_{label}" / "results.csv")
+                  for label, _, _ in RUNS[1:]}
         # the step costs alternate too; the best of the repeats per tree and batch size
         samples: dict[str, list[dict[str, float]]] = {k: [] for k in trees}
         for _ in range(args.repeats):
@@ -173,27 +175,26 @@ def main() -> None:
                 samples[name].append(step_costs(tree, args.steps))
     finally:
         shutil.rmtree(scratch, ignore_errors=True)
-    wall = {name: summary(w) | {"integrating_s": integrating[name]} for name, w in walls.items()}
+    wall = {label: summary(w) | {"solver_s": solving[label]} for label, w in walls.items()}
     steps = {name: {b: min(x[b] for x in xs) for b in xs[0]} for name, xs in samples.items()}
     result = {
-        "meta": machine_meta(config=str(CONFIG.relative_to(ROOT)), repeats=args.repeats,
+        "meta": machine_meta(config=str(CONFIG), repeats=args.repeats,
                              baseline=str(args.baseline) if args.baseline else args.rev,
                              steps=args.steps),
         "wall": wall,
-        "wall_ratio": {"min": wall["baseline"]["min_s"] / wall["current"]["min_s"],
-                       "median": wall["baseline"]["median_s"] / wall["current"]["median_s"]},
-        "integrating_ratio_min": (min(integrating["baseline"], default=np.nan)
-                                  / min(integrating["current"], default=np.nan)),
+        "wall_ratio": {label: {"min": wall["baseline"]["min_s"] / wall[label]["min_s"],
+                               "median": wall["baseline"]["median_s"] / wall[label]["median_s"]}
+                       for label, _, _ in RUNS[1:]},
         "us_per_step": steps,
         "us_per_step_samples": samples,
         "step_ratio": {b: steps["baseline"][b] / steps["current"][b] for b in steps["current"]},
-        "tables": same,
+        "tables_vs_baseline": tables,
     }
     args.out.mkdir(parents=True, exist_ok=True)
     path = args.out / "bench_demo.json"
     path.write_text(json.dumps(result, indent=1, default=float) + "\n")
-    print(json.dumps({k: result[k] for k in ("wall_ratio", "integrating_ratio_min",
-                                             "us_per_step", "step_ratio", "tables")}, indent=1))
+    print(json.dumps({k: result[k] for k in ("wall_ratio", "us_per_step", "step_ratio",
+                                             "tables_vs_baseline")}, indent=1))
     print(f"wrote {path}")
 
 
