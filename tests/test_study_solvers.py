@@ -14,31 +14,10 @@ from torchrom.study.config import load_sweep_config, with_method
 from torchrom.study.solvers import SOLVERS, Shooting
 from torchrom.study.sweep import run_sweep
 
+from .test_periodic_method import CONFIG as HB_CONFIG
+
 # two coupled Van der Pol–Duffing modes: three LCOs and a decaying case (the HB test's cases)
-CONFIG = """
-title = "two VdP-Duffing modes"
-method = "shooting"
-[model]
-builtin = "van_der_pol_duffing"
-frequencies_hz = [1.0, 2.3]
-c1 = [-0.6, 0.05]
-d3 = [1.0, 1.0]
-k3 = [4.0, 0.0]
-coupling = [[0.0, 3.0], [3.0, 0.0]]
-[initial]
-q0 = 0.5
-[integrator]
-dt = 0.002
-t_end = 120.0
-iterations = 3
-[lco]
-outputs = ["q1", "q2"]
-rtol = 1e-5
-[cases]
-combine = "product"
-alpha = [0.0, 0.2, 0.4, 0.8]
-gamma = [1.0]
-"""
+CONFIG = HB_CONFIG.replace('method = "hb"', 'method = "shooting"')
 
 
 @pytest.fixture(scope="module")
