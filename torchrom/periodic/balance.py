@@ -45,6 +45,28 @@ from .fourier import FourierBasis, coefficients_from_samples, n_coefficients
 Tensor = torch.Tensor
 
 
+def force_tangents(kernels: CompactForces, q: Tensor, v: Tensor, m2: Tensor,
+                   s: Tensor | float | None, g: Tensor | None
+                   ) -> tuple[Tensor, Tensor, Tensor | None]:
+    """(f_nl, K_n, C_n) of R states q, q̇ (R, n) with their quadratic monomials m2 (R, P): the
+    force (R, n) and its derivatives in q and q̇ (R, n, n), from one set of the kernels'
+    GEMMs. ``s``: the stiffness factors (R, 1), or 1.0 (no product), or None (no nonlinear
+    stiffness); ``g``: the damping factors (R, 1), or None (no nonlinear damping: C_n None)."""
+    f = Kn = Cn = None
+    if s is not None:
+        fs, T = kernels.stiffness_and_tangent(q, m2)
+        f, Kn = (fs, T) if isinstance(s, float) and s == 1.0 else (s * fs, s[..., None] * T)
+    if g is not None:
+        Dm = kernels.damping_nl_matrix(q, m2)
+        fd = g * (Dm @ v[..., None])[..., 0]
+        Kd = g[..., None] * kernels.damping_force_tangent(q, v, m2)
+        f, Kn = (fd, Kd) if f is None else (f + fd, Kn + Kd)
+        Cn = g[..., None] * Dm
+    if f is None:
+        f, Kn = torch.zeros_like(q), q.new_zeros(*q.shape, q.shape[1])
+    return f, Kn, Cn
+
+
 @dataclass
 class LinearBlocks:
     """Per-case, per-harmonic linear dynamic stiffness Z_k (complex, (B, H, n, n)), its
@@ -170,21 +192,12 @@ class HarmonicBalance:
         B, N, n = q.shape
         k = self.kernels
         q2, v2 = q.reshape(B * N, n), v.reshape(B * N, n)
-        m2 = q2[:, k.pair_i] * q2[:, k.pair_j]
-        f = torch.zeros_like(q2)
-        Kn = q2.new_zeros(B * N, n, n)
-        Cn = q2.new_zeros(B * N, n, n)
-        if self.has_stiffness:
-            s = self.s.repeat_interleave(N)
-            fs, T = k.stiffness_and_tangent(q2, m2)
-            f = f + s[:, None] * fs
-            Kn = Kn + s[:, None, None] * T
-        if self.has_damping:
-            g = self.g.repeat_interleave(N)
-            Dm = k.damping_nl_matrix(q2, m2)
-            f = f + g[:, None] * (Dm @ v2[..., None])[..., 0]
-            Kn = Kn + g[:, None, None] * k.damping_force_tangent(q2, v2, m2)
-            Cn = g[:, None, None] * Dm
+        f, Kn, Cn = force_tangents(
+            k, q2, v2, q2[:, k.pair_i] * q2[:, k.pair_j],
+            self.s.repeat_interleave(N)[:, None] if self.has_stiffness else None,
+            self.g.repeat_interleave(N)[:, None] if self.has_damping else None)
+        if Cn is None:
+            Cn = q2.new_zeros(B * N, n, n)
         return f.view(B, N, n), Kn.view(B, N, n, n), Cn.view(B, N, n, n)
 
     # -- equations ---------------------------------------------------------------------------------

@@ -36,7 +36,7 @@ from ..checks import integer, real
 from ..errors import InputError
 from ..sim.schemes import SchemeParameters
 from ..sim.system import CaseSystem
-from .balance import HarmonicBalance
+from .balance import HarmonicBalance, force_tangents
 from .fourier import parabolic_extreme
 
 Tensor = torch.Tensor
@@ -229,20 +229,12 @@ class _Map:
 
     def nonlinear_tangents(self, q: Tensor, v: Tensor) -> tuple[Tensor, Tensor, Tensor | None]:
         """(f_nl, K_n, C_n) at (q, q̇): the force (B, n) and its derivatives in q and q̇
-        (B, n, n) from one set of the kernels' GEMMs (the force by Euler's theorem from the
-        stiffness tangent); C_n is None without nonlinear damping."""
-        hb, k = self.hb, self.hb.kernels
-        m2 = self._pairs(q)
-        f, Kn, Cn = torch.zeros_like(q), q.new_zeros(q.shape[0], self.n, self.n), None
-        if hb.has_stiffness:
-            fs, T = k.stiffness_and_tangent(q, m2)
-            f, Kn = self._scaled(fs), self._scaled(T)
-        if hb.has_damping:
-            Dm = k.damping_nl_matrix(q, m2)
-            f = f + self.g * (Dm @ v[..., None])[..., 0]
-            Kn = Kn + self.g[..., None] * k.damping_force_tangent(q, v, m2)
-            Cn = self.g[..., None] * Dm
-        return f, Kn, Cn
+        (B, n, n) (:func:`~.balance.force_tangents` without a sample axis); C_n is None
+        without nonlinear damping."""
+        hb = self.hb
+        s = (1.0 if self.s is None else self.s) if hb.has_stiffness else None
+        return force_tangents(hb.kernels, q, v, self._pairs(q), s,
+                              self.g if hb.has_damping else None)
 
     def forces(self, q: Tensor, v: Tensor, tangent: bool = True):
         """f_nl, and with ``tangent`` the full tangents (K_t, C_t), linear parts included."""
