@@ -25,9 +25,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 
 import numpy as np
-import scipy.linalg
-from scipy.interpolate import CubicSpline
-from scipy.optimize import brentq, linear_sum_assignment
+import scipy
 
 from ..checks import physical, physical_values, real
 from ..errors import ConvergenceError, InputError
@@ -179,7 +177,7 @@ class AeroTable:
         if len(k) < 2:
             raise InputError("flutter: the GAF table needs at least two reduced frequencies")
         if interpolation == "cubic" and len(k) >= 4:
-            spl = CubicSpline(k, q, axis=0)
+            spl = scipy.interpolate.CubicSpline(k, q, axis=0)
 
             def q_of_k(kk):
                 return spl(kk)
@@ -570,7 +568,7 @@ def ke_sweep(structure: ModalStructure, aero: AeroTable, k_list, density: float)
             order = np.argsort(-lam.real)  # λ ≈ 1/ω²: lowest frequency first
         else:
             cost = -np.array([[_mac(v[:, c], prev[:, r]) for c in range(m)] for r in range(m)])
-            _, order = linear_sum_assignment(cost)
+            _, order = scipy.optimize.linear_sum_assignment(cost)
         lam, v = lam[order], v[:, order]
         prev = v
         with np.errstate(divide="ignore", invalid="ignore"):
@@ -711,7 +709,7 @@ def flutter_altitude_state_space(
     if len(idx) == 0:
         return MatchedPointResult("state-space", mach, None, None, None, None, None, sweep, units)
     i = idx[0]
-    alt = brentq(growth, h[i + 1], h[i], xtol=xtol)
+    alt = scipy.optimize.brentq(growth, h[i + 1], h[i], xtol=xtol)
     c = flight_condition(mach, alt, units)
     root = critical_root(structure, rfa, c.velocity, c.density)
     return _matched("state-space", mach, alt, root, None, sweep, units)
@@ -751,7 +749,7 @@ def flutter_altitude_pk(
             raise ConvergenceError(f"p-k: mode {j + 1} did not converge at altitude {alt:.6g}")
         return s
 
-    alt = brentq(lambda a: solve(a).real, h[i + 1], h[i], xtol=xtol)
+    alt = scipy.optimize.brentq(lambda a: solve(a).real, h[i + 1], h[i], xtol=xtol)
     return _matched("p-k", mach, alt, solve(alt), j, sweep, units)
 
 
@@ -795,7 +793,7 @@ def alpha_for_gamma(
     for _ in range(20):
         glo, ghi = growth(lo), growth(hi)
         if glo > 0 > ghi:
-            return float(brentq(growth, lo, hi, xtol=xtol))
+            return float(scipy.optimize.brentq(growth, lo, hi, xtol=xtol))
         width = hi - lo
         lo, hi = (lo - width, hi) if glo <= 0 else (lo, hi + width)
     raise ConvergenceError(
@@ -898,7 +896,7 @@ def refine_pk_crossings(
             return s, k, ok
 
         try:
-            v = brentq(
+            v = scipy.optimize.brentq(
                 lambda v: solve(v)[0].real, sweep.velocity[i], sweep.velocity[i + 1], xtol=xtol
             )
         except ValueError:

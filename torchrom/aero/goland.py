@@ -12,7 +12,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy.optimize import brentq
+import scipy
 
 from ..errors import ConvergenceError
 from .build import (
@@ -186,7 +186,7 @@ def calibrate_store_x(
 
     lo, hi = bracket
     try:
-        return float(brentq(miss, lo, hi, xtol=xtol))
+        return float(scipy.optimize.brentq(miss, lo, hi, xtol=xtol))
     except ValueError:
         raise ConvergenceError(
             f"store calibration: flutter altitude does not bracket "

@@ -24,7 +24,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy.optimize import least_squares, minimize
+import scipy
 
 from ..errors import ConvergenceError, InputError
 from .dlm import GAF
@@ -374,7 +374,7 @@ def fit_minimum_state(
             prob, (polys, d, e, _) = fit_for(g, 40)
             return prob.cost(polys, d, e)
 
-        res = minimize(
+        res = scipy.optimize.minimize(
             objective,
             np.log(gam),
             method="Nelder-Mead",
@@ -388,7 +388,7 @@ def fit_minimum_state(
         polish = len(x0) <= 200
     # MINPACK's Levenberg–Marquardt needs at least as many residuals as unknowns.
     if polish and 2 * len(prob.p) * prob.m * prob.m >= len(x0):
-        sol = least_squares(
+        sol = scipy.optimize.least_squares(
             prob.fun,
             x0,
             jac=prob.jac,

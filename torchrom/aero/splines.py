@@ -23,7 +23,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.interpolate import CubicHermiteSpline, CubicSpline
+import scipy
 
 from ..errors import InputError
 
@@ -151,11 +151,11 @@ class BeamSpline:
         s, n = self._s, len(self._s)
         eye = np.eye(n)
         if self.attach_slope:
-            spl_w = CubicHermiteSpline(s, eye, np.zeros((n, n)))  # from w_i
-            spl_d = CubicHermiteSpline(s, np.zeros((n, n)), eye)  # from w'_i
+            spl_w = scipy.interpolate.CubicHermiteSpline(s, eye, np.zeros((n, n)))  # from w_i
+            spl_d = scipy.interpolate.CubicHermiteSpline(s, np.zeros((n, n)), eye)  # from w'_i
         else:
             # Natural cubic spline = beam under point loads at the grids (a line for 2 grids).
-            spl_w = CubicSpline(s, eye, bc_type="natural")
+            spl_w = scipy.interpolate.CubicSpline(s, eye, bc_type="natural")
             spl_d = None
         inside = np.clip(s_eval, s[0], s[-1])
         ds = s_eval - inside  # linear extrapolation beyond the end grids
@@ -266,7 +266,7 @@ class SectionSpline:
         s = self._y
         n = len(s)
         eye = np.eye(n)
-        spl = CubicSpline(s, eye, bc_type="not-a-knot" if n >= 4 else "natural")
+        spl = scipy.interpolate.CubicSpline(s, eye, bc_type="not-a-knot" if n >= 4 else "natural")
         inside = np.clip(y, s[0], s[-1])
         return spl(inside) + (y - inside)[:, None] * spl(inside, 1)
 

@@ -12,7 +12,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.special import hankel2
+import scipy
 
 from ..errors import InputError
 
@@ -22,7 +22,7 @@ def theodorsen_function(k) -> np.ndarray:
     k = np.asarray(k, dtype=float)
     out = np.ones(k.shape, dtype=complex)
     nz = k > 0
-    h1, h0 = hankel2(1, k[nz]), hankel2(0, k[nz])
+    h1, h0 = scipy.special.hankel2(1, k[nz]), scipy.special.hankel2(0, k[nz])
     out[nz] = h1 / (h1 + 1j * h0)
     return out
 

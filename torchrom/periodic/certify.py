@@ -45,6 +45,9 @@ from .shooting import OrbitStart, ShootingOptions, shoot, start_from_fourier
 
 #: status of an LCO whose certificate failed and that shooting could not finish
 UNCERTIFIED = "lco_uncertified"
+#: a finish's scaled-correction tolerance as a fraction of the certificate's ``tol`` (Newton
+#: converges quadratically there: one more iteration would move the orbit by ~1e-10)
+FINISH_TOL = 1e-2
 #: the certificate's columns (every row of a certified table has them)
 COLUMNS = ("certified", "orbit_error", "dt_error", "stable", "critical_multiplier",
            "trivial_multiplier_error", "finished", "shooting_iterations")
@@ -85,7 +88,12 @@ class Certificate:
         integer("certificate.max_iterations", self.max_iterations, minimum=1)
 
     def options(self, dt: float, iterations: int) -> ShootingOptions:
-        return ShootingOptions(dt=dt, max_iterations=iterations,
+        """The shooting options of the certificate's pass: a finish stops when the scaled
+        Newton correction is below :data:`FINISH_TOL` × ``tol`` (every state component within
+        that fraction of its largest value on the orbit: its amplitude then moves far less
+        than ``tol``, and the row's ``orbit_error`` is that last correction's amplitude
+        change)."""
+        return ShootingOptions(dt=dt, max_iterations=iterations, tol=FINISH_TOL * self.tol,
                                accept=None if self.always_finish else self.tol)
 
 

@@ -64,6 +64,15 @@ class ShootingOptions:
             :attr:`OrbitStart.coarse_amplitude`: its Richardson extrapolation), with its
             stability resolved, is accepted as it is and not iterated (the certificate's
             evaluation and its finish in one pass); None: every case is iterated.
+        relax_periods: a case whose first correction is larger than ``relax_above`` is not
+            corrected but moved this many periods along its own trajectory first (the first
+            one is the evaluation's own end state, free): a start from a truncated Fourier
+            series or a transient carries fast, strongly damped errors in the small
+            coordinates that put it outside Newton's quadratic basin, and two periods shrink
+            them several-fold (the Goland γ = 0 finishes from H = 9 orbits: 31 → 24 Newton
+            passes), while the slow error along the weakly attracting orbit is left to Newton.
+            0: Newton from the start.
+        relax_above: the first scaled correction above which a case is relaxed.
         step_iterations: Newton iterations of the implicit equation in each time step (with
             the Jacobian refreshed at every one: from the extrapolated predictor three leave an
             error far below the orbit tolerance).
@@ -75,6 +84,8 @@ class ShootingOptions:
     max_iterations: int = 20
     max_step: float = 1.0
     accept: float | None = None
+    relax_periods: int = 2
+    relax_above: float = 0.1
     step_iterations: int = 3
     beta: float = 0.25
     gamma: float = 0.5
@@ -87,6 +98,8 @@ class ShootingOptions:
             real("shooting.accept", self.accept, positive=True)
         integer("shooting.max_iterations", self.max_iterations, minimum=0)
         integer("shooting.step_iterations", self.step_iterations, minimum=1)
+        integer("shooting.relax_periods", self.relax_periods, minimum=0)
+        real("shooting.relax_above", self.relax_above, positive=True)
         if not (0 < self.beta <= 0.5 and 0.5 <= self.gamma <= 1.0):
             raise InputError(f"shooting.beta, gamma: expected an implicit Newmark rule "
                              f"(0 < β ≤ ½, ½ ≤ γ ≤ 1), got {self.beta}, {self.gamma}")
@@ -133,6 +146,8 @@ class ShootingResult:
             amplitude, relative and signed (the start's amplitude × (1 + this) is the discrete
             orbit's, to first order); ``start_amplitude``: (B,) that start's amplitude (the
             decision output over the first pass's N steps).
+        relaxed: (B,) bool, the starts moved along their trajectories before Newton
+            (``options.relax_periods``).
         correction: (B,) the last scaled correction; ``amplitude_correction``: (B,) the last
             relative amplitude correction (signed).
         amplitude: (B, O) half peak-to-peak of each output over the orbit's N samples.
@@ -159,6 +174,7 @@ class ShootingResult:
     critical_multiplier: np.ndarray
     stable: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=object))
     accepted: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=bool))
+    relaxed: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=bool))
 
     @property
     def frequency_hz(self) -> np.ndarray:
@@ -268,6 +284,16 @@ class _Map:
         W = self.o.gamma * h3 * Pinv @ sys.lag_E
         return {"Pinv": Pinv, "W": W, "Ceff": hb.C0 + sys.lag_D @ W,
                 "PD": torch.cat([Pinv, sys.lag_D @ Pinv], dim=1)}
+
+    def run_periods(self, x0: tuple[Tensor, Tensor, Tensor], period: Tensor, N: Tensor,
+                    periods: int) -> tuple[Tensor, Tensor, Tensor]:
+        """The state (q, q̇, ξ) after ``periods`` × N (B,) steps of h = T/N from x0 (no
+        monodromy)."""
+        rows = torch.zeros(1, self.n, dtype=self.hb.Mt.dtype, device=self.hb.Mt.device)
+        for _ in range(periods):
+            out = self.propagate(x0, period, N, rows, tangent=False)
+            x0 = (out["q"], out["v"], out["xi"])
+        return x0
 
     def propagate(self, x0: tuple[Tensor, Tensor, Tensor], period: Tensor, N: Tensor,
                   rows: Tensor, tangent: bool) -> dict:
@@ -513,9 +539,11 @@ def shoot(system: CaseSystem, start: OrbitStart, decision_row, rows=None,
     compared[n:2 * n] = torch.as_tensor([k != "dual" for k in kinds] if len(kinds) == n
                                         else [True] * n, device=dev)
     section = torch.zeros(B, m, **f64)  # the phase condition's row, set on the first pass
+    fresh = np.ones(B, dtype=bool)  # the cases whose scales and section are still to be set
     scale = torch.ones(B, m, **f64)
     converged = np.zeros(B, dtype=bool)
     accepted = np.zeros(B, dtype=bool)
+    relaxed = np.zeros(B, dtype=bool)
     reported = (None if start.amplitude is None or o.accept is None
                 else np.asarray(start.amplitude.detach().cpu(), dtype=float).reshape(B))
     coarse = (None if start.coarse_amplitude is None
@@ -538,16 +566,21 @@ def shoot(system: CaseSystem, start: OrbitStart, decision_row, rows=None,
         x0, Ts, Ns = x[idx], T[idx], N[idx]
         out = _Map(sub, o).propagate((x0[:, :n], x0[:, n:2 * n], x0[:, 2 * n:]), Ts, Ns,
                                      torch.cat([c[None], R]), tangent=True)
-        if it == 0:
-            scale[idx] = _scale_floor(out["scale"], n, na)
+        f = np.flatnonzero(fresh[active])
+        if f.size:
+            # a start's scales and section from its own first pass (a relaxed start's too)
+            fresh[active[f]] = False
+            tf = torch.as_tensor(f, device=dev)
+            gf, xf = idx[tf], x0[tf]
+            scale[gf] = _scale_floor(out["scale"][tf], n, na)
             # the section through the start whose normal, in the plane of the decision output
             # (y, ẏ/ω), is the flow there: ẏ (y − y_ref) + (ÿ/ω²)(ẏ − ẏ_ref) = 0 (ẏ = 0 when
             # the start is at a peak); the output, not the whole state, because a start's
             # stiff coordinates carry a fast transient that the orbit does not have
-            fl = flow(sub, x0[:, :n], x0[:, n:2 * n], x0[:, 2 * n:])
-            w2 = (2 * math.pi / Ts) ** 2
-            section[idx, :n] = (x0[:, n:2 * n] @ c)[:, None] * c
-            section[idx, n:2 * n] = ((fl[:, n:2 * n] @ c) / w2)[:, None] * c
+            fl = flow(sub.select(tf), xf[:, :n], xf[:, n:2 * n], xf[:, 2 * n:])
+            w2 = (2 * math.pi / Ts[tf]) ** 2
+            section[gf, :n] = (xf[:, n:2 * n] @ c)[:, None] * c
+            section[gf, n:2 * n] = ((fl[:, n:2 * n] @ c) / w2)[:, None] * c
         sc, p = scale[idx], section[idx]
         res = torch.cat([out["q"], out["v"], out["xi"]], 1) - x0
         Bm = len(active)
@@ -605,6 +638,20 @@ def shoot(system: CaseSystem, start: OrbitStart, decision_row, rows=None,
         step = ~done & ~take & good
         if it == o.max_iterations or not step.any():
             continue
+        # far from the orbit on the first pass: relaxed along the trajectory (the options)
+        relax = step & (size_np > o.relax_above) if it == 0 and o.relax_periods else \
+            np.zeros_like(step)
+        if relax.any():
+            sel = torch.as_tensor(np.flatnonzero(relax), device=dev)
+            end = tuple(out[k][sel] for k in ("q", "v", "xi"))
+            if o.relax_periods > 1:
+                end = _Map(sub.select(sel), o).run_periods(end, Ts[sel], Ns[sel],
+                                                           o.relax_periods - 1)
+            x[idx[sel]] = torch.cat(end, 1)
+            x_ref[idx[sel]] = x[idx[sel]]
+            fresh[active[relax]] = True
+            relaxed[active[relax]] = True
+        step = step & ~relax
         # limit the step to max_step of the orbit's size in every scaled component
         factor = (o.max_step / size.clamp_min(1e-300)).clamp(max=1.0)
         dzs = dz * factor[:, None]
@@ -612,7 +659,7 @@ def shoot(system: CaseSystem, start: OrbitStart, decision_row, rows=None,
         gsel = idx[sel]
         x[gsel] = x[gsel] + dzs[sel, :m] * sc[sel]
         T[gsel] = T[gsel] * (1.0 + dzs[sel, m])
-        iterations[active[step]] += 1
+        iterations[active[step | relax]] += 1
     amp[~(converged | accepted)] = np.nan
     return ShootingResult(q=x[:, :n], v=x[:, n:2 * n], xi=x[:, 2 * n:], period=T,
                           steps=N.cpu().numpy(), converged=converged, iterations=iterations,
@@ -620,7 +667,8 @@ def shoot(system: CaseSystem, start: OrbitStart, decision_row, rows=None,
                           start_amplitude=start_amp, correction=last,
                           amplitude_correction=last_amp, amplitude=amp, multipliers=mu,
                           trivial_error=triv,
-                          critical_multiplier=crit, stable=stable, accepted=accepted)
+                          critical_multiplier=crit, stable=stable, accepted=accepted,
+                          relaxed=relaxed)
 
 
 def start_from_fourier(system: CaseSystem, X: Tensor, omega: Tensor, decision_row,

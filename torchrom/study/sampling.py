@@ -32,7 +32,7 @@ from typing import Any
 
 import numpy as np
 import pandas as pd
-from scipy.special import ndtr, ndtri
+import scipy
 
 from ..errors import InputError
 
@@ -104,11 +104,11 @@ def inverse_cdf(spec: Mapping[str, Any], u: np.ndarray) -> np.ndarray:
     else:  # lognormal: ln x is normal with mean ln(median) and standard deviation sigma
         loc, scale, to_x = math.log(spec["median"]), spec["sigma"], np.exp
     # truncation: map u onto the CDF interval [Φ(a), Φ(b)] of the bounds
-    a = ndtr((_ln_bound(spec, "low", name) - loc) / scale)
-    b = ndtr((_ln_bound(spec, "high", name) - loc) / scale)
+    a = scipy.special.ndtr((_ln_bound(spec, "low", name) - loc) / scale)
+    b = scipy.special.ndtr((_ln_bound(spec, "high", name) - loc) / scale)
     if not b > a:
         raise InputError(f"{name} distribution: [low, high] holds no probability mass")
-    return to_x(loc + scale * ndtri(a + u * (b - a)))
+    return to_x(loc + scale * scipy.special.ndtri(a + u * (b - a)))
 
 
 def _ln_bound(spec: Mapping[str, Any], key: str, name: str) -> float:
