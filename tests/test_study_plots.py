@@ -56,6 +56,21 @@ def test_one_line_per_series_sorted_by_x(drawn):
         assert not lg.get_window_extent(renderer).overlaps(ax.get_window_extent(renderer))
 
 
+def test_a_parameter_that_follows_x_does_not_split_the_line(drawn):
+    """configs/goland_uq_hb.toml: 10⁴ sampled γ, α matched to each (a function of x). α once
+    made every sample its own series (10⁴ legend entries, minutes to draw, axes collapsed):
+    now the samples are one line. α set independently of γ (a grid) still splits it."""
+    rng = np.random.default_rng(0)
+    g = rng.lognormal(np.log(5e-4), 0.5, 2000)
+    t = pd.DataFrame({"gamma": g, "alpha": 0.28 - 190 * g, "altitude_ft": 7000.0,
+                      "status": "lco", "amplitude": 3.0 - 1e3 * g})
+    assert plots.series_keys(t, "gamma", None, None) == []
+    fig = drawn(plots, plots.parameter_plot, t, "x.png", x="gamma")
+    assert len([ln for ln in fig.axes[0].get_lines() if len(ln.get_xdata())]) == 1
+    grid = pd.concat([t.head(5).assign(alpha=a) for a in (0.1, 0.2)], ignore_index=True)
+    assert plots.series_keys(grid, "gamma", None, None) == ["alpha"]
+
+
 def branch_table() -> pd.DataFrame:
     """A subcritical branch (alpha): unstable from the Hopf point up to a fold at α = 0.48,
     stable beyond; the fold is detected at the first point past the turn (as

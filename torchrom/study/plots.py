@@ -23,15 +23,19 @@ SERIES_STYLES = (("-", "o"), ("--", "s"), ("-.", "D"), (":", "^"), ((0, (5, 1, 1
 def series_keys(table: pd.DataFrame, x: str, hue: str | None, facet: str | None) -> list[str]:
     """The columns that tell one series of a parameter plot from another: ``hue`` and every
     case parameter (:data:`torchrom.study.cases.AEROELASTIC_PARAMETERS`) other than ``x`` and
-    ``facet`` that takes several values among the rows of one hue value (e.g. the stiffness
-    switch at one γ), so a line never joins cases of different series."""
+    ``facet`` that takes several values at one x (and panel) among the rows of one hue value
+    (e.g. the stiffness switch at one γ), so a line never joins cases of different series. A
+    parameter that follows x (α matched to each sampled γ) does not split the line: a 10⁴-sample
+    study is one series, not 10⁴."""
     from .cases import AEROELASTIC_PARAMETERS
 
     keys = [hue] if hue else []
+    at = [x] + ([facet] if facet else [])
     groups = table.groupby(hue, sort=False) if hue else [(None, table)]
     for c in AEROELASTIC_PARAMETERS:
         if c in table.columns and c not in (x, facet, hue) and any(
-                g[c].astype(str).nunique() > 1 for _, g in groups):
+                (g[c].astype(str).groupby([g[k] for k in at], sort=False).nunique() > 1).any()
+                for _, g in groups):
             keys.append(c)
     return keys
 
