@@ -545,7 +545,6 @@ def shoot(system: CaseSystem, start: OrbitStart, decision_row, rows=None,
     compared[n:2 * n] = torch.as_tensor([k != "dual" for k in kinds] if len(kinds) == n
                                         else [True] * n, device=dev)
     section = torch.zeros(B, m, **f64)  # the phase condition's row, set on the first pass
-    fresh = np.ones(B, dtype=bool)  # the cases whose scales and section are still to be set
     scale = torch.ones(B, m, **f64)
     converged = np.zeros(B, dtype=bool)
     accepted = np.zeros(B, dtype=bool)
@@ -572,10 +571,10 @@ def shoot(system: CaseSystem, start: OrbitStart, decision_row, rows=None,
         x0, Ts, Ns = x[idx], T[idx], N[idx]
         out = _Map(sub, o).propagate((x0[:, :n], x0[:, n:2 * n], x0[:, 2 * n:]), Ts, Ns,
                                      torch.cat([c[None], R]), tangent=True)
-        f = np.flatnonzero(fresh[active])
+        # a start's scales and section from its own first pass: every case's on the first,
+        # a relaxed start's on the next (relaxation happens only after the first)
+        f = np.arange(active.size) if it == 0 else np.flatnonzero(relaxed[active] & (it == 1))
         if f.size:
-            # a start's scales and section from its own first pass (a relaxed start's too)
-            fresh[active[f]] = False
             tf = torch.as_tensor(f, device=dev)
             gf, xf = idx[tf], x0[tf]
             scale[gf] = _scale_floor(out["scale"][tf], n, na)
@@ -645,8 +644,7 @@ def shoot(system: CaseSystem, start: OrbitStart, decision_row, rows=None,
         if it == o.max_iterations or not step.any():
             continue
         # far from the orbit on the first pass: relaxed along the trajectory (the options)
-        relax = step & (size_np > o.relax_above) if it == 0 and o.relax_periods else \
-            np.zeros_like(step)
+        relax = step & (size_np > o.relax_above) & (it == 0 and o.relax_periods > 0)
         if relax.any():
             sel = torch.as_tensor(np.flatnonzero(relax), device=dev)
             end = tuple(out[k][sel] for k in ("q", "v", "xi"))
@@ -655,7 +653,6 @@ def shoot(system: CaseSystem, start: OrbitStart, decision_row, rows=None,
                                                            o.relax_periods - 1)
             x[idx[sel]] = torch.cat(end, 1)
             x_ref[idx[sel]] = x[idx[sel]]
-            fresh[active[relax]] = True
             relaxed[active[relax]] = True
         step = step & ~relax
         # limit the step to max_step of the orbit's size in every scaled component
