@@ -45,26 +45,64 @@ from .fourier import FourierBasis, coefficients_from_samples, n_coefficients
 Tensor = torch.Tensor
 
 
+@dataclass(frozen=True)
+class DampedRows:
+    """The rows of a batch of states whose nonlinear damping factor g is nonzero: ``g`` (R', 1)
+    their factors and ``index`` (R',) their positions, None where every row is damped. A mixed
+    batch (γ = 0 cases beside damped ones: the paper's sweep lines, a certificate's first pass)
+    evaluates the damping kernels on the damped rows alone — they are most of a step's work."""
+
+    g: Tensor
+    index: Tensor | None
+
+    @classmethod
+    def of(cls, g: Tensor) -> DampedRows | None:
+        """From the factors g (R,) (None where no row is damped)."""
+        on = g != 0
+        if not bool(on.any()):
+            return None
+        if bool(on.all()):
+            return cls(g[:, None], None)
+        index = torch.nonzero(on)[:, 0]
+        return cls(g[index][:, None], index)
+
+    def take(self, *rows: Tensor) -> tuple[Tensor, ...]:
+        """The damped rows of each of ``rows`` (R, ...)."""
+        return rows if self.index is None else tuple(r.index_select(0, self.index) for r in rows)
+
+
+
+def damping_force(kernels: CompactForces, q: Tensor, v: Tensor, m2: Tensor, damped: DampedRows
+                  ) -> tuple[Tensor, Tensor]:
+    """(g·D_nl(q) q̇, g·D_nl(q)) of the damped rows (R', n), (R', n, n)."""
+    qd, vd, m2d = damped.take(q, v, m2)
+    Dm = damped.g[..., None] * kernels.damping_nl_matrix(qd, m2d)
+    return (Dm @ vd[..., None])[..., 0], Dm
+
+
 def force_tangents(kernels: CompactForces, q: Tensor, v: Tensor, m2: Tensor,
-                   s: Tensor | float | None, g: Tensor | None
+                   s: Tensor | float | None, damped: DampedRows | None
                    ) -> tuple[Tensor, Tensor, Tensor | None]:
     """(f_nl, K_n, C_n) of R states q, q̇ (R, n) with their quadratic monomials m2 (R, P): the
     force (R, n) and its derivatives in q and q̇ (R, n, n), from one set of the kernels'
     GEMMs. ``s``: the stiffness factors (R, 1), or 1.0 (no product), or None (no nonlinear
-    stiffness); ``g``: the damping factors (R, 1), or None (no nonlinear damping: C_n None)."""
-    f = Kn = Cn = None
+    stiffness); ``damped``: the rows with nonlinear damping and their factors, or None (none:
+    C_n None)."""
     if s is not None:
         fs, T = kernels.stiffness_and_tangent(q, m2)
         f, Kn = (fs, T) if isinstance(s, float) and s == 1.0 else (s * fs, s[..., None] * T)
-    if g is not None:
-        Dm = kernels.damping_nl_matrix(q, m2)
-        fd = g * (Dm @ v[..., None])[..., 0]
-        Kd = g[..., None] * kernels.damping_force_tangent(q, v, m2)
-        f, Kn = (fd, Kd) if f is None else (f + fd, Kn + Kd)
-        Cn = g[..., None] * Dm
-    if f is None:
+    else:
         f, Kn = torch.zeros_like(q), q.new_zeros(*q.shape, q.shape[1])
-    return f, Kn, Cn
+    if damped is None:
+        return f, Kn, None
+    fd, Dm = damping_force(kernels, q, v, m2, damped)
+    qd, vd = damped.take(q, v)
+    Kd = damped.g[..., None] * kernels.damping_force_tangent(qd, vd)
+    if damped.index is None:
+        return f + fd, Kn + Kd, Dm
+    i = damped.index
+    return f.index_add(0, i, fd), Kn.index_add(0, i, Kd), Kn.new_zeros(Kn.shape).index_copy_(
+        0, i, Dm)
 
 
 @dataclass
@@ -112,6 +150,7 @@ class HarmonicBalance:
         self.g = system.gamma * system.damping_nl
         self.has_stiffness = bool((self.s != 0).any())
         self.has_damping = bool((self.g != 0).any())
+        self._damped: dict[int, DampedRows | None] = {}  # per samples per case
         self.load = system.load
         self.n_lag = system.n_lag
         self.k = torch.arange(1, self.H + 1, device=dev, dtype=dt)
@@ -172,6 +211,13 @@ class HarmonicBalance:
         b = self.basis
         return b.E @ X, omega[:, None, None] * (b.dE @ X)
 
+    def damped_rows(self, N: int) -> DampedRows | None:
+        """The damped rows of the cases' N samples each, flattened (B·N)."""
+        if N not in self._damped:
+            self._damped[N] = (DampedRows.of(self.g.repeat_interleave(N)) if self.has_damping
+                               else None)
+        return self._damped[N]
+
     def nonlinear_force(self, q: Tensor, v: Tensor) -> Tensor:
         """s·[K2(q,q) + K3(q,q,q)] + g·[D̄2(q) + D̄3(q,q)] q̇ at samples (B, N, n)."""
         B, N, n = q.shape
@@ -181,9 +227,10 @@ class HarmonicBalance:
         m2 = q2[:, k.pair_i] * q2[:, k.pair_j]
         if self.has_stiffness:  # the force alone: the monomials' GEMM, no tangent
             f = f + self.s.repeat_interleave(N)[:, None] * k.stiffness_nl(q2, m2)
-        if self.has_damping:
-            Dm = k.damping_nl_matrix(q2, m2)
-            f = f + self.g.repeat_interleave(N)[:, None] * (Dm @ v2[..., None])[..., 0]
+        damped = self.damped_rows(N)
+        if damped is not None:
+            fd, _ = damping_force(k, q2, v2, m2, damped)
+            f = f + fd if damped.index is None else f.index_add(0, damped.index, fd)
         return f.view(B, N, n)
 
     def nonlinear_tangents(self, q: Tensor, v: Tensor) -> tuple[Tensor, Tensor, Tensor]:
@@ -195,7 +242,7 @@ class HarmonicBalance:
         f, Kn, Cn = force_tangents(
             k, q2, v2, q2[:, k.pair_i] * q2[:, k.pair_j],
             self.s.repeat_interleave(N)[:, None] if self.has_stiffness else None,
-            self.g.repeat_interleave(N)[:, None] if self.has_damping else None)
+            self.damped_rows(N))
         if Cn is None:
             Cn = q2.new_zeros(B * N, n, n)
         return f.view(B, N, n), Kn.view(B, N, n, n), Cn.view(B, N, n, n)

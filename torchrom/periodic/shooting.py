@@ -36,7 +36,7 @@ from ..checks import integer, real
 from ..errors import InputError
 from ..sim.schemes import SchemeParameters
 from ..sim.system import CaseSystem
-from .balance import HarmonicBalance, force_tangents
+from .balance import DampedRows, HarmonicBalance, damping_force, force_tangents
 from .fourier import parabolic_extreme
 
 Tensor = torch.Tensor
@@ -206,7 +206,7 @@ class _Map:
         # (B, 1) force factors (the stiffness's, where not all 1, and the damping's)
         s = self.hb.s[:, None]
         self.s = None if bool((s == 1).all()) else s
-        self.g = self.hb.g[:, None]
+        self.damped = DampedRows.of(self.hb.g)
         k = self.hb.kernels
         # the kernels' quadratic monomials as positions in the outer product: m2 = (q ⊗ q)[pairs]
         # (one gather instead of two)
@@ -224,7 +224,8 @@ class _Map:
         """K2(q, q) + K3(q, q, q) (B, n) = (½ T2 + ⅓ T3) q with T2 = 2 K2(q, ·) and
         T3 = 3 K3(q, q, ·) (homogeneous forms of degree 2 and 3)."""
         half2, third3 = self.euler
-        T = torch.addmm(q @ half2, m2, third3).view(-1, self.n, self.n)
+        k = self.hb.kernels
+        T = k.matrices(torch.addmm(q @ half2, m2, third3), k.tangent_upper)
         return (T @ q[..., None])[..., 0]
 
     def _scaled(self, t: Tensor) -> Tensor:
@@ -239,8 +240,9 @@ class _Map:
         m2 = self._pairs(q)
         f = (self._scaled(self._cubic_force(q, m2)) if hb.has_stiffness
              else torch.zeros_like(q))
-        if hb.has_damping:
-            f = f + self.g * (k.damping_nl_matrix(q, m2) @ v[..., None])[..., 0]
+        if self.damped is not None:
+            fd, _ = damping_force(k, q, v, m2, self.damped)
+            f = f + fd if self.damped.index is None else f.index_add(0, self.damped.index, fd)
         return f
 
     def nonlinear_tangents(self, q: Tensor, v: Tensor) -> tuple[Tensor, Tensor, Tensor | None]:
@@ -249,8 +251,7 @@ class _Map:
         without nonlinear damping."""
         hb = self.hb
         s = (1.0 if self.s is None else self.s) if hb.has_stiffness else None
-        return force_tangents(hb.kernels, q, v, self._pairs(q), s,
-                              self.g if hb.has_damping else None)
+        return force_tangents(hb.kernels, q, v, self._pairs(q), s, self.damped)
 
     def forces(self, q: Tensor, v: Tensor, tangent: bool = True):
         """f_nl, and with ``tangent`` the full tangents (K_t, C_t), linear parts included."""

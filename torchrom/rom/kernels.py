@@ -12,6 +12,11 @@ dense GEMMs per batch, which is what makes thousands of cases per second possibl
              balance and Floquet analysis need it; the time integrator's modified Newton does
              not)
 
+Where every coefficient matrix of Dc (resp. Tc) is symmetric in (m, n) — always for Kelvin–Voigt
+damping (the Hessian of a dissipation function) and for the tangent of a conservative ROM (the
+Hessian of its strain energy) — only the N2 = n(n+1)/2 entries m ≤ n are stored and computed
+(half the GEMM), and a gather lays out the full matrices (:meth:`CompactForces.matrices`).
+
 All tensors live on one device/dtype; the kernel holds no state besides its coefficient matrices.
 Written here: no library implements ROM force evaluation on monomials.
 """
@@ -27,6 +32,22 @@ from .monomials import MonomialIndex, monomial_index
 
 Tensor = torch.Tensor
 
+#: relative asymmetry (of the largest coefficient) below which the matrices a coefficient block
+#: builds are treated as symmetric (identified ROMs carry rounding of ~1e-15)
+SYMMETRY_RTOL = 1e-12
+
+
+def _upper_if_symmetric(rows: Tensor, idx: MonomialIndex) -> tuple[Tensor, bool]:
+    """Coefficient rows (r, n·n) of matrices [m, j]: their upper triangles (r, N2), pairs in
+    ``idx`` order, where every matrix is symmetric (to :data:`SYMMETRY_RTOL`), else as given."""
+    n = idx.n
+    full = rows.view(-1, n, n)
+    scale = float(full.abs().max()) if full.numel() else 0.0
+    if scale == 0.0 or float((full - full.transpose(1, 2)).abs().max()) > SYMMETRY_RTOL * scale:
+        return rows, False
+    full = 0.5 * (full + full.transpose(1, 2))
+    return full[:, idx.pairs[:, 0], idx.pairs[:, 1]].contiguous(), True
+
 
 @dataclass
 class CompactForces:
@@ -37,13 +58,18 @@ class CompactForces:
     K1: Tensor
     D1: Tensor
     Kc: Tensor  # (N2 + N3, n): stiffness monomial coefficients, transposed for q-rows @ Kc
-    Dc: Tensor  # (n + N2, n*n): damping-matrix coefficients of [q, m2]
-    Tc: Tensor  # (n + N2, n*n): tangent-stiffness coefficients of [q, m2]
+    Dc: Tensor  # (n + N2, n*n or N2): damping-matrix coefficients of [q, m2]
+    Tc: Tensor  # (n + N2, n*n or N2): tangent-stiffness coefficients of [q, m2]
     Gc: Tensor  # (n + n*n, n*n): damping-force tangent coefficients of [q̇, q ⊗ q̇]
     pair_i: Tensor
     pair_j: Tensor
     triple_pair: Tensor
     triple_k: Tensor
+    #: (n·n,) the column of an upper-triangle row holding each entry [m, j] (the pair index of
+    #: (min, max)); used for Dc / Tc where ``damping_upper`` / ``tangent_upper``
+    full_of_upper: Tensor | None = None
+    damping_upper: bool = False
+    tangent_upper: bool = False
 
     @classmethod
     def build(cls, M, K1, K2, K3, D1, D2, D3, device=None, dtype=torch.float64) -> CompactForces:
@@ -61,6 +87,8 @@ class CompactForces:
         K3pairs = K3[:, :, idx.pairs[:, 0], idx.pairs[:, 1]] * mult  # (m, j, P)
         T3rows = (3.0 * K3pairs).permute(2, 0, 1).reshape(idx.n_pairs, n * n)
         Tc = torch.cat([T2rows, T3rows], dim=0)
+        Dc, damping_upper = _upper_if_symmetric(Dc, idx)
+        Tc, tangent_upper = _upper_if_symmetric(Tc, idx)
         kw = {"device": device, "dtype": dtype}
         ikw = {"device": device, "dtype": torch.long}
         return cls(
@@ -79,7 +107,17 @@ class CompactForces:
             pair_j=torch.as_tensor(idx.pairs[:, 1], **ikw),
             triple_pair=torch.as_tensor(idx.triple_pair, **ikw),
             triple_k=torch.as_tensor(idx.triples[:, 2], **ikw),
+            full_of_upper=torch.as_tensor(idx.pair_id.reshape(-1), **ikw),
+            damping_upper=damping_upper,
+            tangent_upper=tangent_upper,
         )
+
+    def matrices(self, rows: Tensor, upper: bool) -> Tensor:
+        """(B, n, n) matrices from GEMM rows (B, n·n), or (B, N2) upper triangles
+        (``upper``, the layout of :attr:`Dc` / :attr:`Tc` when stored so)."""
+        if upper:
+            rows = torch.index_select(rows, 1, self.full_of_upper)
+        return rows.view(-1, self.n, self.n)
 
     # ---------------------------------------------------------------------------------------
     def monomials(self, q: Tensor) -> tuple[Tensor, Tensor]:
@@ -98,13 +136,13 @@ class CompactForces:
         """D2(q) + D3(q,q) as a (B, n, n) matrix (the nonlinear part of Eq. 32)."""
         if m2 is None:
             m2 = q[:, self.pair_i] * q[:, self.pair_j]
-        return (torch.cat([q, m2], dim=1) @ self.Dc).view(-1, self.n, self.n)
+        return self.matrices(torch.cat([q, m2], dim=1) @ self.Dc, self.damping_upper)
 
     def tangent_nl(self, q: Tensor, m2: Tensor | None = None) -> Tensor:
         """2 K2(q,·) + 3 K3(q,q,·) as a (B, n, n) matrix."""
         if m2 is None:
             m2 = q[:, self.pair_i] * q[:, self.pair_j]
-        return (torch.cat([q, m2], dim=1) @ self.Tc).view(-1, self.n, self.n)
+        return self.matrices(torch.cat([q, m2], dim=1) @ self.Tc, self.tangent_upper)
 
     def stiffness_and_tangent(self, q: Tensor, m2: Tensor | None = None
                               ) -> tuple[Tensor, Tensor]:
@@ -115,10 +153,12 @@ class CompactForces:
         if m2 is None:
             m2 = q[:, self.pair_i] * q[:, self.pair_j]
         n = self.n
-        T2 = (q @ self.Tc[:n]).view(-1, n, n)
-        T3 = (m2 @ self.Tc[n:]).view(-1, n, n)
-        f = ((0.5 * T2 + T3 / 3.0) @ q[..., None])[..., 0]
-        return f, T2 + T3
+        T2, T3 = q @ self.Tc[:n], m2 @ self.Tc[n:]
+        # both matrices from one gather (of the upper triangles, where stored so)
+        both = self.matrices(torch.cat([0.5 * T2 + T3 / 3.0, T2 + T3]),
+                             self.tangent_upper).view(2, -1, n, n)
+        f = (both[0] @ q[..., None])[..., 0]
+        return f, both[1]
 
     def damping_force_tangent(self, q: Tensor, qd: Tensor, m2: Tensor | None = None) -> Tensor:
         """∂/∂q [(D2(q) + D3(q,q)) q̇] as a (B, n, n) matrix: entry [b, m, j] is
