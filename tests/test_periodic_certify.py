@@ -130,6 +130,23 @@ def test_the_certificate_bounds_the_error_against_the_continuous_orbit():
     assert np.allclose(out.extra["dt_error"], dt_true, rtol=0.25)
 
 
+def test_an_orbit_the_step_does_not_resolve_is_uncertified():
+    """``dt_tol``: a row whose dt_error (here ≈ 1e-4 at 1/200 of the period) exceeds it is
+    lco_uncertified with its numbers kept; within it (the default 0.1) the same row is lco."""
+    system = _system((0.0,))
+    dt = 5e-3
+    res = Newmark(dt=dt, iterations=3).run(system, [0.5], t_end=100.0, outputs=["sum"],
+                                          lco=LCOCriteria(rtol=1e-3, cycles=2))
+    ok = certify(system, res, ROW, 0, Certificate(tol=1e-2), dt)
+    dt_error = float(ok.extra["dt_error"][0])
+    assert list(ok.status) == ["lco"] and 0 < dt_error < 0.1
+    tight = certify(system, res, ROW, 0, Certificate(tol=1e-2, dt_tol=dt_error / 2), dt)
+    assert list(tight.status) == [UNCERTIFIED] and tight.extra["certified"][0] is False
+    for k in ("orbit_error", "dt_error", "critical_multiplier"):
+        assert tight.extra[k][0] == pytest.approx(ok.extra[k][0], rel=1e-12)
+    assert tight.amplitude[0, 0] == ok.amplitude[0, 0]
+
+
 def test_disabled_and_bad_settings():
     system = _system((0.0,))
     res = Newmark(dt=5e-3, iterations=3).run(system, [0.5], t_end=100.0, outputs=["sum"],
@@ -140,5 +157,7 @@ def test_disabled_and_bad_settings():
 
     with pytest.raises(InputError, match="certificate.tol"):
         Certificate(tol=0.0)
+    with pytest.raises(InputError, match="certificate.dt_tol"):
+        Certificate(dt_tol=-1.0)
     with pytest.raises(InputError, match="certificate.finish"):
         Certificate(finish="yes")

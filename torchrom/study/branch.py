@@ -139,21 +139,37 @@ def _finish_from_neighbours(system, res: SimulationResult, branch: list[int], C:
     """``res`` with the points whose finish from their harmonic-balance orbit failed finished
     again from the nearest certified point of the same branch: its discrete orbit carries the
     small coordinates' high harmonics that a low-H orbit lacks (on the Goland γ = 0 branch the
-    H = 5 orbits of the largest LCOs are too far for Newton to reach from)."""
+    H = 5 orbits of the largest LCOs are too far for Newton to reach from). Where that fails
+    too, from the nearest certified point on the other side: near a resonance of a lightly
+    damped mode the map has more than one discrete orbit (at 4,388 ft on that branch the orbit
+    of the point above led to an unstable one the step does not resolve, the one below to the
+    branch's own)."""
     status = np.asarray(res.status)
-    bad = np.flatnonzero(status == UNCERTIFIED)
-    if not bad.size or not cfg.certificate.finish:
+    if not cfg.certificate.finish or not (status == UNCERTIFIED).any():
         return res
     branch_a = np.asarray(branch)
     good = np.flatnonzero(status == "lco")
-    src = []
-    for i in bad:
+    sources: dict[int, list[int]] = {}  # per failed point: its neighbours, nearest first
+    for i in np.flatnonzero(status == UNCERTIFIED):
         same = good[branch_a[good] == branch_a[i]]
-        src.append(int(same[np.argmin(np.abs(same - i))]) if same.size else -1)
-    src = np.asarray(src)
-    bad, src = bad[src >= 0], src[src >= 0]
-    if not bad.size:
-        return res
+        below, above = same[same < i], same[same > i]
+        sides = ([int(below.max())] if below.size else []) + (
+            [int(above.min())] if above.size else [])
+        sources[int(i)] = sorted(sides, key=lambda j: (abs(j - i), j))
+    for attempt in range(2):
+        status = np.asarray(res.status)
+        bad = np.array([i for i, src in sources.items()
+                        if status[i] == UNCERTIFIED and len(src) > attempt], dtype=np.int64)
+        if bad.size:
+            src = np.array([sources[int(i)][attempt] for i in bad], dtype=np.int64)
+            res = _finish_from(system, res, bad, src, C, cfg)
+    return res
+
+
+def _finish_from(system, res: SimulationResult, bad: np.ndarray, src: np.ndarray,
+                 C: np.ndarray, cfg: SweepConfig) -> SimulationResult:
+    """``res`` with the points ``bad`` certified again from the discrete orbits of ``src``
+    (their rows updated where the finish converged)."""
     t = torch.as_tensor(bad)
     nan = np.full(bad.size, np.nan)
     retry = SimulationResult(res.output_names, np.full(bad.size, "lco", dtype=object),
@@ -166,7 +182,7 @@ def _finish_from_neighbours(system, res: SimulationResult, branch: list[int], C:
     if not ok.size:
         return res
     rows = bad[ok]
-    status = status.copy()
+    status = np.asarray(res.status).copy()
     status[rows] = again.status[ok]
     amp, freq = res.amplitude.copy(), res.frequency_hz.copy()
     amp[rows], freq[rows] = again.amplitude[ok], again.frequency_hz[ok]
