@@ -274,6 +274,15 @@ def block_perf_goland(res: dict[str, Any]) -> str:
     return "\n".join([*out, "", _machine(meta, load) + f" Device: {meta.get('device', 'cpu')}."])
 
 
+def _floor_sentence(floor: dict[str, float]) -> str:
+    return (f"The certificate's evaluations alone (one shooting evaluation at h and one at 2h, "
+            f"no finish, on the reference's start orbits) cost "
+            f"{floor['evaluations_h_2h_cpu_s_per_lco']:.3f} CPU s per LCO "
+            f"({floor['evaluation_h_cpu_s_per_lco']:.3f} at h alone): no certified method can "
+            f"be more than {floor['largest_ratio_vs_reference_method']:.1f}× faster than "
+            "`newmark-reference`, however it finds its orbits. ")
+
+
 def block_perf_lco(res: dict[str, Any]) -> str:
     meta = res["meta"]
     out = ["| method | certified LCOs | CPU s per certified LCO (certificate included) | "
@@ -290,7 +299,11 @@ def block_perf_lco(res: dict[str, Any]) -> str:
                    f"{m['stability_unknown']} |")
     return "\n".join([*out, "", f"{meta['cases']} cases, output {meta['output']}; reference: "
                        f"{meta['reference']}. An uncertified LCO counts as an infinite error. "
-                       f"All methods in one run of {meta['wall_s']:.0f} s. "
+                       + (f"A certificate bounds a row's error when {meta['bound_check']}. "
+                          if meta.get("bound_check") else "")
+                       + (_floor_sentence(meta["certificate_floor"])
+                          if meta.get("certificate_floor") else "")
+                       + f"All methods in one run of {meta['wall_s']:.0f} s. "
                        + _machine(meta, _span(meta["load_average"]))])
 
 
