@@ -1,8 +1,9 @@
 """The compact monomial kernels (torchrom.rom.kernels.CompactForces) against dense einsums of the
 ROM's own symmetric tensors (an independent code path), for both storages of the damping and
-tangent coefficients: upper triangles where every matrix is symmetric (a Kelvin–Voigt Gram
-model: the tangent is the strain energy's Hessian, the damping the dissipation's), full rows
-otherwise (random tensors with no potential)."""
+tangent coefficients: with ``symmetric``, upper triangles where every matrix is symmetric (a
+Kelvin–Voigt Gram model: the tangent is the strain energy's Hessian, the damping the
+dissipation's), full rows otherwise (random tensors with no potential), and full rows always
+without it."""
 
 from __future__ import annotations
 
@@ -50,10 +51,12 @@ def test_kernels_match_dense_tensors(symmetric):
     """Forces, tangent and damping matrices to 1e-12 of their size (rounding of sums of a few
     hundred terms), and the storage chosen by the symmetry of the coefficients."""
     rom = random_gram_model(5)[0] if symmetric else _random_rom()
-    k: CompactForces = rom.kernels()
+    k: CompactForces = rom.kernels(symmetric=True)
     assert k.tangent_upper is symmetric and k.damping_upper is symmetric
     n2 = rom.n * (rom.n + 1) // 2
     assert k.Tc.shape[1] == (n2 if symmetric else rom.n ** 2)
+    # without the request: full rows (harmonic balance's kernels)
+    assert not rom.kernels().tangent_upper and rom.kernels().Tc.shape[1] == rom.n ** 2
     torch.manual_seed(0)
     q = 0.3 * torch.randn(6, rom.n, dtype=torch.float64)
     v = torch.randn(6, rom.n, dtype=torch.float64)
@@ -77,5 +80,6 @@ def test_nearly_symmetric_coefficients_are_symmetrised_within_the_tolerance():
         K2 = rom.K2.clone()
         K2[0, 1, 2] += eps * float(rom.K2.abs().max())
         K2[0, 2, 1] = K2[0, 1, 2]  # keep the storage symmetry (last two indices)
-        k = CompactForces.build(rom.M, rom.K1, K2, rom.K3, rom.D1, rom.D2, rom.D3)
+        k = CompactForces.build(rom.M, rom.K1, K2, rom.K3, rom.D1, rom.D2, rom.D3,
+                                symmetric=True)
         assert k.tangent_upper is upper

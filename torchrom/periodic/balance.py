@@ -123,9 +123,12 @@ class HarmonicBalance:
         system: the per-case system (structural ROM + linear additions + lag states).
         H: number of harmonics.
         n_samples: AFT samples per period (default the alias-free minimum 4H + 1).
+        symmetric_kernels: the ROM's kernels with symmetric coefficient matrices as upper
+            triangles (:mod:`torchrom.rom.kernels`; the shooting map's), else full rows.
     """
 
-    def __init__(self, system: CaseSystem, H: int, n_samples: int | None = None):
+    def __init__(self, system: CaseSystem, H: int, n_samples: int | None = None,
+                 symmetric_kernels: bool = False):
         self.system = system
         self.H = int(H)
         self.nh = n_coefficients(self.H)
@@ -134,7 +137,7 @@ class HarmonicBalance:
         rom = system.rom
         self.n = n = rom.n
         self.B = B = system.batch_size
-        self.kernels: CompactForces = rom.kernels(dev, dt)
+        self.kernels: CompactForces = rom.kernels(dev, dt, symmetric=symmetric_kernels)
         k = self.kernels
 
         def add(base: Tensor, extra: Tensor | None) -> Tensor:

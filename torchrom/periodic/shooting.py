@@ -200,7 +200,8 @@ class _Map:
     def __init__(self, system: CaseSystem, options: ShootingOptions):
         self.system = system
         self.o = options
-        self.hb = HarmonicBalance(system, 1)  # the per-case linear matrices and force kernels
+        # the per-case linear matrices and force kernels (symmetric ones as upper triangles)
+        self.hb = HarmonicBalance(system, 1, symmetric_kernels=True)
         self.n, self.na, self.B = system.n, system.n_lag, system.batch_size
         self.nonlinear = self.hb.has_stiffness or self.hb.has_damping
         # (B, 1) force factors (the stiffness's, where not all 1, and the damping's)

@@ -12,10 +12,14 @@ dense GEMMs per batch, which is what makes thousands of cases per second possibl
              balance and Floquet analysis need it; the time integrator's modified Newton does
              not)
 
-Where every coefficient matrix of Dc (resp. Tc) is symmetric in (m, n) — always for Kelvin–Voigt
-damping (the Hessian of a dissipation function) and for the tangent of a conservative ROM (the
-Hessian of its strain energy) — only the N2 = n(n+1)/2 entries m ≤ n are stored and computed
-(half the GEMM), and a gather lays out the full matrices (:meth:`CompactForces.matrices`).
+With ``symmetric`` (the shooting map's kernels), where every coefficient matrix of Dc (resp. Tc)
+is symmetric in (m, n) — always for Kelvin–Voigt damping (the Hessian of a dissipation function)
+and for the tangent of a conservative ROM (the Hessian of its strain energy) — only the
+N2 = n(n+1)/2 entries m ≤ n are stored and computed (half the GEMM), and a gather lays out the
+full matrices (:meth:`CompactForces.matrices`). Harmonic balance keeps the full rows: its
+continuation paths depend on rounding (the symmetrised coefficients, equal to 5e-15, moved the
+quick paper study's γ = 0 branch onto a singular point of its H = 5 equations at 8,265 ft,
+where it ended instead of at 4,000 ft).
 
 All tensors live on one device/dtype; the kernel holds no state besides its coefficient matrices.
 Written here: no library implements ROM force evaluation on monomials.
@@ -72,7 +76,8 @@ class CompactForces:
     tangent_upper: bool = False
 
     @classmethod
-    def build(cls, M, K1, K2, K3, D1, D2, D3, device=None, dtype=torch.float64) -> CompactForces:
+    def build(cls, M, K1, K2, K3, D1, D2, D3, device=None, dtype=torch.float64,
+              symmetric: bool = False) -> CompactForces:
         n = M.shape[0]
         idx: MonomialIndex = monomial_index(n)
         c = compact_from_symmetric(K2, K3, D3)
@@ -87,8 +92,10 @@ class CompactForces:
         K3pairs = K3[:, :, idx.pairs[:, 0], idx.pairs[:, 1]] * mult  # (m, j, P)
         T3rows = (3.0 * K3pairs).permute(2, 0, 1).reshape(idx.n_pairs, n * n)
         Tc = torch.cat([T2rows, T3rows], dim=0)
-        Dc, damping_upper = _upper_if_symmetric(Dc, idx)
-        Tc, tangent_upper = _upper_if_symmetric(Tc, idx)
+        damping_upper = tangent_upper = False
+        if symmetric:
+            Dc, damping_upper = _upper_if_symmetric(Dc, idx)
+            Tc, tangent_upper = _upper_if_symmetric(Tc, idx)
         kw = {"device": device, "dtype": dtype}
         ikw = {"device": device, "dtype": torch.long}
         return cls(

@@ -235,13 +235,16 @@ class NonlinearROM:
     # ------------------------------------------------------------------------------------------
     # batched forces (Eq. 54)
     # ------------------------------------------------------------------------------------------
-    def kernels(self, device=None, dtype=torch.float64) -> CompactForces:
-        """The compact monomial kernels on a device/dtype (built once, then cached)."""
-        key = (str(torch.device(device) if device is not None else torch.device("cpu")), dtype)
+    def kernels(self, device=None, dtype=torch.float64, symmetric: bool = False
+                ) -> CompactForces:
+        """The compact monomial kernels on a device/dtype (built once, then cached);
+        ``symmetric``: symmetric coefficient matrices as upper triangles (:mod:`.kernels`)."""
+        key = (str(torch.device(device) if device is not None else torch.device("cpu")), dtype,
+               bool(symmetric))
         if key not in self._kernels:
             self._kernels[key] = CompactForces.build(
                 self.M, self.K1, self.K2, self.K3, self.D1, self.D2, self.D3,
-                device=device, dtype=dtype,
+                device=device, dtype=dtype, symmetric=symmetric,
             )
         return self._kernels[key]
 
