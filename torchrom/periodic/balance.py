@@ -72,6 +72,10 @@ class DampedRows:
         """The damped rows of each of ``rows`` (R, ...)."""
         return rows if self.index is None else tuple(r.index_select(0, self.index) for r in rows)
 
+    def add(self, full: Tensor, part: Tensor) -> Tensor:
+        """``full`` (R, ...) with ``part`` (R', ...) added on the damped rows."""
+        return full + part if self.index is None else full.index_add(0, self.index, part)
+
 
 def damping_force(kernels: CompactForces, q: Tensor, v: Tensor, m2: Tensor, damped: DampedRows
                   ) -> tuple[Tensor, Tensor]:
@@ -99,11 +103,8 @@ def force_tangents(kernels: CompactForces, q: Tensor, v: Tensor, m2: Tensor,
     fd, Dm = damping_force(kernels, q, v, m2, damped)
     qd, vd = damped.take(q, v)
     Kd = damped.g[..., None] * kernels.damping_force_tangent(qd, vd)
-    if damped.index is None:
-        return f + fd, Kn + Kd, Dm
-    i = damped.index
-    return f.index_add(0, i, fd), Kn.index_add(0, i, Kd), Kn.new_zeros(Kn.shape).index_copy_(
-        0, i, Dm)
+    Cn = Dm if damped.index is None else Kn.new_zeros(Kn.shape).index_copy_(0, damped.index, Dm)
+    return damped.add(f, fd), damped.add(Kn, Kd), Cn
 
 
 @dataclass
@@ -234,7 +235,7 @@ class HarmonicBalance:
         damped = self.damped_rows(N)
         if damped is not None:
             fd, _ = damping_force(k, q2, v2, m2, damped)
-            f = f + fd if damped.index is None else f.index_add(0, damped.index, fd)
+            f = damped.add(f, fd)
         return f.view(B, N, n)
 
     def nonlinear_tangents(self, q: Tensor, v: Tensor) -> tuple[Tensor, Tensor, Tensor]:

@@ -243,7 +243,7 @@ class _Map:
              else torch.zeros_like(q))
         if self.damped is not None:
             fd, _ = damping_force(k, q, v, m2, self.damped)
-            f = f + fd if self.damped.index is None else f.index_add(0, self.damped.index, fd)
+            f = self.damped.add(f, fd)
         return f
 
     def nonlinear_tangents(self, q: Tensor, v: Tensor) -> tuple[Tensor, Tensor, Tensor | None]:

@@ -37,7 +37,8 @@ from .monomials import MonomialIndex, monomial_index
 Tensor = torch.Tensor
 
 #: relative asymmetry (of the largest coefficient) below which the matrices a coefficient block
-#: builds are treated as symmetric (identified ROMs carry rounding of ~1e-15)
+#: builds are treated as symmetric (identified ROMs carry rounding of ~1e-15); the simulator's
+#: damping kernel (torchrom.sim.forces) uses the same test
 SYMMETRY_RTOL = 1e-12
 
 

@@ -41,12 +41,11 @@ import torch
 
 from ..rom import NonlinearROM
 from ..rom.conventions import compact_from_symmetric
+from ..rom.kernels import SYMMETRY_RTOL
 from ..rom.monomials import monomial_index
 
 Tensor = torch.Tensor
 
-#: relative asymmetry below which the nonlinear damping matrix is treated as symmetric
-DAMPING_SYMMETRY_RTOL = 1e-12
 #: from this many modes on the cubic stiffness of large batches runs block-wise without
 #: materialising the cubic monomials (fewer bytes moved)
 BLOCKED_MIN_N = 8
@@ -168,7 +167,7 @@ class NonlinearForces:
         self.has_damping = bool(damping and coef.abs().max() > 0)
         scale = float(coef.abs().max()) or 1.0
         asym = float((coef - coef.transpose(1, 2)).abs().max())
-        self.symmetric_damping = asym <= DAMPING_SYMMETRY_RTOL * scale
+        self.symmetric_damping = asym <= SYMMETRY_RTOL * scale
         if self.symmetric_damping and n >= SYMMETRIC_MIN_N:
             coef = 0.5 * (coef + coef.transpose(1, 2))
             D = coef[:, cp[:, 0], cp[:, 1]].T  # (N2, n + N2): entries (i ≤ j)
