@@ -322,6 +322,13 @@ def _mac(a: np.ndarray, b: np.ndarray) -> float:
     return float(abs(np.vdot(a, b)) ** 2 / den) if den > 0 else 0.0
 
 
+def _macs(vectors: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """:func:`_mac` of each column of ``vectors`` with ``b``."""
+    den = np.einsum("ij,ij->j", vectors.conj(), vectors).real * np.vdot(b, b).real
+    num = np.abs(b.conj() @ vectors) ** 2
+    return np.divide(num, den, out=np.zeros_like(num), where=den > 0)
+
+
 def _inverse(a: np.ndarray) -> np.ndarray:
     """Inverse of a small matrix by LU solve (numpy's threaded ``inv`` is pathologically slow
     for small matrices when the cores are shared)."""
@@ -331,13 +338,18 @@ def _inverse(a: np.ndarray) -> np.ndarray:
 def _quadratic_eig(minv, C, K):
     """Roots of M s² + C s + K (``minv`` = M⁻¹) and their displacement eigenvectors."""
     m = minv.shape[0]
-    a = np.block([[np.zeros((m, m)), np.eye(m)], [-minv @ K, -minv @ C]])
+    a = np.zeros((2 * m, 2 * m))
+    a[:m, m:] = np.eye(m)
+    a[m:, :m] = -minv @ K
+    a[m:, m:] = -minv @ C
     s, v = np.linalg.eig(a)
     return s, v[:m]
 
 
-def _pk_mode(structure, aero, V, rho, s_guess, vec_guess, eps, max_iter):
+def _pk_mode(structure, aero, V, rho, s_guess, vec_guess, eps, max_iter, exclude=None):
     """Converge one p-k root near (s_guess, vec_guess); returns (s, vector, k, converged).
+    ``exclude``: roots other branches hold; at each iteration the root nearest to each is not
+    taken.
 
     Fixed-point iteration on k = Im(s) b / V, under-relaxed whenever the update changes sign
     (heavily damped roots otherwise cycle between two k values).
@@ -368,7 +380,10 @@ def _pk_mode(structure, aero, V, rho, s_guess, vec_guess, eps, max_iter):
         # a rigid-body start (s_guess = 0 exactly): the mode shape decides (the distance term,
         # scaled by the largest root, only breaks ties, favouring the root nearest zero)
         scale = max(abs(s_guess), 1e-12) if s_guess != 0 else max(np.abs(s).max(), 1e-12)
-        score = [_mac(vecs[:, i], vec_guess) - 0.5 * abs(s[i] - s_guess) / scale for i in upper]
+        score = _macs(vecs[:, upper], vec_guess) - 0.5 * np.abs(s[upper] - s_guess) / scale
+        if exclude is not None and len(upper) > len(exclude):
+            # roots held by other branches (:func:`_pk_solve_all`): never this one's
+            score[np.argmin(np.abs(s[upper, None] - exclude[None, :]), axis=0)] = -np.inf
         pick = upper[int(np.argmax(score))]
         s_best, vec_best = s[pick], vecs[:, pick]
         k_new = max(abs(s_best.imag) * b / V, K_FLOOR)
@@ -427,40 +442,68 @@ TRACK_MAC = 0.5
 
 
 def _pk_solve_all(structure, aero, V, rho, s_prev, v_prev, eps, max_iter):
+    """Every branch at (V, ρ) from its previous root; a branch that lands on a root another
+    branch holds (:func:`_shared_roots`) lost its own: the one whose shape moved more is solved
+    again with that root excluded."""
     m = len(s_prev)
     s_all = np.empty(m, complex)
     v_all = np.empty((m, m), complex)
     k_all = np.empty(m)
-    failed = []
+    ok_all = np.empty(m, bool)
     for j in range(m):
-        s_all[j], v_all[:, j], k_all[j], ok = _pk_mode(structure, aero, V, rho, s_prev[j],
-                                                        v_prev[:, j], eps, max_iter)
-        if not ok:
-            failed.append(j)
-    return s_all, v_all, k_all, failed
+        s_all[j], v_all[:, j], k_all[j], ok_all[j] = _pk_mode(
+            structure, aero, V, rho, s_prev[j], v_prev[:, j], eps, max_iter)
+    for a, b in _shared_roots(s_all, v_all):
+        if not _same_root(s_all, v_all, a, b):  # already moved by an earlier pair
+            continue
+        moved = [_mac(v_all[:, j], v_prev[:, j]) for j in (a, b)]
+        redo = b if moved[0] >= moved[1] else a
+        held = np.delete(s_all, redo)
+        held = held[np.abs(held) > 1e-4 * np.abs(s_all).max()]  # roots at ~0 may be shared
+        s_all[redo], v_all[:, redo], k_all[redo], ok_all[redo] = _pk_mode(
+            structure, aero, V, rho, s_prev[redo], v_prev[:, redo], eps, max_iter,
+            exclude=held)
+    return s_all, v_all, k_all, np.flatnonzero(~ok_all).tolist()
 
 
-def _tracked(s_new, v_new, v_old) -> bool:
+#: two branches whose roots differ by less than this fraction (with MAC > 0.99) are on one
+#: root: each root is converged to a relative change of k of eps (1e-4 from a deck), so two
+#: convergences to one root differ by up to ~eps (3e-6 measured on BAH_Plane's 9.3 Hz root at
+#: V = 750; the earlier bound, 1e-6 of the largest root, let that pair pass as two roots)
+SAME_ROOT_RTOL = 1e-3
+
+
+def _same_root(s, v, a, b) -> bool:
+    """Branches a and b on one root: the same eigenvalue (to :data:`SAME_ROOT_RTOL`) and shape
+    (MAC > 0.99), away from 0 (roots at ~0, rigid-body motions with no aerodynamic stiffness,
+    may share a shape)."""
+    scale = max(float(np.abs(s).max()), 1e-12)
+    return bool(abs(s[a]) > 1e-4 * scale and abs(s[a] - s[b]) <= SAME_ROOT_RTOL * abs(s[a])
+                and _mac(v[:, a], v[:, b]) > 0.99)
+
+
+def _shared_roots(s, v) -> list[tuple[int, int]]:
+    """Pairs of branches on one root (:func:`_same_root`)."""
+    m = len(s)
+    return [(a, b) for a in range(m) for b in range(a + 1, m) if _same_root(s, v, a, b)]
+
+
+def _tracked(s_new, v_new, v_old, s_old) -> bool:
     """Each branch keeps its shape (MAC ≥ TRACK_MAC with its previous vector) and no two
-    branches converged to the same root (away from 0)."""
+    branches converged to the same root, unless they held one root at the step's start
+    already (a shorter step cannot part them then; it would only halve the step to the end
+    of :data:`TRACK_HALVINGS`, 256 solves per step)."""
     m = len(s_new)
     if any(_mac(v_new[:, j], v_old[:, j]) < TRACK_MAC for j in range(m)):
         return False
-    scale = max(float(np.abs(s_new).max()), 1e-12)
-    for a in range(m):
-        for b in range(a + 1, m):
-            # roots at ~0 (rigid-body motions with no aerodynamic stiffness) may share a shape
-            if (abs(s_new[a]) > 1e-4 * scale and abs(s_new[a] - s_new[b]) <= 1e-6 * scale
-                    and _mac(v_new[:, a], v_new[:, b]) > 0.99):
-                return False
-    return True
+    return all(_same_root(s_old, v_old, a, b) for a, b in _shared_roots(s_new, v_new))
 
 
 def _pk_step(structure, aero, start, end, s_prev, v_prev, eps, max_iter, halvings=0):
     """All branches from the flight condition ``start`` (V, ρ) to ``end``, the step halved
     (V and ρ linearly) while the tracking fails (:func:`_tracked`)."""
     res = _pk_solve_all(structure, aero, *end, s_prev, v_prev, eps, max_iter)
-    if halvings >= TRACK_HALVINGS or start == end or _tracked(res[0], res[1], v_prev):
+    if halvings >= TRACK_HALVINGS or start == end or _tracked(res[0], res[1], v_prev, s_prev):
         return res
     mid = tuple(0.5 * (a + b) for a, b in zip(start, end))
     s_mid, v_mid, _, _ = _pk_step(structure, aero, start, mid, s_prev, v_prev, eps, max_iter,
