@@ -14,6 +14,7 @@ from scipy.optimize import brentq, fsolve
 from scipy.special import hankel2
 
 from torchrom.aero.atmosphere import flight_condition
+from torchrom.aero.crossings import pk_crossings
 from torchrom.aero.dlm import GAF
 from torchrom.aero.flutter import (
     AeroTable,
@@ -26,7 +27,6 @@ from torchrom.aero.flutter import (
     growing_response_frequency,
     ke_sweep,
     pk_sweep,
-    refine_pk_crossings,
 )
 from torchrom.aero.rfa import fit_minimum_state
 from torchrom.aero.theodorsen import TypicalSection
@@ -94,7 +94,7 @@ def test_pk_with_exact_theodorsen_matches_the_flutter_determinant(hp_case):
     # beyond flutter the damped branch has no oscillatory p-k root (it turns real); every root
     # up to the flutter speed converged
     assert all(float(n.split("V=")[1]) > V_ref for n in sweep.notes)
-    points = refine_pk_crossings(st, aero, sweep)
+    points = pk_crossings(st, aero, sweep).flutter
     assert len(points) == 1
     # p-k is exact at zero damping: agreement to the iteration tolerance
     assert points[0].velocity == pytest.approx(V_ref, rel=1e-5)
@@ -130,7 +130,7 @@ def test_state_space_on_rfa_within_one_percent(hp_case, hp_rfa):
     assert critical_root(st, hp_rfa, V, rho).imag == pytest.approx(w_ref, rel=0.01)
     # p-k on the RFA's own Q(ik) is exact at zero damping: same point as the state space
     aero = AeroTable.from_rfa(hp_rfa)
-    pts = refine_pk_crossings(st, aero, pk_sweep(st, aero, np.linspace(1.0, 3.0, 11), rho))
+    pts = pk_crossings(st, aero, pk_sweep(st, aero, np.linspace(1.0, 3.0, 11), rho)).flutter
     assert pts[0].velocity == pytest.approx(V, rel=1e-6)
 
 

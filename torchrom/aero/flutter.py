@@ -64,6 +64,30 @@ def zero_crossings(g, tol: float = G_ROUNDOFF) -> list[int]:
     return out
 
 
+#: a crossing whose root stays unstable to the end of the range / one that re-stabilises
+SUSTAINED, HUMP = "sustained", "hump"
+
+
+def excursions(g, tol: float = G_ROUNDOFF) -> list[tuple[int, int | None]]:
+    """Unstable excursions of a sampled damping: pairs (i, j) of an upward zero crossing
+    between samples i and i+1 (:func:`zero_crossings`) and the next downward one between j and
+    j+1 (None: g stays above zero to the last sample). A downward crossing with no upward one
+    before it (a root unstable from the first sample) opens no excursion."""
+    g = np.asarray(g, dtype=float)
+    events = sorted([(i, 1) for i in zero_crossings(g, tol)]
+                    + [(i, -1) for i in zero_crossings(-g, tol)])
+    out, start = [], None
+    for i, sign in events:
+        if sign > 0 and start is None:
+            start = i
+        elif sign < 0 and start is not None:
+            out.append((start, i))
+            start = None
+    if start is not None:
+        out.append((start, None))
+    return out
+
+
 # -- structure ---------------------------------------------------------------------------------
 def _as_numpy(a) -> np.ndarray:
     if hasattr(a, "detach"):
@@ -207,7 +231,13 @@ class AeroTable:
 # -- results ---------------------------------------------------------------------------------------
 @dataclass
 class FlutterPoint:
-    """A zero-damping crossing: damping goes from negative to positive as speed/q∞ increases."""
+    """A zero-damping crossing: damping goes from negative to positive as speed/q∞ increases.
+
+    ``kind``: :data:`SUSTAINED` (the root stays unstable to the end of the range) or
+    :data:`HUMP` (it re-stabilises at ``stable_velocity``, ``stable_frequency_hz``).
+    ``refined``: the speeds were solved between the sweep's points (False: interpolated
+    linearly). ``rigid_body``: the root of a rigid-body mode (never a flutter point).
+    """
 
     velocity: float
     frequency_hz: float
@@ -217,6 +247,11 @@ class FlutterPoint:
     k: float = float("nan")
     altitude: float | None = None
     mach: float | None = None
+    kind: str = SUSTAINED
+    stable_velocity: float | None = None
+    stable_frequency_hz: float | None = None
+    refined: bool = False
+    rigid_body: bool = False
 
     @property
     def dynamic_pressure(self) -> float:
@@ -233,6 +268,11 @@ class FlutterPoint:
             "reduced_frequency": self.k,
             "altitude": self.altitude,
             "mach": self.mach,
+            "kind": self.kind,
+            "stable_velocity": self.stable_velocity,
+            "stable_frequency_hz": self.stable_frequency_hz,
+            "refined": self.refined,
+            "rigid_body": self.rigid_body,
         }
 
 
@@ -266,29 +306,32 @@ class ModeSweep:
         return v if v.ndim == 2 else np.repeat(v[:, None], self.eigenvalues.shape[1], axis=1)
 
     def crossings(self) -> list[FlutterPoint]:
-        """Zero-damping crossings (negative → positive beyond ±:data:`G_ROUNDOFF`), interpolated
-        linearly between points."""
+        """Zero-damping crossings (negative → positive beyond ±:data:`G_ROUNDOFF`), labelled
+        sustained or hump (:func:`excursions`), interpolated linearly between points."""
         out = []
         g = self.damping
         vel = self.velocity_by_mode
         for j in range(g.shape[1]):
-            for i in zero_crossings(g[:, j]):
-                g0, g1 = g[i, j], g[i + 1, j]
-                t = g0 / (g0 - g1)
+            for i, back in excursions(g[:, j]):
 
-                def lerp(a, i=i, t=t):
+                def lerp(a, i, j=j):
+                    t = g[i, j] / (g[i, j] - g[i + 1, j])
                     return float(a[i] + t * (a[i + 1] - a[i]))
 
                 out.append(
                     FlutterPoint(
-                        velocity=lerp(vel[:, j]),
-                        frequency_hz=lerp(self.frequency_hz[:, j]),
-                        density=lerp(self.density),
+                        velocity=lerp(vel[:, j], i),
+                        frequency_hz=lerp(self.frequency_hz[:, j], i),
+                        density=lerp(self.density, i),
                         mode=j,
                         method=self.method,
-                        k=lerp(self.k[:, j]),
-                        altitude=None if self.altitude is None else lerp(self.altitude),
+                        k=lerp(self.k[:, j], i),
+                        altitude=None if self.altitude is None else lerp(self.altitude, i),
                         mach=self.mach,
+                        kind=SUSTAINED if back is None else HUMP,
+                        stable_velocity=None if back is None else lerp(vel[:, j], back),
+                        stable_frequency_hz=(None if back is None
+                                             else lerp(self.frequency_hz[:, j], back)),
                     )
                 )
         return sorted(out, key=lambda p: (p.dynamic_pressure, p.velocity))
@@ -919,39 +962,6 @@ def alpha_for_gammas(
 def damping_ratio(s: complex) -> float:
     """Viscous damping ratio ζ = -Re(s)/|s|."""
     return -s.real / abs(s) if abs(s) > 0 else math.nan
-
-
-def refine_pk_crossings(
-    structure, aero: AeroTable, sweep: ModeSweep, eps: float = 1e-7, xtol: float = 1e-9
-) -> list[FlutterPoint]:
-    """Zero-damping crossings of a constant-density p-k sweep, refined in V by Brent's method."""
-    out = []
-    for p in sweep.crossings():
-        j = p.mode
-        i = int(np.searchsorted(sweep.velocity, p.velocity) - 1)
-        i = min(max(i, 0), len(sweep.velocity) - 2)
-        rho = float(sweep.density[i])
-
-        def solve(v, i=i, j=j, rho=rho):
-            s, _, k, ok = _pk_mode(
-                structure, aero, v, rho, sweep.eigenvalues[i, j], sweep.vectors[i, :, j], eps, 200
-            )
-            return s, k, ok
-
-        try:
-            v = scipy.optimize.brentq(
-                lambda v: solve(v)[0].real, sweep.velocity[i], sweep.velocity[i + 1], xtol=xtol
-            )
-        except ValueError:
-            out.append(p)
-            continue
-        s, k, _ = solve(v)
-        out.append(
-            replace(
-                p, velocity=float(v), frequency_hz=s.imag / (2 * np.pi), k=float(k), density=rho
-            )
-        )
-    return out
 
 
 def pk_matched_sweep(

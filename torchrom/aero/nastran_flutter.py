@@ -32,16 +32,18 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import InputError
+from .crossings import RIGID_FRACTION, pk_crossings, rigid_body_modes, split_rigid
 from .dlm import BoxMotion, compute_gaf, exact_k_indices
 from .flutter import (
+    HUMP,
+    SUSTAINED,
     AeroTable,
     FlutterPoint,
     ModalStructure,
     ModeSweep,
+    excursions,
     ke_sweep,
     pk_sweep,
-    refine_pk_crossings,
-    zero_crossings,
 )
 from .modal_damping import ModalDamping, modal_damping, subcase_sdamp
 from .panels import (
@@ -443,7 +445,9 @@ class CaseResult:
     density_ratio: float
     density: float
     sweep: ModeSweep
-    points: list[FlutterPoint]
+    points: list[FlutterPoint]  # flutter crossings, labelled sustained or hump
+    #: crossings of the rigid-body modes' roots (:mod:`torchrom.aero.crossings`): not flutter
+    rigid_points: list[FlutterPoint] = field(default_factory=list)
 
 
 @dataclass
@@ -458,7 +462,15 @@ class DeckResult:
         vref = self.deck.vref
 
         def scaled(rec: dict) -> dict:
-            return {**rec, "velocity": rec["velocity"] / vref}
+            out = {**rec, "velocity": rec["velocity"] / vref}
+            if rec.get("stable_velocity") is not None:
+                out["stable_velocity"] = rec["stable_velocity"] / vref
+            return out
+
+        def points(attr: str) -> list[dict]:
+            return [{"flutter_id": r.case.sid, "method": r.case.method, "mach": r.mach,
+                     "density_ratio": r.density_ratio, **scaled(p.as_dict())}
+                    for r in self.results for p in getattr(r, attr)]
 
         return {
             "deck": str(self.deck.path),
@@ -469,17 +481,8 @@ class DeckResult:
             "units": {"velocity": self.deck.velocity_unit, "frequency": "Hz",
                       "density": f"mass/{self.deck.length_unit}^3 (deck units)"},
             "modal_frequencies_hz": self.frequencies_hz.tolist(),
-            "flutter": [
-                {
-                    "flutter_id": r.case.sid,
-                    "method": r.case.method,
-                    "mach": r.mach,
-                    "density_ratio": r.density_ratio,
-                    **scaled(p.as_dict()),
-                }
-                for r in self.results
-                for p in r.points
-            ],
+            "flutter": points("points"),
+            "rigid_body_roots": points("rigid_points"),
             "vg": [
                 {
                     "flutter_id": r.case.sid,
@@ -592,6 +595,7 @@ def run_deck(deck_or_path, fe=None, kernel: str = NASTRAN_KERNEL, log=print,
         return AeroTable.from_gaf(gaf, interpolation="linear" if case.imeth == "L" else "cubic")
 
     n_rigid = int(np.sum(freqs == 0.0))
+    rigid = rigid_body_modes(freqs)  # their roots' crossings are reported apart
 
     def pk_k_list(mach):
         near = min({m for m, _ in deck.mkaero}, key=lambda m: abs(m - mach))
@@ -627,14 +631,16 @@ def run_deck(deck_or_path, fe=None, kernel: str = NASTRAN_KERNEL, log=print,
                 sweep = pk_sweep(structure, aero, np.abs(case.values[sel]), rho_all[sel],
                                  mach=mach, eps=min(case.eps, 1e-4),
                                  real_root_damping="nastran")
-                points = sweep.crossings()  # linear in the path, as Nastran's summary
-                for p in points:
+                # linear in the path, as Nastran's summary
+                found = split_rigid(sweep.crossings(), rigid)
+                for p in found.flutter + found.rigid_body:
                     p.mach = float(mach)
                 notes += sweep.notes
                 ratio = ratio_all[sel]
                 results.append(CaseResult(case, float(mach), float(ratio[0]) if
                                           np.ptp(ratio) == 0 else float("nan"),
-                                          float(rho_all[sel][0]), sweep, points))
+                                          float(rho_all[sel][0]), sweep, found.flutter,
+                                          found.rigid_body))
             continue
         for mach in case.machs:
             if case.method.startswith("PK"):
@@ -647,16 +653,15 @@ def run_deck(deck_or_path, fe=None, kernel: str = NASTRAN_KERNEL, log=print,
                     v = np.sort(np.abs(case.values))
                     sweep = pk_sweep(structure, aero, v, rho, mach=mach,
                                      eps=min(case.eps, 1e-4), real_root_damping="nastran")
-                    points = refine_pk_crossings(structure, aero, sweep)
+                    found = pk_crossings(structure, aero, sweep, rigid)
                 else:
                     sweep = ke_sweep(structure, aero, case.values, rho)
-                    points = sweep.crossings()
-                for p in points:
+                    found = split_rigid(sweep.crossings(), rigid)
+                for p in found.flutter + found.rigid_body:
                     p.mach = float(mach)
                 notes += sweep.notes
-                results.append(
-                    CaseResult(case, float(mach), float(ratio), float(rho), sweep, points)
-                )
+                results.append(CaseResult(case, float(mach), float(ratio), float(rho), sweep,
+                                          found.flutter, found.rigid_body))
     return DeckResult(deck, freqs, results, notes)
 
 
@@ -695,26 +700,47 @@ def format_deck_result(res: DeckResult) -> str:
                     f"{s.real:13.5e} {s.imag:13.5e}"
                 )
     lines.append("")
-    any_point = False
-    for r in res.results:
-        for p in r.points:
-            any_point = True
-            lines.append(
-                f"FLUTTER {r.case.sid} ({r.case.method}) Mach {r.mach:g} density ratio "
-                f"{r.density_ratio:g}: mode {p.mode + 1} flutter speed {p.velocity / vref:.5g} "
-                f"{vu}, frequency {p.frequency_hz:.5g} Hz, k = {p.k:.4f}"
-            )
-    if not any_point:
-        lines.append("no flutter crossing (damping stays negative) in the requested range")
+    lines.append("flutter crossings (sustained: unstable to the last speed; hump: stable again "
+                 "further on; speeds solved between the sweep's speeds unless marked linear):")
+    flutter = [(r, p) for r in res.results for p in r.points]
+    for r, p in flutter:
+        lines.append("  " + _crossing_line(res, r, p))
+    if not flutter:
+        lines.append("  none (damping stays negative) in the requested range")
+    rigid = [(r, p) for r in res.results for p in r.rigid_points]
+    if rigid:
+        lines.append(f"rigid-body roots (modes below {RIGID_FRACTION:g} of the lowest elastic "
+                     "frequency; their damping crossing zero is not flutter):")
+        for r, p in rigid:
+            lines.append("  " + _crossing_line(res, r, p))
     for n in res.notes:
         lines.append(f"note: {n}")
     return "\n".join(lines)
 
 
+def _crossing_line(res: DeckResult, r: CaseResult, p: FlutterPoint) -> str:
+    """One crossing: case, mode, kind, onset speed and frequency, re-stabilisation, units."""
+    vref, vu = res.deck.vref, res.deck.velocity_unit
+    last = float(np.max(r.sweep.velocity_by_mode[:, p.mode])) / vref
+    what = "damping crosses zero at" if p.rigid_body else "flutter speed"
+    text = (f"FLUTTER {r.case.sid} ({r.case.method}) Mach {r.mach:g} density ratio "
+            f"{r.density_ratio:g}: mode {p.mode + 1} ({res.frequencies_hz[p.mode]:.4g} Hz in "
+            f"vacuo), {p.kind}: {what} {p.velocity / vref:.5g} {vu}, frequency "
+            f"{p.frequency_hz:.5g} Hz, k = {p.k:.4f}; ")
+    if p.kind == HUMP:
+        text += (f"stable again at {p.stable_velocity / vref:.5g} {vu} "
+                 f"({p.stable_frequency_hz:.5g} Hz)")
+    else:
+        text += f"unstable to the last speed ({last:.5g} {vu})"
+    return text + ("" if p.refined else " [linear between the sweep's speeds]")
+
+
 # -- Nastran's f06 side by side ------------------------------------------------------------------
 @dataclass
 class F06Crossing:
-    """A flutter point read from the f06: the branch, velocity, frequency (Hz) and k."""
+    """A flutter point read from the f06: the branch, velocity, frequency (Hz) and k, labelled
+    as ours (:data:`SUSTAINED` or :data:`HUMP`, with its re-stabilisation), and the sweep
+    speeds that bracket the onset (and the re-stabilisation)."""
 
     point: int
     method: str
@@ -723,32 +749,57 @@ class F06Crossing:
     velocity: float
     frequency_hz: float
     kfreq: float
+    kind: str = SUSTAINED
+    stable_velocity: float | None = None
+    bracket: tuple[float, float] = (math.nan, math.nan)
+    stable_bracket: tuple[float, float] | None = None
+    #: the root is real (k = 0, frequency 0) on either side of the onset: divergence-type
+    real_root: bool = False
 
+
+def _f06_runs(t) -> list[np.ndarray]:
+    """Row indices of each sweep of an f06 table: PK prints its FLFACT speeds in the given order
+    (BAH_Plane lists 250..4750, then the negated speeds by magnitude, 250.01..4750.01: two
+    sweeps, their POINTs not the same roots), so a run ends where the speed decreases; KE prints
+    by reduced frequency (one run, by velocity); PKNL: the path."""
+    if t.method == "KE" or t.method == "K":
+        return [np.argsort(t.velocity, kind="stable")]
+    if t.method == "PKNL":
+        return [np.arange(len(t.velocity))]
+    breaks = np.flatnonzero(np.diff(t.velocity) < 0) + 1
+    return np.split(np.arange(len(t.velocity)), breaks)
 
 
 def f06_flutter_points(tables) -> list[F06Crossing]:
     """Zero-damping crossings (upwards, beyond round-off) of every f06 FLUTTER SUMMARY point
-    (:func:`torchrom.f06.read_flutter_summary`), interpolated linearly in the printed order."""
+    (:func:`torchrom.f06.read_flutter_summary`), labelled sustained or hump
+    (:func:`torchrom.aero.flutter.excursions`) on each run of speeds (:func:`_f06_runs`) and
+    interpolated linearly in the printed order, as Nastran's own summary."""
     out = []
     for t in tables:
-        # PK/KE: along increasing velocity (KE prints by reduced frequency); PKNL: the path
-        order = np.arange(len(t.velocity)) if t.method == "PKNL" else np.argsort(
-            t.velocity, kind="stable")
-        g, vel, freq, kf = t.damping[order], t.velocity[order], t.frequency[order], t.kfreq[order]
-        for i in zero_crossings(g):
-            s = g[i] / (g[i] - g[i + 1])
+        for order in _f06_runs(t):
+            g, vel, freq, kf = (t.damping[order], t.velocity[order], t.frequency[order],
+                                t.kfreq[order])
+            for i, back in excursions(g):
 
-            def lerp(a, i=i, s=s):
-                return float(a[i] + s * (a[i + 1] - a[i]))
+                def lerp(a, i, g=g):
+                    s = g[i] / (g[i] - g[i + 1])
+                    return float(a[i] + s * (a[i + 1] - a[i]))
 
-            out.append(F06Crossing(t.point, t.method, t.mach, t.density_ratio, lerp(vel),
-                                   lerp(freq), lerp(kf)))
+                out.append(F06Crossing(
+                    t.point, t.method, t.mach, t.density_ratio, lerp(vel, i), lerp(freq, i),
+                    lerp(kf, i), SUSTAINED if back is None else HUMP,
+                    None if back is None else lerp(vel, back),
+                    (float(vel[i]), float(vel[i + 1])),
+                    None if back is None else (float(vel[back]), float(vel[back + 1])),
+                    bool(freq[i] == 0 or freq[i + 1] == 0)))
     return out
 
 
 def compare_f06(res: DeckResult, f06_path) -> tuple[str, list[dict]]:
     """torchrom's flutter points beside those of Nastran's FLUTTER SUMMARY (same method, Mach,
-    density ratio and mode/POINT), with the differences; plus the modes Nastran used."""
+    density ratio; the same kind, sustained or hump, then the nearest speed and frequency),
+    with the differences; plus the modes Nastran used."""
     from ..f06 import read_flutter_summary, read_real_eigenvalues
 
     vref = res.deck.vref
@@ -764,7 +815,8 @@ def compare_f06(res: DeckResult, f06_path) -> tuple[str, list[dict]]:
                 # rigid-body modes (zero up to round-off in both): no relative difference
                 d = f"{100 * (f - ref[i]) / ref[i]:9.3f}" if abs(ref[i]) > floor else "    rigid"
                 lines.append(f"{i + 1:>5}{f:14.5g}{ref[i]:14.5g}{d}")
-    lines.append(f"{'method':>7}{'Mach':>7}{'rho ratio':>11}{'mode':>5}{'V torchrom':>13}"
+    lines.append(f"{'method':>7}{'Mach':>7}{'rho ratio':>11}{'mode':>5}{'kind':>10}"
+                 f"{'Nastran':>10}{'V torchrom':>13}"
                  f"{'V Nastran':>12}{'dV %':>8}{'f torchrom':>12}{'f Nastran':>11}{'df %':>8}")
     used = set()
     for r in res.results:
@@ -778,29 +830,36 @@ def compare_f06(res: DeckResult, f06_path) -> tuple[str, list[dict]]:
                 if t.density_ratio is not None and not np.isnan(r.density_ratio) and abs(
                         t.density_ratio - r.density_ratio) > 1e-6 * max(1.0, r.density_ratio):
                     continue
-                # the same branch first, else the nearest speed (mode labels can swap where
-                # branches coalesce)
-                score = (t.point != p.mode + 1, abs(t.velocity - p.velocity / vref))
+                # the same kind first, then the nearest in speed and frequency together: the
+                # POINT numbers are Nastran's own root order (BAH_Plane's second run of
+                # speeds numbers its roots differently from its first)
+                v = p.velocity / vref
+                score = (t.kind != p.kind, abs(t.velocity - v) / max(abs(v), 1e-300)
+                         + abs(t.frequency_hz - p.frequency_hz)
+                         / max(t.frequency_hz, p.frequency_hz, 1e-300))
                 if best is None or score < best:
                     match, best = k, score
             v = p.velocity / vref
             rec = {"flutter_id": r.case.sid, "method": r.case.method, "mach": r.mach,
-                   "density_ratio": r.density_ratio, "mode": p.mode + 1, "velocity": v,
+                   "density_ratio": r.density_ratio, "mode": p.mode + 1, "kind": p.kind,
+                   "nastran_kind": None, "velocity": v,
                    "frequency_hz": p.frequency_hz, "nastran_velocity": None,
                    "nastran_frequency_hz": None, "velocity_diff_pct": None,
                    "frequency_diff_pct": None}
             if match is not None:
                 used.add(match)
                 t = theirs[match]
-                rec.update(nastran_velocity=t.velocity, nastran_frequency_hz=t.frequency_hz,
+                rec.update(nastran_kind=t.kind, nastran_velocity=t.velocity,
+                           nastran_frequency_hz=t.frequency_hz,
                            velocity_diff_pct=100 * (v - t.velocity) / t.velocity,
-                           frequency_diff_pct=100 * (p.frequency_hz - t.frequency_hz)
-                           / t.frequency_hz)
+                           frequency_diff_pct=None if t.frequency_hz == 0 else
+                           100 * (p.frequency_hz - t.frequency_hz) / t.frequency_hz)
             records.append(rec)
     for k, t in enumerate(theirs):
         if k not in used:
             records.append({"method": t.method, "mach": t.mach, "density_ratio": t.density_ratio,
-                            "mode": t.point, "velocity": None, "frequency_hz": None,
+                            "mode": t.point, "kind": None, "nastran_kind": t.kind,
+                            "velocity": None, "frequency_hz": None,
                             "nastran_velocity": t.velocity,
                             "nastran_frequency_hz": t.frequency_hz, "velocity_diff_pct": None,
                             "frequency_diff_pct": None})
@@ -813,7 +872,8 @@ def compare_f06(res: DeckResult, f06_path) -> tuple[str, list[dict]]:
         lines.append(
             f"{rec['method']:>7}{fmt(rec['mach'], '7.3f')}"
             f"{fmt(None if ratio is None or np.isnan(ratio) else ratio, '11.4g')}"
-            f"{rec['mode']:>5}{fmt(rec['velocity'], '13.5g')}"
+            f"{rec['mode']:>5}{rec['kind'] or '-':>10}{rec['nastran_kind'] or '-':>10}"
+            f"{fmt(rec['velocity'], '13.5g')}"
             f"{fmt(rec['nastran_velocity'], '12.5g')}"
             f"{fmt(rec['velocity_diff_pct'], '8.2f')}{fmt(rec['frequency_hz'], '12.5g')}"
             f"{fmt(rec['nastran_frequency_hz'], '11.5g')}{fmt(rec['frequency_diff_pct'], '8.2f')}"
