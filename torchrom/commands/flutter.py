@@ -261,6 +261,8 @@ def _matched(args, structure, aero, compare_paper: bool) -> int:
     mach = aero.mach if args.mach is None else args.mach
     if abs(mach - aero.mach) > 1e-9:
         raise InputError(f"--mach {mach:g} differs from the aero file's Mach {aero.mach:g}")
+    if mach == 0.0:  # incompressible: no matched point (V = 0 a(h)), a speed per altitude
+        return _incompressible(args, structure, aero)
     table = AeroTable.from_gaf(aero.gaf)
     results = []
     print(
@@ -347,4 +349,52 @@ def _matched(args, structure, aero, compare_paper: bool) -> int:
         if sweep is not None:
             ok &= _figure(plot_root_locus, sweep, args.root_locus,
                           title=f"state space, Mach {mach:g}")
+    return 0 if ok else 1
+
+
+def _incompressible(args, structure, aero) -> int:
+    """Mach 0 aerodynamics: the flutter speed at the density of each altitude of --at (default
+    the two ends of --alt-range), by p-k and the state space
+    (:mod:`torchrom.aero.flutter_speed`)."""
+    from ..aero.flutter import AeroTable
+    from ..aero.flutter_speed import flutter_speed_pk, flutter_speed_state_space
+    from ..errors import InputError
+
+    for option, given in (("--alpha-for-gamma", args.alpha_for_gamma),
+                          ("--root-locus", args.root_locus)):
+        if given:
+            raise InputError(f"{option}: needs a flight Mach number > 0 (a matched point); the "
+                             "aero file is at Mach 0, where the flutter point is a speed")
+    table = AeroTable.from_gaf(aero.gaf)
+    altitudes = list(args.at) if args.at else list(args.alt_range)
+    print(f"  Mach 0 (incompressible): flutter speed at the density of each altitude, "
+          f"alpha = {structure.alpha:g} 1/s, gamma = {structure.gamma:g} s")
+    print(f"  {'method':<13}{'altitude ft':>13}{'V ft/s':>10}{'frequency Hz':>14}{'q psf':>9}"
+          f"  kind")
+    results, first_sweep = [], None
+    for alt in altitudes:
+        found = []
+        if args.method in ("both", "pk"):
+            pk, sweep = flutter_speed_pk(structure, table, alt)
+            first_sweep = first_sweep or sweep
+            found.append(pk)
+        if args.method in ("both", "state-space"):
+            found.append(flutter_speed_state_space(structure, aero.rfa, table, alt))
+        for r in found:
+            if r.velocity is None:
+                print(f"  {r.method:<13}{alt:13.1f}{'no flutter in the speed range':>33}")
+                continue
+            kind = "" if r.kind is None else r.kind + (
+                f" (stable again at {r.stable_velocity:.1f} ft/s)" if r.stable_velocity else "")
+            print(f"  {r.method:<13}{alt:13.1f}{r.velocity:10.1f}{r.frequency_hz:14.4f}"
+                  f"{0.5 * r.density * r.velocity**2:9.1f}  {kind}")
+        results += found
+    maybe_write_json(args, {"mach": 0.0, "alpha": structure.alpha, "gamma": structure.gamma,
+                            "units": "ft", "flutter": [r.as_dict() for r in results]})
+    ok = True
+    if args.plot is not None and first_sweep is not None:
+        from ..aero.plots import plot_vg
+
+        ok = _figure(plot_vg, first_sweep, args.plot, velocity_label="velocity (ft/s)",
+                     title=f"p-k, Mach 0, {altitudes[0]:g} ft")
     return 0 if ok else 1
