@@ -295,3 +295,23 @@ def test_pk_below_the_table_is_quasi_steady():
     assert sw.eigenvalues[0, 0].imag == 0.0 and sw.k[0, 0] < 0.001
     assert np.min(np.abs(roots - sw.eigenvalues[0, 0].real)) <= 1e-9 * np.abs(roots).max()
     assert sw.damping[0, 0] == pytest.approx(2 * sw.eigenvalues[0, 0].real * b / (V * np.log(2)))
+
+
+def test_excursions_label_humps_and_sustained_crossings():
+    """Each upward zero crossing of a sampled damping pairs with the next downward one (a hump)
+    or with none (sustained: unstable to the last sample); a root unstable from the first
+    sample opens nothing; round-off (|g| <= G_ROUNDOFF) is no crossing. ModeSweep.crossings
+    interpolates both speeds linearly (here exactly: g linear between samples)."""
+    from torchrom.aero.flutter import HUMP, SUSTAINED, ModeSweep, excursions
+
+    assert excursions([-1, 1, -1, -1, 1, 1]) == [(0, 1), (3, None)]
+    assert excursions([1, -1, 1]) == [(1, None)]
+    assert excursions([-1, 1e-9, -1]) == []
+    v = np.array([0.0, 1.0, 2.0, 3.0, 4.0])
+    g = np.array([-1.0, 1.0, -1.0, -3.0, 1.0])[:, None]
+    s = 0.5 * g * 10.0 + 10.0j
+    hump, sustained = ModeSweep("PK", v, np.ones(5), s, np.ones_like(g), g).crossings()
+    assert (hump.kind, hump.velocity, hump.stable_velocity) == (HUMP, 0.5, 1.5)
+    assert (sustained.kind, sustained.velocity, sustained.stable_velocity) == (
+        SUSTAINED, 3.75, None)
+    assert not hump.refined and hump.as_dict()["kind"] == "hump"

@@ -12,8 +12,8 @@ leaves the branch (no sign change between the ends) the crossing keeps the linea
 interpolation of the samples, as Nastran's summary, with ``refined=False``.
 
 A hump that rises above 0 and falls back between two consecutive speeds changes no sign at the
-samples. Every interior negative local maximum of a branch's sampled g above
--:data:`HUMP_PROBE_G` is therefore probed: the maximum of g_j(V) over the two neighbouring
+samples. Every interior local maximum of a branch's sampled g between -:data:`HUMP_PROBE_G`
+and 0 (to round-off) is therefore probed: the maximum of g_j(V) over the two neighbouring
 intervals is found by bounded Brent minimisation of -g_j (at most :data:`HUMP_PROBE_EVALS` p-k
 solves); when it is above 0 the onset and re-stabilisation are solved on either side of it.
 
@@ -120,10 +120,11 @@ def pk_crossings(structure: ModalStructure, aero: AeroTable, sweep: ModeSweep, r
 
 
 def _probe_indices(g) -> list[int]:
-    """Interior samples where g has a local maximum between -HUMP_PROBE_G and -G_ROUNDOFF."""
+    """Interior samples where g has a local maximum between -HUMP_PROBE_G and +G_ROUNDOFF (a
+    sample on the hump's onset, g = 0 to round-off, is one: no sign change counts there)."""
     g = np.asarray(g, dtype=float)
     with np.errstate(invalid="ignore"):
-        inner = ((g[1:-1] < -G_ROUNDOFF) & (g[1:-1] > -HUMP_PROBE_G)
+        inner = ((g[1:-1] <= G_ROUNDOFF) & (g[1:-1] > -HUMP_PROBE_G)
                  & (g[1:-1] >= g[:-2]) & (g[1:-1] >= g[2:]))
     return (np.flatnonzero(inner) + 1).tolist()
 
