@@ -6,13 +6,19 @@ Forms:
   torchrom flutter goland [--aero AERO.npz]      built-in heavy Goland wing, compared with the paper
 
 JSON (--json), deck form: {"deck", "title", "modal_frequencies_hz", "flutter": [{flutter_id,
-method, mach, density_ratio, mode, velocity (deck units / VREF), frequency_hz, density,
-dynamic_pressure, reduced_frequency}], "vg": [{..., mode, velocity, damping_g, frequency_hz,
-reduced_frequency, eigenvalue_real, eigenvalue_imag}], "notes"}.
+method, mach, density_ratio, mode, kind ("sustained": unstable to the last speed; "hump": stable
+again at stable_velocity), velocity (deck units / VREF), frequency_hz, stable_velocity,
+stable_frequency_hz, density, dynamic_pressure, reduced_frequency, refined (solved between the
+sweep's speeds)}], "rigid_body_roots": [the same, for the roots of rigid-body modes: not
+flutter], "vg": [{..., mode, velocity, damping_g, frequency_hz, reduced_frequency,
+eigenvalue_real, eigenvalue_imag}], "notes"}.
 Matched-point form: {"mach", "alpha" (1/s), "gamma" (s), "units", "flutter": [{method, altitude,
 frequency_hz, velocity, density, dynamic_pressure, mode}], "growing_response": [{altitude,
 frequency_hz_state_space, frequency_hz_pk}], "alpha_for_gamma": [{gamma, alpha, altitude}],
-"paper": {...} (Goland only)}.
+"paper": {...} (Goland only)}. With an aero file at Mach 0 (incompressible), no matched point:
+{"mach": 0, "alpha", "gamma", "units", "flutter": [{method, altitude, density, velocity,
+frequency_hz, dynamic_pressure, mode, kind, stable_velocity}]}, the flutter speed at the density
+of each altitude.
 """
 
 from __future__ import annotations
