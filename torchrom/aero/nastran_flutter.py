@@ -20,7 +20,9 @@ is the PK equation's viscous term (:mod:`torchrom.aero.modal_damping`; refused w
 KDAMP = −1); residual vectors are the inertia-relief kind (:mod:`torchrom.fe.resvec`);
 branches are tracked by mode shape. Rigid-body modes of a free-free deck stay in the basis at
 0 Hz, with quasi-steady aerodynamics below the lowest positive k and a real root's damping
-g = 2sb/(V ln 2).
+g = 2sb/(V ln 2). Crossings are labelled sustained or hump and, with PK, solved between the
+FLFACT speeds, humps between two speeds included; the rigid-body roots' crossings are listed
+apart (:mod:`torchrom.aero.crossings`); Nastran's summary interpolates linearly.
 """
 
 from __future__ import annotations
