@@ -496,8 +496,8 @@ def _pk_solve_all(structure, aero, V, rho, s_prev, v_prev, eps, max_iter):
     for j in range(m):
         s_all[j], v_all[:, j], k_all[j], ok_all[j] = _pk_mode(
             structure, aero, V, rho, s_prev[j], v_prev[:, j], eps, max_iter)
-    for a, b in _shared_roots(s_all, v_all):
-        if not _same_root(s_all, v_all, a, b):  # already moved by an earlier pair
+    for a, b in _shared_roots(s_all, v_all, eps):
+        if not _same_root(s_all, v_all, a, b, eps):  # already moved by an earlier pair
             continue
         moved = [_mac(v_all[:, j], v_prev[:, j]) for j in (a, b)]
         redo = b if moved[0] >= moved[1] else a
@@ -509,29 +509,31 @@ def _pk_solve_all(structure, aero, V, rho, s_prev, v_prev, eps, max_iter):
     return s_all, v_all, k_all, np.flatnonzero(~ok_all).tolist()
 
 
-#: two branches whose roots differ by less than this fraction (with MAC > 0.99) are on one
-#: root: each root is converged to a relative change of k of eps (1e-4 from a deck), so two
-#: convergences to one root differ by up to ~eps (3e-6 measured on BAH_Plane's 9.3 Hz root at
-#: V = 750; the earlier bound, 1e-6 of the largest root, let that pair pass as two roots)
-SAME_ROOT_RTOL = 1e-3
+#: two branches whose roots differ by less than this many times the p-k tolerance eps
+#: (relative, with MAC > 0.99) are on one root: each root is converged to a relative change of
+#: k of eps (1e-4 from a deck), so two convergences to one root differ by up to ~eps (3e-6
+#: measured on BAH_Plane's 9.3 Hz root at V = 750; the earlier bound, 1e-6 of the largest root,
+#: let that pair pass as two roots); distinct roots that close only meet at a coalescence
+SAME_ROOT_EPS = 10.0
 
 
-def _same_root(s, v, a, b) -> bool:
-    """Branches a and b on one root: the same eigenvalue (to :data:`SAME_ROOT_RTOL`) and shape
-    (MAC > 0.99), away from 0 (roots at ~0, rigid-body motions with no aerodynamic stiffness,
-    may share a shape)."""
+def _same_root(s, v, a, b, eps: float = 1e-4) -> bool:
+    """Branches a and b on one root: the same eigenvalue (to :data:`SAME_ROOT_EPS` × eps,
+    relative) and shape (MAC > 0.99), away from 0 (roots at ~0, rigid-body motions with no
+    aerodynamic stiffness, may share a shape)."""
     scale = max(float(np.abs(s).max()), 1e-12)
-    return bool(abs(s[a]) > 1e-4 * scale and abs(s[a] - s[b]) <= SAME_ROOT_RTOL * abs(s[a])
+    return bool(abs(s[a]) > 1e-4 * scale
+                and abs(s[a] - s[b]) <= SAME_ROOT_EPS * eps * abs(s[a])
                 and _mac(v[:, a], v[:, b]) > 0.99)
 
 
-def _shared_roots(s, v) -> list[tuple[int, int]]:
+def _shared_roots(s, v, eps: float = 1e-4) -> list[tuple[int, int]]:
     """Pairs of branches on one root (:func:`_same_root`)."""
     m = len(s)
-    return [(a, b) for a in range(m) for b in range(a + 1, m) if _same_root(s, v, a, b)]
+    return [(a, b) for a in range(m) for b in range(a + 1, m) if _same_root(s, v, a, b, eps)]
 
 
-def _tracked(s_new, v_new, v_old, s_old) -> bool:
+def _tracked(s_new, v_new, v_old, s_old, eps: float = 1e-4) -> bool:
     """Each branch keeps its shape (MAC ≥ TRACK_MAC with its previous vector) and no two
     branches converged to the same root, unless they held one root at the step's start
     already (a shorter step cannot part them then; it would only halve the step to the end
@@ -539,14 +541,15 @@ def _tracked(s_new, v_new, v_old, s_old) -> bool:
     m = len(s_new)
     if any(_mac(v_new[:, j], v_old[:, j]) < TRACK_MAC for j in range(m)):
         return False
-    return all(_same_root(s_old, v_old, a, b) for a, b in _shared_roots(s_new, v_new))
+    return all(_same_root(s_old, v_old, a, b, eps) for a, b in _shared_roots(s_new, v_new, eps))
 
 
 def _pk_step(structure, aero, start, end, s_prev, v_prev, eps, max_iter, halvings=0):
     """All branches from the flight condition ``start`` (V, ρ) to ``end``, the step halved
     (V and ρ linearly) while the tracking fails (:func:`_tracked`)."""
     res = _pk_solve_all(structure, aero, *end, s_prev, v_prev, eps, max_iter)
-    if halvings >= TRACK_HALVINGS or start == end or _tracked(res[0], res[1], v_prev, s_prev):
+    if (halvings >= TRACK_HALVINGS or start == end
+            or _tracked(res[0], res[1], v_prev, s_prev, eps)):
         return res
     mid = tuple(0.5 * (a + b) for a, b in zip(start, end))
     s_mid, v_mid, _, _ = _pk_step(structure, aero, start, mid, s_prev, v_prev, eps, max_iter,
