@@ -37,6 +37,7 @@ from ..errors import InputError
 from .crossings import RIGID_FRACTION, pk_crossings, rigid_body_modes, split_rigid
 from .dlm import BoxMotion, compute_gaf, exact_k_indices
 from .flutter import (
+    G_ROUNDOFF,
     HUMP,
     SUSTAINED,
     AeroTable,
@@ -459,6 +460,14 @@ class DeckResult:
     results: list[CaseResult]
     notes: list[str]
 
+    def unstable_at_start(self) -> list[tuple[CaseResult, int]]:
+        """(case, branch) of the elastic roots already unstable at the first speed of a sweep:
+        no crossing in the range (bah_plane's FLUTTER 501: the 2.45 Hz root from 4,774 on, as
+        the f06's POINT 4), but not stable either."""
+        rigid = rigid_body_modes(self.frequencies_hz)
+        return [(r, j) for r in self.results for j in range(r.sweep.damping.shape[1])
+                if not rigid[j] and r.sweep.damping[0, j] > G_ROUNDOFF]
+
     def as_dict(self) -> dict:
         """Flat records for --json (velocities in deck units / VREF, frequencies in Hz)."""
         vref = self.deck.vref
@@ -485,6 +494,13 @@ class DeckResult:
             "modal_frequencies_hz": self.frequencies_hz.tolist(),
             "flutter": points("points"),
             "rigid_body_roots": points("rigid_points"),
+            "unstable_at_first_speed": [
+                {"flutter_id": r.case.sid, "method": r.case.method, "mach": r.mach,
+                 "density_ratio": r.density_ratio, "mode": j + 1,
+                 "velocity": float(r.sweep.velocity_by_mode[0, j]) / vref,
+                 "damping_g": float(r.sweep.damping[0, j]),
+                 "frequency_hz": float(r.sweep.frequency_hz[0, j])}
+                for r, j in self.unstable_at_start()],
             "vg": [
                 {
                     "flutter_id": r.case.sid,
@@ -708,7 +724,14 @@ def format_deck_result(res: DeckResult) -> str:
     for r, p in flutter:
         lines.append("  " + _crossing_line(res, r, p))
     if not flutter:
-        lines.append("  none (damping stays negative) in the requested range")
+        lines.append("  none in the requested range")
+    for r, j in res.unstable_at_start():
+        lines.append(
+            f"  FLUTTER {r.case.sid} ({r.case.method}) Mach {r.mach:g} density ratio "
+            f"{r.density_ratio:g}: mode {j + 1} ({res.frequencies_hz[j]:.4g} Hz in vacuo) is "
+            f"unstable from the first speed ({r.sweep.velocity_by_mode[0, j] / res.deck.vref:.5g}"
+            f" {res.deck.velocity_unit}: g = {r.sweep.damping[0, j]:+.4g} at "
+            f"{r.sweep.frequency_hz[0, j]:.5g} Hz): no crossing in the range")
     rigid = [(r, p) for r in res.results for p in r.rigid_points]
     if rigid:
         lines.append(f"rigid-body roots (modes below {RIGID_FRACTION:g} of the lowest elastic "
