@@ -2,7 +2,8 @@
 
 Forms:
   torchrom flutter DECK.bdf                      FLUTTER/FLFACT/MKAERO cards of the deck (PK, KE)
-  torchrom flutter ROM.npz AERO.npz [--mach M]   matched point at fixed Mach (p-k + state space)
+  torchrom flutter ROM.npz AERO.npz [--mach M]   matched point at fixed Mach (p-k + state space);
+                                                 at Mach 0, the flutter speed per altitude
   torchrom flutter goland [--aero AERO.npz]      built-in heavy Goland wing, compared with the paper
 
 JSON (--json), deck form: {"deck", "title", "modal_frequencies_hz", "flutter": [{flutter_id,
@@ -10,8 +11,9 @@ method, mach, density_ratio, mode, kind ("sustained": unstable to the last speed
 again at stable_velocity), velocity (deck units / VREF), frequency_hz, stable_velocity,
 stable_frequency_hz, density, dynamic_pressure, reduced_frequency, refined (solved between the
 sweep's speeds)}], "rigid_body_roots": [the same, for the roots of rigid-body modes: not
-flutter], "vg": [{..., mode, velocity, damping_g, frequency_hz, reduced_frequency,
-eigenvalue_real, eigenvalue_imag}], "notes"}.
+flutter], "unstable_at_first_speed": [{flutter_id, method, mach, density_ratio, mode,
+velocity, damping_g, frequency_hz}], "vg": [{..., mode, velocity, damping_g, frequency_hz,
+reduced_frequency, eigenvalue_real, eigenvalue_imag}], "notes"}.
 Matched-point form: {"mach", "alpha" (1/s), "gamma" (s), "units", "flutter": [{method, altitude,
 frequency_hz, velocity, density, dynamic_pressure, mode}], "growing_response": [{altitude,
 frequency_hz_state_space, frequency_hz_pk}], "alpha_for_gamma": [{gamma, alpha, altitude}],
