@@ -61,6 +61,19 @@ def test_hump_between_samples_and_sustained_crossing_closed_form(speeds):
     assert rec["kind"] == "sustained" and rec["mode"] == 2 and rec["stable_velocity"] is None
 
 
+def test_speeds_listed_twice_probe_between_distinct_speeds_once():
+    """Speeds 50 and 60 listed more than once (BAH_Plane lists each speed twice, 0.01 apart):
+    the hump between 50 and 60 is probed between the distinct neighbouring speeds and listed
+    once."""
+    structure, aero = _case()
+    sweep = pk_sweep(structure, aero, [40.0, 50.0, 50.0, 50.0, 60.0, 60.0, 80.0], 1.0,
+                     eps=1e-9)
+    hump, sustained = pk_crossings(structure, aero, sweep, eps=1e-9).flutter
+    assert hump.kind == HUMP and hump.velocity == pytest.approx(W1 / K2, rel=1e-6)
+    assert hump.stable_velocity == pytest.approx(W1 / K1, rel=1e-6)
+    assert sustained.velocity == pytest.approx(W2 / K3, rel=1e-6)
+
+
 def test_a_hump_that_straddles_samples_is_refined_on_both_sides():
     """Speeds 50, 53, 57, 60: the hump (51 to 56) has samples inside it; the linear crossings
     of the samples are moved to the closed-form speeds."""

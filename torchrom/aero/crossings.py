@@ -113,7 +113,10 @@ def pk_crossings(structure: ModalStructure, aero: AeroTable, sweep: ModeSweep, r
             out.append(branch.point(j, onset, stable, _linear(linear, sweep.velocity, j, i)))
         for i in _probe_indices(g):
             found = branch.probe_hump(j, i)
-            if found is not None:
+            # a speed listed twice can put the same hump beside two samples
+            if found is not None and not any(
+                    p.mode == j and abs(p.velocity - found[0].velocity) <= 1e-6 * p.velocity
+                    for p in out):
                 out.append(branch.point(j, *found, None))
     out.sort(key=lambda p: p.velocity)
     return split_rigid(out, rigid)
@@ -195,17 +198,20 @@ class _Branch:
         return _Solved(float(v), s, float(k), True)
 
     def probe_hump(self, j: int, i: int):
-        """(onset, re-stabilisation) of a hump of branch j between samples i-1 and i+1, None
-        where the damping stays below 0 there."""
+        """(onset, re-stabilisation) of a hump of branch j between the speeds next to sample
+        i's (a speed listed twice counts once), None where the damping stays below 0 there."""
         V = self.sweep.velocity
+        below, above = V[V < V[i]], V[V > V[i]]  # the neighbouring distinct speeds
+        if not (below.size and above.size):
+            return None
+        lo, hi = float(below.max()), float(above.min())
         res = scipy.optimize.minimize_scalar(
-            lambda v: -self.damping(self.seed(j, i), v), bounds=(V[i - 1], V[i + 1]),
-            method="bounded",
-            options={"maxiter": HUMP_PROBE_EVALS, "xatol": 1e-6 * V[i + 1]})
+            lambda v: -self.damping(self.seed(j, i), v), bounds=(lo, hi), method="bounded",
+            options={"maxiter": HUMP_PROBE_EVALS, "xatol": 1e-6 * hi})
         if not -res.fun > G_ROUNDOFF:
             return None
-        onset = self.solve_crossing(j, i, V[i - 1], float(res.x))
-        stable = self.solve_crossing(j, i, float(res.x), V[i + 1])
+        onset = self.solve_crossing(j, i, lo, float(res.x))
+        stable = self.solve_crossing(j, i, float(res.x), hi)
         if onset is None or stable is None:
             return None
         return onset, stable
