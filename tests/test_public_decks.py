@@ -222,7 +222,7 @@ def test_flutter_bah_plane_mach_0_coarse_speeds_against_its_f06():
     the same root on the branch of the 3.75 Hz mode: +0.0601, -0.0209, +0.4121 (asserted
     within 0.01) at 3.046, 3.088, 3.236 Hz (f06 3.048, 3.090, 3.253; within 1 %); interpolated
     as the f06 does, its second crossing is at 762.1 (f06 763.89, -0.23 %). Solved at speeds
-    between (refine_pk_crossings) the first crossing is 393.8, where the Mach 0.2 f06 with
+    between (torchrom.aero.crossings) the first crossing is 393.8, where the Mach 0.2 f06 with
     fine speeds has it (394.04): the coarse list, not the aerodynamics, moves Nastran's.
     Before the p-k steps were halved when tracking fails, two of our branches (2.45 and
     3.75 Hz) converged to this one root from 500 on and the damped one was lost. The 9.0 and
