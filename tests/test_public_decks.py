@@ -271,7 +271,7 @@ def test_flutter_bah_plane_mach_0_crossings_labelled_against_its_f06():
     apart has g = +0.0001 at 562.5 and +0.0007 at 662.5, measured). The rigid-body modes'
     roots (0 Hz) are listed apart, never as flutter; no two branches share a root."""
     from torchrom.aero.flutter import _shared_roots
-    from torchrom.aero.nastran_flutter import f06_flutter_points, run_deck
+    from torchrom.aero.nastran_flutter import compare_f06, f06_flutter_points, run_deck
     from torchrom.f06 import read_flutter_summary
 
     folder = DECKS / "pynastran_bah_plane_mach0"
@@ -294,6 +294,16 @@ def test_flutter_bah_plane_mach_0_crossings_labelled_against_its_f06():
     assert r.rigid_points and all(res.frequencies_hz[p.mode] == 0 for p in r.rigid_points)
     sw = r.sweep
     assert not any(_shared_roots(s, v) for s, v in zip(sw.eigenvalues, sw.vectors))
+    # --compare: each of ours beside a crossing of Nastran's of the same kind, except the hump
+    # that lies between the f06's speeds; the f06's second run of speeds is not listed twice
+    _, records = compare_f06(res, folder / "BAH_Plane.f06")
+    paired = [(rec["mode"], rec["kind"], rec["nastran_kind"]) for rec in records
+              if rec["velocity"] is not None]
+    assert paired == [(4, "hump", "hump"), (7, "hump", None), (6, "hump", "hump"),
+                      (4, "hump", "hump"), (10, "hump", "hump"), (8, "sustained", "sustained")]
+    theirs_only = [(rec["nastran_kind"], round(rec["nastran_velocity"]))
+                   for rec in records if rec["velocity"] is None]
+    assert len(theirs_only) == len(set(theirs_only))
 
 
 def test_cbush_static_against_its_punch_file():

@@ -821,14 +821,61 @@ def f06_flutter_points(tables) -> list[F06Crossing]:
     return out
 
 
+#: an f06 crossing is paired with one of ours only when their speeds and frequencies differ by
+#: less than this, relative and summed (BAH_Plane's coarse speeds: 0.22 for the 393.8 hump
+#: Nastran puts at 457.9; a real root against an oscillatory one: 1 and more)
+MATCH_LIMIT = 0.5
+
+
+def _distinct(crossings: list[F06Crossing]) -> list[F06Crossing]:
+    """One of each crossing the f06 prints in several runs of the same speeds (BAH_Plane's
+    speeds and the negated ones, 0.01 apart: the same kind, speed and frequency to 0.1 %)."""
+    out: list[F06Crossing] = []
+    for t in crossings:
+        if not any(u.method == t.method and u.mach == t.mach and u.kind == t.kind
+                   and abs(u.velocity - t.velocity) <= 1e-3 * abs(t.velocity)
+                   and abs(u.frequency_hz - t.frequency_hz) <= 1e-3 * max(t.frequency_hz, 1e-3)
+                   for u in out):
+            out.append(t)
+    return out
+
+
+def _pair_crossings(ours, theirs: list[F06Crossing], vref: float) -> dict[int, int]:
+    """{index in ours: index in theirs}: the same method, Mach and density ratio; pairs taken
+    best first, the same kind before any other, then by the relative differences of speed and
+    frequency summed (below :data:`MATCH_LIMIT`). POINT numbers are not used: they are
+    Nastran's own root order (BAH_Plane's second run of speeds numbers its roots differently
+    from its first)."""
+    pairs = []
+    for a, (r, p) in enumerate(ours):
+        v = p.velocity / vref
+        for b, t in enumerate(theirs):
+            if t.method != r.case.method:
+                continue
+            if t.mach is not None and abs(t.mach - r.mach) > 1e-6:
+                continue
+            if t.density_ratio is not None and not np.isnan(r.density_ratio) and abs(
+                    t.density_ratio - r.density_ratio) > 1e-6 * max(1.0, r.density_ratio):
+                continue
+            distance = (abs(t.velocity - v) / max(abs(v), 1e-300)
+                        + abs(t.frequency_hz - p.frequency_hz)
+                        / max(t.frequency_hz, p.frequency_hz, 1e-300))
+            if distance <= MATCH_LIMIT:
+                pairs.append(((t.kind != p.kind, distance), a, b))
+    match: dict[int, int] = {}
+    for _, a, b in sorted(pairs):
+        if a not in match and b not in match.values():
+            match[a] = b
+    return match
+
+
 def compare_f06(res: DeckResult, f06_path) -> tuple[str, list[dict]]:
-    """torchrom's flutter points beside those of Nastran's FLUTTER SUMMARY (same method, Mach,
-    density ratio; the same kind, sustained or hump, then the nearest speed and frequency),
-    with the differences; plus the modes Nastran used."""
+    """torchrom's flutter points beside those of Nastran's FLUTTER SUMMARY (paired by
+    :func:`_pair_crossings`), with the differences; plus the modes Nastran used."""
     from ..f06 import read_flutter_summary, read_real_eigenvalues
 
     vref = res.deck.vref
-    theirs = f06_flutter_points(read_flutter_summary(f06_path))
+    theirs = _distinct(f06_flutter_points(read_flutter_summary(f06_path)))
     tables = read_real_eigenvalues(f06_path)
     lines, records = [], []
     if tables:
@@ -843,43 +890,25 @@ def compare_f06(res: DeckResult, f06_path) -> tuple[str, list[dict]]:
     lines.append(f"{'method':>7}{'Mach':>7}{'rho ratio':>11}{'mode':>5}{'kind':>10}"
                  f"{'Nastran':>10}{'V torchrom':>13}"
                  f"{'V Nastran':>12}{'dV %':>8}{'f torchrom':>12}{'f Nastran':>11}{'df %':>8}")
-    used = set()
-    for r in res.results:
-        for p in r.points:
-            match, best = None, None
-            for k, t in enumerate(theirs):
-                if k in used or t.method != r.case.method:
-                    continue
-                if t.mach is not None and abs(t.mach - r.mach) > 1e-6:
-                    continue
-                if t.density_ratio is not None and not np.isnan(r.density_ratio) and abs(
-                        t.density_ratio - r.density_ratio) > 1e-6 * max(1.0, r.density_ratio):
-                    continue
-                # the same kind first, then the nearest in speed and frequency together: the
-                # POINT numbers are Nastran's own root order (BAH_Plane's second run of
-                # speeds numbers its roots differently from its first)
-                v = p.velocity / vref
-                score = (t.kind != p.kind, abs(t.velocity - v) / max(abs(v), 1e-300)
-                         + abs(t.frequency_hz - p.frequency_hz)
-                         / max(t.frequency_hz, p.frequency_hz, 1e-300))
-                if best is None or score < best:
-                    match, best = k, score
-            v = p.velocity / vref
-            rec = {"flutter_id": r.case.sid, "method": r.case.method, "mach": r.mach,
-                   "density_ratio": r.density_ratio, "mode": p.mode + 1, "kind": p.kind,
-                   "nastran_kind": None, "velocity": v,
-                   "frequency_hz": p.frequency_hz, "nastran_velocity": None,
-                   "nastran_frequency_hz": None, "velocity_diff_pct": None,
-                   "frequency_diff_pct": None}
-            if match is not None:
-                used.add(match)
-                t = theirs[match]
-                rec.update(nastran_kind=t.kind, nastran_velocity=t.velocity,
-                           nastran_frequency_hz=t.frequency_hz,
-                           velocity_diff_pct=100 * (v - t.velocity) / t.velocity,
-                           frequency_diff_pct=None if t.frequency_hz == 0 else
-                           100 * (p.frequency_hz - t.frequency_hz) / t.frequency_hz)
-            records.append(rec)
+    ours = [(r, p) for r in res.results for p in r.points]
+    match = _pair_crossings(ours, theirs, vref)
+    used = set(match.values())
+    for a, (r, p) in enumerate(ours):
+        v = p.velocity / vref
+        rec = {"flutter_id": r.case.sid, "method": r.case.method, "mach": r.mach,
+               "density_ratio": r.density_ratio, "mode": p.mode + 1, "kind": p.kind,
+               "nastran_kind": None, "velocity": v,
+               "frequency_hz": p.frequency_hz, "nastran_velocity": None,
+               "nastran_frequency_hz": None, "velocity_diff_pct": None,
+               "frequency_diff_pct": None}
+        if a in match:
+            t = theirs[match[a]]
+            rec.update(nastran_kind=t.kind, nastran_velocity=t.velocity,
+                       nastran_frequency_hz=t.frequency_hz,
+                       velocity_diff_pct=100 * (v - t.velocity) / t.velocity,
+                       frequency_diff_pct=None if t.frequency_hz == 0 else
+                       100 * (p.frequency_hz - t.frequency_hz) / t.frequency_hz)
+        records.append(rec)
     for k, t in enumerate(theirs):
         if k not in used:
             records.append({"method": t.method, "mach": t.mach, "density_ratio": t.density_ratio,
