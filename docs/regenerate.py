@@ -471,7 +471,8 @@ def deck_lines(cmd_extra: list[str]) -> list[str]:
                          capture_output=True, text=True, check=True, cwd=ROOT,
                          env={**_env(), "PYTHONPATH": str(ROOT)}).stdout
     keep = ("symmetry:", "units:", "FLUTTER 30 (KE)")
-    return [ln for ln in out.splitlines() if ln.startswith(keep) and "DLM" not in ln]
+    lines = [ln.strip() for ln in out.splitlines()]  # the crossings are listed indented
+    return [ln for ln in lines if ln.startswith(keep) and "DLM" not in ln]
 
 
 def _env() -> dict[str, str]:

@@ -151,3 +151,56 @@ def test_flutter_deck_compare_with_an_f06(tmp_path, capsys):
     (rec,) = json.loads(out.read_text())["compare"]
     assert rec["nastran_velocity"] == pytest.approx(6004.2, rel=1e-4)
     assert rec["velocity"] == pytest.approx(6032.1, rel=1e-3)  # Nastran's parabolic DLM kernel
+
+
+def test_flutter_rom_at_mach_0_in_a_subprocess(tmp_path):
+    """A ROM with aerodynamics built at Mach 0 (incompressible: the typical section's exact
+    Theodorsen GAFs, tests/test_aero_flutter.py): ``torchrom flutter rom.npz aero.npz`` gives
+    the flutter speed at the altitude's density. Independent reference: the classical flutter
+    determinant of Hodges & Pierce's case (μ = 20 at that density), U_F = 2.18391 b ω_α,
+    ω_F = 0.64898 ω_α; p-k is exact at zero damping (1e-4: the GAF table interpolated in k),
+    the state space on the 8-lag RFA within 0.5 % (its fit error). A --mach other than the aero
+    file's is refused in one line."""
+    import os
+    import subprocess
+    import sys
+
+    import numpy as np
+
+    from torchrom.aero.atmosphere import atmosphere
+    from torchrom.aero.dlm import GAF
+    from torchrom.aero.theodorsen import TypicalSection
+    from torchrom.rom import NonlinearROM
+
+    from .conftest import REPO
+    from .test_aero_flutter import HP
+
+    b, w_a, alt = 3.0, 100.0, 10000.0
+    rho = float(atmosphere(alt, "ft").density)
+    ts = TypicalSection(b, HP["a"], HP["x_alpha"], HP["r_alpha_sq"],
+                        HP["mu"] * np.pi * rho * b**2, HP["sigma"] * w_a, w_a)
+    k = np.r_[0.0, np.geomspace(0.005, 2.0, 40)]
+    gaf = GAF(0.0, b, k, ts.gaf(k))
+    NonlinearROM(ts.mass_matrix(), ts.stiffness_matrix()).save(tmp_path / "rom.npz")
+    save_aero(AeroData(gaf, fit_minimum_state(gaf, n_lags=8)), tmp_path / "aero.npz")
+
+    def cli(*extra):
+        return subprocess.run(
+            [sys.executable, "-m", "torchrom", "flutter", str(tmp_path / "rom.npz"),
+             str(tmp_path / "aero.npz"), *extra], capture_output=True, text=True, cwd=REPO,
+            env={**os.environ, "PYTHONPATH": str(REPO)})
+
+    run = cli("--alpha", "0", "--gamma", "0", "--at", str(alt), "--json",
+              str(tmp_path / "f.json"))
+    assert run.returncode == 0, run.stderr
+    pk, ss = json.loads((tmp_path / "f.json").read_text())["flutter"]
+    assert pk["method"] == "p-k" and pk["mach"] == 0.0 and pk["altitude"] == alt
+    assert pk["velocity"] == pytest.approx(2.18391 * b * w_a, rel=1e-4)
+    assert 2 * np.pi * pk["frequency_hz"] == pytest.approx(0.64898 * w_a, rel=1e-4)
+    assert pk["kind"] == "sustained" and pk["density"] == pytest.approx(rho)
+    assert ss["velocity"] == pytest.approx(pk["velocity"], rel=5e-3)
+    bad = cli("--mach", "0.3")
+    assert bad.returncode != 0 and "Traceback" not in bad.stderr
+    assert bad.stderr.strip().splitlines()[-1].endswith(
+        "--mach 0.3 differs from the aero file's Mach 0")
+    assert len(bad.stderr.strip().splitlines()) == 1

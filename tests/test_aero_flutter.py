@@ -14,6 +14,7 @@ from scipy.optimize import brentq, fsolve
 from scipy.special import hankel2
 
 from torchrom.aero.atmosphere import flight_condition
+from torchrom.aero.crossings import pk_crossings
 from torchrom.aero.dlm import GAF
 from torchrom.aero.flutter import (
     AeroTable,
@@ -26,7 +27,6 @@ from torchrom.aero.flutter import (
     growing_response_frequency,
     ke_sweep,
     pk_sweep,
-    refine_pk_crossings,
 )
 from torchrom.aero.rfa import fit_minimum_state
 from torchrom.aero.theodorsen import TypicalSection
@@ -94,7 +94,7 @@ def test_pk_with_exact_theodorsen_matches_the_flutter_determinant(hp_case):
     # beyond flutter the damped branch has no oscillatory p-k root (it turns real); every root
     # up to the flutter speed converged
     assert all(float(n.split("V=")[1]) > V_ref for n in sweep.notes)
-    points = refine_pk_crossings(st, aero, sweep)
+    points = pk_crossings(st, aero, sweep).flutter
     assert len(points) == 1
     # p-k is exact at zero damping: agreement to the iteration tolerance
     assert points[0].velocity == pytest.approx(V_ref, rel=1e-5)
@@ -130,7 +130,7 @@ def test_state_space_on_rfa_within_one_percent(hp_case, hp_rfa):
     assert critical_root(st, hp_rfa, V, rho).imag == pytest.approx(w_ref, rel=0.01)
     # p-k on the RFA's own Q(ik) is exact at zero damping: same point as the state space
     aero = AeroTable.from_rfa(hp_rfa)
-    pts = refine_pk_crossings(st, aero, pk_sweep(st, aero, np.linspace(1.0, 3.0, 11), rho))
+    pts = pk_crossings(st, aero, pk_sweep(st, aero, np.linspace(1.0, 3.0, 11), rho)).flutter
     assert pts[0].velocity == pytest.approx(V, rel=1e-6)
 
 
@@ -295,3 +295,23 @@ def test_pk_below_the_table_is_quasi_steady():
     assert sw.eigenvalues[0, 0].imag == 0.0 and sw.k[0, 0] < 0.001
     assert np.min(np.abs(roots - sw.eigenvalues[0, 0].real)) <= 1e-9 * np.abs(roots).max()
     assert sw.damping[0, 0] == pytest.approx(2 * sw.eigenvalues[0, 0].real * b / (V * np.log(2)))
+
+
+def test_excursions_label_humps_and_sustained_crossings():
+    """Each upward zero crossing of a sampled damping pairs with the next downward one (a hump)
+    or with none (sustained: unstable to the last sample); a root unstable from the first
+    sample opens nothing; round-off (|g| <= G_ROUNDOFF) is no crossing. ModeSweep.crossings
+    interpolates both speeds linearly (here exactly: g linear between samples)."""
+    from torchrom.aero.flutter import HUMP, SUSTAINED, ModeSweep, excursions
+
+    assert excursions([-1, 1, -1, -1, 1, 1]) == [(0, 1), (3, None)]
+    assert excursions([1, -1, 1]) == [(1, None)]
+    assert excursions([-1, 1e-9, -1]) == []
+    v = np.array([0.0, 1.0, 2.0, 3.0, 4.0])
+    g = np.array([-1.0, 1.0, -1.0, -3.0, 1.0])[:, None]
+    s = 0.5 * g * 10.0 + 10.0j
+    hump, sustained = ModeSweep("PK", v, np.ones(5), s, np.ones_like(g), g).crossings()
+    assert (hump.kind, hump.velocity, hump.stable_velocity) == (HUMP, 0.5, 1.5)
+    assert (sustained.kind, sustained.velocity, sustained.stable_velocity) == (
+        SUSTAINED, 3.75, None)
+    assert not hump.refined and hump.as_dict()["kind"] == "hump"

@@ -170,6 +170,15 @@ def test_flutter_bah_plane_free_free_pk_against_its_f06(tmp_path):
     ours = [r for r in records if r["velocity"] is not None]
     (rec,) = ours  # one crossing, matched
     assert rec["mach"] == 0.2 and rec["mode"] == 4
+    # unstable to the last speed (450) in both; the rigid-body modes' roots cross nowhere here
+    assert rec["kind"] == rec["nastran_kind"] == "sustained"
+    assert not any(r.rigid_points for r in res.results)
+    # FLUTTER 501 (Mach 0, 4774 to 5542): no crossing in either, but the f06's POINT 4 is
+    # unstable from the first speed (g = +0.0678 at 2.32 Hz), and so is ours (measured +0.0740
+    # at 2.155 Hz: within 0.01 in g; the 7 % in frequency not isolated), reported as such
+    osc = [(r, j) for r, j in res.unstable_at_start() if r.sweep.frequency_hz[0, j] > 0]
+    assert [(r.case.sid, j) for r, j in osc] == [(501, 2)]
+    assert osc[0][0].sweep.damping[0, 2] == pytest.approx(0.0678, abs=0.01)
     assert rec["nastran_velocity"] == pytest.approx(394.04, abs=0.01)
     assert abs(rec["velocity_diff_pct"]) <= 2.0
     assert abs(rec["frequency_diff_pct"]) <= 2.0
@@ -213,15 +222,16 @@ def test_flutter_bah_plane_mach_0_coarse_speeds_against_its_f06():
     the same root on the branch of the 3.75 Hz mode: +0.0601, -0.0209, +0.4121 (asserted
     within 0.01) at 3.046, 3.088, 3.236 Hz (f06 3.048, 3.090, 3.253; within 1 %); interpolated
     as the f06 does, its second crossing is at 762.1 (f06 763.89, -0.23 %). Solved at speeds
-    between (refine_pk_crossings) the first crossing is 393.8, where the Mach 0.2 f06 with
+    between (torchrom.aero.crossings) the first crossing is 393.8, where the Mach 0.2 f06 with
     fine speeds has it (394.04): the coarse list, not the aerodynamics, moves Nastran's.
     Before the p-k steps were halved when tracking fails, two of our branches (2.45 and
-    3.75 Hz) converged to this one root from 500 on and the damped one was lost. (The 9.0 and
-    14.5 Hz branches still end on one root at some of these speeds, halvings or not: not
-    resolved.)"""
+    3.75 Hz) converged to this one root from 500 on and the damped one was lost. The 9.0 and
+    14.5 Hz branches also ended on one root at some of these speeds, halvings or not, until a
+    branch that lands on a root another holds was solved again with the held roots excluded
+    (torchrom.aero.flutter._pk_solve_all): no two branches share a root now."""
     from dataclasses import replace
 
-    from torchrom.aero.flutter import _mac
+    from torchrom.aero.flutter import _mac, _shared_roots
     from torchrom.aero.nastran_flutter import load_deck, run_deck
 
     folder = DECKS / "pynastran_bah_plane_mach0"
@@ -233,12 +243,67 @@ def test_flutter_bah_plane_mach_0_coarse_speeds_against_its_f06():
     for s, vec in zip(sw.eigenvalues, sw.vectors):
         assert (abs(s[2] - s[3]) > 1e-6 * np.abs(s).max()
                 or _mac(vec[:, 2], vec[:, 3]) < 0.99)
+        assert not _shared_roots(s, vec)
     g = sw.damping[1:, 3]
     f = np.abs(sw.eigenvalues[1:, 3].imag) / (2 * np.pi)
     np.testing.assert_allclose(g, [0.052279, -0.023851, 0.40266], rtol=0, atol=0.01)
     np.testing.assert_allclose(f, [3.04824, 3.08958, 3.25317], rtol=0.01)
     crossing = 750 + 250 * -g[1] / (g[2] - g[1])
     assert crossing == pytest.approx(763.89, rel=0.02)
+
+
+def test_flutter_bah_plane_mach_0_crossings_labelled_against_its_f06():
+    """BAH_Plane at Mach 0 over its 38 speeds (250 to 4750, and the negated speeds + 0.01 by
+    magnitude): every oscillatory crossing of the f06's FLUTTER SUMMARY, labelled by the same
+    rule (sustained: unstable to the last speed; hump: stable again), is matched by a crossing
+    of ours of the same kind whose onset lies between the two f06 speeds that bracket Nastran's,
+    and, for a hump, whose re-stabilisation lies in Nastran's bracket of it. Nastran's crossings
+    (its first run of speeds; the second repeats them): POINT 3 hump 250-500 (stable again
+    500-750), POINT 3 hump 750-1000 (stable again 4500-4750), POINT 6 hump 500-750 at 7.3 Hz
+    (stable again 750-1000), POINT 10 hump 1250-1500 (2500-2750), POINT 9 sustained 2250-2500.
+    Measured (solved between the speeds): 393.81 (stable again 693.81), 810.61 (4639.0), 659.42
+    at 7.299 Hz (829.72), 1432.4 (2528.7), 2279.1 sustained. Not compared: Nastran's
+    real-root (k = 0) crossings (POINT 2 at 496, 6 at 2535, 7 at 1233): Nastran prints the most
+    positive real root of each point, torchrom follows an oscillatory pair into the more damped
+    of its real roots (see the bah_plane test above). Ours also has a hump of the 14.5 Hz
+    branch from 562.3 to 664.3 (peak g = +0.014) that lies between the f06's speeds 500 and 750
+    (it was found by probing the sampled damping's maximum at 750; a sweep with speeds 12.5
+    apart has g = +0.0001 at 562.5 and +0.0007 at 662.5, measured). The rigid-body modes'
+    roots (0 Hz) are listed apart, never as flutter; no two branches share a root."""
+    from torchrom.aero.flutter import _shared_roots
+    from torchrom.aero.nastran_flutter import compare_f06, f06_flutter_points, run_deck
+    from torchrom.f06 import read_flutter_summary
+
+    folder = DECKS / "pynastran_bah_plane_mach0"
+    res = run_deck(folder / "BAH_Plane.bdf", log=lambda *_: None)
+    (r,) = res.results
+    theirs = [t for t in f06_flutter_points(read_flutter_summary(folder / "BAH_Plane.f06"))
+              if not t.real_root]
+    assert {(t.point, t.kind) for t in theirs} >= {(3, "hump"), (6, "hump"), (10, "hump"),
+                                                   (9, "sustained")}
+    for t in theirs:
+        match = [p for p in r.points if p.kind == t.kind
+                 and t.bracket[0] <= p.velocity <= t.bracket[1]
+                 and (t.kind == "sustained" or
+                      t.stable_bracket[0] <= p.stable_velocity <= t.stable_bracket[1])]
+        assert match, (t.point, t.kind, t.bracket)
+    hump_7hz = [p for p in r.points if p.mode == 5]
+    assert len(hump_7hz) == 1 and hump_7hz[0].frequency_hz == pytest.approx(7.3, abs=0.05)
+    assert all(p.refined for p in r.points)
+    assert all(res.frequencies_hz[p.mode] > 0 for p in r.points)
+    assert r.rigid_points and all(res.frequencies_hz[p.mode] == 0 for p in r.rigid_points)
+    sw = r.sweep
+    assert not any(_shared_roots(s, v) for s, v in zip(sw.eigenvalues, sw.vectors))
+    # --compare: each of ours beside a crossing of Nastran's of the same kind, except the hump
+    # that lies between the f06's speeds; the f06's second run of speeds is not listed twice
+    _, records = compare_f06(res, folder / "BAH_Plane.f06")
+    paired = [(rec["mode"], rec["kind"], rec["nastran_kind"]) for rec in records
+              if rec["velocity"] is not None]
+    assert paired == [(4, "hump", "hump"), (7, "hump", None), (6, "hump", "hump"),
+                      (4, "hump", "hump"), (10, "hump", "hump"), (8, "sustained", "sustained")]
+    theirs_only = [(rec["nastran_kind"], round(rec["nastran_velocity"]))
+                   for rec in records if rec["velocity"] is None]
+    assert len(theirs_only) == len(set(theirs_only))
 
 
 def test_cbush_static_against_its_punch_file():

@@ -10,6 +10,8 @@ Modules (one concern each):
 - :mod:`~torchrom.aero.rfa`         Roger and minimum-state rational function approximations
 - :mod:`~torchrom.aero.theodorsen`  Theodorsen's function and the typical section
 - :mod:`~torchrom.aero.flutter`     p-k, KE, state space, matched-point altitude, α(γ)
+- :mod:`~torchrom.aero.crossings`   crossings labelled sustained/hump, solved between speeds
+- :mod:`~torchrom.aero.flutter_speed`  flutter speed at a fixed density (Mach 0 aerodynamics)
 - :mod:`~torchrom.aero.nastran_flutter`  SOL 145-style flutter of a Nastran deck
 - :mod:`~torchrom.aero.files`       ``aero.npz``
 - :mod:`~torchrom.aero.build`       FE model → AeroData, flutter altitude (Python API)

@@ -64,6 +64,30 @@ def zero_crossings(g, tol: float = G_ROUNDOFF) -> list[int]:
     return out
 
 
+#: a crossing whose root stays unstable to the end of the range / one that re-stabilises
+SUSTAINED, HUMP = "sustained", "hump"
+
+
+def excursions(g, tol: float = G_ROUNDOFF) -> list[tuple[int, int | None]]:
+    """Unstable excursions of a sampled damping: pairs (i, j) of an upward zero crossing
+    between samples i and i+1 (:func:`zero_crossings`) and the next downward one between j and
+    j+1 (None: g stays above zero to the last sample). A downward crossing with no upward one
+    before it (a root unstable from the first sample) opens no excursion."""
+    g = np.asarray(g, dtype=float)
+    events = sorted([(i, 1) for i in zero_crossings(g, tol)]
+                    + [(i, -1) for i in zero_crossings(-g, tol)])
+    out, start = [], None
+    for i, sign in events:
+        if sign > 0 and start is None:
+            start = i
+        elif sign < 0 and start is not None:
+            out.append((start, i))
+            start = None
+    if start is not None:
+        out.append((start, None))
+    return out
+
+
 # -- structure ---------------------------------------------------------------------------------
 def _as_numpy(a) -> np.ndarray:
     if hasattr(a, "detach"):
@@ -207,7 +231,13 @@ class AeroTable:
 # -- results ---------------------------------------------------------------------------------------
 @dataclass
 class FlutterPoint:
-    """A zero-damping crossing: damping goes from negative to positive as speed/q∞ increases."""
+    """A zero-damping crossing: damping goes from negative to positive as speed/q∞ increases.
+
+    ``kind``: :data:`SUSTAINED` (the root stays unstable to the end of the range) or
+    :data:`HUMP` (it re-stabilises at ``stable_velocity``, ``stable_frequency_hz``).
+    ``refined``: the speeds were solved between the sweep's points (False: interpolated
+    linearly). ``rigid_body``: the root of a rigid-body mode (never a flutter point).
+    """
 
     velocity: float
     frequency_hz: float
@@ -217,6 +247,11 @@ class FlutterPoint:
     k: float = float("nan")
     altitude: float | None = None
     mach: float | None = None
+    kind: str = SUSTAINED
+    stable_velocity: float | None = None
+    stable_frequency_hz: float | None = None
+    refined: bool = False
+    rigid_body: bool = False
 
     @property
     def dynamic_pressure(self) -> float:
@@ -233,6 +268,11 @@ class FlutterPoint:
             "reduced_frequency": self.k,
             "altitude": self.altitude,
             "mach": self.mach,
+            "kind": self.kind,
+            "stable_velocity": self.stable_velocity,
+            "stable_frequency_hz": self.stable_frequency_hz,
+            "refined": self.refined,
+            "rigid_body": self.rigid_body,
         }
 
 
@@ -266,29 +306,32 @@ class ModeSweep:
         return v if v.ndim == 2 else np.repeat(v[:, None], self.eigenvalues.shape[1], axis=1)
 
     def crossings(self) -> list[FlutterPoint]:
-        """Zero-damping crossings (negative → positive beyond ±:data:`G_ROUNDOFF`), interpolated
-        linearly between points."""
+        """Zero-damping crossings (negative → positive beyond ±:data:`G_ROUNDOFF`), labelled
+        sustained or hump (:func:`excursions`), interpolated linearly between points."""
         out = []
         g = self.damping
         vel = self.velocity_by_mode
         for j in range(g.shape[1]):
-            for i in zero_crossings(g[:, j]):
-                g0, g1 = g[i, j], g[i + 1, j]
-                t = g0 / (g0 - g1)
+            for i, back in excursions(g[:, j]):
 
-                def lerp(a, i=i, t=t):
+                def lerp(a, i, j=j):
+                    t = g[i, j] / (g[i, j] - g[i + 1, j])
                     return float(a[i] + t * (a[i + 1] - a[i]))
 
                 out.append(
                     FlutterPoint(
-                        velocity=lerp(vel[:, j]),
-                        frequency_hz=lerp(self.frequency_hz[:, j]),
-                        density=lerp(self.density),
+                        velocity=lerp(vel[:, j], i),
+                        frequency_hz=lerp(self.frequency_hz[:, j], i),
+                        density=lerp(self.density, i),
                         mode=j,
                         method=self.method,
-                        k=lerp(self.k[:, j]),
-                        altitude=None if self.altitude is None else lerp(self.altitude),
+                        k=lerp(self.k[:, j], i),
+                        altitude=None if self.altitude is None else lerp(self.altitude, i),
                         mach=self.mach,
+                        kind=SUSTAINED if back is None else HUMP,
+                        stable_velocity=None if back is None else lerp(vel[:, j], back),
+                        stable_frequency_hz=(None if back is None
+                                             else lerp(self.frequency_hz[:, j], back)),
                     )
                 )
         return sorted(out, key=lambda p: (p.dynamic_pressure, p.velocity))
@@ -322,6 +365,13 @@ def _mac(a: np.ndarray, b: np.ndarray) -> float:
     return float(abs(np.vdot(a, b)) ** 2 / den) if den > 0 else 0.0
 
 
+def _macs(vectors: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """:func:`_mac` of each column of ``vectors`` with ``b``."""
+    den = np.einsum("ij,ij->j", vectors.conj(), vectors).real * np.vdot(b, b).real
+    num = np.abs(b.conj() @ vectors) ** 2
+    return np.divide(num, den, out=np.zeros_like(num), where=den > 0)
+
+
 def _inverse(a: np.ndarray) -> np.ndarray:
     """Inverse of a small matrix by LU solve (numpy's threaded ``inv`` is pathologically slow
     for small matrices when the cores are shared)."""
@@ -331,13 +381,18 @@ def _inverse(a: np.ndarray) -> np.ndarray:
 def _quadratic_eig(minv, C, K):
     """Roots of M s² + C s + K (``minv`` = M⁻¹) and their displacement eigenvectors."""
     m = minv.shape[0]
-    a = np.block([[np.zeros((m, m)), np.eye(m)], [-minv @ K, -minv @ C]])
+    a = np.zeros((2 * m, 2 * m))
+    a[:m, m:] = np.eye(m)
+    a[m:, :m] = -minv @ K
+    a[m:, m:] = -minv @ C
     s, v = np.linalg.eig(a)
     return s, v[:m]
 
 
-def _pk_mode(structure, aero, V, rho, s_guess, vec_guess, eps, max_iter):
+def _pk_mode(structure, aero, V, rho, s_guess, vec_guess, eps, max_iter, exclude=None):
     """Converge one p-k root near (s_guess, vec_guess); returns (s, vector, k, converged).
+    ``exclude``: roots other branches hold; at each iteration the root nearest to each is not
+    taken.
 
     Fixed-point iteration on k = Im(s) b / V, under-relaxed whenever the update changes sign
     (heavily damped roots otherwise cycle between two k values).
@@ -368,7 +423,10 @@ def _pk_mode(structure, aero, V, rho, s_guess, vec_guess, eps, max_iter):
         # a rigid-body start (s_guess = 0 exactly): the mode shape decides (the distance term,
         # scaled by the largest root, only breaks ties, favouring the root nearest zero)
         scale = max(abs(s_guess), 1e-12) if s_guess != 0 else max(np.abs(s).max(), 1e-12)
-        score = [_mac(vecs[:, i], vec_guess) - 0.5 * abs(s[i] - s_guess) / scale for i in upper]
+        score = _macs(vecs[:, upper], vec_guess) - 0.5 * np.abs(s[upper] - s_guess) / scale
+        if exclude is not None and len(upper) > len(exclude):
+            # roots held by other branches (:func:`_pk_solve_all`): never this one's
+            score[np.argmin(np.abs(s[upper, None] - exclude[None, :]), axis=0)] = -np.inf
         pick = upper[int(np.argmax(score))]
         s_best, vec_best = s[pick], vecs[:, pick]
         k_new = max(abs(s_best.imag) * b / V, K_FLOOR)
@@ -427,40 +485,71 @@ TRACK_MAC = 0.5
 
 
 def _pk_solve_all(structure, aero, V, rho, s_prev, v_prev, eps, max_iter):
+    """Every branch at (V, ρ) from its previous root; a branch that lands on a root another
+    branch holds (:func:`_shared_roots`) lost its own: the one whose shape moved more is solved
+    again with that root excluded."""
     m = len(s_prev)
     s_all = np.empty(m, complex)
     v_all = np.empty((m, m), complex)
     k_all = np.empty(m)
-    failed = []
+    ok_all = np.empty(m, bool)
     for j in range(m):
-        s_all[j], v_all[:, j], k_all[j], ok = _pk_mode(structure, aero, V, rho, s_prev[j],
-                                                        v_prev[:, j], eps, max_iter)
-        if not ok:
-            failed.append(j)
-    return s_all, v_all, k_all, failed
+        s_all[j], v_all[:, j], k_all[j], ok_all[j] = _pk_mode(
+            structure, aero, V, rho, s_prev[j], v_prev[:, j], eps, max_iter)
+    for a, b in _shared_roots(s_all, v_all, eps):
+        if not _same_root(s_all, v_all, a, b, eps):  # already moved by an earlier pair
+            continue
+        moved = [_mac(v_all[:, j], v_prev[:, j]) for j in (a, b)]
+        redo = b if moved[0] >= moved[1] else a
+        held = np.delete(s_all, redo)
+        held = held[np.abs(held) > 1e-4 * np.abs(s_all).max()]  # roots at ~0 may be shared
+        s_all[redo], v_all[:, redo], k_all[redo], ok_all[redo] = _pk_mode(
+            structure, aero, V, rho, s_prev[redo], v_prev[:, redo], eps, max_iter,
+            exclude=held)
+    return s_all, v_all, k_all, np.flatnonzero(~ok_all).tolist()
 
 
-def _tracked(s_new, v_new, v_old) -> bool:
+#: two branches whose roots differ by less than this many times the p-k tolerance eps
+#: (relative, with MAC > 0.99) are on one root: each root is converged to a relative change of
+#: k of eps (1e-4 from a deck), so two convergences to one root differ by up to ~eps (3e-6
+#: measured on BAH_Plane's 9.3 Hz root at V = 750; the earlier bound, 1e-6 of the largest root,
+#: let that pair pass as two roots); distinct roots that close only meet at a coalescence
+SAME_ROOT_EPS = 10.0
+
+
+def _same_root(s, v, a, b, eps: float = 1e-4) -> bool:
+    """Branches a and b on one root: the same eigenvalue (to :data:`SAME_ROOT_EPS` × eps,
+    relative) and shape (MAC > 0.99), away from 0 (roots at ~0, rigid-body motions with no
+    aerodynamic stiffness, may share a shape)."""
+    scale = max(float(np.abs(s).max()), 1e-12)
+    return bool(abs(s[a]) > 1e-4 * scale
+                and abs(s[a] - s[b]) <= SAME_ROOT_EPS * eps * abs(s[a])
+                and _mac(v[:, a], v[:, b]) > 0.99)
+
+
+def _shared_roots(s, v, eps: float = 1e-4) -> list[tuple[int, int]]:
+    """Pairs of branches on one root (:func:`_same_root`)."""
+    m = len(s)
+    return [(a, b) for a in range(m) for b in range(a + 1, m) if _same_root(s, v, a, b, eps)]
+
+
+def _tracked(s_new, v_new, v_old, s_old, eps: float = 1e-4) -> bool:
     """Each branch keeps its shape (MAC ≥ TRACK_MAC with its previous vector) and no two
-    branches converged to the same root (away from 0)."""
+    branches converged to the same root, unless they held one root at the step's start
+    already (a shorter step cannot part them then; it would only halve the step to the end
+    of :data:`TRACK_HALVINGS`, 256 solves per step)."""
     m = len(s_new)
     if any(_mac(v_new[:, j], v_old[:, j]) < TRACK_MAC for j in range(m)):
         return False
-    scale = max(float(np.abs(s_new).max()), 1e-12)
-    for a in range(m):
-        for b in range(a + 1, m):
-            # roots at ~0 (rigid-body motions with no aerodynamic stiffness) may share a shape
-            if (abs(s_new[a]) > 1e-4 * scale and abs(s_new[a] - s_new[b]) <= 1e-6 * scale
-                    and _mac(v_new[:, a], v_new[:, b]) > 0.99):
-                return False
-    return True
+    return all(_same_root(s_old, v_old, a, b, eps) for a, b in _shared_roots(s_new, v_new, eps))
 
 
 def _pk_step(structure, aero, start, end, s_prev, v_prev, eps, max_iter, halvings=0):
     """All branches from the flight condition ``start`` (V, ρ) to ``end``, the step halved
     (V and ρ linearly) while the tracking fails (:func:`_tracked`)."""
     res = _pk_solve_all(structure, aero, *end, s_prev, v_prev, eps, max_iter)
-    if halvings >= TRACK_HALVINGS or start == end or _tracked(res[0], res[1], v_prev):
+    if (halvings >= TRACK_HALVINGS or start == end
+            or _tracked(res[0], res[1], v_prev, s_prev, eps)):
         return res
     mid = tuple(0.5 * (a + b) for a, b in zip(start, end))
     s_mid, v_mid, _, _ = _pk_step(structure, aero, start, mid, s_prev, v_prev, eps, max_iter,
@@ -876,39 +965,6 @@ def alpha_for_gammas(
 def damping_ratio(s: complex) -> float:
     """Viscous damping ratio ζ = -Re(s)/|s|."""
     return -s.real / abs(s) if abs(s) > 0 else math.nan
-
-
-def refine_pk_crossings(
-    structure, aero: AeroTable, sweep: ModeSweep, eps: float = 1e-7, xtol: float = 1e-9
-) -> list[FlutterPoint]:
-    """Zero-damping crossings of a constant-density p-k sweep, refined in V by Brent's method."""
-    out = []
-    for p in sweep.crossings():
-        j = p.mode
-        i = int(np.searchsorted(sweep.velocity, p.velocity) - 1)
-        i = min(max(i, 0), len(sweep.velocity) - 2)
-        rho = float(sweep.density[i])
-
-        def solve(v, i=i, j=j, rho=rho):
-            s, _, k, ok = _pk_mode(
-                structure, aero, v, rho, sweep.eigenvalues[i, j], sweep.vectors[i, :, j], eps, 200
-            )
-            return s, k, ok
-
-        try:
-            v = scipy.optimize.brentq(
-                lambda v: solve(v)[0].real, sweep.velocity[i], sweep.velocity[i + 1], xtol=xtol
-            )
-        except ValueError:
-            out.append(p)
-            continue
-        s, k, _ = solve(v)
-        out.append(
-            replace(
-                p, velocity=float(v), frequency_hz=s.imag / (2 * np.pi), k=float(k), density=rho
-            )
-        )
-    return out
 
 
 def pk_matched_sweep(

@@ -20,7 +20,9 @@ is the PK equation's viscous term (:mod:`torchrom.aero.modal_damping`; refused w
 KDAMP = −1); residual vectors are the inertia-relief kind (:mod:`torchrom.fe.resvec`);
 branches are tracked by mode shape. Rigid-body modes of a free-free deck stay in the basis at
 0 Hz, with quasi-steady aerodynamics below the lowest positive k and a real root's damping
-g = 2sb/(V ln 2).
+g = 2sb/(V ln 2). Crossings are labelled sustained or hump and, with PK, solved between the
+FLFACT speeds, humps between two speeds included; the rigid-body roots' crossings are listed
+apart (:mod:`torchrom.aero.crossings`); Nastran's summary interpolates linearly.
 """
 
 from __future__ import annotations
@@ -32,16 +34,19 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import InputError
+from .crossings import RIGID_FRACTION, pk_crossings, rigid_body_modes, split_rigid
 from .dlm import BoxMotion, compute_gaf, exact_k_indices
 from .flutter import (
+    G_ROUNDOFF,
+    HUMP,
+    SUSTAINED,
     AeroTable,
     FlutterPoint,
     ModalStructure,
     ModeSweep,
+    excursions,
     ke_sweep,
     pk_sweep,
-    refine_pk_crossings,
-    zero_crossings,
 )
 from .modal_damping import ModalDamping, modal_damping, subcase_sdamp
 from .panels import (
@@ -443,7 +448,9 @@ class CaseResult:
     density_ratio: float
     density: float
     sweep: ModeSweep
-    points: list[FlutterPoint]
+    points: list[FlutterPoint]  # flutter crossings, labelled sustained or hump
+    #: crossings of the rigid-body modes' roots (:mod:`torchrom.aero.crossings`): not flutter
+    rigid_points: list[FlutterPoint] = field(default_factory=list)
 
 
 @dataclass
@@ -453,12 +460,28 @@ class DeckResult:
     results: list[CaseResult]
     notes: list[str]
 
+    def unstable_at_start(self) -> list[tuple[CaseResult, int]]:
+        """(case, branch) of the elastic roots already unstable at the first speed of a sweep:
+        no crossing in the range (bah_plane's FLUTTER 501: the 2.45 Hz root from 4,774 on, as
+        the f06's POINT 4), but not stable either."""
+        rigid = rigid_body_modes(self.frequencies_hz)
+        return [(r, j) for r in self.results for j in range(r.sweep.damping.shape[1])
+                if not rigid[j] and r.sweep.damping[0, j] > G_ROUNDOFF]
+
     def as_dict(self) -> dict:
         """Flat records for --json (velocities in deck units / VREF, frequencies in Hz)."""
         vref = self.deck.vref
 
         def scaled(rec: dict) -> dict:
-            return {**rec, "velocity": rec["velocity"] / vref}
+            out = {**rec, "velocity": rec["velocity"] / vref}
+            if rec.get("stable_velocity") is not None:
+                out["stable_velocity"] = rec["stable_velocity"] / vref
+            return out
+
+        def points(attr: str) -> list[dict]:
+            return [{"flutter_id": r.case.sid, "method": r.case.method, "mach": r.mach,
+                     "density_ratio": r.density_ratio, **scaled(p.as_dict())}
+                    for r in self.results for p in getattr(r, attr)]
 
         return {
             "deck": str(self.deck.path),
@@ -469,17 +492,15 @@ class DeckResult:
             "units": {"velocity": self.deck.velocity_unit, "frequency": "Hz",
                       "density": f"mass/{self.deck.length_unit}^3 (deck units)"},
             "modal_frequencies_hz": self.frequencies_hz.tolist(),
-            "flutter": [
-                {
-                    "flutter_id": r.case.sid,
-                    "method": r.case.method,
-                    "mach": r.mach,
-                    "density_ratio": r.density_ratio,
-                    **scaled(p.as_dict()),
-                }
-                for r in self.results
-                for p in r.points
-            ],
+            "flutter": points("points"),
+            "rigid_body_roots": points("rigid_points"),
+            "unstable_at_first_speed": [
+                {"flutter_id": r.case.sid, "method": r.case.method, "mach": r.mach,
+                 "density_ratio": r.density_ratio, "mode": j + 1,
+                 "velocity": float(r.sweep.velocity_by_mode[0, j]) / vref,
+                 "damping_g": float(r.sweep.damping[0, j]),
+                 "frequency_hz": float(r.sweep.frequency_hz[0, j])}
+                for r, j in self.unstable_at_start()],
             "vg": [
                 {
                     "flutter_id": r.case.sid,
@@ -592,6 +613,7 @@ def run_deck(deck_or_path, fe=None, kernel: str = NASTRAN_KERNEL, log=print,
         return AeroTable.from_gaf(gaf, interpolation="linear" if case.imeth == "L" else "cubic")
 
     n_rigid = int(np.sum(freqs == 0.0))
+    rigid = rigid_body_modes(freqs)  # their roots' crossings are reported apart
 
     def pk_k_list(mach):
         near = min({m for m, _ in deck.mkaero}, key=lambda m: abs(m - mach))
@@ -627,14 +649,16 @@ def run_deck(deck_or_path, fe=None, kernel: str = NASTRAN_KERNEL, log=print,
                 sweep = pk_sweep(structure, aero, np.abs(case.values[sel]), rho_all[sel],
                                  mach=mach, eps=min(case.eps, 1e-4),
                                  real_root_damping="nastran")
-                points = sweep.crossings()  # linear in the path, as Nastran's summary
-                for p in points:
+                # linear in the path, as Nastran's summary
+                found = split_rigid(sweep.crossings(), rigid)
+                for p in found.flutter + found.rigid_body:
                     p.mach = float(mach)
                 notes += sweep.notes
                 ratio = ratio_all[sel]
                 results.append(CaseResult(case, float(mach), float(ratio[0]) if
                                           np.ptp(ratio) == 0 else float("nan"),
-                                          float(rho_all[sel][0]), sweep, points))
+                                          float(rho_all[sel][0]), sweep, found.flutter,
+                                          found.rigid_body))
             continue
         for mach in case.machs:
             if case.method.startswith("PK"):
@@ -647,16 +671,15 @@ def run_deck(deck_or_path, fe=None, kernel: str = NASTRAN_KERNEL, log=print,
                     v = np.sort(np.abs(case.values))
                     sweep = pk_sweep(structure, aero, v, rho, mach=mach,
                                      eps=min(case.eps, 1e-4), real_root_damping="nastran")
-                    points = refine_pk_crossings(structure, aero, sweep)
+                    found = pk_crossings(structure, aero, sweep, rigid)
                 else:
                     sweep = ke_sweep(structure, aero, case.values, rho)
-                    points = sweep.crossings()
-                for p in points:
+                    found = split_rigid(sweep.crossings(), rigid)
+                for p in found.flutter + found.rigid_body:
                     p.mach = float(mach)
                 notes += sweep.notes
-                results.append(
-                    CaseResult(case, float(mach), float(ratio), float(rho), sweep, points)
-                )
+                results.append(CaseResult(case, float(mach), float(ratio), float(rho), sweep,
+                                          found.flutter, found.rigid_body))
     return DeckResult(deck, freqs, results, notes)
 
 
@@ -695,26 +718,54 @@ def format_deck_result(res: DeckResult) -> str:
                     f"{s.real:13.5e} {s.imag:13.5e}"
                 )
     lines.append("")
-    any_point = False
-    for r in res.results:
-        for p in r.points:
-            any_point = True
-            lines.append(
-                f"FLUTTER {r.case.sid} ({r.case.method}) Mach {r.mach:g} density ratio "
-                f"{r.density_ratio:g}: mode {p.mode + 1} flutter speed {p.velocity / vref:.5g} "
-                f"{vu}, frequency {p.frequency_hz:.5g} Hz, k = {p.k:.4f}"
-            )
-    if not any_point:
-        lines.append("no flutter crossing (damping stays negative) in the requested range")
+    lines.append("flutter crossings (sustained: unstable to the last speed; hump: stable again "
+                 "further on; speeds solved between the sweep's speeds unless marked linear):")
+    flutter = [(r, p) for r in res.results for p in r.points]
+    for r, p in flutter:
+        lines.append("  " + _crossing_line(res, r, p))
+    if not flutter:
+        lines.append("  none in the requested range")
+    for r, j in res.unstable_at_start():
+        lines.append(
+            f"  FLUTTER {r.case.sid} ({r.case.method}) Mach {r.mach:g} density ratio "
+            f"{r.density_ratio:g}: mode {j + 1} ({res.frequencies_hz[j]:.4g} Hz in vacuo) is "
+            f"unstable from the first speed ({r.sweep.velocity_by_mode[0, j] / res.deck.vref:.5g}"
+            f" {res.deck.velocity_unit}: g = {r.sweep.damping[0, j]:+.4g} at "
+            f"{r.sweep.frequency_hz[0, j]:.5g} Hz): no crossing in the range")
+    rigid = [(r, p) for r in res.results for p in r.rigid_points]
+    if rigid:
+        lines.append(f"rigid-body roots (modes below {RIGID_FRACTION:g} of the lowest elastic "
+                     "frequency; their damping crossing zero is not flutter):")
+        for r, p in rigid:
+            lines.append("  " + _crossing_line(res, r, p))
     for n in res.notes:
         lines.append(f"note: {n}")
     return "\n".join(lines)
 
 
+def _crossing_line(res: DeckResult, r: CaseResult, p: FlutterPoint) -> str:
+    """One crossing: case, mode, kind, onset speed and frequency, re-stabilisation, units."""
+    vref, vu = res.deck.vref, res.deck.velocity_unit
+    last = float(np.max(r.sweep.velocity_by_mode[:, p.mode])) / vref
+    what = "damping crosses zero at" if p.rigid_body else "flutter speed"
+    text = (f"FLUTTER {r.case.sid} ({r.case.method}) Mach {r.mach:g} density ratio "
+            f"{r.density_ratio:g}: mode {p.mode + 1} ({res.frequencies_hz[p.mode]:.4g} Hz in "
+            f"vacuo), {p.kind}: {what} {p.velocity / vref:.5g} {vu}, frequency "
+            f"{p.frequency_hz:.5g} Hz, k = {p.k:.4f}; ")
+    if p.kind == HUMP:
+        text += (f"stable again at {p.stable_velocity / vref:.5g} {vu} "
+                 f"({p.stable_frequency_hz:.5g} Hz)")
+    else:
+        text += f"unstable to the last speed ({last:.5g} {vu})"
+    return text + ("" if p.refined else " [linear between the sweep's speeds]")
+
+
 # -- Nastran's f06 side by side ------------------------------------------------------------------
 @dataclass
 class F06Crossing:
-    """A flutter point read from the f06: the branch, velocity, frequency (Hz) and k."""
+    """A flutter point read from the f06: the branch, velocity, frequency (Hz) and k, labelled
+    as ours (:data:`SUSTAINED` or :data:`HUMP`, with its re-stabilisation), and the sweep
+    speeds that bracket the onset (and the re-stabilisation)."""
 
     point: int
     method: str
@@ -723,36 +774,108 @@ class F06Crossing:
     velocity: float
     frequency_hz: float
     kfreq: float
+    kind: str = SUSTAINED
+    stable_velocity: float | None = None
+    bracket: tuple[float, float] = (math.nan, math.nan)
+    stable_bracket: tuple[float, float] | None = None
+    #: the root is real (k = 0, frequency 0) on either side of the onset: divergence-type
+    real_root: bool = False
 
+
+def _f06_runs(t) -> list[np.ndarray]:
+    """Row indices of each sweep of an f06 table: PK prints its FLFACT speeds in the given order
+    (BAH_Plane lists 250..4750, then the negated speeds by magnitude, 250.01..4750.01: two
+    sweeps, their POINTs not the same roots), so a run ends where the speed decreases; KE prints
+    by reduced frequency (one run, by velocity); PKNL: the path."""
+    if t.method == "KE" or t.method == "K":
+        return [np.argsort(t.velocity, kind="stable")]
+    if t.method == "PKNL":
+        return [np.arange(len(t.velocity))]
+    breaks = np.flatnonzero(np.diff(t.velocity) < 0) + 1
+    return np.split(np.arange(len(t.velocity)), breaks)
 
 
 def f06_flutter_points(tables) -> list[F06Crossing]:
     """Zero-damping crossings (upwards, beyond round-off) of every f06 FLUTTER SUMMARY point
-    (:func:`torchrom.f06.read_flutter_summary`), interpolated linearly in the printed order."""
+    (:func:`torchrom.f06.read_flutter_summary`), labelled sustained or hump
+    (:func:`torchrom.aero.flutter.excursions`) on each run of speeds (:func:`_f06_runs`) and
+    interpolated linearly in the printed order, as Nastran's own summary."""
     out = []
     for t in tables:
-        # PK/KE: along increasing velocity (KE prints by reduced frequency); PKNL: the path
-        order = np.arange(len(t.velocity)) if t.method == "PKNL" else np.argsort(
-            t.velocity, kind="stable")
-        g, vel, freq, kf = t.damping[order], t.velocity[order], t.frequency[order], t.kfreq[order]
-        for i in zero_crossings(g):
-            s = g[i] / (g[i] - g[i + 1])
+        for order in _f06_runs(t):
+            g, vel, freq, kf = (t.damping[order], t.velocity[order], t.frequency[order],
+                                t.kfreq[order])
+            for i, back in excursions(g):
 
-            def lerp(a, i=i, s=s):
-                return float(a[i] + s * (a[i + 1] - a[i]))
+                def lerp(a, i, g=g):
+                    s = g[i] / (g[i] - g[i + 1])
+                    return float(a[i] + s * (a[i + 1] - a[i]))
 
-            out.append(F06Crossing(t.point, t.method, t.mach, t.density_ratio, lerp(vel),
-                                   lerp(freq), lerp(kf)))
+                out.append(F06Crossing(
+                    t.point, t.method, t.mach, t.density_ratio, lerp(vel, i), lerp(freq, i),
+                    lerp(kf, i), SUSTAINED if back is None else HUMP,
+                    None if back is None else lerp(vel, back),
+                    (float(vel[i]), float(vel[i + 1])),
+                    None if back is None else (float(vel[back]), float(vel[back + 1])),
+                    bool(freq[i] == 0 or freq[i + 1] == 0)))
     return out
 
 
+#: an f06 crossing is paired with one of ours only when their speeds and frequencies differ by
+#: less than this, relative and summed (BAH_Plane's coarse speeds: 0.22 for the 393.8 hump
+#: Nastran puts at 457.9; a real root against an oscillatory one: 1 and more)
+MATCH_LIMIT = 0.5
+
+
+def _distinct(crossings: list[F06Crossing]) -> list[F06Crossing]:
+    """One of each crossing the f06 prints in several runs of the same speeds (BAH_Plane's
+    speeds and the negated ones, 0.01 apart: the same kind, speed and frequency to 0.1 %)."""
+    out: list[F06Crossing] = []
+    for t in crossings:
+        if not any(u.method == t.method and u.mach == t.mach and u.kind == t.kind
+                   and abs(u.velocity - t.velocity) <= 1e-3 * abs(t.velocity)
+                   and abs(u.frequency_hz - t.frequency_hz) <= 1e-3 * max(t.frequency_hz, 1e-3)
+                   for u in out):
+            out.append(t)
+    return out
+
+
+def _pair_crossings(ours, theirs: list[F06Crossing], vref: float) -> dict[int, int]:
+    """{index in ours: index in theirs}: the same method, Mach and density ratio; pairs taken
+    best first, the same kind before any other, then by the relative differences of speed and
+    frequency summed (below :data:`MATCH_LIMIT`). POINT numbers are not used: they are
+    Nastran's own root order (BAH_Plane's second run of speeds numbers its roots differently
+    from its first)."""
+    pairs = []
+    for a, (r, p) in enumerate(ours):
+        v = p.velocity / vref
+        for b, t in enumerate(theirs):
+            if t.method != r.case.method:
+                continue
+            if t.mach is not None and abs(t.mach - r.mach) > 1e-6:
+                continue
+            if t.density_ratio is not None and not np.isnan(r.density_ratio) and abs(
+                    t.density_ratio - r.density_ratio) > 1e-6 * max(1.0, r.density_ratio):
+                continue
+            distance = (abs(t.velocity - v) / max(abs(v), 1e-300)
+                        + abs(t.frequency_hz - p.frequency_hz)
+                        / max(t.frequency_hz, p.frequency_hz, 1e-300))
+            if distance <= MATCH_LIMIT:
+                pairs.append(((t.kind != p.kind, distance), a, b))
+    match: dict[int, int] = {}
+    for _, a, b in sorted(pairs):
+        if a not in match and b not in match.values():
+            match[a] = b
+    return match
+
+
 def compare_f06(res: DeckResult, f06_path) -> tuple[str, list[dict]]:
-    """torchrom's flutter points beside those of Nastran's FLUTTER SUMMARY (same method, Mach,
-    density ratio and mode/POINT), with the differences; plus the modes Nastran used."""
+    """torchrom's flutter points beside those of Nastran's FLUTTER SUMMARY (paired by
+    :func:`_pair_crossings`), with the differences; plus the modes Nastran used."""
     from ..f06 import read_flutter_summary, read_real_eigenvalues
 
     vref = res.deck.vref
-    theirs = f06_flutter_points(read_flutter_summary(f06_path))
+    theirs = _distinct(f06_flutter_points(read_flutter_summary(f06_path)))
     tables = read_real_eigenvalues(f06_path)
     lines, records = [], []
     if tables:
@@ -764,43 +887,33 @@ def compare_f06(res: DeckResult, f06_path) -> tuple[str, list[dict]]:
                 # rigid-body modes (zero up to round-off in both): no relative difference
                 d = f"{100 * (f - ref[i]) / ref[i]:9.3f}" if abs(ref[i]) > floor else "    rigid"
                 lines.append(f"{i + 1:>5}{f:14.5g}{ref[i]:14.5g}{d}")
-    lines.append(f"{'method':>7}{'Mach':>7}{'rho ratio':>11}{'mode':>5}{'V torchrom':>13}"
+    lines.append(f"{'method':>7}{'Mach':>7}{'rho ratio':>11}{'mode':>5}{'kind':>10}"
+                 f"{'Nastran':>10}{'V torchrom':>13}"
                  f"{'V Nastran':>12}{'dV %':>8}{'f torchrom':>12}{'f Nastran':>11}{'df %':>8}")
-    used = set()
-    for r in res.results:
-        for p in r.points:
-            match, best = None, None
-            for k, t in enumerate(theirs):
-                if k in used or t.method != r.case.method:
-                    continue
-                if t.mach is not None and abs(t.mach - r.mach) > 1e-6:
-                    continue
-                if t.density_ratio is not None and not np.isnan(r.density_ratio) and abs(
-                        t.density_ratio - r.density_ratio) > 1e-6 * max(1.0, r.density_ratio):
-                    continue
-                # the same branch first, else the nearest speed (mode labels can swap where
-                # branches coalesce)
-                score = (t.point != p.mode + 1, abs(t.velocity - p.velocity / vref))
-                if best is None or score < best:
-                    match, best = k, score
-            v = p.velocity / vref
-            rec = {"flutter_id": r.case.sid, "method": r.case.method, "mach": r.mach,
-                   "density_ratio": r.density_ratio, "mode": p.mode + 1, "velocity": v,
-                   "frequency_hz": p.frequency_hz, "nastran_velocity": None,
-                   "nastran_frequency_hz": None, "velocity_diff_pct": None,
-                   "frequency_diff_pct": None}
-            if match is not None:
-                used.add(match)
-                t = theirs[match]
-                rec.update(nastran_velocity=t.velocity, nastran_frequency_hz=t.frequency_hz,
-                           velocity_diff_pct=100 * (v - t.velocity) / t.velocity,
-                           frequency_diff_pct=100 * (p.frequency_hz - t.frequency_hz)
-                           / t.frequency_hz)
-            records.append(rec)
+    ours = [(r, p) for r in res.results for p in r.points]
+    match = _pair_crossings(ours, theirs, vref)
+    used = set(match.values())
+    for a, (r, p) in enumerate(ours):
+        v = p.velocity / vref
+        rec = {"flutter_id": r.case.sid, "method": r.case.method, "mach": r.mach,
+               "density_ratio": r.density_ratio, "mode": p.mode + 1, "kind": p.kind,
+               "nastran_kind": None, "velocity": v,
+               "frequency_hz": p.frequency_hz, "nastran_velocity": None,
+               "nastran_frequency_hz": None, "velocity_diff_pct": None,
+               "frequency_diff_pct": None}
+        if a in match:
+            t = theirs[match[a]]
+            rec.update(nastran_kind=t.kind, nastran_velocity=t.velocity,
+                       nastran_frequency_hz=t.frequency_hz,
+                       velocity_diff_pct=100 * (v - t.velocity) / t.velocity,
+                       frequency_diff_pct=None if t.frequency_hz == 0 else
+                       100 * (p.frequency_hz - t.frequency_hz) / t.frequency_hz)
+        records.append(rec)
     for k, t in enumerate(theirs):
         if k not in used:
             records.append({"method": t.method, "mach": t.mach, "density_ratio": t.density_ratio,
-                            "mode": t.point, "velocity": None, "frequency_hz": None,
+                            "mode": t.point, "kind": None, "nastran_kind": t.kind,
+                            "velocity": None, "frequency_hz": None,
                             "nastran_velocity": t.velocity,
                             "nastran_frequency_hz": t.frequency_hz, "velocity_diff_pct": None,
                             "frequency_diff_pct": None})
@@ -813,7 +926,8 @@ def compare_f06(res: DeckResult, f06_path) -> tuple[str, list[dict]]:
         lines.append(
             f"{rec['method']:>7}{fmt(rec['mach'], '7.3f')}"
             f"{fmt(None if ratio is None or np.isnan(ratio) else ratio, '11.4g')}"
-            f"{rec['mode']:>5}{fmt(rec['velocity'], '13.5g')}"
+            f"{rec['mode']:>5}{rec['kind'] or '-':>10}{rec['nastran_kind'] or '-':>10}"
+            f"{fmt(rec['velocity'], '13.5g')}"
             f"{fmt(rec['nastran_velocity'], '12.5g')}"
             f"{fmt(rec['velocity_diff_pct'], '8.2f')}{fmt(rec['frequency_hz'], '12.5g')}"
             f"{fmt(rec['nastran_frequency_hz'], '11.5g')}{fmt(rec['frequency_diff_pct'], '8.2f')}"

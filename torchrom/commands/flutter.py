@@ -2,17 +2,25 @@
 
 Forms:
   torchrom flutter DECK.bdf                      FLUTTER/FLFACT/MKAERO cards of the deck (PK, KE)
-  torchrom flutter ROM.npz AERO.npz [--mach M]   matched point at fixed Mach (p-k + state space)
+  torchrom flutter ROM.npz AERO.npz [--mach M]   matched point at fixed Mach (p-k + state space);
+                                                 at Mach 0, the flutter speed per altitude
   torchrom flutter goland [--aero AERO.npz]      built-in heavy Goland wing, compared with the paper
 
 JSON (--json), deck form: {"deck", "title", "modal_frequencies_hz", "flutter": [{flutter_id,
-method, mach, density_ratio, mode, velocity (deck units / VREF), frequency_hz, density,
-dynamic_pressure, reduced_frequency}], "vg": [{..., mode, velocity, damping_g, frequency_hz,
+method, mach, density_ratio, mode, kind ("sustained": unstable to the last speed; "hump": stable
+again at stable_velocity), velocity (deck units / VREF), frequency_hz, stable_velocity,
+stable_frequency_hz, density, dynamic_pressure, reduced_frequency, refined (solved between the
+sweep's speeds)}], "rigid_body_roots": [the same, for the roots of rigid-body modes: not
+flutter], "unstable_at_first_speed": [{flutter_id, method, mach, density_ratio, mode,
+velocity, damping_g, frequency_hz}], "vg": [{..., mode, velocity, damping_g, frequency_hz,
 reduced_frequency, eigenvalue_real, eigenvalue_imag}], "notes"}.
 Matched-point form: {"mach", "alpha" (1/s), "gamma" (s), "units", "flutter": [{method, altitude,
 frequency_hz, velocity, density, dynamic_pressure, mode}], "growing_response": [{altitude,
 frequency_hz_state_space, frequency_hz_pk}], "alpha_for_gamma": [{gamma, alpha, altitude}],
-"paper": {...} (Goland only)}.
+"paper": {...} (Goland only)}. With an aero file at Mach 0 (incompressible), no matched point:
+{"mach": 0, "alpha", "gamma", "units", "flutter": [{method, altitude, density, velocity,
+frequency_hz, dynamic_pressure, mode, kind, stable_velocity}]}, the flutter speed at the density
+of each altitude.
 """
 
 from __future__ import annotations
@@ -261,6 +269,8 @@ def _matched(args, structure, aero, compare_paper: bool) -> int:
     mach = aero.mach if args.mach is None else args.mach
     if abs(mach - aero.mach) > 1e-9:
         raise InputError(f"--mach {mach:g} differs from the aero file's Mach {aero.mach:g}")
+    if mach == 0.0:  # incompressible: no matched point (V = 0 a(h)), a speed per altitude
+        return _incompressible(args, structure, aero)
     table = AeroTable.from_gaf(aero.gaf)
     results = []
     print(
@@ -347,4 +357,52 @@ def _matched(args, structure, aero, compare_paper: bool) -> int:
         if sweep is not None:
             ok &= _figure(plot_root_locus, sweep, args.root_locus,
                           title=f"state space, Mach {mach:g}")
+    return 0 if ok else 1
+
+
+def _incompressible(args, structure, aero) -> int:
+    """Mach 0 aerodynamics: the flutter speed at the density of each altitude of --at (default
+    the two ends of --alt-range), by p-k and the state space
+    (:mod:`torchrom.aero.flutter_speed`)."""
+    from ..aero.flutter import AeroTable
+    from ..aero.flutter_speed import flutter_speed_pk, flutter_speed_state_space
+    from ..errors import InputError
+
+    for option, given in (("--alpha-for-gamma", args.alpha_for_gamma),
+                          ("--root-locus", args.root_locus)):
+        if given:
+            raise InputError(f"{option}: needs a flight Mach number > 0 (a matched point); the "
+                             "aero file is at Mach 0, where the flutter point is a speed")
+    table = AeroTable.from_gaf(aero.gaf)
+    altitudes = list(args.at) if args.at else list(args.alt_range)
+    print(f"  Mach 0 (incompressible): flutter speed at the density of each altitude, "
+          f"alpha = {structure.alpha:g} 1/s, gamma = {structure.gamma:g} s")
+    print(f"  {'method':<13}{'altitude ft':>13}{'V ft/s':>10}{'frequency Hz':>14}{'q psf':>9}"
+          f"  kind")
+    results, first_sweep = [], None
+    for alt in altitudes:
+        found = []
+        if args.method in ("both", "pk"):
+            pk, sweep = flutter_speed_pk(structure, table, alt)
+            first_sweep = first_sweep or sweep
+            found.append(pk)
+        if args.method in ("both", "state-space"):
+            found.append(flutter_speed_state_space(structure, aero.rfa, table, alt))
+        for r in found:
+            if r.velocity is None:
+                print(f"  {r.method:<13}{alt:13.1f}{'no flutter in the speed range':>33}")
+                continue
+            kind = "" if r.kind is None else r.kind + (
+                f" (stable again at {r.stable_velocity:.1f} ft/s)" if r.stable_velocity else "")
+            print(f"  {r.method:<13}{alt:13.1f}{r.velocity:10.1f}{r.frequency_hz:14.4f}"
+                  f"{0.5 * r.density * r.velocity**2:9.1f}  {kind}")
+        results += found
+    maybe_write_json(args, {"mach": 0.0, "alpha": structure.alpha, "gamma": structure.gamma,
+                            "units": "ft", "flutter": [r.as_dict() for r in results]})
+    ok = True
+    if args.plot is not None and first_sweep is not None:
+        from ..aero.plots import plot_vg
+
+        ok = _figure(plot_vg, first_sweep, args.plot, velocity_label="velocity (ft/s)",
+                     title=f"p-k, Mach 0, {altitudes[0]:g} ft")
     return 0 if ok else 1

@@ -1,0 +1,43 @@
+"""Flutter speed at a fixed density (Mach 0 aerodynamics), torchrom.aero.flutter_speed.
+
+Independent reference: the classical flutter determinant of Hodges & Pierce's typical section
+(tests/test_aero_flutter.py; U_F = 2.18391 b ω_α, ω_F = 0.64898 ω_α at μ = 20), with its exact
+Theodorsen GAFs tabulated at Mach 0 and the mass set for μ = 20 at 10,000 ft (USSA-76). p-k is
+exact at zero damping: 1e-4 (the GAF table interpolated in k); the state space on the 8-lag
+RFA: 0.5 % (its fit error).
+"""
+
+import numpy as np
+import pytest
+
+from torchrom.aero.atmosphere import atmosphere
+from torchrom.aero.dlm import GAF
+from torchrom.aero.flutter import AeroTable, ModalStructure
+from torchrom.aero.flutter_speed import flutter_speed_pk, flutter_speed_state_space, speed_range
+from torchrom.aero.rfa import fit_minimum_state
+from torchrom.aero.theodorsen import TypicalSection
+
+from .test_aero_flutter import HP
+
+
+def test_flutter_speed_at_mach_0_is_the_classical_one():
+    b, w_a, alt = 3.0, 100.0, 10000.0
+    rho = float(atmosphere(alt, "ft").density)
+    ts = TypicalSection(b, HP["a"], HP["x_alpha"], HP["r_alpha_sq"],
+                        HP["mu"] * np.pi * rho * b**2, HP["sigma"] * w_a, w_a)
+    st = ModalStructure(ts.mass_matrix(), ts.stiffness_matrix())
+    k = np.r_[0.0, np.geomspace(0.005, 2.0, 40)]
+    gaf = GAF(0.0, b, k, ts.gaf(k))
+    table = AeroTable.from_gaf(gaf)
+    lo, hi = speed_range(st, table)
+    # V = ω b / k over the table: the lowest in-vacuo ω at k = 2, the highest at k = 0.005
+    w = 2 * np.pi * st.natural_frequencies_hz()
+    assert (lo, hi) == pytest.approx((w[0] * b / 2.0, w[-1] * b / 0.005), rel=1e-12)
+    pk, sweep = flutter_speed_pk(st, table, alt)
+    assert pk.velocity == pytest.approx(2.18391 * b * w_a, rel=1e-4)
+    assert 2 * np.pi * pk.frequency_hz == pytest.approx(0.64898 * w_a, rel=1e-4)
+    assert pk.kind == "sustained" and pk.density == pytest.approx(rho)
+    assert sweep.velocity[0] == pytest.approx(lo) and sweep.velocity[-1] == pytest.approx(hi)
+    ss = flutter_speed_state_space(st, fit_minimum_state(gaf, n_lags=8), table, alt)
+    assert ss.velocity == pytest.approx(pk.velocity, rel=5e-3)
+    assert ss.as_dict()["dynamic_pressure"] == pytest.approx(0.5 * rho * ss.velocity**2)

@@ -1,0 +1,102 @@
+"""Flutter speed at a fixed density: the answer for incompressible (Mach 0) aerodynamics.
+
+At a fixed Mach number the flutter point is an altitude (matched point, V = M a(h)); at Mach 0
+(GAFs computed for incompressible flow) no Mach ties the speed to the altitude (V = 0 a(h) = 0),
+so the flutter point is instead the speed at which a root's damping crosses zero at the
+density of a given altitude (USSA-76, :mod:`torchrom.aero.atmosphere`):
+
+* p-k: a sweep over :func:`speed_range` (:func:`torchrom.aero.flutter.pk_sweep`), its crossings
+  labelled and solved between the speeds (:func:`torchrom.aero.crossings.pk_crossings`); the
+  first flutter crossing (lowest onset speed) is the flutter point;
+* state space: the growth rate of the critical root (:func:`torchrom.aero.flutter.critical_root`)
+  on the same speeds, its first upward zero refined by Brent's method.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import scipy
+
+from .atmosphere import atmosphere
+from .crossings import pk_crossings
+from .flutter import AeroTable, ModalStructure, ModeSweep, critical_root, pk_sweep
+from .rfa import RFA
+
+#: speeds of the sweep that brackets the flutter speed
+N_SPEEDS = 61
+
+
+@dataclass
+class FlutterSpeed:
+    """The flutter speed at one altitude's density (None: no crossing in the speed range)."""
+
+    method: str
+    altitude: float
+    density: float
+    velocity: float | None
+    frequency_hz: float | None
+    mode: int | None = None
+    kind: str | None = None
+    stable_velocity: float | None = None
+    units: str = "ft"
+
+    def as_dict(self) -> dict:
+        return {
+            "method": self.method, "mach": 0.0, "altitude": self.altitude,
+            "density": self.density, "velocity": self.velocity,
+            "frequency_hz": self.frequency_hz,
+            "dynamic_pressure": None if self.velocity is None
+            else 0.5 * self.density * self.velocity**2,
+            "mode": None if self.mode is None else self.mode + 1, "kind": self.kind,
+            "stable_velocity": self.stable_velocity, "units": self.units,
+        }
+
+
+def speed_range(structure: ModalStructure, aero: AeroTable) -> tuple[float, float]:
+    """Speeds at which the structure's frequencies have reduced frequencies inside the GAF
+    table: V = ω b / k from the lowest elastic ω at the largest k to the highest ω at the lowest
+    positive k (p-k interpolates Q(k) there instead of extrapolating)."""
+    w = 2 * np.pi * structure.natural_frequencies_hz()
+    w = w[w > 1e-3 * w.max()]
+    k_lo = aero.k_damp if aero.k_damp > 0 else 1e-3
+    k_hi = aero.k_max if np.isfinite(aero.k_max) else 2.0
+    return float(w.min() * aero.semichord / k_hi), float(w.max() * aero.semichord / k_lo)
+
+
+def flutter_speed_pk(structure: ModalStructure, aero: AeroTable, altitude: float,
+                     units: str = "ft", n_speeds: int = N_SPEEDS) -> tuple[FlutterSpeed,
+                                                                          ModeSweep]:
+    """The p-k flutter speed at the density of ``altitude`` (and the sweep)."""
+    rho = float(atmosphere(altitude, units).density)
+    v = np.geomspace(*speed_range(structure, aero), n_speeds)
+    sweep = pk_sweep(structure, aero, v, rho, mach=0.0, eps=1e-7)
+    points = pk_crossings(structure, aero, sweep).flutter
+    if not points:
+        return FlutterSpeed("p-k", float(altitude), rho, None, None, units=units), sweep
+    p = min(points, key=lambda p: p.velocity)
+    return FlutterSpeed("p-k", float(altitude), rho, p.velocity, p.frequency_hz, p.mode, p.kind,
+                        p.stable_velocity, units), sweep
+
+
+def flutter_speed_state_space(structure: ModalStructure, rfa: RFA, aero: AeroTable,
+                              altitude: float, units: str = "ft",
+                              n_speeds: int = N_SPEEDS) -> FlutterSpeed:
+    """The state-space flutter speed at the density of ``altitude`` (first upward zero of the
+    critical root's growth rate over :func:`speed_range`)."""
+    rho = float(atmosphere(altitude, units).density)
+    v = np.geomspace(*speed_range(structure, aero), n_speeds)
+
+    def growth(x):
+        return critical_root(structure, rfa, x, rho).real
+
+    sig = np.array([growth(x) for x in v])
+    up = np.flatnonzero((sig[:-1] < 0) & (sig[1:] >= 0))
+    if len(up) == 0:
+        return FlutterSpeed("state-space", float(altitude), rho, None, None, units=units)
+    i = up[0]
+    vf = float(scipy.optimize.brentq(growth, v[i], v[i + 1], xtol=1e-10 * v[i + 1]))
+    root = critical_root(structure, rfa, vf, rho)
+    return FlutterSpeed("state-space", float(altitude), rho, vf, root.imag / (2 * np.pi),
+                        units=units)
