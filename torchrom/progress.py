@@ -16,8 +16,8 @@ width, measured at each redraw, so it never wraps onto a second line. Whatever e
 while a bar is drawn (a stage message, a Python warning, a log line) goes above it: the command
 line writes stdout and stderr through :class:`AboveBars`, which clears the open bars, writes the
 complete line and redraws them, so a message never lands on the bar's line. No colour and no
-other escape sequence is written (tqdm's single bar needs none), so ``NO_COLOR`` and
-``TERM=dumb`` are honoured as they are.
+other escape sequence is written (one bar at a time, which is all a command draws, needs only
+carriage returns), so ``NO_COLOR`` and ``TERM=dumb`` are honoured as they are.
 
 The verbosity is process-wide (:func:`set_verbosity`, set by the command line from
 ``--quiet``/``--verbose``); :func:`info` prints a stage message unless quiet. Bars delegated to
