@@ -66,3 +66,30 @@ def test_table2_figure_from_a_modes_table(tmp_path):
     modes.to_csv(tmp_path / "modes.csv", index=False)
     assert main(["plot", str(tmp_path / "modes.csv"), "--figure", "table2", "--out",
                  str(tmp_path / "t2.png")]) == 0
+
+
+def test_a_table_without_an_lco_is_refused_in_one_line(tmp_path):
+    """Issue 37: a table where every case decayed gave an empty figure and exit 0. Now one line,
+    exit 2 and no figure, for the general form and the LCO figures (a real process: what a
+    user runs)."""
+    import os
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    import torchrom
+    from tests.test_paper_findings import paper_like_table
+
+    decayed = paper_like_table()
+    decayed["status"] = "decay"
+    decayed.to_csv(tmp_path / "decayed.csv", index=False)
+    env = {**os.environ, "PYTHONPATH": str(Path(torchrom.__file__).parents[1])}
+    for form in (["--x", "altitude_ft"], ["--figure", "fig12"]):
+        run = subprocess.run([sys.executable, "-m", "torchrom", "plot", "decayed.csv", *form,
+                              "--out", "f.png"], cwd=tmp_path, env=env, capture_output=True,
+                             text=True, timeout=300)
+        assert run.returncode == 2, run.stderr
+        assert run.stderr == ("torchrom plot: error: no case with an LCO in decayed.csv: nothing "
+                              "to plot\n")
+        assert not (tmp_path / "f.png").exists() and list(tmp_path.iterdir()) == [
+            tmp_path / "decayed.csv"]

@@ -67,3 +67,71 @@ def test_verbose_prints_every_update_even_on_a_terminal():
         for done in (1, 2, 3):
             bar.update_to(done)
     assert len(tty.getvalue().splitlines()) == 3 and "\r" not in tty.getvalue()
+
+
+def test_a_terminal_without_a_width_gets_an_80_column_bar():
+    """A pseudo-terminal that reports a size of 0 x 0 (``script`` without a terminal, some
+    containers) made tqdm draw an empty bar; it gets 80 columns."""
+    import os
+
+    master, slave = os.openpty()
+    try:
+        assert os.get_terminal_size(slave).columns == 0  # a new pseudo-terminal has no size
+        with open(slave, "w", encoding="utf-8", closefd=False) as tty:
+            with Progress(10, "cases done", stream=tty) as bar:
+                bar.update_to(10)
+        text = os.read(master, 1 << 16).decode()
+    finally:
+        os.close(master)
+        os.close(slave)
+    draws = [d for d in text.replace("\r\n", "\n").split("\r") if "10/10" in d]
+    assert draws and all(len(d.rstrip("\n")) <= progress.DEFAULT_COLUMNS for d in draws)
+    assert "█" * 10 in draws[-1]  # the bar itself is drawn, not only the counter
+
+
+def test_lines_written_while_a_bar_is_drawn_go_above_it():
+    """AboveBars (the command line's stdout/stderr): a line printed while a bar is drawn
+    clears the bar, is written, and the bar is drawn again below it; a partial line waits for
+    its newline, or for the bar to close."""
+    tty = _Tty()
+    out = progress.AboveBars(tty)
+    with Progress(4, "cases done", stream=out) as bar:
+        bar.update_to(1)
+        out.write("warning: ")
+        assert "warning" not in tty.getvalue()  # held until its line is complete
+        print("linear elements", file=out)
+        bar.update_to(2)
+        out.write("unfinished")
+        bar.update_to(4)
+    out.flush()
+    text = tty.getvalue()
+    before, line, after = text.partition("warning: linear elements\n")
+    assert line, text
+    drawn, blank, rest = before.split("\r")[-3:]
+    assert "0/4" in drawn and blank == " " * len(blank) and rest == ""  # the bar blanked out
+    assert after.startswith("\rcases done:") and "1/4" in after.split("\r")[1]  # drawn again
+    # the partial line is released once the bar has closed (its last draw, then a newline)
+    assert text.endswith("cases/s]\nunfinished") and text.count("unfinished") == 1
+    assert not progress._open_bars
+
+
+def test_above_bars_passes_through_a_pipe_or_without_a_bar():
+    pipe, tty = io.StringIO(), _Tty()
+    for stream in (pipe, tty):
+        out = progress.AboveBars(stream)
+        out.write("partial")
+        assert stream.getvalue() == "partial"
+    out = progress.AboveBars(pipe)
+    with Progress(2, "cases", stream=_Tty()) as bar:
+        bar.update_to(1)
+        out.write(" more")  # a pipe is not the bar's terminal: written as it comes
+        assert pipe.getvalue() == "partial more"
+
+
+def test_close_bars_closes_what_a_failure_left_open():
+    tty = _Tty()
+    bar = Progress(3, "cases", stream=tty)
+    bar.update_to(1)
+    assert progress._open_bars == [bar]
+    progress.close_bars()
+    assert progress._open_bars == [] and bar._bar is None and tty.getvalue().endswith("\n")

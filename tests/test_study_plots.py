@@ -105,3 +105,23 @@ def test_fold_is_on_the_branch_curve(drawn):
     # the y axis names the decision output and its unit, not "(output units)"
     assert ax.get_ylabel() == "LCO amplitude of A_Tz (ft)"
     assert ax.get_xlabel() == "α (1/s)"
+
+
+def test_note_goes_where_it_covers_no_marker(drawn):
+    """A sweep where every case decayed (the sweep's own figure): the panel says "no case with an
+    LCO", and the note is moved off its first place (top centre) when markers are there."""
+    t = lco_table()
+    t["status"], t["amplitude"] = "decay", 0.0
+    fig = drawn(plots, plots.parameter_plot, t, "x.png", x="altitude_ft", y="amplitude",
+                hue="gamma")
+    ax = fig.axes[0]
+    (note,) = ax.texts
+    assert note.get_text() == plots.NO_LCO and note.get_position() == (0.5, 0.97)
+    ax.set_ylim(-0.5, 0.03)  # the decays at 0 now lie at 94 % height, under the note: it moves
+    moved = plots.note_clear_of_markers(ax, "moved")
+    renderer = fig.canvas.get_renderer()
+    bb = moved.get_window_extent(renderer)
+    assert moved.get_position() != (0.5, 0.97)
+    assert not any(bb.x0 < x1 and x0 < bb.x1 and bb.y0 < y1 and y0 < bb.y1
+                   for x0, y0, x1, y1 in plots.marker_boxes(ax))
+    assert plots.marker_boxes(ax)  # there are markers to avoid

@@ -9,13 +9,16 @@ Bad input raises :class:`torchrom.errors.TorchromError`; it is printed as one li
 system (a full disk, no permission), which is not a bug either, and a ``MemoryError`` (a problem
 too large for this machine even after the up-front bounds of :mod:`torchrom.bounds`).
 Everything a command prints goes through :class:`torchrom.text.SafeStream` (no terminal control
-sequence from a title or a file name reaches the terminal), and a Python warning is one line
-``torchrom <cmd>: warning: ...``.
+sequence from a title or a file name reaches the terminal) and :class:`torchrom.progress.AboveBars`
+(a line printed while a progress bar is drawn goes above the bar), and a Python warning is one
+line ``torchrom <cmd>: warning: ...``. pyNastran's logger (cpylog) is kept from colouring the
+terminal (:func:`_uncoloured_pynastran_log`): the command line writes no colour at all.
 """
 
 from __future__ import annotations
 
 import argparse
+import atexit
 import importlib
 import pkgutil
 import sys
@@ -77,12 +80,14 @@ def main(argv: list[str] | None = None) -> int:
         parser.print_help()
         return 0
     from .bounds import set_allow_large
-    from .progress import NORMAL, QUIET, VERBOSE, set_verbosity
+    from .progress import NORMAL, QUIET, VERBOSE, AboveBars, set_verbosity
 
     set_verbosity(QUIET if args.quiet else VERBOSE if args.verbose else NORMAL)
     set_allow_large(args.allow_large)
+    _uncoloured_pynastran_log()
     streams = sys.stdout, sys.stderr
-    sys.stdout, sys.stderr = SafeStream(sys.stdout), SafeStream(sys.stderr)
+    sys.stdout = AboveBars(SafeStream(sys.stdout))
+    sys.stderr = AboveBars(SafeStream(sys.stderr))
     try:
         with warnings.catch_warnings():
             warnings.showwarning = _one_line_warning(args._name)
@@ -90,6 +95,34 @@ def main(argv: list[str] | None = None) -> int:
     finally:
         sys.stdout, sys.stderr = streams
         set_allow_large(False)  # the option is this run's; the API keeps its own bounds
+
+
+def _uncoloured_pynastran_log() -> None:
+    """Import pyNastran's logger (cpylog) now and undo what it does on a terminal.
+
+    Imported with stdout a terminal, cpylog calls ``colorama.init(autoreset=True)``, which
+    replaces ``sys.stdout``/``sys.stderr`` by wrappers writing a colour reset (ESC [0m) after
+    every write and once more at exit, and it colours its own messages. Behind
+    :class:`SafeStream` each reset would show as the text ``\\x1b[0m`` and push a progress
+    bar past the terminal's edge. Here the wrappers are removed (only if they are still the
+    streams: nothing else is undone), the exit reset unregistered, and cpylog writes plain
+    text. Without pyNastran (or colorama) installed, nothing to do.
+    """
+    try:
+        import colorama.initialise as colorama_init
+        import cpylog
+        from cpylog.screen_utils import write_screen
+    except ImportError:
+        return
+    wrapped = False
+    if sys.stdout is not None and sys.stdout is colorama_init.wrapped_stdout:
+        sys.stdout, wrapped = colorama_init.orig_stdout, True
+    if sys.stderr is not None and sys.stderr is colorama_init.wrapped_stderr:
+        sys.stderr, wrapped = colorama_init.orig_stderr, True
+    if wrapped:
+        atexit.unregister(colorama_init.reset_all)
+    cpylog._write = write_screen
+    cpylog.USE_COLORAMA = False
 
 
 def _one_line_warning(command: str):
@@ -107,8 +140,13 @@ def _one_line_warning(command: str):
 
 
 def _run(args: argparse.Namespace) -> int:
+    from .progress import close_bars
+
     try:
-        rc = args._run(args)
+        try:
+            rc = args._run(args)
+        finally:
+            close_bars()  # a bar left open by a failure is not redrawn under its error line
     except TorchromError as exc:
         print(f"torchrom {args._name}: error: {exc}", file=sys.stderr)
         return 2

@@ -11,6 +11,14 @@ Every long command (``sweep``, ``paper``, ``identify``, ``aero``, ``calibrate``,
 - ``--quiet`` (verbosity 0): nothing; ``--verbose`` (verbosity 2): a line at every update, also
   on a terminal (instead of the bar).
 
+On a terminal the bar is redrawn in place (a carriage return, no newline) at the terminal's
+width, measured at each redraw, so it never wraps onto a second line. Whatever else is printed
+while a bar is drawn (a stage message, a Python warning, a log line) goes above it: the command
+line writes stdout and stderr through :class:`AboveBars`, which clears the open bars, writes the
+complete line and redraws them, so a message never lands on the bar's line. No colour and no
+other escape sequence is written (one bar at a time, which is all a command draws, needs only
+carriage returns), so ``NO_COLOR`` and ``TERM=dumb`` are honoured as they are.
+
 The verbosity is process-wide (:func:`set_verbosity`, set by the command line from
 ``--quiet``/``--verbose``); :func:`info` prints a stage message unless quiet. Bars delegated to
 tqdm; the line format is hand-written.
@@ -18,8 +26,11 @@ tqdm; the line format is hand-written.
 
 from __future__ import annotations
 
+import os
 import sys
 import time
+import weakref
+from contextlib import contextmanager
 from typing import IO
 
 QUIET, NORMAL, VERBOSE = 0, 1, 2
@@ -55,6 +66,78 @@ def format_seconds(seconds: float) -> str:
     return f"{h}:{m:02d}:{s:02d}" if h else f"{m}:{s:02d}"
 
 
+DEFAULT_COLUMNS = 80  # a bar's width on a terminal that reports none
+
+
+def _terminal_columns(stream) -> int | None:
+    """The width of the terminal ``stream`` writes to, or None when it reports none."""
+    try:
+        return os.get_terminal_size(stream.fileno()).columns or None
+    except (AttributeError, OSError, ValueError):
+        return None
+
+
+_open_bars: list[Progress] = []  # bars now drawn, in the order they were opened
+_above_streams: weakref.WeakSet = weakref.WeakSet()  # AboveBars streams holding a partial line
+
+
+@contextmanager
+def _bars_cleared():
+    """The open bars erased for the duration (something is written on their line), then drawn
+    again below it."""
+    bars = [p._bar for p in _open_bars if p._bar is not None]
+    for b in bars:
+        b.clear()
+    try:
+        yield
+    finally:
+        for b in bars:
+            b.refresh()
+
+
+class AboveBars:
+    """A text stream that writes its lines above the open progress bars when it is a terminal
+    (see the module docstring); a partial line waits for its newline (or for the last bar to
+    close). Everything else (``isatty``, ``fileno``, ...) is the wrapped stream's, ``beneath``."""
+
+    def __init__(self, stream):
+        self.beneath = stream
+        self._partial = ""
+
+    def write(self, text: str) -> int:
+        if not (_open_bars or self._partial) or not self._is_tty():
+            return self.beneath.write(text)
+        lines, newline, self._partial = (self._partial + text).rpartition("\n")
+        if newline:
+            with _bars_cleared():
+                self.beneath.write(lines + newline)
+                self.beneath.flush()
+        if self._partial:
+            _above_streams.add(self)
+        return len(text)
+
+    def writelines(self, lines) -> None:
+        for line in lines:
+            self.write(line)
+
+    def flush(self) -> None:
+        if self._partial and not _open_bars:
+            self._release()
+        self.beneath.flush()
+
+    def _release(self) -> None:
+        """Write the partial line held back while a bar was drawn."""
+        text, self._partial = self._partial, ""
+        self.beneath.write(text)
+        self.beneath.flush()
+
+    def _is_tty(self) -> bool:
+        return bool(getattr(self.beneath, "isatty", lambda: False)())
+
+    def __getattr__(self, name):
+        return getattr(self.beneath, name)
+
+
 class Progress:
     """Progress of ``total`` units of work (see the module docstring for what is shown where).
 
@@ -80,7 +163,15 @@ class Progress:
         if use_bar:
             from tqdm import tqdm
 
-            self._bar = tqdm(total=self.total, desc=desc, unit=unit, file=self.stream)
+            # tqdm draws on the stream beneath AboveBars (its redraws must not wait for a
+            # newline) at the terminal's width, measured at each redraw, so the bar never wraps
+            # (a wrapped bar turns every update into a new line); a terminal that reports no
+            # width (a pseudo-terminal of size 0) would get an empty bar: 80 columns then
+            beneath = getattr(self.stream, "beneath", self.stream)
+            known = _terminal_columns(beneath) is not None
+            self._bar = tqdm(total=self.total, desc=desc, unit=unit, file=beneath,
+                             dynamic_ncols=known, ncols=None if known else DEFAULT_COLUMNS)
+            _open_bars.append(self)
 
     def __enter__(self) -> Progress:
         return self
@@ -117,7 +208,8 @@ class Progress:
         if self.level == QUIET:
             return
         if self._bar is not None:
-            self._bar.write(message, file=self.stream)
+            with _bars_cleared():
+                print(message, file=self._bar.fp, flush=True)
         else:
             print(message, file=self.stream, flush=True)
 
@@ -125,6 +217,18 @@ class Progress:
         if self._bar is not None:
             self._bar.close()
             self._bar = None
+            _open_bars.remove(self)
+            if not _open_bars:
+                for stream in list(_above_streams):
+                    stream._release()
+                _above_streams.clear()
+
+
+def close_bars() -> None:
+    """Close the bars still open (a command that failed half-way left them): its error is then
+    printed below them, not redrawn over."""
+    for bar in list(_open_bars):
+        bar.close()
 
 
 class Stages:

@@ -18,7 +18,9 @@ with columns mode, frequency_hz[, kind]). ``--flutter-altitude FT`` marks our fl
 (the paper's is always marked).
 
 The figure's format follows the suffix of ``--out`` (png, pdf, svg). An existing file is kept
-unless ``--force``.
+unless ``--force``. A table with a ``status`` column and no converged LCO (every case decayed,
+say) is refused, one line and nothing written, for the general form and the LCO figures
+(fig10, fig12, fig13): their axes would be empty or a row of decays at 0.
 """
 
 from __future__ import annotations
@@ -37,6 +39,7 @@ from ._common import (
 NAME = "plot"
 HELP = "draw any result table (--x/--y/--hue/--facet) or a paper figure (--figure fig9..fig13)"
 FIGURE_NAMES = ("fig9", "fig10", "fig11", "fig12", "fig13", "table2")
+LCO_FIGURES = ("fig10", "fig12", "fig13")  # figures of the converged LCOs alone
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -82,6 +85,9 @@ def run(args: argparse.Namespace) -> int:
         raise InputError("plot: give either --x (and --y, --hue, --facet) for any table or "
                          "--figure NAME for a paper figure")
     table = read_table(args.table)
+    if (args.figure in (None, *LCO_FIGURES) and "status" in table.columns
+            and not (table["status"] == "lco").any()):
+        raise InputError(f"no case with an LCO in {args.table}: nothing to plot")
     if args.figure is None:
         path = parameter_plot(table, args.out, x=args.x, y=args.y, hue=args.hue,
                               facet=args.facet, title=args.title, force=args.force)

@@ -16,10 +16,14 @@ A *curve* is a group of cases with the same (γ, stiffness_nl, damping_nl); curv
 altitude (e.g. the extra Fig. 11 cases) are left out of the altitude plots. Each curve has its
 own line style and marker, later curves thinner, so that coincident curves (γ = 1e-5 on γ = 0)
 stay visible; a converged LCO is the curve's marker filled, other statuses are marked apart;
-the legend, outside the axes, lists only the curves and statuses drawn. Log axes read plain
-numbers. Where the paper states a value (Table 2, the flutter point, Table 3) it is drawn
-from the package's reference data (:func:`torchrom.reference.paper_reference`), never typed
-here; the flutter altitude (ours when given, and the paper's) is marked on the altitude axes.
+the legend, outside the axes, lists only the curves and statuses drawn; no text on the axes
+covers a marker (the flutter altitudes are named in the legend; a note is placed where its box
+covers none, :func:`torchrom.study.plots.note_clear_of_markers`). Log axes say so in their
+labels and read plain numbers, at least four of them (:func:`plain_log_ticks`). An axes without
+any converged LCO says "no case with an LCO". Where the paper states a value (Table 2, the
+flutter point, Table 3) it is drawn from the package's reference data
+(:func:`torchrom.reference.paper_reference`), never typed here; the flutter altitude (ours
+when given, and the paper's) is marked on the altitude axes.
 Layout; drawing delegated to matplotlib.
 """
 
@@ -34,6 +38,7 @@ import pandas as pd
 from ..errors import InputError
 from ..io import atomic_path, check_can_write
 from ..reference import PaperReference, paper_reference
+from .plots import NO_LCO, note_clear_of_markers
 
 #: marker per status other than a converged LCO (drawn with the curve's own marker, filled)
 MARKERS = {"decay": ("v", False), "diverged": ("^", False), "failed": ("x", True)}
@@ -158,25 +163,15 @@ def _curve_axes(ax, table: pd.DataFrame, y: str, x: str = "altitude_ft") -> set[
 
 def _flutter_lines(ax, flutter_altitude_ft: float | None, ref: PaperReference) -> None:
     """Vertical lines at our flutter altitude (when known; red, dashed) and at the paper's
-    (blue, dotted), each named beside its line on the side away from the other (they are
-    ~75 ft apart on a several-thousand-foot axis), and in the legend."""
-    from matplotlib.transforms import blended_transform_factory
-
+    (blue, dotted), named in the legend with their altitudes. Not named on the axes: the lines
+    are ~75 ft apart beside the flutter points and the last LCOs, where a name would cover
+    their markers (issue 37)."""
     ours = flutter_altitude_ft is not None and np.isfinite(flutter_altitude_ft)
-    lines = [(ref.flutter_altitude_ft, "tab:blue", ":", 1.6, "paper", "paper's flutter altitude")]
+    lines = [(ref.flutter_altitude_ft, "tab:blue", ":", 1.6, "paper's flutter altitude")]
     if ours:
-        lines.append((float(flutter_altitude_ft), "tab:red", "--", 1.3, "ours",
-                      "our flutter altitude"))
-    lines.sort(key=lambda line: line[0])
-    lo, hi = ax.get_xlim()  # room right of the higher line for its name
-    ax.set_xlim(lo, max(hi, lines[-1][0] + 0.04 * (lines[-1][0] - lo)))
-    trans = blended_transform_factory(ax.transData, ax.transAxes)
-    for i, (h, color, ls, lw, short, long) in enumerate(lines):
-        ax.axvline(h, color=color, lw=lw, ls=ls, label=f"{long} {h:,.0f} ft", zorder=1)
-        right = i == len(lines) - 1  # the higher one's name to its right, the other's left
-        ax.text(h, 0.97, f" {short} {h:,.0f} ft " if right else f"{short} {h:,.0f} ft ",
-                transform=trans, rotation=90, va="top", ha="left" if right else "right",
-                color=color, fontsize=7.5)
+        lines.append((float(flutter_altitude_ft), "tab:red", "--", 1.3, "our flutter altitude"))
+    for h, color, ls, lw, name in sorted(lines, key=lambda line: line[0]):
+        ax.axvline(h, color=color, lw=lw, ls=ls, label=f"{name} {h:,.0f} ft", zorder=1)
 
 
 def _title(table: pd.DataFrame, what: str) -> str:
@@ -235,6 +230,8 @@ def _altitude_figure(table: pd.DataFrame, path, y: str, ylabel: str, title: str,
         decorate(ax)
     _legend_outside(ax, ax.get_legend_handles_labels()[0] + _status_legend(plt, drawn))
     ax.set_title(_title(table, title), fontsize=10)
+    if "lco" not in drawn:
+        note_clear_of_markers(ax, NO_LCO)
     return _save(fig, path, force)
 
 
@@ -314,14 +311,18 @@ def fig13(table: pd.DataFrame, path, *, force: bool = False, q4_mode: int = 4,
     plt = _plt()
     fig, axes = plt.subplots(1, 2, figsize=(12.5, 4.6), constrained_layout=True)
     drawn: set[str] = set()
+    empty = []
     for ax, col, what in ((axes[0], "ratio_q1_q2", "q1 / q2"),
                           (axes[1], col4, f"q1 / q{q4_mode}")):
-        drawn |= _curve_axes(ax, table, col)
+        on_axes = _curve_axes(ax, table, col)
+        drawn |= on_axes
+        if "lco" not in on_axes:
+            empty.append(ax)
         _flutter_lines(ax, flutter_altitude_ft, ref)
         ax.set_yscale("log")
         plain_log_ticks(ax.yaxis)
         ax.set_xlabel("altitude (ft)")
-        ax.set_ylabel(f"LCO amplitude ratio {what} (-)")
+        ax.set_ylabel(f"LCO amplitude ratio {what} (-, log scale)")
     _legend_outside(axes[1], axes[1].get_legend_handles_labels()[0] + _status_legend(plt, drawn))
     axes[0].set_title("a) q1/q2 (bending / torsion)", fontsize=10)
     import textwrap
@@ -330,21 +331,33 @@ def fig13(table: pd.DataFrame, path, *, force: bool = False, q4_mode: int = 4,
     axes[1].set_title(f"b) q1/q{q4_mode}{note}", fontsize=10)
     fig.suptitle(_title(table, "Fig. 13: ratios of LCO generalized-coordinate amplitudes"),
                  fontsize=10)
+    for ax in empty:
+        note_clear_of_markers(ax, NO_LCO)
     return _save(fig, path, force)
 
 
-def plain_log_ticks(axis) -> None:
-    """Tick labels of a log axis as plain numbers (10, 20, 50, 100; not 2×10¹ or 10¹): the
-    decades and, between them, 2 and 5 × each decade."""
-    from matplotlib.ticker import FuncFormatter, LogLocator
+def plain_log_ticks(axis, min_labels: int = 4) -> None:
+    """Tick labels of a log axis as plain numbers (10, 20, 50, 100; not 2×10¹ or 10¹), at least
+    ``min_labels`` of them in the axis's present range: the decades and 2 and 5 × each decade
+    where that gives enough (a range of several decades), otherwise round numbers 1, 2, 2.5 or
+    5 × a power of ten apart (Fig. 13's ratios span 9-21: decades alone label only 10 and 20).
+    Minor ticks, unlabelled, at every integer multiple of each decade, so the spacing shows the
+    scale is logarithmic. Call it once the data are drawn (the choice reads the axis range)."""
+    from matplotlib.ticker import FuncFormatter, LogLocator, MaxNLocator, NullFormatter
 
     def plain(v, _pos=None) -> str:
         return f"{v:.10g}" if v > 0 else ""
 
-    axis.set_major_locator(LogLocator(base=10.0))
+    lo, hi = sorted(axis.get_view_interval())
+    decades = LogLocator(base=10.0, subs=(1.0, 2.0, 5.0))
+    inside = [v for v in decades.tick_values(lo, hi) if lo <= v <= hi]
+    if len(inside) >= min_labels:
+        axis.set_major_locator(decades)
+    else:
+        axis.set_major_locator(MaxNLocator(nbins=2 * min_labels, steps=[1, 2, 2.5, 5, 10]))
     axis.set_major_formatter(FuncFormatter(plain))
-    axis.set_minor_locator(LogLocator(base=10.0, subs=(2.0, 5.0)))
-    axis.set_minor_formatter(FuncFormatter(plain))
+    axis.set_minor_locator(LogLocator(base=10.0, subs=tuple(range(1, 10))))
+    axis.set_minor_formatter(NullFormatter())
 
 
 def table2(modes: pd.DataFrame, path, *, force: bool = False,

@@ -133,6 +133,11 @@ def parameter_plot(table: pd.DataFrame, path, *, x: str, y: str = "amplitude",
         fig.legend(handles=handles, loc="outside lower center", fontsize=8, ncol=ncol)
     if title:
         fig.suptitle(title, fontsize=10)
+    if has_status:
+        for ax, value in zip(axes.flat, panels):
+            sub = table if facet is None else table[table[facet] == value]
+            if not (sub["status"] == "lco").any():
+                note_clear_of_markers(ax, NO_LCO)
     return _save(fig, path)
 
 
@@ -156,6 +161,50 @@ def _value_label(table: pd.DataFrame, column: str, value) -> str:
     except (TypeError, ValueError):
         v = str(value)
     return f"{name} = {v}" + (f" {unit}" if unit and unit != "-" else "")
+
+
+#: where :func:`note_clear_of_markers` tries a note, in axes fractions (x, y, ha, va), in order
+NOTE_PLACES = ((0.5, 0.97, "center", "top"), (0.5, 0.03, "center", "bottom"),
+               (0.5, 0.5, "center", "center"), (0.03, 0.97, "left", "top"),
+               (0.97, 0.97, "right", "top"), (0.03, 0.03, "left", "bottom"),
+               (0.97, 0.03, "right", "bottom"))
+NO_LCO = "no case with an LCO"
+
+
+def marker_boxes(ax):
+    """The pixel boxes (x0, y0, x1, y1) of the markers drawn inside ``ax`` (as laid out now)."""
+    import numpy as np
+
+    boxes = []
+    for ln in ax.get_lines():
+        if not ln.get_visible() or ln.get_marker() in (None, "None", "", " ", ","):
+            continue
+        xy = np.column_stack([np.asarray(ln.get_xdata(), float),
+                              np.asarray(ln.get_ydata(), float)])
+        xy = ln.get_transform().transform(xy[np.isfinite(xy).all(axis=1)])
+        r = ln.get_markersize() * ax.figure.dpi / 72.0 / 2.0
+        boxes += [(x - r, y - r, x + r, y + r) for x, y in xy if ax.bbox.contains(x, y)]
+    return boxes
+
+
+def note_clear_of_markers(ax, text: str):
+    """``text`` written on ``ax`` at the first of :data:`NOTE_PLACES` where its box covers no
+    marker, as the figure is laid out now (so call it once the axes are complete); the first
+    place when none is clear. Returns the text artist."""
+    fig = ax.figure
+    fig.draw_without_rendering()  # the layout (and the axes' limits) the markers are drawn at
+    renderer = fig.canvas.get_renderer()
+    markers = marker_boxes(ax)
+    note = ax.text(0, 0, text, transform=ax.transAxes, fontsize=9, color="0.3", zorder=10)
+    for x, y, ha, va in (*NOTE_PLACES, NOTE_PLACES[0]):
+        note.set_position((x, y))
+        note.set_horizontalalignment(ha)
+        note.set_verticalalignment(va)
+        bb = note.get_window_extent(renderer)
+        if not any(bb.x0 < x1 and x0 < bb.x1 and bb.y0 < y1 and y0 < bb.y1
+                   for x0, y0, x1, y1 in markers):
+            break
+    return note
 
 
 def _pyplot():
