@@ -674,7 +674,8 @@ class _Reader(ExtraCards):
                 for name, flag in (("PA", e.pa), ("PB", e.pb))]
         return dict(eids=eid, nodes=[n1, n2], v=v, A=sec.A, I1=sec.I1, I2=sec.I2, J=sec.J, E=E,
                     G=G, rho=rho, nsm=sec.nsm, k1=sec.k1, k2=sec.k2, polar=polar, I12=sec.I12,
-                    wa=wa, wb=wb, pa=pins[0].astype(float), pb=pins[1].astype(float))
+                    wa=wa, wb=wb, pa=pins[0].astype(float), pb=pins[1].astype(float),
+                    na=np.asarray(sec.na, dtype=float))
 
     #: OFFT codes (MSC QRG CBAR remark): orientation vector in GA's displacement system (G) or
     #: basic (B); each end's offset in its grid's displacement system (G), basic (B) or the
