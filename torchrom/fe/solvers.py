@@ -338,7 +338,9 @@ class StaticResult:
     """Nonlinear static solution: ``u`` (n_dof,), ``converged``, total Newton ``iterations``,
     ``load_factor`` reached (1 when converged), ``residual_norm`` (of the last iterate),
     ``steps`` (load steps taken), ``reactions`` (force on prescribed DOFs, free-DOF vector,
-    zero elsewhere), ``history`` (per step: load factor, iterations, residual)."""
+    zero elsewhere), ``history`` (per step: load factor, iterations, residual),
+    ``failed_load_factor`` (the load factor of the last attempt that did not converge, None when
+    converged)."""
 
     u: np.ndarray
     converged: bool
@@ -349,6 +351,7 @@ class StaticResult:
     reactions: np.ndarray | None = None
     history: list[dict] = field(default_factory=list)
     message: str = ""
+    failed_load_factor: float | None = None
 
 
 def _prescribed(fe, prescribed) -> tuple[np.ndarray, np.ndarray]:
@@ -402,6 +405,7 @@ def static_solve(
     cuts = 0
     res_norm = 0.0
     message = ""
+    target = None
     while lam < 1.0 - 1e-14:
         target = min(1.0, lam + dlam)
         ok, u_new, its, res_norm = _newton(fe, u, F, target, p_idx, p_val, unknown, max_iter, tol)
@@ -426,7 +430,7 @@ def static_solve(
     reactions = np.zeros(n)
     reactions[p_idx] = r[p_idx]
     return StaticResult(u, converged, total_iter, lam, res_norm, steps, reactions, history,
-                        message)
+                        message, None if converged else target)
 
 
 def _newton(fe, u, F, lam, p_idx, p_val, unknown, max_iter, tol):
