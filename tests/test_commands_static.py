@@ -207,3 +207,13 @@ def test_bad_static_input_is_one_line(tmp_path, name, change, message):
     assert len(lines) == 1 and lines[0].startswith("torchrom static: error: "), run.stderr
     assert message in lines[0] and "beam.bdf" in lines[0]
     assert not out.exists()
+
+
+def test_grids_option_checks_its_grids(tmp_path, capsys):
+    """--grids names a grid the deck lacks, or is not a list of IDs: one line, exit 2."""
+    deck = _deck(tmp_path)
+    rc, cap = _static(capsys, deck, "--grids", "4,77")
+    assert rc == 2 and "--grids: grid 77 not found in beam.bdf" in cap.err
+    with pytest.raises(SystemExit) as exc:
+        main(["static", str(deck), "--grids", "4,x"])
+    assert exc.value.code == 2 and "expected grid IDs" in capsys.readouterr().err
