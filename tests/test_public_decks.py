@@ -386,7 +386,8 @@ def test_pazy_modes_and_mass_match_nastran():
 # the rigid tip section (RBE2 7330, independent grid 2366 at x = 0.043589 m, y = 0.5519937 m)
 # at its mid-chord x = 0.05 m, w = T3 − R2 (0.05 − 0.043589), over the Pazy wing's nominal
 # semispan 0.55 m. (These choices were found by matching: the rod's grid 61 itself over its
-# span station 0.5568 m gives +0.08 %, over 0.55 m +1.3 %.)
+# span station 0.5568 m gives +0.08 %, over 0.55 m +1.3 %; by reciprocity the mass on the tip
+# section's mid-chord and grid 61's displacement give the same linear numbers.)
 PAZY_TIP_DECK = """SOL {sol}
 CEND
 SPC = 2000

@@ -180,8 +180,9 @@ def plan_static(path, *, nonlinear: bool | None = None, steps: int | None = None
         raise InputError(f"{path}: no such deck")
     model = _read_pynastran(path)
     fname = path.name
-    is_nl = analysis_is_nonlinear(model.sol, fname, nonlinear)
+    # subcases first: a bulk-data-only deck (read as SOL 103 without case control) has none
     subcases = static_subcases(model, fname)
+    is_nl = analysis_is_nonlinear(model.sol, fname, nonlinear)
     models = {}
     for sc in subcases:
         if sc.spc not in models:
