@@ -413,6 +413,8 @@ def static_solve(
     target = None
     while lam < 1.0 - 1e-14:
         target = min(1.0, lam + dlam)
+        if target > 1.0 - 1e-12:  # the last step ends at 1 exactly, not at a sum of steps
+            target = 1.0
         ok, u_new, its, res_norm = _newton(fe, u, F, target, p_idx, p_val, unknown, max_iter, tol)
         total_iter += its
         if ok:
