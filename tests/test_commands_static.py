@@ -191,13 +191,17 @@ BAD = [
     ("sol_103", lambda t: t.replace("SOL {sol}", "SOL 103"), "SOL 103: not a static solution"),
     ("missing_card", lambda t: t.replace("-1.0    20", "-1.0    50"),
      "LOAD 40: field L: load set 50 not found"),
+    ("unknown_nlparm", lambda t: t.replace("SOL {sol}", "SOL 106").replace("{nlparm}",
+                                                                          "NLPARM = 8"),
+     "SUBCASE 1: NLPARM = 8: no NLPARM card with that ID"),
 ]
 
 
 @pytest.mark.parametrize("name, change, message", BAD, ids=[b[0] for b in BAD])
 def test_bad_static_input_is_one_line(tmp_path, name, change, message):
     """No static subcase, an unknown LOAD, a SOL that is not static, a LOAD combination naming a
-    missing GRAV set: exit 2, one line naming the deck and what was expected, no JSON."""
+    missing set, an unknown NLPARM: exit 2, one line naming the deck and what was expected, no
+    JSON."""
     deck = _deck(tmp_path, text=change(CANTILEVER))
     out = tmp_path / "out.json"
     run = subprocess.run([sys.executable, "-m", "torchrom", "static", str(deck), "--json",
