@@ -415,7 +415,9 @@ def static_solve(
     ‖Δu‖ there 1e-9 ‖u‖, while the work ratio falls from 5e-14 to 7e-17 in the iteration
     that reaches it). A step that
     fails (no convergence in ``max_iter``, NaN, or a growing residual) is halved, up to
-    ``max_cuts`` times; then the result says ``converged=False`` with the load factor reached
+    ``max_cuts`` times in all (a step that converges in at most ``max_iter // 4`` iterations
+    after a cut doubles the next one, up to 1/``n_steps``, as Nastran's NLPARM increments grow
+    back); then the result says ``converged=False`` with the load factor reached
     (or :class:`~torchrom.errors.ConvergenceError` with ``raise_on_failure``).
     """
     n = fe.n_dof
@@ -426,7 +428,7 @@ def static_solve(
     unknown = np.setdiff1d(np.arange(n), p_idx)
     u = np.zeros(n) if u0 is None else np.array(u0, dtype=float)
     lam, total_iter, steps, history = 0.0, 0, 0, []
-    dlam = 1.0 / max(int(n_steps), 1)
+    dlam = dlam0 = 1.0 / max(int(n_steps), 1)
     cuts = 0
     res_norm = 0.0
     message = ""
@@ -443,6 +445,8 @@ def static_solve(
             history.append({"load_factor": lam, "iterations": its, "residual": res_norm})
             if callback is not None:
                 callback(lam, u)
+            if dlam < dlam0 and its <= max_iter // 4:
+                dlam = min(dlam0, 2.0 * dlam)  # an easy step after a cut: lengthen again
             continue
         cuts += 1
         if cuts > max_cuts:
