@@ -156,18 +156,41 @@ def skew(v: torch.Tensor) -> torch.Tensor:
                         torch.stack((-v[..., 1], v[..., 0], z), -1)), -2)
 
 
-def rotation_exp(theta: torch.Tensor) -> torch.Tensor:
-    """R = exp([θ×]) = I + (sin φ/φ) [θ×] + ((1 − cos φ)/φ²) [θ×]², φ = |θ| (Rodrigues)."""
+def rodrigues(theta: torch.Tensor):
+    """(a, b, c) = (sin φ/φ, (1 − cos φ)/φ², cos φ), φ = |θ|, of rotation vectors (..., 3):
+    exp([θ×]) = c I + b θ θᵀ + a [θ×] (Rodrigues; [θ×]² = θ θᵀ − φ² I)."""
     s = (theta * theta).sum(-1)
     small = s < EXP_SERIES
     s_safe = torch.where(small, torch.ones_like(s), s)
     phi = torch.sqrt(s_safe)
     a = torch.where(small, _horner(s, _SIN_SERIES), torch.sin(phi) / phi)
     b = torch.where(small, _horner(s, _COS_SERIES), 2.0 * torch.sin(0.5 * phi) ** 2 / s_safe)
+    return a, b, 1.0 - b * s
+
+
+def rotate(theta: torch.Tensor, abc, v: torch.Tensor) -> torch.Tensor:
+    """exp([θ×]) v = c v + b θ (θ·v) + a θ × v for vectors v (..., 3) (broadcast)."""
+    a, b, c = (t[..., None] for t in abc)
+    theta, v = torch.broadcast_tensors(theta, v)
+    return (c * v + b * theta * (theta * v).sum(-1, keepdim=True)
+            + a * _cross(theta, v))
+
+
+def _cross(a: torch.Tensor, b: torch.Tensor) -> torch.Tensor:
+    """a × b over the last axis (written out: torch.linalg.cross has no batching rule under
+    torch.func.vmap, whose per-sample fallback made it most of the tangent's cost)."""
+    a1, a2, a3 = a.unbind(-1)
+    b1, b2, b3 = b.unbind(-1)
+    return torch.stack((a2 * b3 - a3 * b2, a3 * b1 - a1 * b3, a1 * b2 - a2 * b1), -1)
+
+
+def rotation_exp(theta: torch.Tensor) -> torch.Tensor:
+    """R = exp([θ×]) (..., 3, 3) of rotation vectors θ (..., 3) (:func:`rodrigues`)."""
+    a, b, c = rodrigues(theta)
     eye = torch.eye(3, dtype=theta.dtype, device=theta.device)
-    # [θ×]² = θ θᵀ − |θ|² I (no batched 3 × 3 products: they are slow on the CPU)
-    square = theta[..., :, None] * theta[..., None, :] - s[..., None, None] * eye
-    return eye + a[..., None, None] * skew(theta) + b[..., None, None] * square
+    outer = theta[..., :, None] * theta[..., None, :]
+    return (c[..., None, None] * eye + b[..., None, None] * outer
+            + a[..., None, None] * skew(theta))
 
 
 def rotation_log(Q: torch.Tensor) -> torch.Tensor:
@@ -188,24 +211,23 @@ def _unit(v: torch.Tensor) -> torch.Tensor:
 
 
 def _complete(e1: torch.Tensor, e3: torch.Tensor) -> torch.Tensor:
-    return torch.stack((e1, torch.linalg.cross(e3, e1), e3), dim=-1)
+    return torch.stack((e1, _cross(e3, e1), e3), dim=-1)
 
 
-def element_frame(frame: str, x: torch.Tensor, R: torch.Tensor, ref: torch.Tensor):
+def element_frame(frame: str, x: torch.Tensor, q: torch.Tensor | None = None):
     """Co-rotated axes (..., E, 3, 3), columns e1, e2, e3, from the nodal positions x
-    (..., E, nn, 3), rotations R (..., E, nn, 3, 3) and (line frames) the initial y axis ref
-    (E, 3) (module docstring)."""
+    (..., E, nn, 3) and (line frames) q (..., E, 3), the mean of the nodal rotations applied to
+    the initial y axis (module docstring)."""
     if frame == "line":
         e1 = _unit(x[..., 1, :] - x[..., 0, :])
-        q = 0.5 * (R * ref[:, None, None, :]).sum((-1, -3))
         e2 = _unit(q - (q * e1).sum(-1, keepdim=True) * e1)
-        return torch.stack((e1, e2, torch.linalg.cross(e1, e2)), dim=-1)
+        return torch.stack((e1, e2, _cross(e1, e2)), dim=-1)
     if frame == "quad":
-        e3 = _unit(torch.linalg.cross(x[..., 2, :] - x[..., 0, :], x[..., 3, :] - x[..., 1, :]))
+        e3 = _unit(_cross(x[..., 2, :] - x[..., 0, :], x[..., 3, :] - x[..., 1, :]))
         a = (x[..., 1, :] + x[..., 2, :]) - (x[..., 0, :] + x[..., 3, :])
         return _complete(_unit(a - (a * e3).sum(-1, keepdim=True) * e3), e3)
     e1 = x[..., 1, :] - x[..., 0, :]
-    e3 = _unit(torch.linalg.cross(e1, x[..., 2, :] - x[..., 0, :]))
+    e3 = _unit(_cross(e1, x[..., 2, :] - x[..., 0, :]))
     return _complete(_unit(e1), e3)
 
 
@@ -241,8 +263,7 @@ class CorotKernel:
         self.X = torch.as_tensor(xyz[els.conn], **opts) + self.w  # element nodes (E, nn, 3)
         self.K = torch.as_tensor(els.K, **opts)
         self.ref = torch.as_tensor(els.ref, **opts)
-        eye = torch.eye(3, **opts).expand(len(els), self.nn, 3, 3)
-        self.E0 = element_frame(els.frame, self.X, eye, self.ref)
+        self.E0 = element_frame(els.frame, self.X, self.ref)
         self.loc0 = torch.einsum("eij,eni->enj", self.E0,
                                  self.X - self.X.mean(-2, keepdim=True))
         self.dof_np = els.dof_index()
@@ -253,16 +274,24 @@ class CorotKernel:
     def local_d(self, ue: torch.Tensor) -> torch.Tensor:
         """Local deformational displacements and rotations d (..., E, 6nn)."""
         u = ue.reshape(*ue.shape[:-1], self.nn, 6)
-        R = rotation_exp(u[..., 3:])
-        # small contractions as broadcast sums: batched 3 × 3 products (bmm) are slow on the CPU
+        theta = u[..., 3:]
+        abc = rodrigues(theta)
         x = self.X + u[..., :3]
         if self.has_offsets:
-            x = x + (R * self.w[:, :, None, :]).sum(-1) - self.w
-        E = element_frame(self.els.frame, x, R, self.ref)[..., None, :, :]  # (..., E, 1, 3, 3)
-        y = x - x.mean(-2, keepdim=True)
-        dt = (E * y[..., :, None]).sum(-2) - self.loc0
-        ER = (E[..., :, :, None] * R[..., :, None, :]).sum(-3)  # Eᵀ R (..., E, nn, 3, 3)
-        Q = (ER[..., :, :, None] * self.E0[:, None, None, :, :]).sum(-2)  # Eᵀ R E⁰
+            x = x + rotate(theta, abc, self.w) - self.w
+        q = None
+        if self.els.frame == "line":
+            q = 0.5 * rotate(theta, abc, self.ref[:, None, :]).sum(-2)
+        E = element_frame(self.els.frame, x, q)  # (..., E, 3, 3)
+        dt = (x - x.mean(-2, keepdim=True)) @ E - self.loc0
+        # Q = Eᵀ R E⁰ = c M + b η ζᵀ + a [η×] M with M = Eᵀ E⁰, η = Eᵀ θ, ζ = E⁰ᵀ θ
+        # (Eᵀ [θ×] = [(Eᵀθ)×] Eᵀ): no rotation matrix per node is formed
+        M = (E.transpose(-1, -2) @ self.E0)[..., None, :, :]  # (..., E, 1, 3, 3)
+        eta, zeta = theta @ E, theta @ self.E0
+        a, b, c = (t[..., None, None] for t in abc)
+        cross = _cross(eta[..., None, :].expand(*eta.shape[:-1], 3, 3),
+                                   M.transpose(-1, -2).expand(*eta.shape[:-1], 3, 3))
+        Q = c * M + b * eta[..., :, None] * zeta[..., None, :] + a * cross.transpose(-1, -2)
         return torch.cat((dt, rotation_log(Q)), -1).reshape(ue.shape)
 
     def element_energy(self, ue: torch.Tensor) -> torch.Tensor:
@@ -310,10 +339,30 @@ class CorotKernel:
         cols = vmap(lambda t: jvp(f, (ue,), (t,))[1])(tangents)  # (k, E, m)
         return cols.permute(1, 2, 0)
 
+    def _hessian_parts(self, ue: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+        """(G, B) per element: G = Σ_i s_i ∂²d_i/∂u² at fixed s = K_e d (the stress-dependent
+        part of the Hessian H = Bᵀ K_e B + G) and B = ∂d/∂u, (E, 6nn, 6nn) each, from one
+        batched forward-over-reverse pass. K_e is kept out of the differentiated function: its
+        (E, k, k) product under the transforms cost twice the rest of the tangent."""
+        s = _per_element(self.K, self.local_d(ue))
+
+        def parts(z):
+            def work(w):
+                d = self.local_d(w)
+                return (s * d).sum(), d
+
+            return grad(work, has_aux=True)(z)
+
+        eye = torch.eye(self.k, dtype=ue.dtype, device=ue.device)
+        tangents = eye[:, None, :].expand(self.k, *ue.shape)
+        G, B = vmap(lambda t: jvp(parts, (ue,), (t,))[1])(tangents)  # (k, E, k) each
+        return G.permute(1, 2, 0), B.permute(1, 2, 0)
+
     def element_matrices(self, u_all: np.ndarray, material: float = 1.0, geometric: float = 1.0,
                          damping: float = 0.0, v_all: np.ndarray | None = None) -> np.ndarray:
-        """Per-element blocks (E, 6nn, 6nn) of material · Bᵀ K_e B + geometric · (H − Bᵀ K_e B)
-        + damping · ∂(Bᵀ K_e B v)/∂u, H the Hessian of the element energy (K_T = H)."""
+        """Per-element blocks (E, 6nn, 6nn) of material · Bᵀ K_e B + geometric · G
+        + damping · ∂(Bᵀ K_e B v)/∂u: Bᵀ K_e B + G is the Hessian of the element energy
+        (K_T, :meth:`_hessian_parts`)."""
         with _single_thread():
             return self._element_matrices(u_all, material, geometric, damping, v_all)
 
@@ -321,11 +370,9 @@ class CorotKernel:
         opts = dict(dtype=self.K.dtype, device=self.K.device)
         ue = self.gather(torch.as_tensor(u_all, **opts))
         out = torch.zeros(len(self.els), self.k, self.k, **opts)
-        if geometric:
-            out += geometric * self._columns(self._element_force, ue)
-        if material != geometric:
-            B = self._columns(self.local_d, ue)
-            out += (material - geometric) * (B.transpose(1, 2) @ self.K @ B)
+        if material or geometric:
+            G, B = self._hessian_parts(ue)
+            out += material * (B.transpose(1, 2) @ self.K @ B) + geometric * G
         if damping:
             ve = self.gather(torch.as_tensor(v_all, **opts))
             out += damping * self._columns(lambda z: self._element_material_force(z, ve), ue)
