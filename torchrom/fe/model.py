@@ -154,7 +154,8 @@ class FEModel:
     aerodynamic cards), ``loads`` (load set id → free-DOF vector), ``n_modes_requested`` (EIGR/EIGRL
     ND), ``autospc`` (list of (grid id, component) removed for lack of stiffness),
     ``wing_chord`` ((x_LE, x_TE) of the aerodynamic chord in basic x when known, e.g. the heavy
-    Goland wing's (0, 6) ft; None otherwise).
+    Goland wing's (0, 6) ft; None otherwise), ``rotations`` ("large": plate bending, beams and
+    rod torsion co-rotational in nonlinear analyses; "small": those linear).
     """
 
     def __init__(
