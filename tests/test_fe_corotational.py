@@ -287,23 +287,48 @@ def test_tangent_at_rest_is_the_linear_stiffness(mixed):
 
 
 def test_autograd_taylor_coefficients_at_rest(mixed):
-    """The intrusive identification's nested forward-mode derivatives of f at u = 0 exist and
-    the first is K (to rounding); the second is symmetric in its two directions."""
+    """The intrusive identification's nested forward-mode derivatives of f at u = 0
+    (torchrom.identify.intrusive: jacfwd up to three levels) exist; the first is K (to rounding)
+    and, projected on two vectors of a cantilever, the remainder of the cubic Taylor polynomial
+    falls as |q|⁵ (the quartic term vanishes by the symmetry f(−u) = −f(u) of a straight beam):
+    measured 32.0 on halving q; asserted 24-40."""
     fe = mixed
     q0 = torch.zeros(fe.n_dof, dtype=torch.float64)
     K1 = torch.func.jacfwd(fe.internal_force_torch)(q0).numpy()
     K0 = fe.stiffness_matrix().toarray()
     assert np.abs(K1 - K0).max() <= 1e-12 * np.abs(K0).max()
-    rng = np.random.default_rng(3)
-    a, b = (torch.as_tensor(rng.normal(size=fe.n_dof)) for _ in range(2))
+    beam = _cantilever(6)
+    P = torch.as_tensor(np.linalg.eigh(beam.stiffness_matrix().toarray())[1][:, :2])
 
-    def second(x, y):
-        return torch.func.jvp(lambda q: torch.func.jvp(fe.internal_force_torch, (q,), (x,))[1],
-                              (q0,), (y,))[1]
+    def g(q):
+        return P.T @ beam.internal_force_torch(P @ q)
 
-    ab, ba = second(a, b).numpy(), second(b, a).numpy()
-    assert np.isfinite(ab).all()
-    np.testing.assert_allclose(ab, ba, rtol=0, atol=1e-9 * np.abs(ab).max())
+    z = torch.zeros(2, dtype=torch.float64)
+    jac = torch.func.jacfwd
+    D1, D2, D3 = jac(g)(z), jac(jac(g))(z), jac(jac(jac(g)))(z)
+    rest = []
+    for s in (0.1, 0.05):
+        a = s * torch.tensor([1.0, 0.5], dtype=torch.float64)
+        taylor = (D1 @ a + torch.einsum("mab,a,b->m", D2, a, a) / 2
+                  + torch.einsum("mabc,a,b,c->m", D3, a, a, a) / 6)
+        rest.append(float((g(a) - taylor).abs().max()))
+    assert 24.0 < rest[0] / rest[1] < 40.0
+
+
+def test_batched_and_reverse_mode_forces(mixed):
+    """f(u) for a batch of states equals the states' forces one by one; reverse-mode autograd
+    through f gives K_Tᵀ w (to rounding)."""
+    fe = mixed
+    U = torch.as_tensor(np.stack([_large_state(fe, seed=s) for s in range(3)]))
+    F = fe.internal_force_torch(U)
+    for i in range(3):
+        np.testing.assert_allclose(F[i].numpy(), fe.internal_force_torch(U[i]).numpy(),
+                                   rtol=0, atol=1e-13 * float(F.abs().max()))
+    w = torch.as_tensor(np.random.default_rng(6).normal(size=fe.n_dof))
+    u = U[0].clone().requires_grad_(True)
+    (fe.internal_force_torch(u) * w).sum().backward()
+    ref = fe.tangent_stiffness(U[0].numpy()).T @ w.numpy()
+    np.testing.assert_allclose(u.grad.numpy(), ref, rtol=0, atol=1e-12 * np.abs(ref).max())
 
 
 def test_rotation_maps_are_inverse_and_smooth():
