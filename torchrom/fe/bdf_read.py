@@ -50,6 +50,7 @@ from .design import check_initial_design
 from .elements.bar import frames_between, mechanism_pins
 from .elements.quad4 import quad_frames, shape
 from .goland_geometry import (  # noqa: F401 - GOLAND_* re-exported (public names of this module)
+    GOLAND_ROTATIONS_NOTE,
     GOLAND_TITLE,
     GOLAND_UNITS,
     WING_CHORD,
@@ -297,6 +298,8 @@ def from_pynastran(
     if rotations is None:
         # the heavy Goland wing is the paper's small-rotation model (plate bending linear)
         rotations = "small" if goland_deck else "large"
+        if goland_deck:
+            notes.append(GOLAND_ROTATIONS_NOTE)
     if goland_deck:
         wing_chord = WING_CHORD
         if output_points is None:

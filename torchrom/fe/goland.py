@@ -29,6 +29,7 @@ from ..errors import InputError
 from .bdf_read import from_pynastran
 from .goland_geometry import (  # noqa: F401 - re-exported (public names of this module)
     DEPTH,
+    GOLAND_ROTATIONS_NOTE,
     GOLAND_TITLE,
     GOLAND_UNITS,
     SPAN,
@@ -259,8 +260,7 @@ def _model(store_x, density, options, n_modes=10, drilling=1e-4):
 def _small_rotations(fe):
     """The wing as the paper's model: its plate bending is small-rotation (linear), its skins'
     and webs' membranes Green-strain nonlinear (``FEModel(rotations="small")``)."""
-    fe.notes.append("heavy Goland wing: plate bending is small-rotation (linear), as in the "
-                    "paper's model and its regression-tested ROM (rotations='small')")
+    fe.notes.append(GOLAND_ROTATIONS_NOTE)
     return fe
 
 

@@ -290,11 +290,6 @@ class FEModel:
         for key, (gid, comp) in self.output_points.items():
             self.dof_index(gid, comp, what=f"output point {key}")
         self._torch: dict[tuple, _TorchState] = {}
-        if not large:
-            self.notes.append(
-                "rotations='small': plate bending, drilling and transverse shear, CBAR/CBEAM and "
-                "rod torsion are linear (small rotations) in nonlinear analyses; membranes, shear "
-                "panels and rod axial forces are geometrically nonlinear (Green strain)")
         # Built eagerly: a state first built inside a torch.func transform would cache tensors
         # tied to that transform's level (call prepare_torch for other dtypes/devices).
         self.prepare_torch()
