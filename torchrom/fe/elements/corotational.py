@@ -331,38 +331,34 @@ class CorotKernel:
                                                              self.gather(v_all)))
 
     # -- element matrices (numpy, for sparse assembly) -----------------------------------------
-    def _columns(self, f, ue: torch.Tensor) -> torch.Tensor:
-        """∂f/∂ue per element (E, m, k) of an element-wise f (E, k) → (E, m), by k batched
-        forward-mode derivatives along the unit vectors (the elements are independent)."""
-        eye = torch.eye(self.k, dtype=ue.dtype, device=ue.device)
-        tangents = eye[:, None, :].expand(self.k, *ue.shape)
-        cols = vmap(lambda t: jvp(f, (ue,), (t,))[1])(tangents)  # (k, E, m)
-        return cols.permute(1, 2, 0)
-
-    def _hessian_parts(self, ue: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
-        """(G, B) per element: G = Σ_i s_i ∂²d_i/∂u² at fixed s = K_e d (the stress-dependent
-        part of the Hessian H = Bᵀ K_e B + G) and B = ∂d/∂u, (E, 6nn, 6nn) each, from one
-        batched forward-over-reverse pass. K_e is kept out of the differentiated function: its
-        (E, k, k) product under the transforms cost twice the rest of the tangent."""
-        s = _per_element(self.K, self.local_d(ue))
+    def _second_order(self, ue: torch.Tensor, s: torch.Tensor, ve: torch.Tensor | None = None):
+        """Per element (E, 6nn, 6nn) each, from one batched forward-over-reverse pass over the
+        element DOFs: G = Σ_i s_i ∂²d_i/∂u² at fixed weights s (E, 6nn), B = ∂d/∂u and, with a
+        velocity ve, C = ∂(B ve)/∂u. With s = K_e d, Bᵀ K_e B + G is the Hessian of the energy;
+        with s = K_e B ve, G + Bᵀ K_e C is ∂(Bᵀ K_e B ve)/∂u. K_e stays out of the
+        differentiated functions: its (E, k, k) product under the transforms cost twice the
+        rest of the tangent."""
 
         def parts(z):
             def work(w):
                 d = self.local_d(w)
                 return (s * d).sum(), d
 
-            return grad(work, has_aux=True)(z)
+            g, d = grad(work, has_aux=True)(z)
+            if ve is None:
+                return g, d
+            return g, d, jvp(self.local_d, (z,), (ve,))[1]
 
         eye = torch.eye(self.k, dtype=ue.dtype, device=ue.device)
         tangents = eye[:, None, :].expand(self.k, *ue.shape)
-        G, B = vmap(lambda t: jvp(parts, (ue,), (t,))[1])(tangents)  # (k, E, k) each
-        return G.permute(1, 2, 0), B.permute(1, 2, 0)
+        cols = vmap(lambda t: jvp(parts, (ue,), (t,))[1])(tangents)  # (k, E, k) each
+        return tuple(c.permute(1, 2, 0) for c in cols)
 
     def element_matrices(self, u_all: np.ndarray, material: float = 1.0, geometric: float = 1.0,
                          damping: float = 0.0, v_all: np.ndarray | None = None) -> np.ndarray:
         """Per-element blocks (E, 6nn, 6nn) of material · Bᵀ K_e B + geometric · G
         + damping · ∂(Bᵀ K_e B v)/∂u: Bᵀ K_e B + G is the Hessian of the element energy
-        (K_T, :meth:`_hessian_parts`)."""
+        (K_T, :meth:`_second_order`)."""
         with _single_thread():
             return self._element_matrices(u_all, material, geometric, damping, v_all)
 
@@ -371,9 +367,11 @@ class CorotKernel:
         ue = self.gather(torch.as_tensor(u_all, **opts))
         out = torch.zeros(len(self.els), self.k, self.k, **opts)
         if material or geometric:
-            G, B = self._hessian_parts(ue)
+            G, B = self._second_order(ue, _per_element(self.K, self.local_d(ue)))
             out += material * (B.transpose(1, 2) @ self.K @ B) + geometric * G
         if damping:
             ve = self.gather(torch.as_tensor(v_all, **opts))
-            out += damping * self._columns(lambda z: self._element_material_force(z, ve), ue)
+            sv = _per_element(self.K, jvp(self.local_d, (ue,), (ve,))[1])
+            Gv, B, C = self._second_order(ue, sv, ve)
+            out += damping * (Gv + B.transpose(1, 2) @ self.K @ C)
         return out.cpu().numpy()
