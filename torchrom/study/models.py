@@ -189,6 +189,32 @@ def model_rom(model) -> NonlinearROM:
                      f"{type(model).__name__}")
 
 
+def with_named_outputs(model, outputs, points=None, where: str = "output"):
+    """The model with the outputs a configuration names by a point (``"G1001:T3"``) or by a
+    ``[points]`` name added to its ROM as aliases of the ROM's own rows (the model itself when
+    every name is already an output or a generalized coordinate q1..qn); InputError naming an
+    output the ROM does not have, with the outputs it has
+    (:func:`torchrom.rom.points.resolve_output`)."""
+    import dataclasses
+
+    from ..rom.points import resolve_output
+
+    rom = model_rom(model)
+    aliases = {}
+    for name in outputs or []:
+        if name.startswith("q") and name[1:].isdigit() and 1 <= int(name[1:]) <= rom.n:
+            continue
+        found = resolve_output(rom, name, points, where)
+        if found != name:
+            aliases[name] = rom.outputs[found]
+    if not aliases:
+        return model
+    named = rom.replace(outputs={**rom.outputs, **aliases})
+    if isinstance(model, AeroelasticModel):
+        return dataclasses.replace(model, rom=named)
+    return named
+
+
 def alpha_gamma_table(model: AeroelasticModel, gammas):
     """Paper Fig. 9: the matched α for each γ (s), with the reference altitude (ft), the baseline
     damping and the flutter frequency (Hz) of each pair at the reference altitude."""
