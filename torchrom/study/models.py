@@ -28,11 +28,13 @@ import numpy as np
 from ..aero.build import BASELINE_ALPHA, BASELINE_GAMMA
 from ..aero.files import AeroData
 from ..aero.flutter import (
+    AeroTable,
     MatchedPointResult,
     ModalStructure,
     alpha_for_gammas,
     flutter_altitude_state_space,
 )
+from ..aero.flutter_speed import FlutterSpeed, flutter_speed_at_density
 from ..errors import ConvergenceError, InputError
 from ..rom import NonlinearROM
 from ..sim.aeroelastic import check_aero_matches_rom
@@ -105,6 +107,17 @@ class AeroelasticModel:
                                        f"{self.baseline_gamma:g} s)")
             self._flutter = res
         return self._flutter
+
+    def flutter_speed(self, density: float, alpha: float | None = None,
+                      gamma: float | None = None) -> FlutterSpeed:
+        """Flutter point on the speed axis of a wind tunnel: the speed (ft/s) at which the
+        critical root's growth rate crosses zero at air density ``density`` (slug/ft³), state
+        space at the GAF Mach number (Eqs. 49–50; :func:`~torchrom.aero.flutter_speed.
+        flutter_speed_at_density`), with damping α, γ (default the baseline)."""
+        st = self.structure(self.baseline_alpha if alpha is None else alpha,
+                            self.baseline_gamma if gamma is None else gamma)
+        return flutter_speed_at_density(st, self.aero.rfa, AeroTable.from_gaf(self.aero.gaf),
+                                        density)
 
     def reference_altitude(self) -> float:
         """Altitude (ft) the matched α(γ) keep the flutter point at."""
