@@ -64,7 +64,7 @@ LABELS = {
     "growth_rate": "growth rate", "initial_amplitude": "initial amplitude",
     "threshold_amplitude": "threshold amplitude", "floquet_multiplier": "Floquet multiplier",
     "harmonic_distortion": "harmonic distortion", "q0": "initial q",
-    "speed": "airspeed", "density": "air density", "velocity": "airspeed",
+    "speed": "speed", "density": "air density", "velocity": "speed",
     "dynamic_pressure": "dynamic pressure",
 }
 
