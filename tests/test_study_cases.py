@@ -219,6 +219,7 @@ def test_flutter_speed_at_the_density_of_the_flutter_altitude(model):
     fs = model.flutter_speed(rho)
     assert fs.velocity == pytest.approx(ref.velocity, rel=1e-6)
     assert fs.frequency_hz == pytest.approx(ref.frequency_hz, rel=1e-5)
+    assert fs.as_dict()["mach"] == MACH
     # denser air flutters at a lower speed (ρV² sets the aerodynamic stiffness)
     assert model.flutter_speed(1.2 * rho).velocity < fs.velocity
 

@@ -41,10 +41,12 @@ class FlutterSpeed:
     kind: str | None = None
     stable_velocity: float | None = None
     units: str = "ft"
+    #: Mach number of the aerodynamics (0: incompressible; a tunnel at the GAF Mach otherwise)
+    mach: float = 0.0
 
     def as_dict(self) -> dict:
         return {
-            "method": self.method, "mach": 0.0, "altitude": self.altitude,
+            "method": self.method, "mach": self.mach, "altitude": self.altitude,
             "density": self.density, "velocity": self.velocity,
             "frequency_hz": self.frequency_hz,
             "dynamic_pressure": None if self.velocity is None
@@ -93,11 +95,13 @@ def flutter_speed_state_space(structure: ModalStructure, rfa: RFA, aero: AeroTab
 
 def flutter_speed_at_density(structure: ModalStructure, rfa: RFA, aero: AeroTable,
                              density: float, n_speeds: int = N_SPEEDS,
-                             speeds: tuple[float, float] | None = None) -> FlutterSpeed:
+                             speeds: tuple[float, float] | None = None,
+                             mach: float = 0.0) -> FlutterSpeed:
     """The state-space flutter speed at the air density ``density`` (a wind tunnel; the
     RFA's units, e.g. slug/ft³ and ft/s): the first upward zero of the critical root's growth
     rate over ``speeds`` (default :func:`speed_range`), refined by Brent's method to 1e-10
-    relative. ``altitude`` of the result is NaN (no altitude is implied)."""
+    relative. ``altitude`` of the result is NaN (no altitude is implied); ``mach`` (that of
+    the aerodynamics) is recorded in it."""
     rho = float(density)
     v = np.geomspace(*(speeds or speed_range(structure, aero)), n_speeds)
 
@@ -107,8 +111,9 @@ def flutter_speed_at_density(structure: ModalStructure, rfa: RFA, aero: AeroTabl
     sig = np.array([growth(x) for x in v])
     up = np.flatnonzero((sig[:-1] < 0) & (sig[1:] >= 0))
     if len(up) == 0:
-        return FlutterSpeed("state-space", float("nan"), rho, None, None)
+        return FlutterSpeed("state-space", float("nan"), rho, None, None, mach=mach)
     i = up[0]
     vf = float(scipy.optimize.brentq(growth, v[i], v[i + 1], xtol=1e-10 * v[i + 1]))
     root = critical_root(structure, rfa, vf, rho)
-    return FlutterSpeed("state-space", float("nan"), rho, vf, root.imag / (2 * np.pi))
+    return FlutterSpeed("state-space", float("nan"), rho, vf, root.imag / (2 * np.pi),
+                        mach=mach)

@@ -117,7 +117,7 @@ class AeroelasticModel:
         st = self.structure(self.baseline_alpha if alpha is None else alpha,
                             self.baseline_gamma if gamma is None else gamma)
         return flutter_speed_at_density(st, self.aero.rfa, AeroTable.from_gaf(self.aero.gaf),
-                                        density)
+                                        density, mach=self.mach)
 
     def reference_altitude(self) -> float:
         """Altitude (ft) the matched α(γ) keep the flutter point at."""
