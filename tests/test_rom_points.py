@@ -96,6 +96,7 @@ def test_identify_keeps_the_points_and_the_largest_mode1_translation(identified)
         np.testing.assert_allclose(np.abs(rom_row), np.abs(fe_row), rtol=1e-8, atol=1e-12)
     assert resolve_output(rom, "G4:T2") == "tip"
     assert resolve_output(rom, "le", {"le": "G3:T3"}) == "G3:T3"
+    assert resolve_output(rom, "tip", {"tip": "G3:T3"}) == "G3:T3"  # the configuration's point
     with pytest.raises(InputError, match=r"'G2:T3'.*not an output of the ROM.*max_mode1 \(G4"):
         resolve_output(rom, "G2:T3")
 

@@ -90,12 +90,13 @@ def describe_outputs(rom) -> str:
 
 def resolve_output(rom, name: str, points: Mapping[str, str] | None = None,
                    where: str = "output") -> str:
-    """The ROM output that ``name`` means: a ROM output name as is, a point ``"G1001:T3"`` or a
-    ``[points]`` name through its point. InputError naming it and listing the ROM's outputs
+    """The ROM output that ``name`` means: a ``[points]`` name through its point (also when the
+    ROM has an output of that name: the configuration's point is what it means), a ROM output
+    name as is, or a point ``"G1001:T3"``. InputError naming it and listing the ROM's outputs
     (with how to add one) when the ROM has none there."""
-    if name in rom.outputs:
-        return name
     points = dict(points or {})
+    if name in rom.outputs and name not in points:
+        return name
     spec = points.get(name, name)
     if name not in points and not is_point_spec(name):
         raise InputError(missing_output_message(rom, name, where))
