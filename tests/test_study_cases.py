@@ -255,6 +255,10 @@ def test_tunnel_sweep_below_and_above_the_flutter_speed(model, files, tmp_path):
     assert axis_label(table, "speed") == "speed (ft/s)"
     png = parameter_plot(table, tmp_path / "amp.png", x="speed", y="amplitude_change")
     assert png.stat().st_size > 5_000
+    # the CLI reports the flutter speed at the sweep's density
+    run = _sweep_cli(path, tmp_path / "cli")
+    assert run.returncode == 0, run.stderr
+    assert f"flutter speed at 0.0015 slug/ft^3 (baseline damping): {vf:.2f} ft/s" in run.stdout
 
 
 def test_goland_tunnel_configuration_runs_quick(tmp_path, monkeypatch):
@@ -297,19 +301,9 @@ def test_goland_tunnel_configuration_runs_quick(tmp_path, monkeypatch):
 def test_bad_tunnel_cases_in_the_cli(files, tmp_path, cases, words):
     """Bad wind-tunnel cases: the real CLI in a subprocess, one line naming the key, exit 2,
     nothing written."""
-    import os
-    import subprocess
-    import sys
-    from pathlib import Path
-
-    import torchrom
-
     path = files / f"badtunnel{abs(hash(cases))}.toml"
     path.write_text(CONFIG.split("[cases]")[0] + "[cases]\n" + cases + "\nalpha = 0.05\n")
-    env = {**os.environ, "PYTHONPATH": str(Path(torchrom.__file__).parents[1])}
-    run = subprocess.run([sys.executable, "-m", "torchrom", "sweep", str(path), "--out",
-                          str(tmp_path / "out")], capture_output=True, text=True, env=env,
-                         timeout=600)
+    run = _sweep_cli(path, tmp_path / "out")
     assert run.returncode == 2, run.stderr
     assert "Traceback" not in run.stderr
     lines = [ln for ln in run.stderr.strip().splitlines() if ln.strip()]
@@ -317,3 +311,17 @@ def test_bad_tunnel_cases_in_the_cli(files, tmp_path, cases, words):
     for w in words:
         assert w in lines[0], (w, lines[0])
     assert not (tmp_path / "out").exists()
+
+
+def _sweep_cli(config, out):
+    """``torchrom sweep CONFIG --out OUT`` as a process (this checkout's torchrom)."""
+    import os
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    import torchrom
+
+    env = {**os.environ, "PYTHONPATH": str(Path(torchrom.__file__).parents[1])}
+    return subprocess.run([sys.executable, "-m", "torchrom", "sweep", str(config), "--out",
+                           str(out)], capture_output=True, text=True, env=env, timeout=600)

@@ -136,6 +136,28 @@ def flight_conditions(model: AeroelasticModel, cases: Sequence[Mapping[str, Any]
     return V, rho, alt
 
 
+#: most distinct air densities whose flutter speed a sweep reports
+MAX_FLUTTER_DENSITIES = 4
+
+
+def flutter_speed_lines(model, cases: Sequence[Mapping[str, Any]]) -> list[str]:
+    """One line per distinct air density of the wind-tunnel cases (the first
+    :data:`MAX_FLUTTER_DENSITIES`): the flutter speed there with the baseline damping
+    (:meth:`AeroelasticModel.flutter_speed`), where the speed sweep's LCOs begin; none for a
+    structural model or matched-point cases."""
+    tunnel = [c for c in cases if "speed" in c]
+    if not isinstance(model, AeroelasticModel) or not tunnel:
+        return []
+    _, rho, _ = flight_conditions(model, tunnel)
+    lines = []
+    for density in list(dict.fromkeys(float(r) for r in rho))[:MAX_FLUTTER_DENSITIES]:
+        fs = model.flutter_speed(density)
+        where = f"flutter speed at {density:.6g} slug/ft^3 (baseline damping)"
+        lines.append(f"{where}: {fs.velocity:.2f} ft/s, {fs.frequency_hz:.3f} Hz"
+                     if fs.velocity is not None else f"{where}: none in the speed range")
+    return lines
+
+
 def _column(cases, name, default) -> list[float]:
     return [float(c.get(name, default)) for c in cases]
 
