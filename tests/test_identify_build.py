@@ -34,8 +34,10 @@ def test_pipeline_matches_intrusive_projection(truss_exact):
     # cubic FE, amplitude 1 % of span: rounding-level agreement (see test_identify_stiffness)
     for name in ("M", "K1", "K2", "K3", "D1", "D2", "D3"):
         assert rel(getattr(rom, name), getattr(ref, name)) < 1e-9, name
-    # outputs are rows of the basis at point A
-    assert set(rom.outputs) == {"A_Tx", "A_Ty", "A_Tz"}
+    # outputs are rows of the basis at point A, and the default: where mode 1 moves most
+    assert set(rom.outputs) == {"A_Tx", "A_Ty", "A_Tz", "max_mode1"}
+    trans = fe.translational_dofs
+    assert np.abs(rom.outputs["max_mode1"][0]) == np.abs(res.basis.Phi[trans, 0]).max()
     assert np.array_equal(rom.outputs["A_Tz"], res.basis.Phi[fe.outputs["A_Tz"]])
     meta = rom.metadata
     assert meta["damping"]["method"] == "exact"

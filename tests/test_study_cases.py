@@ -86,7 +86,7 @@ def test_config_cases_bundles_list_and_variant(files):
 @pytest.mark.parametrize("change, message", [
     ('alpha = "matched"', None),
     ('alpha = "tuned"', "expected a number or 'matched'"),
-    ('alpha = "matched"\nspeed = 3.0', "unknown case parameter 'speed'"),
+    ('alpha = "matched"\nairspeed = 3.0', "unknown case parameter 'airspeed'"),
 ])
 def test_config_case_values_are_checked(files, change, message):
     text = CONFIG.replace('alpha = "matched"', change, 1)
@@ -184,3 +184,144 @@ def test_sweep_cli_writes_histories(files, tmp_path):
     assert main(["plot", str(tmp_path / "out" / "results.parquet"), "--figure", "fig11",
                  "--out", str(tmp_path / "fig11.png")]) == 0
     assert (tmp_path / "fig11.png").stat().st_size > 10_000
+
+
+# -- wind-tunnel cases: speed at a density -------------------------------------------------------
+def test_tunnel_case_is_the_matched_point_at_its_speed_and_density(model):
+    """The same flight condition through the two grids: speed V = M a(h) at density ρ(h) (given
+    directly, or through altitude_ft) assembles the matched-point case's very matrices (to
+    rounding, rtol 1e-12)."""
+    h = 7000.0
+    fc = flight_condition(MACH, h)
+    V, rho = float(fc.velocity), float(fc.density)
+    cases = [{"altitude_ft": h, "alpha": 0.1, "gamma": 1e-4},
+             {"speed": V, "density": rho, "alpha": 0.1, "gamma": 1e-4},
+             {"speed": V, "altitude_ft": h, "alpha": 0.1, "gamma": 1e-4}]
+    system, extra = case_system(model, cases)
+    for name in ("M_add", "C_add", "K_add", "lag_D", "lag_R"):
+        t = getattr(system, name).numpy()
+        np.testing.assert_allclose(t[1], t[0], rtol=1e-12, atol=0)
+        np.testing.assert_allclose(t[2], t[0], rtol=1e-12, atol=0)
+    for e in extra:
+        assert e["velocity"] == pytest.approx(V, rel=1e-12)
+        assert e["density"] == pytest.approx(rho, rel=1e-12)
+        assert e["dynamic_pressure"] == pytest.approx(0.5 * rho * V**2, rel=1e-12)
+
+
+def test_flutter_speed_at_the_density_of_the_flutter_altitude(model):
+    """Independent check of the speed axis: the flutter speed at the density ρ(h_f) of the
+    matched-point flutter altitude h_f equals that point's speed V_f = M a(h_f). The two
+    answers come from different root searches (Brent over the altitude to 1e-3 ft, over the
+    speed to 1e-10 relative); 1e-3 ft of altitude moves V_f by about 4e-6 ft/s and the growth
+    rate's zero by as little, so rel 1e-6 is a bound with margin (measured below 1e-8)."""
+    ref = model.baseline_flutter()
+    rho = float(flight_condition(MACH, ref.altitude).density)
+    fs = model.flutter_speed(rho)
+    assert fs.velocity == pytest.approx(ref.velocity, rel=1e-6)
+    assert fs.frequency_hz == pytest.approx(ref.frequency_hz, rel=1e-5)
+    assert fs.as_dict()["mach"] == MACH
+    # denser air flutters at a lower speed (ρV² sets the aerodynamic stiffness)
+    assert model.flutter_speed(1.2 * rho).velocity < fs.velocity
+
+
+TUNNEL = CONFIG.split("[cases]")[0].replace("t_end = 20.0", "t_end = 6.0") + """
+[cases]
+density = {density}
+speed = {speeds}
+alpha = 0.05
+gamma = 1e-4
+[plot]
+x = "speed"
+"""
+
+
+def test_tunnel_sweep_below_and_above_the_flutter_speed(model, files, tmp_path):
+    """A speed sweep at one density: 10 % below the flutter speed the start decays, 10 % above
+    it does not; the table carries speed with its unit and the figure puts it on the x axis."""
+    from torchrom.study.plots import parameter_plot
+    from torchrom.study.units import axis_label, column_units
+
+    rho = 0.0015
+    vf = model.flutter_speed(rho).velocity
+    path = files / "tunnel.toml"
+    path.write_text(TUNNEL.format(density=rho, speeds=[0.9 * vf, 1.1 * vf]))
+    cfg = load_sweep_config(path)
+    table, _ = run_sweep(cfg)
+    below, above = table.sort_values("speed")["status"]
+    assert below == "decay" and above != "decay"
+    assert column_units(table)["speed"] == "ft/s"
+    assert column_units(table)["density"] == "slug/ft^3"
+    assert table["velocity"].tolist() == pytest.approx(sorted([0.9 * vf, 1.1 * vf]))
+    assert axis_label(table, "speed") == "speed (ft/s)"
+    png = parameter_plot(table, tmp_path / "amp.png", x="speed", y="amplitude_change")
+    assert png.stat().st_size > 5_000
+    # the CLI reports the flutter speed at the sweep's density
+    run = _sweep_cli(path, tmp_path / "cli")
+    assert run.returncode == 0, run.stderr
+    assert f"flutter speed at 0.0015 slug/ft^3 (baseline damping): {vf:.2f} ft/s" in run.stdout
+
+
+def test_goland_tunnel_configuration_runs_quick(tmp_path, monkeypatch):
+    """configs/goland_tunnel.toml, variant quick (4L2D ROM, 4 modes, 4 s runs; about 10 s),
+    end to end: built model, speeds either side of its sea-level flutter speed (about
+    630 ft/s), table and figure."""
+    from torchrom.cache_dir import set_cache_root
+    from torchrom.study.plots import parameter_plot
+
+    from .conftest import REPO
+
+    set_cache_root(tmp_path / "cache")
+    try:
+        cfg = load_sweep_config(REPO / "configs" / "goland_tunnel.toml", variant="quick")
+        model = cfg.build_model()
+        rho = float(flight_condition(model.mach, 0.0).density)
+        vf = model.flutter_speed(rho).velocity
+        speeds = sorted(c["speed"] for c in cfg.cases)
+        assert speeds[0] < vf < speeds[1]
+        table, _ = run_sweep(cfg, model=model)
+    finally:
+        set_cache_root(None)
+    assert table["density"].tolist() == pytest.approx([rho, rho], rel=1e-12)
+    status = dict(zip(table["speed"], table["status"]))
+    assert status[speeds[0]] == "decay" and status[speeds[1]] != "decay"
+    assert parameter_plot(table, tmp_path / "a.png", x="speed").stat().st_size > 5_000
+
+
+@pytest.mark.parametrize("cases, words", [
+    ("density = 0.0015\nspeed = [-10.0, 500.0]", ("[cases] speed", "positive", "ft/s")),
+    ("density = 0.0\nspeed = 500.0", ("[cases] density", "positive", "slug/ft^3")),
+    ("altitude_ft = [0.0, 5000.0]\nspeed = [400.0, 500.0]",
+     ("[cases] altitude_ft", "swept together with speed")),
+    ("density = [0.001, 0.002]\nspeed = [400.0, 500.0]",
+     ("[cases] density", "swept together with speed")),
+    ("density = 0.0015\naltitude_ft = 0.0\nspeed = 500.0", ("[cases] density", "exactly one")),
+    ("speed = 500.0", ("[cases] speed", "exactly one of density")),
+    ("density = 0.0015", ("[cases] density", "without speed")),
+])
+def test_bad_tunnel_cases_in_the_cli(files, tmp_path, cases, words):
+    """Bad wind-tunnel cases: the real CLI in a subprocess, one line naming the key, exit 2,
+    nothing written."""
+    path = files / f"badtunnel{abs(hash(cases))}.toml"
+    path.write_text(CONFIG.split("[cases]")[0] + "[cases]\n" + cases + "\nalpha = 0.05\n")
+    run = _sweep_cli(path, tmp_path / "out")
+    assert run.returncode == 2, run.stderr
+    assert "Traceback" not in run.stderr
+    lines = [ln for ln in run.stderr.strip().splitlines() if ln.strip()]
+    assert len(lines) == 1, run.stderr
+    for w in words:
+        assert w in lines[0], (w, lines[0])
+    assert not (tmp_path / "out").exists()
+
+
+def _sweep_cli(config, out):
+    """``torchrom sweep CONFIG --out OUT`` as a process (this checkout's torchrom)."""
+    import os
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    import torchrom
+
+    env = {**os.environ, "PYTHONPATH": str(Path(torchrom.__file__).parents[1])}
+    return subprocess.run([sys.executable, "-m", "torchrom", "sweep", str(config), "--out",
+                           str(out)], capture_output=True, text=True, env=env, timeout=600)

@@ -41,10 +41,12 @@ class FlutterSpeed:
     kind: str | None = None
     stable_velocity: float | None = None
     units: str = "ft"
+    #: Mach number of the aerodynamics (0: incompressible; a tunnel at the GAF Mach otherwise)
+    mach: float = 0.0
 
     def as_dict(self) -> dict:
         return {
-            "method": self.method, "mach": 0.0, "altitude": self.altitude,
+            "method": self.method, "mach": self.mach, "altitude": self.altitude,
             "density": self.density, "velocity": self.velocity,
             "frequency_hz": self.frequency_hz,
             "dynamic_pressure": None if self.velocity is None
@@ -86,7 +88,22 @@ def flutter_speed_state_space(structure: ModalStructure, rfa: RFA, aero: AeroTab
     """The state-space flutter speed at the density of ``altitude`` (first upward zero of the
     critical root's growth rate over :func:`speed_range`)."""
     rho = float(atmosphere(altitude, units).density)
-    v = np.geomspace(*speed_range(structure, aero), n_speeds)
+    res = flutter_speed_at_density(structure, rfa, aero, rho, n_speeds)
+    res.altitude, res.units = float(altitude), units
+    return res
+
+
+def flutter_speed_at_density(structure: ModalStructure, rfa: RFA, aero: AeroTable,
+                             density: float, n_speeds: int = N_SPEEDS,
+                             speeds: tuple[float, float] | None = None,
+                             mach: float = 0.0) -> FlutterSpeed:
+    """The state-space flutter speed at the air density ``density`` (a wind tunnel; the
+    RFA's units, e.g. slug/ft³ and ft/s): the first upward zero of the critical root's growth
+    rate over ``speeds`` (default :func:`speed_range`), refined by Brent's method to 1e-10
+    relative. ``altitude`` of the result is NaN (no altitude is implied); ``mach`` (that of
+    the aerodynamics) is recorded in it."""
+    rho = float(density)
+    v = np.geomspace(*(speeds or speed_range(structure, aero)), n_speeds)
 
     def growth(x):
         return critical_root(structure, rfa, x, rho).real
@@ -94,9 +111,9 @@ def flutter_speed_state_space(structure: ModalStructure, rfa: RFA, aero: AeroTab
     sig = np.array([growth(x) for x in v])
     up = np.flatnonzero((sig[:-1] < 0) & (sig[1:] >= 0))
     if len(up) == 0:
-        return FlutterSpeed("state-space", float(altitude), rho, None, None, units=units)
+        return FlutterSpeed("state-space", float("nan"), rho, None, None, mach=mach)
     i = up[0]
     vf = float(scipy.optimize.brentq(growth, v[i], v[i + 1], xtol=1e-10 * v[i + 1]))
     root = critical_root(structure, rfa, vf, rho)
-    return FlutterSpeed("state-space", float(altitude), rho, vf, root.imag / (2 * np.pi),
-                        units=units)
+    return FlutterSpeed("state-space", float("nan"), rho, vf, root.imag / (2 * np.pi),
+                        mach=mach)

@@ -68,6 +68,12 @@ def add_arguments(parser) -> None:
                         help="chordwise mid-line (basic x) of the report's step pressure "
                              "(default: the wing's mid-chord when the deck is known, e.g. 3 ft "
                              "for the Goland deck, else the middle of the grid)")
+    parser.add_argument("--output", action="append", default=[], metavar="[NAME=]G<grid>:<C>",
+                        help="also keep this point of the deck as a ROM output (repeatable): "
+                             "grid id and component T1 T2 T3 R1 R2 R3 (the grid's CD frame), "
+                             "e.g. --output G1001:T3 --output tip=G1002:T3; the ROM always "
+                             "has the deck's named points and max_mode1, the translation that "
+                             "moves most in mode 1")
     add_json_option(parser)
     add_force_option(parser)
 
@@ -98,9 +104,11 @@ def run(args) -> int:
     from ..fe import read_bdf
     from ..identify import DualModeOptions
     from ..identify.basis import parse_combinations
+    from ..rom.points import parse_named_point
 
     if args.combinations != "transverse":
         parse_combinations(args.combinations)  # bad input before the work
+    extra_points = dict(parse_named_point(o) for o in args.output)
     t0 = time.perf_counter()
     info(f"reading {args.model}")
     fe = read_bdf(args.model)
@@ -112,6 +120,8 @@ def run(args) -> int:
     backend = as_backend(fe)
     if args.step_x is not None:
         backend.step_x = float(args.step_x)
+    if extra_points:
+        backend.add_output_points(extra_points)
     info(f"  {backend.n_dof} DOFs, span {backend.reference_length:g}, "
           f"outputs {sorted(backend.outputs)}")
     opt = IdentifyOptions(n_linear=args.linear, n_dual=args.dual, damping=args.damping,
@@ -123,6 +133,9 @@ def run(args) -> int:
     res.rom.save(args.out)
     s = res.summary()
     print(f"wrote {args.out}  (n = {res.rom.n})")
+    from ..rom.points import describe_outputs
+
+    print(f"  outputs: {describe_outputs(res.rom)}")
     print(f"  FE: {s['fe_static_solves']} static solves ({s['fe_newton_iterations']} Newton "
           f"iterations), {s['fe_tangent_evaluations']} tangents, "
           f"{s['fe_material_tangent_evaluations']} material tangents, "

@@ -159,6 +159,10 @@ def _run_in(out: Path, args: argparse.Namespace, cfg, model, device, dtype) -> i
     store.record_outputs([*written.values(), *([figure] if drawn else []), *extra])
     counts = table["status"].value_counts().to_dict()
     print("status: " + ", ".join(f"{k} {v}" for k, v in sorted(counts.items())))
+    from ..study.cases import flutter_speed_lines
+
+    for line in flutter_speed_lines(model, cfg.cases):  # wind-tunnel sweeps: where LCOs begin
+        print(line)
     confirmed = (int((table["precision"] == "float64 (confirmed)").sum())
                  if "precision" in table else 0)
     if confirmed:

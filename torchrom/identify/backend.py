@@ -163,6 +163,10 @@ class FEBackend:
     def outputs(self) -> dict[str, int]:
         return getattr(self, "_outputs", {})
 
+    def dof_label(self, dof: int) -> str | None:
+        """``"G1001:T3"`` of a DOF when the backend knows its grid (None otherwise)."""
+        return None
+
     @property
     def metadata(self) -> dict:
         return {"backend": type(self).__name__, "name": self.name,

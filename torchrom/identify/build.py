@@ -20,6 +20,8 @@ from .._version import __version__
 from ..checks import real
 from ..errors import InputError
 from ..rom import NonlinearROM
+from ..rom.points import DEFAULT_OUTPUT, largest_translation
+from ..rom.points import METADATA_KEY as POINTS_KEY
 from .backend import FEBackend
 from .basis import PAPER_COMBINATIONS, Basis, DualModeOptions, dual_basis, linear_basis
 from .damping import (
@@ -210,7 +212,12 @@ def assemble_rom(be: FEBackend, basis: Basis, stiff: StiffnessIdentification,
     """The :class:`NonlinearROM` from identified parts (also used by the Nastran exchange)."""
     Phi = basis.Phi
     M = Phi.T @ np.asarray(be.mass_matrix() @ Phi)
-    outputs = {name: Phi[dof, :] for name, dof in be.outputs.items()}
+    dofs = dict(be.outputs)
+    # a deck without named points still gets one output: where the first mode moves most
+    dofs.setdefault(DEFAULT_OUTPUT, largest_translation(Phi, be.translational_dofs))
+    outputs = {name: Phi[dof, :] for name, dof in dofs.items()}
+    points = {name: be.dof_label(dof) for name, dof in dofs.items()
+              if be.dof_label(dof) is not None}
     metadata = {
         "torchrom_version": __version__,
         "source": be.metadata,
@@ -234,6 +241,7 @@ def assemble_rom(be: FEBackend, basis: Basis, stiff: StiffnessIdentification,
         "linear_frequencies_hz": [float(f) for f in basis.frequencies_hz if np.isfinite(f)],
         "fe_counters": be.counters.as_dict(),
         "timings_s": dict(timings or {}),
+        POINTS_KEY: points,
     }
     return NonlinearROM(M, stiff.K1, stiff.K2, stiff.K3, damp.D1, damp.D2, damp.D3,
                         mode_kinds=basis.kinds, frequencies_hz=basis.frequencies_hz,

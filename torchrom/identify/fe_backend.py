@@ -12,6 +12,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import ConvergenceError
+from ..rom.points import point_label
 from .backend import FEBackend, StaticSolution
 
 
@@ -60,6 +61,18 @@ class BuiltinFEBackend(FEBackend):
         self._translational_dofs = np.flatnonzero(comps <= 3)
         self._outputs = {name: int(fe.dof_index(gid, comp))
                          for name, (gid, comp) in getattr(fe, "output_points", {}).items()}
+        self._labels = [point_label(g, c) for g, c in fe.free_dofs()]
+
+    def dof_label(self, dof: int) -> str:
+        """``"G1001:T3"``: the grid and component of a free DOF."""
+        return self._labels[int(dof)]
+
+    def add_output_points(self, points) -> None:
+        """Add output points (name -> (grid id, component 1..6)); InputError naming the point
+        when the grid is not in the deck or the DOF is not independent (e.g. an SPC)."""
+        for name, (gid, comp) in points.items():
+            self._outputs[str(name)] = int(self.fe.dof_index(gid, comp,
+                                                             f"--output {name}"))
 
     @property
     def metadata(self) -> dict:

@@ -158,13 +158,33 @@ def aeroelastic_system(rom: NonlinearROM, aero, altitude, *, alpha=0.0, gamma=0.
     if alt.ndim != 1 or not np.all(np.isfinite(alt)):
         raise InputError(f"aeroelastic: altitude: expected finite numbers, got {altitude!r}")
     fc = flight_condition(aero.mach, alt, units)
-    V = np.atleast_1d(np.asarray(fc.velocity, dtype=float))
-    q = np.atleast_1d(np.asarray(fc.dynamic_pressure, dtype=float))
-    rho = np.atleast_1d(np.asarray(fc.density, dtype=float))
+    return aeroelastic_system_at(rom, aero, fc.velocity, fc.density, altitude=alt, alpha=alpha,
+                                 gamma=gamma, stiffness_nl=stiffness_nl, damping_nl=damping_nl,
+                                 device=device, dtype=dtype, check=False)
+
+
+def aeroelastic_system_at(rom: NonlinearROM, aero, velocity, density, *, altitude=None,
+                          alpha=0.0, gamma=0.0, stiffness_nl=1.0, damping_nl=1.0, device=None,
+                          dtype=torch.float64, check: bool = True) -> AeroelasticCases:
+    """B aeroelastic cases at given speeds V and air densities ρ (arrays (B,) or scalars, the
+    units of the RFA: ft/s and slug/ft³ for Goland), q∞ = ½ρV² (Eqs. 49–50): a wind tunnel,
+    where the speed is swept at one density, or the matched point of
+    :func:`aeroelastic_system` (V = M a(h), ρ(h)). ``altitude`` only labels the cases (NaN
+    when a density was given directly)."""
+    if check:
+        check_aero_matches_rom(rom, aero)
+    V, rho = np.broadcast_arrays(np.atleast_1d(np.asarray(velocity, dtype=float)),
+                                 np.atleast_1d(np.asarray(density, dtype=float)))
+    if V.ndim != 1 or not np.all(np.isfinite(rho)) or np.any(rho <= 0):
+        raise InputError(f"aeroelastic: density: expected positive finite numbers, got "
+                         f"{density!r}")
+    q = 0.5 * rho * V**2
     add = aero_additions(aero, V, q, rom.n)
-    system = CaseSystem.build(rom, len(alt), alpha=alpha, gamma=gamma, stiffness_nl=stiffness_nl,
+    alt = (np.full(len(V), np.nan) if altitude is None
+           else np.broadcast_to(np.asarray(altitude, dtype=float), V.shape).copy())
+    system = CaseSystem.build(rom, len(V), alpha=alpha, gamma=gamma, stiffness_nl=stiffness_nl,
                               damping_nl=damping_nl, device=device, dtype=dtype, **add)
-    return AeroelasticCases(system, alt, np.full(len(alt), aero.mach), V, rho, q)
+    return AeroelasticCases(system, alt, np.full(len(V), aero.mach), V.copy(), rho.copy(), q)
 
 
 # -- the linearised system and the simulator's growth rate --------------------------------------

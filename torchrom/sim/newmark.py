@@ -28,6 +28,7 @@ import torch
 from ..checks import integer, real, real_array
 from ..errors import InputError
 from ..rom import NonlinearROM
+from ..rom.points import resolve_output
 from .forces import NonlinearForces
 from .lco import DECAY, FAILED, LCO, RUNNING, STATUS_NAMES, LCOCriteria, PeakTracker
 from .metrics import window_metrics
@@ -73,8 +74,7 @@ def output_matrix(rom: NonlinearROM, names: Sequence[str] | None = None
             row[int(name[1:]) - 1] = 1.0
             rows.append(row)
         else:
-            raise InputError(f"output {name!r}: not an output of the ROM ({sorted(rom.outputs)}) "
-                             f"nor a generalized coordinate q1..q{rom.n}")
+            rows.append(rom.outputs[resolve_output(rom, name)])
     if not rows:
         raise InputError("outputs: expected at least one output to track")
     return list(names), np.stack(rows)

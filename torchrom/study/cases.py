@@ -9,6 +9,13 @@ means the α that keeps the flutter altitude of the baseline damping for the cas
 Fig. 9, :meth:`AeroelasticModel.matched_alpha`); the table then holds the numeric α, and
 ``alpha_matched`` says where it came from.
 
+A *wind-tunnel* case gives the airspeed instead: ``speed`` (ft/s) at the air density
+``density`` (slug/ft³) or at that of ``altitude_ft`` (USSA-76), q∞ = ½ρV², at the GAF Mach
+number (a tunnel test such as Pazy's: sea-level density, speed swept). A speed sweep is at
+one density: sweeping ``altitude_ft`` as well is refused (sweep the altitude without
+``speed`` for the matched point). Units: those of the aeroelastic sweep, ft–slug–s, as
+``altitude_ft`` and the atmosphere's.
+
 ``[history]`` selects cases whose output time histories are kept: ``where`` is a table of
 parameter values (a value or a list of values each; numbers compare to a relative 1e-9) and
 ``every`` the sampling in steps. Pandas for the tables.
@@ -29,16 +36,18 @@ from ..checks import physical
 from ..errors import InputError
 from ..rom import NonlinearROM
 from ..sim import CaseSystem, SimulationResult
-from ..sim.aeroelastic import aeroelastic_system
+from ..sim.aeroelastic import aeroelastic_system_at
 from .models import AeroelasticModel
 
 #: case parameters of a structural sweep (no aerodynamics)
 STRUCTURAL_PARAMETERS = ("alpha", "gamma", "stiffness_nl", "damping_nl", "q0")
 #: case parameters of an aeroelastic sweep
-AEROELASTIC_PARAMETERS = ("altitude_ft", "mach", "alpha", "gamma", "stiffness_nl", "damping_nl",
-                          "q0")
+AEROELASTIC_PARAMETERS = ("altitude_ft", "speed", "density", "mach", "alpha", "gamma",
+                          "stiffness_nl", "damping_nl", "q0")
 #: the α of a case that keeps the baseline flutter altitude (paper Fig. 9)
 MATCHED = "matched"
+#: units of a wind-tunnel case's speed and density (the ft–slug–s system of altitude_ft)
+TUNNEL_UNITS = {"speed": "ft/s", "density": "slug/ft^3"}
 
 
 def case_parameters(aeroelastic: bool) -> tuple[str, ...]:
@@ -63,12 +72,90 @@ def check_case_values(cases: Sequence[Mapping[str, Any]], aeroelastic: bool,
                 physical(name, float(value), where)
             except InputError as exc:
                 raise InputError(f"{exc} (case {k})") from None
-        if aeroelastic and "altitude_ft" not in case:
-            raise InputError(f"{where} altitude_ft: missing (case {k}); an aeroelastic sweep needs "
-                             f"the altitude of every case")
+        if aeroelastic:
+            _check_flight_condition(case, k, where)
         if not aeroelastic and case.get("alpha") == MATCHED:
             raise InputError(f"{where} alpha: 'matched' needs a model with aerodynamics "
                              f"([model] aero = 'aero.npz' or builtin = 'goland')")
+    if aeroelastic:
+        check_speed_sweep(cases, where)
+
+
+def _check_flight_condition(case: Mapping[str, Any], k: int, where: str) -> None:
+    """A matched-point case has ``altitude_ft``; a wind-tunnel case ``speed`` > 0 and either
+    ``density`` > 0 or ``altitude_ft`` (InputError naming the key otherwise)."""
+    for key in ("speed", "density"):
+        if key in case and not float(case[key]) > 0:
+            raise InputError(f"{where} {key}: expected a positive number "
+                             f"({TUNNEL_UNITS[key]}), got {case[key]!r} (case {k})")
+    if "speed" not in case:
+        if "density" in case:
+            raise InputError(f"{where} density: given without speed (case {k}); a wind-tunnel "
+                             f"case needs the speed (ft/s), a matched-point case altitude_ft only")
+        if "altitude_ft" not in case:
+            raise InputError(f"{where} altitude_ft: missing (case {k}); an aeroelastic sweep "
+                             f"needs the altitude of every case (matched point), or a speed "
+                             f"(ft/s) and density (wind tunnel)")
+    elif ("density" in case) == ("altitude_ft" in case):
+        key = "density" if "density" in case else "speed"
+        raise InputError(f"{where} {key}: a wind-tunnel case takes its air density from "
+                         f"exactly one of density (slug/ft^3) or altitude_ft (case {k})")
+
+
+def check_speed_sweep(cases: Sequence[Mapping[str, Any]], where: str = "[cases]") -> None:
+    """InputError when the cases sweep both the speed and the altitude (or density): a speed
+    sweep is a wind tunnel at one density; an altitude sweep is the matched point."""
+    tunnel = [c for c in cases if "speed" in c]
+    if len({float(c["speed"]) for c in tunnel}) < 2:
+        return
+    for key in ("altitude_ft", "density"):
+        if len({float(c[key]) for c in tunnel if key in c}) > 1:
+            raise InputError(f"{where} {key}: swept together with speed; a speed sweep (wind "
+                             f"tunnel) is at one air density: give one {key}, or sweep "
+                             f"altitude_ft without speed (matched point)")
+
+
+def flight_conditions(model: AeroelasticModel, cases: Sequence[Mapping[str, Any]]
+                      ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(V, ρ, altitude) per case (ft/s, slug/ft³, ft): the matched point V = M a(h), ρ(h) at
+    the GAF Mach M (paper Eqs. 49–50), or the wind tunnel's ``speed`` at ``density`` or at
+    ρ(``altitude_ft``) (altitude NaN when the density is given)."""
+    from ..aero.atmosphere import atmosphere, flight_condition
+
+    V, rho, alt = (np.full(len(cases), np.nan) for _ in range(3))
+    for i, c in enumerate(cases):
+        if "altitude_ft" in c:
+            alt[i] = float(c["altitude_ft"])
+        if "speed" not in c:
+            fc = flight_condition(model.mach, alt[i])
+            V[i], rho[i] = float(fc.velocity), float(fc.density)
+        else:
+            V[i] = float(c["speed"])
+            rho[i] = (float(c["density"]) if "density" in c
+                      else float(atmosphere(alt[i]).density))
+    return V, rho, alt
+
+
+#: most distinct air densities whose flutter speed a sweep reports
+MAX_FLUTTER_DENSITIES = 4
+
+
+def flutter_speed_lines(model, cases: Sequence[Mapping[str, Any]]) -> list[str]:
+    """One line per distinct air density of the wind-tunnel cases (the first
+    :data:`MAX_FLUTTER_DENSITIES`): the flutter speed there with the baseline damping
+    (:meth:`AeroelasticModel.flutter_speed`), where the speed sweep's LCOs begin; none for a
+    structural model or matched-point cases."""
+    tunnel = [c for c in cases if "speed" in c]
+    if not isinstance(model, AeroelasticModel) or not tunnel:
+        return []
+    _, rho, _ = flight_conditions(model, tunnel)
+    lines = []
+    for density in list(dict.fromkeys(float(r) for r in rho))[:MAX_FLUTTER_DENSITIES]:
+        fs = model.flutter_speed(density)
+        where = f"flutter speed at {density:.6g} slug/ft^3 (baseline damping)"
+        lines.append(f"{where}: {fs.velocity:.2f} ft/s, {fs.frequency_hz:.3f} Hz"
+                     if fs.velocity is not None else f"{where}: none in the speed range")
+    return lines
 
 
 def _column(cases, name, default) -> list[float]:
@@ -112,9 +199,10 @@ def case_system(model, cases: list[dict[str, Any]], device=None, dtype=torch.flo
     gamma = _column(cases, "gamma", 0.0)
     s_nl = _column(cases, "stiffness_nl", 1.0)
     d_nl = _column(cases, "damping_nl", 1.0)
-    ae = aeroelastic_system(model.rom, model.aero, _column(cases, "altitude_ft", 0.0),
-                            alpha=alpha, gamma=gamma, stiffness_nl=s_nl, damping_nl=d_nl,
-                            device=device, dtype=dtype, check=False)
+    V, rho, alt = flight_conditions(model, cases)
+    ae = aeroelastic_system_at(model.rom, model.aero, V, rho, altitude=alt, alpha=alpha,
+                               gamma=gamma, stiffness_nl=s_nl, damping_nl=d_nl, device=device,
+                               dtype=dtype, check=False)
     # the values used (defaults included), so that no column has gaps where a case omits one
     extra = [{**cond, "alpha": a, "gamma": g, "stiffness_nl": s, "damping_nl": d,
               "alpha_matched": m}

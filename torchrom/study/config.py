@@ -2,8 +2,10 @@
 
 Tables ``[model]``, ``[aeroelastic]``, ``[initial]``, ``[integrator]``, ``[hb]``, ``[lco]``,
 ``[certificate]``, ``[cases]``, ``[history]``, ``[branch]``, ``[plot]``, ``[run]``,
-``[variants.NAME]`` and the keys ``title`` and ``method`` ("newmark", "hb" or "shooting": the
-solvers of :mod:`.solvers`); the keys each
+``[variants.NAME]``, ``[points]`` (output names of one's own for points of the deck,
+``tip_le = "G1001:T3"``, that ``[lco] outputs`` may use, as it may ``"G1001:T3"`` itself:
+:mod:`torchrom.rom.points`) and the keys ``title`` and ``method`` ("newmark", "hb" or
+"shooting": the solvers of :mod:`.solvers`); the keys each
 table accepts are :data:`TABLE_KEYS` (the user guide's table is generated from them).
 Everything is checked when the file is read, before any output is written — keys, values
 (:data:`VALUE_CHECKS`, the Newmark and LCO options' own checks, physical ranges, the work and
@@ -30,6 +32,7 @@ from ..periodic import HarmonicBalanceMethod, HBOptions
 from ..periodic.certify import Certificate
 from ..rom import NonlinearROM
 from ..rom.analytic import BUILTIN
+from ..rom.points import check_point_table
 from ..sim import LCOCriteria, Newmark
 from .cases import (
     STRUCTURAL_PARAMETERS,  # noqa: F401 - re-exported (public name of this module)
@@ -38,12 +41,18 @@ from .cases import (
     check_case_values,
 )
 from .grid import config_hash, expand_cases
-from .models import AeroelasticModel, model_provider, model_rom, provider_names
+from .models import (
+    AeroelasticModel,
+    model_provider,
+    model_rom,
+    provider_names,
+    with_named_outputs,
+)
 from .solvers import DEFAULT_METHOD, SOLVERS, Solver, make_solver
 from .starts import check_start
 
 SECTIONS = ("title", "method", "model", "aeroelastic", "initial", "integrator", "hb", "lco",
-            "certificate", "cases", "history", "plot", "run", "branch", "variants")
+            "certificate", "cases", "history", "plot", "run", "branch", "variants", "points")
 _HB_OPTION_KEYS = ("start_harmonics", "harmonics", "max_harmonics", "amplitude_rtol",
                    "residual_tol", "start_amplitude", "amplitude_scale", "max_stages",
                    "metric_points")
@@ -130,6 +139,8 @@ class SweepConfig:
     hb: HarmonicBalanceMethod = field(default_factory=HarmonicBalanceMethod)
     certificate: Certificate = field(default_factory=Certificate)
     allow_large: bool = False
+    #: [points]: output names of the configuration's own -> "G1001:T3"
+    points: dict[str, str] = field(default_factory=dict)
 
     @property
     def solver(self) -> Solver:
@@ -144,7 +155,11 @@ class SweepConfig:
 
     def build_model(self):
         """The sweep's model: a NonlinearROM, or an AeroelasticModel when it has aerodynamics."""
-        return build_model(self.model, self.source, self.aeroelastic)
+        model = build_model(self.model, self.source, self.aeroelastic)
+        try:
+            return with_named_outputs(model, self.outputs, self.points)
+        except InputError as exc:
+            raise _err(self.source, "[lco] outputs", str(exc)) from None
 
     def build_rom(self) -> NonlinearROM:
         return model_rom(self.build_model())
@@ -337,6 +352,10 @@ def load_sweep_config(path, variant: str | None = None) -> SweepConfig:
         raise _err(source, "[integrator]", f"bad value ({exc})") from None
 
     lco_t = _checked_table(raw, "lco", source)
+    try:
+        points = check_point_table(_table(raw, "points", source))
+    except InputError as exc:
+        raise InputError(f"{source}: {exc}") from None
     outputs = lco_t.get("outputs")
     if outputs is not None and (not isinstance(outputs, list) or not outputs
                                 or not all(isinstance(o, str) for o in outputs)):
@@ -386,12 +405,12 @@ def load_sweep_config(path, variant: str | None = None) -> SweepConfig:
                       plot=plot, batch_size=batch, chunk_size=run_t.get("chunk_size"), raw=raw,
                       aeroelastic=aero_t,
                       history=history, method=method, hb=hb, certificate=certificate,
-                      allow_large=allow_large)
+                      allow_large=allow_large, points=points)
     check_work(cfg)
     if model.get("builtin") in provider_names():
         _check_provided(model, source)  # checked now; built (or reused) when the sweep runs
     else:
-        check_initial(cfg, build_model(model, source, aero_t))  # fail now, not after a long run
+        check_initial(cfg, cfg.build_model())  # fail now, not after a long run
     return cfg
 
 

@@ -28,11 +28,13 @@ import numpy as np
 from ..aero.build import BASELINE_ALPHA, BASELINE_GAMMA
 from ..aero.files import AeroData
 from ..aero.flutter import (
+    AeroTable,
     MatchedPointResult,
     ModalStructure,
     alpha_for_gammas,
     flutter_altitude_state_space,
 )
+from ..aero.flutter_speed import FlutterSpeed, flutter_speed_at_density
 from ..errors import ConvergenceError, InputError
 from ..rom import NonlinearROM
 from ..sim.aeroelastic import check_aero_matches_rom
@@ -105,6 +107,17 @@ class AeroelasticModel:
                                        f"{self.baseline_gamma:g} s)")
             self._flutter = res
         return self._flutter
+
+    def flutter_speed(self, density: float, alpha: float | None = None,
+                      gamma: float | None = None) -> FlutterSpeed:
+        """Flutter point on the speed axis of a wind tunnel: the speed (ft/s) at which the
+        critical root's growth rate crosses zero at air density ``density`` (slug/ft³), state
+        space at the GAF Mach number (Eqs. 49–50; :func:`~torchrom.aero.flutter_speed.
+        flutter_speed_at_density`), with damping α, γ (default the baseline)."""
+        st = self.structure(self.baseline_alpha if alpha is None else alpha,
+                            self.baseline_gamma if gamma is None else gamma)
+        return flutter_speed_at_density(st, self.aero.rfa, AeroTable.from_gaf(self.aero.gaf),
+                                        density, mach=self.mach)
 
     def reference_altitude(self) -> float:
         """Altitude (ft) the matched α(γ) keep the flutter point at."""
@@ -187,6 +200,32 @@ def model_rom(model) -> NonlinearROM:
         return model
     raise InputError(f"sweep model: expected a NonlinearROM or an AeroelasticModel, got "
                      f"{type(model).__name__}")
+
+
+def with_named_outputs(model, outputs, points=None, where: str = "output"):
+    """The model with the outputs a configuration names by a point (``"G1001:T3"``) or by a
+    ``[points]`` name added to its ROM as aliases of the ROM's own rows (the model itself when
+    every name is already an output or a generalized coordinate q1..qn); InputError naming an
+    output the ROM does not have, with the outputs it has
+    (:func:`torchrom.rom.points.resolve_output`)."""
+    import dataclasses
+
+    from ..rom.points import resolve_output
+
+    rom = model_rom(model)
+    aliases = {}
+    for name in outputs or []:
+        if name.startswith("q") and name[1:].isdigit() and 1 <= int(name[1:]) <= rom.n:
+            continue
+        found = resolve_output(rom, name, points, where)
+        if found != name:
+            aliases[name] = rom.outputs[found]
+    if not aliases:
+        return model
+    named = rom.replace(outputs={**rom.outputs, **aliases})
+    if isinstance(model, AeroelasticModel):
+        return dataclasses.replace(model, rom=named)
+    return named
 
 
 def alpha_gamma_table(model: AeroelasticModel, gammas):

@@ -22,6 +22,8 @@ KNOWN = {
     "steps": "-", "t_end": "s", "amplitude_change": "-", "solver_error": "-",
     "reference_altitude_ft": "ft", "flutter_frequency_hz": "Hz", "growth_rate": "1/s",
     "initial_amplitude": None, "threshold_amplitude": None,
+    # flight condition of an aeroelastic sweep (ft-slug-s, as altitude_ft and the atmosphere)
+    "speed": "ft/s", "density": "slug/ft^3", "velocity": "ft/s", "dynamic_pressure": "lbf/ft^2",
 }
 
 
@@ -62,6 +64,8 @@ LABELS = {
     "growth_rate": "growth rate", "initial_amplitude": "initial amplitude",
     "threshold_amplitude": "threshold amplitude", "floquet_multiplier": "Floquet multiplier",
     "harmonic_distortion": "harmonic distortion", "q0": "initial q",
+    "speed": "speed", "density": "air density", "velocity": "speed",
+    "dynamic_pressure": "dynamic pressure",
 }
 
 
