@@ -80,19 +80,6 @@ class Modes:
         return out
 
 
-def require_restrained(modes: Modes, where: str) -> Modes:
-    """``modes`` unchanged, or InputError when the model has rigid-body modes: an analysis that
-    needs a restrained structure (flutter, aerodynamics on the modes) would otherwise mix
-    zero-frequency modes into its basis."""
-    if getattr(modes, "n_rigid", 0):  # modes of another source (e.g. closed form) have none
-        values = ", ".join(f"{x:.2g}" for x in modes.rigid_eigenvalues)
-        raise InputError(f"{where}: the structure has {modes.n_rigid} rigid-body mode(s) "
-                         f"(unconstrained or under-constrained; ω² = {values}); this analysis "
-                         f"needs a restrained structure (free-free analysis with SUPORT is not "
-                         f"supported): constrain it with SPC/SPC1 or GRID PS")
-    return modes
-
-
 def relieved_load(M: sp.spmatrix, rigid: np.ndarray, f: np.ndarray) -> np.ndarray:
     """f − M G Gᵀ f: the load ``f`` balanced by the inertia loads of the rigid-body
     acceleration it causes (Nastran's inertia relief, INREL; G the M-orthonormal rigid-body
