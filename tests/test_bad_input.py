@@ -484,6 +484,11 @@ def test_free_free_dual_combination_on_a_rigid_body_mode(tmp_path, capsys):
     assert rc == 2
     _one_line_error(err, "combination (1, 1)", "rigid-body mode", "--combinations transverse")
     assert not (tmp_path / "rom.npz").exists()
+    rc, err = _cli(capsys, ["identify", deck, "--linear", "7", "--dual", "1", "--out",
+                            tmp_path / "rom.npz", "--report", tmp_path / "report"])
+    assert rc == 2
+    _one_line_error(err, "free.bdf", "--report", "restrained", "rigid-body modes")
+    assert not (tmp_path / "rom.npz").exists() and not (tmp_path / "report").exists()
 
 
 @pytest.mark.parametrize("damage", ["nan density", "no enddata"])
