@@ -315,3 +315,31 @@ def test_excursions_label_humps_and_sustained_crossings():
     assert (sustained.kind, sustained.velocity, sustained.stable_velocity) == (
         SUSTAINED, 3.75, None)
     assert not hump.refined and hump.as_dict()["kind"] == "hump"
+
+
+def test_matched_point_pk_reports_rigid_body_roots_apart():
+    """A free aircraft's rigid-body root is never the ROM's flutter point: two uncoupled modes,
+    a rigid one (K = 0, aerodynamic stiffness 0.05 q) and an elastic one (ω = 10 rad/s), each
+    with structural damping c and aerodynamic damping ½ ρ V b d < 0, so each root's damping
+    crosses zero where ρ V = 2 c / (b |d|) (closed form): the rigid root at ρV = 0.8 (about
+    14,700 ft at Mach 0.5), above the elastic one at ρV = 1.1429. The flutter point is the
+    elastic crossing (altitude from the atmosphere by Brent, 1 ft; frequency 10/2π Hz, 1e-6),
+    the rigid one is listed apart."""
+    from torchrom.aero.flutter import AeroTable, ModalStructure, flutter_altitude_pk
+
+    structure = ModalStructure(np.eye(2), np.diag([0.0, 100.0]), C0=np.diag([0.1, 0.2]))
+    table = AeroTable(lambda k: np.diag([0.05 - 0.25j * k, -0.35j * k]), 1.0)
+    res = flutter_altitude_pk(structure, table, 0.5, (0.0, 30000.0))
+
+    def rho_v(h):
+        c = flight_condition(0.5, h, "ft")
+        return float(c.density * c.velocity)
+
+    expected = brentq(lambda h: rho_v(h) - 2 * 0.2 / 0.35, 0.0, 30000.0)
+    assert res.mode == 1
+    assert res.altitude == pytest.approx(expected, abs=1.0)
+    assert res.frequency_hz == pytest.approx(10 / (2 * np.pi), rel=1e-6)
+    ((j, h),) = res.rigid_body_crossings
+    rigid_at = brentq(lambda h: rho_v(h) - 2 * 0.1 / 0.25, 0.0, 30000.0)
+    assert j == 0 and h >= rigid_at and h - rigid_at < 30000.0 / 40
+    assert res.as_dict()["rigid_body_crossings"] == [{"mode": 1, "altitude": h}]

@@ -473,21 +473,22 @@ def test_json_of_every_command_is_not_replaced(command, tmp_path, capsys):
     assert not (tmp_path / "g").exists() and not (tmp_path / "aero.npz").exists()
 
 
-@pytest.mark.parametrize("command", ["aero", "identify"])
-def test_free_free_deck_needs_constraints(command, tmp_path, capsys):
-    """An unconstrained deck where the analysis needs a restrained structure: a clear error
-    naming the rigid-body modes and what to add, never a singular matrix or a 0 Hz basis
-    (flutter of the free-free pt145: tests/test_fe_solvers.py)."""
+def test_free_free_dual_combination_on_a_rigid_body_mode(tmp_path, capsys):
+    """identify on an unconstrained deck (free-free structures are identified with their
+    rigid-body modes at 0 Hz) asked for a dual-mode combination that loads a rigid-body mode:
+    its load K U is zero, so a clear error naming the combination and what to give."""
     deck = tmp_path / "free.bdf"
     deck.write_text(DECK.replace("SPC1    1       123456  1\n", "").replace("SPC = 1\n", ""))
-    argv = {"aero": ["aero", deck, "--mach", "0.5", "--planform", "goland", "--modes", "2",
-                     "--out", tmp_path / "aero.npz"],
-            "identify": ["identify", deck, "--linear", "2", "--dual", "1", "--combinations",
-                         "1:1", "--out", tmp_path / "rom.npz"]}[command]
-    rc, err = _cli(capsys, argv)
+    rc, err = _cli(capsys, ["identify", deck, "--linear", "2", "--dual", "1", "--combinations",
+                            "1:1", "--out", tmp_path / "rom.npz"])
     assert rc == 2
-    _one_line_error(err, "free", "rigid-body mode", "SPC")
-    assert not (tmp_path / "aero.npz").exists() and not (tmp_path / "rom.npz").exists()
+    _one_line_error(err, "combination (1, 1)", "rigid-body mode", "--combinations transverse")
+    assert not (tmp_path / "rom.npz").exists()
+    rc, err = _cli(capsys, ["identify", deck, "--linear", "7", "--dual", "1", "--out",
+                            tmp_path / "rom.npz", "--report", tmp_path / "report"])
+    assert rc == 2
+    _one_line_error(err, "free.bdf", "--report", "restrained", "rigid-body modes")
+    assert not (tmp_path / "rom.npz").exists() and not (tmp_path / "report").exists()
 
 
 @pytest.mark.parametrize("damage", ["nan density", "no enddata"])

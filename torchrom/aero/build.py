@@ -89,14 +89,19 @@ class ModalData:
 
 
 def modal_data(fe, n_modes: int) -> ModalData:
-    from ..fe.solvers import require_restrained
+    from .nastran_flutter import _with_rigid
 
-    modes = require_restrained(fe.modes(int(n_modes)),
-                               f"{getattr(fe, 'name', 'model')}: modes for aerodynamics")
-    shapes = np.asarray(modes.shapes, dtype=float)
+    # a free aircraft's rigid-body modes first, at 0 Hz, as SOL 145 and the ROM basis keep them
+    # (the same shapes as torchrom.identify's: GAFs on the ROM's linear modes)
+    modes = fe.modes(int(n_modes))
+    if getattr(modes, "n_rigid", 0):  # modes of another source (closed form) have none
+        frequencies, shapes = _with_rigid(fe, modes, int(n_modes), [])
+    else:
+        frequencies, shapes = modes.frequencies_hz, modes.shapes
+    shapes = np.asarray(shapes, dtype=float)
     grid_ids = np.asarray(fe.grid_ids)
     return ModalData(
-        frequencies_hz=np.asarray(modes.frequencies_hz, dtype=float),
+        frequencies_hz=np.asarray(frequencies, dtype=float),
         grid_ids=grid_ids,
         grid_xyz=np.asarray(fe.grid_xyz, dtype=float),
         displacements=np.asarray(fe.expand(shapes), dtype=float).reshape(shapes.shape[1], -1, 6),

@@ -754,9 +754,14 @@ class MatchedPointResult:
     mode: int | None
     sweep: ModeSweep | dict | None = None
     units: str = "ft"
+    #: p-k: the rigid-body branches (0-based) whose damping crosses zero in the sweep, with the
+    #: altitude sample where it first does (a free aircraft's rigid roots: not flutter)
+    rigid_body_crossings: list[tuple[int, float]] = field(default_factory=list)
 
     def as_dict(self) -> dict:
         return {
+            "rigid_body_crossings": [{"mode": j + 1, "altitude": a}
+                                     for j, a in self.rigid_body_crossings],
             "method": self.method,
             "mach": self.mach,
             "altitude": self.altitude,
@@ -813,13 +818,21 @@ def flutter_altitude_pk(
     sweep = pk_sweep(structure, aero, fc.velocity, fc.density, altitudes=h, mach=mach, eps=eps)
     # Non-oscillatory roots (divergence) have g = ±inf and are not flutter crossings.
     g = np.where(np.isfinite(sweep.damping), sweep.damping, np.nan)
-    first = None
+    from .crossings import rigid_body_branches  # (crossings imports this module)
+
+    # a free aircraft's rigid-body roots are reported apart, never as the flutter point (the
+    # rule of the deck flutter, torchrom.aero.crossings.RIGID_FRACTION)
+    rigid = rigid_body_branches(structure)
+    first, apart = None, []
     for j in range(structure.n_modes):
         idx = zero_crossings(g[:, j])
-        if len(idx) and (first is None or idx[0] < first[0]):
+        if len(idx) and rigid[j]:
+            apart.append((j, float(h[idx[0]])))
+        elif len(idx) and (first is None or idx[0] < first[0]):
             first = (idx[0], j)
     if first is None:
-        return MatchedPointResult("p-k", mach, None, None, None, None, None, sweep, units)
+        return MatchedPointResult("p-k", mach, None, None, None, None, None, sweep, units,
+                                  apart)
     i, j = first
 
     def solve(alt):
@@ -839,7 +852,8 @@ def flutter_altitude_pk(
         return s
 
     alt = scipy.optimize.brentq(lambda a: solve(a).real, h[i + 1], h[i], xtol=xtol)
-    return _matched("p-k", mach, alt, solve(alt), j, sweep, units)
+    return replace(_matched("p-k", mach, alt, solve(alt), j, sweep, units),
+                   rigid_body_crossings=apart)
 
 
 def _matched(method, mach, alt, root, mode, sweep, units) -> MatchedPointResult:

@@ -292,6 +292,10 @@ def _matched(args, structure, aero, compare_paper: bool) -> int:
             f"  {r.method:<13}{r.altitude:13.1f}{r.frequency_hz:14.4f}{r.velocity:10.1f}"
             f"{0.5 * r.density * r.velocity**2:9.1f}"
         )
+    for r in results:
+        for j, a in getattr(r, "rigid_body_crossings", []):
+            print(f"  {r.method}: rigid-body root (mode {j + 1}) damping crosses zero near "
+                  f"{a:.1f} ft: not flutter (a free aircraft's rigid-body root)")
     if compare_paper:
         print(f"  {'paper':<13}{PAPER_FLUTTER_ALTITUDE_FT:13.1f}{PAPER_FLUTTER_FREQUENCY_HZ:14.4f}")
     growing = []

@@ -112,7 +112,16 @@ def run(args) -> int:
     t0 = time.perf_counter()
     info(f"reading {args.model}")
     fe = read_bdf(args.model)
-    kinds = fe.modes(args.linear).kinds if args.combinations == "transverse" else None
+    if args.report is not None and fe.modes(1).n_rigid:
+        # the report's static curves and free decay are solved on a restrained ROM and FE
+        raise InputError(f"{args.model}: --report: the validation (static curves at point A, "
+                         f"free decay) needs a restrained structure; this one has rigid-body "
+                         f"modes (free-free): identify without --report")
+    kinds = None
+    if args.combinations == "transverse":
+        # a free structure's rigid-body modes come first in the basis (0 Hz, as in SOL 145)
+        m = fe.modes(args.linear)
+        kinds = (["rigid-body"] * m.n_rigid + list(m.kinds))[:args.linear]
     combinations = parse_combinations(args.combinations, kinds=kinds)
     if kinds is not None:
         print(f"  dual-mode combinations from the mode kinds ({', '.join(kinds)}): "

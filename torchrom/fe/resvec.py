@@ -27,6 +27,7 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as sla
 
 from .rigid import orthogonalise_against, rigid_motions_on_free
+from .solvers import inertia_relief_solve
 
 #: a residual vector whose squared M-norm after orthogonalisation against the basis (and the
 #: other vectors) is below this fraction of the largest response's is dependent and dropped
@@ -44,13 +45,8 @@ def inertia_residual_vectors(fe, basis: np.ndarray, rigid: np.ndarray | None = N
     loads = M @ X
     if rigid is not None and rigid.shape[1]:
         # inertia relief: the rigid-body part of the loads accelerates the body, it does not
-        # deform it; K is then singular on G only: solve with M G Gᵀ M added (exact on the
-        # relieved loads, whose response is taken orthogonal to G)
-        loads = loads - M @ (rigid @ (rigid.T @ loads))
-        MG = np.asarray(M @ rigid)
-        lu = sla.splu(sp.csc_matrix(K + sp.csr_matrix(MG @ MG.T)))
-        U = lu.solve(np.asarray(loads))
-        U = orthogonalise_against(U, rigid, M)
+        # deform it (the response M-orthogonal to G)
+        U = inertia_relief_solve(K, M, rigid, np.asarray(loads))
     else:
         U = sla.splu(K).solve(np.asarray(loads))
     size = float(np.einsum("ik,ik->k", U, M @ U).max(initial=0.0))

@@ -80,17 +80,94 @@ class Modes:
         return out
 
 
-def require_restrained(modes: Modes, where: str) -> Modes:
-    """``modes`` unchanged, or InputError when the model has rigid-body modes: an analysis that
-    needs a restrained structure (flutter, aerodynamics on the modes) would otherwise mix
-    zero-frequency modes into its basis."""
-    if getattr(modes, "n_rigid", 0):  # modes of another source (e.g. closed form) have none
-        values = ", ".join(f"{x:.2g}" for x in modes.rigid_eigenvalues)
-        raise InputError(f"{where}: the structure has {modes.n_rigid} rigid-body mode(s) "
-                         f"(unconstrained or under-constrained; ω² = {values}); this analysis "
-                         f"needs a restrained structure (free-free analysis with SUPORT is not "
-                         f"supported): constrain it with SPC/SPC1 or GRID PS")
-    return modes
+def relieved_load(M: sp.spmatrix, rigid: np.ndarray, f: np.ndarray) -> np.ndarray:
+    """f − M G Gᵀ f: the load ``f`` balanced by the inertia loads of the rigid-body
+    acceleration it causes (Nastran's inertia relief, INREL; G the M-orthonormal rigid-body
+    shapes, Gᵀ M G = I, so the acceleration is a = Gᵀ f and Gᵀ (f − M G a) = 0)."""
+    return f - np.asarray(M @ (rigid @ (rigid.T @ f)))
+
+
+def _bordered(A: sp.spmatrix, MG: np.ndarray) -> sp.csc_matrix:
+    """[[A, M G], [Gᵀ M, 0]]: A with the rigid-body accelerations as unknowns and the
+    constraint Gᵀ M u = 0 (the response M-orthogonal to the rigid-body modes)."""
+    r = MG.shape[1]
+    return sp.csc_matrix(sp.bmat([[sp.csr_matrix(A), sp.csr_matrix(MG)],
+                                  [sp.csr_matrix(MG.T), sp.csr_matrix((r, r))]]))
+
+
+def inertia_relief_solve(K: sp.spmatrix, M: sp.spmatrix, rigid: np.ndarray,
+                         f: np.ndarray) -> np.ndarray:
+    """Linear static response of a free (or under-constrained) structure under inertia relief:
+    u with K u = f − M G Gᵀ f (:func:`relieved_load`) and Gᵀ M u = 0, G (n, r) the
+    M-orthonormal rigid-body shapes (K G = 0). Solved as the bordered system
+    K u + M G a = f, Gᵀ M u = 0 (a: the rigid-body accelerations, = Gᵀ f), which is
+    non-singular without a support set: the same answer as Nastran's SUPORT-supported INREL
+    solve made M-orthogonal to the rigid-body modes."""
+    f = np.asarray(f, dtype=float)
+    MG = np.asarray(M @ rigid)
+    sol = solve_linear(_bordered(K, MG), np.concatenate([f, np.zeros((MG.shape[1],)
+                                                                     + f.shape[1:])]))
+    return sol[: K.shape[0]]
+
+
+def inertia_relief_static(fe, load: np.ndarray, rigid: np.ndarray, *, u0=None,
+                          max_cuts: int = 10, max_iter: int = 30,
+                          tol: float = 1e-9) -> StaticResult:
+    """Nonlinear static solution of a free structure under inertia relief: f(u) + M G a = λ F
+    with Gᵀ M u = 0 for λ from 0 to 1 (G: M-orthonormal rigid-body shapes; a: the rigid-body
+    accelerations, Lagrange multipliers that balance the load, = Gᵀ F in the linear case).
+    Newton on the bordered tangent [[K_T(u), M G], [Gᵀ M, 0]], load stepping and step cutting
+    as :func:`static_solve` (without prescribed DOFs). Convergence: ‖r‖ ≤ tol ·
+    max(‖λF‖, ‖f(u)‖)."""
+    n = fe.n_dof
+    F = np.asarray(load, dtype=float).reshape(-1)
+    if F.shape != (n,):
+        raise InputError(f"inertia_relief_static: load: expected {n} free-DOF entries, got "
+                         f"{F.shape}")
+    MG = np.asarray(fe.mass_matrix() @ rigid)
+    r = MG.shape[1]
+    u = np.zeros(n) if u0 is None else np.array(u0, dtype=float)
+    u = u - rigid @ (MG.T @ u)  # a start M-orthogonal to the rigid-body modes
+    a = np.zeros(r)
+    lam, dlam, cuts, total, steps, res = 0.0, 1.0, 0, 0, 0, 0.0
+    while lam < 1.0 - 1e-14:
+        target = min(1.0, lam + dlam)
+        ok, u_new, a_new, its, res = _relief_newton(fe, u, a, target * F, MG, max_iter, tol)
+        total += its
+        if ok:
+            u, a, lam, steps = u_new, a_new, target, steps + 1
+            continue
+        cuts += 1
+        if cuts > max_cuts:
+            return StaticResult(u, False, total, lam, res, steps,
+                                message=f"inertia_relief_static: no convergence after "
+                                        f"{max_cuts} step cuts at load factor {lam:.4g}",
+                                failed_load_factor=target)
+        dlam /= 2.0
+    return StaticResult(u, True, total, 1.0, res, steps)
+
+
+def _relief_newton(fe, u, a, F, MG, max_iter, tol):
+    u, a = u.copy(), a.copy()
+    n, res, first = len(u), np.inf, None
+    for it in range(1, max_iter + 1):
+        f = fe.internal_force(u)
+        ru = f + MG @ a - F
+        res = float(np.linalg.norm(ru))
+        if not np.isfinite(res):
+            return False, u, a, it, res
+        if res <= tol * max(np.linalg.norm(F), np.linalg.norm(f), 1e-300):
+            return True, u, a, it - 1, res
+        first = res if first is None else first
+        if it > 3 and res > 1e3 * first:
+            return False, u, a, it, res
+        rhs = np.concatenate([ru, MG.T @ u])
+        try:
+            d = solve_linear(_bordered(fe.tangent_stiffness(u), MG), rhs)
+        except (RuntimeError, la.LinAlgError):
+            return False, u, a, it, res
+        u, a = u - d[:n], a - d[n:]
+    return False, u, a, max_iter, res
 
 
 def solve_linear(K: sp.spmatrix, r: np.ndarray) -> np.ndarray:

@@ -141,7 +141,8 @@ class Basis:
 
     Attributes: kinds ("linear"/"dual" per column), frequencies_hz (NaN for dual modes),
     pod_values (normalised POD spectrum, descending), snapshots (one record per static solve:
-    combination, α, predicted and achieved tip displacement / span), seconds.
+    combination, α, predicted and achieved tip displacement / span), seconds, n_rigid (the
+    first n_rigid linear modes are a free structure's rigid-body modes, at 0 Hz).
     """
 
     Phi: np.ndarray
@@ -150,6 +151,7 @@ class Basis:
     pod_values: np.ndarray = field(default_factory=lambda: np.zeros(0))
     snapshots: list[dict] = field(default_factory=list)
     seconds: float = 0.0
+    n_rigid: int = 0
 
     @property
     def n(self) -> int:
@@ -166,7 +168,8 @@ def linear_basis(backend, n_linear: int) -> Basis:
         raise InputError(f"basis: {n_linear} linear modes asked for (--linear), but the model "
                          f"has {found} finite modes ({getattr(backend, 'n_dof', '?')} DOFs); "
                          f"expected at most {found}")
-    return Basis(V, ["linear"] * n_linear, np.asarray(f, float), seconds=time.perf_counter() - t0)
+    return Basis(V, ["linear"] * n_linear, np.asarray(f, float), seconds=time.perf_counter() - t0,
+                 n_rigid=int(getattr(backend, "n_rigid", 0)))
 
 
 def _m_project_out(R: np.ndarray, Phi: np.ndarray, M) -> np.ndarray:
@@ -345,6 +348,17 @@ class _Walk:
         return min(solved, key=lambda p: abs(p.tip - target)) if solved else None
 
 
+def _check_elastic(combinations, n_rigid: int) -> None:
+    """InputError for a combination that loads a rigid-body mode (modes 1..n_rigid): its load
+    K U is zero, so it gives no dual mode."""
+    bad = [c for c in combinations if min(c) <= n_rigid]
+    if bad:
+        raise InputError(f"dual modes: combination {tuple(bad[0])} loads a rigid-body mode "
+                         f"(modes 1..{n_rigid} of this free structure are rigid-body modes, "
+                         f"whose load K U is zero); expected elastic modes "
+                         f"{n_rigid + 1}.. (e.g. --combinations transverse)")
+
+
 def dual_basis(backend, linear: Basis, n_dual: int, options: DualModeOptions | None = None,
                progress: Callable[[int, int], None] | None = None) -> Basis:
     """Linear modes + n_dual dual modes (DIGEST Sec. 6, Eqs. 47–48), solved by the backend."""
@@ -356,6 +370,7 @@ def dual_basis(backend, linear: Basis, n_dual: int, options: DualModeOptions | N
     span = backend.reference_length
     responses, records = [], []
     total, done = len(opts.combinations) * opts.n_amplitudes, 0
+    _check_elastic(opts.combinations, linear.n_rigid)
     for (j, l) in opts.combinations:
         U, F = _combination(Phi_L, KU, j, l)
         peak = _transverse_peak(backend, U)
@@ -393,5 +408,6 @@ def dual_basis(backend, linear: Basis, n_dual: int, options: DualModeOptions | N
     for r, nrm in zip(ok, norms):
         r["relative_residual"] = float(nrm)
     basis.snapshots = records
+    basis.n_rigid = linear.n_rigid
     basis.seconds = linear.seconds + time.perf_counter() - t0
     return basis

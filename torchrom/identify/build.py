@@ -182,7 +182,10 @@ def identify(fe, options: IdentifyOptions | None = None,
             opt = replace(opt, dual=dual_opt)
         basis = dual_basis(be, basis, opt.n_dual, dual_opt, progress=stage("dual modes"))
         timings["dual_modes"] = time.perf_counter() - t1
-    Phi = basis.Phi
+    # a free structure's rigid-body modes (the first basis.n_rigid columns) take no part in the
+    # nonlinear fit: their K1 row is zero and they enter no K2/K3/D term (see _embed_rigid)
+    r = basis.n_rigid
+    Phi = basis.Phi[:, r:]
     amps = identification_amplitudes(Phi, opt.amplitude, be.reference_length,
                                      be.translational_dofs)
     t1 = time.perf_counter()
@@ -201,9 +204,32 @@ def identify(fe, options: IdentifyOptions | None = None,
         damp = optimum_decomposition(stiff.K1, stiff.K2, stiff.K3, opt.decomposition)
     timings["damping"] = time.perf_counter() - t1
     timings["total"] = time.perf_counter() - t0
+    if r:
+        stiff, damp = _embed_rigid(stiff, r), _embed_rigid(damp, r)
+        amps = np.concatenate([np.zeros(r), amps])
     rom = assemble_rom(be, basis, stiff, damp, opt, amps, timings)
     return IdentificationResult(rom, basis, stiff, damp, be.counters.as_dict(), timings,
                                 plan.points)
+
+
+def _embed_rigid(ident, r: int):
+    """The identification (stiffness or damping tensors) on the elastic coordinates, extended by
+    ``r`` leading rigid-body coordinates with zero entries in every term.
+
+    A rigid translation strains nothing; a rigid rotation θ of a total-Lagrangian model strains
+    at second order (Green strain ½ θ² of the rotated fibres), which a finite rotation's exact
+    kinematics would cancel but a rigid-body *mode* (the linearised rotation u = θ × x, the
+    Nastran SOL 145 mode) does not: fitted, those terms would be an artificial stiffening of
+    the aircraft's pitch with its amplitude (tests/test_identify_free_free.py measures them).
+    The ROM keeps the rigid-body coordinates linear (zero stiffness and damping) and the
+    nonlinear terms in the elastic coordinates, as a mean-axes formulation does."""
+    def pad(a):
+        a = np.asarray(a)
+        return np.pad(a, [(r, 0)] * a.ndim) if a.ndim else a
+
+    names = ("K1", "K2", "K3") if hasattr(ident, "K1") else ("D1", "D2", "D3")
+    return replace(ident, **{k: pad(getattr(ident, k)) for k in names if getattr(ident, k)
+                             is not None})
 
 
 def assemble_rom(be: FEBackend, basis: Basis, stiff: StiffnessIdentification,
@@ -222,6 +248,7 @@ def assemble_rom(be: FEBackend, basis: Basis, stiff: StiffnessIdentification,
         "torchrom_version": __version__,
         "source": be.metadata,
         "basis": {"kinds": basis.kinds, "n_linear": basis.kinds.count("linear"),
+                  "n_rigid": basis.n_rigid,
                   "n_dual": basis.kinds.count("dual"),
                   "dual_combinations": [list(c) for c in opt.dual.combinations],
                   "dual_amplitudes": opt.dual.n_amplitudes,

@@ -59,6 +59,8 @@ class BuiltinFEBackend(FEBackend):
         comps = np.array([c for _, c in fe.free_dofs()])
         self._transverse_dofs = np.flatnonzero(comps == thickness_axis)
         self._translational_dofs = np.flatnonzero(comps <= 3)
+        self._rigid: np.ndarray | None = None
+        self.n_rigid = 0
         self._outputs = {name: int(fe.dof_index(gid, comp))
                          for name, (gid, comp) in getattr(fe, "output_points", {}).items()}
         self._labels = [point_label(g, c) for g, c in fe.free_dofs()]
@@ -97,7 +99,15 @@ class BuiltinFEBackend(FEBackend):
         return self.fe.material_tangent(u)
 
     def _static_solve(self, load, u0):
-        res = self.fe.static_solve(load, u0=u0, tol=self.static_tol, max_cuts=12)
+        rigid = self.rigid_shapes()
+        if rigid.shape[1]:
+            # a free structure: the load balanced by the rigid-body inertia loads (INREL)
+            from ..fe.solvers import inertia_relief_static
+
+            res = inertia_relief_static(self.fe, load, rigid, u0=u0, tol=self.static_tol,
+                                        max_cuts=12)
+        else:
+            res = self.fe.static_solve(load, u0=u0, tol=self.static_tol, max_cuts=12)
         if not res.converged:
             raise ConvergenceError(f"{self.name}: static solve did not converge "
                                    f"({getattr(res, 'message', '')})")
@@ -115,9 +125,23 @@ class BuiltinFEBackend(FEBackend):
         res = self.fe.transient(t_end=t_end, dt=dt, u0=u0, gamma=gamma, record=list(record))
         return np.asarray(res.t), np.asarray(res.u)
 
-    def modes(self, n: int):
-        from ..fe.solvers import require_restrained
+    def rigid_shapes(self) -> np.ndarray:
+        """(n_dof, r) M-orthonormal rigid-body shapes of the model (r = 0 when restrained;
+        :func:`torchrom.fe.rigid.rigid_body_modes`, as the deck's flutter analysis uses)."""
+        if self._rigid is None:
+            from ..fe.rigid import rigid_body_modes
 
-        # the identification's static solves need a restrained structure (K invertible)
-        m = require_restrained(self.fe.modes(n), f"{getattr(self.fe, 'name', 'model')}: identify")
-        return np.asarray(m.frequencies_hz, float), np.asarray(m.shapes, float)
+            m = self.fe.modes(1)
+            self._rigid = (rigid_body_modes(self.fe, m)[0] if m.n_rigid
+                           else np.zeros((self.n_dof, 0)))
+        return self._rigid
+
+    def modes(self, n: int):
+        """The ``n`` lowest modes; a free structure's rigid-body modes first, at 0 Hz, as
+        Nastran's SOL 145 keeps them (counted among the ``n``; ``n_rigid`` says how many)."""
+        from ..aero.nastran_flutter import _with_rigid
+
+        m = self.fe.modes(n)
+        f, shapes = _with_rigid(self.fe, m, n, [])
+        self.n_rigid = min(int(m.n_rigid), n)
+        return np.asarray(f, float), np.asarray(shapes, float)
