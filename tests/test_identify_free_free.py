@@ -80,6 +80,11 @@ def test_identify_a_free_structure(free_plate):
     G, dual = res.basis.Phi[:, :r], res.basis.Phi[:, 9:]
     assert np.abs(G.T @ (free_plate.mass_matrix() @ dual)).max() <= 1e-10
     assert rom.metadata["basis"]["n_rigid"] == r
+    # the default output is where the first *elastic* mode moves most (a rigid-body mode moves
+    # every grid alike, so its largest entry says nothing about the wing)
+    names, C = rom.output_matrix(["max_mode1"])
+    phi1 = res.basis.Phi[:, r]
+    assert abs(C[0, r]) == pytest.approx(np.abs(phi1[be.translational_dofs]).max(), rel=1e-12)
 
 
 def test_dual_combination_on_a_rigid_body_mode_is_refused(free_plate):

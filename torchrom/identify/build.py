@@ -239,8 +239,10 @@ def assemble_rom(be: FEBackend, basis: Basis, stiff: StiffnessIdentification,
     Phi = basis.Phi
     M = Phi.T @ np.asarray(be.mass_matrix() @ Phi)
     dofs = dict(be.outputs)
-    # a deck without named points still gets one output: where the first mode moves most
-    dofs.setdefault(DEFAULT_OUTPUT, largest_translation(Phi, be.translational_dofs))
+    # a deck without named points still gets one output: where the first elastic mode moves
+    # most (a free structure's rigid-body modes come first in the basis and move everything)
+    dofs.setdefault(DEFAULT_OUTPUT, largest_translation(Phi, be.translational_dofs,
+                                                        mode=basis.n_rigid))
     outputs = {name: Phi[dof, :] for name, dof in dofs.items()}
     points = {name: be.dof_label(dof) for name, dof in dofs.items()
               if be.dof_label(dof) is not None}
