@@ -421,7 +421,13 @@ def read_caero1(model, path: str = "deck", frame: AeroFrame | None = None) -> Ae
     """
     others = sorted({c.type for c in model.caeros.values() if c.type != "CAERO1"})
     if others:
-        raise InputError(f"{path}: {others[0]}: only CAERO1 (doublet-lattice boxes) is supported")
+        # CAERO2 bodies, CAERO3 Mach box, CAERO4/PAERO4 strip theory (Theodorsen), CAERO5 piston
+        # theory: other aerodynamic theories, not implemented
+        theory = {"CAERO2": "slender-body", "CAERO3": "Mach box", "CAERO4": "strip theory",
+                  "CAERO5": "piston theory"}.get(others[0], "a non-DLM")
+        raise InputError(f"{path}: {others[0]} ({theory} aerodynamics) is not supported: only "
+                         f"CAERO1 doublet-lattice boxes are; model the lifting surfaces with "
+                         f"CAERO1/PAERO1 instead")
     frame = read_aero_frame(model, path) if frame is None else frame
     parts = []
     for eid in sorted(model.caeros):
