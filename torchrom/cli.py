@@ -7,7 +7,8 @@ Modules are discovered automatically, so adding a command never touches this fil
 Bad input raises :class:`torchrom.errors.TorchromError`; it is printed as one line
 (``torchrom <cmd>: error: ...``) and the exit status is 2; so is an ``OSError`` of the file
 system (a full disk, no permission), which is not a bug either, and a ``MemoryError`` (a problem
-too large for this machine even after the up-front bounds of :mod:`torchrom.bounds`).
+too large for this machine even after the up-front bounds of :mod:`torchrom.bounds`, or torch's
+allocation failure, its RuntimeError).
 Everything a command prints goes through :class:`torchrom.text.SafeStream` (no terminal control
 sequence from a title or a file name reaches the terminal), and a Python warning is one line
 ``torchrom <cmd>: warning: ...``.
@@ -122,10 +123,37 @@ def _run(args: argparse.Namespace) -> int:
         print(f"torchrom {args._name}: error: out of memory; the problem is too large for this "
               f"machine (fewer cases, a smaller batch_size or fewer harmonics)", file=sys.stderr)
         return 2
+    except RuntimeError as exc:
+        if not _allocation_failure(exc):
+            raise  # a bug: its traceback
+        print(f"torchrom {args._name}: error: out of memory ({_allocation_size(exc)}); the "
+              f"problem is too large for this machine (fewer cases, a smaller batch_size, a "
+              f"larger dt or fewer harmonics)", file=sys.stderr)
+        return 2
     except KeyboardInterrupt:
         print(f"torchrom {args._name}: interrupted; finished results were kept", file=sys.stderr)
         return 130
     return int(rc or 0)
+
+
+def _allocation_failure(exc: RuntimeError) -> bool:
+    """Whether ``exc`` is torch's refusal to allocate (CPU: "DefaultCPUAllocator: can't allocate
+    memory"; CUDA: torch.OutOfMemoryError), which the up-front bounds estimate but cannot
+    always foresee: a MemoryError by another name."""
+    text = str(exc)
+    return ("can't allocate memory" in text or "CUDA out of memory" in text
+            or type(exc).__name__ == "OutOfMemoryError")
+
+
+def _allocation_size(exc: RuntimeError) -> str:
+    import re
+
+    m = re.search(r"allocate (\d+) bytes", str(exc))
+    if m is None:
+        return "an allocation failed"
+    from .bounds import format_bytes
+
+    return f"an allocation of {format_bytes(float(m.group(1)))} failed"
 
 
 if __name__ == "__main__":  # pragma: no cover
