@@ -1,7 +1,8 @@
 """The ``torchrom`` command.
 
 Each sub-command lives in its own module under :mod:`torchrom.commands` and exposes
-``NAME`` (the sub-command), ``HELP`` (one line), ``add_arguments(parser)`` and ``run(args)``.
+``NAME`` (the sub-command), ``HELP`` (one line), ``add_arguments(parser)`` and ``run(args)``,
+and ``BOUNDED = True`` when it checks the bounds of :mod:`torchrom.bounds` (``--allow-large``).
 Modules are discovered automatically, so adding a command never touches this file.
 
 Bad input raises :class:`torchrom.errors.TorchromError`; it is printed as one line
@@ -40,17 +41,28 @@ def _command_modules():
     return mods
 
 
-def _add_common_options(parser: argparse.ArgumentParser) -> None:
-    """--quiet / --verbose (:mod:`torchrom.progress`) and --allow-large (:mod:`torchrom.bounds`) of
-    every command."""
+def _add_common_options(parser: argparse.ArgumentParser, bounded: bool) -> None:
+    """--quiet / --verbose (:mod:`torchrom.progress`) of every command, and --allow-large
+    (:mod:`torchrom.bounds`) of those that check a bound (``BOUNDED = True`` in the command's
+    module): an option that can change nothing is not offered."""
     group = parser.add_mutually_exclusive_group()
     group.add_argument("-q", "--quiet", action="store_true",
                        help="no progress output and no stage messages (results and errors only)")
     group.add_argument("-v", "--verbose", action="store_true",
                        help="a progress line at every update (instead of a bar or one per 10 %%)")
-    parser.add_argument("--allow-large", action="store_true",
-                        help="run even when the up-front estimate of cases x steps or memory is "
-                             "over the bound (see torchrom.bounds)")
+    if bounded:
+        parser.add_argument("--allow-large", action="store_true",
+                            help="run even when the up-front estimate of cases x steps or memory "
+                                 "is over the bound (see torchrom.bounds)")
+
+
+def _mark_required(parser: argparse.ArgumentParser) -> None:
+    """Every required option's help says so, so that an example in it (``rom.npz``) does not
+    read as a default."""
+    for action in parser._actions:
+        if action.required and action.option_strings and action.help and \
+                "(required)" not in action.help:
+            action.help = f"{action.help} (required)"
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -66,7 +78,8 @@ def build_parser() -> argparse.ArgumentParser:
     for mod in _command_modules():
         p = sub.add_parser(mod.NAME, help=mod.HELP, description=mod.HELP)
         mod.add_arguments(p)
-        _add_common_options(p)
+        _mark_required(p)
+        _add_common_options(p, getattr(mod, "BOUNDED", False))
         p.set_defaults(_run=mod.run, _name=mod.NAME)
     return parser
 
@@ -81,7 +94,7 @@ def main(argv: list[str] | None = None) -> int:
     from .progress import NORMAL, QUIET, VERBOSE, set_verbosity
 
     set_verbosity(QUIET if args.quiet else VERBOSE if args.verbose else NORMAL)
-    set_allow_large(args.allow_large)
+    set_allow_large(getattr(args, "allow_large", False))
     streams = sys.stdout, sys.stderr
     sys.stdout, sys.stderr = SafeStream(sys.stdout), SafeStream(sys.stderr)
     try:

@@ -499,9 +499,10 @@ def read_model(path) -> object:
 
     from ..fe.bdf_checks import check_complete, check_fields
 
+    from ..checks import expect_text_file
+
     path = Path(path)
-    if not path.is_file():
-        raise InputError(f"{path}: file not found")
+    expect_text_file(path, "a Nastran deck", "model.bdf")
     check_complete(path.read_text(errors="replace"), path.name)
     try:
         model = read_bdf(str(path), xref=False, debug=None, validate=True)

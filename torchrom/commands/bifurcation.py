@@ -35,6 +35,8 @@ from ._common import (
 
 NAME = "bifurcation"
 HELP = "classify LCOs as supercritical or subcritical by a batched sweep of initial amplitudes"
+#: checks the bounds of torchrom.bounds (the command line offers --allow-large)
+BOUNDED = True
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:

@@ -29,6 +29,8 @@ from ._common import (
 
 NAME = "branch"
 HELP = "follow LCO branches from the flutter (Hopf) point by continuation, with stability"
+#: checks the bounds of torchrom.bounds (the command line offers --allow-large)
+BOUNDED = True
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:

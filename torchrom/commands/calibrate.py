@@ -34,6 +34,8 @@ from ._common import (
 
 NAME = "calibrate"
 HELP = "find the Kelvin-Voigt factor gamma that produces a target LCO amplitude (batched)"
+#: checks the bounds of torchrom.bounds (the command line offers --allow-large)
+BOUNDED = True
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:

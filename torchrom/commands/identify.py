@@ -33,6 +33,8 @@ from ._common import (
 
 NAME = "identify"
 HELP = "identify the nonlinear ROM (stiffness + Kelvin-Voigt damping) of an FE model"
+#: checks the bounds of torchrom.bounds (the command line offers --allow-large)
+BOUNDED = True
 
 
 def add_arguments(parser) -> None:
@@ -56,7 +58,8 @@ def add_arguments(parser) -> None:
                         help="stiffness identification: tangent matrices (Eqs. 37-41) or STEP")
     parser.add_argument("--amplitude", type=positive_float, default=0.01,
                         help="identification amplitude, fraction of the span (0.01)")
-    parser.add_argument("--out", type=Path, required=True, help="ROM file to write (rom.npz)")
+    parser.add_argument("--out", type=Path, required=True, metavar="ROM.npz",
+                        help="ROM file to write, e.g. rom.npz")
     parser.add_argument("--report", type=Path, metavar="DIR",
                         help="also validate the ROM against the FE and write DIR/report.md")
     parser.add_argument("--gamma", type=nonnegative_float, default=1e-3,
@@ -104,8 +107,10 @@ def run(args) -> int:
     t0 = time.perf_counter()
     info(f"reading {args.model}")
     fe = read_bdf(args.model)
-    kinds = fe.modes(args.linear).kinds if args.combinations == "transverse" else None
-    combinations = parse_combinations(args.combinations, kinds=kinds)
+    # the combinations load the dual modes: without dual modes there are none to choose
+    kinds = (fe.modes(args.linear).kinds if args.combinations == "transverse" and args.dual
+             else None)
+    combinations = parse_combinations(args.combinations, kinds=kinds) if args.dual else []
     if kinds is not None:
         print(f"  dual-mode combinations from the mode kinds ({', '.join(kinds)}): "
               f"{', '.join(f'{j}:{l}' for j, l in combinations)}")

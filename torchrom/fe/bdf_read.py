@@ -206,9 +206,12 @@ def read_bdf(
     """
     from ..progress import Stages
 
+    from ..checks import expect_text_file
+
     path = Path(path)
-    if not path.is_file():
+    if not path.exists():
         raise InputError(f"{path}: no such deck")
+    expect_text_file(path, "a Nastran deck", "model.bdf")
     size = path.stat().st_size
     stages = Stages(f"reading {path.name}", size >= LARGE_DECK_BYTES)
     stages.start(f"parsing {size / 1e6:.0f} MB of cards")
