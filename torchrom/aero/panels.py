@@ -497,9 +497,8 @@ def read_model(path) -> object:
 
     from pyNastran.bdf.bdf import read_bdf
 
-    from ..fe.bdf_checks import check_complete, check_fields
-
     from ..checks import expect_text_file
+    from ..fe.bdf_checks import check_complete, check_fields
 
     path = Path(path)
     expect_text_file(path, "a Nastran deck", "model.bdf")

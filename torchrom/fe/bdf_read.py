@@ -204,9 +204,8 @@ def read_bdf(
     ``output_points`` maps names to (grid id, component 1..6) — decks written by
     ``torchrom goland`` get the Goland point A automatically.
     """
-    from ..progress import Stages
-
     from ..checks import expect_text_file
+    from ..progress import Stages
 
     path = Path(path)
     if not path.exists():
