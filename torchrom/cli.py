@@ -65,8 +65,16 @@ def _mark_required(parser: argparse.ArgumentParser) -> None:
             action.help = f"{action.help} (required)"
 
 
+class _Parser(argparse.ArgumentParser):
+    """argparse with the command line's one-line errors: ``torchrom <cmd>: error: ...`` and
+    where to read the usage, instead of the usage block and the message (exit status 2)."""
+
+    def error(self, message: str):
+        self.exit(2, f"{self.prog}: error: {printable(message)} (see {self.prog} --help)\n")
+
+
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
+    parser = _Parser(
         prog="torchrom",
         description=(
             "Nonlinear reduced-order models with Kelvin-Voigt damping, flutter and batched "

@@ -19,6 +19,7 @@ import argparse
 from pathlib import Path
 
 from ._common import (
+    OrderedRange,
     add_json_option,
     check_outputs,
     finite_float,
@@ -39,7 +40,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--parameter", default=None,
                         help="the case parameter to follow (altitude_ft, gamma, alpha, ...; "
                              "default [branch] parameter)")
-    parser.add_argument("--range", type=finite_float, nargs=2, metavar=("LO", "HI"),
+    parser.add_argument("--range", type=finite_float, nargs=2, action=OrderedRange,
+                        metavar=("LO", "HI"),
                         default=None,
                         help="parameter bounds (default [branch] bounds)")
     parser.add_argument("--harmonics", type=positive_int, default=None,

@@ -23,6 +23,7 @@ from pathlib import Path
 import numpy as np
 
 from ._common import (
+    OrderedRange,
     add_force_option,
     add_json_option,
     case_parameter,
@@ -53,6 +54,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         "--alt-range",
         type=finite_float,
         nargs=2,
+        action=OrderedRange,
         metavar=("LO", "HI"),
         default=(0.0, 40000.0),
         help="altitude range searched for the flutter point (ft; default 0 40000)",
@@ -151,6 +153,10 @@ def _check_input_kinds(inputs: list[str]) -> None:
     from ..errors import InputError
 
     kinds = [file_kind(p) if p != "goland" else "goland" for p in inputs]
+    for path, kind in zip(inputs, kinds):
+        if kind == "missing":  # before any other input is read
+            raise InputError(f"{path}: file not found (expected DECK.bdf, ROM.npz AERO.npz or "
+                             f"goland)")
     if len(inputs) == 1 and kinds[0] in ("rom", "aero"):
         rom, aero = (inputs[0], "aero.npz") if kinds[0] == "rom" else ("rom.npz", inputs[0])
         raise InputError(f"{inputs[0]} is {FILE_KINDS[kinds[0]]}: give the ROM and its "

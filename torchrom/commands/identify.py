@@ -17,7 +17,6 @@ from __future__ import annotations
 import time
 from pathlib import Path
 
-from ..errors import InputError
 from ..progress import info
 from ._common import (
     add_force_option,
@@ -96,8 +95,9 @@ def run(args) -> int:
     from ..identify.build import IdentifyOptions, as_backend, identify
 
     check_outputs(args, [args.out, *([args.report / "report.md"] if args.report else [])])
-    if not args.model.is_file():
-        raise InputError(f"{args.model}: no such model file")
+    from ..checks import expect_text_file
+
+    expect_text_file(args.model, "a Nastran deck", "model.bdf")
     from ..fe import read_bdf
     from ..identify import DualModeOptions
     from ..identify.basis import parse_combinations

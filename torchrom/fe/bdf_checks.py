@@ -150,8 +150,21 @@ def check_complete(text: str, fname: str) -> None:
     for line in text.splitlines():
         if line.split("$")[0].strip().upper().startswith("ENDDATA"):
             return
+    if not any(_DECK_LINE.match(line) for line in text.splitlines()):
+        raise InputError(f"{fname}: not a Nastran deck: no GRID, SOL, CEND, BEGIN BULK or "
+                         f"ENDDATA line (the first line is {_first_line(text)!r}); expected a "
+                         f"bulk data deck, e.g. model.bdf")
     raise InputError(f"{fname}: no ENDDATA card: the deck is truncated or incomplete (the last "
                      f"line is {_last_line(text)!r})")
+
+
+#: a line only a Nastran deck has: the executive, case control or bulk data landmarks, or a GRID
+_DECK_LINE = re.compile(r"^\s*(SOL\b|CEND\b|BEGIN\s+BULK|ENDDATA|GRID[*,\s])", re.IGNORECASE)
+
+
+def _first_line(text: str) -> str:
+    lines = [ln.rstrip() for ln in text.splitlines() if ln.strip()]
+    return lines[0][:40] if lines else ""
 
 
 def _last_line(text: str) -> str:
