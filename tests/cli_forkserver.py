@@ -63,11 +63,19 @@ def _child(argv: list[str], cwd: str, out_path: str, err_path: str) -> None:
 
 
 def _serve() -> None:
+    import importlib
     import signal
 
-    import torchrom.cli  # noqa: F401 - the imports every child shares
-    import torchrom.fe  # noqa: F401
-    import torchrom.study.config  # noqa: F401
+    from torchrom.cli import build_parser
+
+    build_parser()  # imports every command module
+    # what the commands import when they run (each child would pay it again)
+    for name in ("pandas", "pyarrow.parquet", "pyNastran.bdf.bdf", "torchrom.fe",
+                 "torchrom.study.config", "torchrom.study.sweep", "torchrom.study.runner",
+                 "torchrom.aero.build", "torchrom.aero.files", "torchrom.aero.nastran_flutter",
+                 "torchrom.identify.build", "torchrom.fe.update", "matplotlib.pyplot",
+                 "torchrom.study.plots", "torchrom.study.figures"):
+        importlib.import_module(name)
 
     tmp = tempfile.mkdtemp(prefix="torchrom-forkserver-")
     out_path, err_path = os.path.join(tmp, "stdout"), os.path.join(tmp, "stderr")

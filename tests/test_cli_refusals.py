@@ -54,6 +54,26 @@ CONFIGS = {
                                "[certificate] dt"),
 }
 
+#: a continuation line of eight blank fields and the CORD2R/CORD1R cards of the damaged decks
+_BLANK = " " * 8
+#: damaged decks: name -> (old, new) replaced in DECK, the command, the words of the refusal
+DECKS = {
+    # pyNastran's own message was an unformatted 'len(CONM2 card) = {len(card):d}'
+    "CONM2 too many fields": (
+        ("CONM2   10      4               1.0",
+         "CONM2   10      4               1.0\n" + _BLANK + "0.0     " * 8 + "\n" + _BLANK
+         + "0.0     " * 6), "CONM2 10: too many fields"),
+    # pyNastran's own message was 'v=[0. 0. 0.] norm(v)=0.0', no card, no ID
+    "CORD2R collinear": (
+        ("SPC1", "CORD2R  5               0.0     0.0     0.0     1.0     0.0     0.0\n"
+         + _BLANK + "2.0     0.0     0.0\nSPC1"), "CORD2R 5: points A, B, C are collinear"),
+    "CORD2S A = B": (
+        ("SPC1", "CORD2S  5               1.0     0.0     0.0     1.0     0.0     0.0\n"
+         + _BLANK + "2.0     1.0     0.0\nSPC1"), "CORD2S 5: points A and B coincide"),
+    "CORD1R grids coincide": (("SPC1", "CORD1R  7       1       2       2\nSPC1"),
+                              "CORD1R 7: grids G1, G2, G3 (1, 2, 2)"),
+}
+
 #: the file each folder-writing command writes first (an "output exists" case puts it there)
 FOLDER_OUTPUT = {"sweep": "results.csv", "branch": "branch.csv", "bifurcation": "bifurcation.csv",
                  "calibrate": "calibration.csv", "paper": "report.md",
@@ -144,6 +164,17 @@ def _cases() -> dict[str, tuple[list[str], str]]:
         cases[f"plot --histories={kind}"] = (
             ["plot", FILES["parquet"], "--out", "OUT/fig.png", "--figure", "fig11", "--histories",
              FILES[kind]], w)
+    for damage, (_, words) in DECKS.items():
+        for command in ("modes", "flutter"):  # the FE reader and the aero reader
+            cases[f"{command} deck: {damage}"] = ([command, f"bad/{damage}.bdf"], words)
+    cases["aero deck without CAERO1"] = (["aero", "deck.bdf", "--mach", "0.5", "--out",
+                                          "OUT/aero.npz"], "--planform goland")
+    cases["flutter ROM without its aero file"] = (["flutter", "rom.npz"],
+                                                  "torchrom flutter rom.npz aero.npz")
+    # issue 34: a stick model of linear CBARs makes no dual mode (a LinAlgError before)
+    cases["identify --dual on a linear beam"] = (
+        ["identify", "ekm_clamped.bdf", "--linear", "2", "--dual", "4", "--out",
+         "OUT/rom.npz"], "use --dual 0")
     for command in ("sweep", "branch", "bifurcation", "calibrate"):
         for kind in ("missing", "folder", "empty", "binary", "rom npz", "deck", "parquet"):
             cases[f"{command} config={kind}"] = ([command, FILES[kind], *BASE[command][1:]],
@@ -200,6 +231,13 @@ def fixtures(tmp_path_factory):
     for damage, ((old, new), _) in CONFIGS.items():
         assert old in CONFIG, damage
         (d / "bad" / f"{damage}.toml").write_text(CONFIG.replace(old, new, 1))
+    for damage, ((old, new), _) in DECKS.items():
+        assert old in DECK, damage
+        (d / "bad" / f"{damage}.bdf").write_text(DECK.replace(old, new, 1))
+    # the ExportNastranKM beam (tests/decks) with its root clamped
+    ekm = (Path(__file__).parent / "decks" / "ekm_bar_beam" / "test_case.bdf").read_text()
+    (d / "ekm_clamped.bdf").write_text(ekm.replace("GRDSET,,,,,,,1256",
+                                                   "GRDSET,,,,,,,1256\nSPC1    2       123456  1"))
     env = {**os.environ, "TORCHROM_CACHE": str(d / "cache")}
     server = ForkServer(env)
     yield d, server
@@ -264,3 +302,27 @@ def test_every_entry_point_is_covered():
     commands = {c for c, *_ in _parser_options()} | set(BASE)
     covered = {argv[0] for argv, _ in CASES.values()}
     assert commands <= covered and set(BASE) == commands
+
+
+def test_help_texts(fixtures):
+    """A required option says so (its example is no default), and --allow-large is offered
+    only by the commands that check a bound."""
+    folder, server = fixtures
+    rc, out, _ = server.run(["identify", "--help"], folder)
+    assert rc == 0
+    text = " ".join(out.split())
+    assert "--out ROM.npz ROM file to write, e.g. rom.npz (required)" in text
+    assert "--allow-large" in text
+    for command in ("plot", "cache"):
+        rc, out, _ = server.run([command, "--help"], folder)
+        assert rc == 0 and "--allow-large" not in out, command
+
+
+def test_dual_zero_prints_no_combinations(fixtures, tmp_path):
+    """``identify --dual 0``: no dual-mode combinations are chosen or printed."""
+    folder, server = fixtures
+    rc, out, err = server.run(["identify", "deck.bdf", "--linear", "2", "--dual", "0", "--out",
+                               tmp_path / "rom.npz", "-q"], folder)
+    assert rc == 0, err
+    assert "combinations" not in out and (tmp_path / "rom.npz").is_file()
+    assert "(n = 2)" in out

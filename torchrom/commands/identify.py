@@ -91,6 +91,24 @@ class _Progress:
             bar.close()
 
 
+#: the elements whose stiffness is geometrically nonlinear in the FE (the others — CBAR,
+#: CBEAM, CELAS, CBUSH, GENEL, solids — are linear: :meth:`torchrom.fe.model.FEModel._warn_linear`)
+NONLINEAR_ELEMENT_SETS = ("rods", "quads", "trias", "shears")
+
+
+def _check_dual_possible(args, fe) -> None:
+    """Before any FE solve: dual modes need a nonlinear response, which a model of linear
+    elements only (a stick model of CBARs) cannot give (issue 34: a Cholesky LinAlgError on
+    dual modes made of rounding)."""
+    from ..errors import InputError
+
+    if args.dual and not sum(len(getattr(fe.mesh, k)) for k in NONLINEAR_ELEMENT_SETS):
+        raise InputError(f"{args.model}: --dual {args.dual}: every element of the model is "
+                         f"linear (CBAR/CBEAM/CELAS/CBUSH/solid elements, small rotations): its "
+                         f"static responses have nothing outside the linear modes, so no dual "
+                         f"mode can be made; use --dual 0")
+
+
 def run(args) -> int:
     from ..identify.build import IdentifyOptions, as_backend, identify
 
@@ -107,6 +125,7 @@ def run(args) -> int:
     t0 = time.perf_counter()
     info(f"reading {args.model}")
     fe = read_bdf(args.model)
+    _check_dual_possible(args, fe)
     # the combinations load the dual modes: without dual modes there are none to choose
     kinds = (fe.modes(args.linear).kinds if args.combinations == "transverse" and args.dual
              else None)

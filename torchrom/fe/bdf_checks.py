@@ -248,10 +248,34 @@ def degenerate_geometry_message(card) -> str | None:
 _PLACEHOLDER = re.compile(r"\{[^{}]*\}")
 
 
+def _failed_coord(exc: BaseException):
+    """The pyNastran coordinate system (``self`` of a CORD* method) whose setup raised
+    ``exc`` while it was cross-referenced (a CORD1R/C/S is set up from its grids then)."""
+    found = None
+    tb = exc.__traceback__
+    while tb is not None:
+        obj = tb.tb_frame.f_locals.get("self")
+        if type(obj).__name__.startswith("CORD") and hasattr(obj, "cid"):
+            found = obj
+        tb = tb.tb_next
+    return found
+
+
 def card_error_message(fname: str, exc: BaseException, first: str) -> str | None:
-    """One line for a pyNastran error raised while a card was added (:func:`failed_card`):
-    the card, its ID and what is wrong, or None when no card is known."""
+    """One line for a pyNastran error raised while a card was added (:func:`failed_card`) or a
+    coordinate system was set up: the card, its ID and what is wrong, or None when no card is
+    known."""
     card = failed_card(exc)
+    coord = _failed_coord(exc) if card is None else None
+    # a CORD2* fails its setup on a zero cross product ("norm(v)=0"), a CORD1* its
+    # validation (three distinct grids) or its setup from the grids' positions
+    if coord is not None and ("norm" in first or type(coord).__name__.startswith("CORD1")):
+        name = type(coord).__name__
+        grids = [getattr(coord, g, None) for g in ("g1", "g2", "g3")]
+        points = (f"grids G1, G2, G3 ({', '.join(str(getattr(g, 'nid', g)) for g in grids)})"
+                  if name.startswith("CORD1") else "points A, B, C")
+        return (f"{fname}: {name} {coord.cid}: {points} are collinear or coincide: they "
+                f"define no coordinate system (C must lie off the z axis AB)")
     if card is None:
         return None
     degenerate = degenerate_geometry_message(card)
