@@ -379,7 +379,7 @@ def load_sweep_config(path, variant: str | None = None) -> SweepConfig:
                        f"{parameters}, got {value!r}")
     y = plot_t.get("y", "amplitude")
     columns = result_columns(parameters, outputs, aeroelastic)
-    if not isinstance(y, str) or y not in columns:
+    if not is_result_column(y, columns):
         raise _err(source, "[plot] y", f"expected a column of the results table "
                    f"({', '.join(columns)}), got {y!r}")
     plot = PlotSpec(x=x, y=y, hue=hue)
@@ -421,13 +421,23 @@ AEROELASTIC_COLUMNS = ("velocity", "dynamic_pressure", "density", "alpha_matched
 def result_columns(parameters, outputs, aeroelastic: bool) -> list[str]:
     """The columns a sweep's results table can have: the case parameters, the derived
     flight-condition columns, :data:`RESULT_COLUMNS`, the certificate's columns and one
-    ``amplitude_<output>`` per tracked output (q1..q9 when the outputs are the model's)."""
+    ``amplitude_<output>`` per tracked output (the placeholder itself when the outputs are the
+    model's, not known before it is built: :func:`is_result_column`)."""
     from ..periodic.certify import COLUMNS
 
-    names = outputs if outputs else [f"q{i}" for i in range(1, 10)]
+    names = outputs if outputs else ["<output>"]  # the model's outputs: known once it is built
     cols = [*parameters, *(AEROELASTIC_COLUMNS if aeroelastic else ()), *RESULT_COLUMNS,
             *COLUMNS, *(f"amplitude_{o}" for o in names)]
     return list(dict.fromkeys(cols))
+
+
+def is_result_column(name, columns: list[str]) -> bool:
+    """Whether ``name`` is one of ``columns`` (:func:`result_columns`), where
+    ``amplitude_<output>`` stands for the amplitude of any of the model's outputs."""
+    if not isinstance(name, str):
+        return False
+    return name in columns or ("amplitude_<output>" in columns
+                               and name.startswith("amplitude_"))
 
 
 def hb_method(table: dict[str, Any], source: Path, where: str = "[hb]") -> HarmonicBalanceMethod:
