@@ -50,7 +50,7 @@ every = 5
 x = "altitude_ft"
 hue = "gamma"
 [variants.quick.cases]
-altitude_ft = [6000.0]
+altitude_ft = [8000.0]
 [variants.quick.integrator]
 t_end = 10.0
 """
