@@ -33,7 +33,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     )
     p.add_argument("--mach", type=case_parameter("mach"), required=True,
                    help="Mach number (subsonic)")
-    p.add_argument("--out", type=Path, required=True, help="output aero.npz")
+    p.add_argument("--out", type=Path, required=True, metavar="AERO.npz",
+                   help="aerodynamics file to write, e.g. aero.npz")
     p.add_argument("--modes", type=positive_int, default=9,
                    help="number of structural modes m (default 9)")
     p.add_argument("--lags", type=nonnegative_int, default=13, help="RFA lag states (default 13)")

@@ -38,9 +38,11 @@ BOUNDED = True
 
 def add_arguments(parser) -> None:
     parser.add_argument("model", type=Path, help="Nastran BDF of the structure")
-    parser.add_argument("--linear", type=positive_int, default=9, help="number of linear modes (9)")
+    parser.add_argument("--linear", type=positive_int, default=9,
+                        help="number of linear modes (default 9)")
     parser.add_argument("--dual", type=nonnegative_int, default=12,
-                        help="number of dual modes (12)")
+                        help="number of dual modes (default 12; 0: a ROM of the linear "
+                             "modes only)")
     parser.add_argument("--combinations", default="transverse", metavar="SET",
                         help="linear-mode pairs loaded for the dual modes: 'transverse' "
                              "(default, from the modes' kinds: the first two transverse, i.e. "
@@ -56,16 +58,16 @@ def add_arguments(parser) -> None:
     parser.add_argument("--stiffness", choices=("tangent", "step"), default="tangent",
                         help="stiffness identification: tangent matrices (Eqs. 37-41) or STEP")
     parser.add_argument("--amplitude", type=positive_float, default=0.01,
-                        help="identification amplitude, fraction of the span (0.01)")
+                        help="identification amplitude, fraction of the span (default 0.01)")
     parser.add_argument("--out", type=Path, required=True, metavar="ROM.npz",
                         help="ROM file to write, e.g. rom.npz")
     parser.add_argument("--report", type=Path, metavar="DIR",
                         help="also validate the ROM against the FE and write DIR/report.md")
     parser.add_argument("--gamma", type=nonnegative_float, default=1e-3,
-                        help="Kelvin-Voigt gamma (s) of the report's free decay (1e-3)")
+                        help="Kelvin-Voigt gamma (s) of the report's free decay (default 1e-3)")
     parser.add_argument("--decay-tip", type=positive_float, default=0.15,
                         help="initial tip deflection of the report's free decay, fraction of "
-                             "the span (0.15)")
+                             "the span (default 0.15)")
     parser.add_argument("--step-x", type=finite_float, default=None,
                         help="chordwise mid-line (basic x) of the report's step pressure "
                              "(default: the wing's mid-chord when the deck is known, e.g. 3 ft "

@@ -41,8 +41,8 @@ FIGURE_NAMES = ("fig9", "fig10", "fig11", "fig12", "fig13", "table2")
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("table", type=Path, help="results table (.parquet or .csv)")
-    parser.add_argument("--out", type=figure_file, required=True,
-                        help="figure file (.png, .pdf, .svg)")
+    parser.add_argument("--out", type=figure_file, required=True, metavar="FIGURE",
+                        help="figure file to write (.png, .pdf, .svg)")
     parser.add_argument("--x", help="general form: column on the x axis")
     parser.add_argument("--y", default="amplitude",
                         help="general form: column on the y axis (default amplitude)")
