@@ -46,6 +46,7 @@ CONFIGS = {
     "inf t_end": (("t_end = 4.0", "t_end = inf"), "t_end"),
     "infinite q0": (("q0 = 0.05", "q0 = -inf"), "q0"),
     "zero batch": (("chunk_size = 1", "batch_size = 0"), "batch_size"),
+    "no [cases], plot x": (("[cases]\nalpha = [0.0, 0.3]\ngamma = 1.0\n", ""), "[plot] x"),
     "plot y unknown": (("[run]", '[plot]\ny = "nonsense"\n[run]'), "[plot] y"),
     "history where none": (("[run]", "[history]\nwhere = {alpha = 9.0}\n[run]"),
                            "[history] where"),

@@ -377,6 +377,16 @@ def load_sweep_config(path, variant: str | None = None) -> SweepConfig:
         if value is not None and value not in parameters:
             raise _err(source, f"[plot] {key}", f"expected a case parameter "
                        f"{parameters}, got {value!r}")
+    present = {k for c in cases for k in c}  # the parameter columns the table will have
+    for key, value in (("x", x), ("hue", hue)):
+        if value is not None and value not in present:
+            how = ("the [cases] table sets no parameter" if not present else
+                   f"the cases set only {sorted(present)}")
+            raise _err(source, f"[plot] {key}", f"{value!r} is no parameter of the cases "
+                       f"({how}): the figure would have no {key}; expected one of "
+                       f"{sorted(present)}" if present else
+                       f"{value!r} is no parameter of the cases ({how}): give [cases] values "
+                       f"(e.g. alpha = [0.0, 0.3]) to plot against")
     y = plot_t.get("y", "amplitude")
     columns = result_columns(parameters, outputs, aeroelastic)
     if not is_result_column(y, columns):
