@@ -93,24 +93,6 @@ class _Progress:
             bar.close()
 
 
-#: the elements whose stiffness is geometrically nonlinear in the FE (the others — CBAR,
-#: CBEAM, CELAS, CBUSH, GENEL, solids — are linear: :meth:`torchrom.fe.model.FEModel._warn_linear`)
-NONLINEAR_ELEMENT_SETS = ("rods", "quads", "trias", "shears")
-
-
-def _check_dual_possible(args, fe) -> None:
-    """Before any FE solve: dual modes need a nonlinear response, which a model of linear
-    elements only (a stick model of CBARs) cannot give (issue 34: a Cholesky LinAlgError on
-    dual modes made of rounding)."""
-    from ..errors import InputError
-
-    if args.dual and not sum(len(getattr(fe.mesh, k)) for k in NONLINEAR_ELEMENT_SETS):
-        raise InputError(f"{args.model}: --dual {args.dual}: every element of the model is "
-                         f"linear (CBAR/CBEAM/CELAS/CBUSH/solid elements, small rotations): its "
-                         f"static responses have nothing outside the linear modes, so no dual "
-                         f"mode can be made; use --dual 0")
-
-
 def run(args) -> int:
     from ..identify.build import IdentifyOptions, as_backend, identify
 
@@ -135,8 +117,6 @@ def run(args) -> int:
         print(f"  dual-mode combinations from the mode kinds ({', '.join(kinds)}): "
               f"{', '.join(f'{j}:{l}' for j, l in combinations)}")
     backend = as_backend(fe)
-    if args.linear + args.dual <= backend.n_dof:  # else identify() says the basis is too large
-        _check_dual_possible(args, fe)
     if args.step_x is not None:
         backend.step_x = float(args.step_x)
     info(f"  {backend.n_dof} DOFs, span {backend.reference_length:g}, "
