@@ -181,3 +181,12 @@ def expect_text_file(path, what: str, example: str) -> None:
         raise InputError(f"{path}: file not found (expected {what}, e.g. {example})")
     raise InputError(f"{path}: this is {FILE_KINDS[kind]}, not {what} (expected a text file, "
                      f"e.g. {example})")
+
+
+def expect_file_kind(path, kind: str, where: str) -> None:
+    """InputError unless ``path`` is a file of ``kind`` (:func:`file_kind`: "rom" or "aero"):
+    one line naming ``where`` (e.g. a configuration key), what the file is and what was
+    expected; a missing file is left to the reader's own message."""
+    found = file_kind(path)
+    if found not in (kind, "missing"):
+        raise InputError(f"{where}: {path} is {FILE_KINDS[found]}, expected {FILE_KINDS[kind]}")

@@ -149,7 +149,7 @@ def run(args: argparse.Namespace) -> int:
 def _check_input_kinds(inputs: list[str]) -> None:
     """The inputs' kinds (by content, :func:`torchrom.checks.file_kind`) against the three
     forms of the command, so that a ROM file alone is not read as a deck."""
-    from ..checks import FILE_KINDS, file_kind
+    from ..checks import FILE_KINDS, expect_file_kind, file_kind
     from ..errors import InputError
 
     kinds = [file_kind(p) if p != "goland" else "goland" for p in inputs]
@@ -167,10 +167,8 @@ def _check_input_kinds(inputs: list[str]) -> None:
             raise InputError(f"{inputs[0]} is {FILE_KINDS['aero']} and {inputs[1]} "
                              f"{FILE_KINDS['rom']}: give the ROM first: torchrom flutter "
                              f"{inputs[1]} {inputs[0]}")
-        for path, kind, want in zip(inputs, kinds, ("rom", "aero")):
-            if kind != want and kind != "missing":
-                raise InputError(f"{path} is {FILE_KINDS.get(kind, kind)}, expected "
-                                 f"{FILE_KINDS[want]} (torchrom flutter ROM.npz AERO.npz)")
+        for path, want in zip(inputs, ("rom", "aero")):
+            expect_file_kind(path, want, "torchrom flutter ROM.npz AERO.npz")
 
 
 def _check_options(args) -> None:

@@ -23,7 +23,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from ..checks import physical
+from ..checks import expect_file_kind, physical
 from ..errors import InputError
 from ..io import read_toml
 from ..periodic import HarmonicBalanceMethod, HBOptions
@@ -193,6 +193,9 @@ def build_model(model: dict[str, Any], source: Path, aeroelastic: dict[str, Any]
         return _provided_model(model, source, aeroelastic or {})
     if "rom" in model:
         _check_keys(model, ("rom", "aero", "span"), source, where)
+        expect_file_kind(_relative(model["rom"], source), "rom", f"{source}: [model] rom")
+        if "aero" in model:
+            expect_file_kind(_relative(model["aero"], source), "aero", f"{source}: [model] aero")
         rom = NonlinearROM.load(_relative(model["rom"], source))
         span = model.get("span")
         if span is not None:
