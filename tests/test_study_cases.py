@@ -184,3 +184,25 @@ def test_sweep_cli_writes_histories(files, tmp_path):
     assert main(["plot", str(tmp_path / "out" / "results.parquet"), "--figure", "fig11",
                  "--out", str(tmp_path / "fig11.png")]) == 0
     assert (tmp_path / "fig11.png").stat().st_size > 10_000
+
+
+@pytest.mark.parametrize("old, new", [
+    # the section's baseline flutter point lies within the default range, not within 0..100 ft
+    ("baseline_gamma = 1e-4\n", "baseline_gamma = 1e-4\naltitude_range_ft = [0.0, 100.0]\n"),
+    ('altitude_ft = 12000.0\n', 'altitude_ft = 12000.0\nmach = 0.1\n'),
+])
+def test_aeroelastic_case_errors_are_refused_before_the_run(files, tmp_path, capsys, old, new):
+    """A matched α without a baseline flutter point in the altitude range, or a case Mach
+    number the aerodynamic data do not have, is refused when the configuration is read —
+    not after the sweep started, which then advised resuming (issue 37)."""
+    text = CONFIG.replace(old, new, 1)
+    assert text != CONFIG
+    path = files / "late.toml"
+    path.write_text(text)
+    out = tmp_path / "out"
+    rc = main(["sweep", str(path), "--out", str(out)])
+    err = capsys.readouterr().err
+    assert rc == 2 and "resume" not in err and not out.exists()
+    assert ("no flutter point between 0 and 100 ft" in err if "range" in new
+            else "[cases] mach: 0.1 (case 6) differs" in err), err
+    assert len(err.strip().splitlines()) == 1

@@ -588,11 +588,33 @@ def check_memory(cfg: SweepConfig, model, device=None, dtype=None) -> None:
     check_orbit_steps(cfg, model, device, dtype)
 
 
+def check_aeroelastic_cases(cfg: SweepConfig, model) -> None:
+    """Before any case runs, what an aeroelastic case needs from its model: the Mach number of
+    the aerodynamic data, and for ``alpha = "matched"`` the baseline flutter point in the
+    altitude range (computed once and kept by the model), so that a configuration error is
+    refused up front, not after the sweep has started (and left parts to resume)."""
+    from ..errors import TorchromError
+    from .cases import MATCHED
+
+    if not isinstance(model, AeroelasticModel):
+        return
+    for k, c in enumerate(cfg.cases):
+        if "mach" in c and abs(float(c["mach"]) - model.mach) > 1e-9:
+            raise InputError(f"{cfg.source}: [cases] mach: {c['mach']} (case {k}) differs from "
+                             f"the Mach number {model.mach:g} of the aerodynamic data")
+    if any(c.get("alpha") == MATCHED for c in cfg.cases):
+        try:
+            model.reference_altitude()
+        except TorchromError as exc:
+            raise InputError(f"{cfg.source}: [cases] alpha = {MATCHED!r}: {exc}") from None
+
+
 def check_initial(cfg: SweepConfig, model) -> None:
     """InputError unless the ``[initial]`` state (q0 / v0 sizes, mode number) and the ``[lco]``
     outputs fit the model, and the run's memory estimate is within bounds
     (:func:`check_memory`)."""
     check_memory(cfg, model)
+    check_aeroelastic_cases(cfg, model)
     from ..sim import output_matrix
     from .cases import initial_displacement, initial_velocity
 
