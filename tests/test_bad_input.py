@@ -978,3 +978,24 @@ def test_aeroelastic_table_values(line, words, tmp_path, capsys):
     assert rc == 2
     _one_line_error(err, "goland.toml", *words)
     assert not (tmp_path / "out").exists()
+
+
+def test_step_bound_is_checked_before_any_allocation(tmp_path, capsys, monkeypatch):
+    """dt = 1e-12 on a shooting sweep (issue 37): refused from the configuration, naming dt,
+    the steps per period and the bound, before any allocation; and with that bound removed the
+    allocator's own failure (torch's RuntimeError "can't allocate memory" of ~1e14 bytes) is
+    one line too, never a traceback."""
+    config = tmp_path / "c.toml"
+    config.write_text("method = \"shooting\"\n" + CONFIG.replace("dt = 0.01", "dt = 1e-12"))
+    rc, err = _cli(capsys, ["sweep", config, "--out", tmp_path / "out"])
+    assert rc == 2
+    _one_line_error(err, "[integrator] dt", "steps per LCO period", "1e+08")
+    assert not (tmp_path / "out").exists()
+
+    import torchrom.study.config as config_module
+
+    monkeypatch.setattr(config_module, "check_orbit_steps", lambda *a, **k: None)
+    rc, err = _cli(capsys, ["sweep", config, "--out", tmp_path / "out", "-q"])
+    assert rc == 2
+    _one_line_error(err, "out of memory", "allocation of")
+    assert len(err.strip().splitlines()) == 1

@@ -72,7 +72,9 @@ def test_response_amplitudes_follow_a_softening_fe():
     """Where the response softens, the "response" amplitudes stay on the targets (the loads
     with α from the linear prediction overshoot them: the paper's range is of the data)."""
     be = _softening_backend()
-    lin = linear_basis(be, 2)
+    # one linear mode: the dual mode is the response's part along the other DOF (the cubic
+    # terms differ per DOF); with both modes linear nothing would be left for it
+    lin = linear_basis(be, 1)
     tips = {}
     for control in ("response", "linear"):
         opts = DualModeOptions(combinations=((1, 1),), n_amplitudes=8, tip_range=(0.02, 0.2),
@@ -220,3 +222,58 @@ def test_transverse_rule_chooses_combinations_from_mode_kinds():
     kinds = goland(variant="updated").modes(9).kinds
     assert parse_combinations("transverse", kinds=kinds) == (
         (1, 1), (1, 2), (1, 3), (1, 4), (2, 2), (2, 3), (2, 4))
+
+
+def _two_linear_modes(n: int = 6):
+    from torchrom.identify.basis import Basis
+
+    return Basis(np.eye(n)[:, :2], ["bending", "bending"], np.array([1.0, 2.0]))
+
+
+def test_dual_count_follows_the_snapshots_rank():
+    """Snapshots whose parts outside the linear modes (e1, e2) span e3, e4 only: asked for 3
+    dual modes, the basis gets the 2 there are, with a warning that says why (issue 34: a
+    Cholesky LinAlgError before), and they span exactly e3, e4 (projector error at rounding)."""
+    from torchrom.identify.basis import dual_modes_from_responses
+
+    rng = np.random.default_rng(0)
+    U = np.zeros((40, 6))
+    U[:, :2] = rng.normal(size=(40, 2))
+    U[:, 2:4] = 1e-3 * rng.normal(size=(40, 2))  # the nonlinear part: two directions
+    with pytest.warns(UserWarning, match="span 2 independent directions.*using 2 dual modes"):
+        basis, rel = dual_modes_from_responses(_two_linear_modes(), np.eye(6), U, 3, K=np.eye(6))
+    assert basis.kinds.count("dual") == 2 and basis.n == 4
+    V = basis.Phi[:, 2:]
+    assert np.abs(V.T @ V - np.eye(2)).max() < 1e-12  # mass-orthonormal (M = I)
+    assert np.abs(V[[0, 1, 4, 5]]).max() < 1e-12  # within span(e3, e4)
+    assert rel.max() > 1e-4
+
+
+def test_massless_snapshot_directions_are_no_dual_modes():
+    """A part along a massless DOF (e5: M = 0 there) cannot be mass-normalised: it is skipped
+    and counted in the warning; the dual mode is the part with mass (e3)."""
+    from torchrom.identify.basis import dual_modes_from_responses
+
+    rng = np.random.default_rng(1)
+    U = np.zeros((30, 6))
+    U[:, :2] = rng.normal(size=(30, 2))
+    U[:, 2] = 1e-3 * rng.normal(size=30)
+    U[:, 4] = 5e-3 * rng.normal(size=30)  # larger, so the POD puts it first
+    M = np.diag([1.0, 1.0, 1.0, 1.0, 0.0, 1.0])
+    with pytest.warns(UserWarning, match="1 of them without mass.*using 1 dual modes"):
+        basis, _ = dual_modes_from_responses(_two_linear_modes(), M, U, 2, K=np.eye(6))
+    v = basis.Phi[:, 2]
+    assert abs(abs(v[2]) - 1.0) < 1e-12 and np.abs(np.delete(v, 2)).max() < 1e-12
+
+
+def test_linear_responses_make_no_dual_modes():
+    """Responses with nothing outside the linear modes but rounding (a stick model of linear
+    CBARs: 5e-15 measured) are refused with what to do (--dual 0), not turned into dual modes
+    of noise."""
+    from torchrom.identify.basis import dual_modes_from_responses
+
+    U = np.zeros((10, 6))
+    U[:, :2] = np.random.default_rng(2).normal(size=(10, 2))
+    U[:, 3] = 1e-16 * U[:, 0]
+    with pytest.raises(InputError, match="use --dual 0"):
+        dual_modes_from_responses(_two_linear_modes(), np.eye(6), U, 2, K=np.eye(6))

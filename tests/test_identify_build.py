@@ -77,3 +77,22 @@ def test_options_and_errors():
         build_rom(object())
     rom = build_rom(touze_backend(), n_linear=2, n_dual=0, damping="exact", stiffness="tangent")
     assert rom.n == 2
+
+
+def test_dual_modes_of_a_linear_element_model_are_refused(tmp_path):
+    """A stick model of linear CBARs (the ExportNastranKM beam, root clamped) cannot give dual
+    modes: refused before any dual-mode FE solve, saying what to do (issue 34: a Cholesky
+    LinAlgError after 60 solves before); with n_dual = 0 it identifies."""
+    from pathlib import Path
+
+    from torchrom.fe import read_bdf
+
+    deck = (Path(__file__).parent / "decks" / "ekm_bar_beam" / "test_case.bdf").read_text()
+    path = tmp_path / "ekm_clamped.bdf"
+    path.write_text(deck.replace("GRDSET,,,,,,,1256",
+                                 "GRDSET,,,,,,,1256\nSPC1    2       123456  1"))
+    fe = read_bdf(path)
+    with pytest.raises(InputError, match="every element of the model is linear.*--dual 0"):
+        identify(fe, IdentifyOptions(n_linear=2, n_dual=2))
+    with pytest.warns(UserWarning, match="4 CBAR/CBEAM/CELAS/solid elements are linear"):
+        assert identify(fe, IdentifyOptions(n_linear=2, n_dual=0)).rom.n == 2

@@ -50,7 +50,7 @@ every = 5
 x = "altitude_ft"
 hue = "gamma"
 [variants.quick.cases]
-altitude_ft = [6000.0]
+altitude_ft = [8000.0]
 [variants.quick.integrator]
 t_end = 10.0
 """
@@ -325,3 +325,25 @@ def _sweep_cli(config, out):
     env = {**os.environ, "PYTHONPATH": str(Path(torchrom.__file__).parents[1])}
     return subprocess.run([sys.executable, "-m", "torchrom", "sweep", str(config), "--out",
                            str(out)], capture_output=True, text=True, env=env, timeout=600)
+
+
+@pytest.mark.parametrize("old, new", [
+    # the section's baseline flutter point lies within the default range, not within 0..100 ft
+    ("baseline_gamma = 1e-4\n", "baseline_gamma = 1e-4\naltitude_range_ft = [0.0, 100.0]\n"),
+    ('altitude_ft = 12000.0\n', 'altitude_ft = 12000.0\nmach = 0.1\n'),
+])
+def test_aeroelastic_case_errors_are_refused_before_the_run(files, tmp_path, capsys, old, new):
+    """A matched α without a baseline flutter point in the altitude range, or a case Mach
+    number the aerodynamic data do not have, is refused when the configuration is read —
+    not after the sweep started, which then advised resuming (issue 37)."""
+    text = CONFIG.replace(old, new, 1)
+    assert text != CONFIG
+    path = files / "late.toml"
+    path.write_text(text)
+    out = tmp_path / "out"
+    rc = main(["sweep", str(path), "--out", str(out)])
+    err = capsys.readouterr().err
+    assert rc == 2 and "resume" not in err and not out.exists()
+    assert ("no flutter point between 0 and 100 ft" in err if "range" in new
+            else "[cases] mach: 0.1 (case 6) differs" in err), err
+    assert len(err.strip().splitlines()) == 1

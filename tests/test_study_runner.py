@@ -275,3 +275,27 @@ def test_local_cluster_workers_keep_glibc_dynamic_mmap_threshold():
     with open_executor(workers=1) as executor:
         values = executor.client.run(_malloc_trim_setting)
     assert list(values.values()) == [None]
+
+
+@pytest.mark.parametrize("failure, advice", [(InputError("[cases] mach: differs"), False),
+                                             (RuntimeError("a crash"), True)])
+def test_resume_advice_only_where_resuming_helps(failure, advice, tmp_path):
+    """A run that stops on its second chunk keeps the first; "run the same command again to
+    resume" is said after a crash, not after a configuration error (a TorchromError: the rerun
+    would stop the same way), and not when nothing was kept."""
+    from torchrom.study.runner import ChunkResult, run_cases
+
+    def task(cases, case_ids, progress=None):
+        if cases[0]["i"] >= 1:
+            raise failure
+        return ChunkResult(pd.DataFrame({"case_id": case_ids, "i": [c["i"] for c in cases]}))
+
+    for first_fails in (False, True):
+        cases = [{"i": i + int(first_fails)} for i in range(2)]
+        ids = [f"c{i}" for i in range(2)]
+        logged: list[str] = []
+        store = PartStore(tmp_path / f"out{int(first_fails)}", {"run_key": "k"})
+        with pytest.raises(type(failure)):
+            run_cases(task, cases, ids, batch_size=1, store=store, log=logged.append)
+        said = any("run the same command again to resume" in line for line in logged)
+        assert said == (advice and not first_fails), logged

@@ -77,3 +77,24 @@ def test_every_lco_row_carries_its_certificate(tmp_path):
     flagged = run_sweep(load_sweep_config(path))[0]
     assert set(flagged.status) == {"lco_uncertified"}
     assert (flagged.orbit_error > 1e-6).all() and flagged.dt_error.isna().all()
+
+
+def test_plot_columns_cover_every_numeric_result_column(tmp_path):
+    """``[plot] y`` is checked before the run against :func:`torchrom.study.config.
+    result_columns`: every numeric column a sweep's table really has (time marching, harmonic
+    balance, shooting) is in it, so no valid y is refused."""
+    import pandas as pd
+
+    from torchrom.study.cases import case_parameters
+    from torchrom.study.config import is_result_column, result_columns, with_method
+
+    path = tmp_path / "c.toml"
+    path.write_text(CONFIG.format(tol=1e-6).replace("[0.1, 0.2, 0.3, 0.4]", "[0.2]"))
+    cfg = load_sweep_config(path)
+    allowed = result_columns(case_parameters(False), cfg.outputs, False)
+    for method in ("newmark", "hb", "shooting"):
+        table = run_sweep(with_method(cfg, method))[0]
+        numeric = {c for c in table.columns if pd.api.types.is_numeric_dtype(table[c])
+                   or pd.api.types.is_bool_dtype(table[c])}
+        refused = sorted(c for c in numeric if not is_result_column(c, allowed))
+        assert not refused, (method, refused)

@@ -1,8 +1,9 @@
 """Resource bounds checked before any work starts, from the configuration and the options.
 
 A run whose up-front estimate is over a bound is refused with one line that gives the estimate,
-the bound and the way to run it anyway: ``--allow-large`` on the command line (every command,
-:func:`set_allow_large`) or ``[run] allow_large = true`` in a configuration. The bounds:
+the bound and the way to run it anyway: ``--allow-large`` on the command line (every command
+that checks a bound, :func:`set_allow_large`) or ``[run] allow_large = true`` in a
+configuration. The bounds:
 
 - :data:`MAX_CASES` cases in one configuration, counted before the grid is built (every case
   holds a parameter dict, a case id and a table row: 10⁷ cases are gigabytes before one step);

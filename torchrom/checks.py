@@ -108,3 +108,85 @@ def physical_values(name: str, values, where: str = "") -> None:
             physical(name, float(flat[k]), where)
         except InputError as exc:
             raise InputError(f"{exc}{suffix}") from None
+
+
+#: what each file kind of :func:`file_kind` is, in a refusal
+FILE_KINDS = {
+    "rom": "a ROM file (torchrom identify's rom.npz)",
+    "aero": "an aerodynamics file (torchrom aero's aero.npz)",
+    "npz": "a NumPy .npz archive",
+    "zip": "a zip archive",
+    "parquet": "a parquet table",
+    "binary": "a binary file",
+    "empty": "an empty file",
+    "directory": "a folder",
+    "missing": "missing",
+    "text": "a text file (a deck or a configuration?)",
+}
+
+
+def file_kind(path) -> str:
+    """What a file is, from its content (not its name): "missing", "directory", "empty",
+    "rom" / "aero" (the .npz files of :mod:`torchrom.rom.storage` and
+    :mod:`torchrom.aero.files`, told apart by their arrays), "npz" (another .npz), "zip",
+    "parquet", "binary" (a NUL byte or not UTF-8 in its first 64 kB) or "text"."""
+    import zipfile
+    from pathlib import Path
+
+    p = Path(path)
+    if not p.exists():
+        return "missing"
+    if p.is_dir():
+        return "directory"
+    try:
+        with open(p, "rb") as f:
+            head = f.read(65536)
+    except OSError:
+        return "missing"
+    if not head:
+        return "empty"
+    if head.startswith(b"PAR1"):
+        return "parquet"
+    if head.startswith(b"PK\x03\x04"):
+        try:
+            with zipfile.ZipFile(p) as z:
+                names = {n.removesuffix(".npy") for n in z.namelist()}
+        except (zipfile.BadZipFile, OSError):
+            return "binary"
+        if not names or not all(n.endswith(".npy") for n in z.namelist()):
+            return "zip"
+        if "rfa_kind" in names:
+            return "aero"
+        if {"M", "K1", "K2", "K3"} <= names:
+            return "rom"
+        return "npz"
+    if b"\x00" in head:
+        return "binary"
+    try:
+        head.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        if exc.start < len(head) - 4:  # not a multi-byte character cut at the 64 kB mark
+            return "binary"
+    return "text"
+
+
+def expect_text_file(path, what: str, example: str) -> None:
+    """InputError naming ``path`` unless it is a non-empty text file (a Nastran deck, a TOML
+    configuration): one line saying what it is instead and what was expected (``what``, e.g.
+    "a Nastran deck", ``example`` e.g. "model.bdf")."""
+    kind = file_kind(path)
+    if kind == "text":
+        return
+    if kind == "missing":
+        raise InputError(f"{path}: file not found (expected {what}, e.g. {example})")
+    raise InputError(f"{path}: this is {FILE_KINDS[kind]}, not {what} (expected a text file, "
+                     f"e.g. {example})")
+
+
+def expect_file_kind(path, kind: str, where: str) -> None:
+    """InputError unless ``path`` is a file of ``kind`` (:func:`file_kind`: "rom" or "aero"):
+    one line naming ``where`` (e.g. a configuration key), what the file is and what was
+    expected; a missing file is left to the reader's own message."""
+    found = file_kind(path)
+    if found not in (kind, "missing"):
+        raise InputError(f"{where}: {path} is {FILE_KINDS[found]}, expected {FILE_KINDS[kind]}")

@@ -1,13 +1,15 @@
 """The ``torchrom`` command.
 
 Each sub-command lives in its own module under :mod:`torchrom.commands` and exposes
-``NAME`` (the sub-command), ``HELP`` (one line), ``add_arguments(parser)`` and ``run(args)``.
+``NAME`` (the sub-command), ``HELP`` (one line), ``add_arguments(parser)`` and ``run(args)``,
+and ``BOUNDED = True`` when it checks the bounds of :mod:`torchrom.bounds` (``--allow-large``).
 Modules are discovered automatically, so adding a command never touches this file.
 
 Bad input raises :class:`torchrom.errors.TorchromError`; it is printed as one line
 (``torchrom <cmd>: error: ...``) and the exit status is 2; so is an ``OSError`` of the file
 system (a full disk, no permission), which is not a bug either, and a ``MemoryError`` (a problem
-too large for this machine even after the up-front bounds of :mod:`torchrom.bounds`).
+too large for this machine even after the up-front bounds of :mod:`torchrom.bounds`, or torch's
+allocation failure, its RuntimeError).
 Everything a command prints goes through :class:`torchrom.text.SafeStream` (no terminal control
 sequence from a title or a file name reaches the terminal) and :class:`torchrom.progress.AboveBars`
 (a line printed while a progress bar is drawn goes above the bar), and a Python warning is one
@@ -42,21 +44,40 @@ def _command_modules():
     return mods
 
 
-def _add_common_options(parser: argparse.ArgumentParser) -> None:
-    """--quiet / --verbose (:mod:`torchrom.progress`) and --allow-large (:mod:`torchrom.bounds`) of
-    every command."""
+def _add_common_options(parser: argparse.ArgumentParser, bounded: bool) -> None:
+    """--quiet / --verbose (:mod:`torchrom.progress`) of every command, and --allow-large
+    (:mod:`torchrom.bounds`) of those that check a bound (``BOUNDED = True`` in the command's
+    module): an option that can change nothing is not offered."""
     group = parser.add_mutually_exclusive_group()
     group.add_argument("-q", "--quiet", action="store_true",
                        help="no progress output and no stage messages (results and errors only)")
     group.add_argument("-v", "--verbose", action="store_true",
                        help="a progress line at every update (instead of a bar or one per 10 %%)")
-    parser.add_argument("--allow-large", action="store_true",
-                        help="run even when the up-front estimate of cases x steps or memory is "
-                             "over the bound (see torchrom.bounds)")
+    if bounded:
+        parser.add_argument("--allow-large", action="store_true",
+                            help="run even when the up-front estimate of cases x steps or memory "
+                                 "is over the bound (see torchrom.bounds)")
+
+
+def _mark_required(parser: argparse.ArgumentParser) -> None:
+    """Every required option's help says so, so that an example in it (``rom.npz``) does not
+    read as a default."""
+    for action in parser._actions:
+        if action.required and action.option_strings and action.help and \
+                "(required)" not in action.help:
+            action.help = f"{action.help} (required)"
+
+
+class _Parser(argparse.ArgumentParser):
+    """argparse with the command line's one-line errors: ``torchrom <cmd>: error: ...`` and
+    where to read the usage, instead of the usage block and the message (exit status 2)."""
+
+    def error(self, message: str):
+        self.exit(2, f"{self.prog}: error: {printable(message)} (see {self.prog} --help)\n")
 
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
+    parser = _Parser(
         prog="torchrom",
         description=(
             "Nonlinear reduced-order models with Kelvin-Voigt damping, flutter and batched "
@@ -68,7 +89,8 @@ def build_parser() -> argparse.ArgumentParser:
     for mod in _command_modules():
         p = sub.add_parser(mod.NAME, help=mod.HELP, description=mod.HELP)
         mod.add_arguments(p)
-        _add_common_options(p)
+        _mark_required(p)
+        _add_common_options(p, getattr(mod, "BOUNDED", False))
         p.set_defaults(_run=mod.run, _name=mod.NAME)
     return parser
 
@@ -83,7 +105,7 @@ def main(argv: list[str] | None = None) -> int:
     from .progress import NORMAL, QUIET, VERBOSE, AboveBars, set_verbosity
 
     set_verbosity(QUIET if args.quiet else VERBOSE if args.verbose else NORMAL)
-    set_allow_large(args.allow_large)
+    set_allow_large(getattr(args, "allow_large", False))
     _uncoloured_pynastran_log()
     streams = sys.stdout, sys.stderr
     sys.stdout = AboveBars(SafeStream(sys.stdout))
@@ -160,10 +182,37 @@ def _run(args: argparse.Namespace) -> int:
         print(f"torchrom {args._name}: error: out of memory; the problem is too large for this "
               f"machine (fewer cases, a smaller batch_size or fewer harmonics)", file=sys.stderr)
         return 2
+    except RuntimeError as exc:
+        if not _allocation_failure(exc):
+            raise  # a bug: its traceback
+        print(f"torchrom {args._name}: error: out of memory ({_allocation_size(exc)}); the "
+              f"problem is too large for this machine (fewer cases, a smaller batch_size, a "
+              f"larger dt or fewer harmonics)", file=sys.stderr)
+        return 2
     except KeyboardInterrupt:
         print(f"torchrom {args._name}: interrupted; finished results were kept", file=sys.stderr)
         return 130
     return int(rc or 0)
+
+
+def _allocation_failure(exc: RuntimeError) -> bool:
+    """Whether ``exc`` is torch's refusal to allocate (CPU: "DefaultCPUAllocator: can't allocate
+    memory"; CUDA: torch.OutOfMemoryError), which the up-front bounds estimate but cannot
+    always foresee: a MemoryError by another name."""
+    text = str(exc)
+    return ("can't allocate memory" in text or "CUDA out of memory" in text
+            or type(exc).__name__ == "OutOfMemoryError")
+
+
+def _allocation_size(exc: RuntimeError) -> str:
+    import re
+
+    m = re.search(r"allocate (\d+) bytes", str(exc))
+    if m is None:
+        return "an allocation failed"
+    from .bounds import format_bytes
+
+    return f"an allocation of {format_bytes(float(m.group(1)))} failed"
 
 
 if __name__ == "__main__":  # pragma: no cover

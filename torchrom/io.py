@@ -223,9 +223,12 @@ def write_figure(draw, *args, **kwargs):
 def read_toml(path, what: str = "configuration file") -> tuple[Path, dict[str, Any]]:
     """(path, table) of a TOML file; InputError naming the file when it is missing, not UTF-8
     text or not valid TOML."""
+    from .checks import expect_text_file
+
     source = Path(path)
-    if not source.is_file():
+    if not source.is_file() and not source.is_dir():
         raise InputError(f"{source}: no such {what}")
+    expect_text_file(source, f"a {what} (TOML)", "study.toml")
     try:
         return source, tomllib.loads(source.read_text())
     except tomllib.TOMLDecodeError as exc:

@@ -499,20 +499,25 @@ def read_model(path) -> object:
     Nothing else is cross-referenced, so that missing aero references are reported by torchrom's
     own checks as one-line errors naming the card and id.
     """
+    import contextlib
+    import io
     from pathlib import Path
 
     from pyNastran.bdf.bdf import read_bdf
 
-    from ..fe.bdf_checks import check_complete, check_fields
+    from ..checks import expect_text_file
+    from ..fe.bdf_checks import card_error_message, check_complete, check_fields
 
     path = Path(path)
-    if not path.is_file():
-        raise InputError(f"{path}: file not found")
+    expect_text_file(path, "a Nastran deck", "model.bdf")
     check_complete(path.read_text(errors="replace"), path.name)
     try:
-        model = read_bdf(str(path), xref=False, debug=None, validate=True)
+        # pyNastran prints some errors' details on stdout: the one line below says it
+        with contextlib.redirect_stdout(io.StringIO()):
+            model = read_bdf(str(path), xref=False, debug=None, validate=True)
     except Exception as exc:  # noqa: BLE001 - pyNastran raises many types; one line to the user
-        raise InputError(f"{path}: cannot read the deck: {_first_line(exc)}") from None
+        known = card_error_message(path.name, exc, _first_line(exc))
+        raise InputError(known or f"{path}: cannot read the deck: {_first_line(exc)}") from None
     from ..fe.bdf_cards import apply_grdset
 
     apply_grdset(model)  # GRDSET CP before the grid positions are resolved
@@ -531,7 +536,9 @@ def read_model(path) -> object:
             xref_optimization=False,
         )
     except Exception as exc:  # noqa: BLE001
-        raise InputError(f"{path}: GRID/coordinate systems: {_first_line(exc)}") from None
+        known = card_error_message(path.name, exc, _first_line(exc))
+        raise InputError(known or f"{path}: GRID/coordinate systems: {_first_line(exc)}"
+                         ) from None
     check_fields(model, path.name, aero=True)
     return model
 

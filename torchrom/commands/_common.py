@@ -113,6 +113,17 @@ def finite_float(value: str) -> float:
     return _number(value, lambda x: True, "a finite number")
 
 
+class OrderedRange(argparse.Action):
+    """``--option LO HI`` (nargs=2) whose LO < HI is checked when it is parsed: a reversed or
+    empty range is refused naming the option, before any work."""
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        lo, hi = values
+        if not lo < hi:
+            parser.error(f"argument {option_string}: expected LO < HI, got {lo:g} {hi:g}")
+        setattr(namespace, self.dest, values)
+
+
 def case_parameter(name: str):
     """argparse type of an option that sets case parameter ``name``: a finite number in its
     physical range (:data:`torchrom.checks.PHYSICAL_RANGES`, the table every entry point uses)."""
@@ -195,15 +206,28 @@ def add_cache_option(parser: argparse.ArgumentParser) -> None:
                              "~/.cache/torchrom; see `torchrom cache info`)")
 
 
+def apply_cache_dir(args: argparse.Namespace) -> None:
+    """``--cache-dir DIR``: the cache root of this run (:func:`torchrom.cache_dir.set_cache_root`);
+    InputError when DIR exists and is not a folder."""
+    folder = getattr(args, "cache_dir", None)
+    if folder is None:
+        return
+    from ..cache_dir import set_cache_root
+    from ..errors import InputError
+
+    if folder.exists() and not folder.is_dir():
+        raise InputError(f"--cache-dir: {folder} is a file, expected a folder (created if "
+                         f"missing)")
+    set_cache_root(folder)
+
+
 def load_study(args: argparse.Namespace):
     """(torch device, torch dtype, SweepConfig) from --device, --dtype and the configuration."""
     import torch
 
-    from ..cache_dir import set_cache_root
     from ..study.config import load_sweep_config, with_method
 
-    if getattr(args, "cache_dir", None) is not None:
-        set_cache_root(args.cache_dir)
+    apply_cache_dir(args)
     cfg = with_method(load_sweep_config(args.config), getattr(args, "method", None))
     if getattr(args, "workers", None) is not None:  # processes, bounded like threads
         from ..bounds import check_threads

@@ -23,6 +23,8 @@ from ._common import (
 
 NAME = "aero"
 HELP = "unsteady aerodynamics: DLM generalized forces Q(k) on the modes and their RFA (aero.npz)"
+#: checks the bounds of torchrom.bounds (the command line offers --allow-large)
+BOUNDED = True
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
@@ -31,7 +33,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     )
     p.add_argument("--mach", type=case_parameter("mach"), required=True,
                    help="Mach number (subsonic)")
-    p.add_argument("--out", type=Path, required=True, help="output aero.npz")
+    p.add_argument("--out", type=Path, required=True, metavar="AERO.npz",
+                   help="aerodynamics file to write, e.g. aero.npz")
     p.add_argument("--modes", type=positive_int, default=9,
                    help="number of structural modes m (default 9)")
     p.add_argument("--lags", type=nonnegative_int, default=13, help="RFA lag states (default 13)")
@@ -85,6 +88,17 @@ def load_fe(model: str):
     return fe_mod.read_bdf(path)
 
 
+def _check_panels(path) -> None:
+    """Before the modal analysis: a deck without CAERO1 boxes needs ``--planform goland``."""
+    from ..aero.panels import read_model
+    from ..errors import InputError
+
+    if not read_model(Path(path)).caeros:
+        raise InputError(f"{path}: no CAERO1 cards (no aerodynamic panels in the deck): add "
+                         f"CAERO1/SPLINE cards, or pass --planform goland for the built-in "
+                         f"Goland planform (6 x 20 ft) splined to the deck's grids")
+
+
 def run(args: argparse.Namespace) -> int:
     from ..aero.build import GOLAND_K_LIST, build_from_deck, build_from_modes, modal_data
     from ..aero.panels import goland_panels
@@ -95,6 +109,8 @@ def run(args: argparse.Namespace) -> int:
     if goland:  # sizes before any work (a deck's own boxes are checked when it is read)
         check_boxes("--boxes", 2 * args.boxes[0] * args.boxes[1])
     check_count("--lags", "lag states", args.lags, MAX_LAGS)
+    if not goland:
+        _check_panels(args.model)
     info(f"torchrom aero: {args.model}: modal analysis ({args.modes} modes)")
     fe = load_fe(args.model)
     bar = _progress()

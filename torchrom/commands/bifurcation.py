@@ -23,6 +23,7 @@ from pathlib import Path
 from ..errors import InputError
 from ..progress import info, note
 from ._common import (
+    OrderedRange,
     add_study_options,
     check_outputs,
     load_study,
@@ -35,12 +36,15 @@ from ._common import (
 
 NAME = "bifurcation"
 HELP = "classify LCOs as supercritical or subcritical by a batched sweep of initial amplitudes"
+#: checks the bounds of torchrom.bounds (the command line offers --allow-large)
+BOUNDED = True
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("config", type=Path, help="sweep configuration (TOML); its cases are "
                         "the control values (their q0 is replaced)")
-    parser.add_argument("--q0", type=positive_float, nargs=2, metavar=("LO", "HI"), default=None,
+    parser.add_argument("--q0", type=positive_float, nargs=2, action=OrderedRange,
+                        metavar=("LO", "HI"), default=None,
                         help="range of initial amplitudes (scale of the [initial] pattern; "
                              "default: [initial] q0 / 100 to x 10)")
     parser.add_argument("--num", type=positive_int, default=12,

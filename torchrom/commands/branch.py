@@ -19,6 +19,7 @@ import argparse
 from pathlib import Path
 
 from ._common import (
+    OrderedRange,
     add_json_option,
     check_outputs,
     finite_float,
@@ -29,6 +30,8 @@ from ._common import (
 
 NAME = "branch"
 HELP = "follow LCO branches from the flutter (Hopf) point by continuation, with stability"
+#: checks the bounds of torchrom.bounds (the command line offers --allow-large)
+BOUNDED = True
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -37,7 +40,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--parameter", default=None,
                         help="the case parameter to follow (altitude_ft, gamma, alpha, ...; "
                              "default [branch] parameter)")
-    parser.add_argument("--range", type=finite_float, nargs=2, metavar=("LO", "HI"),
+    parser.add_argument("--range", type=finite_float, nargs=2, action=OrderedRange,
+                        metavar=("LO", "HI"),
                         default=None,
                         help="parameter bounds (default [branch] bounds)")
     parser.add_argument("--harmonics", type=positive_int, default=None,

@@ -18,7 +18,14 @@ import argparse
 import os
 from pathlib import Path
 
-from ._common import add_cache_option, add_json_option, maybe_write_json
+from ._common import (
+    add_cache_option,
+    add_force_option,
+    add_json_option,
+    apply_cache_dir,
+    check_outputs,
+    maybe_write_json,
+)
 
 NAME = "cache"
 HELP = "show (info) or delete (clear) the models cached for built-in configurations"
@@ -30,6 +37,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--dry-run", action="store_true",
                         help="clear: list what would be deleted, delete nothing")
     add_json_option(parser)
+    add_force_option(parser)
 
 
 def cache_folders(root: Path) -> list[Path]:
@@ -98,12 +106,12 @@ def remove_owned(folder: Path, files: list[Path]) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..cache_dir import ENV, cache_root, set_cache_root
+    from ..cache_dir import ENV, cache_root
     from ..locks import FolderBusy
     from ..paper.cache import owned_files
 
-    if args.cache_dir is not None:
-        set_cache_root(args.cache_dir)
+    check_outputs(args, [])  # the --json file: not replaced without --force
+    apply_cache_dir(args)
     root = cache_root()
     folders = cache_folders(root)
     if args.action == "info":

@@ -22,6 +22,7 @@ from pathlib import Path
 from ..errors import InputError
 from ..progress import info, note
 from ._common import (
+    OrderedRange,
     add_study_options,
     check_outputs,
     load_study,
@@ -34,6 +35,8 @@ from ._common import (
 
 NAME = "calibrate"
 HELP = "find the Kelvin-Voigt factor gamma that produces a target LCO amplitude (batched)"
+#: checks the bounds of torchrom.bounds (the command line offers --allow-large)
+BOUNDED = True
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -43,7 +46,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="target LCO amplitude (units of --column)")
     parser.add_argument("--column", default="amplitude",
                         help="table column to match (default amplitude: the first output)")
-    parser.add_argument("--gamma", type=positive_float, nargs=2, metavar=("LO", "HI"), default=None,
+    parser.add_argument("--gamma", type=positive_float, nargs=2, action=OrderedRange,
+                        metavar=("LO", "HI"), default=None,
                         help="gamma range scanned (s; default: the configuration's gamma / 10 "
                              "to x 10)")
     parser.add_argument("--num", type=positive_int, default=16,

@@ -31,6 +31,7 @@ from pathlib import Path
 import numpy as np
 
 from ._common import (
+    OrderedRange,
     add_force_option,
     add_json_option,
     case_parameter,
@@ -47,6 +48,8 @@ NAME = "flutter"
 HELP = (
     "flutter: SOL 145 analysis of a Nastran deck, or matched-point altitude of rom.npz + aero.npz"
 )
+#: checks the bounds of torchrom.bounds (the command line offers --allow-large)
+BOUNDED = True
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
@@ -59,6 +62,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         "--alt-range",
         type=finite_float,
         nargs=2,
+        action=OrderedRange,
         metavar=("LO", "HI"),
         default=(0.0, 40000.0),
         help="altitude range searched for the flutter point (ft; default 0 40000)",
@@ -138,6 +142,7 @@ def run(args: argparse.Namespace) -> int:
     check_outputs(args, [p for p in (args.plot, args.root_locus) if p is not None])
     _check_options(args)
     inputs = args.inputs
+    _check_input_kinds(inputs)
     if len(inputs) == 1 and inputs[0] != "goland":
         return _run_deck(args, Path(inputs[0]))
     if len(inputs) == 1:
@@ -147,6 +152,31 @@ def run(args: argparse.Namespace) -> int:
     raise InputError(
         f"flutter: expected DECK.bdf, ROM.npz AERO.npz or goland, got {len(inputs)} inputs"
     )
+
+
+def _check_input_kinds(inputs: list[str]) -> None:
+    """The inputs' kinds (by content, :func:`torchrom.checks.file_kind`) against the three
+    forms of the command, so that a ROM file alone is not read as a deck."""
+    from ..checks import FILE_KINDS, expect_file_kind, file_kind
+    from ..errors import InputError
+
+    kinds = [file_kind(p) if p != "goland" else "goland" for p in inputs]
+    for path, kind in zip(inputs, kinds):
+        if kind == "missing":  # before any other input is read
+            raise InputError(f"{path}: file not found (expected DECK.bdf, ROM.npz AERO.npz or "
+                             f"goland)")
+    if len(inputs) == 1 and kinds[0] in ("rom", "aero"):
+        rom, aero = (inputs[0], "aero.npz") if kinds[0] == "rom" else ("rom.npz", inputs[0])
+        raise InputError(f"{inputs[0]} is {FILE_KINDS[kinds[0]]}: give the ROM and its "
+                         f"aerodynamics file together: torchrom flutter {rom} {aero} (or a "
+                         f"Nastran deck with FLUTTER cards, or goland)")
+    if len(inputs) == 2:
+        if kinds == ["aero", "rom"]:
+            raise InputError(f"{inputs[0]} is {FILE_KINDS['aero']} and {inputs[1]} "
+                             f"{FILE_KINDS['rom']}: give the ROM first: torchrom flutter "
+                             f"{inputs[1]} {inputs[0]}")
+        for path, want in zip(inputs, ("rom", "aero")):
+            expect_file_kind(path, want, "torchrom flutter ROM.npz AERO.npz")
 
 
 def _check_options(args) -> None:

@@ -25,6 +25,8 @@ from ._common import (
 
 NAME = "goland"
 HELP = "write the heavy Goland wing BDF (goland.bdf) and print its modes against Table 2"
+#: checks the bounds of torchrom.bounds (the command line offers --allow-large)
+BOUNDED = True
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:

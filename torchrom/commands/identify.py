@@ -33,13 +33,17 @@ from ._common import (
 
 NAME = "identify"
 HELP = "identify the nonlinear ROM (stiffness + Kelvin-Voigt damping) of an FE model"
+#: checks the bounds of torchrom.bounds (the command line offers --allow-large)
+BOUNDED = True
 
 
 def add_arguments(parser) -> None:
     parser.add_argument("model", type=Path, help="Nastran BDF of the structure")
-    parser.add_argument("--linear", type=positive_int, default=9, help="number of linear modes (9)")
+    parser.add_argument("--linear", type=positive_int, default=9,
+                        help="number of linear modes (default 9)")
     parser.add_argument("--dual", type=nonnegative_int, default=12,
-                        help="number of dual modes (12)")
+                        help="number of dual modes (default 12; 0: a ROM of the linear "
+                             "modes only)")
     parser.add_argument("--combinations", default="transverse", metavar="SET",
                         help="linear-mode pairs loaded for the dual modes: 'transverse' "
                              "(default, from the modes' kinds: the first two transverse, i.e. "
@@ -55,15 +59,16 @@ def add_arguments(parser) -> None:
     parser.add_argument("--stiffness", choices=("tangent", "step"), default="tangent",
                         help="stiffness identification: tangent matrices (Eqs. 37-41) or STEP")
     parser.add_argument("--amplitude", type=positive_float, default=0.01,
-                        help="identification amplitude, fraction of the span (0.01)")
-    parser.add_argument("--out", type=Path, required=True, help="ROM file to write (rom.npz)")
+                        help="identification amplitude, fraction of the span (default 0.01)")
+    parser.add_argument("--out", type=Path, required=True, metavar="ROM.npz",
+                        help="ROM file to write, e.g. rom.npz")
     parser.add_argument("--report", type=Path, metavar="DIR",
                         help="also validate the ROM against the FE and write DIR/report.md")
     parser.add_argument("--gamma", type=nonnegative_float, default=1e-3,
-                        help="Kelvin-Voigt gamma (s) of the report's free decay (1e-3)")
+                        help="Kelvin-Voigt gamma (s) of the report's free decay (default 1e-3)")
     parser.add_argument("--decay-tip", type=positive_float, default=0.15,
                         help="initial tip deflection of the report's free decay, fraction of "
-                             "the span (0.15)")
+                             "the span (default 0.15)")
     parser.add_argument("--step-x", type=finite_float, default=None,
                         help="chordwise mid-line (basic x) of the report's step pressure "
                              "(default: the wing's mid-chord when the deck is known, e.g. 3 ft "
@@ -99,8 +104,9 @@ def run(args) -> int:
     from ..identify.build import IdentifyOptions, as_backend, identify
 
     check_outputs(args, [args.out, *([args.report / "report.md"] if args.report else [])])
-    if not args.model.is_file():
-        raise InputError(f"{args.model}: no such model file")
+    from ..checks import expect_text_file
+
+    expect_text_file(args.model, "a Nastran deck", "model.bdf")
     from ..fe import read_bdf
     from ..identify import DualModeOptions
     from ..identify.basis import parse_combinations
@@ -118,11 +124,12 @@ def run(args) -> int:
                          f"free decay) needs a restrained structure; this one has rigid-body "
                          f"modes (free-free): identify without --report")
     kinds = None
-    if args.combinations == "transverse":
-        # a free structure's rigid-body modes come first in the basis (0 Hz, as in SOL 145)
+    if args.combinations == "transverse" and args.dual:
+        # a free structure's rigid-body modes come first in the basis (0 Hz, as in SOL 145);
+        # without dual modes there are no combinations to choose
         m = fe.modes(args.linear)
         kinds = (["rigid-body"] * m.n_rigid + list(m.kinds))[:args.linear]
-    combinations = parse_combinations(args.combinations, kinds=kinds)
+    combinations = parse_combinations(args.combinations, kinds=kinds) if args.dual else []
     if kinds is not None:
         print(f"  dual-mode combinations from the mode kinds ({', '.join(kinds)}): "
               f"{', '.join(f'{j}:{l}' for j, l in combinations)}")

@@ -30,6 +30,8 @@ NAME = "modes"
 #: a model with at least this many free DOFs reports its eigen-solve stage
 LARGE_MODEL_DOFS = 50_000
 HELP = "linear modal analysis table of a Nastran deck (MODEL.bdf)"
+#: checks the bounds of torchrom.bounds (the command line offers --allow-large)
+BOUNDED = True
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:

@@ -44,6 +44,8 @@ PAPER_METHODS = ("newmark", "hb")
 
 NAME = "paper"
 HELP = "the paper's whole post-flutter LCO study: model, flutter, sweeps, figures, report.md"
+#: checks the bounds of torchrom.bounds (the command line offers --allow-large)
+BOUNDED = True
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:

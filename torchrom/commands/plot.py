@@ -44,8 +44,8 @@ LCO_FIGURES = ("fig10", "fig12", "fig13")  # figures of the converged LCOs alone
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("table", type=Path, help="results table (.parquet or .csv)")
-    parser.add_argument("--out", type=figure_file, required=True,
-                        help="figure file (.png, .pdf, .svg)")
+    parser.add_argument("--out", type=figure_file, required=True, metavar="FIGURE",
+                        help="figure file to write (.png, .pdf, .svg)")
     parser.add_argument("--x", help="general form: column on the x axis")
     parser.add_argument("--y", default="amplitude",
                         help="general form: column on the y axis (default amplitude)")
@@ -55,7 +55,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--figure", choices=FIGURE_NAMES, help="paper form: which figure")
     parser.add_argument("--histories", type=Path, default=None,
                         help="time histories for fig11 (default: histories.parquet beside TABLE)")
-    parser.add_argument("--q4-mode", type=positive_int, default=4, metavar="N",
+    parser.add_argument("--q4-mode", type=positive_int, default=None, metavar="N",
                         help="fig13: our mode compared with the paper's mode 4 (default 4)")
     parser.add_argument("--flutter-altitude", type=finite_float, default=None, metavar="FT",
                         help="fig10/12/13: mark our flutter altitude (ft)")
@@ -76,6 +76,27 @@ def read_table(path: Path):
         raise InputError(f"{path}: not a readable table ({exc})") from None
 
 
+#: options of one form or some figures only: option -> (attribute, the --figure values it
+#: serves; None: the general form, --x)
+ONLY_WITH = {"--histories": ("histories", ("fig11",)), "--q4-mode": ("q4_mode", ("fig13",)),
+             "--flutter-altitude": ("flutter_altitude", ("fig10", "fig12", "fig13")),
+             "--hue": ("hue", None), "--facet": ("facet", None), "--title": ("title", None)}
+
+
+def _check_applies(args: argparse.Namespace) -> None:
+    """An option the chosen form does not read is refused (it would be ignored silently)."""
+    from ..errors import InputError
+
+    for option, (attr, figures) in ONLY_WITH.items():
+        if getattr(args, attr) is None:
+            continue
+        if figures is None and args.figure is not None:
+            raise InputError(f"{option}: used by the general form (--x) only, not by --figure "
+                             f"{args.figure}")
+        if figures is not None and args.figure not in figures:
+            raise InputError(f"{option}: used with --figure {' or '.join(figures)} only")
+
+
 def run(args: argparse.Namespace) -> int:
     from ..errors import InputError
     from ..study import figures
@@ -84,6 +105,7 @@ def run(args: argparse.Namespace) -> int:
     if (args.figure is None) == (args.x is None):
         raise InputError("plot: give either --x (and --y, --hue, --facet) for any table or "
                          "--figure NAME for a paper figure")
+    _check_applies(args)
     table = read_table(args.table)
     if (args.figure in (None, *LCO_FIGURES) and "status" in table.columns
             and not (table["status"] == "lco").any()):
@@ -99,7 +121,7 @@ def run(args: argparse.Namespace) -> int:
         if args.figure in ("fig10", "fig12", "fig13"):
             kw["flutter_altitude_ft"] = args.flutter_altitude
         if args.figure == "fig13":
-            kw["q4_mode"] = args.q4_mode
+            kw["q4_mode"] = 4 if args.q4_mode is None else args.q4_mode
         draw = figures.table2 if args.figure == "table2" else figures.TABLE_FIGURES[args.figure]
         path = write_figure(draw, table, args.out, force=args.force, **kw)
     if path is None:

@@ -37,6 +37,8 @@ from ._common import (
 NAME = "sweep"
 DISTRIBUTION = "amplitude_distribution"
 HELP = "run a TOML-defined grid of batched LCO simulations; write a results table and a figure"
+#: checks the bounds of torchrom.bounds (the command line offers --allow-large)
+BOUNDED = True
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:

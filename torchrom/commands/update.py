@@ -25,6 +25,8 @@ from ._common import add_force_option, add_json_option, maybe_write_json
 
 NAME = "update"
 HELP = "update deck parameters (NSM, densities, masses, offsets, dimensions) to target frequencies"
+#: checks the bounds of torchrom.bounds (the command line offers --allow-large)
+BOUNDED = True
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:

@@ -150,8 +150,21 @@ def check_complete(text: str, fname: str) -> None:
     for line in text.splitlines():
         if line.split("$")[0].strip().upper().startswith("ENDDATA"):
             return
+    if not any(_DECK_LINE.match(line) for line in text.splitlines()):
+        raise InputError(f"{fname}: not a Nastran deck: no GRID, SOL, CEND, BEGIN BULK or "
+                         f"ENDDATA line (the first line is {_first_line(text)!r}); expected a "
+                         f"bulk data deck, e.g. model.bdf")
     raise InputError(f"{fname}: no ENDDATA card: the deck is truncated or incomplete (the last "
                      f"line is {_last_line(text)!r})")
+
+
+#: a line only a Nastran deck has: the executive, case control or bulk data landmarks, or a GRID
+_DECK_LINE = re.compile(r"^\s*(SOL\b|CEND\b|BEGIN\s+BULK|ENDDATA|GRID[*,\s])", re.IGNORECASE)
+
+
+def _first_line(text: str) -> str:
+    lines = [ln.rstrip() for ln in text.splitlines() if ln.strip()]
+    return lines[0][:40] if lines else ""
 
 
 def _last_line(text: str) -> str:
@@ -174,3 +187,104 @@ def duplicate_message(fname: str, text: str) -> str | None:
     ident = m.group(1) or m.group(2).split(",")[0].strip()
     card = m.group(3)
     return f"{fname}: {card} {ident}: duplicate ID (two {card} cards with ID {ident})"
+
+
+def failed_card(exc: BaseException):
+    """The pyNastran ``BDFCard`` that was being added when ``exc`` was raised (the deepest
+    frame of its traceback holding one as ``card_obj`` or ``card``), or None: pyNastran's own
+    messages often name neither the card nor its ID."""
+    found = None
+    tb = exc.__traceback__
+    while tb is not None:
+        local = tb.tb_frame.f_locals
+        for name in ("card_obj", "card"):
+            obj = local.get(name)
+            if obj is not None and hasattr(obj, "field") and hasattr(obj, "nfields"):
+                found = obj
+        tb = tb.tb_next
+    return found
+
+
+def _card_number(card, i: int) -> float | None:
+    try:
+        x = float(card.field(i))
+    except (TypeError, ValueError, IndexError):
+        return None
+    return x
+
+
+#: the definition points of the coordinate-system cards by three points (fields of A, B, C)
+_THREE_POINT_CARDS = ("CORD2R", "CORD2C", "CORD2S")
+#: relative size of |AB × AC| below which three points define no plane (float64 rounding of
+#: coordinates of order |AB| |AC|, with a margin)
+_COLLINEAR_RTOL = 1e-12
+
+
+def degenerate_geometry_message(card) -> str | None:
+    """What is wrong with a geometry card whose points define nothing (a CORD2R/C/S with
+    coincident or collinear points A, B, C), or None. pyNastran reports only ``norm(v)=0``."""
+    import numpy as np
+
+    name = str(card.field(0)).strip().upper()
+    if name not in _THREE_POINT_CARDS:
+        return None
+    vals = [_card_number(card, i) for i in range(3, 12)]  # A1..C3
+    if any(v is None for v in vals):
+        vals = [0.0 if v is None else v for v in vals]  # blank fields default to 0.0
+    a, b, c = (np.array(vals[k:k + 3]) for k in (0, 3, 6))
+    ab, ac = b - a, c - a
+    cid = card.field(1)
+    where = f"{name} {cid}"
+    if not np.linalg.norm(ab) > 0:
+        return f"{where}: points A and B coincide ({list(a)}): A is the origin, B on the z axis"
+    cross = np.linalg.norm(np.cross(ab, ac))
+    if not cross > _COLLINEAR_RTOL * np.linalg.norm(ab) * max(np.linalg.norm(ac), 1e-300):
+        return (f"{where}: points A, B, C are collinear (A = {list(a)}, B = {list(b)}, C = "
+                f"{list(c)}): C must lie off the z axis AB to fix the x-z plane")
+    return None
+
+
+#: a pyNastran message whose placeholders were never formatted (``{len(card):d}``)
+_PLACEHOLDER = re.compile(r"\{[^{}]*\}")
+
+
+def _failed_coord(exc: BaseException):
+    """The pyNastran coordinate system (``self`` of a CORD* method) whose setup raised
+    ``exc`` while it was cross-referenced (a CORD1R/C/S is set up from its grids then)."""
+    found = None
+    tb = exc.__traceback__
+    while tb is not None:
+        obj = tb.tb_frame.f_locals.get("self")
+        if type(obj).__name__.startswith("CORD") and hasattr(obj, "cid"):
+            found = obj
+        tb = tb.tb_next
+    return found
+
+
+def card_error_message(fname: str, exc: BaseException, first: str) -> str | None:
+    """One line for a pyNastran error raised while a card was added (:func:`failed_card`) or a
+    coordinate system was set up: the card, its ID and what is wrong, or None when no card is
+    known."""
+    card = failed_card(exc)
+    coord = _failed_coord(exc) if card is None else None
+    # a CORD2* fails its setup on a zero cross product ("norm(v)=0"), a CORD1* its
+    # validation (three distinct grids) or its setup from the grids' positions
+    if coord is not None and ("norm" in first or type(coord).__name__.startswith("CORD1")):
+        name = type(coord).__name__
+        grids = [getattr(coord, g, None) for g in ("g1", "g2", "g3")]
+        points = (f"grids G1, G2, G3 ({', '.join(str(getattr(g, 'nid', g)) for g in grids)})"
+                  if name.startswith("CORD1") else "points A, B, C")
+        return (f"{fname}: {name} {coord.cid}: {points} are collinear or coincide: they "
+                f"define no coordinate system (C must lie off the z axis AB)")
+    if card is None:
+        return None
+    degenerate = degenerate_geometry_message(card)
+    if degenerate is not None:
+        return f"{fname}: {degenerate}"
+    name = str(card.field(0)).strip().upper()
+    where = f"{name} {card.field(1)}" if card.nfields > 1 and card.field(1) is not None else name
+    if first.startswith(f"len({name} card)"):
+        return (f"{fname}: {where}: too many fields ({card.nfields} with the continuation "
+                f"lines; a stray continuation line?)")
+    text = _PLACEHOLDER.sub("?", first).strip()
+    return f"{fname}: {where}: {text}"

@@ -42,7 +42,7 @@ import numpy as np
 
 from ..errors import InputError
 from .bdf_cards import NOTED_CARDS, apply_grdset, reason, refuse_gset_matrices
-from .bdf_checks import check_complete, check_fields, duplicate_message
+from .bdf_checks import card_error_message, check_complete, check_fields, duplicate_message
 from .bdf_extra import SOLID_GRIDS, ExtraCards
 from .coords import axes_at
 from .coords import components as _comps
@@ -122,6 +122,9 @@ def _pynastran_error(fname: str, exc: Exception) -> InputError:
         name, value, num, rest = f.groups()
         what = re.sub(r"\s*\(not an? [^)]*\)", "", rest.rstrip(".")).replace("must be", "expected")
         return InputError(f"{fname}: {card}: field #{num} ({name}): {what}, got {value}")
+    known = card_error_message(fname, exc, first)
+    if known is not None:
+        return InputError(known)
     where = f"{card}: " if card else ""
     return InputError(f"{fname}: {where}{first}")
 
@@ -206,11 +209,13 @@ def read_bdf(
     (those linear); default "large", except "small" for a deck written by ``torchrom goland``
     (the paper's model).
     """
+    from ..checks import expect_text_file
     from ..progress import Stages
 
     path = Path(path)
-    if not path.is_file():
+    if not path.exists():
         raise InputError(f"{path}: no such deck")
+    expect_text_file(path, "a Nastran deck", "model.bdf")
     size = path.stat().st_size
     stages = Stages(f"reading {path.name}", size >= LARGE_DECK_BYTES)
     stages.start(f"parsing {size / 1e6:.0f} MB of cards")

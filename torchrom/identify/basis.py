@@ -18,6 +18,7 @@ sign are skipped. The static solves are the backend's, the eigen-solvers scipy's
 from __future__ import annotations
 
 import time
+import warnings
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
@@ -179,20 +180,83 @@ def _m_project_out(R: np.ndarray, Phi: np.ndarray, M) -> np.ndarray:
     return R
 
 
-def pod(snapshots: np.ndarray, W, n_keep: int) -> tuple[np.ndarray, np.ndarray]:
+#: relative POD eigenvalue (a squared singular value) below which a snapshot direction is
+#: rounding: 1e-14 is a singular value 1e-7 of the largest, far above float64's 1e-16 and far
+#: below the smallest direction a dual mode is made of (3.7e-3 on the clamped BAH wing, whose
+#: 8th eigenvalue is 1.7e-16)
+POD_RANK_RTOL = 1e-14
+#: relative size of a static response's part outside the linear modes (to its linear part,
+#: in the POD norm) at or below which it is rounding, not a nonlinear response: a linear
+#: structure's responses measured 5e-15 and 9e-15 (the clamped BAH and ExportNastranKM beams),
+#: a geometrically nonlinear wing's 1e-4 and more at the smallest identification amplitude
+LINEAR_RESPONSE_RTOL = 1e-9
+#: relative mass norm below which a direction of the snapshots carries no mass (it lies in
+#: massless DOFs, e.g. the rotations of a stick model whose mass is on CONM2 points): such a
+#: direction cannot be mass-normalised
+MASSLESS_RTOL = 1e-6
+
+
+def pod_rank(spectrum: np.ndarray) -> int:
+    """Independent directions of POD eigenvalues ``spectrum`` (descending):
+    those above :data:`POD_RANK_RTOL` of the largest."""
+    lam = np.asarray(spectrum, dtype=float)
+    return int(np.sum(lam > POD_RANK_RTOL * lam[0])) if lam.size and lam[0] > 0 else 0
+
+
+def pod(snapshots: np.ndarray, W, n_keep: int | None) -> tuple[np.ndarray, np.ndarray]:
     """POD (method of snapshots) in the inner product ⟨a, b⟩ = aᵀ W b (W = M or K):
     (W-orthonormal vectors (n_dof, n_keep), normalised eigenvalues of all snapshots, descending,
     summing to 1). Eigenvectors in decreasing eigenvalue order, signs by
-    :func:`~torchrom.eigen.orient_columns`."""
+    :func:`~torchrom.eigen.orient_columns`. ``n_keep`` None: every independent direction
+    (:func:`pod_rank`)."""
     C = snapshots.T @ np.asarray(W @ snapshots)
     lam, V = scipy.linalg.eigh(0.5 * (C + C.T))
     lam, V = lam[::-1], V[:, ::-1]
     lam = np.clip(lam, 0.0, None)
-    if n_keep > int(np.sum(lam > 1e-14 * lam[0])):
+    rank = pod_rank(lam)
+    if n_keep is None:
+        n_keep = rank
+    if n_keep > rank:
         raise InputError(f"dual modes: asked for {n_keep} but the {snapshots.shape[1]} snapshots "
-                         f"span only {int(np.sum(lam > 1e-14 * lam[0]))} independent directions")
+                         f"span only {rank} independent directions")
     Wv = orient_columns(snapshots @ V[:, :n_keep] / np.sqrt(lam[:n_keep]))
-    return Wv, lam / lam.sum()
+    return Wv, lam / max(lam.sum(), np.finfo(float).tiny)
+
+
+def mass_orthonormal_prefix(V: np.ndarray, M, n_keep: int) -> tuple[np.ndarray, int]:
+    """(Q, massless): up to ``n_keep`` mass-orthonormal vectors from V's columns (W-orthonormal
+    POD vectors, energy order), and how many independent combinations of them carry no mass.
+
+    Those combinations (the eigenvectors of VᵀMV below :data:`MASSLESS_RTOL`² of its largest
+    eigenvalue: parts in massless DOFs alone, e.g. the rotations of a stick model whose mass is
+    on CONM2 points) are removed from every column first, as they cannot be mass-normalised;
+    then Gram–Schmidt in the M inner product (twice, for rounding) keeps the columns in their
+    order, skipping one that the kept ones already span (what a Cholesky factor of VᵀMV does
+    when it exists)."""
+    G = V.T @ np.asarray(M @ V)
+    g, E = np.linalg.eigh(0.5 * (G + G.T)) if V.shape[1] else (np.zeros(0), np.zeros((0, 0)))
+    null = g <= MASSLESS_RTOL**2 * g.max(initial=0.0)
+    massless = int(null.sum())
+    if massless:
+        N = E[:, null]
+        V = V - V @ N @ N.T
+    norms = _norms(M, V)
+    ref = float(norms.max(initial=0.0))
+    kept: list[np.ndarray] = []
+    for v, own in zip(V.T, norms):
+        if len(kept) == n_keep:
+            break
+        if not own > MASSLESS_RTOL * ref:
+            continue
+        w = v.copy()
+        for _ in range(2):
+            for q in kept:
+                w -= q * float(q @ np.asarray(M @ w))
+        nrm = float(np.sqrt(max(float(w @ np.asarray(M @ w)), 0.0)))
+        if nrm > MASSLESS_RTOL * own:
+            kept.append(w / nrm)
+    Q = np.stack(kept, axis=1) if kept else np.zeros((V.shape[0], 0))
+    return Q, massless
 
 
 def _combination(Phi_L: np.ndarray, KU: np.ndarray, j: int, l: int):
@@ -209,13 +273,23 @@ def _tip_fractions(opts: DualModeOptions) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _tip(backend, u: np.ndarray) -> float:
-    """Tip transverse displacement: the largest |u| over the backend's transverse DOFs."""
-    return float(np.abs(u[backend.transverse_dofs]).max())
+    """Tip transverse displacement: the largest |u| over the backend's transverse DOFs (over
+    its translational DOFs when it has no free transverse one, as :func:`_transverse_peak`)."""
+    dofs = backend.transverse_dofs if len(backend.transverse_dofs) else \
+        backend.translational_dofs
+    return float(np.abs(u[dofs]).max()) if len(dofs) else 0.0
 
 
 def _transverse_peak(backend, U: np.ndarray) -> float:
-    peak = np.abs(U[backend.transverse_dofs]).max()
-    return float(peak if peak > 0 else np.abs(U[backend.translational_dofs]).max())
+    """The largest |U| over the transverse DOFs, else over the translational ones (a model
+    whose free DOFs hold no transverse, or no translation at all, is refused)."""
+    for dofs in (backend.transverse_dofs, backend.translational_dofs):
+        values = np.abs(U[dofs])
+        if values.size and values.max() > 0:
+            return float(values.max())
+    raise InputError("dual modes: the linear modes move no free translational DOF (a model "
+                     "without free translations: its loads cannot be scaled to a tip "
+                     "deflection); use --dual 0")
 
 
 @dataclass
@@ -268,17 +342,34 @@ def dual_modes_from_responses(linear: Basis, M, responses: np.ndarray, n_dual: i
     U = np.atleast_2d(responses).T
     R = _m_project_out(U, Phi_L, M)
     norms, linear_norms = _norms(W, R), _norms(W, U - R)
+    relative = norms / np.where(linear_norms > 0, linear_norms, 1.0)
+    if not relative.max(initial=0.0) > LINEAR_RESPONSE_RTOL:
+        raise InputError(f"dual modes: the {U.shape[1]} static responses have no part outside "
+                         f"the linear modes above rounding (at most {relative.max(initial=0.0):.1e}"
+                         f" of their linear part): the FE model responds linearly (e.g. linear "
+                         f"CBAR/CELAS elements only), so there is nothing for dual modes to "
+                         f"capture; use --dual 0")
     scale = {"relative": linear_norms, "unit": norms, "none": np.ones_like(norms)}[weights]
     R = R / np.where(scale > 0, scale, 1.0)
-    V, spectrum = pod(R, W, n_dual)
+    V, spectrum = pod(R, W, None)  # every independent direction, in energy order
     V = _m_project_out(V, Phi_L, M)
-    # mass-orthonormalise the dual vectors among themselves (Cholesky: order-preserving)
-    G = V.T @ np.asarray(M @ V)
-    L = np.linalg.cholesky(0.5 * (G + G.T))
-    V = orient_columns(scipy.linalg.solve_triangular(L, V.T, lower=True).T)
-    basis = Basis(np.concatenate([Phi_L, V], axis=1), linear.kinds + ["dual"] * n_dual,
-                  np.concatenate([linear.frequencies_hz, np.full(n_dual, np.nan)]), spectrum)
-    return basis, norms / np.where(linear_norms > 0, linear_norms, 1.0)
+    # mass-orthonormalise the dual vectors among themselves (order-preserving), skipping the
+    # directions without mass; the count follows what the snapshots hold, and says why
+    V, massless = mass_orthonormal_prefix(V, M, n_dual)
+    V = orient_columns(V)
+    n_found = V.shape[1]
+    if n_found < n_dual:
+        why = (f"the {U.shape[1]} snapshots span {pod_rank(spectrum)} independent "
+               f"directions outside the linear modes"
+               + (f", {massless} of them without mass (massless DOFs)" if massless else ""))
+        if n_found == 0:
+            raise InputError(f"dual modes: {why}: no dual mode can be made; use --dual 0 (the "
+                             f"structure's nonlinear response adds nothing to its linear modes)")
+        warnings.warn(f"dual modes: {n_dual} asked for, but {why}: using {n_found} dual modes "
+                      f"(--dual {n_found} gives the same ROM without this warning)", stacklevel=2)
+    basis = Basis(np.concatenate([Phi_L, V], axis=1), linear.kinds + ["dual"] * n_found,
+                  np.concatenate([linear.frequencies_hz, np.full(n_found, np.nan)]), spectrum)
+    return basis, relative
 
 
 @dataclass

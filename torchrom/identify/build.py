@@ -146,6 +146,26 @@ def as_backend(fe) -> FEBackend:
                      "torchrom.fe model or a torchrom.identify.FEBackend (e.g. CallableBackend)")
 
 
+#: the FE element sets whose stiffness is geometrically nonlinear (the others — CBAR, CBEAM,
+#: CELAS, CBUSH, GENEL, solids — are linear: :meth:`torchrom.fe.model.FEModel._warn_linear`)
+NONLINEAR_ELEMENT_SETS = ("rods", "quads", "trias", "shears")
+
+
+def check_nonlinear_elements(backend, n_dual: int) -> None:
+    """Before the dual-mode FE solves: dual modes need a nonlinear static response, which an
+    FE model of linear elements only (a stick model of CBARs) cannot give — its responses
+    differ from the linear modes' by rounding (5e-15 measured), and dual modes made of that
+    ended in a Cholesky LinAlgError (issue 34). Backends without a torchrom FE mesh are left
+    to the snapshots' own check (:func:`~torchrom.identify.basis.dual_modes_from_responses`)."""
+    mesh = getattr(getattr(backend, "fe", None), "mesh", None)
+    if mesh is None or sum(len(getattr(mesh, k)) for k in NONLINEAR_ELEMENT_SETS):
+        return
+    raise InputError(f"{backend.name}: n_dual = {n_dual} (--dual): every element of the model "
+                     f"is linear (CBAR/CBEAM/CELAS/CBUSH/solid elements, small rotations): its "
+                     f"static responses have nothing outside the linear modes, so no dual mode "
+                     f"can be made; use --dual 0")
+
+
 def identify(fe, options: IdentifyOptions | None = None,
              progress: Callable[[str, int, int], None] | None = None) -> IdentificationResult:
     """Identify the nonlinear ROM of an FE model non-intrusively (DIGEST Secs. 4–6).
@@ -173,6 +193,7 @@ def identify(fe, options: IdentifyOptions | None = None,
     basis = linear_basis(be, opt.n_linear)
     timings["linear_modes"] = time.perf_counter() - t0
     if opt.n_dual > 0:
+        check_nonlinear_elements(be, opt.n_dual)
         t1 = time.perf_counter()
         dual_opt = opt.dual
         if dual_opt.combinations == PAPER_COMBINATIONS and opt.n_linear < 5:

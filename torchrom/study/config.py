@@ -25,7 +25,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from ..checks import physical
+from ..checks import expect_file_kind, physical
 from ..errors import InputError
 from ..io import read_toml
 from ..periodic import HarmonicBalanceMethod, HBOptions
@@ -208,6 +208,9 @@ def build_model(model: dict[str, Any], source: Path, aeroelastic: dict[str, Any]
         return _provided_model(model, source, aeroelastic or {})
     if "rom" in model:
         _check_keys(model, ("rom", "aero", "span"), source, where)
+        expect_file_kind(_relative(model["rom"], source), "rom", f"{source}: [model] rom")
+        if "aero" in model:
+            expect_file_kind(_relative(model["aero"], source), "aero", f"{source}: [model] aero")
         rom = NonlinearROM.load(_relative(model["rom"], source))
         span = model.get("span")
         if span is not None:
@@ -396,7 +399,25 @@ def load_sweep_config(path, variant: str | None = None) -> SweepConfig:
         if value is not None and value not in parameters:
             raise _err(source, f"[plot] {key}", f"expected a case parameter "
                        f"{parameters}, got {value!r}")
-    plot = PlotSpec(x=x, y=plot_t.get("y", "amplitude"), hue=hue)
+    present = {k for c in cases for k in c}  # the parameter columns the table will have
+    for key, value in (("x", x), ("hue", hue)):
+        if value is not None and value not in present:
+            how = ("the [cases] table sets no parameter" if not present else
+                   f"the cases set only {sorted(present)}")
+            raise _err(source, f"[plot] {key}", f"{value!r} is no parameter of the cases "
+                       f"({how}): the figure would have no {key}; expected one of "
+                       f"{sorted(present)}" if present else
+                       f"{value!r} is no parameter of the cases ({how}): give [cases] values "
+                       f"(e.g. alpha = [0.0, 0.3]) to plot against")
+    y = plot_t.get("y", "amplitude")
+    columns = result_columns(parameters, outputs, aeroelastic)
+    if not is_result_column(y, columns):
+        raise _err(source, "[plot] y", f"expected a column of the results table "
+                   f"({', '.join(columns)}), got {y!r}")
+    plot = PlotSpec(x=x, y=y, hue=hue)
+    if history is not None and history.where and not history.indices(cases):
+        raise _err(source, "[history] where", f"{history.where} selects none of the "
+                   f"{len(cases)} cases: expected values of the [cases] grid")
 
     batch = run_t.get("batch_size", 512)
 
@@ -406,12 +427,49 @@ def load_sweep_config(path, variant: str | None = None) -> SweepConfig:
                       aeroelastic=aero_t,
                       history=history, method=method, hb=hb, certificate=certificate,
                       allow_large=allow_large, points=points)
+    check_time_scales(cfg)
     check_work(cfg)
     if model.get("builtin") in provider_names():
         _check_provided(model, source)  # checked now; built (or reused) when the sweep runs
     else:
         check_initial(cfg, cfg.build_model())  # fail now, not after a long run
     return cfg
+
+
+#: the columns of every results table (:func:`torchrom.study.table.result_rows`), those of the
+#: certificate (:data:`torchrom.periodic.certify.COLUMNS`) and of the periodic-orbit solvers
+#: (:mod:`torchrom.periodic.method`): the numeric columns ``[plot] y`` may name besides the case
+#: parameters and ``amplitude_<output>`` (a test checks this list against real sweep tables)
+RESULT_COLUMNS = ("amplitude", "amplitude_pct_span", "frequency_hz", "last_amplitude",
+                  "last_amplitude_pct_span", "last_frequency_hz", "ratio_q1_q2", "ratio_q1_q4",
+                  "steps", "t_end", "amplitude_change", "solver_error",
+                  "harmonics", "hb_residual", "truncation", "harmonic_distortion",
+                  "floquet_multiplier", "floquet_error", "seeded", "amplitude_dgamma",
+                  "frequency_dgamma")
+#: the derived columns of an aeroelastic case (its flight condition and matched α)
+AEROELASTIC_COLUMNS = ("velocity", "dynamic_pressure", "density", "alpha_matched")
+
+
+def result_columns(parameters, outputs, aeroelastic: bool) -> list[str]:
+    """The columns a sweep's results table can have: the case parameters, the derived
+    flight-condition columns, :data:`RESULT_COLUMNS`, the certificate's columns and one
+    ``amplitude_<output>`` per tracked output (the placeholder itself when the outputs are the
+    model's, not known before it is built: :func:`is_result_column`)."""
+    from ..periodic.certify import COLUMNS
+
+    names = outputs if outputs else ["<output>"]  # the model's outputs: known once it is built
+    cols = [*parameters, *(AEROELASTIC_COLUMNS if aeroelastic else ()), *RESULT_COLUMNS,
+            *COLUMNS, *(f"amplitude_{o}" for o in names)]
+    return list(dict.fromkeys(cols))
+
+
+def is_result_column(name, columns: list[str]) -> bool:
+    """Whether ``name`` is one of ``columns`` (:func:`result_columns`), where
+    ``amplitude_<output>`` stands for the amplitude of any of the model's outputs."""
+    if not isinstance(name, str):
+        return False
+    return name in columns or ("amplitude_<output>" in columns
+                               and name.startswith("amplitude_"))
 
 
 def hb_method(table: dict[str, Any], source: Path, where: str = "[hb]") -> HarmonicBalanceMethod:
@@ -468,6 +526,75 @@ def check_work(cfg: SweepConfig, n_cases: int | None = None, what: str = "cases"
     cfg.solver.check_effort(cfg, n, what)
 
 
+def check_time_scales(cfg: SweepConfig) -> None:
+    """Every time-like setting against the run's length ``t_end`` (when the method marches
+    time or the file gives it): the integrator's dt, the certificate's dt and the history
+    interval every × dt must each fit in t_end at least once, else nothing is integrated or
+    sampled and the run would still exit 0. InputError naming the key."""
+    if not math.isfinite(cfg.t_end):
+        return
+    dt = cfg.integrator.dt
+    steps = {"[integrator] dt": dt}
+    if cfg.certificate.dt is not None:
+        steps["[certificate] dt"] = float(cfg.certificate.dt)
+    if cfg.history is not None:
+        steps["[history] every"] = cfg.history.every * dt
+    for key, length in steps.items():
+        if length > cfg.t_end:
+            what = (f"every x dt = {cfg.history.every} x {dt:g} s = {length:g} s"
+                    if key == "[history] every" else f"{length:g} s")
+            raise _err(cfg.source, key, f"{what} is longer than [integrator] t_end = "
+                       f"{cfg.t_end:g} s: expected a step <= t_end (the run would take no step)")
+
+
+def check_orbit_steps(cfg: SweepConfig, model, device=None, dtype=None) -> None:
+    """The size of the shooting on the discrete Newmark map (the shooting solver's finish and
+    the certificate's, :mod:`torchrom.periodic.shooting`), estimated before any work: a period
+    T takes N = T/dt steps and each step stores B × (outputs + 2n + lags + 1) samples (lags
+    counted as 2n). T is at
+    most about the period of the model's lowest linear mode 1/f₁ (an LCO oscillates near its
+    flutter frequency, above f₁), so dt ≥ 1/f₁ resolves no oscillation (refused), and
+    N = 1/(f₁ dt) is bounded by :data:`torchrom.sim.newmark.MAX_STEPS` and the memory by
+    :func:`torchrom.bounds.check_memory` (InputError naming dt, the steps and the size)."""
+    import numpy as np
+    import torch
+
+    from .. import bounds
+    from ..sim.newmark import MAX_STEPS
+
+    if not (cfg.certificate.enabled or cfg.method == "shooting"):
+        return
+    rom = model_rom(model)
+    freqs = np.asarray(rom.frequencies_hz, dtype=float)
+    freqs = freqs[np.isfinite(freqs) & (freqs > 0)]
+    if freqs.size == 0:
+        return
+    key = "[certificate] dt" if cfg.certificate.dt is not None else "[integrator] dt"
+    h = float(cfg.certificate.dt if cfg.certificate.dt is not None else cfg.integrator.dt)
+    period = 1.0 / float(freqs.min())
+    where = f"{cfg.source}: {key}"
+    if h >= period:
+        raise InputError(f"{where}: {h:g} s is not shorter than the period of the model's lowest "
+                         f"mode (1/{freqs.min():.4g} Hz = {period:.4g} s): the step resolves no "
+                         f"oscillation; expected dt well below {period:.4g} s")
+    steps = period / h
+    bounds.check_count(where, f"steps per LCO period (1/f1 / dt = {period:.4g} s / {h:g} s)",
+                       steps, MAX_STEPS, override=cfg.allow_large)
+    iterations = cfg.certificate.max_iterations
+    bounds.check_count(where, f"cases x steps per period x iterations ({len(cfg.cases)} x "
+                       f"{steps:.3g} x {iterations})", float(len(cfg.cases)) * steps * iterations,
+                       bounds.MAX_WORK, override=cfg.allow_large)
+    # lag states of the aerodynamics (not known before the RFA is built): counted as 2n
+    na = 0 if isinstance(model, NonlinearROM) else 2 * rom.n
+    batch = min(cfg.batch_size, max(len(cfg.cases), 1))
+    outputs = len(cfg.outputs) if cfg.outputs else rom.n
+    width = outputs + 2 * rom.n + na + 1
+    itemsize = torch.empty((), dtype=dtype or torch.float64).element_size()
+    bounds.check_memory(where, f"shooting over {steps:.3g} steps per period for {batch} "
+                        f"case(s) at once", float(batch) * steps * width * itemsize,
+                        device=device, override=cfg.allow_large)
+
+
 def check_memory(cfg: SweepConfig, model, device=None, dtype=None) -> None:
     """The largest allocation of the run, estimated from the model's size before any work:
     the solver's (harmonic balance: :func:`torchrom.bounds.check_harmonic_balance`; time
@@ -477,6 +604,28 @@ def check_memory(cfg: SweepConfig, model, device=None, dtype=None) -> None:
     batch = min(cfg.batch_size, max(len(cfg.cases), 1))
     itemsize = torch.empty((), dtype=dtype or torch.float64).element_size()
     cfg.solver.check_memory(cfg, model_rom(model).n, batch, itemsize, device)
+    check_orbit_steps(cfg, model, device, dtype)
+
+
+def check_aeroelastic_cases(cfg: SweepConfig, model) -> None:
+    """Before any case runs, what an aeroelastic case needs from its model: the Mach number of
+    the aerodynamic data, and for ``alpha = "matched"`` the baseline flutter point in the
+    altitude range (computed once and kept by the model), so that a configuration error is
+    refused up front, not after the sweep has started (and left parts to resume)."""
+    from ..errors import TorchromError
+    from .cases import MATCHED
+
+    if not isinstance(model, AeroelasticModel):
+        return
+    for k, c in enumerate(cfg.cases):
+        if "mach" in c and abs(float(c["mach"]) - model.mach) > 1e-9:
+            raise InputError(f"{cfg.source}: [cases] mach: {c['mach']} (case {k}) differs from "
+                             f"the Mach number {model.mach:g} of the aerodynamic data")
+    if any(c.get("alpha") == MATCHED for c in cfg.cases):
+        try:
+            model.reference_altitude()
+        except TorchromError as exc:
+            raise InputError(f"{cfg.source}: [cases] alpha = {MATCHED!r}: {exc}") from None
 
 
 def check_initial(cfg: SweepConfig, model) -> None:
@@ -484,6 +633,7 @@ def check_initial(cfg: SweepConfig, model) -> None:
     outputs fit the model, and the run's memory estimate is within bounds
     (:func:`check_memory`)."""
     check_memory(cfg, model)
+    check_aeroelastic_cases(cfg, model)
     from ..sim import output_matrix
     from .cases import initial_displacement, initial_velocity
 

@@ -644,9 +644,12 @@ def _run_cases(task, cases, case_ids, batch_size, chunk_size, executor, store, f
                 stats.case_steps += result.case_steps
                 guard.release()  # the chunk is safe: a deferred Ctrl-C stops the run here
     except BaseException as exc:
-        if store is not None:
+        # resuming is the remedy of an interruption or a crash that left finished cases; a
+        # configuration error (a TorchromError) would only stop the rerun the same way
+        kept = stats.reused + stats.computed
+        if store is not None and kept and not isinstance(exc, TorchromError):
             how = "interrupted" if isinstance(exc, KeyboardInterrupt) else "stopped"
-            log(f"{how}: {stats.reused + stats.computed} of {len(cases)} cases are kept in "
+            log(f"{how}: {kept} of {len(cases)} cases are kept in "
                 f"{store.parts} ({stats.reused} from before, {stats.computed} computed now); run "
                 f"the same command again to resume (only the others are computed)")
         raise
