@@ -43,13 +43,26 @@ def test_pt145_modes_match_closed_form(pt145_deck):
     assert modes.frequencies_hz[1] == pytest.approx(tors, rel=1e-10)
 
 
-def test_nonlinear_analysis_with_cbar_warns(pt145_deck):
+def test_nonlinear_analysis_with_cbar(pt145_deck):
+    """Decks default to large rotations: the CBARs are co-rotational, so no linear-element
+    warning, and f(u) = K u + O(|u|²) (checked at |u| = 1e-7: 1e-5 relative). With
+    ``rotations="small"`` the CBARs are linear, f = K u exactly, and the model warns."""
+    import warnings
+
     from torchrom.fe import LinearElementWarning
 
     fe = read_bdf(pt145_deck)
+    u = np.full(fe.n_dof, 1e-7)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", LinearElementWarning)
+        f = fe.internal_force(u)
+    np.testing.assert_allclose(f, fe.stiffness_matrix() @ u, rtol=1e-5,
+                               atol=1e-5 * np.abs(fe.stiffness_matrix() @ u).max())
+    small = read_bdf(pt145_deck, rotations="small")
+    u = np.full(small.n_dof, 1e-3)
     with pytest.warns(LinearElementWarning, match="CBAR/CBEAM/CELAS/solid elements are linear"):
-        f = fe.internal_force(np.full(fe.n_dof, 1e-3))
-    np.testing.assert_allclose(f, fe.stiffness_matrix() @ np.full(fe.n_dof, 1e-3), rtol=1e-12)
+        f = small.internal_force(u)
+    np.testing.assert_allclose(f, small.stiffness_matrix() @ u, rtol=1e-12)
 
 
 def test_cli_modes_pt145(pt145_deck, tmp_path, capsys):

@@ -14,7 +14,12 @@ import torch
 
 from torchrom.cli import main
 from torchrom.fe import TABLE2_HZ, calibrate_density, goland, goland_stiffness, read_bdf
-from torchrom.fe.goland import CALIBRATED_DENSITY, DEFAULT_STORE_X, POINT_A_GRID
+from torchrom.fe.goland import (
+    CALIBRATED_DENSITY,
+    DEFAULT_STORE_X,
+    GOLAND_ROTATIONS_NOTE,
+    POINT_A_GRID,
+)
 
 
 @pytest.fixture(scope="module")
@@ -33,6 +38,13 @@ def test_calibration_reproduces_cached_density_and_mode_1(fe, modes):
     assert fe.mesh.rods.rho[0] == cached
     assert modes.frequencies_hz[0] == pytest.approx(TABLE2_HZ[0], rel=1e-3)
     assert modes.kinds[0] == "bending" and modes.kinds[1] == "torsion"
+
+
+def test_builder_keeps_small_rotations(fe):
+    """The paper's model: plate bending small-rotation (linear), said in the notes; its
+    nonlinear forces are unchanged by the co-rotational layer of decks."""
+    assert fe.rotations == "small" and GOLAND_ROTATIONS_NOTE in fe.notes
+    assert not fe._corot
 
 
 def test_box_stiffness_matches_reference(fe):
@@ -175,6 +187,9 @@ def test_cli_goland_writes_deck_and_table(tmp_path, capsys):
     assert abs(recs[0]["diff_pct"]) < 0.1
     fe2 = read_bdf(out / "goland.bdf")
     assert fe2.output_points["A_Tz"] == (POINT_A_GRID, 3)
+    # the written deck reads back as the paper's small-rotation model, like the builder's
+    assert fe2.rotations == "small" and GOLAND_ROTATIONS_NOTE in fe2.notes
+    assert read_bdf(out / "goland.bdf", rotations="large").rotations == "large"
     assert main(["goland", "--out", str(out)]) == 2  # no overwrite without --force
     assert "already exists" in capsys.readouterr().err
     assert main(["modes", str(out / "goland.bdf"), "--n", "3"]) == 0

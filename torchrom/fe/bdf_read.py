@@ -50,6 +50,7 @@ from .design import check_initial_design
 from .elements.bar import frames_between, mechanism_pins
 from .elements.quad4 import quad_frames, shape
 from .goland_geometry import (  # noqa: F401 - GOLAND_* re-exported (public names of this module)
+    GOLAND_ROTATIONS_NOTE,
     GOLAND_TITLE,
     GOLAND_UNITS,
     WING_CHORD,
@@ -191,6 +192,7 @@ def read_bdf(
     drilling: float = 1e-4,
     autospc: bool | None = None,
     output_points: dict[str, tuple[int, int]] | None = None,
+    rotations: str | None = None,
 ):
     """Read a Nastran deck into an :class:`~torchrom.fe.model.FEModel`.
 
@@ -199,7 +201,10 @@ def read_bdf(
     drilling penalty; ``autospc`` removes DOFs without stiffness (Nastran's AUTOSPC; default:
     the deck's case control AUTOSPC or PARAM AUTOSPC, else yes);
     ``output_points`` maps names to (grid id, component 1..6) — decks written by
-    ``torchrom goland`` get the Goland point A automatically.
+    ``torchrom goland`` get the Goland point A automatically; ``rotations`` "large"
+    (co-rotational plate bending, beams and rod torsion in nonlinear analyses) or "small"
+    (those linear); default "large", except "small" for a deck written by ``torchrom goland``
+    (the paper's model).
     """
     from ..progress import Stages
 
@@ -220,6 +225,7 @@ def read_bdf(
         drilling=drilling,
         autospc=autospc,
         output_points=output_points,
+        rotations=rotations,
     )
 
 
@@ -263,6 +269,7 @@ def from_pynastran(
     output_points: dict[str, tuple[int, int]] | None = None,
     units: dict[str, str] | None = None,
     stages=None,
+    rotations: str | None = None,
 ):
     """Build an FEModel from a pyNastran ``BDF`` object (read from a file or built in memory);
     ``stages`` (:class:`torchrom.progress.Stages`) reports the mesh and assembly stages."""
@@ -287,7 +294,13 @@ def from_pynastran(
     stages.start("assembling the stiffness and mass matrices")
     title = _title(model)
     wing_chord = None
-    if title.startswith(GOLAND_TITLE):
+    goland_deck = title.startswith(GOLAND_TITLE)
+    if rotations is None:
+        # the heavy Goland wing is the paper's small-rotation model (plate bending linear)
+        rotations = "small" if goland_deck else "large"
+        if goland_deck:
+            notes.append(GOLAND_ROTATIONS_NOTE)
+    if goland_deck:
         wing_chord = WING_CHORD
         if output_points is None:
             output_points = goland_output_points(mesh)
@@ -303,6 +316,7 @@ def from_pynastran(
         output_points=output_points or {},
         drilling=drilling,
         autospc=autospc,
+        rotations=rotations,
     )
     fe.wing_chord = wing_chord
     fe.notes = notes + reader.notes + _unused_params(model) + fe.notes

@@ -29,6 +29,7 @@ from ..errors import InputError
 from .bdf_read import from_pynastran
 from .goland_geometry import (  # noqa: F401 - re-exported (public names of this module)
     DEPTH,
+    GOLAND_ROTATIONS_NOTE,
     GOLAND_TITLE,
     GOLAND_UNITS,
     SPAN,
@@ -251,8 +252,16 @@ def goland_bdf(store_x: float = DEFAULT_STORE_X, density: float = 1.0,
 
 def _model(store_x, density, options, n_modes=10, drilling=1e-4):
     bdf = goland_bdf(store_x, density, options, n_modes)
-    return from_pynastran(bdf, source="goland", name="heavy Goland wing", units=GOLAND_UNITS,
-                          drilling=drilling)
+    return _small_rotations(from_pynastran(bdf, source="goland", name="heavy Goland wing",
+                                           units=GOLAND_UNITS, drilling=drilling,
+                                           rotations="small"))
+
+
+def _small_rotations(fe):
+    """The wing as the paper's model: its plate bending is small-rotation (linear), its skins'
+    and webs' membranes Green-strain nonlinear (``FEModel(rotations="small")``)."""
+    fe.notes.append(GOLAND_ROTATIONS_NOTE)
+    return fe
 
 
 def _key(options: GolandOptions, store_x: float):
@@ -305,9 +314,10 @@ def goland(store_x: float | None = None, density: float | None = None, *,
             raise InputError(f"goland: the updated variant (the default) fixes "
                              f"{', '.join(changed)}; use the calibrated variant "
                              "(variant='calibrated', --variant calibrated) to change them")
-        return from_pynastran(updated_goland_bdf(n_modes), source="goland",
-                              name="heavy Goland wing (updated)", units=GOLAND_UNITS,
-                              drilling=drilling)
+        return _small_rotations(from_pynastran(updated_goland_bdf(n_modes), source="goland",
+                                               name="heavy Goland wing (updated)",
+                                               units=GOLAND_UNITS, drilling=drilling,
+                                               rotations="small"))
     store_x = DEFAULT_STORE_X if store_x is None else store_x
     options = GolandOptions(skins, webs, coupled_mass, mass_groups)
     options.check()

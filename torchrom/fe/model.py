@@ -7,15 +7,20 @@ sparse factorisations to scipy (see :mod:`torchrom.fe.solvers`).
 
 Total Lagrangian, St Venant–Kirchhoff (DIGEST Sec. 1, Eqs. 1–4): rods, membranes and shear
 panels use the Green–Lagrange strain, so their internal forces are exact cubic polynomials of the
-displacements; plate bending, drilling, rod torsion and CBAR are linear (see the element modules).
-Shells with ZOFFS (:mod:`torchrom.fe.elements.offset`) are linear altogether, and a model that
-has them refuses the nonlinear internal forces and tangents with a one-line error.
+displacements. With ``rotations="large"`` (the default) plate bending, transverse shear and
+drilling, CBAR/CBEAM and rod torsion keep their linear element matrices in a co-rotated frame
+(:mod:`torchrom.fe.elements.corotational`): large rotations, small strains. With
+``rotations="small"`` (the heavy Goland wing of the paper) they are linear. Springs (CELAS,
+CBUSH, GENEL) and solids stay linear in both. Shells with ZOFFS
+(:mod:`torchrom.fe.elements.offset`) are linear altogether, and a model that has them refuses the
+nonlinear internal forces and tangents with a one-line error.
 All public vectors live on the independent ("free") DOFs: ``u_all = T u`` (constraints: SPC,
 GRID PS, RBE1, RBE2, RBE3, automatic SPC of DOFs without stiffness).
 
-- internal force f(u) = f_nl(u) + K_lin u;
+- internal force f(u) = f_nl(u) + f_corot(u) + K_lin u;
 - tangent stiffness K_T(u) = ∂f/∂u = K_mat(u) + K_geo(u);
-- material tangent K_mat(u) = Σ B(u)ᵀ C B(u) + K_lin (no initial-stress part): with Kelvin–Voigt
+- material tangent K_mat(u) = Σ B(u)ᵀ C B(u) + Σ B_e(u)ᵀ K_e B_e(u) + K_lin (no initial-stress
+  part; B_e = ∂d_e/∂u of the co-rotational local displacements): with Kelvin–Voigt
   damping D = γ C the damping force is γ K_mat(u) u̇ (NOTES-damping.md, DIGEST Eqs. 52–54).
 """
 
@@ -32,6 +37,12 @@ from ..errors import InputError
 from .assembly import ProjectedPattern, assemble, project
 from .constraints import COMPONENT, build_constraints, drop_free
 from .elements.bar import bar_mass_blocks, bar_stiffness_blocks
+from .elements.corotational import (
+    CorotElements,
+    CorotKernel,
+    line_elements,
+    plate_elements,
+)
 from .elements.green import GreenKernel, GreenPoints
 from .elements.offset import offset_mass_blocks, offset_stiffness_blocks
 from .elements.quad4 import (
@@ -55,15 +66,20 @@ from .mass import (
 )
 from .mesh import Mesh
 
+#: The model option ``rotations``: "large" (co-rotational bending, beams and rod torsion),
+#: "small" (those linear, the paper's heavy Goland wing).
+ROTATIONS = ("large", "small")
+
 
 class LinearElementWarning(UserWarning):
-    """A nonlinear analysis of a model with linear elements (CBAR, CBEAM, CELAS: small
-    rotations, fixed directions)."""
+    """A nonlinear analysis of a model with elements that stay linear (springs and solids; with
+    ``rotations="small"`` also CBAR/CBEAM)."""
 
 
 @dataclass
 class _TorchState:
     kernels: list[GreenKernel]
+    corot: list[CorotKernel]
     T_rows: torch.Tensor
     T_cols: torch.Tensor
     T_vals: torch.Tensor
@@ -138,7 +154,8 @@ class FEModel:
     aerodynamic cards), ``loads`` (load set id → free-DOF vector), ``n_modes_requested`` (EIGR/EIGRL
     ND), ``autospc`` (list of (grid id, component) removed for lack of stiffness),
     ``wing_chord`` ((x_LE, x_TE) of the aerodynamic chord in basic x when known, e.g. the heavy
-    Goland wing's (0, 6) ft; None otherwise).
+    Goland wing's (0, 6) ft; None otherwise), ``rotations`` ("large": plate bending, beams and
+    rod torsion co-rotational in nonlinear analyses; "small": those linear).
     """
 
     def __init__(
@@ -154,7 +171,12 @@ class FEModel:
         output_points: dict[str, tuple[int, int]] | None = None,
         drilling: float = 1e-4,
         autospc: bool = True,
+        rotations: str = "large",
     ):
+        if rotations not in ROTATIONS:
+            raise InputError(f"{source or name}: rotations: expected one of "
+                             f"{', '.join(ROTATIONS)}, got {rotations!r}")
+        self.rotations = rotations
         self.mesh = mesh
         self.name = name
         self.source = source
@@ -188,17 +210,25 @@ class FEModel:
             groups.append(tria_points(trias, mesh.xyz))
         self._points = groups
 
-        # Linear stiffness parts (bending + drilling, rod torsion, CBAR, offset shells).
-        lin = []
+        # Linear stiffness parts (bending + drilling, rod torsion, CBAR, offset shells, springs,
+        # solids), in this order in K_lin; with large rotations the ones marked True are
+        # co-rotational in the nonlinear forces (their linear blocks stay in K_lin).
+        large = rotations == "large"
+        lin, corot_part = [], []
         if len(quads):
             lin.append(bending_blocks(quads, mesh.xyz, drilling))
+            corot_part.append(large)
         if len(trias):
             lin.append(tria_bending_blocks(trias, mesh.xyz, drilling))
+            corot_part.append(large)
         lin.extend(offset_stiffness_blocks(s, mesh.xyz, drilling) for s in offsets)
+        corot_part.extend(False for _ in offsets)
         if len(mesh.rods):
             lin.append(rod_torsion_blocks(mesh.rods, mesh.xyz))
+            corot_part.append(large)
         if len(mesh.bars):
             lin.append(bar_stiffness_blocks(mesh.bars, mesh.xyz))
+            corot_part.append(large)
         if mesh.celas:
             lin.append(celas_blocks(mesh.celas, mesh.cd_axes))
         if mesh.bushes:
@@ -206,7 +236,14 @@ class FEModel:
         lin.extend(genel_blocks(mesh.genel, mesh.cd_axes))
         for solids in mesh.solids:
             lin.append(solid_blocks(solids, mesh.xyz))
-        self._lin_parts = [p for p in lin if len(p[0])]
+        corot_part.extend(False for _ in range(len(lin) - len(corot_part)))
+        self._all_lin_parts = [p for p in lin if len(p[0])]
+        self._lin_parts = [p for p, c in zip(lin, corot_part) if len(p[0]) and not c]
+        corot = []
+        if large:
+            corot = [plate_elements(s, mesh.xyz, drilling) for s in (quads, trias) if len(s)]
+            corot.append(line_elements(mesh.bars, mesh.rods, mesh.xyz))
+        self._corot: list[CorotElements] = [c for c in corot if c is not None]
 
         cons = build_constraints(mesh, source=self.source or self.name)
         kernels0 = [GreenKernel(p, mesh.xyz) for p in self._points]
@@ -239,8 +276,9 @@ class FEModel:
         self._free_index = {(int(g), int(c)): k for k, (g, c) in enumerate(cons.free)}
 
         self._K_lin_free = project(K_all0, self.T)
-        # Tangents = constant linear part (bending, drilling, torsion, CBAR) + the Green-strain
-        # point blocks scattered through precomputed patterns (assembly.ProjectedPattern).
+        # Tangents = constant linear part (springs, solids; with small rotations also bending,
+        # drilling, torsion, CBAR) + the Green-strain point blocks and the co-rotational element
+        # blocks scattered through precomputed patterns (assembly.ProjectedPattern).
         self._const = assemble(self._lin_parts, self.n_all)
         self._K_const_free = project(self._const, self.T)
         self._pattern_cache: list[ProjectedPattern] | None = None  # built on first use
@@ -263,13 +301,14 @@ class FEModel:
         reading (a linear modal analysis never needs them; on shell models they cost more than
         the rest of the model build)."""
         if self._pattern_cache is None:
-            self._pattern_cache = [ProjectedPattern(p.dof_index(), self.T) for p in self._points]
+            self._pattern_cache = [ProjectedPattern(p.dof_index(), self.T)
+                                   for p in [*self._points, *self._corot]]
         return self._pattern_cache
 
     def _linear_all(self, kernels: list[GreenKernel]) -> sp.csr_matrix:
         zero = np.zeros(self.n_all)
         parts = [(k.dof_np, k.point_matrices(zero, geometric=0.0)) for k in kernels]
-        return assemble(parts + self._lin_parts, self.n_all)
+        return assemble(parts + self._all_lin_parts, self.n_all)
 
     def _mass_all(self) -> sp.csr_matrix:
         return assemble_mass(self.mesh)
@@ -285,6 +324,8 @@ class FEModel:
             st = _TorchState(
                 kernels=[GreenKernel(p, self.mesh.xyz, dtype=dtype, device=device)
                          for p in self._points],
+                corot=[CorotKernel(c, self.mesh.xyz, dtype=dtype, device=device)
+                       for c in self._corot],
                 T_rows=torch.as_tensor(r, device=device),
                 T_cols=torch.as_tensor(c, device=device),
                 T_vals=torch.as_tensor(v, **opts),
@@ -301,19 +342,31 @@ class FEModel:
         transforms."""
         self._state(dtype, device)
 
+    def linear_elements(self) -> dict[str, int]:
+        """Elements that stay linear in a nonlinear analysis, by card family → count."""
+        m = self.mesh
+        out = {"CELAS": len(m.celas), "CBUSH": len(m.bushes), "GENEL": len(m.genel),
+               "solid (CHEXA/CPENTA/CTETRA)": sum(len(s) for s in m.solids)}
+        if self.rotations == "small":
+            out["CBAR/CBEAM"] = len(m.bars)
+        return {k: v for k, v in out.items() if v}
+
     def _warn_linear(self) -> None:
-        n_lin = (len(self.mesh.bars) + len(self.mesh.celas) + len(self.mesh.bushes)
-                 + len(self.mesh.genel)
-                 + sum(len(s) for s in self.mesh.solids))
-        if n_lin and not self._warned_linear:
-            self._warned_linear = True
-            warnings.warn(
-                f"{self.name}: {n_lin} CBAR/CBEAM/CELAS/solid elements are linear (small "
-                "rotations); the nonlinear analysis includes them through their linear stiffness "
-                "only",
-                LinearElementWarning,
-                stacklevel=3,
-            )
+        counts = self.linear_elements()
+        if not counts or self._warned_linear:
+            return
+        self._warned_linear = True
+        if self.rotations == "small":
+            n_lin = sum(counts.values())
+            text = (f"{self.name}: {n_lin} CBAR/CBEAM/CELAS/solid elements are linear (small "
+                    "rotations); the nonlinear analysis includes them through their linear "
+                    "stiffness only")
+        else:
+            which = ", ".join(f"{n} {k}" for k, n in counts.items())
+            text = (f"{self.name}: {which} stay linear in this nonlinear analysis (K u with "
+                    "their small-displacement stiffness): springs act along fixed directions "
+                    "between their grids, and solids have no large-rotation formulation here")
+        warnings.warn(text, LinearElementWarning, stacklevel=3)
 
     def _refuse_offsets(self, what: str) -> None:
         """Shells with ZOFFS are linear (small-rotation offset): no nonlinear analysis."""
@@ -390,14 +443,15 @@ class FEModel:
     def internal_force_torch(self, u: torch.Tensor) -> torch.Tensor:
         """Differentiable internal force f(u) for u of shape (..., n_dof) (any float dtype/device).
 
-        Exactly cubic in u (Green-strain parts) plus linear terms; autograd (reverse or forward
-        mode, e.g. ``torch.func.jvp``/``jacfwd``) gives the exact tangent and Taylor coefficients.
+        Exactly cubic in u (Green-strain parts), the gradient of the co-rotational elements'
+        energies (large rotations) and linear terms; autograd (reverse or forward mode, e.g.
+        ``torch.func.jvp``/``jacfwd``) gives the exact tangent and Taylor coefficients.
         """
         self._refuse_offsets("the internal force f(u)")
         st = self._state(u.dtype, u.device)
         u_all = self._all_torch(u, st)
         f_all = torch.zeros_like(u_all)
-        for k in st.kernels:
+        for k in [*st.kernels, *st.corot]:
             f_all = f_all + k.internal_force(u_all)
         return self._free_torch(f_all, st) + self._const_torch(u, st)
 
@@ -407,7 +461,7 @@ class FEModel:
         st = self._state(u.dtype, u.device)
         u_all, v_all = self._all_torch(u, st), self._all_torch(v, st)
         f_all = torch.zeros_like(u_all)
-        for k in st.kernels:
+        for k in [*st.kernels, *st.corot]:
             f_all = f_all + k.material_force(u_all, v_all)
         return self._free_torch(f_all, st) + self._const_torch(v, st)
 
@@ -417,7 +471,7 @@ class FEModel:
         st = self._state(u.dtype, u.device)
         u_all = self._all_torch(u, st)
         W = 0.5 * (u * self._const_torch(u, st)).sum(-1)
-        for k in st.kernels:
+        for k in [*st.kernels, *st.corot]:
             W = W + k.energy(u_all)
         return W
 
@@ -442,8 +496,11 @@ class FEModel:
         u_all = self.T @ np.asarray(u, dtype=float)
         v_all = None if not damping else self.T @ np.asarray(v, dtype=float)
         K = self._K_const_free * material if material else sp.csr_matrix((self.n_dof,) * 2)
+        st = self._state()
         blocks = [kern.point_matrices(u_all, material, geometric, damping, v_all)
-                  for kern in self._state().kernels]
+                  for kern in st.kernels]
+        blocks += [kern.element_matrices(u_all, material, geometric, damping, v_all)
+                   for kern in st.corot]
         for pat, b in zip(self._patterns, blocks):
             K = K + pat.assemble(b)
         return K.tocsr()

@@ -25,8 +25,10 @@ Tapered CBEAM (PBEAM/PBEAML stations, :class:`~torchrom.fe.mesh.Taper`, properti
 between stations): the same element from the flexibility integrated along it
 (:func:`tapered_stiffness`, exact for end loads) and the mass integrated with the same shapes
 (:func:`tapered_mass`).
-CBAR/CBEAM are **linear**: in a geometrically nonlinear analysis they contribute K u with their
-small-rotation stiffness (the model warns once, :class:`LinearElementWarning`).
+The element is linear here; in a geometrically nonlinear analysis (``FEModel(rotations=
+"large")``, the default for decks) the same local matrix is used in the co-rotational frame of
+:mod:`torchrom.fe.elements.corotational` (large rotations, offsets as rigid arms that rotate
+with their grid); with ``rotations="small"`` it contributes K u.
 Mass (at the offset ends, through the same rigid links): lumped (half of (ρA + NSM) L on each
 end's translations, and for CBEAM half of ρ (I1 + I2) L on each end's torsional rotation, as
 Nastran's CBEAM; pin flags leave it on the grids) or consistent (cubic Hermite transverse, linear
@@ -266,12 +268,21 @@ def mechanism_pins(bars: BarSet, xyz: np.ndarray) -> np.ndarray:
     return np.array(bad, dtype=int)
 
 
-def bar_stiffness_blocks(bars: BarSet, xyz: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def bar_local_stiffness(bars: BarSet, xyz: np.ndarray):
+    """Lengths (n,), element axes R (n, 3, 3, rows x, y, z) and the element-system stiffness
+    (n, 12, 12) with the pin-flag releases condensed: the one local matrix of the linear
+    element (:func:`bar_stiffness_blocks`) and of its co-rotational form
+    (:mod:`torchrom.fe.elements.corotational`)."""
     L, R = bar_frames(bars, xyz)
     K = element_stiffness(bars, L)
     rel = released(bars)
     for e in np.nonzero(rel.any(axis=1))[0]:
         K[e] = condense_pins(K[e], rel[e])
+    return L, R, K
+
+
+def bar_stiffness_blocks(bars: BarSet, xyz: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    _, R, K = bar_local_stiffness(bars, xyz)
     return bar_dofs(bars.nodes), _to_grids(bars, R, K)
 
 

@@ -6,7 +6,8 @@ Written here (no library). Choices that change numbers:
   out-of-plane deflection included), St Venant–Kirchhoff plane stress; normal strains at 2×2
   Gauss points, shear at the centre (no parasitic shear in in-plane bending, no zero-energy
   mode). Internal forces exactly cubic in the displacements.
-- **Bending**: MITC4 (Bathe–Dvorkin 1985), **linear** (small rotations); transverse shear from
+- **Bending**: MITC4 (Bathe–Dvorkin 1985), linear in the element's axes (large rotations through
+  the co-rotational layer, :mod:`torchrom.fe.elements.corotational`); transverse shear from
   PSHELL MID3 × TS/T, else MID2's with 5/6; plus MacNeal's residual bending flexibility ℓ²/(12 D)
   on the constant part of the shear (Comput. Struct. 8, 1978; the QUAD4 of MSC Nastran;
   :func:`residual_bending_shear`), without which curved shells are too stiff.
@@ -211,38 +212,51 @@ def _mitc4_local(xy, Eb, nub, t, Gs, lam_D=None, lam_shear=None) -> np.ndarray:
     return K
 
 
+def plate_on_six(R: np.ndarray, Kl: np.ndarray, dN0: np.ndarray, k: np.ndarray) -> np.ndarray:
+    """Plate bending (Kl on (w, θx, θy) per node) plus the drilling penalty
+    k Σ_a (θz_a − ω)², ω = ½ Σ_b (∂N_b/∂x v_b − ∂N_b/∂y u_b) the membrane rotation at the centre
+    (``dN0`` (n, nn, 2)), on six DOFs per node in the axes whose rows are ``R`` (n, 3, 3):
+    the element's own axes (R = I) give the local matrix of the co-rotational form, its rows in
+    basic the linear element's blocks. Shared by the quad and the triangle."""
+    n, nn = dN0.shape[:2]
+    L = np.zeros((n, 3 * nn, 6 * nn))
+    for a in range(nn):
+        L[:, 3 * a, 6 * a : 6 * a + 3] = R[:, 2]
+        L[:, 3 * a + 1, 6 * a + 3 : 6 * a + 6] = R[:, 0]
+        L[:, 3 * a + 2, 6 * a + 3 : 6 * a + 6] = R[:, 1]
+    K = L.transpose(0, 2, 1) @ Kl @ L
+    omega = np.zeros((n, 6 * nn))
+    for b in range(nn):
+        omega[:, 6 * b : 6 * b + 3] = 0.5 * (dN0[:, b, 0:1] * R[:, 1] - dN0[:, b, 1:2] * R[:, 0])
+    for a in range(nn):
+        r = -omega.copy()
+        r[:, 6 * a + 3 : 6 * a + 6] += R[:, 2]
+        K += k[:, None, None] * r[:, :, None] * r[:, None, :]
+    return K
+
+
+def plate_parts(quads: QuadSet, xyz: np.ndarray, drilling: float = 1e-4):
+    """The quads with bending (boolean mask), their axes R (n, 3, 3, rows e1, e2, e3), the MITC4
+    matrix (n, 12, 12), ∂N/∂(x, y) at the centre (n, 4, 2) and the drilling stiffness k (n,)
+    = ``drilling`` · G t A: the arguments of :func:`plate_on_six`."""
+    sel = quads.bend_E > 0
+    R, xy = quad_frames(xyz[quads.nodes[sel]])
+    t = quads.t[sel]
+    Kl = _mitc4_local(xy, quads.bend_E[sel], quads.bend_nu[sel], t, quads.shear_G[sel],
+                      quads.lam_D[sel], quads.lam_shear[sel])
+    _, det0, dxy0 = jacobian(xy, shape(0.0, 0.0)[1])
+    return sel, R, Kl, dxy0, drilling * quads.G[sel] * t * 4.0 * det0
+
+
 def bending_blocks(
     quads: QuadSet, xyz: np.ndarray, drilling: float = 1e-4
 ) -> tuple[np.ndarray, np.ndarray]:
     """Linear bending + drilling stiffness of quads with bending, in basic 6-DOF blocks."""
     sel = quads.bend_E > 0
-    nodes = quads.nodes[sel]
-    if not len(nodes):
+    if not sel.any():
         return np.zeros((0, 24), dtype=int), np.zeros((0, 24, 24))
-    R, xy = quad_frames(xyz[nodes])
-    t = quads.t[sel]
-    Kl = _mitc4_local(xy, quads.bend_E[sel], quads.bend_nu[sel], t, quads.shear_G[sel],
-                      quads.lam_D[sel], quads.lam_shear[sel])
-    n = len(nodes)
-    L = np.zeros((n, 12, 24))
-    for a in range(4):
-        L[:, 3 * a, 6 * a : 6 * a + 3] = R[:, 2]
-        L[:, 3 * a + 1, 6 * a + 3 : 6 * a + 6] = R[:, 0]
-        L[:, 3 * a + 2, 6 * a + 3 : 6 * a + 6] = R[:, 1]
-    K = L.transpose(0, 2, 1) @ Kl @ L
-    # Drilling: θz_a − ω with ω the membrane rotation at the centre.
-    _, det0, dxy0 = jacobian(xy, shape(0.0, 0.0)[1])
-    omega = np.zeros((n, 24))
-    for b in range(4):
-        omega[:, 6 * b : 6 * b + 3] = 0.5 * (
-            dxy0[:, b, 0:1] * R[:, 1] - dxy0[:, b, 1:2] * R[:, 0]
-        )
-    k = drilling * quads.G[sel] * t * 4.0 * det0
-    for a in range(4):
-        r = -omega.copy()
-        r[:, 6 * a + 3 : 6 * a + 6] += R[:, 2]
-        K += k[:, None, None] * r[:, :, None] * r[:, None, :]
-    return quad_dofs(nodes), K
+    sel, R, Kl, dxy0, k = plate_parts(quads, xyz, drilling)
+    return quad_dofs(quads.nodes[sel]), plate_on_six(R, Kl, dxy0, k)
 
 
 def area_mass_pattern(xyz: np.ndarray, nodes: np.ndarray, coupled: bool) -> np.ndarray:

@@ -2,8 +2,9 @@
 
 Axial: one integration point with dN = [−1/L, 1/L] and C = E A L, so the strain
 energy is ½ E A L E11² with E11 = (l² − L²) / (2 L²) — exactly quartic in the displacements.
-Torsion (PROD J) is a linear spring G J / L between the rotations about the undeformed axis;
-it does not follow large rotations (documented limitation; J = 0 in the Goland model).
+Torsion (PROD J) is a linear spring G J / L between the rotations about the axis: about the
+undeformed axis with ``FEModel(rotations="small")``, in the co-rotated frame
+(:mod:`torchrom.fe.elements.corotational`) with large rotations (J = 0 in the Goland model).
 Mass: lumped (half to each end), or MSC Nastran's coupled rod mass (PARAM COUPMASS > 0): along
 the axis ρ A L / 12 [5 1; 1 5] — the mean of the lumped and the consistent [2 1; 1 2] / 6 —
 and lumped across it. The CROD/CONROD coupled mass is not the consistent one: a 10-bar truss
@@ -45,6 +46,19 @@ def rod_torsion_blocks(rods: RodSet, xyz: np.ndarray) -> tuple[np.ndarray, np.nd
     ee = np.einsum("ni,nj->nij", e, e) * k[:, None, None]
     blocks = np.block([[ee, -ee], [-ee, ee]]) if len(rods) else np.zeros((0, 6, 6))
     return two_node_dofs(rods.nodes, 3), blocks
+
+
+def rod_torsion_local(rods: RodSet, xyz: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The rods with torsion stiffness (mask) and their element-system stiffness (n, 12, 12) on
+    (t, θ) of both ends, x along the rod: G J / L between the twists θx (the local matrix of
+    :func:`rod_torsion_blocks` and of the co-rotational rod torsion)."""
+    sel = rods.J > 0
+    L, _ = rod_geometry(rods.nodes[sel], xyz)
+    k = rods.G[sel] * rods.J[sel] / L
+    K = np.zeros((len(k), 12, 12))
+    K[:, 3, 3] = K[:, 9, 9] = k
+    K[:, 3, 9] = K[:, 9, 3] = -k
+    return sel, K
 
 
 def rod_mass_blocks(rods: RodSet, xyz: np.ndarray, coupled: bool):

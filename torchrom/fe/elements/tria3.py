@@ -9,7 +9,8 @@ Written here (no library), the triangular companion of :mod:`torchrom.fe.element
   Table I): the normal rotations βx = θy, βy = −θx are quadratic, tied to the Kirchhoff
   constraint at the vertices and along the edges; curvatures κ = [βx,x, βy,y, βx,y + βy,x]
   integrated with the 3-point rule (exact: κ is linear). Thin-plate theory: no transverse shear
-  flexibility (PSHELL MID3 does not enter). **Linear** (small rotations), as the quad's MITC4.
+  flexibility (PSHELL MID3 does not enter). Linear in the element's axes, as the quad's MITC4
+  (large rotations through :mod:`torchrom.fe.elements.corotational`).
 - **Drilling**: k Σ_n (θz_n − ω)², ω the CST membrane rotation, k = ``drilling`` · G t A, only
   on elements with bending (as the quad).
 - **Mass**: ρ t + NSM per area on the translations; consistent A/12 [2 1 1; 1 2 1; 1 1 2] or
@@ -22,7 +23,7 @@ import numpy as np
 
 from ..mesh import TriaSet
 from .green import GreenPoints
-from .quad4 import bending_matrix, plane_stress
+from .quad4 import bending_matrix, plane_stress, plate_on_six
 
 # 3-point rule on the unit triangle (exact for quadratics), weights sum to 1/2
 GAUSS_TRI = ((1 / 6, 1 / 6), (2 / 3, 1 / 6), (1 / 6, 2 / 3))
@@ -141,32 +142,23 @@ def tria_dofs(nodes: np.ndarray) -> np.ndarray:
     return (nodes[:, :, None] * 6 + np.arange(6)).reshape(len(nodes), 18)
 
 
-def tria_bending_blocks(trias: TriaSet, xyz: np.ndarray, drilling: float = 1e-4):
-    """Linear DKT bending + drilling stiffness of triangles with bending, basic 6-DOF blocks."""
+def tria_plate_parts(trias: TriaSet, xyz: np.ndarray, drilling: float = 1e-4):
+    """The triangles with bending (mask), their axes, DKT matrix (n, 9, 9), ∂L/∂(x, y) and the
+    drilling stiffness ``drilling`` · G t A: the arguments of
+    :func:`~torchrom.fe.elements.quad4.plate_on_six`."""
     sel = trias.bend_E > 0
-    nodes = trias.nodes[sel]
-    if not len(nodes):
-        return np.zeros((0, 18), dtype=int), np.zeros((0, 18, 18))
-    R, xy, area = tria_frames(xyz[nodes])
+    R, xy, area = tria_frames(xyz[trias.nodes[sel]])
     t = trias.t[sel]
     Kl = dkt_local(xy, trias.bend_E[sel], trias.bend_nu[sel], t, trias.lam_D[sel])
-    n = len(nodes)
-    L = np.zeros((n, 9, 18))
-    for a in range(3):
-        L[:, 3 * a, 6 * a : 6 * a + 3] = R[:, 2]
-        L[:, 3 * a + 1, 6 * a + 3 : 6 * a + 6] = R[:, 0]
-        L[:, 3 * a + 2, 6 * a + 3 : 6 * a + 6] = R[:, 1]
-    K = L.transpose(0, 2, 1) @ Kl @ L
-    dL = linear_gradients(xy)
-    omega = np.zeros((n, 18))
-    for b in range(3):
-        omega[:, 6 * b : 6 * b + 3] = 0.5 * (dL[:, b, 0:1] * R[:, 1] - dL[:, b, 1:2] * R[:, 0])
-    k = drilling * trias.G[sel] * t * area
-    for a in range(3):
-        r = -omega.copy()
-        r[:, 6 * a + 3 : 6 * a + 6] += R[:, 2]
-        K += k[:, None, None] * r[:, :, None] * r[:, None, :]
-    return tria_dofs(nodes), K
+    return sel, R, Kl, linear_gradients(xy), drilling * trias.G[sel] * t * area
+
+
+def tria_bending_blocks(trias: TriaSet, xyz: np.ndarray, drilling: float = 1e-4):
+    """Linear DKT bending + drilling stiffness of triangles with bending, basic 6-DOF blocks."""
+    if not (trias.bend_E > 0).any():
+        return np.zeros((0, 18), dtype=int), np.zeros((0, 18, 18))
+    sel, R, Kl, dL, k = tria_plate_parts(trias, xyz, drilling)
+    return tria_dofs(trias.nodes[sel]), plate_on_six(R, Kl, dL, k)
 
 
 def tria_mass_blocks(trias: TriaSet, xyz: np.ndarray, coupled: bool):

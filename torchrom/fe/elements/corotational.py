@@ -1,0 +1,377 @@
+"""Element-independent co-rotational (EICR) layer: large rotations for the linear element kernels.
+
+Written here (the formulation is Rankin & Brogan's element-independent co-rotational one,
+J. Pressure Vessel Technol. 108, 1986, as reviewed by Felippa & Haugen, CMAME 194, 2005, with
+Battini & Pacoste's mean-triad frame for beams, CMAME 191, 2002); tensor algebra and derivatives
+delegated to torch (``torch.func``). No element matrix is written here: every element keeps its
+own linear stiffness K_e in its own axes (CBAR/CBEAM: :func:`~.bar.bar_local_stiffness`; CROD
+torsion: :func:`~.rod.rod_torsion_local`; CQUAD4/CTRIA3 bending, transverse shear and drilling:
+:func:`~.quad4.plate_on_six` with the element's axes), and this layer makes it follow large
+rigid rotations. Per element, from the current nodal positions x_n and rotations R_n:
+
+1. the co-rotated frame E (columns e1, e2, e3) — a beam (or rod): e1 along the chord between its
+   ends, e2 the part normal to e1 of ½ (R_A + R_B) e2⁰ (the mean of the nodal triads applied to
+   the initial y axis, fixing the twist); a quad: e3 from the diagonals, e1 along the mean of
+   its 1-2 and 4-3 edges (the edge-average in-plane spin of :func:`~.quad4.quad_frames`); a
+   triangle: e1 along G1→G2 (:func:`~.tria3.tria_frames`). The initial frame E⁰ is the same
+   function of the initial geometry;
+2. the local deformational displacements d_n = Eᵀ (x_n − x̄) − E⁰ᵀ (X_n − X̄) (x̄ the nodal
+   mean) and rotations ϑ_n = log(Eᵀ R_n E⁰);
+3. the element's strain energy W_e = ½ dᵀ K_e d with its unchanged linear K_e;
+4. the internal force is the gradient of Σ W_e with respect to the element's global DOFs and
+   the tangent its Hessian (forward-over-reverse automatic differentiation, batched over the
+   elements): exact, symmetric and consistent by construction, no projector or spin matrices.
+
+Rotation parameterisation: a node's rotation DOFs θ (basic axes) are its *total* rotation
+vector, R = exp([θ×]) (Rodrigues); the tangent map of exp is singular at |θ| = 2π for
+rotations about other axes (a planar problem, whose rotation axis is fixed, is not affected).
+Offsets (CBAR/CBEAM WA, WB) are rigid arms that turn with their grid: x_end = X + u + (R − I) w.
+The Kelvin–Voigt material tangent is Bᵀ K_e B with B = ∂d/∂u (no stress-dependent part).
+
+At u = 0, d = 0 and the Hessian is Bᵀ K_e B with B the linearised map, which equals the linear
+element's Tᵀ K_e T because K_e has the rigid motions in its null space: the tangent at rest is
+the linear stiffness (tests/test_fe_corotational.py).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import torch
+from torch.func import grad, jvp, vjp, vmap
+
+from ..mesh import BarSet, QuadSet, RodSet, TriaSet
+from .bar import bar_local_stiffness
+from .quad4 import plate_on_six, plate_parts
+from .rod import rod_geometry, rod_torsion_local
+from .tria3 import tria_plate_parts
+
+#: Below this θ·θ (rad²) the Rodrigues coefficients sin φ/φ and (1 − cos φ)/φ² are evaluated by
+#: their Taylor series (six terms: truncation below 1e-18) — smooth at θ = 0, where the closed
+#: forms' derivatives are 0/0 (the model's rest state, where the Taylor coefficients are taken).
+EXP_SERIES = 1e-2
+#: Below this 1 − cos φ the logarithm's φ/sin φ is evaluated by its series (nine terms,
+#: truncation below 1e-19) for the same reason.
+LOG_SERIES = 1e-2
+#: The frames each family uses (module docstring).
+FRAMES = ("line", "quad", "tria")
+
+
+@dataclass
+class CorotElements:
+    """One family of co-rotational elements (same node count and frame).
+
+    ``conn`` (E, nn) grid rows; ``K`` (E, 6nn, 6nn) the linear stiffness in the element axes,
+    six DOFs (t, θ) per node; ``offsets`` (E, nn, 3) rigid arms from the grids to the element's
+    nodes (basic); ``ref`` (E, 3) the initial y axis (line frames only); ``kind`` names the
+    cards (messages)."""
+
+    kind: str
+    frame: str
+    eids: np.ndarray
+    conn: np.ndarray
+    K: np.ndarray
+    offsets: np.ndarray
+    ref: np.ndarray
+
+    def __len__(self) -> int:
+        return len(self.eids)
+
+    def dof_index(self) -> np.ndarray:
+        """(E, 6nn) all-grid DOF indices."""
+        nn = self.conn.shape[1]
+        return (self.conn[:, :, None] * 6 + np.arange(6)).reshape(len(self.conn), 6 * nn)
+
+    @staticmethod
+    def concat(groups: list[CorotElements]) -> CorotElements:
+        """One family from several with the same frame and node count."""
+        if len(groups) == 1:
+            return groups[0]
+        return CorotElements("+".join(g.kind for g in groups), groups[0].frame,
+                             *(np.concatenate([getattr(g, f) for g in groups]) for f in
+                               ("eids", "conn", "K", "offsets", "ref")))
+
+
+def _perpendicular(e: np.ndarray) -> np.ndarray:
+    """Unit vectors (n, 3) normal to the unit vectors e (n, 3) (any: rods have no y axis)."""
+    b = np.eye(3)[np.argmin(np.abs(e), axis=1)]
+    p = b - np.einsum("ni,ni->n", b, e)[:, None] * e
+    return p / np.linalg.norm(p, axis=1, keepdims=True)
+
+
+def line_elements(bars: BarSet, rods: RodSet, xyz: np.ndarray) -> CorotElements | None:
+    """CBAR/CBEAM (their whole condensed 12 × 12 stiffness, offsets WA/WB) and the torsion of
+    CROD/CONROD with J > 0, or None when there are none."""
+    groups = []
+    if len(bars):
+        _, R, K = bar_local_stiffness(bars, xyz)
+        groups.append(CorotElements("CBAR/CBEAM", "line", bars.eids.copy(), bars.nodes.copy(), K,
+                                    np.stack((bars.wa, bars.wb), axis=1), R[:, 1].copy()))
+    if len(rods):
+        sel, K = rod_torsion_local(rods, xyz)
+        if sel.any():
+            _, e = rod_geometry(rods.nodes[sel], xyz)
+            groups.append(CorotElements("CROD torsion", "line", rods.eids[sel],
+                                        rods.nodes[sel], K, np.zeros((len(K), 2, 3)),
+                                        _perpendicular(e)))
+    return CorotElements.concat(groups) if groups else None
+
+
+def plate_elements(shells: QuadSet | TriaSet, xyz: np.ndarray,
+                   drilling: float) -> CorotElements | None:
+    """Bending, transverse shear (MITC4) and drilling of quads or triangles with bending (the
+    membrane stays in the Green-strain kernel), or None."""
+    quad = isinstance(shells, QuadSet)
+    if not (shells.bend_E > 0).any():
+        return None
+    sel, _, Kl, dN0, k = (plate_parts if quad else tria_plate_parts)(shells, xyz, drilling)
+    n, nn = dN0.shape[:2]
+    K = plate_on_six(np.broadcast_to(np.eye(3), (n, 3, 3)), Kl, dN0, k)
+    return CorotElements("CQUAD4" if quad else "CTRIA3", "quad" if quad else "tria",
+                         shells.eids[sel], shells.nodes[sel], K, np.zeros((n, nn, 3)),
+                         np.zeros((n, 3)))
+
+
+# -- rotations ------------------------------------------------------------------------------------
+def _horner(x: torch.Tensor, coefficients) -> torch.Tensor:
+    out = torch.full_like(x, float(coefficients[-1]))
+    for c in coefficients[-2::-1]:
+        out = out * x + c
+    return out
+
+
+_SIN_SERIES = [(-1.0) ** k / float(np.prod(np.arange(1, 2 * k + 2))) for k in range(6)]
+_COS_SERIES = [(-1.0) ** k / float(np.prod(np.arange(1, 2 * k + 3))) for k in range(6)]
+# φ / sin φ as a series in x = 1 − cos φ: Σ 2ⁿ (n!)² / (2n + 1)! xⁿ
+_LOG_SERIES = [2.0**k * float(np.prod(np.arange(1, k + 1))) ** 2
+               / float(np.prod(np.arange(1, 2 * k + 2))) for k in range(9)]
+
+
+def skew(v: torch.Tensor) -> torch.Tensor:
+    """[v×] (..., 3, 3) of vectors (..., 3)."""
+    z = torch.zeros_like(v[..., 0])
+    return torch.stack((torch.stack((z, -v[..., 2], v[..., 1]), -1),
+                        torch.stack((v[..., 2], z, -v[..., 0]), -1),
+                        torch.stack((-v[..., 1], v[..., 0], z), -1)), -2)
+
+
+def rodrigues(theta: torch.Tensor):
+    """(a, b, c) = (sin φ/φ, (1 − cos φ)/φ², cos φ), φ = |θ|, of rotation vectors (..., 3):
+    exp([θ×]) = c I + b θ θᵀ + a [θ×] (Rodrigues; [θ×]² = θ θᵀ − φ² I)."""
+    s = (theta * theta).sum(-1)
+    small = s < EXP_SERIES
+    s_safe = torch.where(small, torch.ones_like(s), s)
+    phi = torch.sqrt(s_safe)
+    a = torch.where(small, _horner(s, _SIN_SERIES), torch.sin(phi) / phi)
+    b = torch.where(small, _horner(s, _COS_SERIES), 2.0 * torch.sin(0.5 * phi) ** 2 / s_safe)
+    return a, b, 1.0 - b * s
+
+
+def rotate(theta: torch.Tensor, abc, v: torch.Tensor) -> torch.Tensor:
+    """exp([θ×]) v = c v + b θ (θ·v) + a θ × v for vectors v (..., 3) (broadcast)."""
+    a, b, c = (t[..., None] for t in abc)
+    theta, v = torch.broadcast_tensors(theta, v)
+    return (c * v + b * theta * (theta * v).sum(-1, keepdim=True)
+            + a * _cross(theta, v))
+
+
+def _cross(a: torch.Tensor, b: torch.Tensor) -> torch.Tensor:
+    """a × b over the last axis (written out: torch.linalg.cross has no batching rule under
+    torch.func.vmap, whose per-sample fallback made it most of the tangent's cost)."""
+    a1, a2, a3 = a.unbind(-1)
+    b1, b2, b3 = b.unbind(-1)
+    return torch.stack((a2 * b3 - a3 * b2, a3 * b1 - a1 * b3, a1 * b2 - a2 * b1), -1)
+
+
+def rotation_exp(theta: torch.Tensor) -> torch.Tensor:
+    """R = exp([θ×]) (..., 3, 3) of rotation vectors θ (..., 3) (:func:`rodrigues`)."""
+    a, b, c = rodrigues(theta)
+    eye = torch.eye(3, dtype=theta.dtype, device=theta.device)
+    outer = theta[..., :, None] * theta[..., None, :]
+    return (c[..., None, None] * eye + b[..., None, None] * outer
+            + a[..., None, None] * skew(theta))
+
+
+def rotation_log(Q: torch.Tensor) -> torch.Tensor:
+    """Rotation vector ϑ (..., 3) of rotation matrices Q (..., 3, 3), |ϑ| < π:
+    ϑ = (φ / sin φ) axial(Q − Qᵀ)/2 with cos φ = (tr Q − 1)/2."""
+    x = 0.5 * (3.0 - Q.diagonal(dim1=-2, dim2=-1).sum(-1))
+    v = 0.5 * torch.stack((Q[..., 2, 1] - Q[..., 1, 2], Q[..., 0, 2] - Q[..., 2, 0],
+                           Q[..., 1, 0] - Q[..., 0, 1]), -1)
+    small = x < LOG_SERIES
+    x_safe = torch.where(small, torch.full_like(x, 0.5), x)
+    exact = torch.acos(1.0 - x_safe) / torch.sqrt(x_safe * (2.0 - x_safe))
+    return torch.where(small, _horner(x, _LOG_SERIES), exact)[..., None] * v
+
+
+# -- frames ---------------------------------------------------------------------------------------
+def _unit(v: torch.Tensor) -> torch.Tensor:
+    return v / torch.sqrt((v * v).sum(-1, keepdim=True))
+
+
+def _complete(e1: torch.Tensor, e3: torch.Tensor) -> torch.Tensor:
+    return torch.stack((e1, _cross(e3, e1), e3), dim=-1)
+
+
+def element_frame(frame: str, x: torch.Tensor, q: torch.Tensor | None = None):
+    """Co-rotated axes (..., E, 3, 3), columns e1, e2, e3, from the nodal positions x
+    (..., E, nn, 3) and (line frames) q (..., E, 3), the mean of the nodal rotations applied to
+    the initial y axis (module docstring)."""
+    if frame == "line":
+        e1 = _unit(x[..., 1, :] - x[..., 0, :])
+        e2 = _unit(q - (q * e1).sum(-1, keepdim=True) * e1)
+        return torch.stack((e1, e2, _cross(e1, e2)), dim=-1)
+    if frame == "quad":
+        e3 = _unit(_cross(x[..., 2, :] - x[..., 0, :], x[..., 3, :] - x[..., 1, :]))
+        a = (x[..., 1, :] + x[..., 2, :]) - (x[..., 0, :] + x[..., 3, :])
+        return _complete(_unit(a - (a * e3).sum(-1, keepdim=True) * e3), e3)
+    e1 = x[..., 1, :] - x[..., 0, :]
+    e3 = _unit(_cross(e1, x[..., 2, :] - x[..., 0, :]))
+    return _complete(_unit(e1), e3)
+
+
+def _single_thread():
+    """One intra-op thread: these are many small element operations, for which torch's thread
+    pool costs far more than it gives on a loaded machine (the element energy of 1,960 quads:
+    12 ms on one thread, 220 ms on two with the machine's two cores busy)."""
+    from ...periodic.newton import single_thread
+
+    return single_thread()
+
+
+def _per_element(K: torch.Tensor, d: torch.Tensor) -> torch.Tensor:
+    """K_e d_e (..., E, k) for K (E, k, k): one batched product over the elements."""
+    lead = d.shape[:-2]
+    dm = d.reshape(-1, *d.shape[-2:]).movedim(0, -1)  # (E, k, B)
+    return (K @ dm).movedim(-1, 0).reshape(*lead, *d.shape[-2:])
+
+
+class CorotKernel:
+    """Torch evaluation of one :class:`CorotElements` family on all-grid vectors
+    (..., n_grid · 6), basic axes (T1..T3, R1..R3 per grid)."""
+
+    def __init__(self, els: CorotElements, xyz: np.ndarray, dtype=torch.float64, device=None):
+        if els.frame not in FRAMES:
+            raise ValueError(f"frame: expected one of {FRAMES}, got {els.frame!r}")
+        self.els = els
+        self.n_all = xyz.shape[0] * 6
+        self.nn = els.conn.shape[1]
+        opts = dict(dtype=dtype, device=device)
+        self.w = torch.as_tensor(els.offsets, **opts)
+        self.has_offsets = bool(np.any(els.offsets))
+        self.X = torch.as_tensor(xyz[els.conn], **opts) + self.w  # element nodes (E, nn, 3)
+        self.K = torch.as_tensor(els.K, **opts)
+        self.ref = torch.as_tensor(els.ref, **opts)
+        self.E0 = element_frame(els.frame, self.X, self.ref)
+        self.loc0 = torch.einsum("eij,eni->enj", self.E0,
+                                 self.X - self.X.mean(-2, keepdim=True))
+        self.dof_np = els.dof_index()
+        self.dof = torch.as_tensor(self.dof_np.reshape(-1), device=device)
+        self.k = self.dof_np.shape[1]
+
+    # -- element functions of the gathered element DOFs ue (..., E, 6nn) --------------------------
+    def local_d(self, ue: torch.Tensor) -> torch.Tensor:
+        """Local deformational displacements and rotations d (..., E, 6nn)."""
+        u = ue.reshape(*ue.shape[:-1], self.nn, 6)
+        theta = u[..., 3:]
+        abc = rodrigues(theta)
+        x = self.X + u[..., :3]
+        if self.has_offsets:
+            x = x + rotate(theta, abc, self.w) - self.w
+        q = None
+        if self.els.frame == "line":
+            q = 0.5 * rotate(theta, abc, self.ref[:, None, :]).sum(-2)
+        E = element_frame(self.els.frame, x, q)  # (..., E, 3, 3)
+        dt = (x - x.mean(-2, keepdim=True)) @ E - self.loc0
+        # Q = Eᵀ R E⁰ = c M + b η ζᵀ + a [η×] M with M = Eᵀ E⁰, η = Eᵀ θ, ζ = E⁰ᵀ θ
+        # (Eᵀ [θ×] = [(Eᵀθ)×] Eᵀ): no rotation matrix per node is formed
+        M = (E.transpose(-1, -2) @ self.E0)[..., None, :, :]  # (..., E, 1, 3, 3)
+        eta, zeta = theta @ E, theta @ self.E0
+        a, b, c = (t[..., None, None] for t in abc)
+        cross = _cross(eta[..., None, :].expand(*eta.shape[:-1], 3, 3),
+                                   M.transpose(-1, -2).expand(*eta.shape[:-1], 3, 3))
+        Q = c * M + b * eta[..., :, None] * zeta[..., None, :] + a * cross.transpose(-1, -2)
+        return torch.cat((dt, rotation_log(Q)), -1).reshape(ue.shape)
+
+    def element_energy(self, ue: torch.Tensor) -> torch.Tensor:
+        """½ dᵀ K_e d (..., E)."""
+        d = self.local_d(ue)
+        return 0.5 * (d * _per_element(self.K, d)).sum(-1)
+
+    def _element_force(self, ue: torch.Tensor) -> torch.Tensor:
+        return grad(lambda z: self.element_energy(z).sum())(ue)
+
+    def _element_material_force(self, ue: torch.Tensor, ve: torch.Tensor) -> torch.Tensor:
+        """Bᵀ K_e B v with B = ∂d/∂u at ue."""
+        dv = jvp(self.local_d, (ue,), (ve,))[1]
+        pull = vjp(self.local_d, ue)[1]
+        return pull(_per_element(self.K, dv))[0]
+
+    # -- all-grid vectors -------------------------------------------------------------------------
+    def gather(self, u_all: torch.Tensor) -> torch.Tensor:
+        return u_all.index_select(-1, self.dof).reshape(*u_all.shape[:-1], len(self.els), self.k)
+
+    def scatter(self, fe: torch.Tensor) -> torch.Tensor:
+        flat = fe.reshape(*fe.shape[:-2], -1)
+        out = torch.zeros(*flat.shape[:-1], self.n_all, dtype=flat.dtype, device=flat.device)
+        return out.index_add(-1, self.dof, flat)
+
+    def energy(self, u_all: torch.Tensor) -> torch.Tensor:
+        with _single_thread():
+            return self.element_energy(self.gather(u_all)).sum(-1)
+
+    def internal_force(self, u_all: torch.Tensor) -> torch.Tensor:
+        with _single_thread():
+            return self.scatter(self._element_force(self.gather(u_all)))
+
+    def material_force(self, u_all: torch.Tensor, v_all: torch.Tensor) -> torch.Tensor:
+        with _single_thread():
+            return self.scatter(self._element_material_force(self.gather(u_all),
+                                                             self.gather(v_all)))
+
+    # -- element matrices (numpy, for sparse assembly) -----------------------------------------
+    def _second_order(self, ue: torch.Tensor, s: torch.Tensor, ve: torch.Tensor | None = None):
+        """Per element (E, 6nn, 6nn) each, from one batched forward-over-reverse pass over the
+        element DOFs: G = Σ_i s_i ∂²d_i/∂u² at fixed weights s (E, 6nn), B = ∂d/∂u and, with a
+        velocity ve, C = ∂(B ve)/∂u. With s = K_e d, Bᵀ K_e B + G is the Hessian of the energy;
+        with s = K_e B ve, G + Bᵀ K_e C is ∂(Bᵀ K_e B ve)/∂u. K_e stays out of the
+        differentiated functions: its (E, k, k) product under the transforms cost twice the
+        rest of the tangent."""
+
+        def parts(z):
+            def work(w):
+                d = self.local_d(w)
+                return (s * d).sum(), d
+
+            g, d = grad(work, has_aux=True)(z)
+            if ve is None:
+                return g, d
+            return g, d, jvp(self.local_d, (z,), (ve,))[1]
+
+        eye = torch.eye(self.k, dtype=ue.dtype, device=ue.device)
+        tangents = eye[:, None, :].expand(self.k, *ue.shape)
+        cols = vmap(lambda t: jvp(parts, (ue,), (t,))[1])(tangents)  # (k, E, k) each
+        return tuple(c.permute(1, 2, 0) for c in cols)
+
+    def element_matrices(self, u_all: np.ndarray, material: float = 1.0, geometric: float = 1.0,
+                         damping: float = 0.0, v_all: np.ndarray | None = None) -> np.ndarray:
+        """Per-element blocks (E, 6nn, 6nn) of material · Bᵀ K_e B + geometric · G
+        + damping · ∂(Bᵀ K_e B v)/∂u: Bᵀ K_e B + G is the Hessian of the element energy
+        (K_T, :meth:`_second_order`)."""
+        with _single_thread():
+            return self._element_matrices(u_all, material, geometric, damping, v_all)
+
+    def _element_matrices(self, u_all, material, geometric, damping, v_all) -> np.ndarray:
+        opts = dict(dtype=self.K.dtype, device=self.K.device)
+        ue = self.gather(torch.as_tensor(u_all, **opts))
+        out = torch.zeros(len(self.els), self.k, self.k, **opts)
+        if material or geometric:
+            G, B = self._second_order(ue, _per_element(self.K, self.local_d(ue)))
+            out += material * (B.transpose(1, 2) @ self.K @ B) + geometric * G
+        if damping:
+            ve = self.gather(torch.as_tensor(v_all, **opts))
+            sv = _per_element(self.K, jvp(self.local_d, (ue,), (ve,))[1])
+            Gv, B, C = self._second_order(ue, sv, ve)
+            out += damping * (Gv + B.transpose(1, 2) @ self.K @ C)
+        return out.cpu().numpy()
