@@ -384,10 +384,9 @@ def test_tapered_beam_lumped_mass_keeps_total_mass_and_centre():
 
 
 def test_pbeam_fields_not_modelled_are_refused():
-    """PBEAM N1/N2 (neutral axis), S1/S2 (shear relief), M1/M2 with NSM, CBEAM SA/SB: one-line
+    """PBEAM S1/S2 (shear relief), M1/M2 with NSM, CBEAM SA/SB: one-line
     errors naming the card and field (they change the answer; not silently dropped)."""
-    for field, value, msg in (("n1a", 0.01, "neutral-axis offsets"),
-                              ("s2", 0.5, "shear relief"),
+    for field, value, msg in (("s2", 0.5, "shear relief"),
                               ("m2b", 0.02, "offset non-structural mass")):
         m = _tapered_cantilever(2, TAPER)
         setattr(m.properties[1], field, value)
@@ -401,3 +400,85 @@ def test_pbeam_fields_not_modelled_are_refused():
     bad = [TAPER[0], (0.5,) + TAPER[1][1:], (0.5,) + TAPER[2][1:]]
     with pytest.raises(InputError, match=r"PBEAM 1: field X/XB: expected increasing"):
         model_of(_tapered_cantilever(2, bad))
+
+
+# PBEAM neutral axis offsets (N1, N2): a prismatic cantilever along basic x, v = basic y, so the
+# element axes are the basic ones; I12 = 0, K1 = K2 = 1 (Timoshenko)
+NA_SECTION = dict(A=2e-3, I1=3e-6, I2=8e-7, J=5e-7)
+NA_OFFSET = (0.012, -0.007)  # (N1, N2) of the neutral axis relative to the shear centre
+
+
+def _na_cantilever(n: int, na=NA_OFFSET, offset_grids: bool = False, nsm: float = 0.0):
+    """n CBEAMs of length 2 along x clamped at grid 1; the PBEAM's neutral axis at ``na``, or
+    (``offset_grids``) no N1/N2 and the beam moved there by WA/WB offsets instead."""
+    m = new_deck()
+    m.add_mat1(1, E, G, None, rho=RHO)
+    s = NA_SECTION
+    pbeam = m.add_pbeam(1, 1, [0.0], ["YES"], [s["A"]], [s["I1"]], [s["I2"]], [0.0], [s["J"]],
+                        nsm=[nsm])
+    w = [0.0, *na] if offset_grids else None
+    if not offset_grids:
+        pbeam.n1a, pbeam.n2a, pbeam.n1b, pbeam.n2b = na[0], na[1], None, None
+    for i in range(n + 1):
+        m.add_grid(i + 1, [2.0 * i / n, 0.0, 0.0])
+    for i in range(n):
+        m.add_cbeam(i + 1, 1, [i + 1, i + 2], [0.0, 1.0, 0.0], None, offt="GGG", wa=w, wb=w)
+    m.add_spc1(1, "123456", [1])
+    return m
+
+
+def _tip_response(fe, n: int, comp: int, value: float = 1.0) -> np.ndarray:
+    """(6,) tip grid displacements (basic) under a unit load on its component ``comp``."""
+    return fe.expand(fe.linear_static(fe.nodal_load({(n + 1, comp): value})))[n]
+
+
+def test_neutral_axis_offset_cantilever_closed_forms():
+    """One CBEAM (exact for end loads) with its neutral axis at (N1, N2) from the shear centre:
+    an axial tip force P at the shear centre acts on the neutral axis with the moments
+    (My, Mz) = (−N2 P, N1 P), so v = N1 P L² / (2 E I1), w = N2 P L² / (2 E I2) and
+    u = P L / E (1/A + N1²/I1 + N2²/I2); a torque twists it about the shear centre (T L / G J, no
+    bending), a transverse force bends it without twist (shear through the shear centre):
+    w = P L³ / (3 E I2) + P L / (K2 G A). Tolerance 1e-9: closed forms of the same element."""
+    L, (n1, n2), s = 2.0, NA_OFFSET, NA_SECTION
+    fe = model_of(_na_cantilever(1), autospc=False)
+    u = _tip_response(fe, 1, 1)
+    expected = np.array([L / E * (1 / s["A"] + n1**2 / s["I1"] + n2**2 / s["I2"]),
+                         n1 * L**2 / (2 * E * s["I1"]), n2 * L**2 / (2 * E * s["I2"]),
+                         0.0, -n2 * L / (E * s["I2"]), n1 * L / (E * s["I1"])])
+    np.testing.assert_allclose(u, expected, rtol=0, atol=1e-9 * np.abs(expected).max())
+    twist = _tip_response(fe, 1, 4)
+    np.testing.assert_allclose(twist, [0, 0, 0, L / (G * s["J"]), 0, 0], rtol=0,
+                               atol=1e-9 * L / (G * s["J"]))
+    bend = _tip_response(fe, 1, 3)
+    w = L**3 / (3 * E * s["I2"]) + L / (G * s["A"])
+    assert bend[2] == pytest.approx(w, rel=1e-9)
+    assert abs(bend[3]) <= 1e-9 * abs(bend[4])  # no twist
+    # by reciprocity the axial force's bending is the bending load's axial motion
+    assert bend[0] == pytest.approx(u[2], rel=1e-9)
+
+
+def test_neutral_axis_offset_equals_the_beam_moved_by_offsets():
+    """The same beam moved to the neutral axis by WA/WB rigid offsets is the same element but
+    for where torsion and transverse shear act (there, at the neutral axis): with the twist
+    restrained (component 4 constrained at every grid) the stiffness matrices agree to
+    rounding (1e-10 of the largest entry), and the masses agree with the twist free too (the
+    structural mass is at the neutral axis in both); a non-structural mass stays at the shear
+    centre (it adds the mass of the beam without offsets)."""
+    n = 4
+    for twist_free in (False, True):
+        decks = [_na_cantilever(n), _na_cantilever(n, offset_grids=True)]
+        if not twist_free:
+            for m in decks:
+                m.add_spc1(1, "4", list(range(2, n + 2)))
+        fa, fb = (model_of(m, autospc=False) for m in decks)
+        _close(fa.mass_matrix(), fb.mass_matrix(), 1e-10)
+        if not twist_free:
+            _close(fa.stiffness_matrix(), fb.stiffness_matrix(), 1e-10)
+        else:  # the offsets matter: the moved beam couples shear and twist, Nastran's does not
+            diff = np.abs(fa.stiffness_matrix() - fb.stiffness_matrix()).max()
+            assert diff > 1e-4 * np.abs(fa.stiffness_matrix()).max()  # measured 4.3e-4
+    with_nsm = model_of(_na_cantilever(n, nsm=0.7), autospc=False).mass_matrix()
+    plain = model_of(_na_cantilever(n), autospc=False).mass_matrix()
+    nsm_alone = (model_of(_na_cantilever(n, na=(0.0, 0.0), nsm=0.7), autospc=False).mass_matrix()
+                 - model_of(_na_cantilever(n, na=(0.0, 0.0)), autospc=False).mass_matrix())
+    _close(with_nsm, plain + nsm_alone, 1e-12)

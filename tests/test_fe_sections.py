@@ -138,3 +138,16 @@ def test_tapered_pbeaml_stations():
     np.testing.assert_allclose(taper.nsm, [0.2, 0.6])
     K = fe.stiffness_matrix().toarray()
     assert K[0, 0] == pytest.approx(2.0e11 * (Ab - Aa) / (1.5 * np.log(Ab / Aa)), rel=1e-12)
+
+
+def test_pbeam_neutral_axis_fields():
+    """PBEAM N1(A), N2(A), N1(B), N2(B) become ``Section.na``; a blank end B takes end A's
+    values (MSC QRG PBEAM), and blank fields are 0 (the neutral axis on the shear centre)."""
+    m = new_deck()
+    m.add_mat1(1, 7e10, 2.7e10, None, rho=2700.0)
+    p = m.add_pbeam(1, 1, [0.0], ["YES"], [1e-4], [2e-9], [3e-9], [0.0], [1e-9])
+    assert section(p, "PBEAM 1").na == (0.0, 0.0, 0.0, 0.0)
+    p.n1a, p.n2a, p.n1b, p.n2b = -0.004, 0.003, None, None
+    assert section(p, "PBEAM 1").na == (-0.004, 0.003, -0.004, 0.003)
+    p.n1b, p.n2b = 0.001, 0.0
+    assert section(p, "PBEAM 1").na == (-0.004, 0.003, 0.001, 0.0)

@@ -502,3 +502,22 @@ def test_rigid_body_modes_fall_back_on_a_mechanism():
     G, how = rigid_body_modes(fe, modes)
     assert "not rigid motions" in how and G.shape == (3, 2)
     assert np.abs(G.T @ (M @ G) - np.eye(2)).max() <= 1e-12
+
+
+def test_solve_symmetric_matches_dense_and_falls_back_on_zero_pivots():
+    """solve_symmetric (SuperLU's symmetric mode, diagonal pivots) equals the dense solve on a
+    symmetric positive definite matrix (1e-10) and on a symmetric indefinite one with zero
+    diagonal entries, where diagonal pivoting fails and the general factorisation takes over."""
+    import scipy.sparse as sp
+
+    from torchrom.fe.solvers import solve_symmetric
+
+    rng = np.random.default_rng(3)
+    B = sp.random(40, 40, density=0.1, random_state=4)
+    spd = (B @ B.T + 40 * sp.eye(40)).tocsc()
+    r = rng.standard_normal((40, 2))
+    np.testing.assert_allclose(solve_symmetric(spd, r), np.linalg.solve(spd.toarray(), r),
+                               rtol=0, atol=1e-10 * np.abs(np.linalg.solve(spd.toarray(), r)).max())
+    swap = sp.csc_matrix(np.kron(np.eye(20), [[0.0, 1.0], [1.0, 0.0]]))  # zero diagonal
+    np.testing.assert_allclose(solve_symmetric(swap, r), np.linalg.solve(swap.toarray(), r),
+                               rtol=0, atol=1e-12)

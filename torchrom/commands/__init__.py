@@ -2,6 +2,6 @@
 
 # Order in ``torchrom --help``; commands not listed come after, alphabetically.
 ORDER = [
-    "paper", "goland", "modes", "update", "identify", "aero", "flutter", "sweep", "plot",
+    "paper", "goland", "modes", "static", "update", "identify", "aero", "flutter", "sweep", "plot",
     "branch", "calibrate", "bifurcation", "cache",
 ]

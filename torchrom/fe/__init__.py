@@ -9,6 +9,7 @@ Public API (contract with :mod:`torchrom.identify` and :mod:`torchrom.aero`)::
     fe.internal_force(u), fe.tangent_stiffness(u), fe.material_tangent(u)
     fe.internal_force_torch(u), fe.material_force_torch(u, v)     # differentiable (torch)
     fe.modes(n), fe.static_solve(load, ...), fe.transient(...), fe.pressure_load(p)
+    solve_static("deck.bdf")        # the deck's own static subcases (SOL 101/106/400)
     fe.output_points, fe.name, fe.units, fe.source, fe.bdf (pyNastran deck incl. aero cards)
 """
 
@@ -24,12 +25,15 @@ from .goland import (
 )
 from .model import FEModel, LinearElementWarning
 from .solvers import Modes, StaticResult, TransientResult
+from .static_cases import StaticRun, solve_static
 
 __all__ = [
     "FEModel",
     "LinearElementWarning",
     "Modes",
     "StaticResult",
+    "StaticRun",
+    "solve_static",
     "TransientResult",
     "read_bdf",
     "write_bdf",

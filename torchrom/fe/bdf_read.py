@@ -15,7 +15,7 @@ their edge grids), CSHEAR/PSHEAR, CBAR/PBAR/PBARL, CBEAM/PBEAM/PBEAML (:mod:`tor
 offsets with every CBAR OFFT code, pin flags, I12: :mod:`torchrom.fe.elements.bar`), CELAS1/PELAS,
 CELAS2, CONM1, CONM2, CMASS1/PMASS, CMASS2, CBUSH/PBUSH, GENEL, RBE1, RBE2, RBAR, RBE3, EIGR,
 EIGRL, FORCE,
-MOMENT, PLOAD2, PLOAD4, LOAD, PARAM (COUPMASS, WTMASS are used). Cards without effect on modes
+MOMENT, PLOAD2, PLOAD4, GRAV, LOAD, PARAM (COUPMASS, WTMASS are used). Cards without effect on modes
 and flutter are accepted with a note (:data:`torchrom.fe.bdf_cards.NOTED_CARDS`); a SOL 200
 deck's cards must agree with its design relations at the initial design
 (:mod:`torchrom.fe.design`).
@@ -75,7 +75,7 @@ STRUCTURAL_CARDS = frozenset(
     "GRID GRDSET SPOINT CORD1R CORD1C CORD1S CORD2R CORD2C CORD2S SPC SPC1 SPCADD MPC MPCADD MAT1 "
     "CROD PROD CONROD CQUAD4 CTRIA3 PSHELL PCOMP MAT8 CSHEAR PSHEAR CBAR PBAR PBARL CBEAM PBEAM "
     "PBEAML CONM2 CMASS2 CHEXA CPENTA CTETRA PSOLID RBE1 RBE2 RBE3 RBAR CELAS1 CELAS2 PELAS "
-    "CMASS1 PMASS CONM1 CBUSH PBUSH GENEL EIGR EIGRL FORCE MOMENT PLOAD2 PLOAD4 LOAD PARAM "
+    "CMASS1 PMASS CONM1 CBUSH PBUSH GENEL EIGR EIGRL FORCE MOMENT PLOAD2 PLOAD4 GRAV LOAD PARAM "
     "ENDDATA".split()
 )
 # Kept for the aerodynamics (and for Nastran itself when the deck is written back); no effect on
@@ -688,7 +688,8 @@ class _Reader(ExtraCards):
                 for name, flag in (("PA", e.pa), ("PB", e.pb))]
         return dict(eids=eid, nodes=[n1, n2], v=v, A=sec.A, I1=sec.I1, I2=sec.I2, J=sec.J, E=E,
                     G=G, rho=rho, nsm=sec.nsm, k1=sec.k1, k2=sec.k2, polar=polar, I12=sec.I12,
-                    wa=wa, wb=wb, pa=pins[0].astype(float), pb=pins[1].astype(float))
+                    wa=wa, wb=wb, pa=pins[0].astype(float), pb=pins[1].astype(float),
+                    na=np.asarray(sec.na, dtype=float))
 
     #: OFFT codes (MSC QRG CBAR remark): orientation vector in GA's displacement system (G) or
     #: basic (B); each end's offset in its grid's displacement system (G), basic (B) or the

@@ -1,10 +1,14 @@
-"""Static load sets from FORCE, MOMENT, PLOAD2, PLOAD4 and LOAD cards.
+"""Static load sets from FORCE, MOMENT, PLOAD2, PLOAD4, GRAV and LOAD cards.
 
 Every load set becomes a vector on the all-grid DOFs (basic axes); the FE model
 projects it on the free DOFs with Tᵀ (so a load on an RBE-dependent grid is distributed to the
 independent ones, and a load on a constrained DOF is dropped). Pressures give consistent nodal
-forces along the element normal (G1-G2-G3 right-hand rule) or along the PLOAD4 direction vector;
-they are dead loads (not following the deformation).
+forces along the element normal (G1-G2-G3 right-hand rule) or along the PLOAD4 direction vector.
+GRAV (MSC QRG GRAV: acceleration a = A N, N not normalised, in system CID) loads the mass matrix
+of the model (:func:`torchrom.fe.model.assemble_mass`: elements, CONM1/CONM2/CMASS, WTMASS
+applied) with the rigid translation a of every grid, f = M ā (ā: a on each grid's
+translations, none on its rotations or on SPOINTs), so that offset masses also get their
+moments. All loads are dead loads (not following the deformation).
 """
 
 from __future__ import annotations
@@ -26,6 +30,7 @@ class LoadBuilder:
         self.m = reader.m
         self.mesh = mesh
         self.n_all = mesh.n_grid * 6
+        self._mass = None  # all-DOF mass matrix, assembled for the first GRAV
         self.surface = {}  # eid -> grid rows of CQUAD4/CSHEAR
         for nodes_set in (mesh.quads, mesh.shears):
             for eid, nodes in zip(nodes_set.eids, nodes_set.nodes):
@@ -103,5 +108,19 @@ class LoadBuilder:
                     direction /= np.linalg.norm(direction, axis=1, keepdims=True)
             dofs, F = pressure_forces(self.mesh.xyz, nodes, p, corner, direction)
             np.add.at(f, dofs.reshape(-1), F.reshape(-1))
+        elif kind == "GRAV":
+            f += self._gravity(card, sid)
         else:
             raise self.r.err(f"{kind} {sid}: static load card not supported")
+
+    def _gravity(self, card, sid: int) -> np.ndarray:
+        """f = M ā of a GRAV card (module docstring)."""
+        if self._mass is None:
+            from .model import assemble_mass
+
+            self._mass = assemble_mass(self.mesh)
+        a = float(card.scale) * self._direction(card.cid, card.N, np.zeros(3), "GRAV", sid)
+        field = np.zeros((self.mesh.n_grid, 6))
+        n_grids = self.mesh.n_grid - len(getattr(self.r, "spoints", []))
+        field[:n_grids, :3] = a
+        return self._mass @ field.reshape(-1)

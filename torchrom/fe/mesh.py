@@ -169,7 +169,8 @@ class BarSet:
     ``I12`` the product of inertia ∫ y z dA; ``wa``/``wb`` the rigid offsets (basic) from grid
     A/B to the element's ends; ``pa``/``pb`` (n, 6) 1.0 where a component (element system) is
     released by a pin flag at end A/B; ``taper`` maps the row of a tapered CBEAM to its
-    :class:`Taper` (its scalar section fields then hold end A's values)."""
+    :class:`Taper` (its scalar section fields then hold end A's values); ``na`` (n, 4) the
+    PBEAM neutral axis (N1A, N2A, N1B, N2B), element system, relative to the shear centre."""
 
     eids: np.ndarray = field(default_factory=lambda: _empty(0, dtype=int))
     nodes: np.ndarray = field(default_factory=lambda: _empty(0, 2, dtype=int))
@@ -191,13 +192,14 @@ class BarSet:
     pa: np.ndarray = field(default_factory=lambda: _empty(0, 6))
     pb: np.ndarray = field(default_factory=lambda: _empty(0, 6))
     taper: dict[int, Taper] = field(default_factory=dict)
+    na: np.ndarray = field(default_factory=lambda: _empty(0, 4))
 
     def __post_init__(self):
         n = len(self.eids)
         for name in ("k1", "k2", "polar", "I12"):
             if len(getattr(self, name)) != n:
                 setattr(self, name, np.zeros(n))
-        for name, width in (("wa", 3), ("wb", 3), ("pa", 6), ("pb", 6)):
+        for name, width in (("wa", 3), ("wb", 3), ("pa", 6), ("pb", 6), ("na", 4)):
             if len(getattr(self, name)) != n:
                 setattr(self, name, np.zeros((n, width)))
 

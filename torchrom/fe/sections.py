@@ -19,10 +19,13 @@ A tapered PBEAM (stations X/XB with different A, I1, I2, I12, J, NSM; blank inte
 are pyNastran's linear interpolation of the neighbours, a blank end B is end A) or PBEAML
 (section properties of each station's dimensions) gives a :class:`~torchrom.fe.mesh.Taper`:
 each property linear between stations, and NSI(A)/NSI(B) linear along the element
-(:mod:`torchrom.fe.elements.bar` integrates them). PBEAM fields that would change the answer
-and are not modelled are refused: neutral-axis offsets N1/N2, shear relief S1/S2, and the
-offset M1/M2 of a non-structural mass. Shear flexibility: PBAR/PBEAM K1, K2 as given (PBAR
-blank: none; PBEAM default 1.0); library sections: :func:`library_shear_factors`.
+(:mod:`torchrom.fe.elements.bar` integrates them). PBEAM N1(A), N2(A), N1(B), N2(B), the
+(y, z) of the neutral axis relative to the shear centre in the element system (MSC QRG PBEAM;
+B defaults to A), are :attr:`Section.na` (:func:`torchrom.fe.elements.bar.neutral_axis_links`
+applies them). PBEAM fields that would change the answer and are not modelled are refused:
+shear relief S1/S2, and the offset M1/M2 of a non-structural mass. Shear flexibility:
+PBAR/PBEAM K1, K2 as given (PBAR blank: none; PBEAM default 1.0); library sections:
+:func:`library_shear_factors`.
 """
 
 from __future__ import annotations
@@ -51,6 +54,9 @@ class Section:
     k2: float = 0.0
     #: along a tapered PBEAM/PBEAML (or one with NSI); None: prismatic
     taper: Taper | None = None
+    #: PBEAM neutral axis (N1A, N2A, N1B, N2B): its (y, z) relative to the shear centre at
+    #: ends A and B, element system (length units)
+    na: tuple[float, float, float, float] = (0.0, 0.0, 0.0, 0.0)
 
 
 #: Shear area factors Nastran gives library sections, found by matching MSC Nastran's f06:
@@ -204,18 +210,24 @@ def section(prop, owner: str) -> Section:
         k2 = 1.0 if prop.k2 is None else float(prop.k2)
         a = {name: float(v[0]) if len(v) else 0.0 for name, v in vals.items()}
         return Section(a["A"], a["i1"], a["i2"], a["i12"], a["j"], a["nsm"], prop.mid, k1, k2,
-                       taper)
+                       taper, neutral_axis(prop))
     raise InputError(f"{owner}: expected PBAR, PBARL, PBEAM or PBEAML, got {t}")
+
+
+def neutral_axis(prop) -> tuple[float, float, float, float]:
+    """PBEAM N1(A), N2(A), N1(B), N2(B) (blank B: A's, MSC QRG PBEAM)."""
+    a = [float(getattr(prop, n) or 0.0) for n in ("n1a", "n2a")]
+    b = [float(a[k] if getattr(prop, n) is None else getattr(prop, n))
+         for k, n in enumerate(("n1b", "n2b"))]
+    return a[0], a[1], b[0], b[1]
 
 
 def _refuse_pbeam_fields(prop, owner: str) -> None:
     """PBEAM fields that change the element but are not modelled: one-line refusals."""
-    for names, what in ((("n1a", "n2a", "n1b", "n2b"), "neutral-axis offsets N1/N2"),
-                        (("s1", "s2"), "shear relief coefficients S1/S2")):
-        values = [float(getattr(prop, n) or 0.0) for n in names]
-        if any(values):
-            raise InputError(f"{owner}: fields {', '.join(n.upper() for n in names)}: {what} "
-                             f"are not supported (expected 0, got {values})")
+    values = [float(getattr(prop, n) or 0.0) for n in ("s1", "s2")]
+    if any(values):
+        raise InputError(f"{owner}: fields S1, S2: shear relief coefficients S1/S2 are not "
+                         f"supported (expected 0, got {values})")
     offsets = [float(getattr(prop, n) or 0.0) for n in ("m1a", "m2a", "m1b", "m2b")]
     if any(offsets) and np.any(np.asarray(prop.nsm, float)):
         raise InputError(f"{owner}: fields M1A-M2B: an offset non-structural mass is not "

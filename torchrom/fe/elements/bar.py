@@ -25,6 +25,17 @@ Tapered CBEAM (PBEAM/PBEAML stations, :class:`~torchrom.fe.mesh.Taper`, properti
 between stations): the same element from the flexibility integrated along it
 (:func:`tapered_stiffness`, exact for end loads) and the mass integrated with the same shapes
 (:func:`tapered_mass`).
+PBEAM neutral axis N1/N2 (MSC QRG PBEAM: the (y, z) of the neutral axis relative to the shear
+centre, element system, at ends A and B): the element ends above are on the shear-centre axis;
+the axial force acts along the neutral axis, bending moments are about it (I1, I2, I12 are the
+neutral axis's), torsion and transverse shear act about the shear centre. Since curvatures and
+shear strains are measured by the rotations, which are the same on any parallel axis, only the
+axial displacement differs: at the neutral axis it is u + N2 θy − N1 θz. The element stiffness
+(:func:`element_stiffness`, the one local stiffness every analysis uses) is therefore
+K = Aᵀ K₀ A with A the identity but for those two axial rows (:func:`neutral_axis_links`); the
+structural mass (ρ A, ρ (I1 + I2)) is at the neutral axis, moved there by the whole rigid link
+(u + θ × r, r = (0, N1, N2)), the non-structural mass stays at the shear centre (M1/M2 offsets of
+an NSM are refused by the reader).
 The element is linear here; in a geometrically nonlinear analysis (``FEModel(rotations=
 "large")``, the default for decks) the same local matrix is used in the co-rotational frame of
 :mod:`torchrom.fe.elements.corotational` (large rotations, offsets as rigid arms that rotate
@@ -40,6 +51,8 @@ here (no f06 with pin flags and COUPMASS was at hand).
 """
 
 from __future__ import annotations
+
+from dataclasses import replace
 
 import numpy as np
 
@@ -196,8 +209,29 @@ def tapered_stiffness(taper: Taper, E: float, G: float, k: tuple[float, float],
     return K
 
 
+def neutral_axis_links(na: np.ndarray, axial_only: bool) -> np.ndarray:
+    """(n, 12, 12) maps of the element DOFs at the shear-centre ends onto those at the
+    neutral-axis points r = (0, N1, N2) of each end (``na`` (n, 4): N1A, N2A, N1B, N2B, element
+    system): the rigid link u + θ × r, θ unchanged (:func:`torchrom.fe.mass.rigid_links`), or
+    with ``axial_only`` its axial rows alone, u_x + N2 θy − N1 θz (the stiffness: module
+    docstring)."""
+    na = np.asarray(na, dtype=float).reshape(-1, 4)
+    A = np.tile(np.eye(12), (len(na), 1, 1))
+    for end, (n1, n2) in enumerate(((na[:, 0], na[:, 1]), (na[:, 2], na[:, 3]))):
+        r = np.stack((np.zeros_like(n1), n1, n2), axis=1)
+        link = rigid_links(r)
+        s = slice(6 * end, 6 * end + 6)
+        if axial_only:
+            A[:, 6 * end] = 0.0
+            A[:, 6 * end, s] = link[:, 0]
+        else:
+            A[:, s, s] = link
+    return A
+
+
 def element_stiffness(bars: BarSet, L: np.ndarray) -> np.ndarray:
-    """(n, 12, 12) stiffness in the element system, before the pin-flag releases."""
+    """(n, 12, 12) stiffness in the element system (shear-centre ends, the neutral-axis offset
+    N1/N2 included), before the pin-flag releases."""
     n = len(bars)
     K = np.zeros((n, 12, 12))
     ka = bars.E * bars.A / L
@@ -217,6 +251,10 @@ def element_stiffness(bars: BarSet, L: np.ndarray) -> np.ndarray:
     for e, taper in bars.taper.items():
         if taper.varies:
             K[e] = tapered_stiffness(taper, bars.E[e], bars.G[e], (bars.k1[e], bars.k2[e]), L[e])
+    off = np.flatnonzero(np.any(bars.na != 0.0, axis=1))
+    if len(off):
+        A = neutral_axis_links(bars.na[off], axial_only=True)
+        K[off] = A.transpose(0, 2, 1) @ K[off] @ A
     return K
 
 
@@ -288,6 +326,36 @@ def bar_stiffness_blocks(bars: BarSet, xyz: np.ndarray) -> tuple[np.ndarray, np.
 
 def bar_mass_blocks(bars: BarSet, xyz: np.ndarray, coupled: bool):
     L, R = bar_frames(bars, xyz)
+    return bar_dofs(bars.nodes), _to_grids(bars, R, element_mass(bars, L, coupled))
+
+
+def element_mass(bars: BarSet, L: np.ndarray, coupled: bool) -> np.ndarray:
+    """(n, 12, 12) mass in the element system on the shear-centre ends: the structural mass at
+    the neutral axis, the non-structural mass at the shear centre (module docstring), the
+    pin-flag condensation last."""
+    M = _axis_mass(bars, L, coupled)
+    off = np.flatnonzero(np.any(bars.na != 0.0, axis=1))
+    if len(off):
+        # the element mass is linear in (ρ, NSM, NSI): the structural part is the difference
+        # with the mass of the NSM alone
+        zero = np.zeros(len(bars))
+        nsm_only = _axis_mass(replace(bars, rho=zero, polar=zero), L, coupled)[off]
+        B = neutral_axis_links(bars.na[off], axial_only=False)
+        M[off] = B.transpose(0, 2, 1) @ (M[off] - nsm_only) @ B + nsm_only
+    rel = released(bars)
+    if coupled and rel.any():
+        # the consistent mass follows the condensed shape of the stiffness (Rayleigh–Ritz with
+        # one interpolation); without it a pinned end keeps the clamped slope's kinetic energy
+        K = element_stiffness(bars, L)
+        for e in np.nonzero(rel.any(axis=1))[0]:
+            C = pin_shape(K[e], rel[e])
+            M[e] = C.T @ M[e] @ C
+    return M
+
+
+def _axis_mass(bars: BarSet, L: np.ndarray, coupled: bool) -> np.ndarray:
+    """(n, 12, 12) element-system mass with all of it on the element's axis (lumped or
+    consistent, prismatic or tapered; module docstring)."""
     m = (bars.rho * bars.A + bars.nsm) * L
     ip = bars.polar * L  # torsional inertia of the element (CBEAM)
     M = np.zeros((len(bars), 12, 12))
@@ -308,15 +376,7 @@ def bar_mass_blocks(bars: BarSet, xyz: np.ndarray, coupled: bool):
             _add_plane(M, (m / 420.0)[:, None, None] * HERMITE_M * Lp, plane)
     for e, taper in bars.taper.items():
         M[e] = tapered_mass(taper, bars.rho[e], L[e], coupled)
-    rel = released(bars)
-    if coupled and rel.any():
-        # the consistent mass follows the condensed shape of the stiffness (Rayleigh–Ritz with
-        # one interpolation); without it a pinned end keeps the clamped slope's kinetic energy
-        K = element_stiffness(bars, L)
-        for e in np.nonzero(rel.any(axis=1))[0]:
-            C = pin_shape(K[e], rel[e])
-            M[e] = C.T @ M[e] @ C
-    return bar_dofs(bars.nodes), _to_grids(bars, R, M)
+    return M
 
 
 def tapered_mass(taper: Taper, rho: float, L: float, coupled: bool) -> np.ndarray:

@@ -1,0 +1,152 @@
+"""``torchrom static DECK.bdf``: the deck's own static subcases, linear (SOL 101) or
+geometrically nonlinear (SOL 106/400), with dead loads (:mod:`torchrom.fe.static_cases`).
+
+JSON (``--json FILE``, refused when it exists unless ``--force``): an object with ``deck``,
+``sol`` (the deck's SOL number, or null), ``analysis`` (``linear`` or ``nonlinear``), ``loads``
+(``dead``: not following the deformation), ``units`` (the model's: the deck's own consistent
+units unless it states them), ``frame`` (``basic``), ``components`` (``T1 .. R3``) and
+``subcases``: one object per subcase with ``subcase``, ``label``, ``load``, ``spc``,
+``nlparm`` (set IDs, null when not given), ``converged``, ``message`` and ``steps``: one
+object per load step with ``step``, ``load_factor``, ``converged``, ``iterations``,
+``residual`` (norm of the out-of-balance force) and ``displacements``: grid ID (a string) →
+[T1, T2, T3, R1, R2, R3] in the basic frame (null for a step that did not converge).
+"""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+import numpy as np
+
+from ._common import (
+    add_force_option,
+    add_json_option,
+    check_outputs,
+    maybe_write_json,
+    positive_int,
+)
+
+NAME = "static"
+HELP = ("the deck's static subcases (LOAD/SPC/NLPARM in case control): linear as SOL 101, "
+        "nonlinear as SOL 106/400; dead loads")
+COMPONENTS = ("T1", "T2", "T3", "R1", "R2", "R3")
+
+
+def grid_list(value: str) -> list[int]:
+    """``1,2,3`` → [1, 2, 3] (grid IDs, positive integers)."""
+    try:
+        ids = [int(x) for x in value.split(",") if x.strip()]
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected grid IDs separated by commas, got "
+                                         f"{value!r}") from None
+    if not ids or min(ids) <= 0:
+        raise argparse.ArgumentTypeError(f"expected positive grid IDs, got {value!r}")
+    return ids
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("model", type=Path, help="Nastran deck with static subcases")
+    kind = parser.add_mutually_exclusive_group()
+    kind.add_argument("--nonlinear", action="store_true",
+                      help="geometrically nonlinear solution (Newton, load steps) whatever the "
+                           "deck's SOL (default: SOL 106/400 nonlinear, SOL 101 linear)")
+    kind.add_argument("--linear", action="store_true",
+                      help="linear solution whatever the deck's SOL")
+    parser.add_argument("--steps", type=positive_int, default=None, metavar="N",
+                        help="load steps of the nonlinear solution (default: the subcase's "
+                             "NLPARM NINC, else 10); a step that does not converge is halved, "
+                             "then reported as not converged")
+    parser.add_argument("--grids", type=grid_list, default=None, metavar="ID,ID,...",
+                        help="print these grids' displacements (T1..R3, basic) at every step")
+    parser.add_argument("--unsupported", choices=("error", "warn"), default="error",
+                        help="what to do with unsupported structural cards (default error)")
+    add_json_option(parser)
+    add_force_option(parser)
+
+
+def run_records(run) -> dict:
+    """The JSON object of a :class:`~torchrom.fe.static_cases.StaticRun` (module docstring)."""
+    ids = [str(int(g)) for g in run.grid_ids]
+    subcases = []
+    for res in run.results:
+        sc = res.subcase
+        steps = []
+        for k, s in enumerate(res.steps):
+            disp = None if s.u is None else {g: [float(x) for x in row]
+                                             for g, row in zip(ids, s.u)}
+            steps.append({"step": k + 1, "load_factor": float(s.load_factor),
+                          "converged": bool(s.converged), "iterations": int(s.iterations),
+                          "residual": float(s.residual), "displacements": disp})
+        subcases.append({"subcase": sc.id, "label": sc.label, "load": sc.load, "spc": sc.spc,
+                         "nlparm": sc.nlparm, "converged": res.converged,
+                         "message": res.message, "steps": steps})
+    return {"deck": run.deck, "sol": run.sol,
+            "analysis": "nonlinear" if run.nonlinear else "linear", "loads": "dead",
+            "units": run.units, "frame": "basic", "components": list(COMPONENTS),
+            "subcases": subcases}
+
+
+def grid_table(u: np.ndarray, rows: dict[int, int], grids: list[int]) -> str:
+    """Fixed-width table of the chosen grids' T1..R3 (basic) at one step."""
+    head = f"    {'grid':>10}" + "".join(f"  {c:>13}" for c in COMPONENTS)
+    lines = [head]
+    for g in grids:
+        lines.append(f"    {g:>10}" + "".join(f"  {x:13.6g}" for x in u[rows[g]]))
+    return "\n".join(lines)
+
+
+def _largest(u: np.ndarray, grid_ids) -> str:
+    """``0.1251 at grid 61 (T3)``: the largest translation component of a step."""
+    t = np.abs(u[:, :3])
+    row, comp = np.unravel_index(int(np.argmax(t)), t.shape)
+    return f"{u[row, comp]:.6g} at grid {int(grid_ids[row])} ({COMPONENTS[comp]})"
+
+
+def run(args: argparse.Namespace) -> int:
+    from ..errors import InputError
+    from ..fe.static_cases import plan_static, run_static
+    from ..progress import Progress
+
+    check_outputs(args, [])
+    nonlinear = True if args.nonlinear else False if args.linear else None
+    job = plan_static(args.model, nonlinear=nonlinear, steps=args.steps,
+                      unsupported=args.unsupported)
+    fe = next(iter(job.models.values()))
+    if args.grids:
+        missing = [g for g in args.grids if g not in set(fe.grid_ids.tolist())]
+        if missing:
+            raise InputError(f"--grids: grid {missing[0]} not found in {args.model.name}")
+    rows = {int(g): k for k, g in enumerate(fe.grid_ids)}
+    kind = "nonlinear (Newton, dead loads)" if job.nonlinear else "linear (dead loads)"
+    print(f"{args.model}: SOL {job.model.sol}, {kind}, {len(job.subcases)} subcase(s), "
+          f"{fe.n_dof} free DOFs")
+    n_steps = [n for n, _ in job.controls]
+    with Progress(job.total_steps, f"static {args.model.name}", unit="load steps") as bar:
+        def on_step(k: int, lam: float) -> None:
+            bar.update_to(sum(n_steps[:k]) + int(round(lam * n_steps[k])))
+
+        result = run_static(job, on_step=on_step)
+    failed = 0
+    for res in result.results:
+        sc = res.subcase
+        head = f"SUBCASE {sc.id}" + (f" ({sc.label})" if sc.label else "")
+        print(f"{head}: LOAD {sc.load}, SPC {sc.spc}")
+        for k, s in enumerate(res.steps):
+            if not s.converged:
+                failed += 1
+                print(f"  step {k + 1}: load factor {s.load_factor:.4g}: NOT CONVERGED "
+                      f"(residual {s.residual:.3g}); {res.message}")
+                continue
+            how = f"converged ({s.iterations} iterations)" if result.nonlinear else "solved"
+            print(f"  step {k + 1}: load factor {s.load_factor:.4g}: {how}; largest translation "
+                  f"{_largest(s.u, result.grid_ids)}")
+            if args.grids:
+                print(grid_table(s.u, rows, args.grids))
+    for note in result.notes:
+        print(f"note: {note}")
+    if failed:
+        print(f"{failed} subcase(s) stopped at a load step that did not converge (after step "
+              f"halving); the converged steps are reported")
+    maybe_write_json(args, run_records(result))
+    return 0
