@@ -536,3 +536,20 @@ def test_pazy_linear_sweep_all_masses(tmp_path):
         assert ours == pytest.approx(ref, rel=1e-3), mass
     print(f"pazy linear sweep: 15 decks in {total:.1f} s; largest relative difference "
           f"{worst:.2e}")
+
+
+@pytest.mark.slow
+def test_pazy_nonlinear_tip_mass_runs(tmp_path):
+    """SOL 400 decks (NLPARM NINC 5) of 0 and 3.5 kg through ``torchrom static``: every load
+    step converges; the tip displacement is printed beside the SOL 400 table's. Not asserted
+    against it: today's nonlinearity is the Green-strain shell membranes with linear bending and
+    rotations, whose linearised rigid rotations strain the ribs (measured −7.29 % of the
+    semispan against SOL 400's −51.32 %, SOL 101 −78.58 %); that match waits for the
+    co-rotational beams and shells."""
+    table = _pazy_sweep_table("sweep_static_bending_GFEM_sweep_wo_skin.txt")
+    weight, t0 = pazy_tip_mass_run(tmp_path, 0.0, 400, 5)
+    loaded, t1 = pazy_tip_mass_run(tmp_path, 3.5, 400, 5)
+    assert all(s["converged"] for s in weight + loaded) and loaded[-1]["load_factor"] == 1.0
+    ours = pazy_tip_percent(loaded[-1], weight[-1])
+    ref = table[table[:, 0] == 3.5, 1][0]
+    print(f"pazy 3.5 kg nonlinear: {ours:.3f} % vs SOL 400 {ref:.3f} %; {t0:.0f} s + {t1:.0f} s")
