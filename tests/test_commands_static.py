@@ -221,3 +221,27 @@ def test_grids_option_checks_its_grids(tmp_path, capsys):
     with pytest.raises(SystemExit) as exc:
         main(["static", str(deck), "--grids", "4,x"])
     assert exc.value.code == 2 and "expected grid IDs" in capsys.readouterr().err
+
+
+def test_subcases_with_their_own_spc_sets(tmp_path, capsys):
+    """A force P at x = a = 2 of the L = 3 cantilever, in SUBCASE 1 clamped (SPC 1: δ = P a³ /
+    (3 E I)) and in SUBCASE 2 also propped at the tip (SPC 2: the prop's reaction
+    R = P a² (3L − a) / (2 L³), δ = P a³ / (3 E I) − R a² (3L − a) / (6 E I)); each subcase's
+    SPC set is its own model (to 1e-9)."""
+    text = (CANTILEVER.replace("SUBCASE 1\n  LABEL = tip force\n  LOAD = 10\n",
+                               "SUBCASE 1\n  LOAD = 50\n")
+            .replace("SUBCASE 2\n  LOAD = 20\n", "SUBCASE 2\n  LOAD = 50\n  SPC = 2\n")
+            .replace("SUBCASE 3\n  LOAD = 30\n", "").replace("SUBCASE 4\n  LOAD = 40\n", "")
+            .replace("ENDDATA", "FORCE   50      3               250.0   0.0     0.0     1.0\n"
+                     "SPC1    2       123456  1\nSPC1    2       3       4\nENDDATA"))
+    out = tmp_path / "spc.json"
+    rc, cap = _static(capsys, _deck(tmp_path, text=text), "--json", out)
+    assert rc == 0, cap.err
+    subs = json.loads(out.read_text())["subcases"]
+    assert [(s["subcase"], s["spc"]) for s in subs] == [(1, 1), (2, 2)]
+    a, EI = 2.0, E * I2
+    R = P * a**2 * (3 * L - a) / (2 * L**3)
+    expected = [P * a**3 / (3 * EI), P * a**3 / (3 * EI) - R * a**2 * (3 * L - a) / (6 * EI)]
+    for sub, w in zip(subs, expected):
+        assert sub["steps"][0]["displacements"]["3"][2] == pytest.approx(w, rel=1e-9)
+    assert subs[1]["steps"][0]["displacements"]["4"][2] == 0.0

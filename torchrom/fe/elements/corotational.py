@@ -177,8 +177,8 @@ def rotate(theta: torch.Tensor, abc, v: torch.Tensor) -> torch.Tensor:
 
 
 def _cross(a: torch.Tensor, b: torch.Tensor) -> torch.Tensor:
-    """a × b over the last axis (written out: torch.linalg.cross has no batching rule under
-    torch.func.vmap, whose per-sample fallback made it most of the tangent's cost)."""
+    """a × b over the last axis, written out in elementwise products like the rest of the
+    layer (no batched small-matrix kernels under the torch.func transforms)."""
     a1, a2, a3 = a.unbind(-1)
     b1, b2, b3 = b.unbind(-1)
     return torch.stack((a2 * b3 - a3 * b2, a3 * b1 - a1 * b3, a1 * b2 - a2 * b1), -1)
@@ -349,10 +349,54 @@ class CorotKernel:
                 return g, d
             return g, d, jvp(self.local_d, (z,), (ve,))[1]
 
+        directions = self._directions(ue)
+        tangents = directions[:, None, :].expand(len(directions), *ue.shape)
+        cols = vmap(lambda t: jvp(parts, (ue,), (t,))[1])(tangents)  # (m, E, k) each
+        cols = [c.permute(1, 2, 0) for c in cols]  # (E, k, m)
+        if len(directions) == self.k:
+            return tuple(cols)
+        return (self._spread(cols[0], symmetric=True),
+                *(self._spread(c, symmetric=False) for c in cols[1:]))
+
+    def _directions(self, ue: torch.Tensor) -> torch.Tensor:
+        """The unit directions of the second-order pass (m, 6nn). A shell's frame follows its
+        nodes' positions alone and its node n's local rotation depends on θ_n alone, so no
+        output couples the rotations of two nodes: the rotations are probed by three directions
+        shared by all nodes (a colouring; 3nn + 3 directions instead of 6nn). A beam's frame
+        takes the mean of its nodal triads: all 6nn."""
         eye = torch.eye(self.k, dtype=ue.dtype, device=ue.device)
-        tangents = eye[:, None, :].expand(self.k, *ue.shape)
-        cols = vmap(lambda t: jvp(parts, (ue,), (t,))[1])(tangents)  # (k, E, k) each
-        return tuple(c.permute(1, 2, 0) for c in cols)
+        if self.els.frame == "line" or self.has_offsets:
+            return eye
+        t_idx, _ = self._node_indices(ue.device)
+        shared = torch.zeros(3, self.nn, 6, dtype=ue.dtype, device=ue.device)
+        shared[:, :, 3:] = eye[:3, None, :3]  # direction j: component j of every node's θ
+        return torch.cat((eye[t_idx], shared.reshape(3, self.k)))
+
+    def _node_indices(self, device):
+        """Element-DOF indices of the translations (3nn,), node-major, and of each node's
+        rotations (nn, 3)."""
+        node = torch.arange(self.nn, device=device)[:, None] * 6
+        return ((node + torch.arange(3, device=device)).reshape(-1),
+                node + 3 + torch.arange(3, device=device))
+
+    def _spread(self, cols: torch.Tensor, symmetric: bool) -> torch.Tensor:
+        """(E, k, k) from the columns (E, k, 3nn + 3) of :meth:`_directions`' colouring: the
+        translation columns as they are; a shared rotation column's rows of node n's rotations
+        into node n's rotation column (the other rows of those columns are zero, or, for a
+        symmetric matrix, the transposed translation columns)."""
+        nn, k = self.nn, self.k
+        out = torch.zeros(cols.shape[0], k, k, dtype=cols.dtype, device=cols.device)
+        t_idx, r_idx = self._node_indices(cols.device)
+        out[:, :, t_idx] = cols[:, :, : 3 * nn]
+        shared = cols[:, :, 3 * nn :]  # (E, k, 3)
+        for n in range(nn):
+            rows = r_idx[n]
+            out[:, rows[:, None], rows[None, :]] = shared[:, rows, :]
+        if symmetric:
+            r_all = r_idx.reshape(-1)
+            out[:, t_idx[:, None], r_all[None, :]] = out[:, r_all[:, None], t_idx[None, :]
+                                                         ].transpose(1, 2)
+        return out
 
     def element_matrices(self, u_all: np.ndarray, material: float = 1.0, geometric: float = 1.0,
                          damping: float = 0.0, v_all: np.ndarray | None = None) -> np.ndarray:
