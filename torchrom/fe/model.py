@@ -407,12 +407,18 @@ class FEModel:
         """(grid id, component 1..6) of every free DOF, in order."""
         return [(int(self.grid_ids[g]), int(c) + 1) for g, c in self.constraints.free]
 
-    def expand(self, u) -> np.ndarray:
-        """Free-DOF vector(s) → (n_grid, 6) or (k, n_grid, 6) in basic axes (T1..T3, R1..R3)."""
+    def expand(self, u, large: bool = False) -> np.ndarray:
+        """Free-DOF vector(s) → (n_grid, 6) or (k, n_grid, 6) in basic axes (T1..T3, R1..R3).
+        ``large``: displacements of a large-rotation state, the RBE2 arms turned by their
+        grid's rotation (:mod:`torchrom.fe.rigid_arms`); otherwise linear (mode shapes)."""
         u = np.asarray(u, dtype=float)
         if u.shape[0] != self.n_dof:
             raise InputError(f"expand: expected {self.n_dof} rows, got shape {u.shape}")
         full = self.T @ u
+        st = self._state()
+        if large and st.arms is not None:
+            with torch.no_grad():
+                full = st.arms.lift(torch.from_numpy(np.ascontiguousarray(full.T))).numpy().T
         if u.ndim == 1:
             return full.reshape(-1, 6)
         return np.moveaxis(full.reshape(-1, 6, u.shape[1]), 2, 0)
