@@ -13,7 +13,7 @@ import torch
 
 from torchrom.fe.rigid_arms import arm_correction
 
-from .fe_decks import model_of, new_deck, rotation
+from .fe_decks import model_of, rotation
 from .test_fe_corotational import _mixed_deck
 
 
@@ -62,7 +62,8 @@ def test_rigid_rotation_with_an_rbe2_arm_produces_no_force(angle):
     u[:, :3] = X @ Q.T - X + np.array([0.1, 0.2, -0.3])
     u[:, 3:] = angle * axis
     uf = _free_values(fe, u)
-    np.testing.assert_allclose(fe.expand(uf, large=True), u, rtol=0, atol=1e-14)  # the arm follows exactly
+    # the arm follows the rotation exactly
+    np.testing.assert_allclose(fe.expand(uf, large=True), u, rtol=0, atol=1e-14)
     f = fe.internal_force(uf)
     K = fe.stiffness_matrix()
     assert np.abs(f).max() <= 1e-10 * abs(K).max() * np.abs(u).max()
