@@ -86,8 +86,10 @@ class SweepResult:
 def nonlinear_sweep(fe, masses, *, tol: float = 1e-7, progress=print) -> SweepResult:
     """Continuation over ``masses`` (kg, increasing from 0): modified Newton at each mass from
     the last solution with the last tangent factorisation (refactorised when the residual falls
-    by less than half an iteration), converged to ‖f(u) − F‖ ≤ ``tol`` ‖F‖
+    by less than half an iteration; a mass not reached in 30 iterations is approached through
+    the midpoint from the last one), converged to ‖f(u) − F‖ ≤ ``tol`` ‖F‖
     (:func:`torchrom.fe.solvers.modified_newton`)."""
+    from torchrom.errors import ConvergenceError
     from torchrom.fe.solvers import factor_symmetric, modified_newton
 
     F_w = fe.load_vector(1)
@@ -98,8 +100,20 @@ def nonlinear_sweep(fe, masses, *, tol: float = 1e-7, progress=print) -> SweepRe
     u_lin_w = lin.solve(F_w)
     u = u_w
     out, linear, its = [], [], []
+    last = 0.0
     for m in masses:
-        u, n_f, n_k, factor = modified_newton(fe, F_w + m * F_1, u, tol=tol, factor=factor)
+        n_f = n_k = 0
+        steps = [m]  # a mass whose Newton fails is reached through the midpoint from the last
+        while steps:
+            try:
+                u_try, a, b, factor = modified_newton(fe, F_w + steps[-1] * F_1, u, tol=tol,
+                                                      factor=factor, max_iter=30)
+            except ConvergenceError:
+                steps.append(0.5 * (last + steps[-1]))
+                factor = None
+                continue
+            u, last = u_try, steps.pop()
+            n_f, n_k = n_f + a, n_k + b
         out.append(tip_percent(fe, u, u_w))
         linear.append(tip_percent(fe, lin.solve(F_w + m * F_1), u_lin_w))
         its.append((n_f, n_k))
@@ -109,7 +123,45 @@ def nonlinear_sweep(fe, masses, *, tol: float = 1e-7, progress=print) -> SweepRe
                        time.perf_counter() - t0, its, tol)
 
 
-def figure(masses, res: SweepResult, nl_ref, lin_ref, path: Path) -> None:
+@dataclass
+class RomSweep:
+    masses: np.ndarray
+    tip_pct: np.ndarray  # % semispan, self-weight subtracted
+    n_linear: int
+    n_dual: int
+    identify_seconds: float
+    summary: dict
+
+
+def rom_sweep(fe, masses, *, n_linear: int, n_dual: int, combinations, n_amplitudes: int,
+              tip_range, progress=print) -> RomSweep:
+    """Identify the ROM of ``fe`` (:func:`torchrom.identify.build.identify`: tangent
+    stiffness, exact damping) and solve its static tip-mass sweep: the load Φᵀ F(m), the tip
+    displacement from u = Φ q, the self-weight solution subtracted."""
+    from torchrom.identify.basis import DualModeOptions
+    from torchrom.identify.build import IdentifyOptions, identify
+    from torchrom.identify.validate import rom_static_solve
+
+    opt = IdentifyOptions(n_linear=n_linear, n_dual=n_dual, damping="exact",
+                          dual=DualModeOptions(combinations=combinations,
+                                               n_amplitudes=n_amplitudes, tip_range=tip_range))
+    t0 = time.perf_counter()
+    res = identify(fe, opt)
+    seconds = time.perf_counter() - t0
+    progress(f"identify: {n_linear} linear + {n_dual} dual modes in {seconds:.0f} s")
+    Phi = res.basis.Phi
+    F_w = fe.load_vector(1)
+    F_1 = fe.nodal_load({(MASS_GRID, 3): -GRAVITY})
+    q_w = rom_static_solve(res.rom, Phi.T @ F_w)
+    q, out = q_w, []
+    for m in masses:
+        q = rom_static_solve(res.rom, Phi.T @ (F_w + m * F_1), q)
+        out.append(tip_percent(fe, Phi @ q, Phi @ q_w))
+    return RomSweep(np.asarray(masses, float), np.array(out), n_linear, n_dual, seconds,
+                    res.summary())
+
+
+def figure(masses, res: SweepResult, nl_ref, lin_ref, path: Path, rom=None) -> None:
     """Tip displacement (% semispan, downward positive) against tip mass: torchrom nonlinear
     and linear, SOL 400 and SOL 101."""
     import matplotlib
@@ -123,6 +175,9 @@ def figure(masses, res: SweepResult, nl_ref, lin_ref, path: Path) -> None:
             label="MSC Nastran SOL 101")
     ax.plot(masses, -res.nonlinear, "-", color="C0", label="torchrom FE, co-rotational")
     ax.plot(masses, -res.linear, "--", color="C1", label="torchrom FE, linear")
+    if rom is not None:
+        ax.plot(rom.masses, -rom.tip_pct, ":", color="C2", marker=".",
+                label=f"torchrom ROM ({rom.n_linear} linear + {rom.n_dual} dual modes)")
     ax.set_xlabel("tip mass (kg)")
     ax.set_ylabel("tip deflection, downward (% of semispan)")
     ax.set_title("Pazy wing (no skin, rigid tip): static bending under gravity")
@@ -139,6 +194,10 @@ def main(argv=None) -> int:
     p.add_argument("--tol", type=float, default=1e-7)
     p.add_argument("--out", type=Path, default=None, help="JSON of the measured sweep")
     p.add_argument("--figure", type=Path, default=None, help="PNG of the sweep")
+    p.add_argument("--rom", default=None, metavar="L,D",
+                   help="also identify a ROM of L linear and D dual modes and sweep it")
+    p.add_argument("--combinations", default="1:1,1:2", help="dual-mode load pairs J:L,...")
+    p.add_argument("--amplitudes", type=int, default=4, help="loads per combination")
     args = p.parse_args(argv)
     nl_ref, lin_ref = sweep_table(SOL400), sweep_table(SOL101)
     masses = nl_ref[:, 0] if args.masses is None else \
@@ -155,15 +214,28 @@ def main(argv=None) -> int:
         r4 = np.interp(m, nl_ref[:, 0], nl_ref[:, 1])
         r1 = np.interp(m, lin_ref[:, 0], lin_ref[:, 1])
         print(f"| {m:.2f} | {r4:.3f} | {a:.3f} | {a - r4:+.3f} | {r1:.3f} | {b:.3f} |")
+    rom = None
+    if args.rom:
+        n_lin, n_dual = (int(x) for x in args.rom.split(","))
+        pairs = [tuple(int(x) for x in c.split(":")) for c in args.combinations.split(",")]
+        rom = rom_sweep(fe, masses, n_linear=n_lin, n_dual=n_dual, combinations=pairs,
+                        n_amplitudes=args.amplitudes, tip_range=(0.01, 0.4))
+        print("| mass kg | torchrom FE NL % | ROM % | ROM - FE (% of FE) |")
+        for m, a, b in zip(masses, res.nonlinear, rom.tip_pct):
+            rel = "" if a == 0 else f"{100 * (b - a) / abs(a):+.2f}"
+            print(f"| {m:.2f} | {a:.3f} | {b:.3f} | {rel} |")
     if args.figure:
-        figure(masses, res, nl_ref, lin_ref, args.figure)
+        figure(masses, res, nl_ref, lin_ref, args.figure, rom)
         print(f"figure: {args.figure}")
     if args.out:
         args.out.write_text(json.dumps({
             "masses_kg": masses.tolist(), "nonlinear_pct": res.nonlinear.tolist(),
             "linear_pct": res.linear.tolist(), "seconds": res.seconds,
             "iterations": res.iterations, "tol": res.tol,
-            "semispan_m": PAZY_SEMISPAN, "tip_arm_m": PAZY_TIP_ARM}, indent=1))
+            "semispan_m": PAZY_SEMISPAN, "tip_arm_m": PAZY_TIP_ARM,
+            "rom": None if rom is None else {
+                "n_linear": rom.n_linear, "n_dual": rom.n_dual, "tip_pct": rom.tip_pct.tolist(),
+                "identify_seconds": rom.identify_seconds}}, indent=1))
     return 0
 
 
