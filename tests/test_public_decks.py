@@ -609,11 +609,10 @@ def test_pazy_linear_sweep_all_masses(tmp_path):
 @pytest.mark.slow
 def test_pazy_nonlinear_tip_mass_runs(tmp_path):
     """SOL 400 decks (NLPARM NINC 5) of 0 and 3.5 kg through ``torchrom static``: every load
-    step converges; the tip displacement is printed beside the SOL 400 table's. Not asserted
-    against it: today's nonlinearity is the Green-strain shell membranes with linear bending and
-    rotations, whose linearised rigid rotations strain the ribs (measured −7.29 % of the
-    semispan against SOL 400's −51.32 %, SOL 101 −78.58 %); that match waits for the
-    co-rotational beams and shells."""
+    step converges, and the 3.5 kg tip displacement (self-weight subtracted) is SOL 400's within
+    0.5 % of the semispan — the same tolerance as tests/test_pazy.py's sweep, here through the
+    command and its full Newton from zero load (before the co-rotational elements and the
+    turned RBE2 arms it was −7.29 % against SOL 400's −51.32 %)."""
     table = _pazy_sweep_table("sweep_static_bending_GFEM_sweep_wo_skin.txt")
     weight, t0 = pazy_tip_mass_run(tmp_path, 0.0, 400, 5)
     loaded, t1 = pazy_tip_mass_run(tmp_path, 3.5, 400, 5)
@@ -621,3 +620,4 @@ def test_pazy_nonlinear_tip_mass_runs(tmp_path):
     ours = pazy_tip_percent(loaded[-1], weight[-1])
     ref = table[table[:, 0] == 3.5, 1][0]
     print(f"pazy 3.5 kg nonlinear: {ours:.3f} % vs SOL 400 {ref:.3f} %; {t0:.0f} s + {t1:.0f} s")
+    assert abs(ours - ref) <= 0.5

@@ -32,6 +32,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 import torch
+from torch.func import jvp, vjp
 
 from ..errors import InputError
 from .assembly import ProjectedPattern, assemble, project
@@ -65,6 +66,7 @@ from .mass import (
     genel_blocks,
 )
 from .mesh import Mesh
+from .rigid_arms import ArmLift, rigid_arms
 
 #: The model option ``rotations``: "large" (co-rotational bending, beams and rod torsion),
 #: "small" (those linear, the paper's heavy Goland wing).
@@ -86,6 +88,7 @@ class _TorchState:
     K_rows: torch.Tensor
     K_cols: torch.Tensor
     K_vals: torch.Tensor
+    arms: ArmLift | None = None  # RBE2 arms turned by large rotations (rigid_arms)
 
 
 def _coo_parts(M: sp.spmatrix):
@@ -282,6 +285,9 @@ class FEModel:
         self._const = assemble(self._lin_parts, self.n_all)
         self._K_const_free = project(self._const, self.T)
         self._pattern_cache: list[ProjectedPattern] | None = None  # built on first use
+        self._all_patterns: list[ProjectedPattern] | None = None  # the same on all DOFs (arms)
+        # RBE2 arms turn with their grid under large rotations (torchrom.fe.rigid_arms)
+        self._arms = rigid_arms(mesh) if large else None
         self._M_free = project(self._mass_all(), self.T)
         self._M_free.eliminate_zeros()
         self._loads_all = dict(loads or {})
@@ -332,6 +338,7 @@ class FEModel:
                 K_rows=torch.as_tensor(kr, device=device),
                 K_cols=torch.as_tensor(kc, device=device),
                 K_vals=torch.as_tensor(kv, **opts),
+                arms=None if self._arms is None else ArmLift(self._arms, self.n_all, **opts),
             )
             self._torch[key] = st
         return st
@@ -400,12 +407,18 @@ class FEModel:
         """(grid id, component 1..6) of every free DOF, in order."""
         return [(int(self.grid_ids[g]), int(c) + 1) for g, c in self.constraints.free]
 
-    def expand(self, u) -> np.ndarray:
-        """Free-DOF vector(s) → (n_grid, 6) or (k, n_grid, 6) in basic axes (T1..T3, R1..R3)."""
+    def expand(self, u, large: bool = False) -> np.ndarray:
+        """Free-DOF vector(s) → (n_grid, 6) or (k, n_grid, 6) in basic axes (T1..T3, R1..R3).
+        ``large``: displacements of a large-rotation state, the RBE2 arms turned by their
+        grid's rotation (:mod:`torchrom.fe.rigid_arms`); otherwise linear (mode shapes)."""
         u = np.asarray(u, dtype=float)
         if u.shape[0] != self.n_dof:
             raise InputError(f"expand: expected {self.n_dof} rows, got shape {u.shape}")
         full = self.T @ u
+        st = self._state()
+        if large and st.arms is not None:
+            with torch.no_grad():
+                full = st.arms.lift(torch.from_numpy(np.ascontiguousarray(full.T))).numpy().T
         if u.ndim == 1:
             return full.reshape(-1, 6)
         return np.moveaxis(full.reshape(-1, 6, u.shape[1]), 2, 0)
@@ -450,9 +463,14 @@ class FEModel:
         self._refuse_offsets("the internal force f(u)")
         st = self._state(u.dtype, u.device)
         u_all = self._all_torch(u, st)
+        pull = None
+        if st.arms is not None:
+            u_all, pull = vjp(st.arms.lift, u_all)
         f_all = torch.zeros_like(u_all)
         for k in [*st.kernels, *st.corot]:
             f_all = f_all + k.internal_force(u_all)
+        if pull is not None:
+            f_all = pull(f_all)[0]  # Jᵀ f_all: the arms' forces on the independent rotations
         return self._free_torch(f_all, st) + self._const_torch(u, st)
 
     def material_force_torch(self, u: torch.Tensor, v: torch.Tensor) -> torch.Tensor:
@@ -460,9 +478,15 @@ class FEModel:
         self._refuse_offsets("the material tangent")
         st = self._state(u.dtype, u.device)
         u_all, v_all = self._all_torch(u, st), self._all_torch(v, st)
+        pull = None
+        if st.arms is not None:
+            u_all, v_all = jvp(st.arms.lift, (u_all,), (v_all,))
+            _, pull = vjp(st.arms.lift, self._all_torch(u, st))
         f_all = torch.zeros_like(u_all)
         for k in [*st.kernels, *st.corot]:
             f_all = f_all + k.material_force(u_all, v_all)
+        if pull is not None:
+            f_all = pull(f_all)[0]
         return self._free_torch(f_all, st) + self._const_torch(v, st)
 
     def strain_energy_torch(self, u: torch.Tensor) -> torch.Tensor:
@@ -470,6 +494,8 @@ class FEModel:
         self._refuse_offsets("the strain energy W(u)")
         st = self._state(u.dtype, u.device)
         u_all = self._all_torch(u, st)
+        if st.arms is not None:
+            u_all = st.arms.lift(u_all)
         W = 0.5 * (u * self._const_torch(u, st)).sum(-1)
         for k in [*st.kernels, *st.corot]:
             W = W + k.energy(u_all)
@@ -497,12 +523,42 @@ class FEModel:
         v_all = None if not damping else self.T @ np.asarray(v, dtype=float)
         K = self._K_const_free * material if material else sp.csr_matrix((self.n_dof,) * 2)
         st = self._state()
+        if st.arms is not None:
+            return K + self._arm_combination(st, u_all, v_all, material, geometric, damping)
         blocks = [kern.point_matrices(u_all, material, geometric, damping, v_all)
                   for kern in st.kernels]
         blocks += [kern.element_matrices(u_all, material, geometric, damping, v_all)
                    for kern in st.corot]
         for pat, b in zip(self._patterns, blocks):
             K = K + pat.assemble(b)
+        return K.tocsr()
+
+    def _arm_combination(self, st, u_lin, v_lin, material, geometric, damping):
+        """The element part of :meth:`matrix_combination` with rigid arms: Tᵀ (Jᵀ K_all J +
+        geometric · G) T, K_all assembled on all DOFs at the lifted state
+        (:mod:`torchrom.fe.rigid_arms`; the damping derivative takes J only)."""
+        if self._all_patterns is None:
+            eye = sp.identity(self.n_all, format="csr")
+            self._all_patterns = [ProjectedPattern(p.dof_index(), eye)
+                                  for p in [*self._points, *self._corot]]
+        with torch.no_grad():
+            u_all = st.arms.lift(torch.from_numpy(u_lin)).numpy()
+            v_all = None if v_lin is None else \
+                jvp(st.arms.lift, (torch.from_numpy(u_lin),), (torch.from_numpy(v_lin),))[1].numpy()
+        blocks = [kern.point_matrices(u_all, material, geometric, damping, v_all)
+                  for kern in st.kernels]
+        blocks += [kern.element_matrices(u_all, material, geometric, damping, v_all)
+                   for kern in st.corot]
+        K_all = sp.csr_matrix((self.n_all,) * 2)
+        for pat, b in zip(self._all_patterns, blocks):
+            K_all = K_all + pat.assemble(b)
+        JT = (st.arms.jacobian(u_lin) @ self.T).tocsr()
+        K = JT.T @ K_all @ JT
+        if geometric:
+            with torch.no_grad():
+                f_all = sum(k.internal_force(torch.from_numpy(u_all))
+                            for k in [*st.kernels, *st.corot]).numpy()
+            K = K + geometric * (self.T.T @ st.arms.stiffness(u_lin, f_all) @ self.T)
         return K.tocsr()
 
     def tangent_stiffness(self, u) -> sp.csr_matrix:

@@ -196,6 +196,40 @@ def solve_symmetric(K: sp.spmatrix, r: np.ndarray) -> np.ndarray:
     return solve_linear(K, r)
 
 
+def factor_symmetric(K: sp.spmatrix):
+    """The SuperLU factorisation of :func:`solve_symmetric` (symmetric mode) kept for reuse:
+    ``.solve(r)`` → K⁻¹ r."""
+    with np.errstate(all="ignore"):
+        return sla.splu(sp.csc_matrix(K), permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0,
+                        options={"SymmetricMode": True})
+
+
+def modified_newton(fe, F: np.ndarray, u0: np.ndarray, *, tol: float = 1e-6,
+                    max_iter: int = 60, factor=None, slow: float = 0.5):
+    """Solve f(u) = F from ``u0`` by modified Newton: u ← u − K₀⁻¹ (f(u) − F) with one
+    factorisation K₀ of the tangent reused (``factor``, e.g. the previous load's, else
+    K_T(u0)), refactorised at the current u when an iteration reduces the residual by less
+    than the factor ``slow``. Converged when ‖f(u) − F‖ ≤ ``tol`` ‖F‖. Returns (u, residual
+    evaluations, tangent factorisations, factor); ConvergenceError after ``max_iter``."""
+    u = np.array(u0, dtype=float)
+    norm_F = max(float(np.linalg.norm(F)), 1e-300)
+    tangents, prev = 0, np.inf
+    for it in range(1, max_iter + 1):
+        r = fe.internal_force(u) - F
+        res = float(np.linalg.norm(r))
+        if not np.isfinite(res):
+            break
+        if res <= tol * norm_F:
+            return u, it, tangents, factor
+        if factor is None or res > slow * prev:
+            factor = factor_symmetric(fe.tangent_stiffness(u))
+            tangents += 1
+        prev = res
+        u -= factor.solve(r)
+    raise ConvergenceError(f"modified_newton: no convergence in {max_iter} iterations "
+                           f"(residual {res:.3g} of the load {norm_F:.3g})")
+
+
 #: sparse eigensolver failures fall back to the dense solvers up to this many free DOFs
 DENSE_FALLBACK_DOFS = 3000
 

@@ -231,7 +231,8 @@ def run_static(job: StaticJob, *, max_cuts: int = DEFAULT_MAX_CUTS,
                                   max_cuts=max_cuts, callback=record)
             res = results[k]
             res.steps = [StaticStep(h["load_factor"], True, h["iterations"], h["residual"],
-                                    fe.expand(u)) for h, u in zip(out.history, saved)]
+                                    fe.expand(u, large=True))
+                         for h, u in zip(out.history, saved)]
             if not out.converged:
                 res.steps.append(StaticStep(float(out.failed_load_factor), False, 0,
                                             float(out.residual_norm)))

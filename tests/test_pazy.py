@@ -1,0 +1,54 @@
+"""The Pazy wing's geometrically nonlinear static bending sweep (experiments/pazy_static.py)
+against MSC Nastran SOL 400 (Riso & Cesnik, SciTech 2022; tests/decks/aepw3_pazy_noskin_rigidtip):
+a tip mass of 0 … 3.5 kg at the tip mid-chord under gravity (a dead load), the self-weight
+subtracted, the tip's vertical displacement in % of the semispan. The deck, the load and the
+measured point are those of the SOL 101 test (tests/test_public_decks.py); the modes against
+the SOL 103 f06 are ``test_public_decks.py::test_pazy_modes_and_mass_match_nastran``.
+
+Tolerance: 0.5 % of the semispan at every mass (the issue's target 2 %, aim 1 %). Measured over
+the 15 masses (co-rotational shells and beams, RBE2 arms turned with their grid, modified
+Newton to ‖r‖ ≤ 1e-7 ‖F‖): within 0.17 % of the semispan of SOL 400; with the RBE2s
+eliminated linearly the 0.5 kg deflection was 40 % short (tests/test_fe_rigid_arms.py).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from experiments.pazy_static import SOL400, nonlinear_sweep, pazy_model, sweep_table
+
+#: |torchrom − SOL 400| in % of the semispan (module docstring)
+TOLERANCE_PCT = 0.5
+
+
+def _check(masses) -> np.ndarray:
+    ref = sweep_table(SOL400)
+    res = nonlinear_sweep(pazy_model(), masses, progress=lambda line: None)
+    want = np.interp(masses, ref[:, 0], ref[:, 1])
+    diff = res.nonlinear - want
+    print("pazy SOL 400 (mass, ours, SOL 400, diff % semispan):",
+          [(m, round(a, 3), round(b, 3), round(d, 3))
+           for m, a, b, d in zip(masses, res.nonlinear, want, diff)], f"{res.seconds:.0f} s")
+    # nonlinear stiffening: every point less deflected than the linear solution
+    assert np.all(np.abs(res.nonlinear) < np.abs(res.linear))
+    return diff
+
+
+def test_pazy_nonlinear_tip_mass_matches_sol400():
+    """The sweep's first four masses, 0.25 … 1 kg (tip deflection up to a fifth of the
+    semispan, where the nonlinear solution is already 1.6 % of the semispan above the linear
+    one): within 0.1 % of the semispan of SOL 400 (measured −0.001, −0.004, −0.010, −0.019).
+    A reduced form of the full sweep (slow), which a jump in mass cannot shorten: modified
+    Newton needs the continuation's small steps."""
+    diff = _check(sweep_table(SOL400)[1:5, 0])
+    assert np.all(np.abs(diff) <= 0.1), diff
+
+
+@pytest.mark.slow
+def test_pazy_nonlinear_sweep_all_masses():
+    """The whole 15-point sweep (0 … 3.5 kg by 0.25 kg) within 0.5 % of the semispan
+    (measured: largest −0.164 at 3.5 kg; 190 s at load average 6 on 2 cores)."""
+    masses = sweep_table(SOL400)[:, 0]
+    diff = _check(masses)
+    assert np.all(np.abs(diff) <= TOLERANCE_PCT), diff
