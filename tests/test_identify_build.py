@@ -80,9 +80,11 @@ def test_options_and_errors():
 
 
 def test_dual_modes_of_a_linear_element_model_are_refused(tmp_path):
-    """A stick model of linear CBARs (the ExportNastranKM beam, root clamped) cannot give dual
-    modes: refused before any dual-mode FE solve, saying what to do (issue 34: a Cholesky
-    LinAlgError after 60 solves before); with n_dual = 0 it identifies."""
+    """A stick model of small-rotation (linear) CBARs (the ExportNastranKM beam, root clamped)
+    cannot give dual modes: refused before any dual-mode FE solve, saying what to do (issue 34:
+    a Cholesky LinAlgError after 60 solves before); with n_dual = 0 it identifies. With the
+    co-rotational CBARs (the default for decks) the same stick model has a geometric
+    nonlinearity, and its dual modes give nonzero cubic stiffness."""
     from pathlib import Path
 
     from torchrom.fe import read_bdf
@@ -91,8 +93,10 @@ def test_dual_modes_of_a_linear_element_model_are_refused(tmp_path):
     path = tmp_path / "ekm_clamped.bdf"
     path.write_text(deck.replace("GRDSET,,,,,,,1256",
                                  "GRDSET,,,,,,,1256\nSPC1    2       123456  1"))
-    fe = read_bdf(path)
+    fe = read_bdf(path, rotations="small")
     with pytest.raises(InputError, match="every element of the model is linear.*--dual 0"):
         identify(fe, IdentifyOptions(n_linear=2, n_dual=2))
     with pytest.warns(UserWarning, match="4 CBAR/CBEAM/CELAS/solid elements are linear"):
         assert identify(fe, IdentifyOptions(n_linear=2, n_dual=0)).rom.n == 2
+    rom = identify(read_bdf(path), IdentifyOptions(n_linear=2, n_dual=2)).rom
+    assert rom.n == 4 and float(abs(rom.K3).max()) > 1e-3 * float(abs(rom.K1).max())

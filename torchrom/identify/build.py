@@ -146,8 +146,9 @@ def as_backend(fe) -> FEBackend:
                      "torchrom.fe model or a torchrom.identify.FEBackend (e.g. CallableBackend)")
 
 
-#: the FE element sets whose stiffness is geometrically nonlinear (the others — CBAR, CBEAM,
-#: CELAS, CBUSH, GENEL, solids — are linear: :meth:`torchrom.fe.model.FEModel._warn_linear`)
+#: the FE element sets whose stiffness is geometrically nonlinear (Green strain, or
+#: co-rotational); CBAR/CBEAM (``bars``) only with large rotations, and CELAS, CBUSH, GENEL and
+#: solids never (:meth:`torchrom.fe.model.FEModel.linear_elements`)
 NONLINEAR_ELEMENT_SETS = ("rods", "quads", "trias", "shears")
 
 
@@ -157,11 +158,14 @@ def check_nonlinear_elements(backend, n_dual: int) -> None:
     differ from the linear modes' by rounding (5e-15 measured), and dual modes made of that
     ended in a Cholesky LinAlgError (issue 34). Backends without a torchrom FE mesh are left
     to the snapshots' own check (:func:`~torchrom.identify.basis.dual_modes_from_responses`)."""
-    mesh = getattr(getattr(backend, "fe", None), "mesh", None)
-    if mesh is None or sum(len(getattr(mesh, k)) for k in NONLINEAR_ELEMENT_SETS):
+    fe = getattr(backend, "fe", None)
+    mesh = getattr(fe, "mesh", None)
+    sets = NONLINEAR_ELEMENT_SETS + (("bars",) if getattr(fe, "rotations", "") == "large" else ())
+    if mesh is None or sum(len(getattr(mesh, k)) for k in sets):
         return
     raise InputError(f"{backend.name}: n_dual = {n_dual} (--dual): every element of the model "
-                     f"is linear (CBAR/CBEAM/CELAS/CBUSH/solid elements, small rotations): its "
+                     f"is linear (CELAS/CBUSH/solid elements, or CBAR/CBEAM with small "
+                     f"rotations): its "
                      f"static responses have nothing outside the linear modes, so no dual mode "
                      f"can be made; use --dual 0")
 
