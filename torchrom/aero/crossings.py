@@ -29,24 +29,22 @@ from dataclasses import dataclass, replace
 import numpy as np
 import scipy
 
-from .flutter import (
+from .flutter import (  # noqa: F401 - the rigid-body rule is re-exported (public here)
     G_ROUNDOFF,
     HUMP,
+    RIGID_FRACTION,
     SUSTAINED,
     AeroTable,
     FlutterPoint,
     ModalStructure,
     ModeSweep,
     _pk_mode,
-    _vacuum_roots,
     excursions,
     pk_damping,
+    rigid_body_branches,
+    rigid_body_modes,
 )
 
-#: a mode whose frequency is below this fraction of the lowest elastic one is a rigid-body
-#: mode; the lowest elastic frequency is the lowest at least this fraction of the highest
-#: (bah_plane: the rigid plunge and pitch at 0 Hz, the lowest elastic mode 2.454 Hz)
-RIGID_FRACTION = 1e-3
 #: an interior local maximum of a branch's sampled damping between -HUMP_PROBE_G and 0 is
 #: probed for a hump between the samples (g = 0.05: 2.5 % of critical damping)
 HUMP_PROBE_G = 0.05
@@ -63,21 +61,6 @@ class Crossings:
 
     flutter: list[FlutterPoint]
     rigid_body: list[FlutterPoint]
-
-
-def rigid_body_modes(frequencies_hz) -> np.ndarray:
-    """Which modes are rigid-body modes (bool per mode, :data:`RIGID_FRACTION`)."""
-    f = np.abs(np.asarray(frequencies_hz, dtype=float))
-    if f.size == 0 or f.max() == 0:
-        return np.ones(f.shape, dtype=bool)
-    lowest_elastic = f[f >= RIGID_FRACTION * f.max()].min()
-    return f < RIGID_FRACTION * lowest_elastic
-
-
-def rigid_body_branches(structure: ModalStructure) -> np.ndarray:
-    """:func:`rigid_body_modes` of the in-vacuo roots, in the order p-k tracks its branches."""
-    s, _ = _vacuum_roots(structure)
-    return rigid_body_modes(np.abs(s.imag) / (2 * np.pi))
 
 
 def split_rigid(points: list[FlutterPoint], rigid) -> Crossings:

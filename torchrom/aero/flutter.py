@@ -818,10 +818,8 @@ def flutter_altitude_pk(
     sweep = pk_sweep(structure, aero, fc.velocity, fc.density, altitudes=h, mach=mach, eps=eps)
     # Non-oscillatory roots (divergence) have g = ±inf and are not flutter crossings.
     g = np.where(np.isfinite(sweep.damping), sweep.damping, np.nan)
-    from .crossings import rigid_body_branches  # (crossings imports this module)
-
     # a free aircraft's rigid-body roots are reported apart, never as the flutter point (the
-    # rule of the deck flutter, torchrom.aero.crossings.RIGID_FRACTION)
+    # rule of the deck flutter, :data:`RIGID_FRACTION`)
     rigid = rigid_body_branches(structure)
     first, apart = None, []
     for j in range(structure.n_modes):
@@ -1019,3 +1017,24 @@ def growing_response_frequency_pk(
     g = np.where(np.isfinite(sweep.damping), sweep.damping, -np.inf)  # oscillatory roots only
     out[order] = sweep.frequency_hz[np.arange(len(alts)), np.argmax(g, axis=1)]
     return out
+
+
+#: a mode whose frequency is below this fraction of the lowest elastic one is a rigid-body
+#: mode; the lowest elastic frequency is the lowest at least this fraction of the highest
+#: (bah_plane: the rigid plunge and pitch at 0 Hz, the lowest elastic mode 2.454 Hz)
+RIGID_FRACTION = 1e-3
+
+
+def rigid_body_modes(frequencies_hz) -> np.ndarray:
+    """Which modes are rigid-body modes (bool per mode, :data:`RIGID_FRACTION`)."""
+    f = np.abs(np.asarray(frequencies_hz, dtype=float))
+    if f.size == 0 or f.max() == 0:
+        return np.ones(f.shape, dtype=bool)
+    lowest_elastic = f[f >= RIGID_FRACTION * f.max()].min()
+    return f < RIGID_FRACTION * lowest_elastic
+
+
+def rigid_body_branches(structure: ModalStructure) -> np.ndarray:
+    """:func:`rigid_body_modes` of the in-vacuo roots, in the order p-k tracks its branches."""
+    s, _ = _vacuum_roots(structure)
+    return rigid_body_modes(np.abs(s.imag) / (2 * np.pi))
