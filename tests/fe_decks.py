@@ -172,3 +172,16 @@ def tip_mass_beam(n: int = 8, I1: float = 2e-6, I2: float = 8e-6, nsm=(1.0, 0.5)
     m.add_conm2(100, n + 1, tip_mass, X=[tip_x, 0.0, 0.0], I=[0.0, 0.0, 0.02, 0.0, 0.0, 0.0])
     m.add_spc1(1, "123456", [1])
     return m
+
+
+def assert_tangent_is_consistent(fe, u, symmetry_rtol: float, h: float = 1e-6) -> float:
+    """K_T(u) against central differences of f(u) (step ``h``) to 1e-6 of max |K| (truncation
+    and rounding of the differences sit near 1e-11), and symmetric to ``symmetry_rtol``;
+    returns max |K| (the scale of later checks)."""
+    K = fe.tangent_stiffness(u).toarray()
+    Kfd = np.column_stack([(fe.internal_force(u + h * e) - fe.internal_force(u - h * e)) / (2 * h)
+                           for e in np.eye(fe.n_dof)])
+    scale = np.abs(K).max()
+    assert np.abs(K - Kfd).max() <= 1e-6 * scale
+    assert np.abs(K - K.T).max() <= symmetry_rtol * scale
+    return scale

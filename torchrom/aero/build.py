@@ -89,13 +89,13 @@ class ModalData:
 
 
 def modal_data(fe, n_modes: int) -> ModalData:
-    from .nastran_flutter import _with_rigid
+    from ..fe.rigid import modal_basis_with_rigid
 
     # a free aircraft's rigid-body modes first, at 0 Hz, as SOL 145 and the ROM basis keep them
     # (the same shapes as torchrom.identify's: GAFs on the ROM's linear modes)
     modes = fe.modes(int(n_modes))
     if getattr(modes, "n_rigid", 0):  # modes of another source (closed form) have none
-        frequencies, shapes = _with_rigid(fe, modes, int(n_modes), [])
+        frequencies, shapes = modal_basis_with_rigid(fe, modes, int(n_modes), [])
     else:
         frequencies, shapes = modes.frequencies_hz, modes.shapes
     shapes = np.asarray(shapes, dtype=float)

@@ -34,6 +34,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import InputError
+from ..fe.rigid import modal_basis_with_rigid
 from .crossings import RIGID_FRACTION, pk_crossings, rigid_body_modes, split_rigid
 from .dlm import BoxMotion, compute_gaf, exact_k_indices
 from .flutter import (
@@ -516,44 +517,19 @@ class DeckResult:
         }
 
 
-def _with_rigid(fe, modes, n_total: int | None, notes: list[str]):
-    """Frequencies and shapes of Nastran's modal basis: the rigid-body modes first (0 Hz exactly,
-    :func:`torchrom.fe.rigid.rigid_body_modes`), then the elastic ones, ``n_total`` in all (None:
-    every mode computed). Nastran counts its rigid-body modes among ND and LMODES."""
-    from ..fe.rigid import orthogonalise_against, rigid_body_modes, suport_note
-
-    f = np.asarray(modes.frequencies_hz)
-    shapes = np.asarray(modes.shapes)
-    if not modes.n_rigid:
-        return (f, shapes) if n_total is None else (f[:n_total], shapes[:, :n_total])
-    rigid, how = rigid_body_modes(fe, modes)
-    r = rigid.shape[1]
-    n_el = len(f) if n_total is None else max(n_total - r, 0)
-    elastic = orthogonalise_against(shapes[:, :n_el], rigid, fe.mass_matrix())
-    notes.append(f"{r} rigid-body mode(s) kept in the modal basis at 0 Hz ({how}; the "
-                 f"eigensolver gave ω² = "
-                 + ", ".join(f"{x:.2g}" for x in modes.rigid_eigenvalues) + ")")
-    note = suport_note(fe, rigid)
-    if note:
-        notes.append(note)
-    n = r + n_el if n_total is None else min(n_total, r + n_el)
-    return (np.concatenate([np.zeros(r), f[:n_el]])[:n],
-            np.concatenate([rigid, elastic], axis=1)[:, :n])
-
-
 def _modes(deck: FlutterDeck, fe, notes: list[str]):
     """The deck's modal basis (ND/LMODES or the EIGR/EIGRL frequency range), rigid-body modes
     included as Nastran does (a free-free aircraft keeps its rigid-body modes)."""
     n_dof = fe.n_dof
     n = deck.n_modes
     if n is None:  # frequency range only
-        f, shapes = _with_rigid(fe, fe.modes(min(n_dof, 100)), None, notes)
+        f, shapes = modal_basis_with_rigid(fe, fe.modes(min(n_dof, 100)), None, notes)
         lo, hi = deck.frequency_range
         keep = np.flatnonzero((f >= lo) & (f <= hi))
         return f[keep], shapes[:, keep]
     if deck.resvec and deck.n_eigen and (deck.lmodes is None or deck.lmodes > deck.n_eigen):
         return _with_residual_vectors(deck, fe, notes)
-    f, shapes = _with_rigid(fe, fe.modes(min(n, n_dof)), n, notes)
+    f, shapes = modal_basis_with_rigid(fe, fe.modes(min(n, n_dof)), n, notes)
     lo = deck.frequency_range[0]
     keep = np.flatnonzero(f >= lo) if lo > 0 else np.arange(len(f))
     return f[keep], shapes[:, keep]
@@ -567,7 +543,7 @@ def _with_residual_vectors(deck: FlutterDeck, fe, notes: list[str]):
     from ..fe.resvec import inertia_residual_vectors
 
     n_eig = deck.n_eigen
-    f, shapes = _with_rigid(fe, fe.modes(min(n_eig, fe.n_dof)), n_eig, notes)
+    f, shapes = modal_basis_with_rigid(fe, fe.modes(min(n_eig, fe.n_dof)), n_eig, notes)
     fr, vectors = inertia_residual_vectors(fe, shapes, shapes[:, f == 0.0])
     total = len(f) + len(fr) if deck.lmodes is None else deck.lmodes
     used = max(0, min(total - len(f), len(fr)))

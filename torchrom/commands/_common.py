@@ -177,6 +177,13 @@ def add_json_option(parser: argparse.ArgumentParser) -> None:
     )
 
 
+def add_unsupported_option(parser: argparse.ArgumentParser, what: str = "") -> None:
+    """--unsupported error|warn of the commands that read a structural deck (``what``: a prefix
+    of the help text, e.g. which of a command's forms reads the deck)."""
+    parser.add_argument("--unsupported", choices=("error", "warn"), default="error",
+                        help=f"{what}what to do with unsupported structural cards (default error)")
+
+
 def add_force_option(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--force", action="store_true", help="overwrite outputs that already exist"

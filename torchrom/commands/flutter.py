@@ -34,6 +34,7 @@ from ._common import (
     OrderedRange,
     add_force_option,
     add_json_option,
+    add_unsupported_option,
     case_parameter,
     check_outputs,
     figure_file,
@@ -111,8 +112,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         help="for each γ (s), the α (1/s) that keeps the state-space flutter altitude of the "
         "given α, γ (paper Fig. 9)",
     )
-    p.add_argument("--unsupported", choices=("error", "warn"), default="error",
-                   help="deck form: what to do with unsupported structural cards (default error)")
+    add_unsupported_option(p, "deck form: ")
     p.add_argument("--compare", type=Path, metavar="RUN.f06",
                    help="deck form: print Nastran's flutter points and modes from this f06 beside "
                    "torchrom's, with the differences")

@@ -21,6 +21,7 @@ import numpy as np
 from ._common import (
     add_force_option,
     add_json_option,
+    add_unsupported_option,
     check_outputs,
     maybe_write_json,
     positive_int,
@@ -38,8 +39,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("model", type=Path, help="Nastran bulk data deck")
     parser.add_argument("--n", type=positive_int, default=None,
                         help="number of modes (default: EIGR/EIGRL ND of the deck, else 10)")
-    parser.add_argument("--unsupported", choices=("error", "warn"), default="error",
-                        help="what to do with unsupported structural cards (default error)")
+    add_unsupported_option(parser)
     parser.add_argument("--compare", type=Path, metavar="RUN.f06",
                         help="print Nastran's frequencies from this f06 beside torchrom's, with "
                         "the differences (default --n: as many modes as the f06 lists)")

@@ -22,6 +22,7 @@ import numpy as np
 from ._common import (
     add_force_option,
     add_json_option,
+    add_unsupported_option,
     check_outputs,
     maybe_write_json,
     positive_int,
@@ -59,8 +60,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "then reported as not converged")
     parser.add_argument("--grids", type=grid_list, default=None, metavar="ID,ID,...",
                         help="print these grids' displacements (T1..R3, basic) at every step")
-    parser.add_argument("--unsupported", choices=("error", "warn"), default="error",
-                        help="what to do with unsupported structural cards (default error)")
+    add_unsupported_option(parser)
     add_json_option(parser)
     add_force_option(parser)
 

@@ -21,7 +21,12 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from ._common import add_force_option, add_json_option, maybe_write_json
+from ._common import (
+    add_force_option,
+    add_json_option,
+    add_unsupported_option,
+    maybe_write_json,
+)
 
 NAME = "update"
 HELP = "update deck parameters (NSM, densities, masses, offsets, dimensions) to target frequencies"
@@ -35,8 +40,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="targets and parameters (TOML; see torchrom.fe.update_config)")
     parser.add_argument("--out", type=Path, required=True, metavar="UPDATED.bdf",
                         help="the updated deck")
-    parser.add_argument("--unsupported", choices=("error", "warn"), default="error",
-                        help="what to do with unsupported structural cards (default error)")
+    add_unsupported_option(parser)
     add_json_option(parser)
     add_force_option(parser)
 

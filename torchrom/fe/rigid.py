@@ -151,3 +151,26 @@ def suport_note(fe, rigid: np.ndarray) -> str | None:
                 f"modes (the same span as Nastran's)")
     return (f"SUPORT: {len(rows)} DOFs of rank {rank} for {r} rigid-body modes (Nastran wants "
             f"as many, statically determinate); the rigid-body modes come from the geometry")
+
+
+def modal_basis_with_rigid(fe, modes, n_total: int | None, notes: list[str]):
+    """Frequencies and shapes of Nastran's modal basis: the rigid-body modes first (0 Hz exactly,
+    :func:`rigid_body_modes`), then the elastic ones, ``n_total`` in all (None:
+    every mode computed). Nastran counts its rigid-body modes among ND and LMODES."""
+    f = np.asarray(modes.frequencies_hz)
+    shapes = np.asarray(modes.shapes)
+    if not modes.n_rigid:
+        return (f, shapes) if n_total is None else (f[:n_total], shapes[:, :n_total])
+    rigid, how = rigid_body_modes(fe, modes)
+    r = rigid.shape[1]
+    n_el = len(f) if n_total is None else max(n_total - r, 0)
+    elastic = orthogonalise_against(shapes[:, :n_el], rigid, fe.mass_matrix())
+    notes.append(f"{r} rigid-body mode(s) kept in the modal basis at 0 Hz ({how}; the "
+                 f"eigensolver gave ω² = "
+                 + ", ".join(f"{x:.2g}" for x in modes.rigid_eigenvalues) + ")")
+    note = suport_note(fe, rigid)
+    if note:
+        notes.append(note)
+    n = r + n_el if n_total is None else min(n_total, r + n_el)
+    return (np.concatenate([np.zeros(r), f[:n_el]])[:n],
+            np.concatenate([rigid, elastic], axis=1)[:, :n])

@@ -139,9 +139,9 @@ class BuiltinFEBackend(FEBackend):
     def modes(self, n: int):
         """The ``n`` lowest modes; a free structure's rigid-body modes first, at 0 Hz, as
         Nastran's SOL 145 keeps them (counted among the ``n``; ``n_rigid`` says how many)."""
-        from ..aero.nastran_flutter import _with_rigid
+        from ..fe.rigid import modal_basis_with_rigid
 
         m = self.fe.modes(n)
-        f, shapes = _with_rigid(self.fe, m, n, [])
+        f, shapes = modal_basis_with_rigid(self.fe, m, n, [])
         self.n_rigid = min(int(m.n_rigid), n)
         return np.asarray(f, float), np.asarray(shapes, float)
