@@ -66,7 +66,7 @@ from .mass import (
     genel_blocks,
 )
 from .mesh import Mesh
-from .rigid_arms import ArmLift, rigid_arms
+from .rigid_arms import ArmLift, linear_rigid_elements, rigid_arms
 
 #: The model option ``rotations``: "large" (co-rotational bending, beams and rod torsion),
 #: "small" (those linear, the paper's heavy Goland wing).
@@ -356,6 +356,8 @@ class FEModel:
                "solid (CHEXA/CPENTA/CTETRA)": sum(len(s) for s in m.solids)}
         if self.rotations == "small":
             out["CBAR/CBEAM"] = len(m.bars)
+        else:
+            out.update(linear_rigid_elements(m))
         return {k: v for k, v in out.items() if v}
 
     def _warn_linear(self) -> None:
@@ -371,8 +373,10 @@ class FEModel:
         else:
             which = ", ".join(f"{n} {k}" for k, n in counts.items())
             text = (f"{self.name}: {which} stay linear in this nonlinear analysis (K u with "
-                    "their small-displacement stiffness): springs act along fixed directions "
-                    "between their grids, and solids have no large-rotation formulation here")
+                    "their small-displacement stiffness, or the linear constraint): springs act "
+                    "along fixed directions between their grids, solids have no large-rotation "
+                    "formulation here, and RBE1/RBAR/RBE3 and RBE2s without translations are "
+                    "eliminated as in a linear analysis")
         warnings.warn(text, LinearElementWarning, stacklevel=3)
 
     def _refuse_offsets(self, what: str) -> None:

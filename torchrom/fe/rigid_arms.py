@@ -12,8 +12,8 @@ rotation R_n = exp([θ_n×]) (the co-rotational layer's total rotation vector,
 
 — the linear elimination T plus a correction c of second order in θ_n (module
 ``lift``). The dependent rotations equal θ_n already (R_m = R_n). Applied to RBE2s whose
-dependent components include the three translations and whose independent grid is not itself
-dependent (a chain stays linear). On the Pazy wing (114 two-grid RBE2s with 9 mm arms from the
+dependent components include the three translations; a chain of them is followed to its root
+(:func:`rigid_arms`). On the Pazy wing (114 two-grid RBE2s with 9 mm arms from the
 spar plate to the beams' neutral axes) the linear arms store a spurious 0.15 J at a rigid
 rotation of 0.1 rad and 12 J at 0.3 rad, more than the 3.5 kg tip mass's bending energy (~5 J),
 and stiffened the 0.5 kg tip deflection by 40 %.
@@ -47,21 +47,51 @@ class RigidArms:
         return len(self.dependent)
 
 
+def _translation_parents(mesh) -> dict[int, int]:
+    """Grid row → the independent grid row of the RBE2 that sets its three translations."""
+    return {m: rb.independent for rb in mesh.rbe2 if {0, 1, 2} <= set(rb.comps)
+            for m in rb.dependent}
+
+
 def rigid_arms(mesh) -> RigidArms | None:
-    """The arms of ``mesh``'s RBE2s (module docstring); None when there is none."""
-    dependent_rows = {m for rb in mesh.rbe2 for m in rb.dependent}
-    dep, ind = [], []
-    for rb in mesh.rbe2:
-        if not {0, 1, 2} <= set(rb.comps) or rb.independent in dependent_rows:
-            continue
-        for m in rb.dependent:
-            if np.any(mesh.xyz[m] != mesh.xyz[rb.independent]):
+    """The arms of ``mesh``'s RBE2s (module docstring); None when there is none.
+
+    A chain (an RBE2 whose independent grid is another's dependent) is followed to its root:
+    exactly, u_m = u_n + (R_n − I)(x_m − x_n) with u_n itself turned by its own independent
+    grid, so m's correction is the sum of one arm per link, each turned by that link's
+    independent rotation (equal to the root's where the links carry rotations). Each link is
+    one (dependent, independent, arm) entry; the lift adds entries with the same dependent.
+    """
+    parent = _translation_parents(mesh)
+    dep, ind, arms = [], [], []
+    for m in sorted(parent):
+        child, n, depth = m, parent[m], 0
+        while True:
+            d = mesh.xyz[child] - mesh.xyz[n]
+            if np.any(d != 0.0):
                 dep.append(m)
-                ind.append(rb.independent)
+                ind.append(n)
+                arms.append(d)
+            if n not in parent:
+                break
+            depth += 1
+            if depth > len(parent):  # a cycle: the constraint builder refuses it
+                break
+            child, n = n, parent[n]
     if not dep:
         return None
-    dep, ind = np.array(dep, dtype=np.int64), np.array(ind, dtype=np.int64)
-    return RigidArms(dep, ind, mesh.xyz[dep] - mesh.xyz[ind])
+    return RigidArms(np.array(dep, dtype=np.int64), np.array(ind, dtype=np.int64),
+                     np.array(arms, dtype=np.float64).reshape(-1, 3))
+
+
+def linear_rigid_elements(mesh) -> dict[str, int]:
+    """Rigid elements whose constraint stays the linear elimination under large rotations:
+    RBE2s that leave a translation free (their arm has no rigid length to keep), RBE1/RBAR
+    (several independent grids) and RBE3 (an interpolation, not a rigid body)."""
+    partial = sum(1 for rb in mesh.rbe2 if not {0, 1, 2} <= set(rb.comps))
+    return {k: v for k, v in {"RBE2 without all three translations": partial,
+                              "RBE1/RBAR": len(mesh.rbe1), "RBE3": len(mesh.rbe3)}.items()
+            if v}
 
 
 def arm_correction(theta: torch.Tensor, d: torch.Tensor) -> torch.Tensor:
