@@ -47,6 +47,7 @@ from ..checks import integer, real
 from ..errors import InputError
 from ..sim.result import SimulationResult
 from ..sim.system import CaseSystem
+from .fourier_certificate import fourier_bound
 from .shooting import OrbitStart, ShootingOptions, shoot, start_from_fourier
 
 #: status of an LCO whose certificate failed and that shooting could not finish
@@ -55,7 +56,8 @@ UNCERTIFIED = "lco_uncertified"
 #: converges quadratically there: one more iteration would move the orbit by ~1e-10)
 FINISH_TOL = 1e-2
 #: the certificate's columns (every row of a certified table has them)
-COLUMNS = ("certified", "orbit_error", "dt_error", "stable", "critical_multiplier",
+COLUMNS = ("certified", "certificate", "orbit_error", "dt_error", "output_error",
+           "frequency_error", "stable", "critical_multiplier", "stability_margin",
            "trivial_multiplier_error", "finished", "shooting_iterations")
 
 
@@ -80,6 +82,9 @@ class Certificate:
             amplitude goes to zero and the discrete map's Hopf point is O(h²) away, the
             relative dt_error of the smallest orbits grows past a few per cent (7.8 % at 1 %
             of the amplitude scale on the subcritical oscillator of ``torchrom branch``).
+        fourier: certify a harmonic-balance row by the Fourier certificate first
+            (:mod:`.fourier_certificate`: a bound on its distance to the continuous-time
+            orbit, no time integration); the shooting certificate takes the rows it fails.
     """
 
     enabled: bool = True
@@ -90,9 +95,10 @@ class Certificate:
     max_iterations: int = 20
     always_finish: bool = False
     dt_tol: float = 0.1
+    fourier: bool = True
 
     def __post_init__(self):
-        for name in ("enabled", "finish", "richardson", "always_finish"):
+        for name in ("enabled", "finish", "richardson", "always_finish", "fourier"):
             if not isinstance(getattr(self, name), bool):
                 raise InputError(f"certificate.{name}: expected true or false, got "
                                  f"{getattr(self, name)!r}")
@@ -140,6 +146,53 @@ def _coarse_amplitude(system: CaseSystem, state: tuple, c, h: float) -> np.ndarr
     return r.start_amplitude * (1 + r.first_amplitude_correction)
 
 
+def _fourier_rows(system: CaseSystem, result: SimulationResult, idx: np.ndarray,
+                  C: np.ndarray, decision: int, tol: float, cols: dict) -> np.ndarray:
+    """Which of the harmonic-balance rows ``idx`` the Fourier certificate certifies
+    (:mod:`.fourier_certificate`; their columns filled in ``cols``): the chord steps contract
+    (κ ≤ 1/2), the decision output's amplitude and the frequency are within ``tol`` of the
+    continuous-time orbit's, and the method's Floquet verdict (the continuous-time
+    monodromy of :mod:`.floquet`) is known with its margin |1 − |μ|| above the monodromy's
+    own accuracy (its trivial multiplier's error)."""
+    ok = np.zeros(idx.size, dtype=bool)
+    extra = result.extra
+    if not all(k in extra for k in ("harmonics", "stable", "floquet_multiplier",
+                                    "floquet_error")):
+        return ok
+    X, w = result.orbits
+    H = np.asarray(extra["harmonics"], dtype=int)[idx]
+    mult = np.asarray(extra["floquet_multiplier"], dtype=float)[idx]
+    ferr = np.asarray(extra["floquet_error"], dtype=float)[idx]
+    stable = np.asarray(extra["stable"], dtype=object)[idx]
+    known = np.array([isinstance(v, (bool, np.bool_)) for v in stable])
+    with np.errstate(invalid="ignore"):
+        resolved = known & (np.abs(1.0 - mult) > ferr)
+    for h in np.unique(H[resolved & (H > 0)]):
+        j = np.flatnonzero(resolved & (H == h))
+        rows = idx[j]
+        bound = fourier_bound(system.select(torch.as_tensor(rows)),
+                              torch.as_tensor(X[rows, : 2 * h + 1]), torch.as_tensor(w[rows]),
+                              C[decision], C)
+        a = np.abs(np.asarray(result.amplitude, dtype=float)[rows])
+        with np.errstate(divide="ignore", invalid="ignore"):
+            rel = np.where(a > 0, bound.output_error / a, np.nan)
+        good = bound.converged & (rel[:, decision] <= tol) & (bound.frequency_error <= tol)
+        ok[j] = good
+        g = rows[good]
+        cols["certified"][g] = True
+        cols["certificate"][g] = "fourier"
+        cols["orbit_error"][g] = rel[good, decision]
+        cols["dt_error"][g] = 0.0  # a distance to the continuous-time orbit itself
+        cols["output_error"][g] = np.nanmax(rel[good], axis=1)
+        cols["frequency_error"][g] = bound.frequency_error[good]
+        cols["stable"][g] = stable[j][good]
+        cols["critical_multiplier"][g] = mult[j][good]
+        cols["stability_margin"][g] = 1.0 - mult[j][good]
+        cols["trivial_multiplier_error"][g] = ferr[j][good]
+        cols["finished"][g] = False
+    return ok
+
+
 def certify(system: CaseSystem, result: SimulationResult, rows, decision: int,
             certificate: Certificate, dt: float) -> SimulationResult:
     """``result`` with the certificate's columns (:data:`COLUMNS`) and, where an orbit was
@@ -150,9 +203,11 @@ def certify(system: CaseSystem, result: SimulationResult, rows, decision: int,
     B = result.batch_size
     C = np.asarray(rows, dtype=float).reshape(-1, system.n)
     c = C[int(decision)]
-    cols = {"certified": np.full(B, None, dtype=object), "orbit_error": np.full(B, np.nan),
-            "dt_error": np.full(B, np.nan), "stable": np.full(B, None, dtype=object),
-            "critical_multiplier": np.full(B, np.nan),
+    cols = {"certified": np.full(B, None, dtype=object),
+            "certificate": np.full(B, None, dtype=object), "orbit_error": np.full(B, np.nan),
+            "dt_error": np.full(B, np.nan), "output_error": np.full(B, np.nan),
+            "frequency_error": np.full(B, np.nan), "stable": np.full(B, None, dtype=object),
+            "critical_multiplier": np.full(B, np.nan), "stability_margin": np.full(B, np.nan),
             "trivial_multiplier_error": np.full(B, np.nan),
             "finished": np.full(B, None, dtype=object),
             "shooting_iterations": np.zeros(B, dtype=np.int64)}
@@ -168,6 +223,13 @@ def certify(system: CaseSystem, result: SimulationResult, rows, decision: int,
     h = float(certificate.dt if certificate.dt is not None else dt)
     if not (h > 0 and math.isfinite(h)):
         raise InputError(f"certificate.dt: expected a positive step, got {h}")
+    continuous = result.orbits is not None
+    if continuous and certificate.fourier and not certificate.always_finish:
+        # a Fourier orbit's own certificate first; the shooting one takes the rest
+        idx = idx[~_fourier_rows(system, result, idx, C, int(decision), certificate.tol, cols)]
+        if idx.size == 0:
+            return dataclasses.replace(result, extra={**result.extra, **cols})
+    cols["certificate"][idx] = "shooting"
     sub = system.select(torch.as_tensor(idx)).to(dtype=torch.float64)
     start = _starts(sub, result, idx, c)
     start.amplitude = torch.as_tensor(amp[idx, decision])
@@ -175,7 +237,6 @@ def certify(system: CaseSystem, result: SimulationResult, rows, decision: int,
     # continuous one, compared with the Richardson extrapolation of the discrete orbits at h
     # and 2h (otherwise an exact continuous orbit would "fail" by the step's own error): the
     # coarse amplitude first, so that the pass at h can accept against it
-    continuous = result.orbits is not None
     dt_error = np.full(idx.size, np.nan)
     if continuous and certificate.richardson:
         a_2h = _coarse_amplitude(sub, _state(start), c, h)
@@ -233,6 +294,7 @@ def certify(system: CaseSystem, result: SimulationResult, rows, decision: int,
     cols["dt_error"][idx] = dt_error
     cols["stable"][idx] = stable
     cols["critical_multiplier"][idx] = critical
+    cols["stability_margin"][idx] = 1.0 - np.abs(critical)
     cols["trivial_multiplier_error"][idx] = trivial
     cols["finished"][idx] = finished
     cols["shooting_iterations"][idx] = iterations
