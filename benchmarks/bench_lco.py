@@ -11,9 +11,12 @@ iterations), ``newmark`` (a 10 %-of-span start on the static manifold, error-con
 ``newmark-fast``, ``hb`` and ``hb-unresolved`` (harmonic balance, with seeding of the LCOs not
 accepted in H), ``shooting`` (the ``hb`` orbits finished to the discrete orbit, every one),
 ``newmark-neighbour`` and ``newmark-hb`` (``--methods``). Every method's LCOs
-are certified as a sweep certifies them (:mod:`torchrom.periodic.certify`: one shooting
+are certified as a sweep certifies them (:mod:`torchrom.periodic.certify`: harmonic-balance
+rows first by the Fourier certificate, :mod:`torchrom.periodic.fourier_certificate`, a bound on
+the distance to the continuous-time orbit without time integration; the others by one shooting
 evaluation each at dt = 1 ms, a shooting finish where the certificate fails, Richardson's
-dt_error), the certificate's CPU time counted in the method's. Reference: the continuous-time
+dt_error), the certificate's CPU time counted in the method's; per case the ``certificate``
+that certified it. Reference: the continuous-time
 orbit, shooting at 1 ms and 2 ms with Richardson (:func:`shooting_reference`); ``--hb-check``
 adds harmonic balance up to H = 25 against it (:func:`hb_reference`). Writes
 ``bench_lco.json``: per method ``cpu_s_per_lco`` and ``cpu_s_per_certified_lco`` (one torch
@@ -48,7 +51,12 @@ from results_io import machine_meta  # noqa: E402
 
 from torchrom.periodic import HarmonicBalanceMethod, HBOptions, solve_orbits  # noqa: E402
 from torchrom.periodic.certify import COLUMNS as CERT_COLUMNS  # noqa: E402
-from torchrom.periodic.certify import FINISH_TOL, Certificate, certify  # noqa: E402
+from torchrom.periodic.certify import (  # noqa: E402
+    FINISH_TOL,
+    Certificate,
+    certify,
+    fourier_rows,
+)
 from torchrom.periodic.seed import (  # noqa: E402
     SEED_HARMONICS,
     merge_seeded,
@@ -312,12 +320,23 @@ def certificate_floor(bench: Bench, run: MethodRun) -> dict:
     rows = np.asarray(bench.model.rom.outputs[OUTPUT])[None]
     lco = int(np.sum(run.result.status == "lco"))
     out = {}
-    for name, cert in (("evaluations_h_2h", dataclasses.replace(CERTIFICATE, finish=False)),
+    for name, cert in (("evaluations_h_2h", dataclasses.replace(CERTIFICATE, finish=False,
+                                                                fourier=False)),
                        ("evaluation_h", dataclasses.replace(CERTIFICATE, finish=False,
-                                                            richardson=False))):
+                                                            richardson=False, fourier=False))):
         _, cpu = _timed(lambda c=cert: certify(bench.system(), run.result, rows, 0, c,
                                                CERTIFICATE_DT))
         out[f"{name}_cpu_s_per_lco"] = cpu / max(lco, 1)
+    if run.result.orbits is not None:
+        # the Fourier certificate alone (torchrom.periodic.fourier_certificate), every LCO
+        idx = np.flatnonzero(run.result.status == "lco")
+        cols = {k: np.full(len(run.result.status), np.nan if k not in (
+            "certified", "certificate", "stable", "finished") else None, dtype=object)
+            for k in CERT_COLUMNS}
+        ok, cpu = _timed(lambda: fourier_rows(bench.system(), run.result, idx, rows, 0,
+                                              CERTIFICATE.tol, cols))
+        out["fourier_cpu_s_per_lco"] = cpu / max(lco, 1)
+        out["fourier_certified"] = int(np.sum(ok))
     return out
 
 
@@ -380,13 +399,23 @@ def summarize(name: str, run: MethodRun, cases: list[dict], ref_amp: np.ndarray,
     dt_err = 100 * np.asarray(cert.get("dt_error", nan), dtype=float)
     certified = np.array([c is True for c in cert.get("certified", [None] * len(cases))])
     stable = list(cert.get("stable", [None] * len(cases)))
+    kind = list(cert.get("certificate", [None] * len(cases)))
+    fourier = np.array([k == "fourier" for k in kind])
     # the certificate must bound the measured error: its estimates are first order (one Newton
     # evaluation at h and one at 2h; 5 % slack) and it resolves nothing below a finish's own
     # stopping point, FINISH_TOL × tol in relative amplitude (1e-5: a finished orbit is placed
     # no closer). Measured on the newmark rows: the one-evaluation estimates are within 5–25 %
     # of the converged distances, which at corrections of ~1e-5 is ~1e-6 — below that floor
     resolution = 100 * FINISH_TOL * CERTIFICATE.tol
-    bounded = np.where(certified, amp_err <= 1.05 * (orbit_err + dt_err) + resolution, True)
+    # a Fourier certificate bounds the distance to the continuous-time orbit itself (no 5 %
+    # slack, no finish): the reference's own error (Richardson on the discrete orbits, below
+    # 1e-5 relative on the damped orbits it certifies) is the only allowance
+    fourier_ok = (amp_err <= orbit_err + resolution) & (
+        freq_err <= 100 * np.asarray(cert.get("frequency_error", nan), dtype=float)
+        + resolution)
+    bounded = np.where(certified, np.where(fourier, fourier_ok,
+                                           amp_err <= 1.05 * (orbit_err + dt_err) + resolution),
+                       True)
     rows = [{**{k: v for k, v in c.items() if k != "alpha"}, "status": str(run.status[i]),
              "amplitude": float(run.amplitude[i]), "frequency_hz": float(run.frequency_hz[i]),
              "reference_amplitude": float(ref_amp[i]), "reference_frequency_hz":
@@ -398,7 +427,12 @@ def summarize(name: str, run: MethodRun, cases: list[dict], ref_amp: np.ndarray,
              "stable": None if stable[i] is None else bool(stable[i]),
              "critical_multiplier": float(np.asarray(cert.get("critical_multiplier", nan))[i]),
              "finished_by_shooting": bool(cert.get("finished", [False] * len(cases))[i]
-                                          is True)}
+                                          is True),
+             "certificate": kind[i],
+             "frequency_error_bound_pct": float(100 * np.asarray(
+                 cert.get("frequency_error", nan), dtype=float)[i]),
+             "stability_margin": float(np.asarray(cert.get("stability_margin", nan),
+                                                  dtype=float)[i])}
             for i, c in enumerate(cases)]
     n_lco = int(lco.sum())
     n_cert = int(certified.sum())
@@ -412,6 +446,7 @@ def summarize(name: str, run: MethodRun, cases: list[dict], ref_amp: np.ndarray,
             "max_orbit_error_pct": float(np.nanmax(np.where(certified, orbit_err, np.nan)))
             if n_cert else float("nan"),
             "certificates_bound_errors": bool(bounded.all()),
+            "fourier_certified": int((fourier & certified).sum()),
             "stability_unknown": int(sum(1 for i in range(len(cases))
                                          if lco[i] and stable[i] is None)),
             "cases": rows}
@@ -470,13 +505,18 @@ def main(argv=None) -> int:
               f"orbit: amplitude {m['max_amplitude_error_pct']:.3f} %, frequency "
               f"{m['max_frequency_error_pct']:.3f} %; max orbit_error "
               f"{m['max_orbit_error_pct']:.3f} %; certificates bound the errors: "
-              f"{m['certificates_bound_errors']}; stability unknown: {m['stability_unknown']}")
+              f"{m['certificates_bound_errors']}; stability unknown: {m['stability_unknown']}; "
+              f"Fourier-certified {m['fourier_certified']}, certificate CPU "
+              f"{m['certificate_cpu_s']:.2f} s of {m['cpu_s']:.2f} s")
     floor["largest_ratio_vs_reference_method"] = base / floor[
         "evaluations_h_2h_cpu_s_per_lco"]
     print(f"certificate floor: {floor['evaluations_h_2h_cpu_s_per_lco']:.4f} CPU s per LCO "
           f"(one evaluation at h and at 2h, no finish; at h alone "
           f"{floor['evaluation_h_cpu_s_per_lco']:.4f}): no certified method can be more than "
-          f"x{floor['largest_ratio_vs_reference_method']:.1f} faster than newmark-reference")
+          f"x{floor['largest_ratio_vs_reference_method']:.1f} faster than newmark-reference "
+          f"with the shooting certificate; the Fourier certificate alone: "
+          f"{floor.get('fourier_cpu_s_per_lco', float('nan')):.4f} CPU s per LCO, "
+          f"{floor.get('fourier_certified', 0)} certified")
     meta = machine_meta(quick=args.quick, device=args.device, threads=1, output=OUTPUT,
                         cases=len(bench.cases),
                         reference="the continuous-time orbit: shooting on the discrete Newmark "

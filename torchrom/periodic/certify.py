@@ -146,7 +146,7 @@ def _coarse_amplitude(system: CaseSystem, state: tuple, c, h: float) -> np.ndarr
     return r.start_amplitude * (1 + r.first_amplitude_correction)
 
 
-def _fourier_rows(system: CaseSystem, result: SimulationResult, idx: np.ndarray,
+def fourier_rows(system: CaseSystem, result: SimulationResult, idx: np.ndarray,
                   C: np.ndarray, decision: int, tol: float, cols: dict) -> np.ndarray:
     """Which of the harmonic-balance rows ``idx`` the Fourier certificate certifies
     (:mod:`.fourier_certificate`; their columns filled in ``cols``): the chord steps contract
@@ -226,7 +226,7 @@ def certify(system: CaseSystem, result: SimulationResult, rows, decision: int,
     continuous = result.orbits is not None
     if continuous and certificate.fourier and not certificate.always_finish:
         # a Fourier orbit's own certificate first; the shooting one takes the rest
-        idx = idx[~_fourier_rows(system, result, idx, C, int(decision), certificate.tol, cols)]
+        idx = idx[~fourier_rows(system, result, idx, C, int(decision), certificate.tol, cols)]
         if idx.size == 0:
             return dataclasses.replace(result, extra={**result.extra, **cols})
     cols["certificate"][idx] = "shooting"
