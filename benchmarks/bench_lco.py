@@ -87,6 +87,16 @@ class Bench:
     device: str = "cpu"
     dtype: torch.dtype = torch.float64
 
+    @property
+    def outputs(self) -> list[str]:
+        """Every output of the ROM, the decision output :data:`OUTPUT` first."""
+        return list(dict.fromkeys([OUTPUT, *self.model.rom.outputs]))
+
+    @property
+    def rows(self) -> np.ndarray:
+        """(O, n) the rows of :attr:`outputs`."""
+        return np.stack([np.asarray(self.model.rom.outputs[o]) for o in self.outputs])
+
     def system(self, cases=None):
         return case_system(self.model, self.cases if cases is None else cases,
                            torch.device(self.device), self.dtype)[0]
@@ -112,6 +122,8 @@ class MethodRun:
     always_finish: bool = False
     #: the CPU seconds of the certificate (evaluations and finishes), part of ``cpu_s``
     certificate_cpu_s: float = 0.0
+    #: (B, O) the amplitude of every output of :attr:`Bench.outputs` (``amplitude``: the first)
+    amplitudes: np.ndarray | None = None
 
 
 def _timed(fn: Callable[[], object]) -> tuple[object, float]:
@@ -126,11 +138,11 @@ def _marched(bench: Bench, integ: Newmark, initial: dict, lco: LCOCriteria = PAP
     rom = bench.model.rom
 
     def run(sub, q0, v0, xi0, _index):
-        return integ.run(sub, q0, v0, xi0, t_end=T_END, outputs=[OUTPUT], lco=lco)
+        return integ.run(sub, q0, v0, xi0, t_end=T_END, outputs=bench.outputs, lco=lco)
 
     res, cpu = _timed(lambda: march(bench.system(), rom, bench.cases, initial, run))
     return MethodRun(res.amplitude[:, 0], res.frequency_hz, res.status, res.steps, res.time,
-                     cpu, res.q, res.v, res.xi, res)
+                     cpu, res.q, res.v, res.xi, res, amplitudes=res.amplitude)
 
 
 # ----------------------------------------------------------------------------------------------
@@ -202,13 +214,13 @@ def harmonic_balance(bench: Bench, seed: str = "unconverged",
 
     def run():
         chains, positions = neighbour_chains(bench.cases)
-        return method.run(bench.system(), outputs=[OUTPUT], lco=PAPER_LCO, chains=chains,
+        return method.run(bench.system(), outputs=bench.outputs, lco=PAPER_LCO, chains=chains,
                           positions=positions)
 
     res, cpu = _timed(run)
     nan = np.full(len(bench.cases), np.nan)
     return MethodRun(res.amplitude[:, 0], res.frequency_hz, res.status, res.steps, nan, cpu,
-                     res.q, res.v, None, res)
+                     res.q, res.v, None, res, amplitudes=res.amplitude)
 
 
 def shooting(bench: Bench) -> MethodRun:
@@ -301,11 +313,12 @@ CERTIFICATE_DT = 1e-3
 def certified(bench: Bench, run: MethodRun) -> MethodRun:
     """``run`` with every LCO certified (finished by shooting where its certificate fails,
     ``lco_uncertified`` where that fails too), the CPU time of the certificate added."""
-    rows = np.asarray(bench.model.rom.outputs[OUTPUT])[None]
+    rows = bench.rows
     cert = dataclasses.replace(CERTIFICATE, always_finish=run.always_finish)
     res, cpu = _timed(lambda: certify(bench.system(), run.result, rows, 0, cert,
                                       CERTIFICATE_DT))
-    return dataclasses.replace(run, amplitude=res.amplitude[:, 0], frequency_hz=res.frequency_hz,
+    return dataclasses.replace(run, amplitude=res.amplitude[:, 0], amplitudes=res.amplitude,
+                               frequency_hz=res.frequency_hz,
                                status=res.status, cpu_s=run.cpu_s + cpu, result=res,
                                certificate={k: res.extra[k] for k in CERT_COLUMNS},
                                certificate_cpu_s=cpu)
@@ -317,7 +330,7 @@ def certificate_floor(bench: Bench, run: MethodRun) -> dict:
     certified LCO costs at least, whatever method found it — and so the largest speed-up over
     ``newmark-reference`` a method can reach even if it found its orbits for free and none
     needed a finish."""
-    rows = np.asarray(bench.model.rom.outputs[OUTPUT])[None]
+    rows = bench.rows
     lco = int(np.sum(run.result.status == "lco"))
     out = {}
     for name, cert in (("evaluations_h_2h", dataclasses.replace(CERTIFICATE, finish=False,
@@ -341,14 +354,15 @@ def certificate_floor(bench: Bench, run: MethodRun) -> dict:
 
 
 def shooting_reference(bench: Bench, start: MethodRun) -> tuple[np.ndarray, np.ndarray, dict]:
-    """(amplitude, frequency, meta): the continuous-time orbit of every case by shooting on the
+    """(amplitude (B, O), frequency, meta): the continuous-time orbit of every case (every output
+    of :attr:`Bench.outputs`) by shooting on the
     discrete Newmark map at h = 1 ms and 2 ms from ``start``'s certified orbits and Richardson
     extrapolation (Newmark is second order): A = A(h) + (A(h) − A(2h))/3 — the steps of the
     certificate. (At 0.5 ms the 7,000 ft, γ = 0 case converged to an orbit 0.3 % below the
     1 ms one with another critical multiplier, 0.970 against 0.989: the near-resonant γ = 0
     orbits are not in Newmark's asymptotic range at every step; see the closing note.)"""
     system = bench.system()
-    rows = np.asarray(system.rom.outputs[OUTPUT])
+    rows = bench.rows[0]
     res = start.result
     ok = np.flatnonzero(np.isin(res.status, ("lco", "lco_uncertified")))
     t = torch.as_tensor(ok)
@@ -364,17 +378,19 @@ def shooting_reference(bench: Bench, start: MethodRun) -> tuple[np.ndarray, np.n
         x = start_from_fourier(sub, torch.as_tensor(X[ok]), torch.as_tensor(w[ok]), rows)
     out = {}
     for h in (1e-3, 2e-3):
-        r = shoot(sub, x, rows, options=ShootingOptions(dt=h, max_iterations=30))
+        r = shoot(sub, x, rows, rows=bench.rows,
+                  options=ShootingOptions(dt=h, max_iterations=30))
         out[h] = r
         x = r.start()
-    a1, a2 = out[1e-3].amplitude[:, 0], out[2e-3].amplitude[:, 0]
+    a1, a2 = out[1e-3].amplitude, out[2e-3].amplitude  # (m, O)
     f1, f2 = out[1e-3].frequency_hz, out[2e-3].frequency_hz
     conv = out[1e-3].converged & out[2e-3].converged
-    amp = np.full(len(bench.cases), np.nan)
+    amp = np.full((len(bench.cases), a1.shape[1]), np.nan)
     freq = np.full(len(bench.cases), np.nan)
-    amp[ok] = np.where(conv, a1 + (a1 - a2) / 3, np.nan)
+    amp[ok] = np.where(conv[:, None], a1 + (a1 - a2) / 3, np.nan)
     freq[ok] = np.where(conv, f1 + (f1 - f2) / 3, np.nan)
-    meta = {"richardson_amplitude_change_pct": [float(v) for v in 100 * (a1 / a2 - 1)],
+    meta = {"richardson_amplitude_change_pct": [float(v) for v in 100 * (a1[:, 0] / a2[:, 0]
+                                                                         - 1)],
             "stable": [None if s is None else bool(s) for s in out[1e-3].stable],
             "critical_multiplier": [float(v) for v in out[1e-3].critical_multiplier]}
     return amp, freq, meta
@@ -389,9 +405,15 @@ def case_set(quick: bool) -> list[dict]:
 
 
 def summarize(name: str, run: MethodRun, cases: list[dict], ref_amp: np.ndarray,
-              ref_freq: np.ndarray) -> dict:
+              ref_freq: np.ndarray, outputs: list[str]) -> dict:
+    """The method's row: CPU, certification and errors against the reference; ``ref_amp``
+    (B, O) for every output of ``outputs``, the decision output first (a Fourier-certified
+    row's ``output_error`` must bound every one of them)."""
     lco = run.status == "lco"
-    amp_err = np.where(lco, 100 * np.abs(run.amplitude / ref_amp - 1), np.inf)
+    amps = run.amplitudes if run.amplitudes is not None else run.amplitude[:, None]
+    out_err = np.where(lco[:, None], 100 * np.abs(amps / ref_amp[:, : amps.shape[1]] - 1),
+                       np.inf)  # (B, O): every output's
+    amp_err = out_err[:, 0]
     freq_err = np.where(lco, 100 * np.abs(run.frequency_hz / ref_freq - 1), np.inf)
     cert = run.certificate or {}
     nan = np.full(len(cases), np.nan)
@@ -410,7 +432,9 @@ def summarize(name: str, run: MethodRun, cases: list[dict], ref_amp: np.ndarray,
     # a Fourier certificate bounds the distance to the continuous-time orbit itself (no 5 %
     # slack, no finish): the reference's own error (Richardson on the discrete orbits, below
     # 1e-5 relative on the damped orbits it certifies) is the only allowance
+    output_bound = 100 * np.asarray(cert.get("output_error", nan), dtype=float)
     fourier_ok = (amp_err <= orbit_err + resolution) & (
+        out_err <= output_bound[:, None] + resolution).all(axis=1) & (
         freq_err <= 100 * np.asarray(cert.get("frequency_error", nan), dtype=float)
         + resolution)
     bounded = np.where(certified, np.where(fourier, fourier_ok,
@@ -418,7 +442,7 @@ def summarize(name: str, run: MethodRun, cases: list[dict], ref_amp: np.ndarray,
                        True)
     rows = [{**{k: v for k, v in c.items() if k != "alpha"}, "status": str(run.status[i]),
              "amplitude": float(run.amplitude[i]), "frequency_hz": float(run.frequency_hz[i]),
-             "reference_amplitude": float(ref_amp[i]), "reference_frequency_hz":
+             "reference_amplitude": float(ref_amp[i, 0]), "reference_frequency_hz":
              float(ref_freq[i]), "amplitude_error_pct": float(amp_err[i]),
              "frequency_error_pct": float(freq_err[i]), "steps": int(run.steps[i]),
              "simulated_s": float(run.time_s[i]), "certified": bool(certified[i]),
@@ -429,6 +453,8 @@ def summarize(name: str, run: MethodRun, cases: list[dict], ref_amp: np.ndarray,
              "finished_by_shooting": bool(cert.get("finished", [False] * len(cases))[i]
                                           is True),
              "certificate": kind[i],
+             "output_errors_pct": {o: float(out_err[i, j]) for j, o in enumerate(outputs)},
+             "output_error_bound_pct": float(output_bound[i]),
              "frequency_error_bound_pct": float(100 * np.asarray(
                  cert.get("frequency_error", nan), dtype=float)[i]),
              "stability_margin": float(np.asarray(cert.get("stability_margin", nan),
@@ -443,6 +469,8 @@ def summarize(name: str, run: MethodRun, cases: list[dict], ref_amp: np.ndarray,
             "steps_per_lco": float(run.steps.sum() / n_lco) if n_lco else float("inf"),
             "max_amplitude_error_pct": float(np.nanmax(amp_err)),
             "max_frequency_error_pct": float(np.nanmax(freq_err)),
+            "max_output_error_pct": {o: float(np.nanmax(out_err[:, j]))
+                                     for j, o in enumerate(outputs)},
             "max_orbit_error_pct": float(np.nanmax(np.where(certified, orbit_err, np.nan)))
             if n_cert else float("nan"),
             "certificates_bound_errors": bool(bounded.all()),
@@ -485,7 +513,8 @@ def main(argv=None) -> int:
     # orbits of the most accurate method run
     best = next(m for m in ("hb-unresolved", "hb", "newmark", "newmark-reference") if m in runs)
     ref_amp, ref_freq, ref_meta = shooting_reference(bench, runs[best])
-    methods = [summarize(name, runs[name], bench.cases, ref_amp, ref_freq) for name in runs]
+    methods = [summarize(name, runs[name], bench.cases, ref_amp, ref_freq, bench.outputs)
+               for name in runs]
     floor = certificate_floor(bench, runs[best])
     check = None
     if args.hb_check:
@@ -493,8 +522,8 @@ def main(argv=None) -> int:
         for c in check:
             i = next(j for j, k in enumerate(bench.cases) if k["altitude_ft"] ==
                      c["altitude_ft"] and k["gamma"] == c["gamma"])
-            c["shooting_reference_amplitude"] = float(ref_amp[i])
-            c["hb_vs_shooting_reference_pct"] = float(100 * (c["hb_amplitude"] / ref_amp[i]
+            c["shooting_reference_amplitude"] = float(ref_amp[i, 0])
+            c["hb_vs_shooting_reference_pct"] = float(100 * (c["hb_amplitude"] / ref_amp[i, 0]
                                                              - 1))
     base = methods[0]["cpu_s_per_certified_lco"]
     for m in methods:

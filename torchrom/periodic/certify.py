@@ -47,6 +47,7 @@ from ..checks import integer, real
 from ..errors import InputError
 from ..sim.result import SimulationResult
 from ..sim.system import CaseSystem
+from .floquet import condensed_multiplier
 from .fourier_certificate import fourier_bound
 from .shooting import OrbitStart, ShootingOptions, shoot, start_from_fourier
 
@@ -153,7 +154,9 @@ def fourier_rows(system: CaseSystem, result: SimulationResult, idx: np.ndarray,
     (κ ≤ 1/2), the decision output's amplitude and the frequency are within ``tol`` of the
     continuous-time orbit's, and the method's Floquet verdict (the continuous-time
     monodromy of :mod:`.floquet`) is known with its margin |1 − |μ|| above the monodromy's
-    own accuracy (its trivial multiplier's error)."""
+    own accuracy (its trivial multiplier's error). The row's critical multiplier and margin
+    include the dual coordinates the monodromy condensed
+    (:func:`~.floquet.condensed_multiplier`)."""
     ok = np.zeros(idx.size, dtype=bool)
     extra = result.extra
     if not all(k in extra for k in ("harmonics", "stable", "floquet_multiplier",
@@ -179,6 +182,11 @@ def fourier_rows(system: CaseSystem, result: SimulationResult, idx: np.ndarray,
         good = bound.converged & (rel[:, decision] <= tol) & (bound.frequency_error <= tol)
         ok[j] = good
         g = rows[good]
+        # the continuous-time system's critical multiplier: the slow state's (the method's
+        # monodromy) or that of the dual coordinates it condensed, whichever is larger
+        crit = np.maximum(mult[j][good], condensed_multiplier(
+            system.select(torch.as_tensor(g)).to(dtype=torch.float64),
+            torch.as_tensor(X[g, : 2 * h + 1]), torch.as_tensor(w[g])))
         cols["certified"][g] = True
         cols["certificate"][g] = "fourier"
         cols["orbit_error"][g] = rel[good, decision]
@@ -186,8 +194,8 @@ def fourier_rows(system: CaseSystem, result: SimulationResult, idx: np.ndarray,
         cols["output_error"][g] = np.nanmax(rel[good], axis=1)
         cols["frequency_error"][g] = bound.frequency_error[good]
         cols["stable"][g] = stable[j][good]
-        cols["critical_multiplier"][g] = mult[j][good]
-        cols["stability_margin"][g] = 1.0 - mult[j][good]
+        cols["critical_multiplier"][g] = crit
+        cols["stability_margin"][g] = 1.0 - crit
         cols["trivial_multiplier_error"][g] = ferr[j][good]
         cols["finished"][g] = False
     return ok
