@@ -190,6 +190,7 @@ def condensed_multiplier(system: CaseSystem, X: Tensor, omega: Tensor) -> np.nda
     B = X.shape[0]
     if not condensable(system, omega, duals):
         return np.zeros(B)
+    X, omega = X.to(system.device, system.dtype), omega.to(system.device, system.dtype)
     hb = HarmonicBalance(system, (X.shape[1] - 1) // 2)
     _, Kn, Cn = hb.nonlinear_tangents(*hb.samples(X, omega))
     d = duals

@@ -197,11 +197,11 @@ def fourier_bound(system: CaseSystem, X: Tensor, omega: Tensor, phase_row, rows
     float64) to the continuous-time orbits of ``system`` (module docstring); ``phase_row``
     (n,): the output row of the orbits' phase condition (the decision output); ``rows``
     (O, n): the reported outputs."""
-    X = X.to(torch.float64)
-    omega = omega.to(torch.float64)
     system = system.to(dtype=torch.float64)
-    r = torch.as_tensor(np.asarray(phase_row, dtype=float)).reshape(-1)
-    C = torch.as_tensor(np.asarray(rows, dtype=float)).reshape(-1, system.n)
+    f64 = {"dtype": torch.float64, "device": system.device}
+    X, omega = X.to(**f64), omega.to(**f64)
+    r = torch.as_tensor(np.asarray(phase_row, dtype=float), **f64).reshape(-1)
+    C = torch.as_tensor(np.asarray(rows, dtype=float), **f64).reshape(-1, system.n)
     H = (X.shape[1] - 1) // 2
     coupled = coupled_harmonics(H)
     step = _ChordStep(system, X, omega, r, coupled)
@@ -218,7 +218,7 @@ def fourier_bound(system: CaseSystem, X: Tensor, omega: Tensor, phase_row, rows
     # through the state norm (|c·δQ_k| ≤ ‖c‖₂ ‖δQ_k‖₂)
     rest = eta * kantorovich_excess(kappa.clamp(max=MAX_CONTRACTION))
     out = sup_norm_bound(d0, C) + C.norm(dim=1)[None, :] * rest[:, None]
-    eye = torch.eye(system.n, dtype=X.dtype)
+    eye = torch.eye(system.n, **f64)
     coord = sup_norm_bound(d0, eye) + rest[:, None]
     freq = (dw0 / omega).abs() + rest / size.clamp_min(torch.finfo(X.dtype).tiny)
     high = d0.clone()
