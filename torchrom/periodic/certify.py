@@ -184,6 +184,8 @@ def fourier_rows(system: CaseSystem, result: SimulationResult, idx: np.ndarray,
         good = bound.converged & (rel[:, decision] <= tol) & (bound.frequency_error <= tol)
         ok[j] = good
         g = rows[good]
+        if g.size == 0:
+            continue
         # the continuous-time system's critical multiplier: the slow state's (the method's
         # monodromy) or that of the dual coordinates it condensed, whichever is larger
         crit = np.maximum(mult[j][good], condensed_multiplier(
