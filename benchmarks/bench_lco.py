@@ -558,7 +558,11 @@ def main(argv=None) -> int:
                         certificate_floor=floor,
                         bound_check="error <= 1.05 (orbit_error + dt_error) + "
                         f"{100 * FINISH_TOL * CERTIFICATE.tol:g} % (the certificate's "
-                        "resolution, FINISH_TOL x tol)")
+                        "resolution, FINISH_TOL x tol) for a shooting-certified row; for a "
+                        "Fourier-certified row every output's amplitude error <= output_error "
+                        "and the frequency error <= frequency_error, each + "
+                        f"{100 * FINISH_TOL * CERTIFICATE.tol:g} % (the reference's own "
+                        "resolution)")
     args.out.mkdir(parents=True, exist_ok=True)
     path = args.out / "bench_lco.json"
     path.write_text(json.dumps({"meta": meta, "methods": methods}, indent=1, default=float)
