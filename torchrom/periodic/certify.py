@@ -1,5 +1,10 @@
 """A certificate for every LCO, whatever method found it: one shooting evaluation from its orbit.
 
+A harmonic-balance row is first offered to the Fourier certificate (:func:`fourier_rows`,
+:mod:`.fourier_certificate`: a bound on its distance to the continuous-time orbit, no time
+integration; ``certificate`` "fourier"); the rows it refuses and every time-marching row
+carry the shooting certificate below (``certificate`` "shooting").
+
 For each LCO row of a :class:`~torchrom.sim.SimulationResult` (harmonic balance orbits, or the
 final state of a time integration) the discrete periodic orbit of the Newmark map at the
 certificate's step h (:mod:`.shooting`) is evaluated once from the method's orbit:
