@@ -280,7 +280,11 @@ def _floor_sentence(floor: dict[str, float]) -> str:
             f"{floor['evaluations_h_2h_cpu_s_per_lco']:.3f} CPU s per LCO "
             f"({floor['evaluation_h_cpu_s_per_lco']:.3f} at h alone): no certified method can "
             f"be more than {floor['largest_ratio_vs_reference_method']:.1f}× faster than "
-            "`newmark-reference`, however it finds its orbits. ")
+            "`newmark-reference` with the shooting certificate, however it finds its orbits. "
+            + (f"The Fourier certificate alone (harmonic-balance orbits, no time integration) "
+               f"costs {floor['fourier_cpu_s_per_lco']:.3f} CPU s per LCO and certified "
+               f"{floor['fourier_certified']} of the reference method's orbits. "
+               if "fourier_cpu_s_per_lco" in floor else ""))
 
 
 def block_perf_lco(res: dict[str, Any]) -> str:
@@ -288,7 +292,8 @@ def block_perf_lco(res: dict[str, Any]) -> str:
     out = ["| method | certified LCOs | CPU s per certified LCO (certificate included) | "
            "speed-up vs `newmark-reference` | amplitude / frequency error vs the continuous "
            "orbit % | largest orbit_error % | certificates bound the errors | stability "
-           "unknown |", "|---|---|---|---|---|---|---|---|"]
+           "unknown | Fourier-certified | certificate CPU s |",
+           "|---|---|---|---|---|---|---|---|---|---|"]
     for m in res["methods"]:
         out.append(f"| `{m['method']}` | {m['certified']} of {m['lco_cases']} | "
                    f"{m['cpu_s_per_certified_lco']:.3f} | "
@@ -296,7 +301,8 @@ def block_perf_lco(res: dict[str, Any]) -> str:
                    f"{m['max_amplitude_error_pct']:.3f} / {m['max_frequency_error_pct']:.3f} | "
                    f"{m['max_orbit_error_pct']:.3f} | "
                    f"{'yes' if m['certificates_bound_errors'] else 'no'} | "
-                   f"{m['stability_unknown']} |")
+                   f"{m['stability_unknown']} | {m.get('fourier_certified', 0)} | "
+                   f"{m['certificate_cpu_s']:.2f} of {m['cpu_s']:.2f} |")
     return "\n".join([*out, "", f"{meta['cases']} cases, output {meta['output']}; reference: "
                        f"{meta['reference']}. An uncertified LCO counts as an infinite error. "
                        + (f"A certificate bounds a row's error when {meta['bound_check']}. "

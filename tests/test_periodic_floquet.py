@@ -102,3 +102,25 @@ def test_condensed_dual_coordinates_match_the_full_monodromy():
     assert np.allclose(fl.critical_modulus, full.critical_modulus, rtol=1e-3)
     assert (fl.critical_modulus < 1).all() and fl.stable.all()
     assert (fl.trivial_error < 1e-3).all()
+
+
+def test_the_condensed_dual_coordinate_decays_as_its_own_linear_block():
+    """The typical section's stiff dual coordinate u (mass m_u, stiffness k_u, no tangent on its
+    own row and column: its strain couples it to the plunge only) at γ = 0 is damped by α M
+    alone: its multiplier over one LCO period is exp(−α T / 2) exactly (closed form)."""
+    from torchrom.periodic import HarmonicBalanceMethod
+    from torchrom.periodic.floquet import condensed_multiplier
+    from torchrom.study.cases import case_system
+
+    from .aeroelastic_fixtures import section_model
+
+    alpha = 0.05
+    system = case_system(section_model(), [{"altitude_ft": 6000.0, "gamma": 0.0,
+                                            "alpha": alpha}])[0]
+    res = HarmonicBalanceMethod(stability=False).run(system, outputs=["A_Tz"],
+                                                     lco=LCOCriteria(max_amplitude=10.0))
+    assert list(res.status) == ["lco"]
+    X, w = (torch.as_tensor(a) for a in res.orbits)
+    mu = condensed_multiplier(system.to(dtype=torch.float64), X, w)
+    period = 2 * math.pi / float(w[0])
+    assert abs(mu[0] - math.exp(-alpha * period / 2)) < 1e-12

@@ -159,11 +159,19 @@ class HarmonicBalance:
         self.load = system.load
         self.n_lag = system.n_lag
         self.k = torch.arange(1, self.H + 1, device=dev, dtype=dt)
-        # the Jacobian's projections of the sample-wise tangents: [P E | P E'] (nh², 2N)
-        b = self.basis
-        PE = (b.P[:, None, :] * b.E.T[None, :, :]).reshape(self.nh * self.nh, b.N)
-        PdE = (b.P[:, None, :] * b.dE.T[None, :, :]).reshape(self.nh * self.nh, b.N)
-        self._PE = torch.cat([PE, PdE], dim=1)
+        self._projections: Tensor | None = None
+
+    @property
+    def _PE(self) -> Tensor:
+        """The Jacobian's projections of the sample-wise tangents: [P E | P E'] (nh², 2N),
+        built on first use (residual-only equations at many harmonics, e.g. the Fourier
+        certificate's at 9H, never need them: nh²·2N grows as H³)."""
+        if self._projections is None:
+            b = self.basis
+            PE = (b.P[:, None, :] * b.E.T[None, :, :]).reshape(self.nh * self.nh, b.N)
+            PdE = (b.P[:, None, :] * b.dE.T[None, :, :]).reshape(self.nh * self.nh, b.N)
+            self._projections = torch.cat([PE, PdE], dim=1)
+        return self._projections
 
     # -- sizes -----------------------------------------------------------------------------------
     @property

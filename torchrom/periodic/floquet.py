@@ -179,6 +179,33 @@ def condensable(system: CaseSystem, omega: Tensor, duals: Tensor) -> bool:
     return bool((slowest >= CONDENSE_RATIO * 2 * omega.abs().max()).item())
 
 
+def condensed_multiplier(system: CaseSystem, X: Tensor, omega: Tensor) -> np.ndarray:
+    """(B,) the largest |μ| of the dual coordinates that the monodromy condenses (0 where it
+    condenses none): their own free decay over one period, exp(Re λ · T), λ the eigenvalues of
+    [[0, I], [−M⁻¹K̄, −M⁻¹C̄]] on the dual block with the orbit's mean tangents K̄, C̄ (they
+    are at least :data:`CONDENSE_RATIO` × 2ω, so they see the tangents' average). The slow
+    state's multipliers leave these out; lightly damped dual coordinates (γ = 0: only α M)
+    sit close to the unit circle, and the continuous-time system's margin is theirs."""
+    duals = dual_coordinates(system)
+    B = X.shape[0]
+    if not condensable(system, omega, duals):
+        return np.zeros(B)
+    X, omega = X.to(system.device, system.dtype), omega.to(system.device, system.dtype)
+    hb = HarmonicBalance(system, (X.shape[1] - 1) // 2)
+    _, Kn, Cn = hb.nonlinear_tangents(*hb.samples(X, omega))
+    d = duals
+    K = (hb.Kl + Kn.mean(dim=1))[:, d][:, :, d]
+    C = (hb.C0 + Cn.mean(dim=1))[:, d][:, :, d]
+    Minv = torch.linalg.inv(hb.Mt[:, d][:, :, d])
+    nd = d.numel()
+    A = X.new_zeros(B, 2 * nd, 2 * nd)
+    A[:, :nd, nd:] = torch.eye(nd, dtype=X.dtype, device=X.device)
+    A[:, nd:, :nd] = -Minv @ K
+    A[:, nd:, nd:] = -Minv @ C
+    growth = torch.linalg.eigvals(A).real.amax(dim=1)
+    return torch.exp(growth * 2 * math.pi / omega).cpu().numpy()
+
+
 def _condensed_matrices(hb: HarmonicBalance, X: Tensor, omega: Tensor, tau: Tensor,
                         duals: Tensor, tangents: tuple[Tensor, Tensor]
                         ) -> tuple[Tensor, Tensor]:

@@ -190,12 +190,42 @@ def _max_magnitude(A: Tensor, dim: int) -> Tensor:
     return torch.maximum(A.amax(dim=dim), A.amin(dim=dim).neg())
 
 
-def equilibrated_solve(A: Tensor, b: Tensor) -> tuple[Tensor, Tensor, Tensor]:
-    """(x, ok, sign det A) of the batched systems A x = b (A (B, m, m), b (B, m)), with rows and
-    then columns scaled to unit largest entry before the LU (the force rows of stiff dual
-    coordinates are orders above the others, their unknowns orders below). A case whose system
-    is not finite, singular or whose LU fails gets x = 0 and ok = False, and never disturbs
-    the others (its matrix is replaced by the identity before the batched factorisation)."""
+@dataclass
+class EquilibratedLU:
+    """The LU factors of batched matrices A (B, m, m) with rows and then columns scaled to
+    unit largest entry (:func:`equilibrated_lu`), for any number of right-hand sides."""
+
+    lu: Tensor
+    piv: Tensor
+    row: Tensor
+    col: Tensor
+    ok: Tensor
+
+    def solve(self, b: Tensor) -> tuple[Tensor, Tensor]:
+        """(x, ok) of A x = b (b (B, m)); x = 0 where the case failed."""
+        finite = torch.isfinite(b).all(dim=1)
+        b = torch.where(finite[:, None], b, torch.zeros_like(b)) / self.row
+        with single_thread():
+            x = torch.linalg.lu_solve(self.lu, self.piv, b[..., None])[..., 0] / self.col
+        ok = self.ok & finite & torch.isfinite(x).all(dim=1)
+        return torch.where(ok[:, None], x, torch.zeros_like(x)), ok
+
+    @property
+    def det_sign(self) -> Tensor:
+        """sign(det A) (the equilibration factors are positive): Π sign(U_ii) · (−1)^swaps."""
+        m = self.lu.shape[-1]
+        swaps = (self.piv != torch.arange(1, m + 1, device=self.piv.device,
+                                          dtype=self.piv.dtype)).sum(1)
+        return torch.sign(self.lu.diagonal(dim1=1, dim2=2)).prod(1) * (
+            1.0 - 2.0 * (swaps % 2)).to(self.lu.dtype)
+
+
+def equilibrated_lu(A: Tensor) -> EquilibratedLU:
+    """The factors of A (B, m, m) with rows and then columns scaled to unit largest entry
+    before the LU (the force rows of stiff dual coordinates are orders above the others, their
+    unknowns orders below). A case whose matrix is not finite, singular or whose LU fails is
+    marked (``ok`` False) and never disturbs the others (its matrix is replaced by the
+    identity before the batched factorisation)."""
     m = A.shape[-1]
     eye = torch.eye(m, dtype=A.dtype, device=A.device)
     tiny = torch.finfo(A.dtype).tiny
@@ -205,13 +235,12 @@ def equilibrated_solve(A: Tensor, b: Tensor) -> tuple[Tensor, Tensor, Tensor]:
     # of a Goland UQ case), |A| a temporary of A's size; A is scaled in one new copy, the
     # caller's matrix left alone
     row = _max_magnitude(A, 2)
-    finite = torch.isfinite(row).all(dim=1) & torch.isfinite(b).all(dim=1)
+    finite = torch.isfinite(row).all(dim=1)
     if not bool(finite.all()):
         A = torch.where(finite[:, None, None], A, eye)
-        b = torch.where(finite[:, None], b, torch.zeros_like(b))
         row = torch.where(finite[:, None], row, torch.ones_like(row))
     row = row.clamp_min(tiny)
-    A, b = A / row[..., None], b / row
+    A = A / row[..., None]
     col = _max_magnitude(A, 1).clamp_min(tiny)
     A.div_(col[:, None, :])
     with single_thread():
@@ -223,14 +252,15 @@ def equilibrated_solve(A: Tensor, b: Tensor) -> tuple[Tensor, Tensor, Tensor]:
         if not bool(valid.all()):  # refactor with the failed cases replaced
             A = torch.where(valid[:, None, None], A, eye)
             lu, piv, info = torch.linalg.lu_factor_ex(A)
-        x = torch.linalg.lu_solve(lu, piv, b[..., None])[..., 0] / col
-    ok = finite & valid & torch.isfinite(x).all(dim=1)
-    x = torch.where(ok[:, None], x, torch.zeros_like(x))
-    # the equilibration factors are positive: sign(det A) = Π sign(U_ii) · (−1)^swaps
-    swaps = (piv != torch.arange(1, m + 1, device=piv.device, dtype=piv.dtype)).sum(1)
-    sign = torch.sign(lu.diagonal(dim1=1, dim2=2)).prod(1) * (1.0 - 2.0 * (swaps % 2)).to(
-        lu.dtype)
-    return x, ok, sign
+    return EquilibratedLU(lu, piv, row, col, finite & valid)
+
+
+def equilibrated_solve(A: Tensor, b: Tensor) -> tuple[Tensor, Tensor, Tensor]:
+    """(x, ok, sign det A) of the batched systems A x = b (A (B, m, m), b (B, m)) through
+    :func:`equilibrated_lu`; a failed case gets x = 0 and ok = False."""
+    f = equilibrated_lu(A)
+    x, ok = f.solve(b)
+    return x, ok, f.det_sign
 
 
 @contextlib.contextmanager

@@ -1,0 +1,171 @@
+"""An independent continuous-time reference for LCO certificates: shooting on the ODE of a
+:class:`~torchrom.sim.CaseSystem` with scipy's DOP853 (rtol 1e-10) and the variational
+monodromy, none of torchrom's solvers, kernels or Fourier machinery.
+
+The right-hand side is written here from the ROM's dense tensors (DESIGN "Conventions": K2
+symmetric in its last two indices, K3 in its last three, D3 in its middle two):
+
+    M_t q̈ = load − (C_0 q̇ + K_l q + s[K2(q,q) + K3(q,q,q)] + g[D2(q) + D3(q,q)] q̇ + D ξ),
+    ξ̇ = E q̇ + R ξ,
+
+with the per-case matrices of the system (M_t = M + M_add, C_0 = αM + γD̄1 + C_add,
+K_l = K1 + K_add, g = γ·d). Newton on (x0, T) for Φ(x0, T) − x0 = 0 with the phase condition
+c·q̇(0) = 0 (c: the decision output; y(0) at an extreme), its Jacobian from the monodromy
+∂Φ/∂x0 integrated with the orbit and ∂Φ/∂T = f(Φ).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.integrate import solve_ivp
+
+RTOL = 1e-10
+
+
+@dataclass
+class ODEOrbit:
+    """The reference orbit of one case: its state at t = 0, period (s), the outputs'
+    half peak-to-peak amplitudes (O,), the frequency (Hz), the Floquet multipliers and the
+    largest one other than the trivial one (modulus), and the last Newton correction."""
+
+    x0: np.ndarray
+    period: float
+    amplitude: np.ndarray
+    frequency_hz: float
+    multipliers: np.ndarray
+    critical: float
+    correction: float
+
+
+class CaseODE:
+    """The first-order ODE of case ``i`` of ``system`` (module docstring), numpy float64."""
+
+    def __init__(self, system, i: int):
+        rom = system.rom
+
+        def case(t):
+            return None if t is None else t[i].detach().cpu().double().numpy()
+
+        def add(base, extra):
+            return base if extra is None else base + case(extra)
+
+        M, K1, D1 = (getattr(rom, k).double().numpy() for k in ("M", "K1", "D1"))
+        self.K2, self.K3, self.D2, self.D3 = (getattr(rom, k).double().numpy()
+                                              for k in ("K2", "K3", "D2", "D3"))
+        a, gam = float(system.alpha[i]), float(system.gamma[i])
+        self.s = float(system.stiffness_nl[i])
+        self.g = gam * float(system.damping_nl[i])
+        self.Mt = add(M, system.M_add)
+        self.C0 = add(a * M + gam * D1, system.C_add)
+        self.Kl = add(K1, system.K_add)
+        self.Minv = np.linalg.inv(self.Mt)
+        self.n = n = M.shape[0]
+        self.na = system.n_lag
+        self.D = case(system.lag_D) if self.na else np.zeros((n, 0))
+        self.E = case(system.lag_E) if self.na else np.zeros((0, n))
+        self.R = case(system.lag_R) if self.na else np.zeros((0, 0))
+        self.load = case(system.load) if system.load is not None else np.zeros(n)
+
+    @property
+    def size(self) -> int:
+        return 2 * self.n + self.na
+
+    def split(self, x):
+        n = self.n
+        return x[:n], x[n:2 * n], x[2 * n:]
+
+    def rhs(self, x):
+        q, v, xi = self.split(x)
+        f = self.C0 @ v + self.Kl @ q + self.D @ xi - self.load
+        f = f + self.s * (np.einsum("mnl,n,l->m", self.K2, q, q)
+                          + np.einsum("mnlp,n,l,p->m", self.K3, q, q, q))
+        f = f + self.g * (np.einsum("mln,l,n->m", self.D2, q, v)
+                          + np.einsum("mlpn,l,p,n->m", self.D3, q, q, v))
+        return np.concatenate([v, -self.Minv @ f, self.E @ v + self.R @ xi])
+
+    def jacobian(self, x):
+        """∂f/∂x (size, size)."""
+        q, v, xi = self.split(x)
+        n, na = self.n, self.na
+        Kq = self.Kl + self.s * (2 * np.einsum("mnl,l->mn", self.K2, q)
+                                 + 3 * np.einsum("mnlp,l,p->mn", self.K3, q, q))
+        Kq = Kq + self.g * (np.einsum("mjn,n->mj", self.D2, v)
+                            + 2 * np.einsum("mjpn,p,n->mj", self.D3, q, v))
+        Cv = self.C0 + self.g * (np.einsum("mln,l->mn", self.D2, q)
+                                 + np.einsum("mlpn,l,p->mn", self.D3, q, q))
+        A = np.zeros((self.size, self.size))
+        A[:n, n:2 * n] = np.eye(n)
+        A[n:2 * n, :n] = -self.Minv @ Kq
+        A[n:2 * n, n:2 * n] = -self.Minv @ Cv
+        if na:
+            A[n:2 * n, 2 * n:] = -self.Minv @ self.D
+            A[2 * n:, n:2 * n] = self.E
+            A[2 * n:, 2 * n:] = self.R
+        return A
+
+    def flow(self, x0, period: float, rows: np.ndarray | None = None, monodromy: bool = True,
+             samples: int = 2048):
+        """(x(T), Φ (or None), outputs on ``samples`` points of [0, T] (P, O) or None)."""
+        m = self.size
+
+        def f(_t, z):
+            x = z[:m]
+            dx = self.rhs(x)
+            if not monodromy:
+                return dx
+            P = z[m:].reshape(m, m)
+            return np.concatenate([dx, (self.jacobian(x) @ P).ravel()])
+
+        z0 = np.concatenate([x0, np.eye(m).ravel()]) if monodromy else x0
+        t_eval = np.linspace(0.0, period, samples + 1) if rows is not None else None
+        sol = solve_ivp(f, (0.0, period), z0, method="DOP853", rtol=RTOL, atol=RTOL * 1e-3,
+                        t_eval=t_eval)
+        if not sol.success:
+            raise RuntimeError(f"solve_ivp: {sol.message}")
+        zT = sol.y[:, -1]
+        y = None if rows is None else (rows @ sol.y[: self.n, :-1]).T
+        return zT[:m], (zT[m:].reshape(m, m) if monodromy else None), y
+
+
+def shoot_ode(ode: CaseODE, x0, period: float, decision_row, rows, iterations: int = 8,
+              tol: float = 1e-9) -> ODEOrbit:
+    """The periodic orbit of ``ode`` near (x0, period) by Newton on (x0, T) (module
+    docstring); amplitudes of ``rows`` (O, n) from 2048 samples of the converged period,
+    refined by a parabola at each extreme."""
+    n, m = ode.n, ode.size
+    c = np.asarray(decision_row, dtype=float)
+    x, T = np.asarray(x0, dtype=float).copy(), float(period)
+    scale = np.maximum(np.abs(x), 1e-12 * np.abs(x).max())
+    step = np.inf
+    for _ in range(iterations):
+        xT, Phi, _ = ode.flow(x, T)
+        G = np.concatenate([xT - x, [c @ x[n:2 * n]]])
+        J = np.zeros((m + 1, m + 1))
+        J[:m, :m] = Phi - np.eye(m)
+        J[:m, m] = ode.rhs(xT)
+        J[m, n:2 * n] = c
+        d = np.linalg.lstsq(J, -G, rcond=None)[0]
+        x, T = x + d[:m], T + d[m]
+        step = max(np.max(np.abs(d[:m]) / scale.max()), abs(d[m]) / T)
+        if step < tol:
+            break
+    _, Phi, y = ode.flow(x, T, rows=np.atleast_2d(rows))
+    mu = np.linalg.eigvals(Phi)
+    trivial = np.argmin(np.abs(mu - 1.0))
+    critical = float(np.max(np.abs(np.delete(mu, trivial))))
+    return ODEOrbit(x, T, _half_range(y), 1.0 / T, mu, critical, float(step))
+
+
+def _half_range(y: np.ndarray) -> np.ndarray:
+    """(O,) half peak-to-peak of periodic samples y (P, O), each extreme refined by the
+    parabola through it and its two neighbours."""
+    def extreme(z):
+        i = np.argmax(z, axis=0)
+        P = z.shape[0]
+        cols = np.arange(z.shape[1])
+        a, b, cc = z[(i - 1) % P, cols], z[i, cols], z[(i + 1) % P, cols]
+        den = a - 2 * b + cc
+        return np.where(den != 0, b - 0.125 * (a - cc) ** 2 / np.where(den != 0, den, 1), b)
+    return 0.5 * (extreme(y) + extreme(-y))
