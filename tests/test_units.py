@@ -89,3 +89,10 @@ def test_files_of_different_systems_are_refused_and_legacy_said():
     assert system.name == "si" and "assumed for aero.npz" in note
     with pytest.raises(InputError, match=r"--units ft-slug-s: rom.npz records si"):
         file_units({"rom.npz": si, "aero.npz": {}}, declared="ft-slug-s")
+
+
+def test_recorded_units_of_an_identified_rom_before_the_field():
+    """A ROM identified before the field keeps its FE model's units under source.units."""
+    meta = {"source": {"units": {"length": "ft", "mass": "slug", "time": "s", "force": "lbf"}}}
+    assert recorded_units(meta).name == "ft-slug-s"
+    assert recorded_units({"source": "goland.bdf"}) is None

@@ -171,12 +171,15 @@ METADATA_KEY = "unit_system"
 
 def recorded_units(metadata: Mapping) -> UnitSystem | None:
     """The system a ROM's or aero file's metadata records: :data:`METADATA_KEY`, else the
-    ``units`` entry of files written before it (``{"length": "ft", "mass": "slug", ...}`` or
-    ``"ft, slug, s"``) when it names a system's length and mass; None when unknown."""
+    ``units`` entry (a ROM's ``source.units``) of files written before it (``{"length":
+    "ft", "mass": "slug", ...}`` or ``"ft, slug, s"``) when it names a system's length and
+    mass; None when unknown."""
     name = metadata.get(METADATA_KEY)
     if name:
         return unit_system(str(name), "metadata unit_system")
-    units = metadata.get("units")
+    source = metadata.get("source")
+    units = metadata.get("units") or (source.get("units") if isinstance(source, Mapping)
+                                      else None)
     if isinstance(units, Mapping):
         if units.get(METADATA_KEY):
             return unit_system(str(units[METADATA_KEY]), "metadata units")

@@ -3,7 +3,8 @@
 Forms:
   torchrom flutter DECK.bdf                      FLUTTER/FLFACT/MKAERO cards of the deck (PK, KE)
   torchrom flutter ROM.npz AERO.npz [--mach M]   matched point at fixed Mach (p-k + state space);
-                                                 at Mach 0, the flutter speed per altitude
+                                                 at Mach 0, the flutter speed per altitude;
+                                                 with --density RHO, the speed at that density
   torchrom flutter goland [--aero AERO.npz]      built-in heavy Goland wing, compared with the paper
 
 JSON (--json), deck form: {"deck", "title", "modal_frequencies_hz", "flutter": [{flutter_id,
@@ -14,13 +15,15 @@ sweep's speeds)}], "rigid_body_roots": [the same, for the roots of rigid-body mo
 flutter], "unstable_at_first_speed": [{flutter_id, method, mach, density_ratio, mode,
 velocity, damping_g, frequency_hz}], "vg": [{..., mode, velocity, damping_g, frequency_hz,
 reduced_frequency, eigenvalue_real, eigenvalue_imag}], "notes"}.
+Units: the ROM form's numbers are in the unit system the files record (torchrom.units; "units"
+holds the label of each quantity: altitude, speed, density, dynamic_pressure, ...).
 Matched-point form: {"mach", "alpha" (1/s), "gamma" (s), "units", "flutter": [{method, altitude,
 frequency_hz, velocity, density, dynamic_pressure, mode}], "growing_response": [{altitude,
 frequency_hz_state_space, frequency_hz_pk}], "alpha_for_gamma": [{gamma, alpha, altitude}],
 "paper": {...} (Goland only)}. With an aero file at Mach 0 (incompressible), no matched point:
 {"mach": 0, "alpha", "gamma", "units", "flutter": [{method, altitude, density, velocity,
 frequency_hz, dynamic_pressure, mode, kind, stable_velocity}]}, the flutter speed at the density
-of each altitude.
+of each altitude; the same with --density at the aero file's Mach (altitude null).
 """
 
 from __future__ import annotations
@@ -42,6 +45,7 @@ from ._common import (
     finite_float,
     maybe_write_json,
     nonnegative_int,
+    positive_float,
     positive_int,
     write_figure,
 )
@@ -134,6 +138,10 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                         "frequencies, spread over them with both ends kept, and interpolate the "
                         "GAFs at the others (cubic spline in k); default: every k solved")
     p.add_argument("--root-locus", type=Path, help="write a state-space root-locus figure")
+    p.add_argument("--density", type=positive_float, nargs="+", metavar="RHO",
+                   help="ROM form: the flutter speed at these air densities (the model's density "
+                        "unit, e.g. kg/m^3) at the aero file's Mach, as SOL 145's PK at one Mach "
+                        "and density (a wind tunnel), instead of the matched point")
     add_units_option(p, "ROM.npz AERO.npz when they record none (default: what they record; "
                         "files of neither: ft-slug-s, said)")
     add_json_option(p)
@@ -195,6 +203,9 @@ def _check_options(args) -> None:
             raise InputError(f"--alt-range: expected LO < HI, got {lo:g} {hi:g}")
     check_boxes("--boxes", 2 * args.boxes[0] * args.boxes[1])
     check_count("--lags", "lag states", args.lags, MAX_LAGS)
+    if len(args.inputs) == 1 and args.inputs[0] != "goland" and args.density:
+        raise InputError("--density: for ROM.npz AERO.npz or goland (a deck's densities are "
+                         "its FLFACT density ratios times AERO RHOREF)")
     if len(args.inputs) == 1 and args.units is not None:
         what = "the deck's own" if args.inputs[0] != "goland" else "ft-slug-s for goland"
         if args.inputs[0] != "goland" or args.units != "ft-slug-s":
@@ -323,8 +334,9 @@ def _run_goland(args) -> int:
 
 
 def _matched(args, structure, aero, system, compare_paper: bool) -> int:
-    """Matched-point flutter (or, at Mach 0, :func:`_incompressible`) in ``system``'s units
-    (:class:`torchrom.units.UnitSystem`): altitudes, speeds, densities, dynamic pressures."""
+    """Matched-point flutter (or, at Mach 0 or with --density, :func:`_speeds_at_densities`)
+    in ``system``'s units (:class:`torchrom.units.UnitSystem`): altitudes, speeds, densities,
+    dynamic pressures."""
     from ..aero.build import PAPER_FLUTTER_ALTITUDE_FT, PAPER_FLUTTER_FREQUENCY_HZ, PAPER_TABLE3
     from ..aero.flutter import (
         AeroTable,
@@ -338,8 +350,8 @@ def _matched(args, structure, aero, system, compare_paper: bool) -> int:
     mach = aero.mach if args.mach is None else args.mach
     if abs(mach - aero.mach) > 1e-9:
         raise InputError(f"--mach {mach:g} differs from the aero file's Mach {aero.mach:g}")
-    if mach == 0.0:  # incompressible: no matched point (V = 0 a(h)), a speed per altitude
-        return _incompressible(args, structure, aero, system)
+    if mach == 0.0 or args.density:  # a speed at a density (Mach 0: no matched point)
+        return _speeds_at_densities(args, structure, aero, system, mach)
     u = system.labels()
     h_u = u["altitude"]
     table = AeroTable.from_gaf(aero.gaf)
@@ -441,53 +453,62 @@ def _matched(args, structure, aero, system, compare_paper: bool) -> int:
     return 0 if ok else 1
 
 
-def _incompressible(args, structure, aero, system) -> int:
-    """Mach 0 aerodynamics: the flutter speed at the density of each altitude of --at (default
-    the two ends of --alt-range), by p-k and the state space
-    (:mod:`torchrom.aero.flutter_speed`)."""
+def _speeds_at_densities(args, structure, aero, system, mach: float) -> int:
+    """The flutter speed at fixed densities and the aero file's Mach (SOL 145's PK at one
+    Mach and density; a wind tunnel): at each --density, or (Mach 0, no matched point) at the
+    density of each altitude of --at (default the two ends of --alt-range); by p-k and the
+    state space (:mod:`torchrom.aero.flutter_speed`)."""
+    from ..aero.atmosphere import atmosphere
     from ..aero.flutter import AeroTable
-    from ..aero.flutter_speed import flutter_speed_pk, flutter_speed_state_space
+    from ..aero.flutter_speed import flutter_speed_at_density, flutter_speed_pk_at_density
     from ..errors import InputError
 
     for option, given in (("--alpha-for-gamma", args.alpha_for_gamma),
                           ("--root-locus", args.root_locus)):
         if given:
-            raise InputError(f"{option}: needs a flight Mach number > 0 (a matched point); the "
-                             "aero file is at Mach 0, where the flutter point is a speed")
+            raise InputError(f"{option}: needs a matched point (a flight Mach number > 0 "
+                             "without --density); here the flutter point is a speed")
     table = AeroTable.from_gaf(aero.gaf)
-    altitudes = list(args.at) if args.at else list(args.alt_range)
     u = system.labels()
-    print(f"  Mach 0 (incompressible): flutter speed at the density of each altitude, "
+    if args.density:
+        conditions = [(float("nan"), float(rho)) for rho in args.density]
+        where = "at each --density"
+    else:
+        altitudes = list(args.at) if args.at else list(args.alt_range)
+        conditions = [(float(h), float(atmosphere(h, system.name).density)) for h in altitudes]
+        where = "at the density of each altitude"
+    print(f"  Mach {mach:g}{' (incompressible)' if mach == 0 else ''}: flutter speed {where}, "
           f"units {system.name}, alpha = {structure.alpha:g} 1/s, gamma = {structure.gamma:g} s")
-    print(f"  {'method':<13}{'altitude ' + u['altitude']:>13}{'V ' + u['speed']:>10}"
-          f"{'frequency Hz':>14}{'q ' + u['dynamic_pressure']:>13}{'density ' + u['density']:>22}"
+    print(f"  {'method':<13}{'altitude ' + u['altitude']:>13}{'density ' + u['density']:>22}"
+          f"{'V ' + u['speed']:>10}{'frequency Hz':>14}{'q ' + u['dynamic_pressure']:>13}"
           f"  kind")
     results, first_sweep = [], None
-    for alt in altitudes:
+    for alt, rho in conditions:
         found = []
         if args.method in ("both", "pk"):
-            pk, sweep = flutter_speed_pk(structure, table, alt, system.name)
+            pk, sweep = flutter_speed_pk_at_density(structure, table, rho, mach)
             first_sweep = first_sweep or sweep
             found.append(pk)
         if args.method in ("both", "state-space"):
-            found.append(flutter_speed_state_space(structure, aero.rfa, table, alt,
-                                                   system.name))
+            found.append(flutter_speed_at_density(structure, aero.rfa, table, rho, mach=mach))
+        head = f"{'-' if alt != alt else f'{alt:.1f}':>13}{rho:22.5g}"
         for r in found:
+            r.altitude, r.units = alt, system.name
             if r.velocity is None:
-                print(f"  {r.method:<13}{alt:13.1f}{'no flutter in the speed range':>33}")
+                print(f"  {r.method:<13}{head}{'no flutter in the speed range':>33}")
                 continue
             kind = "" if r.kind is None else r.kind + (
                 f" (stable again at {r.stable_velocity:.1f} {u['speed']})"
                 if r.stable_velocity else "")
-            print(f"  {r.method:<13}{alt:13.1f}{r.velocity:10.1f}{r.frequency_hz:14.4f}"
-                  f"{0.5 * r.density * r.velocity**2:13.1f}{r.density:22.5g}  {kind}")
+            print(f"  {r.method:<13}{head}{r.velocity:10.2f}{r.frequency_hz:14.4f}"
+                  f"{0.5 * r.density * r.velocity**2:13.1f}  {kind}")
         results += found
-    maybe_write_json(args, {"mach": 0.0, "alpha": structure.alpha, "gamma": structure.gamma,
+    maybe_write_json(args, {"mach": mach, "alpha": structure.alpha, "gamma": structure.gamma,
                             "units": u, "flutter": [r.as_dict() for r in results]})
     ok = True
     if args.plot is not None and first_sweep is not None:
         from ..aero.plots import plot_vg
 
         ok = _figure(plot_vg, first_sweep, args.plot, velocity_label=f"velocity ({u['speed']})",
-                     title=f"p-k, Mach 0, {altitudes[0]:g} {u['altitude']}")
+                     title=f"p-k, Mach {mach:g}, density {conditions[0][1]:.4g} {u['density']}")
     return 0 if ok else 1

@@ -35,18 +35,34 @@ def units_record(system: UnitSystem, source: str) -> dict[str, str]:
 
 
 def deck_units(model, fname: str) -> dict[str, str] | None:
-    """The ``units`` record of a deck whose cards tell its system (None when none does);
-    InputError when two cards disagree."""
-    system, evidence = infer_units(*deck_unit_numbers(model), where=fname)
+    """The ``units`` record of a deck whose cards tell its system (None when none does;
+    ``{"unit_conflict": why}`` when two cards disagree: refused by :func:`declare_units`
+    unless --units decides, so that commands without units, e.g. modes, still read it)."""
+    from ..errors import InputError
+
+    try:
+        system, evidence = infer_units(*deck_unit_numbers(model), where=fname)
+    except InputError as exc:
+        return {"unit_conflict": str(exc)}
     return None if system is None else units_record(system, ", ".join(evidence))
 
 
 def declare_units(fe, declared: str | None, where: str) -> None:
     """Apply ``--units`` to an FE model read from a deck: checked against what its cards
-    tell (InputError naming the card when they differ), recorded in ``fe.units``."""
-    if declared is None:
-        return
+    tell (InputError naming the card when they differ), recorded in ``fe.units``; a deck
+    whose cards disagree is refused unless --units decides."""
+    from ..errors import InputError
+
     units = fe.units or {}
+    conflict = units.get("unit_conflict")
+    if declared is None:
+        if conflict:
+            raise InputError(conflict)
+        return
+    if conflict:
+        fe.units = units_record(resolve_units(declared, None, [], where),
+                                "--units (the deck's cards disagree)")
+        return
     told = units.get("unit_system")
     inferred = None if told is None else resolve_units(told, None, [], where)
     system = resolve_units(declared, inferred, [units.get("unit_source", "")], where)
