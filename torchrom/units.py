@@ -220,3 +220,15 @@ def file_units(files: Mapping[str, Mapping], declared: str | None = None
             f"units: {', '.join(files)} record no unit system: assumed {LEGACY_SYSTEM} (the "
             f"built-in Goland wing's); declare another with --units")
 
+
+
+#: densities a wind tunnel or flight may have, relative to sea level (10^-3: ~48 km altitude)
+AIR_DENSITY_RANGE = (1e-3, 2.0)
+
+
+def is_air_density(rho: float, system: UnitSystem) -> bool:
+    """Whether ``rho`` is an air density in ``system``'s units (within
+    :data:`AIR_DENSITY_RANGE` of its sea-level density): a density given in another system
+    is 500 times or more off."""
+    lo, hi = AIR_DENSITY_RANGE
+    return lo <= rho / system.sea_level_density <= hi

@@ -34,6 +34,7 @@ from ..rom import NonlinearROM
 from ..rom.analytic import BUILTIN
 from ..rom.points import check_point_table
 from ..sim import LCOCriteria, Newmark
+from ..units import is_air_density
 from .cases import (
     STRUCTURAL_PARAMETERS,  # noqa: F401 - re-exported (public name of this module)
     HistorySpec,
@@ -621,6 +622,11 @@ def check_aeroelastic_cases(cfg: SweepConfig, model) -> None:
         if "mach" in c and abs(float(c["mach"]) - model.mach) > 1e-9:
             raise InputError(f"{cfg.source}: [cases] mach: {c['mach']} (case {k}) differs from "
                              f"the Mach number {model.mach:g} of the aerodynamic data")
+        if "density" in c and not is_air_density(float(c["density"]), model.units):
+            u = model.units
+            raise InputError(f"{cfg.source}: [cases] density: {c['density']} (case {k}) is no "
+                             f"air density in {u.name}, the model's units ({u.density}; sea "
+                             f"level {u.sea_level_density:.4g}): give it in {u.density}")
     if any(c.get("alpha") == MATCHED for c in cfg.cases):
         try:
             model.reference_altitude()
