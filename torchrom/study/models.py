@@ -222,6 +222,78 @@ def model_provider(name: str) -> ModelProvider:
                      f"{provider_names()}")
 
 
+@dataclass(frozen=True)
+class ModelSpec:
+    """A validated ``[model]`` table with its ``[aeroelastic]`` options: what a sweep's model
+    is built from (:func:`build_model`; parsed by :func:`torchrom.study.config.parse_model`).
+
+    Attributes:
+        source: the configuration file (named by the errors of the build).
+        rom, aero: the ROM file and its aerodynamics (absolute paths), or None.
+        span: reference length of amplitudes in % of span (the model's length unit).
+        builtin: a model of :data:`torchrom.rom.analytic.BUILTIN` or a provider's name.
+        options: the builtin's keyword arguments (the provider's ``[model]`` table).
+        cache: a provider's cache folder.
+        aeroelastic: :class:`AeroelasticModel` keyword arguments (``[aeroelastic]``).
+        units: ``[model] units``: the unit system of ROM and aero files that record none.
+    """
+
+    source: Path
+    rom: Path | None = None
+    aero: Path | None = None
+    span: float | None = None
+    builtin: str | None = None
+    options: dict[str, Any] = field(default_factory=dict)
+    cache: Path | None = None
+    aeroelastic: dict[str, Any] = field(default_factory=dict)
+    units: str | None = None
+
+    @property
+    def provided(self) -> bool:
+        """Whether a model provider builds it (a built-in model with aerodynamics)."""
+        return self.builtin is not None and self.builtin in provider_names()
+
+    @property
+    def has_aero(self) -> bool:
+        return self.aero is not None or self.provided
+
+
+def build_model(spec: ModelSpec):
+    """The model ``spec`` describes: a NonlinearROM (a ROM file or an analytic builtin) or an
+    :class:`AeroelasticModel` (a ROM with its aero file, in the unit system they record, or a
+    provider's model); InputError naming the configuration file."""
+    where = f"{spec.source}: [model]"
+    if spec.provided:
+        m = model_provider(spec.builtin).build(spec.options, spec.cache)
+        return AeroelasticModel(m.rom, m.aero, **{"baseline_alpha": m.baseline_alpha,
+                                                  "baseline_gamma": m.baseline_gamma,
+                                                  "altitude_range_ft": m.altitude_range_ft,
+                                                  **spec.aeroelastic})
+    if spec.rom is not None:
+        rom = NonlinearROM.load(spec.rom)
+        if spec.span is not None:
+            rom.metadata["span"] = spec.span
+        if spec.aero is None:
+            return rom
+        from ..aero.files import load_aero
+
+        aero = load_aero(spec.aero)
+        try:
+            units, _ = file_units({spec.rom.name: rom.metadata, spec.aero.name: aero.metadata},
+                                  spec.units)
+            return AeroelasticModel(rom, aero, units=units, **spec.aeroelastic)
+        except InputError as exc:
+            raise InputError(f"{where}: {exc}") from None
+    from ..rom.analytic import BUILTIN
+
+    try:
+        return BUILTIN[spec.builtin](**spec.options)
+    except InputError as exc:
+        raise InputError(f"{where} ({spec.builtin}): {exc}") from None
+    except (TypeError, ValueError) as exc:
+        raise InputError(f"{where} ({spec.builtin}): bad value ({exc})") from None
+
+
 def model_rom(model) -> NonlinearROM:
     """The structural ROM of a sweep model (a NonlinearROM or an AeroelasticModel)."""
     if isinstance(model, AeroelasticModel):
