@@ -71,6 +71,8 @@ def test_recorded_units_of_old_and_new_files():
     assert recorded_units({"units": {"length": "ft", "mass": "slug", "time": "s"}}).name \
         == "ft-slug-s"
     assert recorded_units({"units": "ft, slug, s"}).name == "ft-slug-s"  # old aero.npz
+    # an FE model's units (the Goland deck's)
+    assert recorded_units({"length": "ft", "mass": "slug", "time": "s"}).name == "ft-slug-s"
     assert recorded_units({"units": {"system": "consistent units of the deck"}}) is None
     assert recorded_units({}) is None
 

@@ -172,14 +172,15 @@ METADATA_KEY = "unit_system"
 def recorded_units(metadata: Mapping) -> UnitSystem | None:
     """The system a ROM's or aero file's metadata records: :data:`METADATA_KEY`, else the
     ``units`` entry (a ROM's ``source.units``) of files written before it (``{"length":
-    "ft", "mass": "slug", ...}`` or ``"ft, slug, s"``) when it names a system's length and
-    mass; None when unknown."""
+    "ft", "mass": "slug", ...}`` or ``"ft, slug, s"``), or an FE model's ``units`` itself,
+    when it names a system's length and mass; None when unknown."""
     name = metadata.get(METADATA_KEY)
     if name:
         return unit_system(str(name), "metadata unit_system")
     source = metadata.get("source")
-    units = metadata.get("units") or (source.get("units") if isinstance(source, Mapping)
-                                      else None)
+    units = (metadata.get("units") or (source.get("units") if isinstance(source, Mapping)
+                                       else None)
+             or (metadata if "length" in metadata else None))  # an FE model's units itself
     if isinstance(units, Mapping):
         if units.get(METADATA_KEY):
             return unit_system(str(units[METADATA_KEY]), "metadata units")

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import math
 
-from ..units import UnitSystem, infer_units, resolve_units
+from ..units import UnitSystem, infer_units, recorded_units, resolve_units
 
 
 def deck_unit_numbers(model) -> tuple[list[float], list[float], float | None]:
@@ -75,7 +75,8 @@ def describe_units(fe) -> str:
     units = fe.units or {}
     if units.get("unit_system"):
         return f"units: {units['unit_system']} ({units.get('unit_source', '')})"
-    if units.get("length") and units.get("mass"):
-        return f"units: {units['length']}, {units['mass']}, s"
+    system = recorded_units(units)
+    if system is not None:  # a model that names its units (the Goland deck's ft, slug)
+        return f"units: {system.name} ({units['length']}, {units['mass']}, s)"
     return ("units: not told by the deck (no AERO RHOREF, GRAV or PARAM WTMASS of a known "
             "system); declare them with --units for flutter at altitudes")
