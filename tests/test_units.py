@@ -98,3 +98,17 @@ def test_recorded_units_of_an_identified_rom_before_the_field():
     meta = {"source": {"units": {"length": "ft", "mass": "slug", "time": "s", "force": "lbf"}}}
     assert recorded_units(meta).name == "ft-slug-s"
     assert recorded_units({"source": "goland.bdf"}) is None
+
+
+def test_air_density_of_a_system():
+    """A density is an air density of a system within 0.01..2 of its sea level (USSA-76 at
+    31 km is 0.0126 of sea level): SI sea level and 30 km pass, the same density in slug/ft^3
+    (515x smaller) or lbf s^2/in^4 does not."""
+    from torchrom.aero.atmosphere import atmosphere
+    from torchrom.units import is_air_density
+
+    si = SYSTEMS["si"]
+    assert is_air_density(1.225, si)
+    assert is_air_density(float(atmosphere(30000.0, "si").density), si)
+    assert not is_air_density(SYSTEMS["ft-slug-s"].sea_level_density, si)
+    assert not is_air_density(1.225, SYSTEMS["ft-slug-s"])

@@ -139,7 +139,34 @@ REFUSALS = {
                                             "--planform goland: the built-in planform is in ft"),
     "deck flutter --density": (["flutter", "si.bdf", "--density", "1.2"], "--density"),
     "deck flutter --units": (["flutter", "si.bdf", "--units", "si"], "--units"),
+    "goland flutter --units si": (["flutter", "goland", "--units", "si"], "--units"),
+    "sweep: ROM and aero of different systems": (
+        ["sweep", "mixed.toml", "--out", "OUT"],
+        "mixed.toml: [model]: rom.npz is in si but aero.npz in ft-slug-s"),
+    "sweep: a density of another system": (
+        ["sweep", "slug_density.toml", "--out", "OUT"],
+        "[cases] density: 0.0023769 (case 0) is no air density in si"),
+    "sweep: unknown [model] units": (["sweep", "bad_units.toml", "--out", "OUT"],
+                                     "[model] units: expected one of si, ft-slug-s"),
 }
+
+#: a wind-tunnel sweep of the test wing (FOLDER, DENSITY and UNITS filled in)
+TUNNEL = """title = "tunnel"
+[model]
+rom = "FOLDER/rom.npz"
+aero = "FOLDER/aero.npz"
+UNITS
+[initial]
+q0 = 0.01
+[integrator]
+dt = 0.01
+t_end = 1.0
+[cases]
+density = DENSITY
+speed = 100.0
+[plot]
+x = "speed"
+"""
 
 
 @pytest.fixture(scope="module")
@@ -151,6 +178,11 @@ def refusal_folder(tmp_path_factory):
                                     ("mixed", "ft-slug-s", "si")):
         (d / name).mkdir()
         _write_wing(d / name, system, rom_units)
+    for name, folder, density, units in (("mixed", "mixed", "1.225", ""),
+                                         ("slug_density", "si", "0.0023769", ""),
+                                         ("bad_units", "si", "1.225", 'units = "imperial"')):
+        (d / f"{name}.toml").write_text(TUNNEL.replace("FOLDER", folder)
+                                        .replace("DENSITY", density).replace("UNITS", units))
     (d / "si.bdf").write_text(SI_DECK)
     (d / "conflict.bdf").write_text(CONFLICT_DECK)
     server = ForkServer({**os.environ, "TORCHROM_CACHE": str(d / "cache")})

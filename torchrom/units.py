@@ -223,8 +223,9 @@ def file_units(files: Mapping[str, Mapping], declared: str | None = None
 
 
 
-#: densities a wind tunnel or flight may have, relative to sea level (10^-3: ~48 km altitude)
-AIR_DENSITY_RANGE = (1e-3, 2.0)
+#: densities a wind tunnel or flight may have, relative to sea level (0.01: USSA-76 at ~31 km;
+#: the sea-level densities of two systems differ by 515x (ft-slug-s, si) or more)
+AIR_DENSITY_RANGE = (0.01, 2.0)
 
 
 def is_air_density(rho: float, system: UnitSystem) -> bool:
