@@ -40,10 +40,10 @@ def test_units_recorded_declared_or_assumed(tmp_path):
 
 def test_flight_conditions_in_the_models_units(tmp_path):
     """An SI model's cases against USSA-76 in SI (the atmosphere's own table, REFERENCE
-    Sec. 1: 1.22500 kg/m^3 at sea level, 0.90477 kg/m^3 and a = 1077.40 ft/s = 328.392 m/s at
-    10,000 ft; 2e-5 as that table): a tunnel case at altitude_ft 0 has 1.225 kg/m^3, a matched point at
-    10,000 ft (altitude_ft stays in ft) V = M a(h) in m/s; the ft-slug-s model's are the same
-    physical numbers in ft/s and slug/ft^3 (1e-12: exact conversions)."""
+    Sec. 1: 1.22500 kg/m^3 at sea level, 0.90477 kg/m^3 and a = 1077.40 ft/s = 328.392 m/s
+    at 10,000 ft; 2e-5 as that table): a tunnel case at altitude_ft 0 has 1.225 kg/m^3, a
+    matched point at 10,000 ft (altitude_ft stays in ft) V = M a(h) in m/s; the ft-slug-s
+    model's are the same physical numbers in ft/s and slug/ft^3 (1e-12: exact conversions)."""
     files = _files(tmp_path)
     si = build_model(ModelSpec(files.source, rom=files.rom, aero=files.aero, units="si"))
     ft = build_model(files)
