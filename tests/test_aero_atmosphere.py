@@ -71,3 +71,37 @@ def test_bad_input_gives_one_line_error(call, match):
     with pytest.raises(InputError, match=match) as exc:
         call()
     assert "\n" not in str(exc.value)
+
+
+def test_in_lbf_s_and_mm_t_s_against_published_sea_level_values():
+    """Sea level in the two other systems against published constants: rho = 2.376891e-3
+    slug/ft^3 / 12^4 (1 slug/ft^3 = 1 lbf s^2/ft^4; REFERENCE Sec. 1, 2e-5), which is the
+    1.1468e-7 lbf s^2/in^4 of MSC's in-lbf-s examples (RHOREF of HA145) to 0.05 % (MSC rounds
+    from 0.002378 slug/ft^3), 1.225e-12 t/mm^3 (1.225 kg/m^3 exactly converted:
+    1e-12), a = 13,397 in/s (1116.45 ft/s x 12, 2e-5 as the table above), p = 14.696 psi
+    (1 atm, 5 digits: 5e-5)."""
+    inch = atmosphere(0.0, "in-lbf-s")
+    mm = atmosphere(0.0, "mm-t-s")
+    assert inch.density == pytest.approx(2.376891e-3 / 12**4, rel=2e-5)
+    assert inch.density == pytest.approx(1.1468e-7, rel=5e-4)
+    assert inch.speed_of_sound == pytest.approx(1116.45 * 12, rel=2e-5)
+    assert inch.pressure == pytest.approx(14.696, rel=5e-5)
+    assert mm.density == pytest.approx(1.225e-12, rel=1e-12)
+    assert mm.speed_of_sound == pytest.approx(atmosphere(0.0, "si").speed_of_sound * 1e3,
+                                              rel=1e-12)
+    assert mm.pressure == pytest.approx(0.101325, rel=1e-12)
+
+
+def test_altitude_unit_of_each_system():
+    """Altitude is in ft for the imperial systems, m for the metric ones: 10,000 ft gives the
+    same state in ft-slug-s and in-lbf-s, and 3,048 m the same in si and mm-t-s (1e-12)."""
+    ft, inch = atmosphere(10000.0, "ft-slug-s"), atmosphere(10000.0, "in-lbf-s")
+    assert inch.temperature == pytest.approx(ft.temperature, rel=1e-12)
+    assert inch.speed_of_sound == pytest.approx(12 * ft.speed_of_sound, rel=1e-12)
+    si, mm = atmosphere(3048.0, "si"), atmosphere(3048.0, "mm-t-s")
+    assert mm.temperature == pytest.approx(si.temperature, rel=1e-12)
+    assert si.temperature == pytest.approx(ft.temperature, rel=1e-12)
+    with pytest.raises(InputError, match="altitude 90000 m is outside"):
+        atmosphere(90000.0, "si")
+    with pytest.raises(InputError, match="units: expected one of"):
+        atmosphere(0.0, "furlong")

@@ -105,12 +105,13 @@ def test_pt145_with_reflection_plane_matches_the_reference(tmp_path, pt145_text,
 def test_symxz_override_and_unit_labels(tmp_path, pt145_text, pt145_deck, capsys):
     """--symxz 1 on the deck as given is the deck with AERO SYMXZ = 1 (the same image wing);
     the output names the symmetry's source and labels velocities in the deck's length unit
-    (DTI,UNITS when present, else --length-unit)."""
+    (DTI,UNITS when present, else --length-unit, else the unit system its cards tell: pt145's
+    AERO RHOREF 1.145e-7 is in-lbf-s)."""
     from torchrom.cli import main
 
     deck = load_deck(pt145_deck)
     assert "from the deck's AERO card (field blank)" in deck.symmetry
-    assert deck.velocity_unit == "length/s"
+    assert deck.velocity_unit == "in/s" and deck.units == "in-lbf-s"
     over = load_deck(pt145_deck, symxz=1, length_unit="in")
     assert over.reference.symxz == 1 and over.aero_panels.n == 48
     assert "from the command line (the deck's AERO SYMXZ is 0)" in over.symmetry

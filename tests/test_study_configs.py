@@ -7,10 +7,20 @@ from torchrom.study import load_sweep_config
 from .conftest import REPO
 
 CONFIGS = sorted((REPO / "configs").glob("*.toml"))
+#: configurations of a deck's ROM that its guide page builds first (not shipped): they load
+#: up to the missing file, which the refusal names (the full run: tests/test_bah.py, slow)
+BUILT_BY_A_GUIDE = {"bah_lco": "docs/guide/bah.md"}
 
 
 @pytest.mark.parametrize("path", CONFIGS, ids=[p.stem for p in CONFIGS])
 def test_shipped_configuration_is_valid(path):
+    if path.stem in BUILT_BY_A_GUIDE:
+        from torchrom.errors import InputError
+
+        assert (REPO / BUILT_BY_A_GUIDE[path.stem]).is_file()
+        with pytest.raises(InputError, match=r"rom\.npz: no such ROM file"):
+            load_sweep_config(path)
+        return
     cfg = load_sweep_config(path)
     assert cfg.cases and cfg.title
 

@@ -5,14 +5,19 @@ valid from -5,004 m to 81,020 m). Written here: unit conversion, range checks wi
 errors, and the matched-point flight condition (V = M a(h), q = ½ ρ V²) used by the flutter
 solvers (paper Sec. III.C: Mach 0.70, altitude in ft).
 
-Units (DESIGN contract, never converted inside the numerics):
+Units (DESIGN contract, never converted inside the numerics): any system of
+:mod:`torchrom.units` (``"si"``, ``"ft-slug-s"``, ``"in-lbf-s"``, ``"mm-t-s"``; ``"ft"`` is
+``"ft-slug-s"``). Altitude is in the system's altitude unit (ft or m), density, speed and
+pressure in its own units (e.g. in-lbf-s: lbf s²/in⁴, in/s, lbf/in²), temperature in K:
 
-========  =========  ===========  =========  ============  ===========
-units     altitude   density      velocity   pressure      temperature
-========  =========  ===========  =========  ============  ===========
-``"ft"``  ft         slug/ft³     ft/s       lbf/ft² (psf) K
-``"si"``  m          kg/m³        m/s        Pa            K
-========  =========  ===========  =========  ============  ===========
+=============  =========  ============  ==========  ============
+units          altitude   density       velocity    pressure
+=============  =========  ============  ==========  ============
+``"ft"``       ft         slug/ft³      ft/s        lbf/ft² (psf)
+``"si"``       m          kg/m³         m/s         Pa
+``"in-lbf-s"`` ft         lbf s²/in⁴    in/s        lbf/in²
+``"mm-t-s"``   m          t/mm³         mm/s        MPa
+=============  =========  ============  ==========  ============
 """
 
 from __future__ import annotations
@@ -23,6 +28,7 @@ import numpy as np
 
 from ..checks import ALTITUDE_RANGE_M
 from ..errors import InputError
+from ..units import unit_system
 
 #: metres per foot (exact, international foot)
 FT = 0.3048
@@ -30,13 +36,6 @@ FT = 0.3048
 SLUG_PER_FT3 = 14.593902937206364 / FT**3
 #: Pa per lbf/ft²
 PSF = 4.4482216152605 / FT**2
-
-
-_UNITS = {
-    # name: (metres per altitude unit, kg/m³ per density unit, Pa per pressure unit)
-    "ft": (FT, SLUG_PER_FT3, PSF),
-    "si": (1.0, 1.0, 1.0),
-}
 
 
 @dataclass(frozen=True)
@@ -64,27 +63,32 @@ class FlightCondition:
     units: str
 
 
-def _factors(units: str) -> tuple[float, float, float]:
+def _factors(units: str) -> tuple[float, float, float, float]:
+    """(m per altitude unit, m per length unit, kg/m³ per density unit, Pa per pressure
+    unit) of ``units``."""
     try:
-        return _UNITS[units]
-    except KeyError:
+        s = unit_system(units, "atmosphere: units")
+    except InputError:
         raise InputError(
-            f"atmosphere: units: expected one of {sorted(_UNITS)}, got {units!r}"
+            f"atmosphere: units: expected one of ['ft', 'si', 'ft-slug-s', 'in-lbf-s', "
+            f"'mm-t-s'], got {units!r}"
         ) from None
+    return s.altitude_metre, s.metre, s.density_si, s.pressure_si
 
 
 def _altitude_m(altitude, units: str) -> tuple[np.ndarray, float]:
-    length, _, _ = _factors(units)
+    alt_m, length, _, _ = _factors(units)
     h = np.asarray(altitude, dtype=float)
     if not np.all(np.isfinite(h)):
         raise InputError(f"atmosphere: altitude: expected finite values, got {altitude!r}")
-    h_m = h * length
+    h_m = h * alt_m
     lo, hi = ALTITUDE_RANGE_M
     if np.any(h_m < lo) or np.any(h_m > hi):
         bad = h.flat[np.argmax((h_m < lo) | (h_m > hi))]
+        name = unit_system(units).altitude
         raise InputError(
-            f"atmosphere: altitude {bad:g} {'ft' if units == 'ft' else 'm'} is outside the "
-            f"USSA-76 range {lo / length:.0f} .. {hi / length:.0f}"
+            f"atmosphere: altitude {bad:g} {name} is outside the "
+            f"USSA-76 range {lo / alt_m:.0f} .. {hi / alt_m:.0f} {name}"
         )
     return h_m, length
 
@@ -98,7 +102,7 @@ def atmosphere(altitude, units: str = "ft") -> AtmosphereState:
     from ambiance import Atmosphere
 
     h_m, length = _altitude_m(altitude, units)
-    _, dens_f, pres_f = _factors(units)
+    _, _, dens_f, pres_f = _factors(units)
     atm = Atmosphere(np.atleast_1d(h_m))
     shape = np.shape(h_m)
     out = {
@@ -115,12 +119,12 @@ def atmosphere(altitude, units: str = "ft") -> AtmosphereState:
 
 
 def density(altitude, units: str = "ft"):
-    """Air density (slug/ft³ for ``units="ft"``, kg/m³ for ``"si"``)."""
+    """Air density in ``units`` (slug/ft³ for ``"ft"``, kg/m³ for ``"si"``, ...)."""
     return atmosphere(altitude, units).density
 
 
 def speed_of_sound(altitude, units: str = "ft"):
-    """Speed of sound (ft/s for ``units="ft"``, m/s for ``"si"``)."""
+    """Speed of sound in ``units`` (ft/s for ``"ft"``, m/s for ``"si"``, ...)."""
     return atmosphere(altitude, units).speed_of_sound
 
 

@@ -17,6 +17,7 @@ import numpy as np
 
 from ..errors import InputError
 from ..reference import paper_reference
+from ..units import METADATA_KEY, recorded_units
 from .dlm import BoxMotion, compute_gaf
 from .files import AeroData
 from .flutter import (
@@ -217,6 +218,7 @@ def build_from_modes(
         "n_lags": int(n_lags),
         "spline": spline,
         "units": "ft, slug, s",
+        METADATA_KEY: "ft-slug-s",  # the built-in Goland planform's (ft)
     }
     return AeroData(gaf, rfa, meta)
 
@@ -279,6 +281,9 @@ def build_from_deck(
         "n_lags": int(n_lags),
         "source": str(path),
     }
+    system = recorded_units(getattr(fe, "units", None) or {})
+    if system is not None:  # the deck's, as the modes' and the boxes' lengths
+        meta[METADATA_KEY] = system.name
     return AeroData(gaf, rfa, meta)
 
 
@@ -339,9 +344,15 @@ def structure_from_rom_file(path, n_modes: int, alpha: float, gamma: float) -> M
     """Linear part (M, K1, D̄1) of a ``rom.npz`` (NonlinearROM) on its first m basis functions."""
     from ..rom import NonlinearROM
 
-    rom = NonlinearROM.load(path)
+    return structure_from_rom(NonlinearROM.load(path), n_modes, alpha, gamma, path)
+
+
+def structure_from_rom(rom, n_modes: int, alpha: float, gamma: float,
+                       where="ROM") -> ModalStructure:
+    """Linear part (M, K1, D̄1) of a NonlinearROM on its first ``n_modes`` basis functions
+    (InputError naming ``where`` when it has fewer)."""
     if rom.n < n_modes:
         raise InputError(
-            f"{path}: the ROM has {rom.n} basis functions, the aero file {n_modes} modes"
+            f"{where}: the ROM has {rom.n} basis functions, the aero file {n_modes} modes"
         )
     return ModalStructure.from_rom(rom, n_modes, alpha, gamma)

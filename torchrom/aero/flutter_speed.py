@@ -46,7 +46,8 @@ class FlutterSpeed:
 
     def as_dict(self) -> dict:
         return {
-            "method": self.method, "mach": self.mach, "altitude": self.altitude,
+            "method": self.method, "mach": self.mach,
+            "altitude": None if np.isnan(self.altitude) else self.altitude,
             "density": self.density, "velocity": self.velocity,
             "frequency_hz": self.frequency_hz,
             "dynamic_pressure": None if self.velocity is None
@@ -72,14 +73,27 @@ def flutter_speed_pk(structure: ModalStructure, aero: AeroTable, altitude: float
                                                                           ModeSweep]:
     """The p-k flutter speed at the density of ``altitude`` (and the sweep)."""
     rho = float(atmosphere(altitude, units).density)
+    res, sweep = flutter_speed_pk_at_density(structure, aero, rho, n_speeds=n_speeds)
+    res.altitude, res.units = float(altitude), units
+    return res, sweep
+
+
+def flutter_speed_pk_at_density(structure: ModalStructure, aero: AeroTable, density: float,
+                                mach: float = 0.0, n_speeds: int = N_SPEEDS
+                                ) -> tuple[FlutterSpeed, ModeSweep]:
+    """The p-k flutter speed at air density ``density`` and Mach ``mach`` (that of the GAFs:
+    SOL 145's PK at one Mach and density, or a wind tunnel), with the sweep: the first
+    flutter crossing (lowest onset speed) of :func:`~torchrom.aero.crossings.pk_crossings`
+    over :func:`speed_range`. ``altitude`` of the result is NaN."""
+    rho = float(density)
     v = np.geomspace(*speed_range(structure, aero), n_speeds)
-    sweep = pk_sweep(structure, aero, v, rho, mach=0.0, eps=1e-7)
+    sweep = pk_sweep(structure, aero, v, rho, mach=mach, eps=1e-7)
     points = pk_crossings(structure, aero, sweep).flutter
     if not points:
-        return FlutterSpeed("p-k", float(altitude), rho, None, None, units=units), sweep
+        return FlutterSpeed("p-k", float("nan"), rho, None, None, mach=mach), sweep
     p = min(points, key=lambda p: p.velocity)
-    return FlutterSpeed("p-k", float(altitude), rho, p.velocity, p.frequency_hz, p.mode, p.kind,
-                        p.stable_velocity, units), sweep
+    return FlutterSpeed("p-k", float("nan"), rho, p.velocity, p.frequency_hz, p.mode, p.kind,
+                        p.stable_velocity, mach=mach), sweep
 
 
 def flutter_speed_state_space(structure: ModalStructure, rfa: RFA, aero: AeroTable,

@@ -111,6 +111,8 @@ class FlutterDeck:
     notes: list[str] = field(default_factory=list)
     frame: AeroFrame = field(default_factory=AeroFrame)  # AERO ACSID: flow along its +x
     length_unit: str = "length"
+    #: the unit system its cards tell (torchrom.units; None: they do not say)
+    units: str | None = None
     symmetry_source: str = "AERO SYMXZ"
     n_eigen: int | None = None  # ND of the EIGR/EIGRL (None: not given)
     lmodes: int | None = None  # PARAM LMODES (None: not given)
@@ -300,6 +302,7 @@ def load_deck(path, require_flutter: bool = True, *, symxz: int | None = None,
                 "expected the boxes off that plane (z != 0 in ACSID)")
     units = model.dti.get("UNITS")
     deck_length = (units.fields.get("length") if units is not None else None) or None
+    system = _deck_system(model, path)
     splines = _spline_defs(model, path, panels, frame)
     if not splines:
         raise InputError(f"{path}: SPLINE1/SPLINE2: no spline connects the structure to the boxes")
@@ -373,13 +376,25 @@ def load_deck(path, require_flutter: bool = True, *, symxz: int | None = None,
     return FlutterDeck(
         path, panels, ref, splines, cases, sorted(set(mkaero)), n_modes, frange, vref, title, notes,
         frame,
-        length_unit=str(deck_length or length_unit or "length").lower(),
+        length_unit=str(deck_length or length_unit
+                        or (system.length if system else "length")).lower(),
+        units=system.name if system else None,
         symmetry_source=source,
         n_eigen=nd,
         lmodes=lmodes,
         resvec=use_resvec,
         resvec_source=resvec_source,
     )
+
+
+def _deck_system(model, path: Path):
+    """The unit system the deck's cards tell (:func:`torchrom.units.infer_units`), None when
+    they do not or disagree (the labels then say "length", as a deck without DTI,UNITS)."""
+    from ..fe.deck_units import deck_units
+    from ..units import recorded_units
+
+    record = deck_units(model, path.name)
+    return None if record is None else recorded_units(record)
 
 
 def _param_number(model, path: Path, key: str, default, ok, expected: str) -> float:
@@ -469,6 +484,16 @@ class DeckResult:
         return [(r, j) for r in self.results for j in range(r.sweep.damping.shape[1])
                 if not rigid[j] and r.sweep.damping[0, j] > G_ROUNDOFF]
 
+    def _density_unit(self) -> str:
+        """The label of the densities: the unit system's when the deck's cards tell it (and
+        the length label is that system's), else mass/length^3 in the deck's units."""
+        from ..units import unit_system
+
+        system = unit_system(self.deck.units) if self.deck.units else None
+        if system is not None and system.length == self.deck.length_unit:
+            return system.density
+        return f"mass/{self.deck.length_unit}^3 (deck units)"
+
     def as_dict(self) -> dict:
         """Flat records for --json (velocities in deck units / VREF, frequencies in Hz)."""
         vref = self.deck.vref
@@ -490,8 +515,8 @@ class DeckResult:
             "symxz": self.deck.reference.symxz,
             "symxy": self.deck.reference.symxy,
             "symmetry": self.deck.symmetry,
-            "units": {"velocity": self.deck.velocity_unit, "frequency": "Hz",
-                      "density": f"mass/{self.deck.length_unit}^3 (deck units)"},
+            "units": {"system": self.deck.units, "velocity": self.deck.velocity_unit,
+                      "frequency": "Hz", "density": self._density_unit()},
             "modal_frequencies_hz": self.frequencies_hz.tolist(),
             "flutter": points("points"),
             "rigid_body_roots": points("rigid_points"),

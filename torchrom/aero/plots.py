@@ -29,8 +29,10 @@ def plot_vg(
     x: str = "velocity",
     velocity_label: str = "velocity",
     title: str | None = None,
+    altitude_label: str = "altitude (ft)",
 ) -> Path:
-    """Damping g and frequency (Hz) of every tracked mode against velocity (or altitude)."""
+    """Damping g and frequency (Hz) of every tracked mode against velocity (or altitude);
+    the axis labels carry the model's units."""
     plt, fig, (ax_g, ax_f) = _figure(2, 1, sharex=True, figsize=(7, 7))
     xs = (
         sweep.velocity_by_mode
@@ -44,7 +46,7 @@ def plot_vg(
     ax_g.axhline(0.0, color="k", lw=0.8)
     ax_g.set_ylabel("damping g (-)")
     ax_f.set_ylabel("frequency (Hz)")
-    ax_f.set_xlabel(velocity_label if x == "velocity" else "altitude (ft)")
+    ax_f.set_xlabel(velocity_label if x == "velocity" else altitude_label)
     finite = sweep.damping[np.isfinite(sweep.damping)]
     if finite.size:
         lo, hi = np.percentile(finite, [1, 99])

@@ -184,6 +184,23 @@ def add_unsupported_option(parser: argparse.ArgumentParser, what: str = "") -> N
                         help=f"{what}what to do with unsupported structural cards (default error)")
 
 
+def unit_system_name(value: str) -> str:
+    """A ``--units`` value: the name of a system of :mod:`torchrom.units`."""
+    from ..units import SYSTEMS
+
+    if value not in SYSTEMS:
+        raise argparse.ArgumentTypeError(f"expected one of {', '.join(SYSTEMS)}, got {value!r}")
+    return value
+
+
+def add_units_option(parser: argparse.ArgumentParser, what: str) -> None:
+    """--units: the unit system of the model (see :mod:`torchrom.units`)."""
+    parser.add_argument("--units", type=unit_system_name, default=None,
+                        metavar="si|ft-slug-s|in-lbf-s|mm-t-s",
+                        help=f"unit system of {what} (default: read from the deck's AERO "
+                             f"RHOREF, GRAV or PARAM WTMASS; refused when they disagree)")
+
+
 def add_force_option(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--force", action="store_true", help="overwrite outputs that already exist"

@@ -13,6 +13,7 @@ from ..progress import info
 from ._common import (
     add_force_option,
     add_json_option,
+    add_units_option,
     case_parameter,
     check_outputs,
     maybe_write_json,
@@ -68,6 +69,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         help="aerodynamic boxes from the deck's CAERO1 cards or the built-in Goland "
         "planform (default: deck; 'goland' for the built-in model)",
     )
+    add_units_option(p, "the deck")
     add_force_option(p)
     add_json_option(p)
 
@@ -86,6 +88,26 @@ def load_fe(model: str):
     if not path.is_file():
         raise InputError(f"{path}: file not found")
     return fe_mod.read_bdf(path)
+
+
+def _check_units(args, fe) -> None:
+    """--units against the deck's cards (:func:`torchrom.fe.deck_units.declare_units`); the
+    built-in Goland planform is in ft, so only for a deck in ft-slug-s (or one that does not
+    say)."""
+    from ..errors import InputError
+    from ..fe.deck_units import declare_units, describe_units
+    from ..units import recorded_units
+
+    if args.model == "goland":
+        if args.units not in (None, "ft-slug-s"):
+            raise InputError(f"--units {args.units}: the built-in Goland wing is in ft-slug-s")
+        return
+    declare_units(fe, args.units, str(args.model))
+    system = recorded_units(fe.units or {})
+    if args.planform == "goland" and system is not None and system.name != "ft-slug-s":
+        raise InputError(f"{args.model}: --planform goland: the built-in planform is in ft but "
+                         f"the deck is in {system.name}; give the deck CAERO1/SPLINE cards")
+    info(f"  {describe_units(fe)}")
 
 
 def _check_panels(path) -> None:
@@ -113,6 +135,7 @@ def run(args: argparse.Namespace) -> int:
         _check_panels(args.model)
     info(f"torchrom aero: {args.model}: modal analysis ({args.modes} modes)")
     fe = load_fe(args.model)
+    _check_units(args, fe)
     bar = _progress()
     if goland:
         modes = modal_data(fe, args.modes)
@@ -163,9 +186,19 @@ def run(args: argparse.Namespace) -> int:
             "rfa_kind": data.rfa.kind,
             "fit_error": err,
             "frequencies_hz": data.metadata["frequencies_hz"],
+            "unit_system": data.metadata.get("unit_system"),
+            "units": {"semichord": _length_unit(data), "frequencies_hz": "Hz", "k": "-"},
         },
     )
     return 0
+
+
+def _length_unit(data) -> str | None:
+    """The length unit of the aero file's reference lengths (None: not recorded)."""
+    from ..units import recorded_units
+
+    system = recorded_units(data.metadata)
+    return None if system is None else system.length
 
 
 def _progress():

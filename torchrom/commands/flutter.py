@@ -3,7 +3,8 @@
 Forms:
   torchrom flutter DECK.bdf                      FLUTTER/FLFACT/MKAERO cards of the deck (PK, KE)
   torchrom flutter ROM.npz AERO.npz [--mach M]   matched point at fixed Mach (p-k + state space);
-                                                 at Mach 0, the flutter speed per altitude
+                                                 at Mach 0, the flutter speed per altitude;
+                                                 with --density RHO, the speed at that density
   torchrom flutter goland [--aero AERO.npz]      built-in heavy Goland wing, compared with the paper
 
 JSON (--json), deck form: {"deck", "title", "modal_frequencies_hz", "flutter": [{flutter_id,
@@ -14,13 +15,15 @@ sweep's speeds)}], "rigid_body_roots": [the same, for the roots of rigid-body mo
 flutter], "unstable_at_first_speed": [{flutter_id, method, mach, density_ratio, mode,
 velocity, damping_g, frequency_hz}], "vg": [{..., mode, velocity, damping_g, frequency_hz,
 reduced_frequency, eigenvalue_real, eigenvalue_imag}], "notes"}.
+Units: the ROM form's numbers are in the unit system the files record (torchrom.units; "units"
+holds the label of each quantity: altitude, speed, density, dynamic_pressure, ...).
 Matched-point form: {"mach", "alpha" (1/s), "gamma" (s), "units", "flutter": [{method, altitude,
 frequency_hz, velocity, density, dynamic_pressure, mode}], "growing_response": [{altitude,
 frequency_hz_state_space, frequency_hz_pk}], "alpha_for_gamma": [{gamma, alpha, altitude}],
 "paper": {...} (Goland only)}. With an aero file at Mach 0 (incompressible), no matched point:
 {"mach": 0, "alpha", "gamma", "units", "flutter": [{method, altitude, density, velocity,
 frequency_hz, dynamic_pressure, mode, kind, stable_velocity}]}, the flutter speed at the density
-of each altitude.
+of each altitude; the same with --density at the aero file's Mach (altitude null).
 """
 
 from __future__ import annotations
@@ -34,6 +37,7 @@ from ._common import (
     OrderedRange,
     add_force_option,
     add_json_option,
+    add_units_option,
     add_unsupported_option,
     case_parameter,
     check_outputs,
@@ -41,6 +45,7 @@ from ._common import (
     finite_float,
     maybe_write_json,
     nonnegative_int,
+    positive_float,
     positive_int,
     write_figure,
 )
@@ -65,8 +70,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         nargs=2,
         action=OrderedRange,
         metavar=("LO", "HI"),
-        default=(0.0, 40000.0),
-        help="altitude range searched for the flutter point (ft; default 0 40000)",
+        default=None,
+        help="altitude range searched for the flutter point, in the model's altitude unit (ft "
+        "for ft-slug-s and in-lbf-s, m for si and mm-t-s; default 0 to 40,000 ft = 12,192 m)",
     )
     p.add_argument("--alpha", type=finite_float,
                    help="mass-proportional damping α (1/s; default 0.2565)")
@@ -80,8 +86,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         type=finite_float,
         nargs="+",
         metavar="ALT",
-        help="altitudes (ft) at which to report the growing-response frequency "
-        "(default for goland: the paper's Table 3 altitudes)",
+        help="altitudes (the model's altitude unit, see --alt-range) at which to report the "
+        "growing-response frequency (default for goland: the paper's Table 3 altitudes, ft)",
     )
     p.add_argument(
         "--aero", type=Path, help="goland form: use this aero.npz instead of building one"
@@ -132,6 +138,12 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                         "frequencies, spread over them with both ends kept, and interpolate the "
                         "GAFs at the others (cubic spline in k); default: every k solved")
     p.add_argument("--root-locus", type=Path, help="write a state-space root-locus figure")
+    p.add_argument("--density", type=positive_float, nargs="+", metavar="RHO",
+                   help="ROM form: the flutter speed at these air densities (the model's density "
+                        "unit, e.g. kg/m^3) at the aero file's Mach, as SOL 145's PK at one Mach "
+                        "and density (a wind tunnel), instead of the matched point")
+    add_units_option(p, "ROM.npz AERO.npz when they record none (default: what they record; "
+                        "files of neither: ft-slug-s, said)")
     add_json_option(p)
     add_force_option(p)
 
@@ -180,23 +192,45 @@ def _check_input_kinds(inputs: list[str]) -> None:
 
 
 def _check_options(args) -> None:
-    """The altitudes (in the atmosphere's range, LO < HI), boxes and lags, before any work."""
-    from ..aero.atmosphere import atmosphere
+    """LO < HI of --alt-range, boxes and lags, before any work (the altitudes against the
+    atmosphere's range in the model's units: :func:`_check_altitudes`)."""
     from ..bounds import MAX_LAGS, check_boxes, check_count
     from ..errors import InputError
 
-    lo, hi = args.alt_range
-    if not lo < hi:
-        raise InputError(f"--alt-range: expected LO < HI (ft), got {lo:g} {hi:g}")
-    for option, values in (("--alt-range", [lo, hi]), ("--at", args.at or [])):
+    if args.alt_range is not None:
+        lo, hi = args.alt_range
+        if not lo < hi:
+            raise InputError(f"--alt-range: expected LO < HI, got {lo:g} {hi:g}")
+    check_boxes("--boxes", 2 * args.boxes[0] * args.boxes[1])
+    check_count("--lags", "lag states", args.lags, MAX_LAGS)
+    if len(args.inputs) == 1 and args.inputs[0] != "goland" and args.density:
+        raise InputError("--density: for ROM.npz AERO.npz or goland (a deck's densities are "
+                         "its FLFACT density ratios times AERO RHOREF)")
+    if len(args.inputs) == 1 and args.units is not None:
+        what = "the deck's own" if args.inputs[0] != "goland" else "ft-slug-s for goland"
+        if args.inputs[0] != "goland" or args.units != "ft-slug-s":
+            raise InputError(f"--units: for ROM.npz AERO.npz only ({what} units are used)")
+
+
+#: default altitude range searched for the flutter point (ft; converted to the model's unit)
+ALT_RANGE_FT = (0.0, 40000.0)
+
+
+def _check_altitudes(args, system) -> None:
+    """--alt-range (default :data:`ALT_RANGE_FT` in ``system``'s altitude unit) and --at in
+    the atmosphere's range, in ``system``'s altitude unit (InputError naming the option)."""
+    from ..aero.atmosphere import FT, atmosphere
+    from ..errors import InputError
+
+    if args.alt_range is None:
+        args.alt_range = tuple(h * FT / system.altitude_metre for h in ALT_RANGE_FT)
+    for option, values in (("--alt-range", list(args.alt_range)), ("--at", args.at or [])):
         if not values:
             continue
         try:
-            atmosphere(values, "ft")
+            atmosphere(values, system.name)
         except InputError as exc:
             raise InputError(f"{option}: {exc}") from None
-    check_boxes("--boxes", 2 * args.boxes[0] * args.boxes[1])
-    check_count("--lags", "lag states", args.lags, MAX_LAGS)
 
 
 def _run_deck(args, path: Path) -> int:
@@ -239,14 +273,22 @@ def _figure(draw, *a, **k) -> bool:
 
 
 def _run_rom(args, rom_path: Path, aero_path: Path) -> int:
-    from ..aero.build import BASELINE_ALPHA, BASELINE_GAMMA, structure_from_rom_file
+    from ..aero.build import BASELINE_ALPHA, BASELINE_GAMMA, structure_from_rom
     from ..aero.files import load_aero
+    from ..rom import NonlinearROM
+    from ..units import file_units
 
     aero = load_aero(aero_path)
+    rom = NonlinearROM.load(rom_path)
+    system, note = file_units({str(rom_path): rom.metadata, str(aero_path): aero.metadata},
+                              args.units)
+    if note:
+        print(f"  {note}")
+    _check_altitudes(args, system)
     alpha = BASELINE_ALPHA if args.alpha is None else args.alpha
     gamma = BASELINE_GAMMA if args.gamma is None else args.gamma
-    st = structure_from_rom_file(rom_path, aero.n_modes, alpha, gamma)
-    return _matched(args, st, aero, compare_paper=False)
+    st = structure_from_rom(rom, aero.n_modes, alpha, gamma, rom_path)
+    return _matched(args, st, aero, system, compare_paper=False)
 
 
 def _run_goland(args) -> int:
@@ -259,7 +301,10 @@ def _run_goland(args) -> int:
     )
     from ..aero.files import load_aero
     from ..aero.panels import goland_panels
+    from ..units import unit_system
 
+    system = unit_system("ft-slug-s")  # the built-in Goland wing's
+    _check_altitudes(args, system)
     alpha = BASELINE_ALPHA if args.alpha is None else args.alpha
     gamma = BASELINE_GAMMA if args.gamma is None else args.gamma
     mach = 0.7 if args.mach is None else args.mach
@@ -267,7 +312,10 @@ def _run_goland(args) -> int:
 
     fe = goland(variant=args.variant)
     if args.aero is not None:
+        from ..units import file_units
+
         aero = load_aero(args.aero)
+        file_units({"goland": {"unit_system": "ft-slug-s"}, str(args.aero): aero.metadata})
         modes = modal_data(fe, aero.n_modes)
     else:
         modes = modal_data(fe, 9)
@@ -282,10 +330,13 @@ def _run_goland(args) -> int:
     print("  modal frequencies (Hz): " + ", ".join(f"{f:.4g}" for f in modes.frequencies_hz))
     if args.at is None:
         args.at = [4000.0, 6000.0, 8000.0, 10000.0, 11000.0]
-    return _matched(args, modes.structure(alpha, gamma), aero, compare_paper=True)
+    return _matched(args, modes.structure(alpha, gamma), aero, system, compare_paper=True)
 
 
-def _matched(args, structure, aero, compare_paper: bool) -> int:
+def _matched(args, structure, aero, system, compare_paper: bool) -> int:
+    """Matched-point flutter (or, at Mach 0 or with --density, :func:`_speeds_at_densities`)
+    in ``system``'s units (:class:`torchrom.units.UnitSystem`): altitudes, speeds, densities,
+    dynamic pressures."""
     from ..aero.build import PAPER_FLUTTER_ALTITUDE_FT, PAPER_FLUTTER_FREQUENCY_HZ, PAPER_TABLE3
     from ..aero.flutter import (
         AeroTable,
@@ -299,41 +350,46 @@ def _matched(args, structure, aero, compare_paper: bool) -> int:
     mach = aero.mach if args.mach is None else args.mach
     if abs(mach - aero.mach) > 1e-9:
         raise InputError(f"--mach {mach:g} differs from the aero file's Mach {aero.mach:g}")
-    if mach == 0.0:  # incompressible: no matched point (V = 0 a(h)), a speed per altitude
-        return _incompressible(args, structure, aero)
+    if mach == 0.0 or args.density:  # a speed at a density (Mach 0: no matched point)
+        return _speeds_at_densities(args, structure, aero, system, mach)
+    u = system.labels()
+    h_u = u["altitude"]
     table = AeroTable.from_gaf(aero.gaf)
     results = []
     print(
         f"  matched point at Mach {mach:g}, "
-        f"altitudes {args.alt_range[0]:g}..{args.alt_range[1]:g} ft, "
+        f"altitudes {args.alt_range[0]:g}..{args.alt_range[1]:g} {h_u}, units {system.name}, "
         f"alpha = {structure.alpha:g} 1/s, gamma = {structure.gamma:g} s, "
         f"RFA fit error {aero.rfa.fit_error.get('rms_relative', float('nan')):.2e}"
     )
     if args.method in ("both", "pk"):
-        results.append(flutter_altitude_pk(structure, table, mach, args.alt_range))
+        results.append(flutter_altitude_pk(structure, table, mach, args.alt_range,
+                                           units=system.name))
     if args.method in ("both", "state-space"):
-        results.append(flutter_altitude_state_space(structure, aero.rfa, mach, args.alt_range))
-    print(f"  {'method':<13}{'altitude ft':>13}{'frequency Hz':>14}{'V ft/s':>10}{'q psf':>9}")
+        results.append(flutter_altitude_state_space(structure, aero.rfa, mach, args.alt_range,
+                                                    units=system.name))
+    print(f"  {'method':<13}{'altitude ' + h_u:>13}{'frequency Hz':>14}"
+          f"{'V ' + u['speed']:>10}{'q ' + u['dynamic_pressure']:>13}")
     for r in results:
         if r.altitude is None:
             print(f"  {r.method:<13}{'no flutter in range':>46}")
             continue
         print(
             f"  {r.method:<13}{r.altitude:13.1f}{r.frequency_hz:14.4f}{r.velocity:10.1f}"
-            f"{0.5 * r.density * r.velocity**2:9.1f}"
+            f"{0.5 * r.density * r.velocity**2:13.1f}"
         )
     for r in results:
         for j, a in getattr(r, "rigid_body_crossings", []):
             print(f"  {r.method}: rigid-body root (mode {j + 1}) damping crosses zero near "
-                  f"{a:.1f} ft: not flutter (a free aircraft's rigid-body root)")
+                  f"{a:.1f} {h_u}: not flutter (a free aircraft's rigid-body root)")
     if compare_paper:
         print(f"  {'paper':<13}{PAPER_FLUTTER_ALTITUDE_FT:13.1f}{PAPER_FLUTTER_FREQUENCY_HZ:14.4f}")
     growing = []
     if args.at:
         alts = np.asarray(args.at, dtype=float)
-        f_ss = growing_response_frequency(structure, aero.rfa, mach, alts)
+        f_ss = growing_response_frequency(structure, aero.rfa, mach, alts, system.name)
         f_pk = growing_response_frequency_pk(
-            structure, table, mach, alts, start_altitude=args.alt_range[1]
+            structure, table, mach, alts, system.name, start_altitude=args.alt_range[1]
         )
         print(
             f"  growing-response frequency (Hz){'':8}{'state space':>12}{'p-k':>9}"
@@ -341,7 +397,8 @@ def _matched(args, structure, aero, compare_paper: bool) -> int:
         )
         for a, fs, fp in zip(alts, f_ss, f_pk):
             paper = PAPER_TABLE3.get(float(a)) if compare_paper else None
-            print(f"  {a:10.0f} ft{'':28}{fs:12.4f}{fp:9.4f}" + (f"{paper:9.3f}" if paper else ""))
+            print(f"  {a:10.0f} {h_u:<2}{'':28}{fs:12.4f}{fp:9.4f}"
+                  + (f"{paper:9.3f}" if paper else ""))
             growing.append(
                 {
                     "altitude": float(a),
@@ -353,19 +410,20 @@ def _matched(args, structure, aero, compare_paper: bool) -> int:
     if args.alpha_for_gamma:
         from ..aero.flutter import alpha_for_gamma
 
-        ref = flutter_altitude_state_space(structure, aero.rfa, mach, args.alt_range)
+        ref = flutter_altitude_state_space(structure, aero.rfa, mach, args.alt_range,
+                                           units=system.name)
         if ref.altitude is None:
             raise InputError("--alpha-for-gamma: no state-space flutter point in --alt-range")
-        print(f"  alpha(gamma) keeping the flutter altitude at {ref.altitude:.1f} ft:")
+        print(f"  alpha(gamma) keeping the flutter altitude at {ref.altitude:.1f} {h_u}:")
         for g in args.alpha_for_gamma:
-            a = alpha_for_gamma(structure, aero.rfa, g, mach, ref.altitude)
+            a = alpha_for_gamma(structure, aero.rfa, g, mach, ref.altitude, system.name)
             print(f"    gamma = {g:10.4g} s   alpha = {a:10.5g} 1/s")
             pairs.append({"gamma": g, "alpha": a, "altitude": ref.altitude})
     out = {
         "mach": mach,
         "alpha": structure.alpha,
         "gamma": structure.gamma,
-        "units": "ft",
+        "units": u,
         "flutter": [r.as_dict() for r in results],
         "growing_response": growing,
         "alpha_for_gamma": pairs,
@@ -383,7 +441,8 @@ def _matched(args, structure, aero, compare_paper: bool) -> int:
 
         sweep = next((r.sweep for r in results if r.method == "p-k"), None)
         if sweep is not None:
-            ok &= _figure(plot_vg, sweep, args.plot, x="altitude", title=f"p-k, Mach {mach:g}")
+            ok &= _figure(plot_vg, sweep, args.plot, x="altitude", title=f"p-k, Mach {mach:g}",
+                          altitude_label=f"altitude ({h_u})")
     if args.root_locus is not None:
         from ..aero.plots import plot_root_locus
 
@@ -394,49 +453,62 @@ def _matched(args, structure, aero, compare_paper: bool) -> int:
     return 0 if ok else 1
 
 
-def _incompressible(args, structure, aero) -> int:
-    """Mach 0 aerodynamics: the flutter speed at the density of each altitude of --at (default
-    the two ends of --alt-range), by p-k and the state space
-    (:mod:`torchrom.aero.flutter_speed`)."""
+def _speeds_at_densities(args, structure, aero, system, mach: float) -> int:
+    """The flutter speed at fixed densities and the aero file's Mach (SOL 145's PK at one
+    Mach and density; a wind tunnel): at each --density, or (Mach 0, no matched point) at the
+    density of each altitude of --at (default the two ends of --alt-range); by p-k and the
+    state space (:mod:`torchrom.aero.flutter_speed`)."""
+    from ..aero.atmosphere import atmosphere
     from ..aero.flutter import AeroTable
-    from ..aero.flutter_speed import flutter_speed_pk, flutter_speed_state_space
+    from ..aero.flutter_speed import flutter_speed_at_density, flutter_speed_pk_at_density
     from ..errors import InputError
 
     for option, given in (("--alpha-for-gamma", args.alpha_for_gamma),
                           ("--root-locus", args.root_locus)):
         if given:
-            raise InputError(f"{option}: needs a flight Mach number > 0 (a matched point); the "
-                             "aero file is at Mach 0, where the flutter point is a speed")
+            raise InputError(f"{option}: needs a matched point (a flight Mach number > 0 "
+                             "without --density); here the flutter point is a speed")
     table = AeroTable.from_gaf(aero.gaf)
-    altitudes = list(args.at) if args.at else list(args.alt_range)
-    print(f"  Mach 0 (incompressible): flutter speed at the density of each altitude, "
-          f"alpha = {structure.alpha:g} 1/s, gamma = {structure.gamma:g} s")
-    print(f"  {'method':<13}{'altitude ft':>13}{'V ft/s':>10}{'frequency Hz':>14}{'q psf':>9}"
+    u = system.labels()
+    if args.density:
+        conditions = [(float("nan"), float(rho)) for rho in args.density]
+        where = "at each --density"
+    else:
+        altitudes = list(args.at) if args.at else list(args.alt_range)
+        conditions = [(float(h), float(atmosphere(h, system.name).density)) for h in altitudes]
+        where = "at the density of each altitude"
+    print(f"  Mach {mach:g}{' (incompressible)' if mach == 0 else ''}: flutter speed {where}, "
+          f"units {system.name}, alpha = {structure.alpha:g} 1/s, gamma = {structure.gamma:g} s")
+    print(f"  {'method':<13}{'altitude ' + u['altitude']:>13}{'density ' + u['density']:>22}"
+          f"{'V ' + u['speed']:>10}{'frequency Hz':>14}{'q ' + u['dynamic_pressure']:>13}"
           f"  kind")
     results, first_sweep = [], None
-    for alt in altitudes:
+    for alt, rho in conditions:
         found = []
         if args.method in ("both", "pk"):
-            pk, sweep = flutter_speed_pk(structure, table, alt)
+            pk, sweep = flutter_speed_pk_at_density(structure, table, rho, mach)
             first_sweep = first_sweep or sweep
             found.append(pk)
         if args.method in ("both", "state-space"):
-            found.append(flutter_speed_state_space(structure, aero.rfa, table, alt))
+            found.append(flutter_speed_at_density(structure, aero.rfa, table, rho, mach=mach))
+        head = f"{'-' if alt != alt else f'{alt:.1f}':>13}{rho:22.5g}"
         for r in found:
+            r.altitude, r.units = alt, system.name
             if r.velocity is None:
-                print(f"  {r.method:<13}{alt:13.1f}{'no flutter in the speed range':>33}")
+                print(f"  {r.method:<13}{head}{'no flutter in the speed range':>33}")
                 continue
             kind = "" if r.kind is None else r.kind + (
-                f" (stable again at {r.stable_velocity:.1f} ft/s)" if r.stable_velocity else "")
-            print(f"  {r.method:<13}{alt:13.1f}{r.velocity:10.1f}{r.frequency_hz:14.4f}"
-                  f"{0.5 * r.density * r.velocity**2:9.1f}  {kind}")
+                f" (stable again at {r.stable_velocity:.1f} {u['speed']})"
+                if r.stable_velocity else "")
+            print(f"  {r.method:<13}{head}{r.velocity:10.2f}{r.frequency_hz:14.4f}"
+                  f"{0.5 * r.density * r.velocity**2:13.1f}  {kind}")
         results += found
-    maybe_write_json(args, {"mach": 0.0, "alpha": structure.alpha, "gamma": structure.gamma,
-                            "units": "ft", "flutter": [r.as_dict() for r in results]})
+    maybe_write_json(args, {"mach": mach, "alpha": structure.alpha, "gamma": structure.gamma,
+                            "units": u, "flutter": [r.as_dict() for r in results]})
     ok = True
     if args.plot is not None and first_sweep is not None:
         from ..aero.plots import plot_vg
 
-        ok = _figure(plot_vg, first_sweep, args.plot, velocity_label="velocity (ft/s)",
-                     title=f"p-k, Mach 0, {altitudes[0]:g} ft")
+        ok = _figure(plot_vg, first_sweep, args.plot, velocity_label=f"velocity ({u['speed']})",
+                     title=f"p-k, Mach {mach:g}, density {conditions[0][1]:.4g} {u['density']}")
     return 0 if ok else 1

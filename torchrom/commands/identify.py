@@ -22,6 +22,7 @@ from ..progress import info
 from ._common import (
     add_force_option,
     add_json_option,
+    add_units_option,
     check_outputs,
     finite_float,
     maybe_write_json,
@@ -79,6 +80,7 @@ def add_arguments(parser) -> None:
                              "e.g. --output G1001:T3 --output tip=G1002:T3; the ROM always "
                              "has the deck's named points and max_mode1, the translation that "
                              "moves most in mode 1")
+    add_units_option(parser, "the deck")
     add_json_option(parser)
     add_force_option(parser)
 
@@ -118,6 +120,10 @@ def run(args) -> int:
     t0 = time.perf_counter()
     info(f"reading {args.model}")
     fe = read_bdf(args.model)
+    from ..fe.deck_units import declare_units, describe_units
+
+    declare_units(fe, args.units, str(args.model))
+    print(f"  {describe_units(fe)}")
     if args.report is not None and fe.modes(1).n_rigid:
         # the report's static curves and free decay are solved on a restrained ROM and FE
         raise InputError(f"{args.model}: --report: the validation (static curves at point A, "

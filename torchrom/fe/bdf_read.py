@@ -310,6 +310,10 @@ def from_pynastran(
         if output_points is None:
             output_points = goland_output_points(mesh)
             units = units or dict(GOLAND_UNITS)
+    if units is None:
+        from .deck_units import deck_units
+
+        units = deck_units(model, fname)
     fe = FEModel(
         mesh,
         name=name,

@@ -22,6 +22,8 @@ from ..errors import InputError
 from ..rom import NonlinearROM
 from ..rom.points import DEFAULT_OUTPUT, largest_translation
 from ..rom.points import METADATA_KEY as POINTS_KEY
+from ..units import METADATA_KEY as UNITS_KEY
+from ..units import recorded_units
 from .backend import FEBackend
 from .basis import PAPER_COMBINATIONS, Basis, DualModeOptions, dual_basis, linear_basis
 from .damping import (
@@ -297,6 +299,9 @@ def assemble_rom(be: FEBackend, basis: Basis, stiff: StiffnessIdentification,
         "timings_s": dict(timings or {}),
         POINTS_KEY: points,
     }
+    system = recorded_units(be.metadata)
+    if system is not None:  # the FE model's, which the ROM's tensors are in
+        metadata[UNITS_KEY] = system.name
     return NonlinearROM(M, stiff.K1, stiff.K2, stiff.K3, damp.D1, damp.D2, damp.D3,
                         mode_kinds=basis.kinds, frequencies_hz=basis.frequencies_hz,
                         outputs=outputs, metadata=metadata, symmetrize=True)

@@ -271,12 +271,13 @@ def run_branches(cfg: SweepConfig, parameter: str, options: BranchOptions, model
                                                               table[f"amplitude_{bname}"])
         table["stable"] = pd.array(table["stable"].tolist(), dtype="boolean")
     hopf = pd.DataFrame([{**base[h["branch"]], **h} for h in br.hopf])
-    from .sweep import model_length_unit
+    from .sweep import flight_units, model_length_unit
     from .units import sweep_units
 
     # the amplitudes in their outputs' units (the model's length unit for a physical output,
     # "-" for a generalized coordinate), as a sweep's table has them
-    table.attrs["units"] = {**sweep_units(list(table.columns), names, model_length_unit(model)),
+    table.attrs["units"] = {**sweep_units(list(table.columns), names, model_length_unit(model),
+                                          flight_units(model)),
                             parameter: PARAMETER_UNITS[parameter], "frequency_hz": "Hz",
                             "amplitude_pct_span": "% of span"}
     table.attrs["decision_output"] = names[0] if names else None

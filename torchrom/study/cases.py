@@ -9,12 +9,13 @@ means the α that keeps the flutter altitude of the baseline damping for the cas
 Fig. 9, :meth:`AeroelasticModel.matched_alpha`); the table then holds the numeric α, and
 ``alpha_matched`` says where it came from.
 
-A *wind-tunnel* case gives the airspeed instead: ``speed`` (ft/s) at the air density
-``density`` (slug/ft³) or at that of ``altitude_ft`` (USSA-76), q∞ = ½ρV², at the GAF Mach
+A *wind-tunnel* case gives the airspeed instead: ``speed`` at the air density
+``density`` or at that of ``altitude_ft`` (USSA-76), q∞ = ½ρV², at the GAF Mach
 number (a tunnel test such as Pazy's: sea-level density, speed swept). A speed sweep is at
 one density: sweeping ``altitude_ft`` as well is refused (sweep the altitude without
-``speed`` for the matched point). Units: those of the aeroelastic sweep, ft–slug–s, as
-``altitude_ft`` and the atmosphere's.
+``speed`` for the matched point). Units: ``speed`` and ``density`` in the model's unit system
+(:attr:`AeroelasticModel.units`, e.g. m/s and kg/m³ for an SI deck, ft/s and slug/ft³ for the
+Goland wing); ``altitude_ft`` in ft in every system (converted for the atmosphere).
 
 ``[history]`` selects cases whose output time histories are kept: ``where`` is a table of
 parameter values (a value or a list of values each; numbers compare to a relative 1e-9) and
@@ -46,8 +47,9 @@ AEROELASTIC_PARAMETERS = ("altitude_ft", "speed", "density", "mach", "alpha", "g
                           "stiffness_nl", "damping_nl", "q0")
 #: the α of a case that keeps the baseline flutter altitude (paper Fig. 9)
 MATCHED = "matched"
-#: units of a wind-tunnel case's speed and density (the ft–slug–s system of altitude_ft)
-TUNNEL_UNITS = {"speed": "ft/s", "density": "slug/ft^3"}
+#: units of a wind-tunnel case's speed and density (the model's system, known once it is built)
+TUNNEL_UNITS = {"speed": "the model's speed unit, e.g. ft/s or m/s",
+                "density": "the model's density unit, e.g. slug/ft^3 or kg/m^3"}
 
 
 def case_parameters(aeroelastic: bool) -> tuple[str, ...]:
@@ -91,15 +93,15 @@ def _check_flight_condition(case: Mapping[str, Any], k: int, where: str) -> None
     if "speed" not in case:
         if "density" in case:
             raise InputError(f"{where} density: given without speed (case {k}); a wind-tunnel "
-                             f"case needs the speed (ft/s), a matched-point case altitude_ft only")
+                             f"case needs the speed, a matched-point case altitude_ft only")
         if "altitude_ft" not in case:
             raise InputError(f"{where} altitude_ft: missing (case {k}); an aeroelastic sweep "
                              f"needs the altitude of every case (matched point), or a speed "
-                             f"(ft/s) and density (wind tunnel)")
+                             f"and density (wind tunnel)")
     elif ("density" in case) == ("altitude_ft" in case):
         key = "density" if "density" in case else "speed"
         raise InputError(f"{where} {key}: a wind-tunnel case takes its air density from "
-                         f"exactly one of density (slug/ft^3) or altitude_ft (case {k})")
+                         f"exactly one of density or altitude_ft (case {k})")
 
 
 def check_speed_sweep(cases: Sequence[Mapping[str, Any]], where: str = "[cases]") -> None:
@@ -117,22 +119,25 @@ def check_speed_sweep(cases: Sequence[Mapping[str, Any]], where: str = "[cases]"
 
 def flight_conditions(model: AeroelasticModel, cases: Sequence[Mapping[str, Any]]
                       ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(V, ρ, altitude) per case (ft/s, slug/ft³, ft): the matched point V = M a(h), ρ(h) at
-    the GAF Mach M (paper Eqs. 49–50), or the wind tunnel's ``speed`` at ``density`` or at
-    ρ(``altitude_ft``) (altitude NaN when the density is given)."""
+    """(V, ρ, altitude) per case (the model's speed and density units, e.g. ft/s and
+    slug/ft³; altitude in ft): the matched point V = M a(h), ρ(h) at the GAF Mach M (paper
+    Eqs. 49–50), or the wind tunnel's ``speed`` at ``density`` or at ρ(``altitude_ft``)
+    (altitude NaN when the density is given); the atmosphere in the model's units."""
     from ..aero.atmosphere import atmosphere, flight_condition
 
+    units = model.units.name
     V, rho, alt = (np.full(len(cases), np.nan) for _ in range(3))
     for i, c in enumerate(cases):
         if "altitude_ft" in c:
             alt[i] = float(c["altitude_ft"])
+        h = model.altitude_in_units(alt[i])
         if "speed" not in c:
-            fc = flight_condition(model.mach, alt[i])
+            fc = flight_condition(model.mach, h, units)
             V[i], rho[i] = float(fc.velocity), float(fc.density)
         else:
             V[i] = float(c["speed"])
             rho[i] = (float(c["density"]) if "density" in c
-                      else float(atmosphere(alt[i]).density))
+                      else float(atmosphere(h, units).density))
     return V, rho, alt
 
 
@@ -149,11 +154,11 @@ def flutter_speed_lines(model, cases: Sequence[Mapping[str, Any]]) -> list[str]:
     if not isinstance(model, AeroelasticModel) or not tunnel:
         return []
     _, rho, _ = flight_conditions(model, tunnel)
-    lines = []
+    lines, u = [], model.units
     for density in list(dict.fromkeys(float(r) for r in rho))[:MAX_FLUTTER_DENSITIES]:
         fs = model.flutter_speed(density)
-        where = f"flutter speed at {density:.6g} slug/ft^3 (baseline damping)"
-        lines.append(f"{where}: {fs.velocity:.2f} ft/s, {fs.frequency_hz:.3f} Hz"
+        where = f"flutter speed at {density:.6g} {u.density} (baseline damping)"
+        lines.append(f"{where}: {fs.velocity:.2f} {u.speed}, {fs.frequency_hz:.3f} Hz"
                      if fs.velocity is not None else f"{where}: none in the speed range")
     return lines
 

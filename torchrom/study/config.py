@@ -13,7 +13,13 @@ memory bounds of :mod:`torchrom.bounds`, dt ≤ t_end, at most
 :data:`torchrom.sim.newmark.MAX_STEPS` steps), the initial state and outputs against the model
 — and a bad one is a one-line :class:`~torchrom.errors.InputError` naming the file, the table
 and the key. Paths are relative to the configuration file; units: dt, t_end and γ in s, α in
-1/s, altitudes in ft.
+1/s, altitudes in ft; a wind tunnel's speed and density, and lengths, in the model's unit
+system (that its ROM and aero files record, or ``[model] units`` for files that record none:
+:mod:`torchrom.units`).
+
+This module parses and validates only: ``[model]`` and ``[aeroelastic]`` become a
+:class:`~torchrom.study.models.ModelSpec` (:func:`parse_model`), which
+:func:`torchrom.study.models.build_model` alone turns into the model.
 """
 
 from __future__ import annotations
@@ -34,6 +40,7 @@ from ..rom import NonlinearROM
 from ..rom.analytic import BUILTIN
 from ..rom.points import check_point_table
 from ..sim import LCOCriteria, Newmark
+from ..units import SYSTEMS, is_air_density, unit_system
 from .cases import (
     STRUCTURAL_PARAMETERS,  # noqa: F401 - re-exported (public name of this module)
     HistorySpec,
@@ -43,6 +50,8 @@ from .cases import (
 from .grid import config_hash, expand_cases
 from .models import (
     AeroelasticModel,
+    ModelSpec,
+    build_model,
     model_provider,
     model_rom,
     provider_names,
@@ -141,6 +150,8 @@ class SweepConfig:
     allow_large: bool = False
     #: [points]: output names of the configuration's own -> "G1001:T3"
     points: dict[str, str] = field(default_factory=dict)
+    #: [model] and [aeroelastic], validated: what the model is built from
+    model_spec: ModelSpec | None = None
 
     @property
     def solver(self) -> Solver:
@@ -154,8 +165,9 @@ class SweepConfig:
         return config_hash({k: v for k, v in self.raw.items() if k not in ("cases", "plot")})
 
     def build_model(self):
-        """The sweep's model: a NonlinearROM, or an AeroelasticModel when it has aerodynamics."""
-        model = build_model(self.model, self.source, self.aeroelastic)
+        """The sweep's model: a NonlinearROM, or an AeroelasticModel when it has aerodynamics
+        (:func:`torchrom.study.models.build_model` of :attr:`model_spec`)."""
+        model = build_model(self.model_spec)
         try:
             return with_named_outputs(model, self.outputs, self.points)
         except InputError as exc:
@@ -193,52 +205,51 @@ def _positive(table: dict, key: str, source: Path, where: str, default=None) -> 
     return float(x)
 
 
-def is_aeroelastic(model: dict[str, Any]) -> bool:
-    """Whether a ``[model]`` table describes a model with aerodynamics."""
-    return "aero" in model or model.get("builtin") in provider_names()
-
-
-def build_model(model: dict[str, Any], source: Path, aeroelastic: dict[str, Any] | None = None):
-    """The model of a ``[model]`` table (with its ``[aeroelastic]`` options): a NonlinearROM or
-    an :class:`~torchrom.study.models.AeroelasticModel`."""
+def parse_model(model: dict[str, Any], source: Path,
+                aeroelastic: dict[str, Any] | None = None) -> ModelSpec:
+    """The ``[model]`` table (with its ``[aeroelastic]`` options) validated into a
+    :class:`~torchrom.study.models.ModelSpec` (InputError naming the key): which files or
+    builtin, with what options; built by :func:`torchrom.study.models.build_model`."""
     where = "[model]"
     if ("rom" in model) == ("builtin" in model):
         raise _err(source, where, "give exactly one of rom = 'file.npz' or builtin = 'name'")
-    if model.get("builtin") in provider_names():
-        return _provided_model(model, source, aeroelastic or {})
+    name = model.get("builtin")
+    if name in provider_names():
+        _check_provided(model, source)
+        return ModelSpec(source, builtin=name, options=_provider_table(model),
+                         cache=goland_cache_folder(model, source),
+                         aeroelastic=_aeroelastic_options(aeroelastic, source))
     if "rom" in model:
-        _check_keys(model, ("rom", "aero", "span"), source, where)
-        expect_file_kind(_relative(model["rom"], source), "rom", f"{source}: [model] rom")
+        _check_keys(model, ("rom", "aero", "span", "units"), source, where)
+        rom = _relative(model["rom"], source)
+        expect_file_kind(rom, "rom", f"{source}: [model] rom")
+        aero = None
         if "aero" in model:
-            expect_file_kind(_relative(model["aero"], source), "aero", f"{source}: [model] aero")
-        rom = NonlinearROM.load(_relative(model["rom"], source))
-        span = model.get("span")
-        if span is not None:
-            rom.metadata["span"] = _positive(model, "span", source, where)
-        if "aero" not in model:
-            return rom
-        from ..aero.files import load_aero
-
-        aero = load_aero(_relative(model["aero"], source))
-        try:
-            return AeroelasticModel(rom, aero, **_aeroelastic_options(aeroelastic, source))
-        except InputError as exc:
-            raise _err(source, where, str(exc)) from None
-    name = model["builtin"]
+            aero = _relative(model["aero"], source)
+            expect_file_kind(aero, "aero", f"{source}: [model] aero")
+        elif aeroelastic:
+            raise _err(source, "[aeroelastic]", "needs a model with aerodynamics ([model] aero "
+                       "= 'aero.npz' or builtin = 'goland')")
+        units = model.get("units")
+        if units is not None:
+            try:
+                unit_system(units, f"{source}: [model] units")
+            except InputError:
+                raise _err(source, f"{where} units", f"expected one of {', '.join(SYSTEMS)}, "
+                           f"got {units!r}") from None
+        span = _positive(model, "span", source, where) if "span" in model else None
+        return ModelSpec(source, rom=rom, aero=aero, span=span, units=units,
+                         aeroelastic=_aeroelastic_options(aeroelastic, source) if aero else {})
     if name not in BUILTIN:
         raise _err(source, f"{where} builtin", f"expected one of "
                    f"{sorted([*BUILTIN, *provider_names()])}, "
                    f"got {name!r}")
-    fn = BUILTIN[name]
     kwargs = {k: v for k, v in model.items() if k != "builtin"}
-    params = inspect.signature(fn).parameters
-    _check_keys(kwargs, params, source, f"{where} ({name})")
-    try:
-        return fn(**kwargs)
-    except InputError as exc:
-        raise _err(source, f"{where} ({name})", str(exc)) from None
-    except (TypeError, ValueError) as exc:
-        raise _err(source, f"{where} ({name})", f"bad value ({exc})") from None
+    _check_keys(kwargs, inspect.signature(BUILTIN[name]).parameters, source, f"{where} ({name})")
+    if aeroelastic:
+        raise _err(source, "[aeroelastic]", "needs a model with aerodynamics ([model] aero = "
+                   "'aero.npz' or builtin = 'goland')")
+    return ModelSpec(source, builtin=name, options=kwargs)
 
 
 def _relative(path: str, source: Path) -> Path:
@@ -283,18 +294,6 @@ def _check_provided(model: dict[str, Any], source: Path) -> None:
         model_provider(model["builtin"]).check(_provider_table(model))
     except InputError as exc:
         raise InputError(f"{source}: {exc}") from None
-
-
-def _provided_model(model: dict[str, Any], source: Path, aeroelastic: dict[str, Any]):
-    """The built-in model with aerodynamics named by ``[model] builtin`` (a
-    :class:`~torchrom.study.models.ModelProvider`), with the ``[aeroelastic]`` options."""
-    _check_provided(model, source)
-    m = model_provider(model["builtin"]).build(_provider_table(model),
-                                               goland_cache_folder(model, source))
-    opts = _aeroelastic_options(aeroelastic, source)
-    return AeroelasticModel(m.rom, m.aero, **{"baseline_alpha": m.baseline_alpha,
-                                              "baseline_gamma": m.baseline_gamma,
-                                              "altitude_range_ft": m.altitude_range_ft, **opts})
 
 
 def _merged(base: dict[str, Any], override: dict[str, Any]) -> dict[str, Any]:
@@ -371,11 +370,8 @@ def load_sweep_config(path, variant: str | None = None) -> SweepConfig:
         raise _err(source, "[lco]", f"bad value ({exc})") from None
 
     aero_t = _table(raw, "aeroelastic", source)
-    aeroelastic = is_aeroelastic(model)
-    if aero_t and not aeroelastic:
-        raise _err(source, "[aeroelastic]", "needs a model with aerodynamics ([model] aero = "
-                   "'aero.npz' or builtin = 'goland')")
-    _aeroelastic_options(aero_t, source)
+    spec = parse_model(model, source, aero_t)
+    aeroelastic = spec.has_aero
     parameters = case_parameters(aeroelastic)
     try:
         check_start(initial, parameters)
@@ -426,12 +422,10 @@ def load_sweep_config(path, variant: str | None = None) -> SweepConfig:
                       plot=plot, batch_size=batch, chunk_size=run_t.get("chunk_size"), raw=raw,
                       aeroelastic=aero_t,
                       history=history, method=method, hb=hb, certificate=certificate,
-                      allow_large=allow_large, points=points)
+                      allow_large=allow_large, points=points, model_spec=spec)
     check_time_scales(cfg)
     check_work(cfg)
-    if model.get("builtin") in provider_names():
-        _check_provided(model, source)  # checked now; built (or reused) when the sweep runs
-    else:
+    if not spec.provided:  # a provider's model is built (or reused) when the sweep runs
         check_initial(cfg, cfg.build_model())  # fail now, not after a long run
     return cfg
 
@@ -621,6 +615,11 @@ def check_aeroelastic_cases(cfg: SweepConfig, model) -> None:
         if "mach" in c and abs(float(c["mach"]) - model.mach) > 1e-9:
             raise InputError(f"{cfg.source}: [cases] mach: {c['mach']} (case {k}) differs from "
                              f"the Mach number {model.mach:g} of the aerodynamic data")
+        if "density" in c and not is_air_density(float(c["density"]), model.units):
+            u = model.units
+            raise InputError(f"{cfg.source}: [cases] density: {c['density']} (case {k}) is no "
+                             f"air density in {u.name}, the model's units ({u.density}; sea "
+                             f"level {u.sea_level_density:.4g}): give it in {u.density}")
     if any(c.get("alpha") == MATCHED for c in cfg.cases):
         try:
             model.reference_altitude()

@@ -25,6 +25,7 @@ from typing import Any
 
 import numpy as np
 
+from ..aero.atmosphere import FT
 from ..aero.build import BASELINE_ALPHA, BASELINE_GAMMA
 from ..aero.files import AeroData
 from ..aero.flutter import (
@@ -38,6 +39,7 @@ from ..aero.flutter_speed import FlutterSpeed, flutter_speed_at_density
 from ..errors import ConvergenceError, InputError
 from ..rom import NonlinearROM
 from ..sim.aeroelastic import check_aero_matches_rom
+from ..units import LEGACY_SYSTEM, UnitSystem, file_units
 
 #: default altitude range (ft) searched for the baseline flutter point
 ALTITUDE_RANGE_FT = (0.0, 40000.0)
@@ -67,6 +69,9 @@ class AeroelasticModel:
             baseline flutter altitude).
         altitude_range_ft: where the baseline flutter point is searched.
         span: reference length of amplitudes in % of span (None: the ROM's metadata "span").
+        units: the unit system of the ROM and the aerodynamics (None: what their files record,
+            which must agree, :func:`torchrom.units.file_units`). Altitudes of this class are
+            in ft whatever the system (``*_ft``); speeds, densities and lengths in the system's.
     """
 
     rom: NonlinearROM
@@ -76,11 +81,15 @@ class AeroelasticModel:
     reference_altitude_ft: float | None = None
     altitude_range_ft: tuple[float, float] = ALTITUDE_RANGE_FT
     span: float | None = None
+    units: UnitSystem | None = None
     _flutter: MatchedPointResult | None = field(default=None, init=False, repr=False)
     _alpha: dict = field(default_factory=dict, init=False, repr=False)
 
     def __post_init__(self):
         check_aero_matches_rom(self.rom, self.aero)
+        if self.units is None:
+            self.units, _ = file_units({"the ROM": self.rom.metadata,
+                                        "the aero file": self.aero.metadata})
         if self.span is None:
             span = self.rom.metadata.get("span")
             self.span = None if span is None else float(span)
@@ -88,6 +97,19 @@ class AeroelasticModel:
     @property
     def mach(self) -> float:
         return float(self.aero.mach)
+
+    def altitude_in_units(self, altitude_ft):
+        """An altitude in ft in the system's altitude unit (ft itself untouched, so that
+        ft-slug-s models see the very same numbers)."""
+        if self.units.altitude == "ft":
+            return altitude_ft
+        return np.asarray(altitude_ft, dtype=float) * FT / self.units.altitude_metre
+
+    def altitude_ft(self, altitude):
+        """An altitude in the system's altitude unit in ft."""
+        if self.units.altitude == "ft":
+            return altitude
+        return float(altitude) * self.units.altitude_metre / FT
 
     def structure(self, alpha: float = 0.0, gamma: float = 0.0) -> ModalStructure:
         """Linear structure (M, K1, D̄1) on the m aerodynamic modes with damping α, γ."""
@@ -97,8 +119,10 @@ class AeroelasticModel:
         """Flutter point of the baseline damping (state space, Eqs. 49–50), computed once."""
         if self._flutter is None:
             st = self.structure(self.baseline_alpha, self.baseline_gamma)
-            res = flutter_altitude_state_space(st, self.aero.rfa, self.mach,
-                                               self.altitude_range_ft)
+            res = flutter_altitude_state_space(
+                st, self.aero.rfa, self.mach,
+                tuple(float(self.altitude_in_units(h)) for h in self.altitude_range_ft),
+                units=self.units.name)
             if res.altitude is None:
                 lo, hi = self.altitude_range_ft
                 raise ConvergenceError(f"aeroelastic model: no flutter point between {lo:g} and "
@@ -110,20 +134,23 @@ class AeroelasticModel:
 
     def flutter_speed(self, density: float, alpha: float | None = None,
                       gamma: float | None = None) -> FlutterSpeed:
-        """Flutter point on the speed axis of a wind tunnel: the speed (ft/s) at which the
-        critical root's growth rate crosses zero at air density ``density`` (slug/ft³), state
+        """Flutter point on the speed axis of a wind tunnel: the speed (the system's, e.g. ft/s)
+        at which the critical root's growth rate crosses zero at air density ``density`` (the
+        system's, e.g. slug/ft³), state
         space at the GAF Mach number (Eqs. 49–50; :func:`~torchrom.aero.flutter_speed.
         flutter_speed_at_density`), with damping α, γ (default the baseline)."""
         st = self.structure(self.baseline_alpha if alpha is None else alpha,
                             self.baseline_gamma if gamma is None else gamma)
-        return flutter_speed_at_density(st, self.aero.rfa, AeroTable.from_gaf(self.aero.gaf),
-                                        density, mach=self.mach)
+        res = flutter_speed_at_density(st, self.aero.rfa, AeroTable.from_gaf(self.aero.gaf),
+                                       density, mach=self.mach)
+        res.units = self.units.name
+        return res
 
     def reference_altitude(self) -> float:
         """Altitude (ft) the matched α(γ) keep the flutter point at."""
         if self.reference_altitude_ft is not None:
             return float(self.reference_altitude_ft)
-        return float(self.baseline_flutter().altitude)
+        return float(self.altitude_ft(self.baseline_flutter().altitude))
 
     def matched_alpha(self, gamma: float) -> float:
         """α (1/s) that puts the flutter point at the reference altitude for this γ (Fig. 9)."""
@@ -141,7 +168,8 @@ class AeroelasticModel:
             missing.remove(self.baseline_gamma)
         if missing:
             found = alpha_for_gammas(self.structure(), self.aero.rfa, missing, self.mach,
-                                     self.reference_altitude())
+                                     float(self.altitude_in_units(self.reference_altitude())),
+                                     self.units.name)
             self._alpha.update(zip(missing, (float(a) for a in found)))
         return [self._alpha[k] for k in keys]
 
@@ -150,6 +178,8 @@ class AeroelasticModel:
         text = repr((self.rom.content_hash(), aero_content_hash(self.aero),
                      float(self.baseline_alpha), float(self.baseline_gamma),
                      self.reference_altitude_ft, tuple(self.altitude_range_ft)))
+        if self.units.name != LEGACY_SYSTEM:  # ft-slug-s models keep their former identity
+            text += self.units.name
         return hashlib.sha256(text.encode()).hexdigest()[:16]
 
 
@@ -190,6 +220,78 @@ def model_provider(name: str) -> ModelProvider:
             return provider
     raise InputError(f"builtin model {name!r}: not installed; model providers: "
                      f"{provider_names()}")
+
+
+@dataclass(frozen=True)
+class ModelSpec:
+    """A validated ``[model]`` table with its ``[aeroelastic]`` options: what a sweep's model
+    is built from (:func:`build_model`; parsed by :func:`torchrom.study.config.parse_model`).
+
+    Attributes:
+        source: the configuration file (named by the errors of the build).
+        rom, aero: the ROM file and its aerodynamics (absolute paths), or None.
+        span: reference length of amplitudes in % of span (the model's length unit).
+        builtin: a model of :data:`torchrom.rom.analytic.BUILTIN` or a provider's name.
+        options: the builtin's keyword arguments (the provider's ``[model]`` table).
+        cache: a provider's cache folder.
+        aeroelastic: :class:`AeroelasticModel` keyword arguments (``[aeroelastic]``).
+        units: ``[model] units``: the unit system of ROM and aero files that record none.
+    """
+
+    source: Path
+    rom: Path | None = None
+    aero: Path | None = None
+    span: float | None = None
+    builtin: str | None = None
+    options: dict[str, Any] = field(default_factory=dict)
+    cache: Path | None = None
+    aeroelastic: dict[str, Any] = field(default_factory=dict)
+    units: str | None = None
+
+    @property
+    def provided(self) -> bool:
+        """Whether a model provider builds it (a built-in model with aerodynamics)."""
+        return self.builtin is not None and self.builtin in provider_names()
+
+    @property
+    def has_aero(self) -> bool:
+        return self.aero is not None or self.provided
+
+
+def build_model(spec: ModelSpec):
+    """The model ``spec`` describes: a NonlinearROM (a ROM file or an analytic builtin) or an
+    :class:`AeroelasticModel` (a ROM with its aero file, in the unit system they record, or a
+    provider's model); InputError naming the configuration file."""
+    where = f"{spec.source}: [model]"
+    if spec.provided:
+        m = model_provider(spec.builtin).build(spec.options, spec.cache)
+        return AeroelasticModel(m.rom, m.aero, **{"baseline_alpha": m.baseline_alpha,
+                                                  "baseline_gamma": m.baseline_gamma,
+                                                  "altitude_range_ft": m.altitude_range_ft,
+                                                  **spec.aeroelastic})
+    if spec.rom is not None:
+        rom = NonlinearROM.load(spec.rom)
+        if spec.span is not None:
+            rom.metadata["span"] = spec.span
+        if spec.aero is None:
+            return rom
+        from ..aero.files import load_aero
+
+        aero = load_aero(spec.aero)
+        try:
+            units, _ = file_units({spec.rom.name: rom.metadata, spec.aero.name: aero.metadata},
+                                  spec.units)
+            return AeroelasticModel(rom, aero, units=units, **spec.aeroelastic)
+        except InputError as exc:
+            raise InputError(f"{where}: {exc}") from None
+    from ..rom.analytic import BUILTIN
+
+    try:
+        return BUILTIN[spec.builtin](**spec.options)
+    except InputError as exc:
+        raise InputError(f"{where} ({spec.builtin}): {exc}") from None
+    except (TypeError, ValueError) as exc:
+        raise InputError(f"{where} ({spec.builtin}): bad value ({exc})") from None
 
 
 def model_rom(model) -> NonlinearROM:
@@ -237,7 +339,7 @@ def alpha_gamma_table(model: AeroelasticModel, gammas):
     from ..aero.flutter import critical_root
 
     h = model.reference_altitude()
-    fc = flight_condition(model.mach, h)
+    fc = flight_condition(model.mach, model.altitude_in_units(h), model.units.name)
     rows = []
     for g in sorted({float(g) for g in gammas}):
         a = model.matched_alpha(g)

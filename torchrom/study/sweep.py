@@ -162,7 +162,7 @@ def run_sweep(cfg: SweepConfig, *, device=None, dtype=torch.float64,
                              store=store, force=force, progress=progress, log=log,
                              on_history=on_history, on_orbits=on_orbits)
     table.attrs["units"] = sweep_units(list(table.columns), list(cfg.outputs or []),
-                                       model_length_unit(model))
+                                       model_length_unit(model), flight_units(model))
     return table, stats.as_dict()
 
 
@@ -177,6 +177,16 @@ def sweep_chunk_size(cfg: SweepConfig) -> int | None:
     if cfg.chunk_size is not None or not cfg.solver.chains_neighbours:
         return cfg.chunk_size
     return cfg.batch_size
+
+
+def flight_units(model) -> dict[str, str]:
+    """Units of the flight-condition columns (speed, velocity, density, dynamic_pressure) of
+    a model with aerodynamics: its unit system's (empty for a structural model)."""
+    units = getattr(model, "units", None)
+    if units is None:
+        return {}
+    labels = units.labels()
+    return {k: labels[k] for k in ("speed", "velocity", "density", "dynamic_pressure")}
 
 
 def model_length_unit(model) -> str | None:

@@ -1,0 +1,236 @@
+"""The unit system of a model: which consistent units its numbers are in, and how to tell.
+
+A structural/aeroelastic model is in one of four consistent systems (:data:`SYSTEMS`):
+
+=============  ======  ==============  =====  ===============  ===========  ========
+name           length  mass            force  density          pressure     altitude
+=============  ======  ==============  =====  ===============  ===========  ========
+``si``         m       kg              N      kg/m^3           Pa           m
+``ft-slug-s``  ft      slug            lbf    slug/ft^3        lbf/ft^2     ft
+``in-lbf-s``   in      lbf s^2/in      lbf    lbf s^2/in^4     lbf/in^2     ft
+``mm-t-s``     mm      t               N      t/mm^3           MPa          m
+=============  ======  ==============  =====  ===============  ===========  ========
+
+Speeds are in length/s, frequencies in Hz, times in s. Altitude (geometric, USSA-76) is in ft
+for the two imperial systems and in m for the metric ones, as flight altitudes are quoted;
+the atmosphere itself is computed in SI and converted (:mod:`torchrom.aero.atmosphere`).
+
+How a deck's system is told (:func:`infer_units`), from the cards that carry a unit:
+
+- AERO/AEROS RHOREF: the system whose sea-level density (1.225 kg/m^3 converted) lies within a
+  factor :data:`DENSITY_FACTOR` of it; a RHOREF of exactly 1 is the density-ratio convention
+  (densities given by FLFACT) and says nothing;
+- GRAV: the system whose standard gravity (9.80665 m/s^2 converted) is within 2 % of the
+  card's acceleration A |N|;
+- PARAM WTMASS: 1/g in ft/s^2 (0.03108) or in in/s^2 (0.00259) within 2 % (masses given as
+  weights in lbf): ft-slug-s or in-lbf-s.
+
+Two cards that say different systems are refused in one line (declare ``--units``).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+
+from .errors import InputError
+
+#: standard gravity (m/s^2)
+G0 = 9.80665
+#: USSA-76 sea-level density (kg/m^3)
+RHO_SL = 1.225
+#: a RHOREF is taken as the density of a system when within this factor of its sea-level
+#: density (0.1 .. 10 covers altitudes up to ~18 km; systems are >= 500x apart)
+DENSITY_FACTOR = 10.0
+#: relative tolerance of GRAV and WTMASS against a system's g and 1/g
+GRAVITY_TOL = 0.02
+#: what a ROM or aero file without a recorded system is assumed to be (the built-in Goland
+#: wing's, in which the package's first ROMs were written)
+LEGACY_SYSTEM = "ft-slug-s"
+
+
+@dataclass(frozen=True)
+class UnitSystem:
+    """One consistent unit system (labels and SI factors, see the module table)."""
+
+    name: str
+    length: str
+    mass: str
+    force: str
+    density: str
+    pressure: str
+    altitude: str
+    metre: float  # metres per length unit
+    kilogram: float  # kilograms per mass unit
+    altitude_metre: float  # metres per altitude unit
+
+    @property
+    def speed(self) -> str:
+        return f"{self.length}/s"
+
+    @property
+    def density_si(self) -> float:
+        """kg/m^3 per density unit."""
+        return self.kilogram / self.metre**3
+
+    @property
+    def pressure_si(self) -> float:
+        """Pa per pressure unit (force/length^2 = mass/(length s^2))."""
+        return self.kilogram / self.metre
+
+    @property
+    def sea_level_density(self) -> float:
+        return RHO_SL / self.density_si
+
+    @property
+    def gravity(self) -> float:
+        """Standard gravity in length/s^2."""
+        return G0 / self.metre
+
+    def labels(self) -> dict[str, str]:
+        """Units of the quantities a printed or JSON result carries."""
+        return {"system": self.name, "length": self.length, "mass": self.mass,
+                "force": self.force, "speed": self.speed, "velocity": self.speed,
+                "density": self.density, "dynamic_pressure": self.pressure,
+                "altitude": self.altitude, "frequency": "Hz", "time": "s"}
+
+
+_FT, _IN, _LBF = 0.3048, 0.0254, 4.4482216152605
+SYSTEMS = {
+    s.name: s for s in (
+        UnitSystem("si", "m", "kg", "N", "kg/m^3", "Pa", "m", 1.0, 1.0, 1.0),
+        UnitSystem("ft-slug-s", "ft", "slug", "lbf", "slug/ft^3", "lbf/ft^2", "ft", _FT,
+                   _LBF / _FT, _FT),
+        UnitSystem("in-lbf-s", "in", "lbf s^2/in", "lbf", "lbf s^2/in^4", "lbf/in^2", "ft",
+                   _IN, _LBF / _IN, _FT),
+        UnitSystem("mm-t-s", "mm", "t", "N", "t/mm^3", "MPa", "m", 1e-3, 1e3, 1.0),
+    )
+}
+#: older names of the atmosphere's two systems
+ALIASES = {"ft": "ft-slug-s"}
+
+
+def unit_system(name: str, where: str = "--units") -> UnitSystem:
+    """The system called ``name`` (or an :data:`ALIASES` name); InputError naming ``where``."""
+    key = ALIASES.get(name, name)
+    if key not in SYSTEMS:
+        raise InputError(f"{where}: expected one of {', '.join(SYSTEMS)}, got {name!r}")
+    return SYSTEMS[key]
+
+
+def _close(x: float, y: float, tol: float) -> bool:
+    return abs(x / y - 1.0) <= tol
+
+
+def infer_units(rhoref: Sequence[float] = (), grav: Sequence[float] = (),
+                wtmass: float | None = None, where: str = "deck"
+                ) -> tuple[UnitSystem | None, list[str]]:
+    """(system, evidence) from a deck's unit-bearing numbers (module docstring's rule);
+    (None, []) when none tells; InputError when two tell different systems."""
+    votes: list[tuple[str, str]] = []
+    for rho in rhoref:
+        if rho > 0 and rho != 1.0:
+            for s in SYSTEMS.values():
+                if 1 / DENSITY_FACTOR <= rho / s.sea_level_density <= DENSITY_FACTOR:
+                    votes.append((s.name, f"AERO RHOREF {rho:g}"))
+    for g in grav:
+        for s in SYSTEMS.values():
+            if g > 0 and _close(g, s.gravity, GRAVITY_TOL):
+                votes.append((s.name, f"GRAV {g:g}"))
+    if wtmass is not None and wtmass != 1.0:
+        for name in ("ft-slug-s", "in-lbf-s"):
+            if _close(wtmass, 1 / SYSTEMS[name].gravity, GRAVITY_TOL):
+                votes.append((name, f"PARAM WTMASS {wtmass:g}"))
+    names = list(dict.fromkeys(n for n, _ in votes))
+    if len(names) > 1:
+        a = next(e for n, e in votes if n == names[0])
+        b = next(e for n, e in votes if n == names[1])
+        raise InputError(f"{where}: units: {a} says {names[0]} but {b} says {names[1]}; "
+                         f"declare the deck's system with --units")
+    if not names:
+        return None, []
+    return SYSTEMS[names[0]], [e for _, e in votes]
+
+
+def resolve_units(declared: str | None, inferred: UnitSystem | None, evidence: Sequence[str],
+                  where: str) -> UnitSystem | None:
+    """The declared system (``--units``) checked against the deck's evidence, else the
+    inferred one; InputError when they differ."""
+    if declared is None:
+        return inferred
+    s = unit_system(declared)
+    if inferred is not None and inferred.name != s.name:
+        raise InputError(f"{where}: --units {s.name}: the deck's {evidence[0]} says "
+                         f"{inferred.name}; drop --units or correct the card")
+    return s
+
+
+#: the key of a file's metadata that records its unit system (rom.npz, aero.npz)
+METADATA_KEY = "unit_system"
+
+
+def recorded_units(metadata: Mapping) -> UnitSystem | None:
+    """The system a ROM's or aero file's metadata records: :data:`METADATA_KEY`, else the
+    ``units`` entry (a ROM's ``source.units``) of files written before it (``{"length":
+    "ft", "mass": "slug", ...}`` or ``"ft, slug, s"``), or an FE model's ``units`` itself,
+    when it names a system's length and mass; None when unknown."""
+    name = metadata.get(METADATA_KEY)
+    if name:
+        return unit_system(str(name), "metadata unit_system")
+    source = metadata.get("source")
+    units = (metadata.get("units") or (source.get("units") if isinstance(source, Mapping)
+                                       else None)
+             or (metadata if "length" in metadata else None))  # an FE model's units itself
+    if isinstance(units, Mapping):
+        if units.get(METADATA_KEY):
+            return unit_system(str(units[METADATA_KEY]), "metadata units")
+        pair = (units.get("length"), units.get("mass"))
+    elif isinstance(units, str):
+        parts = [p.strip() for p in units.split(",")]
+        pair = tuple(parts[:2]) if len(parts) >= 2 else (None, None)
+    else:
+        return None
+    return next((s for s in SYSTEMS.values() if (s.length, s.mass) == pair), None)
+
+
+def file_units(files: Mapping[str, Mapping], declared: str | None = None
+               ) -> tuple[UnitSystem, str]:
+    """(system, note) of files used together (name -> metadata): the one they record, which
+    must agree (and agree with ``declared``, the --units given for files that record none);
+    :data:`LEGACY_SYSTEM` when none records one and none is declared, said in ``note``."""
+    found = {name: recorded_units(meta) for name, meta in files.items()}
+    known = {name: s for name, s in found.items() if s is not None}
+    names = list(dict.fromkeys(s.name for s in known.values()))
+    if len(names) > 1:
+        a, b = ((f, s.name) for f, s in known.items() if s.name in names[:2])
+        raise InputError(f"{a[0]} is in {a[1]} but {b[0]} in {b[1]}: files of different unit "
+                         f"systems; rebuild one of them with --units {a[1]}")
+    if declared is not None:
+        s = unit_system(declared)
+        if names and names[0] != s.name:
+            f = next(iter(known))
+            raise InputError(f"--units {s.name}: {f} records {names[0]}; drop --units (it is "
+                             f"for files that record no unit system)")
+        return s, "" if names else f"units: {s.name} (declared with --units)"
+    if names:
+        missing = [f for f in files if f not in known]
+        note = (f"units: {names[0]} (recorded in {', '.join(known)}; assumed for "
+                f"{', '.join(missing)}, which records none)" if missing else "")
+        return SYSTEMS[names[0]], note
+    return (SYSTEMS[LEGACY_SYSTEM],
+            f"units: {', '.join(files)} record no unit system: assumed {LEGACY_SYSTEM} (the "
+            f"built-in Goland wing's); declare another with --units")
+
+
+
+#: densities a wind tunnel or flight may have, relative to sea level (0.01: USSA-76 at ~31 km;
+#: the sea-level densities of two systems differ by 515x (ft-slug-s, si) or more)
+AIR_DENSITY_RANGE = (0.01, 2.0)
+
+
+def is_air_density(rho: float, system: UnitSystem) -> bool:
+    """Whether ``rho`` is an air density in ``system``'s units (within
+    :data:`AIR_DENSITY_RANGE` of its sea-level density): a density given in another system
+    is 500 times or more off."""
+    lo, hi = AIR_DENSITY_RANGE
+    return lo <= rho / system.sea_level_density <= hi
