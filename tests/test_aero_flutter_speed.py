@@ -41,3 +41,31 @@ def test_flutter_speed_at_mach_0_is_the_classical_one():
     ss = flutter_speed_state_space(st, fit_minimum_state(gaf, n_lags=8), table, alt)
     assert ss.velocity == pytest.approx(pk.velocity, rel=5e-3)
     assert ss.as_dict()["dynamic_pressure"] == pytest.approx(0.5 * rho * ss.velocity**2)
+
+
+def test_rigid_body_roots_are_never_the_flutter_speed():
+    """A free aircraft at Mach 0 (:func:`tests._aero_fakes.rigid_and_elastic`: uncoupled rigid
+    and elastic modes, exact quasi-steady GAFs and RFA): at sea-level density the rigid root's
+    damping crosses zero first, at V = 0.8/ρ, the elastic one at V = (8/7)/ρ with
+    ω = 10 rad/s (closed form). Both methods give the elastic speed (p-k refined by Brent on
+    its branch: 1e-6; the state space by Brent on the growth rate: 1e-6) and frequency (1e-6),
+    and list the rigid root apart with its mode: p-k at its linearly interpolated crossing
+    (between the sweep's samples around 0.8/ρ), the state space at the sample before it."""
+    from ._aero_fakes import rigid_and_elastic
+
+    structure, gaf, rfa = rigid_and_elastic(0.0)
+    table = AeroTable.from_gaf(gaf)
+    rho = float(atmosphere(0.0, "ft").density)
+    pk, sweep = flutter_speed_pk(structure, table, 0.0)
+    ss = flutter_speed_state_space(structure, rfa, table, 0.0)
+    v = sweep.velocity
+    rigid_v = 0.8 / rho
+    i = int(np.searchsorted(v, rigid_v))  # v[i - 1] < rigid_v <= v[i]
+    for r in (pk, ss):
+        assert r.velocity == pytest.approx(8 / 7 / rho, rel=1e-6), r.method
+        assert r.frequency_hz == pytest.approx(10 / (2 * np.pi), rel=1e-6), r.method
+        ((j, at),) = r.rigid_body_crossings
+        assert j == 0, r.method
+        assert r.as_dict()["rigid_body_crossings"] == [{"mode": 1, "velocity": at}]
+    assert v[i - 1] <= pk.rigid_body_crossings[0][1] <= v[i]
+    assert ss.rigid_body_crossings[0][1] == v[i - 1]

@@ -10,18 +10,29 @@ density of a given altitude (USSA-76, :mod:`torchrom.aero.atmosphere`):
   first flutter crossing (lowest onset speed) is the flutter point;
 * state space: the growth rate of the critical root (:func:`torchrom.aero.flutter.critical_root`)
   on the same speeds, its first upward zero refined by Brent's method.
+
+A free structure's rigid-body roots are never the flutter point: both methods list the speed
+where one's damping crosses zero apart (``rigid_body_crossings``; p-k by its branches from the
+0 Hz modes, the state space by the roots' shapes, :func:`torchrom.aero.flutter.oscillatory_roots`).
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 import scipy
 
 from .atmosphere import atmosphere
 from .crossings import pk_crossings
-from .flutter import AeroTable, ModalStructure, ModeSweep, critical_root, pk_sweep
+from .flutter import (
+    AeroTable,
+    ModalStructure,
+    ModeSweep,
+    oscillatory_roots,
+    pk_sweep,
+    rigid_body_crossings_state_space,
+)
 from .rfa import RFA
 
 #: speeds of the sweep that brackets the flutter speed
@@ -43,6 +54,8 @@ class FlutterSpeed:
     units: str = "ft"
     #: Mach number of the aerodynamics (0: incompressible; a tunnel at the GAF Mach otherwise)
     mach: float = 0.0
+    #: (0-based mode, speed) where a rigid-body root's damping crosses zero: not flutter
+    rigid_body_crossings: list[tuple[int, float]] = field(default_factory=list)
 
     def as_dict(self) -> dict:
         return {
@@ -53,6 +66,8 @@ class FlutterSpeed:
             else 0.5 * self.density * self.velocity**2,
             "mode": None if self.mode is None else self.mode + 1, "kind": self.kind,
             "stable_velocity": self.stable_velocity, "units": self.units,
+            "rigid_body_crossings": [{"mode": j + 1, "velocity": v}
+                                     for j, v in self.rigid_body_crossings],
         }
 
 
@@ -74,12 +89,14 @@ def flutter_speed_pk(structure: ModalStructure, aero: AeroTable, altitude: float
     rho = float(atmosphere(altitude, units).density)
     v = np.geomspace(*speed_range(structure, aero), n_speeds)
     sweep = pk_sweep(structure, aero, v, rho, mach=0.0, eps=1e-7)
-    points = pk_crossings(structure, aero, sweep).flutter
-    if not points:
-        return FlutterSpeed("p-k", float(altitude), rho, None, None, units=units), sweep
-    p = min(points, key=lambda p: p.velocity)
+    found = pk_crossings(structure, aero, sweep)
+    apart = [(p.mode, p.velocity) for p in found.rigid_body]
+    if not found.flutter:
+        return FlutterSpeed("p-k", float(altitude), rho, None, None, units=units,
+                            rigid_body_crossings=apart), sweep
+    p = min(found.flutter, key=lambda p: p.velocity)
     return FlutterSpeed("p-k", float(altitude), rho, p.velocity, p.frequency_hz, p.mode, p.kind,
-                        p.stable_velocity, units), sweep
+                        p.stable_velocity, units, rigid_body_crossings=apart), sweep
 
 
 def flutter_speed_state_space(structure: ModalStructure, rfa: RFA, aero: AeroTable,
@@ -106,14 +123,17 @@ def flutter_speed_at_density(structure: ModalStructure, rfa: RFA, aero: AeroTabl
     v = np.geomspace(*(speeds or speed_range(structure, aero)), n_speeds)
 
     def growth(x):
-        return critical_root(structure, rfa, x, rho).real
+        return oscillatory_roots(structure, rfa, x, rho).critical().real
 
-    sig = np.array([growth(x) for x in v])
+    roots = [oscillatory_roots(structure, rfa, x, rho) for x in v]
+    apart = rigid_body_crossings_state_space(roots, v)
+    sig = np.array([r.critical().real for r in roots])
     up = np.flatnonzero((sig[:-1] < 0) & (sig[1:] >= 0))
     if len(up) == 0:
-        return FlutterSpeed("state-space", float("nan"), rho, None, None, mach=mach)
+        return FlutterSpeed("state-space", float("nan"), rho, None, None, mach=mach,
+                            rigid_body_crossings=apart)
     i = up[0]
     vf = float(scipy.optimize.brentq(growth, v[i], v[i + 1], xtol=1e-10 * v[i + 1]))
-    root = critical_root(structure, rfa, vf, rho)
+    root = oscillatory_roots(structure, rfa, vf, rho).critical()
     return FlutterSpeed("state-space", float("nan"), rho, vf, root.imag / (2 * np.pi),
-                        mach=mach)
+                        mach=mach, rigid_body_crossings=apart)

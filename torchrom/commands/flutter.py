@@ -19,8 +19,10 @@ frequency_hz, velocity, density, dynamic_pressure, mode}], "growing_response": [
 frequency_hz_state_space, frequency_hz_pk}], "alpha_for_gamma": [{gamma, alpha, altitude}],
 "paper": {...} (Goland only)}. With an aero file at Mach 0 (incompressible), no matched point:
 {"mach": 0, "alpha", "gamma", "units", "flutter": [{method, altitude, density, velocity,
-frequency_hz, dynamic_pressure, mode, kind, stable_velocity}]}, the flutter speed at the density
-of each altitude.
+frequency_hz, dynamic_pressure, mode, kind, stable_velocity, rigid_body_crossings: [{mode,
+velocity}]}]}, the flutter speed at the density of each altitude. A free aircraft's rigid-body
+roots are never a flutter point, by p-k or the state space: they are printed apart and listed in
+``rigid_body_crossings`` (matched point: [{mode, altitude}]).
 """
 
 from __future__ import annotations
@@ -431,6 +433,11 @@ def _incompressible(args, structure, aero) -> int:
             print(f"  {r.method:<13}{alt:13.1f}{r.velocity:10.1f}{r.frequency_hz:14.4f}"
                   f"{0.5 * r.density * r.velocity**2:9.1f}  {kind}")
         results += found
+    for r in results:
+        for j, v in r.rigid_body_crossings:
+            print(f"  {r.method}: rigid-body root (mode {j + 1}) damping crosses zero near "
+                  f"{v:.1f} ft/s at {r.altitude:g} ft: not flutter (a free aircraft's "
+                  f"rigid-body root)")
     maybe_write_json(args, {"mach": 0.0, "alpha": structure.alpha, "gamma": structure.gamma,
                             "units": "ft", "flutter": [r.as_dict() for r in results]})
     ok = True
