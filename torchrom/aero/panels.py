@@ -276,8 +276,8 @@ def lattice(
     numbered chordwise first, strip by strip from p1 towards p4 (Nastran's order).
     """
     p1, p2, p3, p4 = (np.asarray(p, dtype=float) for p in (p1, p2, p3, p4))
-    xc = np.asarray(chord_fractions, dtype=float)
-    ys = np.asarray(span_fractions, dtype=float)
+    xc = np.array(chord_fractions, dtype=float)  # copies: the ends are set below
+    ys = np.array(span_fractions, dtype=float)
     for name, f in (("chord", xc), ("span", ys)):
         if (len(f) < 2 or np.any(np.diff(f) <= 0) or abs(f[0]) > FRACTION_TOL
                 or abs(f[-1] - 1) > FRACTION_TOL):

@@ -58,10 +58,12 @@ def transverse_combinations(kinds: Sequence[str]) -> tuple[tuple[int, int], ...]
     :data:`BENDING_TORSION_COMBINATIONS`."""
     t = [i + 1 for i, k in enumerate(kinds) if k in ("bending", "torsion")]
     if not t:
+        rigid = list(kinds).count("rigid-body")
         raise InputError(f"dual modes: no transverse (bending or torsion) mode among the "
-                         f"linear modes ({', '.join(sorted(set(kinds)))}) to load: give the "
-                         f"pairs with --combinations J:L,... (e.g. --combinations 1:1,1:2) or "
-                         f"identify the linear modes only with --dual 0")
+                         f"{len(kinds)} linear modes ({', '.join(sorted(set(kinds)))}) to load: "
+                         + ("raise --linear past the rigid-body modes, " if rigid else "")
+                         + "give pairs of elastic modes with --combinations J:L,... or identify "
+                           "the linear modes only with --dual 0")
     bending = [i for i, m in enumerate(t) if kinds[m - 1] == "bending"]
     last = max(min(3, len(t)), bending[1] + 1 if len(bending) > 1 else 0)
     return tuple((t[a], t[b]) for a in range(min(2, len(t))) for b in range(a, last))
