@@ -50,9 +50,13 @@ def _static_figure(curves: dict, path: Path, units: tuple[str, str]) -> None:
             ax = axes[row, col]
             ax.plot(c.levels, c.fe[k], "ko-", ms=4, label="FE (Newton)")
             ax.plot(c.levels, c.rom[k], "r^--", ms=4, label="ROM (Newton)")
-            ax.set_xlabel(f"pressure ({units[1]})")
+            if shape == "mode1_inertia":  # the level multiplies M φ₁ (a stick model)
+                ax.set_xlabel("load level (× M φ₁, the first elastic mode's inertia load)")
+                ax.set_title(f"mode-1 inertia load: {k}")
+            else:
+                ax.set_xlabel(f"pressure ({units[1]})")
+                ax.set_title(f"{shape} pressure: {k}")
             ax.set_ylabel(f"{k} ({units[0]})")
-            ax.set_title(f"{shape} pressure: {k}")
             ax.grid(alpha=0.3)
         axes[row, 0].legend()
     fig.tight_layout()
