@@ -69,3 +69,29 @@ def test_rigid_body_roots_are_never_the_flutter_speed():
         assert r.as_dict()["rigid_body_crossings"] == [{"mode": 1, "velocity": at}]
     assert v[i - 1] <= pk.rigid_body_crossings[0][1] <= v[i]
     assert ss.rigid_body_crossings[0][1] == v[i - 1]
+
+
+def test_an_untouched_undamped_mode_is_no_state_space_flutter():
+    """The free aircraft of :func:`tests._aero_fakes.rigid_and_elastic` with a third mode that
+    neither the air nor the structure damps (ω = 20 rad/s, no GAF, no damping: Re s = ±1e-14,
+    round-off, as bah_plane's 8.70 Hz mode at α = γ = 0). Its root's damping is within
+    G_ROUNDOFF, so it is no flutter point: the state-space flutter speed stays the elastic
+    crossing, (8/7)/ρ (1e-6), as p-k's (which applies the same rule)."""
+    from torchrom.aero.dlm import GAF
+    from torchrom.aero.flutter import ModalStructure
+    from torchrom.aero.flutter_speed import flutter_speed_at_density
+    from torchrom.aero.rfa import RFA
+
+    structure = ModalStructure(np.eye(3), np.diag([0.0, 100.0, 400.0]),
+                               C0=np.diag([0.1, 0.2, 0.0]))
+    a0, a1 = np.diag([0.05, 0.0, 0.0]), np.diag([-0.25, -0.35, 0.0])
+    k = np.r_[0.0, np.geomspace(1e-3, 2.0, 40)]
+    table = AeroTable.from_gaf(GAF(0.0, 1.0, k, a0[None] + 1j * k[:, None, None] * a1[None]))
+    rfa = RFA(a0, a1, np.zeros((3, 3)), np.zeros((3, 0)), np.zeros((0, 0)), np.zeros((0, 3)),
+              np.zeros(0), "roger", 1.0, 0.0)
+    rho = float(atmosphere(0.0, "ft").density)
+    ss = flutter_speed_at_density(structure, rfa, table, rho)
+    assert ss.velocity == pytest.approx(8 / 7 / rho, rel=1e-6)
+    assert ss.frequency_hz == pytest.approx(10 / (2 * np.pi), rel=1e-6)
+    pk, _ = flutter_speed_pk(structure, table, 0.0)
+    assert pk.velocity == pytest.approx(ss.velocity, rel=1e-6)

@@ -739,6 +739,20 @@ class OscillatoryRoots:
             raise ConvergenceError("state space: no oscillatory root found")
         return complex(self.elastic[np.argmax(self.elastic.real)])
 
+    def flutter_root(self) -> complex | None:
+        """:meth:`critical` among the roots whose damping g = 2 Re s / Im s is beyond
+        round-off (|g| > :data:`G_ROUNDOFF`, the p-k's rule): a mode the aerodynamics do not
+        touch, undamped, has Re s = ±1e-14 and is no flutter (bah_plane's 8.70 Hz mode at
+        α = γ = 0). None where every root is within round-off."""
+        g = 2 * self.elastic.real / self.elastic.imag
+        beyond = self.elastic[np.abs(g) > G_ROUNDOFF]
+        return complex(beyond[np.argmax(beyond.real)]) if len(beyond) else None
+
+    def flutter_growth(self) -> float:
+        """Re of :meth:`flutter_root` (1/s; NaN where there is none)."""
+        root = self.flutter_root()
+        return float("nan") if root is None else root.real
+
 
 def in_vacuo_modes(structure: ModalStructure) -> tuple[np.ndarray, np.ndarray]:
     """Undamped modes of (K, M): frequencies (Hz, ascending) and M-orthonormal shapes (m × m)
@@ -783,6 +797,20 @@ def critical_root(
     (growth rate, 1/s); a free structure's rigid-body roots are never it
     (:func:`oscillatory_roots`)."""
     return oscillatory_roots(structure, rfa, velocity, density, min_frequency_hz).critical()
+
+
+def refine_crossing(roots_at: Callable[[float], OscillatoryRoots], lo: float, hi: float,
+                    target: complex, xtol: float) -> tuple[float, complex]:
+    """(x, root) where the flexible-structure root that continues ``target`` (the unstable
+    root at one end of [lo, hi]; at each x the elastic root nearest it) crosses Re s = 0:
+    Brent's method to ``xtol``. Following that one root keeps the other roots, e.g. an
+    undamped one at Re s = ±1e-14, out of the refinement and of the reported frequency."""
+    def branch(x):
+        e = roots_at(x).elastic
+        return complex(e[np.argmin(np.abs(e - target))])
+
+    x = float(scipy.optimize.brentq(lambda x: branch(x).real, lo, hi, xtol=xtol))
+    return x, branch(x)
 
 
 def rigid_body_crossings_state_space(roots: list[OscillatoryRoots], x) -> list[tuple[int, float]]:
@@ -859,16 +887,18 @@ def _altitude_grid(alt_range, n) -> np.ndarray:
 def flutter_altitude_state_space(
     structure, rfa, mach, alt_range, n_grid=41, units="ft", xtol=1e-3
 ) -> MatchedPointResult:
-    """Highest altitude in ``alt_range`` where the critical state-space root crosses Re s = 0."""
+    """Highest altitude in ``alt_range`` where the critical state-space root crosses Re s = 0
+    (a free aircraft's rigid-body roots and roots whose damping is round-off left out:
+    :meth:`OscillatoryRoots.flutter_root`; the rigid-body roots' crossings listed apart)."""
     h = _altitude_grid(alt_range, n_grid)
     fc = flight_condition(mach, h, units)
 
-    def growth(alt):
+    def roots_at(alt):
         c = flight_condition(mach, alt, units)
-        return critical_root(structure, rfa, c.velocity, c.density).real
+        return oscillatory_roots(structure, rfa, c.velocity, c.density)
 
     roots = [oscillatory_roots(structure, rfa, v, r) for v, r in zip(fc.velocity, fc.density)]
-    sig = np.array([r.critical().real for r in roots])
+    sig = np.array([r.flutter_growth() for r in roots])
     # a free aircraft's rigid-body roots are reported apart, never as the flutter point
     apart = rigid_body_crossings_state_space(roots, h)
     sweep = state_space_sweep(structure, rfa, fc.velocity, fc.density, h, mach)
@@ -878,9 +908,7 @@ def flutter_altitude_state_space(
         return MatchedPointResult("state-space", mach, None, None, None, None, None, sweep, units,
                                   apart)
     i = idx[0]
-    alt = scipy.optimize.brentq(growth, h[i + 1], h[i], xtol=xtol)
-    c = flight_condition(mach, alt, units)
-    root = critical_root(structure, rfa, c.velocity, c.density)
+    alt, root = refine_crossing(roots_at, h[i + 1], h[i], roots[i + 1].flutter_root(), xtol)
     return replace(_matched("state-space", mach, alt, root, None, sweep, units),
                    rigid_body_crossings=apart)
 

@@ -21,7 +21,6 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
-import scipy
 
 from .atmosphere import atmosphere
 from .crossings import pk_crossings
@@ -31,6 +30,7 @@ from .flutter import (
     ModeSweep,
     oscillatory_roots,
     pk_sweep,
+    refine_crossing,
     rigid_body_crossings_state_space,
 )
 from .rfa import RFA
@@ -116,24 +116,22 @@ def flutter_speed_at_density(structure: ModalStructure, rfa: RFA, aero: AeroTabl
                              mach: float = 0.0) -> FlutterSpeed:
     """The state-space flutter speed at the air density ``density`` (a wind tunnel; the
     RFA's units, e.g. slug/ft³ and ft/s): the first upward zero of the critical root's growth
-    rate over ``speeds`` (default :func:`speed_range`), refined by Brent's method to 1e-10
+    rate (roots whose damping is round-off left out: :meth:`OscillatoryRoots.flutter_root`)
+    over ``speeds`` (default :func:`speed_range`), refined by Brent's method to 1e-10
     relative. ``altitude`` of the result is NaN (no altitude is implied); ``mach`` (that of
     the aerodynamics) is recorded in it."""
     rho = float(density)
     v = np.geomspace(*(speeds or speed_range(structure, aero)), n_speeds)
 
-    def growth(x):
-        return oscillatory_roots(structure, rfa, x, rho).critical().real
-
     roots = [oscillatory_roots(structure, rfa, x, rho) for x in v]
     apart = rigid_body_crossings_state_space(roots, v)
-    sig = np.array([r.critical().real for r in roots])
+    sig = np.array([r.flutter_growth() for r in roots])
     up = np.flatnonzero((sig[:-1] < 0) & (sig[1:] >= 0))
     if len(up) == 0:
         return FlutterSpeed("state-space", float("nan"), rho, None, None, mach=mach,
                             rigid_body_crossings=apart)
     i = up[0]
-    vf = float(scipy.optimize.brentq(growth, v[i], v[i + 1], xtol=1e-10 * v[i + 1]))
-    root = oscillatory_roots(structure, rfa, vf, rho).critical()
+    vf, root = refine_crossing(lambda x: oscillatory_roots(structure, rfa, x, rho), v[i],
+                               v[i + 1], roots[i + 1].flutter_root(), 1e-10 * v[i + 1])
     return FlutterSpeed("state-space", float("nan"), rho, vf, root.imag / (2 * np.pi),
                         mach=mach, rigid_body_crossings=apart)
