@@ -204,3 +204,54 @@ def test_flutter_rom_at_mach_0_in_a_subprocess(tmp_path):
     assert bad.stderr.strip().splitlines()[-1].endswith(
         "--mach 0.3 differs from the aero file's Mach 0")
     assert len(bad.stderr.strip().splitlines()) == 1
+
+
+@pytest.mark.parametrize("mach", [0.5, 0.0])
+def test_flutter_of_a_free_rom_reports_rigid_body_roots_apart(tmp_path, mach):
+    """``torchrom flutter rom.npz aero.npz`` (a subprocess) on a free ROM: the closed-form free
+    aircraft of :func:`tests._aero_fakes.rigid_and_elastic` (rigid mode at 0 Hz, its root
+    unstable first at ρV = 0.8; the elastic root at ρV = 8/7, 10 rad/s). Both methods, p-k
+    and the state space on the RFA, give the elastic crossing as the flutter point — at Mach
+    0.5 the altitude (1 ft), at Mach 0 the speed at sea-level density (1e-6) — and print
+    the rigid-body root apart, as the JSON lists it."""
+    import os
+    import subprocess
+    import sys
+
+    import numpy as np
+    from scipy.optimize import brentq
+
+    from torchrom.aero.atmosphere import atmosphere, flight_condition
+    from torchrom.rom import NonlinearROM
+
+    from ._aero_fakes import RIGID_ELASTIC, rigid_and_elastic
+    from .conftest import REPO
+
+    structure, gaf, rfa = rigid_and_elastic(mach)
+    NonlinearROM(structure.M, structure.K).save(tmp_path / "rom.npz")
+    save_aero(AeroData(gaf, rfa), tmp_path / "aero.npz")
+    run = subprocess.run(
+        [sys.executable, "-m", "torchrom", "flutter", str(tmp_path / "rom.npz"),
+         str(tmp_path / "aero.npz"), "--alpha", str(RIGID_ELASTIC["alpha"]), "--gamma",
+         str(RIGID_ELASTIC["gamma"]), "--alt-range", "0", "30000", "--json",
+         str(tmp_path / "f.json")] + (["--at", "0"] if mach == 0.0 else []),
+        capture_output=True, text=True, cwd=REPO, env={**os.environ, "PYTHONPATH": str(REPO)})
+    assert run.returncode == 0, run.stderr
+    points = json.loads((tmp_path / "f.json").read_text())["flutter"]
+    assert [p["method"] for p in points] == ["p-k", "state-space"]
+    for p in points:
+        assert p["frequency_hz"] == pytest.approx(10 / (2 * np.pi), rel=1e-6)
+        ((rigid,),) = [p["rigid_body_crossings"]]
+        assert rigid["mode"] == 1
+    if mach:
+        def rho_v(h):
+            c = flight_condition(mach, h, "ft")
+            return float(c.density * c.velocity)
+
+        expected = brentq(lambda h: rho_v(h) - 8 / 7, 0.0, 30000.0)
+        assert [p["altitude"] for p in points] == pytest.approx([expected] * 2, abs=1.0)
+    else:
+        rho = float(atmosphere(0.0, "ft").density)
+        assert [p["velocity"] for p in points] == pytest.approx([8 / 7 / rho] * 2, rel=1e-6)
+    lines = [ln for ln in run.stdout.splitlines() if "rigid-body root (mode 1)" in ln]
+    assert [ln.split(":")[0].strip() for ln in lines] == ["p-k", "state-space"], run.stdout

@@ -343,3 +343,43 @@ def test_matched_point_pk_reports_rigid_body_roots_apart():
     rigid_at = brentq(lambda h: rho_v(h) - 2 * 0.1 / 0.25, 0.0, 30000.0)
     assert j == 0 and h >= rigid_at and h - rigid_at < 30000.0 / 40
     assert res.as_dict()["rigid_body_crossings"] == [{"mode": 1, "altitude": h}]
+
+
+def test_matched_point_state_space_reports_rigid_body_roots_apart():
+    """The state-space (RFA) form of the test above: the free aircraft of
+    :func:`tests._aero_fakes.rigid_and_elastic` (an exact RFA with no lag states). The rigid
+    root is oscillatory (its aerodynamic stiffness) and crosses zero first, at ρV = 0.8, so the
+    largest growth rate of all oscillatory roots would put the flutter point there; the
+    flutter point is the elastic crossing (ρV = 8/7: altitude by Brent, 1 ft; frequency
+    10/2π Hz, 1e-6), and the rigid one is listed apart, at the altitude sample above its
+    crossing (the p-k's convention), with its mode."""
+    from torchrom.aero.flutter import (
+        critical_root,
+        flutter_altitude_state_space,
+        oscillatory_roots,
+    )
+
+    from ._aero_fakes import rigid_and_elastic
+
+    structure, _, rfa = rigid_and_elastic(0.5)
+    res = flutter_altitude_state_space(structure, rfa, 0.5, (0.0, 30000.0))
+
+    def rho_v(h):
+        c = flight_condition(0.5, h, "ft")
+        return float(c.density * c.velocity)
+
+    expected = brentq(lambda h: rho_v(h) - 8 / 7, 0.0, 30000.0)
+    rigid_at = brentq(lambda h: rho_v(h) - 0.8, 0.0, 30000.0)
+    assert rigid_at > expected + 1000.0  # the rigid root goes first: the test can fail
+    assert res.altitude == pytest.approx(expected, abs=1.0)
+    assert res.frequency_hz == pytest.approx(10 / (2 * np.pi), rel=1e-6)
+    ((j, h),) = res.rigid_body_crossings
+    assert j == 0 and h >= rigid_at and h - rigid_at < 30000.0 / 40
+    assert res.as_dict()["rigid_body_crossings"] == [{"mode": 1, "altitude": h}]
+    # between the two crossings the rigid root grows and the critical root is the elastic one
+    c = flight_condition(0.5, 0.5 * (expected + rigid_at), "ft")
+    roots = oscillatory_roots(structure, rfa, c.velocity, c.density)
+    (rigid,) = roots.rigid
+    assert rigid.real > 0 and roots.rigid_mode.tolist() == [0]
+    assert critical_root(structure, rfa, c.velocity, c.density).real < 0
+    assert abs(critical_root(structure, rfa, c.velocity, c.density).imag - 10.0) < 0.5

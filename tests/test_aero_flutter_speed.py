@@ -41,3 +41,57 @@ def test_flutter_speed_at_mach_0_is_the_classical_one():
     ss = flutter_speed_state_space(st, fit_minimum_state(gaf, n_lags=8), table, alt)
     assert ss.velocity == pytest.approx(pk.velocity, rel=5e-3)
     assert ss.as_dict()["dynamic_pressure"] == pytest.approx(0.5 * rho * ss.velocity**2)
+
+
+def test_rigid_body_roots_are_never_the_flutter_speed():
+    """A free aircraft at Mach 0 (:func:`tests._aero_fakes.rigid_and_elastic`: uncoupled rigid
+    and elastic modes, exact quasi-steady GAFs and RFA): at sea-level density the rigid root's
+    damping crosses zero first, at V = 0.8/ρ, the elastic one at V = (8/7)/ρ with
+    ω = 10 rad/s (closed form). Both methods give the elastic speed (p-k refined by Brent on
+    its branch: 1e-6; the state space by Brent on the growth rate: 1e-6) and frequency (1e-6),
+    and list the rigid root apart with its mode: p-k at its linearly interpolated crossing
+    (between the sweep's samples around 0.8/ρ), the state space at the sample before it."""
+    from ._aero_fakes import rigid_and_elastic
+
+    structure, gaf, rfa = rigid_and_elastic(0.0)
+    table = AeroTable.from_gaf(gaf)
+    rho = float(atmosphere(0.0, "ft").density)
+    pk, sweep = flutter_speed_pk(structure, table, 0.0)
+    ss = flutter_speed_state_space(structure, rfa, table, 0.0)
+    v = sweep.velocity
+    rigid_v = 0.8 / rho
+    i = int(np.searchsorted(v, rigid_v))  # v[i - 1] < rigid_v <= v[i]
+    for r in (pk, ss):
+        assert r.velocity == pytest.approx(8 / 7 / rho, rel=1e-6), r.method
+        assert r.frequency_hz == pytest.approx(10 / (2 * np.pi), rel=1e-6), r.method
+        ((j, at),) = r.rigid_body_crossings
+        assert j == 0, r.method
+        assert r.as_dict()["rigid_body_crossings"] == [{"mode": 1, "velocity": at}]
+    assert v[i - 1] <= pk.rigid_body_crossings[0][1] <= v[i]
+    assert ss.rigid_body_crossings[0][1] == v[i - 1]
+
+
+def test_an_untouched_undamped_mode_is_no_state_space_flutter():
+    """The free aircraft of :func:`tests._aero_fakes.rigid_and_elastic` with a third mode that
+    neither the air nor the structure damps (ω = 20 rad/s, no GAF, no damping: Re s = ±1e-14,
+    round-off, as bah_plane's 8.70 Hz mode at α = γ = 0). Its root's damping is within
+    G_ROUNDOFF, so it is no flutter point: the state-space flutter speed stays the elastic
+    crossing, (8/7)/ρ (1e-6), as p-k's (which applies the same rule)."""
+    from torchrom.aero.dlm import GAF
+    from torchrom.aero.flutter import ModalStructure
+    from torchrom.aero.flutter_speed import flutter_speed_at_density
+    from torchrom.aero.rfa import RFA
+
+    structure = ModalStructure(np.eye(3), np.diag([0.0, 100.0, 400.0]),
+                               C0=np.diag([0.1, 0.2, 0.0]))
+    a0, a1 = np.diag([0.05, 0.0, 0.0]), np.diag([-0.25, -0.35, 0.0])
+    k = np.r_[0.0, np.geomspace(1e-3, 2.0, 40)]
+    table = AeroTable.from_gaf(GAF(0.0, 1.0, k, a0[None] + 1j * k[:, None, None] * a1[None]))
+    rfa = RFA(a0, a1, np.zeros((3, 3)), np.zeros((3, 0)), np.zeros((0, 0)), np.zeros((0, 3)),
+              np.zeros(0), "roger", 1.0, 0.0)
+    rho = float(atmosphere(0.0, "ft").density)
+    ss = flutter_speed_at_density(structure, rfa, table, rho)
+    assert ss.velocity == pytest.approx(8 / 7 / rho, rel=1e-6)
+    assert ss.frequency_hz == pytest.approx(10 / (2 * np.pi), rel=1e-6)
+    pk, _ = flutter_speed_pk(structure, table, 0.0)
+    assert pk.velocity == pytest.approx(ss.velocity, rel=1e-6)

@@ -167,3 +167,14 @@ def test_symxy_ground_effect_and_its_far_limit():
     d300 = np.abs(q(300.0, -1) - free).max() / np.abs(free).max()
     print("relative difference at 30 and 300 chords:", d30, d300)
     assert d300 < d30 < 1e-2 and d300 < 1e-4
+
+
+def test_small_field_aefact_ends_are_the_panel_edges():
+    """An AEFACT written in 8-character fields ends at .9999999 (pyNastran's fmondsp glider,
+    CAERO1 107001): the ends within FRACTION_TOL (1e-6) are the panel's edges, exactly; a
+    list that stops short of them (0.99) is still refused."""
+    a = lattice([0, 0, 0], [1, 0, 0], [1, 2, 0], [0, 2, 0], [0, 1], [0.0, 0.5, 0.9999999])
+    exact = lattice([0, 0, 0], [1, 0, 0], [1, 2, 0], [0, 2, 0], [0, 1], [0.0, 0.5, 1.0])
+    assert np.array_equal(a.corners, exact.corners)
+    with pytest.raises(InputError, match="span divisions"):
+        lattice([0, 0, 0], [1, 0, 0], [1, 2, 0], [0, 2, 0], [0, 1], [0.0, 0.5, 0.99])

@@ -25,6 +25,9 @@ import pytest
 from .cli_forkserver import ForkServer
 from .test_bad_input import CONFIG, DECK, UPDATE_PARAMETER
 
+#: the public decks (tests/decks)
+PUBLIC_DECKS = Path(__file__).parent / "decks"
+
 #: files of every kind (relative to the fixture folder)
 FILES = {"missing": "nope.bdf", "folder": "adir", "empty": "empty.bdf", "binary": "garbage.bin",
          "rom npz": "rom.npz", "aero npz": "aero.npz", "truncated deck": "trunc.bdf",
@@ -183,6 +186,14 @@ def _cases() -> dict[str, tuple[list[str], str]]:
                                           "OUT/aero.npz"], "--planform goland")
     cases["flutter ROM without its aero file"] = (["flutter", "rom.npz"],
                                                   "torchrom flutter rom.npz aero.npz")
+    # decks the deck flutter cannot handle (issue 35 item 7): what is missing and what to do
+    cases["flutter deck without CAERO1"] = (["flutter", "deck.bdf"], "--planform goland")
+    for deck, card in (("pynastran_bah_ha146c/ha146c.bdf", "SPLINE2 100: SET1 14: grids 1 and 2"),
+                       ("pynastran_fmondsp/fmondsp.dat", "SPLINE5 29: SET1 29")):
+        for command, extra in (("flutter", []), ("aero", ["--mach", "0.5", "--out",
+                                                          "OUT/aero.npz"])):
+            cases[f"{command} {deck.split('/')[0]}: two grids at one spline station"] = (
+                [command, str(PUBLIC_DECKS / deck), *extra], card)
     for command in ("sweep", "branch", "bifurcation", "calibrate"):
         for kind in ("missing", "folder", "empty", "binary", "rom npz", "deck", "parquet"):
             cases[f"{command} config={kind}"] = ([command, FILES[kind], *BASE[command][1:]],

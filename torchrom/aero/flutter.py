@@ -709,6 +709,83 @@ def state_space_matrix(
     return a
 
 
+#: a state-space root whose structural shape q lies mostly in the rigid-body modes (their
+#: M-weighted share of q above this) is a rigid-body root: the state-space form of the p-k rule
+#: (:func:`rigid_body_branches`: the branch that starts from a 0 Hz mode)
+RIGID_SHARE = 0.5
+
+
+@dataclass
+class OscillatoryRoots:
+    """The oscillatory state-space roots at one speed and density, split: those of the flexible
+    structure and the rigid-body roots (each with the 0-based in-vacuo mode, by frequency, that
+    its shape moves most)."""
+
+    elastic: np.ndarray
+    rigid: np.ndarray
+    rigid_mode: np.ndarray
+
+    def rigid_critical(self) -> tuple[complex, int] | None:
+        """The rigid-body root of largest damping g = 2 Re s / Im s and its mode (None: no
+        oscillatory rigid-body root)."""
+        if len(self.rigid) == 0:
+            return None
+        i = int(np.argmax(self.rigid.real / self.rigid.imag))
+        return complex(self.rigid[i]), int(self.rigid_mode[i])
+
+    def critical(self) -> complex:
+        """The flexible structure's root with the largest real part (growth rate, 1/s)."""
+        if len(self.elastic) == 0:
+            raise ConvergenceError("state space: no oscillatory root found")
+        return complex(self.elastic[np.argmax(self.elastic.real)])
+
+    def flutter_root(self) -> complex | None:
+        """:meth:`critical` among the roots whose damping g = 2 Re s / Im s is beyond
+        round-off (|g| > :data:`G_ROUNDOFF`, the p-k's rule): a mode the aerodynamics do not
+        touch, undamped, has Re s = ±1e-14 and is no flutter (bah_plane's 8.70 Hz mode at
+        α = γ = 0). None where every root is within round-off."""
+        g = 2 * self.elastic.real / self.elastic.imag
+        beyond = self.elastic[np.abs(g) > G_ROUNDOFF]
+        return complex(beyond[np.argmax(beyond.real)]) if len(beyond) else None
+
+    def flutter_growth(self) -> float:
+        """Re of :meth:`flutter_root` (1/s; NaN where there is none)."""
+        root = self.flutter_root()
+        return float("nan") if root is None else root.real
+
+
+def in_vacuo_modes(structure: ModalStructure) -> tuple[np.ndarray, np.ndarray]:
+    """Undamped modes of (K, M): frequencies (Hz, ascending) and M-orthonormal shapes (m × m)
+    (the symmetric parts of M and K)."""
+    w2, phi = scipy.linalg.eigh(0.5 * (structure.K + structure.K.T),
+                                0.5 * (structure.M + structure.M.T))
+    return np.sqrt(np.abs(w2)) / (2 * np.pi), phi
+
+
+def oscillatory_roots(structure: ModalStructure, rfa: RFA, velocity: float, density: float,
+                      min_frequency_hz: float = 1e-3) -> OscillatoryRoots:
+    """The state-space roots with Im s > 2π ``min_frequency_hz``, the rigid-body ones apart
+    (:data:`RIGID_SHARE` of q = Φ η in the in-vacuo modes Φ: Σ_rigid |η|² / Σ |η|², with
+    η = Φᵀ M q). A restrained structure (no mode below :data:`RIGID_FRACTION`) has none and
+    needs no eigenvectors."""
+    a = state_space_matrix(structure, rfa, velocity, density)
+    f, phi = in_vacuo_modes(structure)
+    rigid = rigid_body_modes(f)
+    none = np.zeros(0, dtype=int)
+    if not rigid.any():
+        s = np.linalg.eigvals(a)
+        return OscillatoryRoots(s[s.imag > 2 * np.pi * min_frequency_hz], s[:0], none)
+    s, x = np.linalg.eig(a)
+    keep = s.imag > 2 * np.pi * min_frequency_hz
+    s, q = s[keep], x[: structure.n_modes, keep]
+    eta = np.abs(phi.T @ (structure.M @ q)) ** 2
+    share = eta[rigid].sum(axis=0) / eta.sum(axis=0)
+    is_rigid = share > RIGID_SHARE
+    mode = np.flatnonzero(rigid)[np.argmax(eta[rigid][:, is_rigid], axis=0)] if is_rigid.any() \
+        else none
+    return OscillatoryRoots(s[~is_rigid], s[is_rigid], mode)
+
+
 def critical_root(
     structure: ModalStructure,
     rfa: RFA,
@@ -716,12 +793,35 @@ def critical_root(
     density: float,
     min_frequency_hz: float = 1e-3,
 ) -> complex:
-    """The oscillatory state-space root with the largest real part (growth rate, 1/s)."""
-    s = np.linalg.eigvals(state_space_matrix(structure, rfa, velocity, density))
-    osc = s[s.imag > 2 * np.pi * min_frequency_hz]
-    if len(osc) == 0:
-        raise ConvergenceError("state space: no oscillatory root found")
-    return complex(osc[np.argmax(osc.real)])
+    """The oscillatory state-space root of the flexible structure with the largest real part
+    (growth rate, 1/s); a free structure's rigid-body roots are never it
+    (:func:`oscillatory_roots`)."""
+    return oscillatory_roots(structure, rfa, velocity, density, min_frequency_hz).critical()
+
+
+def refine_crossing(roots_at: Callable[[float], OscillatoryRoots], lo: float, hi: float,
+                    target: complex, xtol: float) -> tuple[float, complex]:
+    """(x, root) where the flexible-structure root that continues ``target`` (the unstable
+    root at one end of [lo, hi]; at each x the elastic root nearest it) crosses Re s = 0:
+    Brent's method to ``xtol``. Following that one root keeps the other roots, e.g. an
+    undamped one at Re s = ±1e-14, out of the refinement and of the reported frequency."""
+    def branch(x):
+        e = roots_at(x).elastic
+        return complex(e[np.argmin(np.abs(e - target))])
+
+    x = float(scipy.optimize.brentq(lambda x: branch(x).real, lo, hi, xtol=xtol))
+    return x, branch(x)
+
+
+def rigid_body_crossings_state_space(roots: list[OscillatoryRoots], x) -> list[tuple[int, float]]:
+    """(mode, x sample) where the damping g = 2 Re s / Im s of the least stable rigid-body
+    root first crosses zero along a sweep of ``roots`` at the samples ``x`` (altitude or speed;
+    the sample before the crossing, as the p-k's :attr:`MatchedPointResult.rigid_body_crossings`;
+    :func:`zero_crossings`): a free aircraft's rigid-body root, reported apart, not flutter."""
+    crit = [r.rigid_critical() for r in roots]
+    g = np.array([np.nan if c is None else 2 * c[0].real / c[0].imag for c in crit])
+    idx = zero_crossings(g)  # g is finite at both samples of a crossing
+    return [(crit[idx[0] + 1][1], float(np.asarray(x)[idx[0]]))] if idx else []
 
 
 def state_space_sweep(structure, rfa, velocities, densities, altitudes=None, mach=None) -> dict:
@@ -754,8 +854,9 @@ class MatchedPointResult:
     mode: int | None
     sweep: ModeSweep | dict | None = None
     units: str = "ft"
-    #: p-k: the rigid-body branches (0-based) whose damping crosses zero in the sweep, with the
-    #: altitude sample where it first does (a free aircraft's rigid roots: not flutter)
+    #: the rigid-body branches (p-k) or modes (state space, :func:`oscillatory_roots`; 0-based)
+    #: whose damping crosses zero in the sweep, with the altitude sample where it first does
+    #: (a free aircraft's rigid roots: not flutter)
     rigid_body_crossings: list[tuple[int, float]] = field(default_factory=list)
 
     def as_dict(self) -> dict:
@@ -786,27 +887,30 @@ def _altitude_grid(alt_range, n) -> np.ndarray:
 def flutter_altitude_state_space(
     structure, rfa, mach, alt_range, n_grid=41, units="ft", xtol=1e-3
 ) -> MatchedPointResult:
-    """Highest altitude in ``alt_range`` where the critical state-space root crosses Re s = 0."""
+    """Highest altitude in ``alt_range`` where the critical state-space root crosses Re s = 0
+    (a free aircraft's rigid-body roots and roots whose damping is round-off left out:
+    :meth:`OscillatoryRoots.flutter_root`; the rigid-body roots' crossings listed apart)."""
     h = _altitude_grid(alt_range, n_grid)
     fc = flight_condition(mach, h, units)
 
-    def growth(alt):
+    def roots_at(alt):
         c = flight_condition(mach, alt, units)
-        return critical_root(structure, rfa, c.velocity, c.density).real
+        return oscillatory_roots(structure, rfa, c.velocity, c.density)
 
-    sig = np.array(
-        [critical_root(structure, rfa, v, r).real for v, r in zip(fc.velocity, fc.density)]
-    )
+    roots = [oscillatory_roots(structure, rfa, v, r) for v, r in zip(fc.velocity, fc.density)]
+    sig = np.array([r.flutter_growth() for r in roots])
+    # a free aircraft's rigid-body roots are reported apart, never as the flutter point
+    apart = rigid_body_crossings_state_space(roots, h)
     sweep = state_space_sweep(structure, rfa, fc.velocity, fc.density, h, mach)
     sweep["growth_rate"] = sig
     idx = np.flatnonzero((sig[:-1] < 0) & (sig[1:] >= 0))
     if len(idx) == 0:
-        return MatchedPointResult("state-space", mach, None, None, None, None, None, sweep, units)
+        return MatchedPointResult("state-space", mach, None, None, None, None, None, sweep, units,
+                                  apart)
     i = idx[0]
-    alt = scipy.optimize.brentq(growth, h[i + 1], h[i], xtol=xtol)
-    c = flight_condition(mach, alt, units)
-    root = critical_root(structure, rfa, c.velocity, c.density)
-    return _matched("state-space", mach, alt, root, None, sweep, units)
+    alt, root = refine_crossing(roots_at, h[i + 1], h[i], roots[i + 1].flutter_root(), xtol)
+    return replace(_matched("state-space", mach, alt, root, None, sweep, units),
+                   rigid_body_crossings=apart)
 
 
 def flutter_altitude_pk(

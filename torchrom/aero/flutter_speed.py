@@ -10,18 +10,29 @@ density of a given altitude (USSA-76, :mod:`torchrom.aero.atmosphere`):
   first flutter crossing (lowest onset speed) is the flutter point;
 * state space: the growth rate of the critical root (:func:`torchrom.aero.flutter.critical_root`)
   on the same speeds, its first upward zero refined by Brent's method.
+
+A free structure's rigid-body roots are never the flutter point: both methods list the speed
+where one's damping crosses zero apart (``rigid_body_crossings``; p-k by its branches from the
+0 Hz modes, the state space by the roots' shapes, :func:`torchrom.aero.flutter.oscillatory_roots`).
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
-import scipy
 
 from .atmosphere import atmosphere
 from .crossings import pk_crossings
-from .flutter import AeroTable, ModalStructure, ModeSweep, critical_root, pk_sweep
+from .flutter import (
+    AeroTable,
+    ModalStructure,
+    ModeSweep,
+    oscillatory_roots,
+    pk_sweep,
+    refine_crossing,
+    rigid_body_crossings_state_space,
+)
 from .rfa import RFA
 
 #: speeds of the sweep that brackets the flutter speed
@@ -43,6 +54,8 @@ class FlutterSpeed:
     units: str = "ft"
     #: Mach number of the aerodynamics (0: incompressible; a tunnel at the GAF Mach otherwise)
     mach: float = 0.0
+    #: (0-based mode, speed) where a rigid-body root's damping crosses zero: not flutter
+    rigid_body_crossings: list[tuple[int, float]] = field(default_factory=list)
 
     def as_dict(self) -> dict:
         return {
@@ -54,6 +67,8 @@ class FlutterSpeed:
             else 0.5 * self.density * self.velocity**2,
             "mode": None if self.mode is None else self.mode + 1, "kind": self.kind,
             "stable_velocity": self.stable_velocity, "units": self.units,
+            "rigid_body_crossings": [{"mode": j + 1, "velocity": v}
+                                     for j, v in self.rigid_body_crossings],
         }
 
 
@@ -88,12 +103,14 @@ def flutter_speed_pk_at_density(structure: ModalStructure, aero: AeroTable, dens
     rho = float(density)
     v = np.geomspace(*speed_range(structure, aero), n_speeds)
     sweep = pk_sweep(structure, aero, v, rho, mach=mach, eps=1e-7)
-    points = pk_crossings(structure, aero, sweep).flutter
-    if not points:
-        return FlutterSpeed("p-k", float("nan"), rho, None, None, mach=mach), sweep
-    p = min(points, key=lambda p: p.velocity)
+    found = pk_crossings(structure, aero, sweep)
+    apart = [(p.mode, p.velocity) for p in found.rigid_body]
+    if not found.flutter:
+        return FlutterSpeed("p-k", float("nan"), rho, None, None, mach=mach,
+                            rigid_body_crossings=apart), sweep
+    p = min(found.flutter, key=lambda p: p.velocity)
     return FlutterSpeed("p-k", float("nan"), rho, p.velocity, p.frequency_hz, p.mode, p.kind,
-                        p.stable_velocity, mach=mach), sweep
+                        p.stable_velocity, mach=mach, rigid_body_crossings=apart), sweep
 
 
 def flutter_speed_state_space(structure: ModalStructure, rfa: RFA, aero: AeroTable,
@@ -113,21 +130,22 @@ def flutter_speed_at_density(structure: ModalStructure, rfa: RFA, aero: AeroTabl
                              mach: float = 0.0) -> FlutterSpeed:
     """The state-space flutter speed at the air density ``density`` (a wind tunnel; the
     RFA's units, e.g. slug/ft³ and ft/s): the first upward zero of the critical root's growth
-    rate over ``speeds`` (default :func:`speed_range`), refined by Brent's method to 1e-10
+    rate (roots whose damping is round-off left out: :meth:`OscillatoryRoots.flutter_root`)
+    over ``speeds`` (default :func:`speed_range`), refined by Brent's method to 1e-10
     relative. ``altitude`` of the result is NaN (no altitude is implied); ``mach`` (that of
     the aerodynamics) is recorded in it."""
     rho = float(density)
     v = np.geomspace(*(speeds or speed_range(structure, aero)), n_speeds)
 
-    def growth(x):
-        return critical_root(structure, rfa, x, rho).real
-
-    sig = np.array([growth(x) for x in v])
+    roots = [oscillatory_roots(structure, rfa, x, rho) for x in v]
+    apart = rigid_body_crossings_state_space(roots, v)
+    sig = np.array([r.flutter_growth() for r in roots])
     up = np.flatnonzero((sig[:-1] < 0) & (sig[1:] >= 0))
     if len(up) == 0:
-        return FlutterSpeed("state-space", float("nan"), rho, None, None, mach=mach)
+        return FlutterSpeed("state-space", float("nan"), rho, None, None, mach=mach,
+                            rigid_body_crossings=apart)
     i = up[0]
-    vf = float(scipy.optimize.brentq(growth, v[i], v[i + 1], xtol=1e-10 * v[i + 1]))
-    root = critical_root(structure, rfa, vf, rho)
+    vf, root = refine_crossing(lambda x: oscillatory_roots(structure, rfa, x, rho), v[i],
+                               v[i + 1], roots[i + 1].flutter_root(), 1e-10 * v[i + 1])
     return FlutterSpeed("state-space", float("nan"), rho, vf, root.imag / (2 * np.pi),
-                        mach=mach)
+                        mach=mach, rigid_body_crossings=apart)

@@ -206,6 +206,25 @@ def _flfact(model, sid: int, where: str, what: str) -> np.ndarray:
     return vals
 
 
+def _one_grid_per_station(where: str, setg: int, grid_ids, xyz, axis) -> None:
+    """InputError (which grids, what to do) when two grids of a beam spline lie at one station
+    along its axis: torchrom's beam spline interpolates one deflection per station (a torsion
+    from the grids' rotations), not a pair of chordwise-offset grids as Nastran's rigid arms do
+    (pyNastran's ha146c: front- and rear-spar grids of SET1 14 at each y)."""
+    s = np.asarray(xyz, float) @ np.asarray(axis, float)
+    order = np.argsort(s, kind="stable")
+    gap = np.diff(s[order]) <= 1e-12 * max(1.0, float(np.ptp(s)))
+    if len(s) >= 2 and gap.any():
+        i = int(np.flatnonzero(gap)[0])
+        a, b = (int(grid_ids[order[i]]), int(grid_ids[order[i + 1]]))
+        raise InputError(f"{where}: SET1 {setg}: grids {a} and {b} lie at one station along the "
+                         f"spline axis; this beam spline takes one grid per station (no "
+                         f"chordwise-offset pairs): connect these grids with a SPLINE1 (surface "
+                         f"spline) instead, or keep one grid per station in SET1 {setg}")
+    if len(s) < 2:
+        raise InputError(f"{where}: SET1 {setg}: a beam spline needs at least two grids")
+
+
 def _spline_defs(model, path: Path, panels: AeroPanels, frame: AeroFrame) -> list[SplineDef]:
     """Splines in the aero frame (grid positions and SPLINE2 axes transformed to it)."""
     defs = []
@@ -254,6 +273,7 @@ def _spline_defs(model, path: Path, panels: AeroPanels, frame: AeroFrame) -> lis
                 raise InputError(f"{where}: coordinate system {cid} not found")
             coord = model.coords[cid]
             axes = np.asarray(coord.beta(), dtype=float)
+            _one_grid_per_station(where, sp.setg, grid_ids, xyz, frame.vectors(axes)[1])
             spline = BeamSpline(
                 xyz,
                 origin=frame.points(np.asarray(coord.origin, float)),
@@ -280,7 +300,10 @@ def load_deck(path, require_flutter: bool = True, *, symxz: int | None = None,
     path = Path(path)
     model = read_model(path)
     if not model.caeros:
-        raise InputError(f"{path}: CAERO1: no aerodynamic panels in the deck")
+        raise InputError(f"{path}: CAERO1: no aerodynamic panels in the deck: torchrom flutter "
+                         f"DECK needs its aerodynamic model (CAERO1, SPLINE1/2, AERO, MKAERO1, "
+                         f"FLUTTER); for a structure-only deck: torchrom identify, torchrom aero "
+                         f"--planform goland, then torchrom flutter rom.npz aero.npz")
     frame = read_aero_frame(model, str(path))
     panels = read_caero1(model, str(path), frame)
     ref = read_aero_reference(model, str(path))

@@ -253,6 +253,12 @@ class AeroPanels:
         )
 
 
+#: an AEFACT's end fractions within this of 0 and 1 are the panel's edges: a small-field
+#: (8-character) AEFACT carries 7 significant digits, so 1.0 is written .9999999 when the list
+#: is normalised by a pre-processor (pyNastran's fmondsp deck, CAERO1 107001)
+FRACTION_TOL = 1e-6
+
+
 def lattice(
     p1,
     p2,
@@ -270,14 +276,16 @@ def lattice(
     numbered chordwise first, strip by strip from p1 towards p4 (Nastran's order).
     """
     p1, p2, p3, p4 = (np.asarray(p, dtype=float) for p in (p1, p2, p3, p4))
-    xc = np.asarray(chord_fractions, dtype=float)
-    ys = np.asarray(span_fractions, dtype=float)
+    xc = np.array(chord_fractions, dtype=float)  # copies: the ends are set below
+    ys = np.array(span_fractions, dtype=float)
     for name, f in (("chord", xc), ("span", ys)):
-        if len(f) < 2 or np.any(np.diff(f) <= 0) or abs(f[0]) > 1e-9 or abs(f[-1] - 1) > 1e-9:
+        if (len(f) < 2 or np.any(np.diff(f) <= 0) or abs(f[0]) > FRACTION_TOL
+                or abs(f[-1] - 1) > FRACTION_TOL):
             raise InputError(
                 f"CAERO1 {caero_id}: {name} divisions: expected increasing fractions from 0 to 1, "
                 f"got {np.round(f, 6).tolist()}"
             )
+        f[0], f[-1] = 0.0, 1.0  # the ends as the edges they are (an AEFACT's .9999999)
     check_boxes(f"CAERO1 {caero_id}", (len(xc) - 1) * (len(ys) - 1))
 
     def point(s, c):  # s spanwise, c chordwise fraction

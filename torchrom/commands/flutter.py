@@ -22,8 +22,11 @@ frequency_hz, velocity, density, dynamic_pressure, mode}], "growing_response": [
 frequency_hz_state_space, frequency_hz_pk}], "alpha_for_gamma": [{gamma, alpha, altitude}],
 "paper": {...} (Goland only)}. With an aero file at Mach 0 (incompressible), no matched point:
 {"mach": 0, "alpha", "gamma", "units", "flutter": [{method, altitude, density, velocity,
-frequency_hz, dynamic_pressure, mode, kind, stable_velocity}]}, the flutter speed at the density
-of each altitude; the same with --density at the aero file's Mach (altitude null).
+frequency_hz, dynamic_pressure, mode, kind, stable_velocity, rigid_body_crossings: [{mode,
+velocity}]}]}, the flutter speed at the density of each altitude; the same with --density at
+the aero file's Mach (altitude null). A free aircraft's rigid-body roots are never a flutter
+point, by p-k or the state space: they are printed apart and listed in
+``rigid_body_crossings`` (matched point: [{mode, altitude}]).
 """
 
 from __future__ import annotations
@@ -503,6 +506,11 @@ def _speeds_at_densities(args, structure, aero, system, mach: float) -> int:
             print(f"  {r.method:<13}{head}{r.velocity:10.2f}{r.frequency_hz:14.4f}"
                   f"{0.5 * r.density * r.velocity**2:13.1f}  {kind}")
         results += found
+    for r in results:
+        for j, v in r.rigid_body_crossings:
+            where = "" if r.altitude != r.altitude else f" at {r.altitude:g} {u['altitude']}"
+            print(f"  {r.method}: rigid-body root (mode {j + 1}) damping crosses zero near "
+                  f"{v:.1f} {u['speed']}{where}: not flutter (a free aircraft's rigid-body root)")
     maybe_write_json(args, {"mach": mach, "alpha": structure.alpha, "gamma": structure.gamma,
                             "units": u, "flutter": [r.as_dict() for r in results]})
     ok = True

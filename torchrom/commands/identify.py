@@ -17,7 +17,6 @@ from __future__ import annotations
 import time
 from pathlib import Path
 
-from ..errors import InputError
 from ..progress import info
 from ._common import (
     add_force_option,
@@ -124,11 +123,6 @@ def run(args) -> int:
 
     declare_units(fe, args.units, str(args.model))
     print(f"  {describe_units(fe)}")
-    if args.report is not None and fe.modes(1).n_rigid:
-        # the report's static curves and free decay are solved on a restrained ROM and FE
-        raise InputError(f"{args.model}: --report: the validation (static curves at point A, "
-                         f"free decay) needs a restrained structure; this one has rigid-body "
-                         f"modes (free-free): identify without --report")
     kinds = None
     if args.combinations == "transverse" and args.dual:
         # a free structure's rigid-body modes come first in the basis (0 Hz, as in SOL 145);

@@ -58,8 +58,12 @@ def transverse_combinations(kinds: Sequence[str]) -> tuple[tuple[int, int], ...]
     :data:`BENDING_TORSION_COMBINATIONS`."""
     t = [i + 1 for i, k in enumerate(kinds) if k in ("bending", "torsion")]
     if not t:
-        raise InputError("dual modes: no transverse (bending or torsion) linear mode to load; "
-                         "give the combinations explicitly")
+        rigid = list(kinds).count("rigid-body")
+        raise InputError(f"dual modes: no transverse (bending or torsion) mode among the "
+                         f"{len(kinds)} linear modes ({', '.join(sorted(set(kinds)))}) to load: "
+                         + ("raise --linear past the rigid-body modes, " if rigid else "")
+                         + "give pairs of elastic modes with --combinations J:L,... or identify "
+                           "the linear modes only with --dual 0")
     bending = [i for i, m in enumerate(t) if kinds[m - 1] == "bending"]
     last = max(min(3, len(t)), bending[1] + 1 if len(bending) > 1 else 0)
     return tuple((t[a], t[b]) for a in range(min(2, len(t))) for b in range(a, last))
@@ -491,7 +495,11 @@ def dual_basis(backend, linear: Basis, n_dual: int, options: DualModeOptions | N
                                 "tip_pct_span": float(100 * p.tip / span),
                                 "solves": walk.solves - before})
     if not responses:
-        raise ConvergenceError("dual modes: the FE carried none of the dual-mode loads")
+        raise ConvergenceError("dual modes: the FE carried none of the dual-mode loads (no "
+                               "static solve converged; under inertia relief a free structure "
+                               "needs mass on each of its rigid-body motions): try "
+                               "a smaller --amplitude or other --combinations, or identify "
+                               "the linear modes only with --dual 0")
     basis, norms = dual_modes_from_responses(
         linear, backend.mass_matrix(), np.array(responses), n_dual,
         K=backend.stiffness_matrix(), pod_norm=opts.pod_norm, weights=opts.snapshot_weights)

@@ -195,7 +195,9 @@ def identify(fe, options: IdentifyOptions | None = None,
     if n_dof is not None and opt.n_linear + opt.n_dual > n_dof:
         raise InputError(f"basis: {opt.n_linear} linear + {opt.n_dual} dual modes asked for "
                          f"(--linear, --dual), but the model has {n_dof} DOFs; a basis holds "
-                         f"at most that many independent vectors")
+                         f"at most that many independent vectors: ask for at most {n_dof} in "
+                         f"all (e.g. --linear {min(opt.n_linear, n_dof)} --dual "
+                         f"{n_dof - min(opt.n_linear, n_dof)})")
     basis = linear_basis(be, opt.n_linear)
     timings["linear_modes"] = time.perf_counter() - t0
     if opt.n_dual > 0:

@@ -6,7 +6,13 @@
   :func:`torchrom.identify.fe_backend.step_midline`), load levels from the linear range up to a
   tip deflection of ≈ 25 % of the span: FE Newton (the backend's static solver, continuation in
   the level) vs ROM Newton on K1 q + K2(q,q) + K3(q,q,q) = Φᵀ F (Eqs. 12, 14); outputs at
-  point A (A_Tx, A_Ty, A_Tz).
+  point A (A_Tx, A_Ty, A_Tz), or, where the deck names no point A, at the ROM's default
+  output (the translation that moves most in the first elastic mode, :func:`validation_outputs`).
+  A deck without a pressure skin (a beam stick model) is loaded by the inertia load M φ of its
+  first elastic mode instead (:func:`load_shapes`). A free structure (rigid-body modes) is
+  solved under inertia relief on both sides: the FE by its INREL solve (Gᵀ M u = 0), the ROM
+  by the Galerkin projection of it (its rigid-body coordinates' rows of M q = 0, the rigid
+  accelerations balancing the load, :func:`rom_static_solve`).
 - **Dynamic**: free decay from the static deflection under a pressure (released at t = 0) with
   Kelvin–Voigt damping D = γC (Eq. 52): FE nonlinear transient vs ROM transient (both Newmark
   average acceleration, same time step); amplitude envelope and frequency of A_Tz over the first
@@ -35,28 +41,39 @@ OUTPUTS = ("A_Tx", "A_Ty", "A_Tz")
 # ROM solvers
 # ------------------------------------------------------------------------------------------------
 def rom_static_solve(rom, f: np.ndarray, q0: np.ndarray | None = None, *, tol: float = 1e-11,
-                     max_iter: int = 50) -> np.ndarray:
-    """Newton–Raphson with load halving for K1 q + K2(q,q) + K3(q,q,q) = f (generalized)."""
+                     max_iter: int = 50, n_rigid: int = 0) -> np.ndarray:
+    """Newton–Raphson with load halving for K1 q + K2(q,q) + K3(q,q,q) = f (generalized).
+
+    ``n_rigid`` > 0 (a free structure's rigid-body modes, the first basis functions): under
+    inertia relief, K(q) + M_r a = f with M_rᵀ q = 0 (M_r: the first ``n_rigid`` columns of
+    M; a: the rigid-body accelerations), the Galerkin projection of the FE's INREL solve
+    (:func:`torchrom.fe.solvers.inertia_relief_static`)."""
     f = np.asarray(f, float)
+    r = int(n_rigid)
+    Mr = rom.M.numpy()[:, :r]
     q = np.zeros(rom.n) if q0 is None else np.array(q0, float)
     lam, inc = 0.0, 1.0
     scale = max(np.linalg.norm(f), 1e-300)
     zeros = torch.zeros(rom.n, dtype=torch.float64)
+    a = np.zeros(r)
     while lam < 1.0:
         target = min(1.0, lam + inc)
-        v, ok = q.copy(), False
+        v, b, ok = q.copy(), a.copy(), False
         for _ in range(max_iter):
             qt = torch.as_tensor(v)
-            r = target * f - rom.stiffness_force(qt).numpy()
-            if np.linalg.norm(r) <= tol * scale:
+            res = np.concatenate([target * f - rom.stiffness_force(qt).numpy() - Mr @ b,
+                                  -Mr.T @ v])
+            if np.linalg.norm(res) <= tol * scale:
                 ok = True
                 break
             Kt, _ = rom.tangents(qt, zeros)
-            v = v + scipy.linalg.solve(Kt.numpy(), r)
+            step = scipy.linalg.solve(np.block([[Kt.numpy(), Mr], [Mr.T, np.zeros((r, r))]]),
+                                      res)
+            v, b = v + step[: rom.n], b + step[rom.n:]
             if not np.all(np.isfinite(v)):
                 break
         if ok:
-            q, lam = v, target
+            q, a, lam = v, b, target
         else:
             inc *= 0.5
             if inc < 1e-4:
@@ -111,7 +128,7 @@ class StaticCurve:
         max_tip_pct (% of span). Values of an output below 1e-6 of the largest transverse one
         (e.g. Tx of a symmetric FE response, ~1e-13) are not divided by: NaN if none is left."""
         sel = (self.tip_pct_span >= min_tip_pct) & (self.tip_pct_span <= max_tip_pct)
-        ref = max(np.abs(self.fe["A_Tz"]).max(), 1e-300)
+        ref = max(max(np.abs(v).max(initial=0.0) for v in self.fe.values()), 1e-300)
         out = {}
         for k in self.fe:
             fe, ro = self.fe[k][sel], self.rom[k][sel]
@@ -121,24 +138,80 @@ class StaticCurve:
         return out
 
 
-def static_validation(backend, rom, Phi: np.ndarray, shape: str, unit_load: np.ndarray, *,
-                      max_tip_fraction: float = 0.25, n_levels: int = 10) -> StaticCurve:
-    """FE vs ROM static responses at point A for ``level × unit_load``, up to a tip deflection
-    of ``max_tip_fraction`` of the span (levels chosen from the linear response, then extended
-    while the FE's tip deflection is below the target)."""
-    missing = [k for k in OUTPUTS if k not in backend.outputs or k not in rom.outputs]
-    if missing:
-        raise InputError(f"static validation needs the outputs {missing} on the FE and the ROM")
+def validation_outputs(backend, Phi: np.ndarray, n_rigid: int = 0) -> dict[str, int]:
+    """Name -> FE DOF of the compared outputs: point A's translations (A_Tx, A_Ty, A_Tz) where
+    the deck names them (the Goland deck), else the ROM's default output ``max_mode1``, the
+    translation that moves most in the first elastic mode (basis function ``n_rigid``), named
+    with its grid and component (e.g. ``max_mode1 G1001:T3``)."""
+    if all(k in backend.outputs for k in OUTPUTS):
+        return {k: int(backend.outputs[k]) for k in OUTPUTS}
+    from ..rom.points import largest_translation
+
+    dof = largest_translation(Phi, backend.translational_dofs, mode=n_rigid)
+    label = backend.dof_label(dof) if hasattr(backend, "dof_label") else None
+    return {"max_mode1" + (f" {label}" if label else ""): int(dof)}
+
+
+def linear_response(backend, load: np.ndarray) -> np.ndarray:
+    """K⁻¹ load; for a free structure (the backend's ``rigid_shapes``) the inertia-relief
+    response (:func:`torchrom.fe.solvers.inertia_relief_solve`)."""
     from .backend import solve_linear
 
+    rigid = backend.rigid_shapes() if hasattr(backend, "rigid_shapes") else np.zeros((0, 0))
+    if rigid.size:
+        from ..fe.solvers import inertia_relief_solve
+
+        return inertia_relief_solve(backend.stiffness_matrix(), backend.mass_matrix(), rigid,
+                                    load)
+    return solve_linear(backend.stiffness_matrix(), load)
+
+
+def tip_dofs(backend, u_lin: np.ndarray) -> np.ndarray:
+    """The DOFs whose largest |u| is the tip deflection: the backend's transverse DOFs, or its
+    translations where the load moves none of those (a straight beam's "thickness direction"
+    is either of two: a bending mode may move the other)."""
+    tr = np.asarray(backend.transverse_dofs)
+    moved = np.abs(u_lin[backend.translational_dofs]).max(initial=0.0)
+    if tr.size and np.abs(u_lin[tr]).max() > 1e-6 * moved:
+        return tr
+    return np.asarray(backend.translational_dofs)
+
+
+def load_shapes(backend, Phi: np.ndarray, n_rigid: int = 0) -> dict[str, np.ndarray]:
+    """The backend's static load shapes that load the structure (the pressures of a wing's
+    skin); none on a deck without a pressure skin (a beam stick model): then the inertia load
+    M φ of the first elastic mode (basis function ``n_rigid``), whose linear response is
+    φ/ω² — a load every structure carries."""
+    shapes = {k: v for k, v in backend.load_shapes().items() if np.any(v)}
+    if shapes:
+        return shapes
+    return {"mode1_inertia": np.asarray(backend.mass_matrix() @ Phi[:, n_rigid])}
+
+
+def static_validation(backend, rom, Phi: np.ndarray, shape: str, unit_load: np.ndarray, *,
+                      max_tip_fraction: float = 0.25, n_levels: int = 10,
+                      outputs: dict[str, int] | None = None, n_rigid: int = 0) -> StaticCurve:
+    """FE vs ROM static responses at point A (or ``outputs``: name -> FE DOF, the ROM's
+    output the row Φ[dof]) for ``level × unit_load``, up to a tip deflection of
+    ``max_tip_fraction`` of the span (levels chosen from the linear response, then extended
+    while the FE's tip deflection is below the target); ``n_rigid`` > 0: both under inertia
+    relief (the module docstring)."""
+    if outputs is None:
+        missing = [k for k in OUTPUTS if k not in backend.outputs or k not in rom.outputs]
+        if missing:
+            raise InputError(f"static validation needs the outputs {missing} on the FE and "
+                             f"the ROM")
+        outputs = {k: backend.outputs[k] for k in OUTPUTS}
     span = backend.reference_length
-    u_lin = solve_linear(backend.stiffness_matrix(), unit_load)
-    tip_lin = np.abs(u_lin[backend.transverse_dofs]).max()
+    u_lin = linear_response(backend, unit_load)
+    tip = tip_dofs(backend, u_lin)
+    tip_lin = np.abs(u_lin[tip]).max()
     p_target = max_tip_fraction * span / tip_lin
     levels = list(np.linspace(p_target / n_levels, p_target, n_levels))
-    dofs = {k: backend.outputs[k] for k in OUTPUTS}
-    fe_out = {k: [] for k in OUTPUTS}
-    rom_out = {k: [] for k in OUTPUTS}
+    dofs = dict(outputs)
+    rows = {k: np.asarray(Phi)[dof] for k, dof in dofs.items()}
+    fe_out = {k: [] for k in dofs}
+    rom_out = {k: [] for k in dofs}
     tips, done = [], []
     u_prev, q_prev, p_prev = None, None, None
     i = 0
@@ -149,19 +222,18 @@ def static_validation(backend, rom, Phi: np.ndarray, shape: str, unit_load: np.n
             u = backend.static_solve(p * unit_load, u0=u0).u
         except ConvergenceError:
             break
-        q = rom_static_solve(rom, Phi.T @ (p * unit_load), q_prev)
-        tip = 100 * np.abs(u[backend.transverse_dofs]).max() / span
-        for k in OUTPUTS:
+        q = rom_static_solve(rom, Phi.T @ (p * unit_load), q_prev, n_rigid=n_rigid)
+        tips.append(100 * np.abs(u[tip]).max() / span)
+        for k in dofs:
             fe_out[k].append(u[dofs[k]])
-            rom_out[k].append(float(rom.outputs[k] @ q))
-        tips.append(tip)
+            rom_out[k].append(float(rows[k] @ q))
         done.append(p)
         u_prev, q_prev, p_prev = u, q, p
         i += 1
         # stiffening: keep going until the FE tip really reaches the target (within 0.5 %)
-        if (i == len(levels) and tip < 100 * max_tip_fraction * (1 - 5e-3)
+        if (i == len(levels) and tips[-1] < 100 * max_tip_fraction * (1 - 5e-3)
                 and len(levels) < 3 * n_levels):
-            levels.append(p * min(1.5, 100 * max_tip_fraction / tip))
+            levels.append(p * min(1.5, 100 * max_tip_fraction / tips[-1]))
     curve = StaticCurve(shape, np.array(done), np.array(tips),
                         {k: np.array(v) for k, v in fe_out.items()},
                         {k: np.array(v) for k, v in rom_out.items()})
@@ -184,6 +256,8 @@ class FreeDecay:
     metrics: dict = field(default_factory=dict)
     #: the ROM's initial state (its nonlinear static deflection under the release load)
     q0: np.ndarray | None = None
+    #: name of the compared output (:func:`validation_outputs`)
+    output: str = "A_Tz"
 
 
 def _peaks(t: np.ndarray, y: np.ndarray, count: int) -> tuple[np.ndarray, np.ndarray]:
@@ -220,23 +294,24 @@ def compare_decay(t, y_fe, y_rom, cycles: int) -> dict:
 def free_decay_validation(backend, rom, Phi: np.ndarray, unit_load: np.ndarray, *,
                           tip_fraction: float = 0.15,
                           gamma: float = 1e-3, cycles: int = 10, dt: float | None = None,
-                          ) -> FreeDecay:
+                          dof: int | None = None, n_rigid: int = 0) -> FreeDecay:
     """Release from the static deflection under ``p·unit_load`` (FE tip ≈ ``tip_fraction`` of
-    span) and compare A_Tz of the FE and ROM transients over ``cycles`` periods of mode 1."""
-    from .backend import solve_linear
-
+    span) and compare A_Tz (or the FE DOF ``dof``) of the FE and ROM transients over
+    ``cycles`` periods of the first elastic mode; ``n_rigid`` > 0: the deflection under
+    inertia relief (a free structure released from it keeps zero momentum)."""
     span = backend.reference_length
-    u_lin = solve_linear(backend.stiffness_matrix(), unit_load)
-    p = tip_fraction * span / np.abs(u_lin[backend.transverse_dofs]).max()
+    u_lin = linear_response(backend, unit_load)
+    p = tip_fraction * span / np.abs(u_lin[tip_dofs(backend, u_lin)]).max()
     u0 = backend.static_solve(p * unit_load).u
-    q0 = rom_static_solve(rom, Phi.T @ (p * unit_load))
-    f1 = float(np.nanmin(rom.frequencies_hz[np.isfinite(rom.frequencies_hz)]))
+    q0 = rom_static_solve(rom, Phi.T @ (p * unit_load), n_rigid=n_rigid)
+    f = np.asarray(rom.frequencies_hz, dtype=float)
+    f1 = float(f[np.isfinite(f) & (f > 0)].min())  # the rigid-body modes' 0 Hz left out
     dt = dt or 1.0 / (f1 * 200)
     t_end = (cycles + 0.75) / f1
-    dof = backend.outputs["A_Tz"]
+    dof = backend.outputs["A_Tz"] if dof is None else int(dof)
     t, y_fe = backend.free_decay(u0, t_end=t_end, dt=dt, gamma=gamma, record=[dof])
     tr, Q, _ = rom_free_decay(rom, q0, t_end=t_end, dt=dt, gamma=gamma)
-    y_rom = Q @ rom.outputs["A_Tz"]
+    y_rom = Q @ np.asarray(Phi)[dof]
     k = min(len(t), len(tr))
     res = FreeDecay(t[:k], y_fe[:k, 0], y_rom[:k], gamma, cycles, q0=q0)
     res.metrics = compare_decay(res.t, res.fe, res.rom, cycles)
