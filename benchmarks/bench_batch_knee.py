@@ -9,10 +9,12 @@ temporary folder, or reused from ``--model``, e.g. ``paper-quick/model``). Setti
 and outputs. Cases: the quick sweep's 24 cases repeated to B (so every B has the same mix of
 linear and nonlinear cases), from the paper's small start, every case kept running for
 ``--steps`` steps (``LCOCriteria(stop=False)``) at the steady-state iteration count, after a
-warm-up run; the integrator's own thread choice (``threads = "auto"``, as in the sweeps).
+warm-up run, on one intra-op thread (what ``threads = "auto"`` picks for the study's sweeps
+of up to ~80 cases); wall-clock and CPU time (CPU time: less sensitive to a loaded machine).
 
 The knee is the smallest B whose cost per case-step is within :data:`KNEE_FACTOR` of the
-cheapest measured. Writes ``benchmarks/results/bench_batch_knee.json`` and ``.csv``.
+cheapest measured (by wall and by CPU time). Writes
+``benchmarks/results/bench_batch_knee.json`` and ``.csv``.
 """
 
 from __future__ import annotations
@@ -22,6 +24,7 @@ import dataclasses
 import os
 import sys
 import tempfile
+import time
 from pathlib import Path
 
 import torch
@@ -43,22 +46,26 @@ BATCHES = (1, 8, 16, 24, 32, 48, 64, 96, 128, 192, 256, 384, 512)
 KNEE_FACTOR = 1.25
 
 
-def cost_per_case_step(model, cfg, B: int, steps: int) -> float:
-    """µs per case-step of B cases over ``steps`` steps (after a 50-step warm-up)."""
+def cost_per_case_step(model, cfg, B: int, steps: int) -> tuple[float, float]:
+    """(wall, CPU) µs per case-step of B cases over ``steps`` steps (after a 50-step
+    warm-up)."""
     cases = [cfg.cases[i % len(cfg.cases)] for i in range(B)]
     system, _ = case_system(model, cases, torch.device("cpu"), torch.float64)
     q0 = initial_displacement(model.rom, cfg.initial, cases)
     run = {"outputs": cfg.outputs, "lco": LCOCriteria(stop=False)}
     # steady state only: the first check interval's extra start-up iterations excluded
     integ = dataclasses.replace(cfg.integrator, startup_iterations=cfg.integrator.iterations,
-                                check_every=min(cfg.integrator.check_every, steps))
+                                check_every=min(cfg.integrator.check_every, steps), threads=1)
     integ.run(system, q0, t_end=50 * integ.dt, **run)
-    return float(integ.run(system, q0, t_end=steps * integ.dt, **run).us_per_case_step)
+    c0 = time.process_time()
+    res = integ.run(system, q0, t_end=steps * integ.dt, **run)
+    cpu = 1e6 * (time.process_time() - c0) / (B * steps)
+    return float(res.us_per_case_step), cpu
 
 
-def knee(rows: list[dict]) -> int:
-    best = min(r["us_per_case_step"] for r in rows)
-    return min(r["B"] for r in rows if r["us_per_case_step"] <= KNEE_FACTOR * best)
+def knee(rows: list[dict], key: str) -> int:
+    best = min(r[key] for r in rows)
+    return min(r["B"] for r in rows if r[key] <= KNEE_FACTOR * best)
 
 
 def main(argv=None) -> int:
@@ -76,15 +83,17 @@ def main(argv=None) -> int:
         rows = []
         for B in args.batches:
             load = os.getloadavg()[0]
-            us = cost_per_case_step(model, cfg, B, args.steps)
+            us, cpu = cost_per_case_step(model, cfg, B, args.steps)
             rows.append({"kind": "throughput", "B": B, "us_per_case_step": us,
-                         "ms_per_step": us * B / 1e3, "load_average_1min": load})
-            print(f"B = {B:4d}: {us:7.1f} us per case-step, {us * B / 1e3:6.2f} ms per step "
-                  f"(load {load:.1f})", flush=True)
-    k = knee(rows)
-    print(f"knee: B = {k} (within {KNEE_FACTOR:g}x of the cheapest)")
+                         "cpu_us_per_case_step": cpu, "ms_per_step": us * B / 1e3,
+                         "load_average_1min": load})
+            print(f"B = {B:4d}: {us:7.1f} us per case-step ({cpu:7.1f} CPU), "
+                  f"{us * B / 1e3:6.2f} ms per step (load {load:.1f})", flush=True)
+    k, k_cpu = knee(rows, "us_per_case_step"), knee(rows, "cpu_us_per_case_step")
+    print(f"knee: B = {k} by wall time, B = {k_cpu} by CPU time (within {KNEE_FACTOR:g}x of "
+          f"the cheapest)")
     write_results(args.out, "bench_batch_knee", rows, [], "runs", "run", knee_batch=k,
-                  knee_factor=KNEE_FACTOR, steps=args.steps,
+                  knee_batch_cpu=k_cpu, knee_factor=KNEE_FACTOR, steps=args.steps, threads=1,
                   settings="paper_lco.toml [variants.quick], heavy Goland quick ROM")
     return 0
 

@@ -308,10 +308,25 @@ def _run_paper(out: Path, quick: bool, force: bool, device: str, dtype: torch.dt
         "paper_q4": {**q4, "column": ratio4},
         "figures_failed": failed,
         "identification": res.identification,
+        "sweeps": _sweep_timings(cache),
     }
     write_text_atomic(out / "report.md", render(summary, found, table, alpha_gamma))
     write_json_atomic(out / "paper.json", summary)
     return summary
+
+
+def _sweep_timings(cache: FileCache) -> dict[str, dict[str, Any]]:
+    """Per sweep of this run (computed or reused from the cache), what its ``timing.json``
+    records: cases, case-steps, the solver's seconds and, of them, the certificate's (absent
+    for a sweep cached before they were counted apart)."""
+    out = {}
+    for name in sorted(set(cache.hits + cache.built)):
+        parts = name.split("/")
+        if len(parts) == 3 and parts[0] == "sweeps" and parts[2] == "timing.json":
+            info = json.loads((cache.folder / name).read_text())
+            out[parts[1]] = {k: info[k] for k in ("cases", "case_steps", "wall_time_s",
+                                                  "certificate_s") if k in info}
+    return out
 
 
 def paper_q4(table2: list[dict[str, Any]]) -> dict[str, Any]:
