@@ -17,6 +17,10 @@ Stages (each a file in the cache folder, rebuilt only when the hash of its input
                     eigenvalues (Eqs. 49–50) and by p-k on the GAF table, the growing-response
                     frequencies of Table 3 and the modal frequencies against Table 2.
 
+:func:`goland_pipelines` builds the pipelines of several damping methods (the study's and its
+exact-damping check's) into their folders at once: one FE identification for the ROMs not
+cached (the basis and stiffness do not depend on the damping) and one aerodynamics computation.
+
 Glue over torchrom.fe, torchrom.identify and torchrom.aero.
 """
 
@@ -211,7 +215,8 @@ def _goland_pipelines(base: GolandPipeline, folders: dict[str, Any], force: bool
     for m, cache in caches.items():
         path = cache.get("goland.bdf", fe_key)
         if path is None:
-            log("goland: heavy Goland wing FE model -> goland.bdf")
+            where = "goland.bdf" if len(folders) == 1 else cache.folder / "goland.bdf"
+            log(f"goland: heavy Goland wing FE model -> {where}")
             path = cache.put("goland.bdf", fe_key, write_deck)
         files[m]["goland.bdf"] = path
     fe_seconds = time.perf_counter() - t0
