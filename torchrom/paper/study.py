@@ -68,10 +68,11 @@ FULL_PIPELINE = GolandPipeline()
 #: altitudes of the damping cause check (the Fig. 10 cases again, with the exact Kelvin–Voigt
 #: tensors of the FE material in place of the optimum decomposition)
 DAMPING_CHECK_ALTITUDES = (4000.0, 7000.0, 10000.0)
-#: cases per batch of the study's time-marching sweeps: the Newmark integrator's throughput
-#: knee on the study's ROM and settings (benchmarks/bench_batch_knee.py: the cost per
-#: case-step falls by 1.25x or less beyond it), so every sweep of the study (24-59 cases) is
-#: one batch — the runner's default splits 59 cases into two chunks of ~30 for two workers
+#: cases per batch of the study's time-marching sweeps: above the Newmark integrator's
+#: throughput knee on the study's ROM and settings (benchmarks/bench_batch_knee.py, CPU time:
+#: B = 192 within 1.25x of the cheapest, 41 us per case-step at B = 384; B = 24-32 costs
+#: 73-82 us, B = 8 145 us), so every sweep of the study (19-59 cases) is one batch — the
+#: runner's default splits 59 cases into two chunks of ~30 for two workers
 SWEEP_BATCH = 256
 #: the linear checks: run length (s) and the window (fraction of it) for Table 3
 LINEAR_T_END = {"full": 20.0, "quick": 12.0}
