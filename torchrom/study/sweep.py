@@ -21,6 +21,7 @@ import pandas as pd
 import torch
 
 from ..periodic.certify import certify
+from ..periodic.newton import single_thread
 from ..rom import NonlinearROM
 from ..sim import output_matrix
 from .cases import case_system, history_table, orbit_table
@@ -92,8 +93,13 @@ class SweepTask:
         # every LCO row carries its certificate, whatever the method (one shooting evaluation)
         _, C = output_matrix(rom, cfg.outputs)
         t0 = time.perf_counter()
-        res = certify(system, res, C, cfg.lco.decision_outputs[0], solver.certificate(cfg),
-                      cfg.integrator.dt)
+        # on one intra-op thread, as the integrator runs these batches ("auto"): the
+        # certificate's thousands of small per-step kernels gain nothing from a second thread,
+        # and on a loaded machine each parallel region waits for it (the quick study's
+        # 19-LCO certificate took 11 min at load 13 with two threads)
+        with single_thread():
+            res = certify(system, res, C, cfg.lco.decision_outputs[0],
+                          solver.certificate(cfg), cfg.integrator.dt)
         # the solver's time includes its certificate (a shooting solver's finish is there),
         # also counted apart: what a cheaper certificate would save
         cert = time.perf_counter() - t0
