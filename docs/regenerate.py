@@ -274,6 +274,26 @@ def block_perf_goland(res: dict[str, Any]) -> str:
     return "\n".join([*out, "", _machine(meta, load) + f" Device: {meta.get('device', 'cpu')}."])
 
 
+def block_perf_knee(res: dict[str, Any]) -> str:
+    """Cost per case-step against the batch size on the paper's ROM (bench_batch_knee)."""
+    meta = res["meta"]
+    rows = [r for r in res["throughput"] if r.get("kind") == "throughput"]
+    out = ["| B | µs per case-step (wall) | µs per case-step (CPU) | ms per step | load |",
+           "|---|---|---|---|---|"]
+    for r in rows:
+        out.append(f"| {r['B']} | {r['us_per_case_step']:.1f} | "
+                   f"{r['cpu_us_per_case_step']:.1f} | {r['ms_per_step']:.2f} | "
+                   f"{r['load_average_1min']:.1f} |")
+    cheapest = min(r["cpu_us_per_case_step"] for r in rows)
+    small = [r["cpu_us_per_case_step"] for r in rows if 10 <= r["B"] <= 64]
+    note = (f"The knee (the smallest B within {meta['knee_factor']:g}× of the cheapest cost): "
+            f"B = {meta['knee_batch_cpu']} by CPU time, B = {meta['knee_batch']} by wall time; "
+            f"B = 10–64 costs {min(small) / cheapest:.1f}–{max(small) / cheapest:.1f}× the "
+            f"cheapest per case-step (CPU). {meta['steps']} steps per run, {meta['settings']}.")
+    load = _span([r["load_average_1min"] for r in rows])
+    return "\n".join([*out, "", note, _machine(meta, load)])
+
+
 def _floor_sentence(floor: dict[str, float]) -> str:
     return (f"The certificate's evaluations alone (one shooting evaluation at h and one at 2h, "
             f"no finish, on the reference's start orbits) cost "
@@ -405,6 +425,7 @@ def render_blocks(paper: dict[str, Any], bench: dict[str, Any],
               "verify-branches": block_branches(paper),
               "perf-paper": block_perf_paper(bench),
               "perf-goland": block_perf_goland(results["bench_goland"]),
+              "perf-knee": block_perf_knee(results["bench_batch_knee"]),
               "perf-lco": block_perf_lco(results["bench_lco"]),
               "perf-integrator": block_perf_integrator(results["bench_integrator"]),
               "perf-dask": block_perf_dask(results["bench_dask"]),

@@ -56,3 +56,20 @@ def test_branch_bad_parameter(tmp_path, capsys):
     assert main(["branch", str(cfg), "--parameter", "alpha", "--out", str(tmp_path / "x")]) == 2
     assert "bounds" in capsys.readouterr().err
     assert not (tmp_path / "x").exists()
+
+
+def test_branch_progress_covers_the_range_from_the_hopf_point(capsys):
+    """The continuation's progress: the share of the range between the bound nearest the
+    Hopf point (α* = -1 in [-1.5, 1]: the lower one) and the furthest point corrected, monotone
+    and at the end at least that of the table's furthest point (a corrector may try a point
+    beyond it that is not kept: a step halved after a failure), at most the whole range."""
+    from torchrom.study.branch import branch_options, run_branches
+    from torchrom.study.config import load_sweep_config
+
+    cfg = load_sweep_config(REPO / "configs" / "bifurcation_subcritical.toml")
+    parameter, options = branch_options(cfg, "alpha", (-1.5, 1.0))
+    seen = []
+    study = run_branches(cfg, parameter, options, progress=seen.append)
+    assert seen and seen == sorted(seen) and 0.0 < seen[-1] <= 1.0
+    furthest = float((study.table["alpha"] + 1.5).abs().max()) / 2.5
+    assert furthest - 1e-12 <= seen[-1] <= 1.0

@@ -7,7 +7,12 @@ import torch
 
 from torchrom.errors import InputError
 from torchrom.identify.basis import DualModeOptions
-from torchrom.identify.build import IdentifyOptions, build_rom, identify
+from torchrom.identify.build import (
+    IdentifyOptions,
+    build_rom,
+    identify,
+    identify_each_damping,
+)
 from torchrom.rom import NonlinearROM
 
 from .identify_fixtures import TrussWing, touze_backend
@@ -64,6 +69,25 @@ def test_decomposition_pipeline_keeps_stiffness_and_dissipates():
     assert rel(res.rom.K3, ref.K3) < 1e-9           # stiffness is the identified one
     assert res.rom.extended_damping_min_eigenvalue() >= -1e-9 * res.rom.D1.abs().max()
     assert res.summary()["damping_method"] == "decomposition"
+
+
+def test_each_damping_from_one_identification_is_each_identification_alone(truss_exact):
+    """One FE pass for both damping methods (what ``torchrom paper`` builds its study's and
+    its exact-damping check's ROMs with) gives, bit for bit, the tensors and basis of each
+    method identified alone — the damping is identified after the stiffness from its results
+    only — for the FE work of one (the exact method's, which adds the material tangents)."""
+    fe = TrussWing()
+    opt = IdentifyOptions(n_linear=5, n_dual=3, dual=DUAL)
+    both = identify_each_damping(fe, opt, ("decomposition", "exact"))
+    alone = {"decomposition": identify(TrussWing(), opt), "exact": truss_exact[1]}
+    for method, res in alone.items():
+        assert both[method].rom.metadata["damping"]["method"] == method
+        assert np.array_equal(both[method].basis.Phi, res.basis.Phi)
+        for name in ("M", "K1", "K2", "K3", "D1", "D2", "D3"):
+            assert torch.equal(getattr(both[method].rom, name), getattr(res.rom, name)), name
+    assert not torch.equal(both["exact"].rom.D3, both["decomposition"].rom.D3)
+    assert (both["exact"].summary()["fe_static_solves"]
+            == alone["exact"].summary()["fe_static_solves"])
 
 
 def test_options_and_errors():

@@ -211,9 +211,20 @@ def test_quick_every_differing_finding_is_explained(quick):
 
 
 def test_quick_second_run_reuses_the_cache(quick):
-    summary = run_paper(quick, quick=True, log=lambda s: None)
+    lines = []
+    summary = run_paper(quick, quick=True, log=lines.append)
     assert {"rom.npz", "aero.npz", "flutter.json"} <= set(summary["reused"])
     assert summary["lco"]["reused"]
+    # no silent stage: every stage numbered out of the same total, in order, with an ETA
+    stages = [ln for ln in lines if ln.startswith("stage ")]
+    total = len(summary["seconds"]) - 1  # without "total"
+    assert [ln.split(":")[0] for ln in stages] == [f"stage {k}/{total}"
+                                                  for k in range(1, total + 1)]
+    assert all(ln.endswith(")") and "(ETA " in ln for ln in stages)
+    # every sweep of the study, with the certificate's seconds within the solver's
+    assert {"lco", "lco_exact_damping", "lco_calibrated"} <= set(summary["sweeps"])
+    assert all(0.0 <= v["certificate_s"] <= v["wall_time_s"]
+               for v in summary["sweeps"].values())
 
 
 @pytest.fixture(scope="module")

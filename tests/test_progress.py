@@ -135,3 +135,34 @@ def test_close_bars_closes_what_a_failure_left_open():
     assert progress._open_bars == [bar]
     progress.close_bars()
     assert progress._open_bars == [] and bar._bar is None and tty.getvalue().endswith("\n")
+
+
+def test_format_duration():
+    assert progress.format_duration(0.4) == "0 s"
+    assert progress.format_duration(45) == "45 s"
+    assert progress.format_duration(80) == "1 min 20 s"
+    assert progress.format_duration(120) == "2 min"
+    assert progress.format_duration(3900) == "1 h 05 min"
+
+
+def test_stage_counter_numbers_the_stages_and_scales_the_eta(monkeypatch):
+    """Three stages of reference 10, 20 and 30 s. Before anything ran the ETA is the reference
+    sum (60 s); the first stage took 20 s (twice its reference), so the ETA from the second on
+    is twice the references left: 2 x (20 + 30) = 100 s, then 2 x 30 = 60 s if the second
+    took 40 s. A stage the plan does not name is appended (its number counts it)."""
+    clock = {"t": 0.0}
+    monkeypatch.setattr(progress.time, "perf_counter", lambda: clock["t"])
+    lines = []
+    stages = progress.StageCounter([("a", 10.0), ("b", 20.0), ("c", 30.0)], log=lines.append)
+    stages.start("a")
+    clock["t"] += 20.0
+    stages.start("b")
+    clock["t"] += 40.0
+    stages.start("c")
+    clock["t"] += 1.0
+    stages.start("extra")
+    stages.stop()
+    assert lines == ["stage 1/3: a (ETA 1 min)", "stage 2/3: b (ETA 1 min 40 s)",
+                     "stage 3/3: c (ETA 1 min)", "stage 4/4: extra (ETA 0 s)"]
+    assert stages.wall == {"a": 20.0, "b": 40.0, "c": 1.0, "extra": 0.0}
+    assert set(stages.cpu) == set(stages.wall)

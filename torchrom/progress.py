@@ -19,6 +19,10 @@ complete line and redraws them, so a message never lands on the bar's line. No c
 other escape sequence is written (one bar at a time, which is all a command draws, needs only
 carriage returns), so ``NO_COLOR`` and ``TERM=dumb`` are honoured as they are.
 
+A long command made of stages (``paper``) numbers them with an overall ETA
+(:class:`StageCounter`: ``stage 3/9: the LCO sweep (ETA 1 min 20 s)``), so no stage is silent
+even where it has no countable loop of its own.
+
 The verbosity is process-wide (:func:`set_verbosity`, set by the command line from
 ``--quiet``/``--verbose``); :func:`info` prints a stage message unless quiet. Bars delegated to
 tqdm; the line format is hand-written.
@@ -64,6 +68,16 @@ def format_seconds(seconds: float) -> str:
     h, rest = divmod(s, 3600)
     m, s = divmod(rest, 60)
     return f"{h}:{m:02d}:{s:02d}" if h else f"{m}:{s:02d}"
+
+
+def format_duration(seconds: float) -> str:
+    """A duration in words for a stage line: ``45 s``, ``1 min 20 s``, ``1 h 05 min``."""
+    s = max(0, int(round(seconds)))
+    if s < 60:
+        return f"{s} s"
+    if s < 3600:
+        return f"{s // 60} min {s % 60:02d} s" if s % 60 else f"{s // 60} min"
+    return f"{s // 3600} h {(s % 3600) // 60:02d} min"
 
 
 DEFAULT_COLUMNS = 80  # a bar's width on a terminal that reports none
@@ -255,4 +269,55 @@ class Stages:
             print(f"{self.desc}: {self._name} done in "
                   f"{format_seconds(time.perf_counter() - self._t0)}", file=self.stream,
                   flush=True)
+        self._name = None
+
+
+class StageCounter:
+    """Numbered stages of a long command with an overall ETA: ``start(name)`` logs
+    ``stage 3/9: <name> (ETA 1 min 20 s)``, ``stop()`` ends it and keeps its wall-clock and CPU
+    seconds (``wall``, ``cpu``: name -> seconds, in the order run).
+
+    ``expected``: (name, seconds) of every stage, in order — the stage's share of a reference
+    run; the ETA is what the stages not yet finished took there, scaled by how the finished
+    ones compare with their reference (this machine's speed, its load, what was reused from a
+    cache: a rerun whose stages come from the cache shows a short ETA after the first one).
+    A stage not in ``expected`` counts one more and no reference time. ``log`` receives the
+    lines (a stage message: dropped when quiet by the caller's log)."""
+
+    def __init__(self, expected, log=info):
+        self.expected = dict(expected)
+        self.names = list(self.expected)
+        self.log = log
+        self.wall: dict[str, float] = {}
+        self.cpu: dict[str, float] = {}
+        self._name: str | None = None
+        self._t0 = self._c0 = 0.0
+
+    @property
+    def total(self) -> int:
+        return len(self.names)
+
+    def eta(self, name: str) -> float:
+        """Seconds left from the start of stage ``name`` (see the class docstring)."""
+        done_ref = sum(self.expected.get(k, 0.0) for k in self.wall)
+        done_real = sum(self.wall.values())
+        speed = done_real / done_ref if done_ref > 0 else 1.0
+        left = [k for k in self.names if k not in self.wall]
+        return speed * sum(self.expected.get(k, 0.0) for k in left)
+
+    def start(self, name: str) -> None:
+        if self._name is not None:
+            self.stop()
+        if name not in self.expected:
+            self.names.append(name)
+        k = self.names.index(name) + 1
+        self.log(f"stage {k}/{self.total}: {name} (ETA {format_duration(self.eta(name))})")
+        self._name = name
+        self._t0, self._c0 = time.perf_counter(), time.process_time()
+
+    def stop(self) -> None:
+        if self._name is None:
+            return
+        self.wall[self._name] = time.perf_counter() - self._t0
+        self.cpu[self._name] = time.process_time() - self._c0
         self._name = None

@@ -77,7 +77,11 @@ def run(args: argparse.Namespace) -> int:
     print(f"torchrom branch: {len(cfg.cases)} cases of '{cfg.title}' ({args.config}), "
           f"parameter {parameter} in [{options.bounds[0]:g}, {options.bounds[1]:g}], "
           f"H = {options.harmonics}")
-    study = run_branches(cfg, parameter, options, device=device)
+    from ..progress import Progress
+
+    with Progress(100, f"  {parameter} range covered", unit="%") as bar:
+        study = run_branches(cfg, parameter, options, device=device,
+                             progress=lambda f: bar.update_to(int(100 * f)))
     table = study.table
     out.mkdir(parents=True, exist_ok=True)
     written = write_table(table, out, force=args.force, stem="branch")

@@ -11,7 +11,8 @@ simulator against the eigenvalues, runs the LCO sweep and writes into DIR (defau
   the paper with our verdict (agree / differ, with numbers and causes);
 - ``paper.json``: the same numbers machine-readably (keys: version, quick, seconds, flutter,
   linear, lco, alpha_gamma, findings, figures, figures_failed (figures that could not be drawn:
-  a warning and exit status 1; the tables and the report are written), identification);
+  a warning and exit status 1; the tables and the report are written), identification, sweeps
+  (per sweep: cases, case_steps, wall_time_s and, of it, certificate_s));
 - ``model/`` (goland.bdf, rom.npz, basis.npz, aero.npz, flutter.json), ``model_exact/`` (the same
   with the exact Kelvin–Voigt damping, for the report's damping cause check and the band over
   admissible damping decompositions, ``sweeps/lco_damping_theta_*``), ``model_calibrated/``

@@ -180,9 +180,23 @@ def identify(fe, options: IdentifyOptions | None = None,
     "tangents", "forces").
     """
     opt = options or IdentifyOptions()
-    opt.validate()
+    return identify_each_damping(fe, opt, (opt.damping,), progress)[opt.damping]
+
+
+def identify_each_damping(fe, options: IdentifyOptions, methods, progress=None
+                          ) -> dict[str, IdentificationResult]:
+    """The ROM of each damping method in ``methods`` ("decomposition", "exact") from one FE
+    identification: the basis and the stiffness are computed once (with the material tangents
+    when "exact" is among them) and are, bit for bit, what :func:`identify` with each method
+    alone computes — the damping is identified after the stiffness from its results only
+    (Eqs. 42–44 or the material tangents). ``progress``: as :func:`identify`'s."""
+    methods = tuple(dict.fromkeys(methods))
+    for method in methods:  # each as identify would check it
+        replace(options, damping=method).validate()
+    opt = options
     be = as_backend(fe)
-    if opt.damping == "exact" and not be.has_material_tangent:
+    exact = "exact" in methods
+    if exact and not be.has_material_tangent:
         raise InputError(f"{be.name}: damping 'exact' needs the FE material tangent, which this "
                          "backend does not provide; use damping 'decomposition'")
 
@@ -221,24 +235,29 @@ def identify(fe, options: IdentifyOptions | None = None,
     Kmat = None
     if opt.stiffness == "tangent":
         stiff, plan, _, Kmat = identify_stiffness_tangent(
-            be, Phi, amps, symmetric_pairs=opt.symmetric_pairs,
-            material=opt.damping == "exact", progress=stage("tangents"))
+            be, Phi, amps, symmetric_pairs=opt.symmetric_pairs, material=exact,
+            progress=stage("tangents"))
     else:
         stiff, plan, _ = identify_stiffness_step(be, Phi, amps, progress=stage("forces"))
     timings["stiffness"] = time.perf_counter() - t1
-    t1 = time.perf_counter()
-    if opt.damping == "exact":
-        damp = damping_from_material_tangents(plan, Kmat)
-    else:
-        damp = optimum_decomposition(stiff.K1, stiff.K2, stiff.K3, opt.decomposition)
-    timings["damping"] = time.perf_counter() - t1
-    timings["total"] = time.perf_counter() - t0
-    if r:
-        stiff, damp = _embed_rigid(stiff, r), _embed_rigid(damp, r)
-        amps = np.concatenate([np.zeros(r), amps])
-    rom = assemble_rom(be, basis, stiff, damp, opt, amps, timings)
-    return IdentificationResult(rom, basis, stiff, damp, be.counters.as_dict(), timings,
-                                plan.points)
+    out = {}
+    for method in methods:
+        t1 = time.perf_counter()
+        if method == "exact":
+            damp = damping_from_material_tangents(plan, Kmat)
+        else:
+            damp = optimum_decomposition(stiff.K1, stiff.K2, stiff.K3, opt.decomposition)
+        times = {**timings, "damping": time.perf_counter() - t1}
+        times["total"] = sum(times.values())
+        st, dm, a = stiff, damp, amps
+        if r:
+            st, dm = _embed_rigid(stiff, r), _embed_rigid(damp, r)
+            a = np.concatenate([np.zeros(r), amps])
+        mopt = replace(opt, damping=method)
+        rom = assemble_rom(be, basis, st, dm, mopt, a, times)
+        out[method] = IdentificationResult(rom, basis, st, dm, be.counters.as_dict(), times,
+                                           plan.points)
+    return out
 
 
 def _embed_rigid(ident, r: int):

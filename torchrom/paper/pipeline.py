@@ -17,6 +17,10 @@ Stages (each a file in the cache folder, rebuilt only when the hash of its input
                     eigenvalues (Eqs. 49–50) and by p-k on the GAF table, the growing-response
                     frequencies of Table 3 and the modal frequencies against Table 2.
 
+:func:`goland_pipelines` builds the pipelines of several damping methods (the study's and its
+exact-damping check's) into their folders at once: one FE identification for the ROMs not
+cached (the basis and stiffness do not depend on the damping) and one aerodynamics computation.
+
 Glue over torchrom.fe, torchrom.identify and torchrom.aero.
 """
 
@@ -26,7 +30,7 @@ import hashlib
 import tempfile
 import time
 from collections.abc import Callable
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -162,99 +166,154 @@ def goland_pipeline(options: GolandPipeline | None = None, folder=None, *, force
     """Run (or reuse from ``folder``) the Goland pipeline (see the module docstring). The
     folder is locked for the run (:mod:`torchrom.locks`): a second process building into it
     waits, then reuses what the first one built."""
+    opt = options or GolandPipeline()
+    return goland_pipelines(opt, {opt.damping: folder}, force=force, log=log)[opt.damping]
+
+
+def goland_pipelines(options: GolandPipeline, folders: dict[str, Any], *, force: bool = False,
+                     log: Callable[[str], None] = print) -> dict[str, PipelineResult]:
+    """The pipeline of ``options`` with each damping method of ``folders`` ({"decomposition":
+    folder, "exact": folder}), each into (or reused from) its own folder, as
+    :func:`goland_pipeline` would build it alone — with the FE work shared: the ROMs that are
+    not cached come from one identification (:func:`torchrom.identify.build.
+    identify_each_damping`: the same basis and stiffness bit for bit) and the aerodynamics,
+    which depend on the basis only, are computed once. Every folder is locked for the run."""
+    from contextlib import ExitStack
+
     from ..locks import folder_lock
 
-    with folder_lock(folder, "building the Goland model", wait=True, log=log):
-        return _goland_pipeline(options or GolandPipeline(), folder, force, log)
+    for method in folders:
+        if method not in DAMPING_METHODS:
+            raise InputError(f"goland pipeline: damping: expected one of {DAMPING_METHODS}, "
+                             f"got {method!r}")
+    with ExitStack() as stack:
+        for folder in folders.values():
+            stack.enter_context(folder_lock(folder, "building the Goland model", wait=True,
+                                            log=log))
+        return _goland_pipelines(options, folders, force, log)
 
 
-def _goland_pipeline(opt: GolandPipeline, folder, force: bool, log) -> PipelineResult:
+def _goland_pipelines(base: GolandPipeline, folders: dict[str, Any], force: bool, log
+                      ) -> dict[str, PipelineResult]:
     from ..fe import goland
 
-    cache = FileCache(folder, force=force)
-    seconds: dict[str, float] = {}
-    files: dict[str, Path] = {}
+    opts = {m: replace(base, damping=m) for m in folders}
+    caches = {m: FileCache(folder, force=force) for m, folder in folders.items()}
+    seconds: dict[str, dict[str, float]] = {m: {} for m in folders}
+    files: dict[str, dict[str, Path]] = {m: {} for m in folders}
 
     t0 = time.perf_counter()
-    fe = goland(variant=opt.variant)
+    fe = goland(variant=base.variant)
     deck = _deck_text(fe)
     deck_hash = hashlib.sha256(deck.encode()).hexdigest()
     fe_key = FileCache.key({"stage": "fe", "deck_sha256": deck_hash})
-    path = cache.get("goland.bdf", fe_key)
-    if path is None:
-        log("goland: heavy Goland wing FE model -> goland.bdf")
 
-        def write_deck(p):
-            with atomic_path(p) as tmp:
-                tmp.write_text(deck)
+    def write_deck(p):
+        with atomic_path(p) as tmp:
+            tmp.write_text(deck)
 
-        path = cache.put("goland.bdf", fe_key, write_deck)
-    files["goland.bdf"] = path
-    seconds["fe"] = time.perf_counter() - t0
+    for m, cache in caches.items():
+        path = cache.get("goland.bdf", fe_key)
+        if path is None:
+            where = "goland.bdf" if len(folders) == 1 else cache.folder / "goland.bdf"
+            log(f"goland: heavy Goland wing FE model -> {where}")
+            path = cache.put("goland.bdf", fe_key, write_deck)
+        files[m]["goland.bdf"] = path
+    fe_seconds = time.perf_counter() - t0
 
-    # -- identification -------------------------------------------------------------------------
-    combinations = dual_combinations(fe, opt)
-    id_inputs = {"stage": "rom", "fe": fe_key, "damping": opt.damping, "n_linear": opt.n_linear,
-                 "n_dual": opt.n_dual, "dual_amplitudes": opt.dual_amplitudes,
-                 "dual_combinations": [list(c) for c in combinations]}
-    rom_key = FileCache.key(id_inputs)
-    rom_path, basis_path = cache.get("rom.npz", rom_key), cache.get("basis.npz", rom_key)
-    identification = None
+    # -- identification (one FE pass for every ROM not cached) ----------------------------------
+    combinations = dual_combinations(fe, base)
+    rom_keys = {m: FileCache.key({"stage": "rom", "fe": fe_key, "damping": m,
+                                  "n_linear": base.n_linear, "n_dual": base.n_dual,
+                                  "dual_amplitudes": base.dual_amplitudes,
+                                  "dual_combinations": [list(c) for c in combinations]})
+                for m in folders}
+    roms: dict[str, NonlinearROM] = {}
+    identification: dict[str, dict[str, Any] | None] = {m: None for m in folders}
+    Phi = None
     t0 = time.perf_counter()
-    if rom_path is None or basis_path is None:
-        log(f"identify: {opt.n_linear}L{opt.n_dual}D ROM, damping '{opt.damping}' (the FE model "
-            f"does the work: dual modes, tangents)")
-        rom, Phi, identification = _identify(fe, opt, combinations)
-        rom_path = cache.put("rom.npz", rom_key, rom.save)
-        basis_path = cache.put("basis.npz", rom_key, lambda p: _save_basis(p, Phi, rom))
-    else:
-        log(f"identify: reusing {rom_path}")
-        rom = NonlinearROM.load(rom_path)
-    files["rom.npz"], files["basis.npz"] = rom_path, basis_path
-    seconds["identify"] = time.perf_counter() - t0
+    missing = []
+    for m, cache in caches.items():
+        rom_path, basis_path = (cache.get("rom.npz", rom_keys[m]),
+                                cache.get("basis.npz", rom_keys[m]))
+        if rom_path is None or basis_path is None:
+            missing.append(m)
+        else:
+            log(f"identify: reusing {rom_path}")
+            roms[m] = NonlinearROM.load(rom_path)
+            files[m]["rom.npz"], files[m]["basis.npz"] = rom_path, basis_path
+    if missing:
+        log(f"identify: {base.n_linear}L{base.n_dual}D ROM, damping "
+            f"{' and '.join(repr(m) for m in missing)} (the FE model does the work: dual modes, "
+            f"tangents)")
+        for m, (rom, Phi, summary) in _identify(fe, base, combinations, missing).items():
+            cache = caches[m]
+            roms[m], identification[m] = rom, summary
+            files[m]["rom.npz"] = cache.put("rom.npz", rom_keys[m], rom.save)
+            files[m]["basis.npz"] = cache.put(
+                "basis.npz", rom_keys[m], lambda p, Phi=Phi, rom=rom: _save_basis(p, Phi, rom))
+    id_seconds = time.perf_counter() - t0
 
-    # -- aerodynamics on the ROM's basis ----------------------------------------------------------
-    aero_inputs = {"stage": "aero", "rom": rom_key, "mach": opt.mach, "modes": opt.aero_modes,
-                   "lags": opt.lags, "boxes": list(opt.boxes), "k": list(opt.k_list)}
-    aero_key = FileCache.key(aero_inputs)
-    aero_path = cache.get("aero.npz", aero_key)
+    # -- aerodynamics on the ROM's basis (the basis does not depend on the damping) ------------
+    aero_keys = {m: FileCache.key({"stage": "aero", "rom": rom_keys[m], "mach": base.mach,
+                                   "modes": base.aero_modes, "lags": base.lags,
+                                   "boxes": list(base.boxes), "k": list(base.k_list)})
+                 for m in folders}
+    aeros: dict[str, AeroData] = {}
     t0 = time.perf_counter()
-    if aero_path is None:
-        log(f"aero: DLM GAFs on the ROM's first {opt.aero_modes} modes, Mach {opt.mach:g}, "
-            f"{opt.boxes[0]}x{opt.boxes[1]} boxes per half wing, {len(opt.k_list)} reduced "
-            f"frequencies; minimum-state RFA with {opt.lags} lags")
-        aero = aero_on_basis(fe, np.load(basis_path)["Phi"], rom, opt)
-        aero_path = cache.put("aero.npz", aero_key, lambda p: aero.save(p, force=True))
-    else:
-        log(f"aero: reusing {aero_path}")
-        aero = AeroData.load(aero_path)
-    files["aero.npz"] = aero_path
-    seconds["aero"] = time.perf_counter() - t0
+    shared = None
+    for m, cache in caches.items():
+        aero_path = cache.get("aero.npz", aero_keys[m])
+        if aero_path is None:
+            if shared is None:
+                log(f"aero: DLM GAFs on the ROM's first {base.aero_modes} modes, Mach "
+                    f"{base.mach:g}, {base.boxes[0]}x{base.boxes[1]} boxes per half wing, "
+                    f"{len(base.k_list)} reduced frequencies; minimum-state RFA with "
+                    f"{base.lags} lags")
+                shared = aero_on_basis(fe, np.load(files[m]["basis.npz"])["Phi"], roms[m],
+                                       base)
+            aero_path = cache.put("aero.npz", aero_keys[m],
+                                  lambda p, a=shared: a.save(p, force=True))
+            aeros[m] = AeroData.load(aero_path) if len(folders) > 1 else shared
+        else:
+            log(f"aero: reusing {aero_path}")
+            aeros[m] = AeroData.load(aero_path)
+        files[m]["aero.npz"] = aero_path
+    aero_seconds = time.perf_counter() - t0
 
-    model = AeroelasticModel(rom, aero, opt.baseline_alpha, opt.baseline_gamma,
-                             altitude_range_ft=tuple(opt.altitude_range_ft))
-
-    # -- flutter --------------------------------------------------------------------------------
-    fe_modes = fe.modes(opt.aero_modes)
+    # -- flutter (per damping) ------------------------------------------------------------------
+    fe_modes = fe.modes(base.aero_modes)
     kinds = [str(k) for k in fe_modes.kinds]
     contents = [{k: round(float(v), 4) for k, v in c.items()} for c in fe_modes.fractions]
-    fl_inputs = {"stage": "flutter", "rom": rom_key, "aero": aero_key, "kinds": kinds,
-                 "contents": contents,
-                 "alpha": opt.baseline_alpha, "gamma": opt.baseline_gamma,
-                 "range": list(opt.altitude_range_ft)}
-    fl_key = FileCache.key(fl_inputs)
-    summary = cache.get_json("flutter.json", fl_key)
-    fl_path = cache.folder / "flutter.json"
-    t0 = time.perf_counter()
-    if summary is None:
-        log("flutter: baseline damping, state space (Eqs. 49-50) and p-k; Table 3")
-        summary = flutter_summary(model, kinds, contents)
-        fl_path = cache.put("flutter.json", fl_key, lambda p: write_json_atomic(p, summary))
-    else:
-        log(f"flutter: reusing {fl_path}")
-    files["flutter.json"] = fl_path
-    seconds["flutter"] = time.perf_counter() - t0
-    return PipelineResult(model, summary, files, seconds, list(cache.hits), identification)
+    results = {}
+    for m, cache in caches.items():
+        opt = opts[m]
+        model = AeroelasticModel(roms[m], aeros[m], opt.baseline_alpha, opt.baseline_gamma,
+                                 altitude_range_ft=tuple(opt.altitude_range_ft))
+        fl_key = FileCache.key({"stage": "flutter", "rom": rom_keys[m], "aero": aero_keys[m],
+                                "kinds": kinds, "contents": contents,
+                                "alpha": opt.baseline_alpha, "gamma": opt.baseline_gamma,
+                                "range": list(opt.altitude_range_ft)})
+        summary = cache.get_json("flutter.json", fl_key)
+        fl_path = cache.folder / "flutter.json"
+        t0 = time.perf_counter()
+        if summary is None:
+            log("flutter: baseline damping, state space (Eqs. 49-50) and p-k; Table 3")
+            summary = flutter_summary(model, kinds, contents)
+            fl_path = cache.put("flutter.json", fl_key,
+                                lambda p, s=summary: write_json_atomic(p, s))
+        else:
+            log(f"flutter: reusing {fl_path}")
+        files[m]["flutter.json"] = fl_path
+        # the shared stages' time is counted once, with the first damping method's
+        first = m == next(iter(folders))
+        seconds[m] = {"fe": fe_seconds if first else 0.0,
+                      "identify": id_seconds if first else 0.0,
+                      "aero": aero_seconds if first else 0.0,
+                      "flutter": time.perf_counter() - t0}
+        results[m] = PipelineResult(model, summary, files[m], seconds[m], list(cache.hits),
+                                    identification[m])
+    return results
 
 
 def dual_combinations(fe, opt: GolandPipeline) -> tuple[tuple[int, int], ...]:
@@ -266,17 +325,22 @@ def dual_combinations(fe, opt: GolandPipeline) -> tuple[tuple[int, int], ...]:
     return parse_combinations(opt.dual_combinations, "goland pipeline: dual_combinations", kinds)
 
 
-def _identify(fe, opt: GolandPipeline, combinations):
-    from ..identify import DualModeOptions, IdentifyOptions, identify
-    from ..identify.build import as_backend
+def _identify(fe, opt: GolandPipeline, combinations, methods
+              ) -> dict[str, tuple[NonlinearROM, np.ndarray, dict[str, Any]]]:
+    """(ROM, basis Φ, summary) of each damping method in ``methods``, from one FE
+    identification."""
+    from ..identify import DualModeOptions, IdentifyOptions
+    from ..identify.build import as_backend, identify_each_damping
 
-    options = IdentifyOptions(n_linear=opt.n_linear, n_dual=opt.n_dual, damping=opt.damping,
+    options = IdentifyOptions(n_linear=opt.n_linear, n_dual=opt.n_dual, damping=methods[0],
                               dual=DualModeOptions(n_amplitudes=opt.dual_amplitudes,
                                                    combinations=combinations))
-    res = identify(fe, options)
     span = as_backend(fe).reference_length
-    rom = res.rom.replace(metadata={**res.rom.metadata, "span": float(span)})
-    return rom, res.basis.Phi, res.summary()
+    out = {}
+    for m, res in identify_each_damping(fe, options, methods).items():
+        rom = res.rom.replace(metadata={**res.rom.metadata, "span": float(span)})
+        out[m] = (rom, res.basis.Phi, res.summary())
+    return out
 
 
 def _save_basis(path: Path, Phi: np.ndarray, rom: NonlinearROM) -> None:

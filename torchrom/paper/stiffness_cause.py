@@ -159,17 +159,21 @@ def following_ratio(rom: NonlinearROM, q: torch.Tensor, qd: torch.Tensor) -> dic
 
 def stiffness_cause(model, hb_options, output: str = "A_Tz",
                     altitudes: Sequence[float] = (CAUSE_ALTITUDE_FT,), gamma: float = CAUSE_GAMMA,
-                    switches: Sequence[str] | None = None) -> dict[str, Any]:
+                    switches: Sequence[str] | None = None,
+                    progress: Callable[[int], None] | None = None) -> dict[str, Any]:
     """The measures of the module docstring for ``model`` (an AeroelasticModel) at
     ``altitudes`` and ``gamma`` (JSON-ready): per switch and altitude the status, amplitude
     (output units and % of span), frequency, each term's cycle-mean power and the dual modes'
-    following ratios (the latter for the two main switches)."""
+    following ratios (the latter for the two main switches). ``progress(done)``: the number of
+    switches finished so far."""
     rom = model.rom
     row = rom.output_matrix([output])[1][0]
     span = model.span
     rows = []
     dual = _dual(rom)
-    for name in switches or list(SWITCHES):
+    for done, name in enumerate(switches or list(SWITCHES)):
+        if progress is not None:
+            progress(done)
         make, stiff = SWITCHES[name]
         variant = replace(model, rom=make(rom))
         orbits, alpha = solve_chain(variant, hb_options, row, altitudes, gamma, stiff)
@@ -187,4 +191,6 @@ def stiffness_cause(model, hb_options, output: str = "A_Tz",
                 if name in ("both nonlinearities", "no stiffness nonlinearity"):
                     rec["following"] = following_ratio(variant.rom, q, qd)
             rows.append(rec)
+    if progress is not None:
+        progress(len(switches or SWITCHES))
     return {"gamma": gamma, "output": output, "rows": rows}

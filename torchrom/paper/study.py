@@ -3,7 +3,8 @@
 Steps (each result a file in the output folder; model files and sweep tables are cached by the
 hash of their inputs and the package version, :mod:`.cache`):
 
-1. the Goland pipeline (:mod:`.pipeline`): FE model, 9L12D ROM, aerodynamics, flutter;
+1. the Goland pipeline (:mod:`.pipeline`): FE model, 9L12D ROM, aerodynamics, flutter — with
+   the exact-damping ROM of step 5 from the same FE identification;
 2. Fig. 9: α(γ) at the flutter altitude (the γ grid of ``paper_fig09.toml``);
 3. the simulator's linear checks and Table 3 (:mod:`.linear`);
 4. the LCO sweep of ``paper_lco.toml`` (Figs. 10–13, Fig. 11 from its histories);
@@ -37,6 +38,7 @@ from .._version import __version__
 from ..errors import InputError
 from ..identify.damping_family import SDP_EPS, SDP_ITERATIONS, DampingMember, sdp_member
 from ..io import atomic_path, check_folder, write_figure, write_json_atomic, write_text_atomic
+from ..progress import Progress, StageCounter
 from ..reference import paper_reference
 from ..study import figures
 from ..study.cases import orbits_of
@@ -45,7 +47,7 @@ from ..study.grid import config_hash
 from ..study.models import alpha_gamma_table
 from ..study.plots import branch_diagram
 from ..study.solvers import DEFAULT_METHOD
-from ..study.sweep import run_sweep
+from ..study.sweep import run_sweep, sweep_chunk_size
 from ..study.table import write_histories
 from . import findings as fnd
 from .band import BAND_THETAS, decomposition_band
@@ -54,7 +56,7 @@ from .dissipation import dissipation_ratio, lco_cycle, scaled_min_eigenvalue
 from .hb import branch_summary, goland_branches, newmark_confirmation
 from .linear import linear_checks
 from .modes import kind_label, paper_mode_map
-from .pipeline import GolandPipeline, goland_pipeline
+from .pipeline import GolandPipeline, goland_pipelines
 from .report import render
 from .stiffness_cause import CAUSE_ALTITUDE_FT, CAUSE_GAMMA, SWITCHES, stiffness_cause
 from .variants import COMPARISON_VARIANTS, variant_study
@@ -66,6 +68,12 @@ FULL_PIPELINE = GolandPipeline()
 #: altitudes of the damping cause check (the Fig. 10 cases again, with the exact Kelvin–Voigt
 #: tensors of the FE material in place of the optimum decomposition)
 DAMPING_CHECK_ALTITUDES = (4000.0, 7000.0, 10000.0)
+#: cases per batch of the study's time-marching sweeps: above the Newmark integrator's
+#: throughput knee on the study's ROM and settings (benchmarks/bench_batch_knee.py, CPU time:
+#: B = 192 within 1.25x of the cheapest, 41 us per case-step at B = 384; B = 24-32 costs
+#: 73-82 us, B = 8 145 us), so every sweep of the study (19-59 cases) is one batch — the
+#: runner's default splits 59 cases into two chunks of ~30 for two workers
+SWEEP_BATCH = 256
 #: the linear checks: run length (s) and the window (fraction of it) for Table 3
 LINEAR_T_END = {"full": 20.0, "quick": 12.0}
 LINEAR_WINDOW = 0.3
@@ -75,28 +83,42 @@ FIGURE_FILES = {"table2": "table2_frequencies.png", "fig9": "fig09_alpha_gamma.p
                 "branches": "lco_branches.png"}
 
 
+#: the study's stages and their wall-clock seconds in a reference run from nothing (bench_paper
+#: on a quiet 2-core machine, method newmark): only the ETA of the stage lines reads them
+#: (:class:`torchrom.progress.StageCounter` scales them by how the finished stages compared)
+STAGE_SECONDS = {
+    "quick": {"model (FE, ROM, aero, flutter)": 17.5, "Fig. 9: alpha(gamma)": 0.1,
+              "linear checks, Table 3": 0.7, "LCO sweep (Figs. 10-13)": 31.2,
+              "LCO branches in altitude (continuation)": 19.6,
+              "damping check (exact Kelvin-Voigt)": 48.2, "damping decomposition band": 88.2,
+              "stiffness nonlinearity at gamma = 1e-3 (cause)": 1.0,
+              "other wing variant (pipeline, LCO sweep)": 39.8, "figures": 2.0},
+    "full": {"model (FE, ROM, aero, flutter)": 21.9, "Fig. 9: alpha(gamma)": 0.1,
+             "linear checks, Table 3": 1.3, "LCO sweep (Figs. 10-13)": 128.3,
+             "LCO branches in altitude (continuation)": 16.4,
+             "damping check (exact Kelvin-Voigt)": 60.7, "damping decomposition band": 191.2,
+             "stiffness nonlinearity at gamma = 1e-3 (cause)": 3.8,
+             "other wing variant (pipeline, LCO sweep)": 129.8, "figures": 1.4},
+}
+CONFIRMATION_STAGE = "Newmark confirmation (Fig. 11)"
+
+
+def study_stages(kind: str, marches_time: bool) -> list[tuple[str, float]]:
+    """(stage, reference seconds) of the ``kind`` ("quick" or "full") study, in order; with
+    the Newmark confirmation after the LCO sweep when the LCOs come from periodic orbits (not
+    ``marches_time``; no reference time: it adds nothing to the ETA)."""
+    stages = list(STAGE_SECONDS[kind].items())
+    if not marches_time:
+        stages.insert(4, (CONFIRMATION_STAGE, 0.0))
+    return stages
+
+
 def config_path(name: str) -> Path:
     """A configuration shipped with the package (``torchrom/data/<name>``)."""
     path = Path(str(resources.files("torchrom").joinpath("data", name)))
     if not path.is_file():
         raise InputError(f"torchrom paper: packaged configuration {name} not found at {path}")
     return path
-
-
-class Stopwatch:
-    """Wall-clock and CPU seconds per stage (CPU time tells a loaded machine from slow code)."""
-
-    def __init__(self):
-        self.wall: dict[str, float] = {}
-        self.cpu: dict[str, float] = {}
-        self._t0 = self._c0 = 0.0
-
-    def start(self) -> None:
-        self._t0, self._c0 = time.perf_counter(), time.process_time()
-
-    def stop(self, name: str) -> None:
-        self.wall[name] = time.perf_counter() - self._t0
-        self.cpu[name] = time.process_time() - self._c0
 
 
 def _check_folder(out: Path, force: bool) -> None:
@@ -134,12 +156,17 @@ def _run_paper(out: Path, quick: bool, force: bool, device: str, dtype: torch.dt
                log: Callable[[str], None], method: str) -> dict[str, Any]:
     cache = FileCache(out, force=force)
     variant = "quick" if quick else None
+    kind = "quick" if quick else "full"
     t_all, c_all = time.perf_counter(), time.process_time()
-    watch = Stopwatch()
-    watch.start()
-    res = goland_pipeline(QUICK_PIPELINE if quick else FULL_PIPELINE, out / "model", force=force,
-                          log=log)
-    watch.stop("model (FE, ROM, aero, flutter)")
+    cfg = with_method(load_sweep_config(config_path("paper_lco.toml"), variant), method)
+    watch = StageCounter(study_stages(kind, cfg.solver.marches_time), log=log)
+    watch.start("model (FE, ROM, aero, flutter)")
+    # the study's ROM and the exact-damping check's from one FE identification (same basis and
+    # stiffness; the aerodynamics computed once)
+    base = QUICK_PIPELINE if quick else FULL_PIPELINE
+    both = goland_pipelines(base, {base.damping: out / "model", "exact": out / "model_exact"},
+                            force=force, log=log)
+    res = both[base.damping]
     model = res.model
     fl = res.flutter
     log(f"flutter (state space): {fl['state_space']['altitude']:,.0f} ft, "
@@ -148,15 +175,13 @@ def _run_paper(out: Path, quick: bool, force: bool, device: str, dtype: torch.dt
     model_hash = model.content_hash()
 
     # -- Fig. 9 -----------------------------------------------------------------------------------
-    watch.start()
+    watch.start("Fig. 9: alpha(gamma)")
     cfg9 = load_sweep_config(config_path("paper_fig09.toml"), variant)
     alpha_gamma = alpha_gamma_table(model, [c.get("gamma", 0.0) for c in cfg9.cases])
     _write_table(cache, "tables/alpha_gamma.csv", alpha_gamma, model_hash)
-    watch.stop("Fig. 9: alpha(gamma)")
 
     # -- linear checks and Table 3 --------------------------------------------------------------
-    watch.start()
-    kind = "quick" if quick else "full"
+    watch.start("linear checks, Table 3")
     lin_key = FileCache.key({"model": model_hash, "t_end": LINEAR_T_END[kind],
                              "window": LINEAR_WINDOW})
     lin = cache.get_json("tables/linear_check.json", lin_key)
@@ -168,39 +193,32 @@ def _run_paper(out: Path, quick: bool, force: bool, device: str, dtype: torch.dt
     _write_table(cache, "tables/table3.csv", pd.DataFrame(lin["table3"]), lin_key)
     log(f"  simulated flutter altitude {lin['flutter_altitude_sim_ft']:,.1f} ft vs eigenvalues "
         f"{lin['flutter_altitude_eig_ft']:,.1f} ft")
-    watch.stop("linear checks, Table 3")
 
     # -- the LCO sweep ---------------------------------------------------------------------------
-    watch.start()
-    cfg = with_method(load_sweep_config(config_path("paper_lco.toml"), variant), method)
+    watch.start("LCO sweep (Figs. 10-13)")
     hb_info: dict[str, Any] = {}
     if not cfg.solver.marches_time:  # periodic orbits: histories from a Newmark confirmation
         table, _, lco_info, orbits = _lco_sweep(cache, dataclasses.replace(cfg, history=None),
                                                 model, model_hash, device, dtype, log,
                                                 name=_sweep_name("lco", cfg))
-        watch.stop("LCO sweep (Figs. 10-13)")
-        watch.start()
+        watch.start(CONFIRMATION_STAGE)
         confirm, histories = _confirmation(cache, cfg, model, model_hash, table, orbits, device,
                                            log)
         hb_info["confirmation"] = confirm.to_dict(orient="records")
-        watch.stop("Newmark confirmation (Fig. 11)")
     else:
         table, histories, lco_info, orbits = _lco_sweep(cache, cfg, model, model_hash, device,
                                                         dtype, log)
-        watch.stop("LCO sweep (Figs. 10-13)")
-    watch.start()
+    watch.start("LCO branches in altitude (continuation)")
     branches = _branches(cache, cfg, model, model_hash, device, log)
     hb_info["branches"] = branch_summary(branches)
-    watch.stop("LCO branches in altitude (continuation)")
 
     # -- cause check: the Fig. 10 cases with the exact Kelvin-Voigt damping ------------------
-    watch.start()
-    check, exact, exact_table = _damping_check(cache, cfg, model, quick, out, force, device,
+    watch.start("damping check (exact Kelvin-Voigt)")
+    check, exact, exact_table = _damping_check(cache, cfg, model, both["exact"].model, device,
                                                dtype, log, _cycle_orbit(table, orbits, model))
-    watch.stop("damping check (exact Kelvin-Voigt)")
 
     # -- the band over admissible damping decompositions ---------------------------------------
-    watch.start()
+    watch.start("damping decomposition band")
     check_cfg = dataclasses.replace(_secondary(cfg), cases=damping_check_cases(cfg),
                                     history=None)
     keys = ["altitude_ft", "gamma", "stiffness_nl", "damping_nl"]
@@ -215,16 +233,13 @@ def _run_paper(out: Path, quick: bool, force: bool, device: str, dtype: torch.dt
         extra=(_sdp_member(cache, model, log),))
     for key, verdict in band["findings"].items():
         log(f"  {key}: {verdict}")
-    watch.stop("damping decomposition band")
 
     # -- why the stiffness nonlinearity matters at gamma = 1e-3 --------------------------------
-    watch.start()
+    watch.start("stiffness nonlinearity at gamma = 1e-3 (cause)")
     cause = _stiffness_cause(cache, cfg, model, quick, log)
-    watch.stop("stiffness nonlinearity at gamma = 1e-3 (cause)")
 
     # -- the other wing variant(s) -------------------------------------------------------------
-    watch.start()
-    base = QUICK_PIPELINE if quick else FULL_PIPELINE
+    watch.start("other wing variant (pipeline, LCO sweep)")
     cfg_v = (cfg if cfg.solver.marches_time
              else dataclasses.replace(_secondary(cfg), history=None))
     variants = {
@@ -234,10 +249,9 @@ def _run_paper(out: Path, quick: bool, force: bool, device: str, dtype: torch.dt
                                      name=nm)[:3],
             paper_q4, force=force, log=log)
         for name in COMPARISON_VARIANTS if name != base.variant}
-    watch.stop("other wing variant (pipeline, LCO sweep)")
 
     # -- figures ---------------------------------------------------------------------------------
-    watch.start()
+    watch.start("figures")
     fig_dir = out / "figures"
     kinds = [r.get("kind") for r in fl["table2"]]
     q4 = paper_q4(fl["table2"])
@@ -270,13 +284,13 @@ def _run_paper(out: Path, quick: bool, force: bool, device: str, dtype: torch.dt
             label_of=lambda row: f"γ = {row['gamma']:g} s", force=True)
     failed = sorted(k for k, v in paths.items() if v is None)
     paths = {k: v for k, v in paths.items() if v is not None}
-    watch.stop("figures")
 
     # -- findings and report ---------------------------------------------------------------------
     table = table.copy()
     ratio4 = figures.ratio_column(table, q4["mode"])
     found = fnd.evaluate(table, histories, alpha_gamma, h_f, kinds, q4_column=ratio4,
                          q4_note=q4["note"])
+    watch.stop()
     watch.wall["total"] = time.perf_counter() - t_all
     watch.cpu["total"] = time.process_time() - c_all
     summary = {
@@ -295,10 +309,25 @@ def _run_paper(out: Path, quick: bool, force: bool, device: str, dtype: torch.dt
         "paper_q4": {**q4, "column": ratio4},
         "figures_failed": failed,
         "identification": res.identification,
+        "sweeps": _sweep_timings(cache),
     }
     write_text_atomic(out / "report.md", render(summary, found, table, alpha_gamma))
     write_json_atomic(out / "paper.json", summary)
     return summary
+
+
+def _sweep_timings(cache: FileCache) -> dict[str, dict[str, Any]]:
+    """Per sweep of this run (computed or reused from the cache), what its ``timing.json``
+    records: cases, case-steps, the solver's seconds and, of them, the certificate's (absent
+    for a sweep cached before they were counted apart)."""
+    out = {}
+    for name in sorted(set(cache.hits + cache.built)):
+        parts = name.split("/")
+        if len(parts) == 3 and parts[0] == "sweeps" and parts[2] == "timing.json":
+            info = json.loads((cache.folder / name).read_text())
+            out[parts[1]] = {k: info[k] for k in ("cases", "case_steps", "wall_time_s",
+                                                  "certificate_s") if k in info}
+    return out
 
 
 def paper_q4(table2: list[dict[str, Any]]) -> dict[str, Any]:
@@ -376,17 +405,14 @@ def damping_check_cases(cfg) -> list[dict[str, Any]]:
             and not (float(c.get("gamma", 0.0)) == 0.0 and not c.get("stiffness_nl", True))]
 
 
-def _damping_check(cache: FileCache, cfg, main, quick: bool, out: Path, force: bool, device,
-                   dtype, log, orbit=None) -> tuple[dict[str, Any], Any, pd.DataFrame]:
-    """The Fig. 10 curves at :data:`DAMPING_CHECK_ALTITUDES` with a ROM whose damping tensors
-    are the exact Kelvin–Voigt ones (``damping="exact"``, same basis and aerodynamics recipe):
-    tells how much of a difference from the paper the optimum decomposition causes. Returns the
-    check (JSON-ready), the exact-damping model and its table. ``orbit``: the dissipation
-    cycle's orbit from the main sweep (:func:`_cycle_orbit`), if any."""
-    base = QUICK_PIPELINE if quick else FULL_PIPELINE
-    res = goland_pipeline(dataclasses.replace(base, damping="exact"), out / "model_exact",
-                          force=force, log=log)
-    model = res.model
+def _damping_check(cache: FileCache, cfg, main, model, device, dtype, log, orbit=None
+                   ) -> tuple[dict[str, Any], Any, pd.DataFrame]:
+    """The Fig. 10 curves at :data:`DAMPING_CHECK_ALTITUDES` with ``model``, whose ROM's
+    damping tensors are the exact Kelvin–Voigt ones (the pipeline with ``damping="exact"``,
+    same basis and aerodynamics): tells how much of a difference from the paper the optimum
+    decomposition causes. Returns the check (JSON-ready), the exact-damping model and its table.
+    ``orbit``: the dissipation cycle's orbit from the main sweep (:func:`_cycle_orbit`), if
+    any."""
     cfg_x = dataclasses.replace(_secondary(cfg), cases=damping_check_cases(cfg), history=None)
     table, _, info, _ = _lco_sweep(cache, cfg_x, model, model.content_hash(), device, dtype,
                                    log, name=_sweep_name("lco_exact_damping", cfg))
@@ -458,7 +484,9 @@ def _stiffness_cause(cache: FileCache, cfg, model, quick: bool, log) -> dict[str
         return json.loads(path.read_text())
     log(f"stiffness nonlinearity at gamma = {CAUSE_GAMMA:g} s, {CAUSE_ALTITUDE_FT:,.0f} ft: "
         f"{len(switches)} settings by harmonic balance, energy per cycle of each term")
-    out = stiffness_cause(model, hb, altitudes=(CAUSE_ALTITUDE_FT,), switches=switches)
+    with Progress(len(switches), "  settings done", unit="settings") as bar:
+        out = stiffness_cause(model, hb, altitudes=(CAUSE_ALTITUDE_FT,), switches=switches,
+                              progress=bar.update_to)
     cache.put("tables/stiffness_cause.json", key, lambda p: write_json_atomic(p, out))
     return out
 
@@ -508,8 +536,9 @@ def _branches(cache: FileCache, cfg, model, model_hash: str, device, log) -> pd.
     # one intra-op thread: with two, a Newton corrector of the continuation on the updated
     # wing's quick ROM stepped to -33,699 ft (outside the atmosphere) — torch 2.13's CPU
     # batched LU with two threads is unreliable for these systems (periodic.newton)
-    with single_thread():
-        table = goland_branches(cfg, model, device)
+    with single_thread(), Progress(100, "  altitude range covered", unit="%") as bar:
+        table = goland_branches(cfg, model, device,
+                                progress=lambda f: bar.update_to(int(100 * f)))
 
     def write_csv(p):
         from ..io import atomic_path
@@ -554,28 +583,39 @@ def _lco_sweep(cache: FileCache, cfg, model, model_hash: str, device, dtype, log
                 pd.read_parquet(found[3]) if len(found) > 3 else None)
     how = cfg.solver.describe(cfg)
     log(f"LCO sweep: {len(cfg.cases)} cases of '{cfg.title}', {how}")
-    from ..progress import Progress
-
     hist: list[pd.DataFrame] = []
     orb: list[pd.DataFrame] = []
+    certifies = cfg.solver.certificate(cfg).enabled
     with Progress(len(cfg.cases), "  cases done") as bar:
         def progress(done: int, total: int) -> None:
+            if certifies and done >= total > bar.done:
+                # the certificate of the last chunk's LCOs follows, without a count of its own
+                bar.write(f"  {'every case' if cfg.solver.marches_time else 'every orbit'} "
+                          "done; certifying the LCO rows (one shooting evaluation each)")
             bar.update_to(done)
 
         # finished chunks are kept in sweeps/<name>/parts (keyed by this sweep's cache key,
         # so the parts of another configuration, model or source are replaced, never reused):
         # an interrupted study resumes the sweep where it stopped
+        # one batch up to the integrator's throughput knee (SWEEP_BATCH), not the runner's
+        # default of several chunks for several workers: the study runs in one process, and
+        # the study's sweeps (24-59 cases) are one chunk each — resumed chunk by chunk only
+        # beyond SWEEP_BATCH cases or with [run] chunk_size
         table, timing = run_sweep(cfg, model=model, device=torch.device(device), dtype=dtype,
                                   progress=progress, on_history=hist.append,
                                   on_orbits=orb.append, out=cache.folder / "sweeps" / name,
-                                  force=True, context=key, log=bar.write)
+                                  force=True, context=key, log=bar.write,
+                                  chunk_size=sweep_chunk_size(cfg) or min(SWEEP_BATCH,
+                                                                          cfg.batch_size))
     histories = pd.concat(hist, ignore_index=True) if hist else pd.DataFrame()
     orbits = pd.concat(orb, ignore_index=True) if cfg.solver.writes_orbits and orb else None
     counts = table["status"].value_counts().to_dict()
     log("  status: " + ", ".join(f"{k} {v}" for k, v in sorted(counts.items())) +
-        f"; {cfg.solver.cost_line(timing)}")
+        f"; {cfg.solver.cost_line(timing)} (the certificate {timing['certificate_s']:.1f} s "
+        f"of it)")
     info = {"cases": len(table), "case_steps": int(timing["case_steps"]),
             "wall_time_s": float(timing["wall_time_s"]),
+            "certificate_s": float(timing["certificate_s"]),  # of wall_time_s
             "us_per_case_step": float(timing["us_per_case_step"]),
             "resumed_cases": int(timing["reused"])}  # from the parts of an interrupted run
 

@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
@@ -193,9 +194,45 @@ def _finish_from(system, res: SimulationResult, bad: np.ndarray, src: np.ndarray
                                extra=extra)
 
 
+class _Reach:
+    """The share of the range ``bounds`` the branches have covered, from the parameters the
+    continuation builds systems at (for :func:`run_branches`' ``progress``). The first call
+    is the Hopf scan over the whole range (skipped); the Hopf points set the start (the bound
+    nearest the first points built after the scan); then the furthest point from that bound."""
+
+    def __init__(self, bounds: tuple[float, float], progress: Callable[[float], None] | None):
+        self.lo, self.hi = (float(b) for b in bounds)
+        self.progress = progress
+        self.calls = 0
+        self.start: float | None = None
+        self.done = 0.0
+
+    def see(self, p: np.ndarray) -> None:
+        self.calls += 1
+        if self.progress is None or self.calls == 1 or not len(p):
+            return
+        p = np.asarray(p, dtype=float)
+        if self.start is None:
+            mid = 0.5 * (self.lo + self.hi)
+            self.start = self.hi if float(np.mean(p)) >= mid else self.lo
+        far = float(np.max(np.abs(p - self.start)))
+        fraction = min(1.0, far / max(self.hi - self.lo, 1e-300))
+        if fraction > self.done:
+            self.done = fraction
+            self.progress(fraction)
+
+    def close(self) -> None:
+        """The continuation is over (the certificate's systems that follow are not steps)."""
+        self.progress = None
+
+
 def run_branches(cfg: SweepConfig, parameter: str, options: BranchOptions, model=None,
-                 device=None) -> BranchStudy:
-    """Follow one branch per distinct case (without ``parameter``) of ``cfg``."""
+                 device=None, progress: Callable[[float], None] | None = None) -> BranchStudy:
+    """Follow one branch per distinct case (without ``parameter``) of ``cfg``.
+
+    ``progress(fraction)``: how far the branches have come, the share of the parameter range
+    ``options.bounds`` between the bound the Hopf points lie nearest and the furthest point
+    corrected so far (monotone; what a bar shows — the continuation has no count of its own)."""
     from .. import bounds
 
     model = model if model is not None else cfg.build_model()
@@ -207,13 +244,17 @@ def run_branches(cfg: SweepConfig, parameter: str, options: BranchOptions, model
                                   len(base), device=device, override=cfg.allow_large)
     device = torch.device(device or "cpu")
 
+    reach = _Reach(options.bounds, progress)
+
     def builder(p: np.ndarray, branches: np.ndarray):
+        reach.see(p)
         cases = [{**base[int(b)], parameter: float(x)} for x, b in zip(p, branches)]
         return case_system(model, cases, device, torch.float64)[0]
 
     names, C = output_matrix(rom, cfg.outputs)
     decide = C[cfg.lco.decision_outputs[0]]
     br = follow_branches(builder, len(base), decide, options)
+    reach.close()
     span = getattr(model, "span", None) or rom.metadata.get("span")
     rows_t = torch.as_tensor(C, dtype=torch.float64)
     certificate = certify_points(builder, br, names, C, cfg)

@@ -92,6 +92,8 @@ class ChunkResult:
     #: harmonic balance: the chunk's LCO orbits (:func:`torchrom.study.cases.orbit_table`), or
     #: None; handed to ``on_orbits`` of :func:`run_cases`, not stored in part files
     orbits: pd.DataFrame | None = None
+    #: of ``wall_time_s``, the seconds the LCO rows' certificate took
+    certificate_s: float = 0.0
 
 
 class Task(Protocol):
@@ -540,6 +542,7 @@ class RunStats:
     computed: int = 0
     chunks: int = 0
     wall_time_s: float = 0.0  # Σ of the chunks' integration times
+    certificate_s: float = 0.0  # ... of which their certificates
     case_steps: int = 0
     elapsed_s: float = 0.0  # wall-clock time of the whole run
 
@@ -641,6 +644,7 @@ def _run_cases(task, cases, case_ids, batch_size, chunk_size, executor, store, f
                 stats.computed += len(rows)
                 stats.chunks += 1
                 stats.wall_time_s += result.wall_time_s
+                stats.certificate_s += result.certificate_s
                 stats.case_steps += result.case_steps
                 guard.release()  # the chunk is safe: a deferred Ctrl-C stops the run here
     except BaseException as exc:

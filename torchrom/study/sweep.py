@@ -21,6 +21,7 @@ import pandas as pd
 import torch
 
 from ..periodic.certify import certify
+from ..periodic.newton import single_thread
 from ..rom import NonlinearROM
 from ..sim import output_matrix
 from .cases import case_system, history_table, orbit_table
@@ -59,16 +60,16 @@ class SweepTask:
 
     def __call__(self, cases: list[dict[str, Any]], case_ids: list[str],
                  progress: Callable[[int, int], None] | None = None) -> ChunkResult:
-        rows, hist, wall, steps, orbits = self._run(cases, case_ids, self.dtype, progress)
+        rows, hist, wall, steps, orbits, cert = self._run(cases, case_ids, self.dtype, progress)
         if self.dtype != torch.float32 or not self.confirm_float64:
-            return ChunkResult(rows, wall, steps, hist, orbits)
+            return ChunkResult(rows, wall, steps, hist, orbits, certificate_s=cert)
         redo = [i for i, s in enumerate(rows["status"]) if s in CONFIRM_STATUSES]
         if redo:
             # the solver's own error estimate says float32 was not enough for these cases:
             # their rows (and histories) are replaced by a float64 run of the same cases
             ids = [case_ids[i] for i in redo]
-            rows64, hist64, wall64, steps64, orbits64 = self._run([cases[i] for i in redo],
-                                                                  ids, torch.float64)
+            rows64, hist64, wall64, steps64, orbits64, cert64 = self._run(
+                [cases[i] for i in redo], ids, torch.float64)
             rows64["precision"] = "float64 (confirmed)"
             rows64.index = pd.Index(redo)
             rows = pd.concat([rows.drop(index=redo), rows64.reindex(columns=rows.columns)]
@@ -79,8 +80,8 @@ class SweepTask:
             if orbits is not None and orbits64 is not None:
                 orbits = pd.concat([orbits[~orbits["case_id"].isin(ids)], orbits64],
                                    ignore_index=True)
-            wall, steps = wall + wall64, steps + steps64
-        return ChunkResult(rows, wall, steps, hist, orbits)
+            wall, steps, cert = wall + wall64, steps + steps64, cert + cert64
+        return ChunkResult(rows, wall, steps, hist, orbits, certificate_s=cert)
 
     def _run(self, cases, case_ids, dtype, progress=None):
         cfg, rom = self.cfg, model_rom(self.model)
@@ -92,17 +93,24 @@ class SweepTask:
         # every LCO row carries its certificate, whatever the method (one shooting evaluation)
         _, C = output_matrix(rom, cfg.outputs)
         t0 = time.perf_counter()
-        res = certify(system, res, C, cfg.lco.decision_outputs[0], solver.certificate(cfg),
-                      cfg.integrator.dt)
-        # the solver's time includes its certificate (a shooting solver's finish is there)
-        res = dataclasses.replace(res, wall_time_s=res.wall_time_s + time.perf_counter() - t0)
+        # on one intra-op thread, as the integrator runs these batches ("auto"): the
+        # certificate's thousands of small per-step kernels gain nothing from a second thread,
+        # and on a loaded machine each parallel region waits for it (the quick study's
+        # 19-LCO certificate took 11 min at load 13 with two threads)
+        with single_thread():
+            res = certify(system, res, C, cfg.lco.decision_outputs[0],
+                          solver.certificate(cfg), cfg.integrator.dt)
+        # the solver's time includes its certificate (a shooting solver's finish is there),
+        # also counted apart: what a cheaper certificate would save
+        cert = time.perf_counter() - t0
+        res = dataclasses.replace(res, wall_time_s=res.wall_time_s + cert)
         if progress is not None:  # every case integrated (also those run to t_end undecided)
             progress(len(cases), len(cases))
         span = getattr(self.model, "span", None) or rom.metadata.get("span")
         rows = result_rows(cases, res, config_hash=cfg.hash, span=span, case_ids=case_ids,
                            extra=extra, precision=str(dtype).replace("torch.", ""))
         return (rows, history_table(res, case_ids) if keep else None, res.wall_time_s,
-                res.case_steps, orbit_table(res, case_ids))
+                res.case_steps, orbit_table(res, case_ids), cert)
 
 
 
