@@ -10,8 +10,13 @@ read; the load of mass m is F(m) = F_w + m F_1 (F_w the self-weight, F_1 = 9.81 
 61, exact: the CONM2's GRAV load). The nonlinear sweep is a continuation: the solution at one
 mass is the start of the next (one Newton load step per mass, halved if it fails).
 
-    PYTHONPATH=$PWD python experiments/pazy_static.py [--masses 0.25,1,3.5] [--rom]
+    PYTHONPATH=$PWD python experiments/pazy_static.py [--masses 0.25,1,3.5] [--rom L,D]
+        [--combinations 1:1] [--amplitudes 8] [--tip-range 0.01,0.25] [--fe-from JSON]
         [--out experiments/results/pazy_static.json] [--figure docs/guide/pazy_static.png]
+
+With ``--rom`` the ROM's validity envelope is printed and saved: the largest full-FE tip
+deflection (% of the semispan) up to which every mass's ROM deflection is within 2 % of the
+full FE's (:func:`rom_envelope`).
 """
 
 from __future__ import annotations
@@ -123,6 +128,20 @@ def nonlinear_sweep(fe, masses, *, tol: float = 1e-7, progress=print) -> SweepRe
                        time.perf_counter() - t0, its, tol)
 
 
+#: the ROM's validity envelope: |ROM − FE| ≤ this fraction of |FE| (issue 34)
+ENVELOPE_TOL = 0.02
+
+
+def rom_envelope(fe_pct: np.ndarray, rom_pct: np.ndarray, rel_tol: float = ENVELOPE_TOL
+                 ) -> float:
+    """The largest |FE tip deflection| (% of the semispan) of the sweep's leading masses whose
+    ROM deflections are all within ``rel_tol`` of the full FE's (0 when the first is not)."""
+    fe_pct, rom_pct = np.abs(np.asarray(fe_pct)), np.abs(np.asarray(rom_pct))
+    ok = np.abs(rom_pct - fe_pct) <= rel_tol * fe_pct
+    n = len(ok) if ok.all() else int(np.argmin(ok))
+    return float(fe_pct[:n].max()) if n else 0.0
+
+
 @dataclass
 class RomSweep:
     masses: np.ndarray
@@ -131,18 +150,20 @@ class RomSweep:
     n_dual: int
     identify_seconds: float
     summary: dict
+    envelope_pct: float = 0.0  # rom_envelope
 
 
 def rom_sweep(fe, masses, *, n_linear: int, n_dual: int, combinations, n_amplitudes: int,
               tip_range, progress=print) -> RomSweep:
     """Identify the ROM of ``fe`` (:func:`torchrom.identify.build.identify`: tangent
-    stiffness, exact damping) and solve its static tip-mass sweep: the load Φᵀ F(m), the tip
-    displacement from u = Φ q, the self-weight solution subtracted."""
+    stiffness; the damping by decomposition, which the static curve does not use and which
+    needs no material tangents) and solve its static tip-mass sweep: the load Φᵀ F(m), the
+    tip displacement from u = Φ q, the self-weight solution subtracted."""
     from torchrom.identify.basis import DualModeOptions
     from torchrom.identify.build import IdentifyOptions, identify
     from torchrom.identify.validate import rom_static_solve
 
-    opt = IdentifyOptions(n_linear=n_linear, n_dual=n_dual, damping="exact",
+    opt = IdentifyOptions(n_linear=n_linear, n_dual=n_dual, damping="decomposition",
                           dual=DualModeOptions(combinations=combinations,
                                                n_amplitudes=n_amplitudes, tip_range=tip_range))
     t0 = time.perf_counter()
@@ -197,7 +218,12 @@ def main(argv=None) -> int:
     p.add_argument("--rom", default=None, metavar="L,D",
                    help="also identify a ROM of L linear and D dual modes and sweep it")
     p.add_argument("--combinations", default="1:1,1:2", help="dual-mode load pairs J:L,...")
-    p.add_argument("--amplitudes", type=int, default=4, help="loads per combination")
+    p.add_argument("--amplitudes", type=int, default=8, help="loads per combination")
+    p.add_argument("--tip-range", default="0.01,0.25",
+                   help="dual-mode loads' tip deflections, fractions of the span")
+    p.add_argument("--fe-from", type=Path, default=None, metavar="JSON",
+                   help="take the full-FE sweep from an earlier run's --out JSON (same "
+                        "masses) instead of solving it again")
     args = p.parse_args(argv)
     nl_ref, lin_ref = sweep_table(SOL400), sweep_table(SOL101)
     masses = nl_ref[:, 0] if args.masses is None else \
@@ -206,7 +232,16 @@ def main(argv=None) -> int:
     fe = pazy_model()
     print(f"model: {fe.n_dof} DOFs, rotations={fe.rotations}, read in "
           f"{time.perf_counter() - t:.1f} s")
-    res = nonlinear_sweep(fe, masses, tol=args.tol)
+    if args.fe_from is not None:
+        old = json.loads(args.fe_from.read_text())
+        if not np.allclose(old["masses_kg"], masses):
+            raise SystemExit(f"{args.fe_from}: masses {old['masses_kg']}, expected "
+                             f"{masses.tolist()}")
+        res = SweepResult(masses, np.array(old["nonlinear_pct"]), np.array(old["linear_pct"]),
+                          old["seconds"], old["iterations"], old["tol"])
+        print(f"sweep: from {args.fe_from} ({res.seconds:.1f} s when it was solved)")
+    else:
+        res = nonlinear_sweep(fe, masses, tol=args.tol)
     print(f"sweep: {len(masses)} masses in {res.seconds:.1f} s, iterations {res.iterations}")
     print("| mass kg | SOL 400 % | torchrom NL % | diff (% semispan) | SOL 101 % | "
           "torchrom linear % |")
@@ -218,12 +253,17 @@ def main(argv=None) -> int:
     if args.rom:
         n_lin, n_dual = (int(x) for x in args.rom.split(","))
         pairs = [tuple(int(x) for x in c.split(":")) for c in args.combinations.split(",")]
+        lo, hi = (float(x) for x in args.tip_range.split(","))
         rom = rom_sweep(fe, masses, n_linear=n_lin, n_dual=n_dual, combinations=pairs,
-                        n_amplitudes=args.amplitudes, tip_range=(0.01, 0.4))
+                        n_amplitudes=args.amplitudes, tip_range=(lo, hi))
         print("| mass kg | torchrom FE NL % | ROM % | ROM - FE (% of FE) |")
         for m, a, b in zip(masses, res.nonlinear, rom.tip_pct):
             rel = "" if a == 0 else f"{100 * (b - a) / abs(a):+.2f}"
             print(f"| {m:.2f} | {a:.3f} | {b:.3f} | {rel} |")
+        loaded = masses > 0
+        rom.envelope_pct = rom_envelope(res.nonlinear[loaded], rom.tip_pct[loaded])
+        print(f"ROM envelope: within {100 * ENVELOPE_TOL:g} % of the full FE up to a tip "
+              f"deflection of {rom.envelope_pct:.1f} % of the semispan")
     if args.figure:
         figure(masses, res, nl_ref, lin_ref, args.figure, rom)
         print(f"figure: {args.figure}")
@@ -235,7 +275,9 @@ def main(argv=None) -> int:
             "semispan_m": PAZY_SEMISPAN, "tip_arm_m": PAZY_TIP_ARM,
             "rom": None if rom is None else {
                 "n_linear": rom.n_linear, "n_dual": rom.n_dual, "tip_pct": rom.tip_pct.tolist(),
-                "identify_seconds": rom.identify_seconds}}, indent=1))
+                "identify_seconds": rom.identify_seconds, "combinations": args.combinations,
+                "amplitudes": args.amplitudes, "tip_range": args.tip_range,
+                "envelope_pct_semispan": rom.envelope_pct}}, indent=1))
     return 0
 
 

@@ -626,3 +626,27 @@ def test_modified_newton_reaches_newtons_solution():
     assert factor is not None and 1 <= n_tan < n_res
     with pytest.raises(ConvergenceError):
         modified_newton(fe, F, np.zeros(fe.n_dof), tol=1e-10, max_iter=2)
+
+
+def test_modified_newton_takes_back_a_stale_factorisations_step():
+    """A factorisation from a far state (the tangent of the same cantilever bent the other
+    way, P L²/EI = −1) and a start scaled from half the load (u(P/2) · 2, not an
+    equilibrium): a step that raises the residual is taken back and replaced by a Newton step,
+    and the solution is full Newton's to 1e-6 of the tip deflection; the work criterion
+    (static_solve's WORK_TOL) stops it at the residual's rounding floor, here asked for
+    below it (tol 1e-14)."""
+    from torchrom.fe.solvers import WORK_TOL, factor_symmetric, modified_newton, static_solve
+
+    from .test_fe_corotational import E_BEAM, I_BEAM, L_BEAM, _cantilever
+
+    fe = _cantilever(8)
+    F = fe.nodal_load({(9, 3): E_BEAM * I_BEAM / L_BEAM**2})
+    ref = static_solve(fe, F, n_steps=4, tol=1e-10, raise_on_failure=True).u
+    half = static_solve(fe, 0.5 * F, n_steps=2, tol=1e-10, raise_on_failure=True).u
+    away = static_solve(fe, -F, n_steps=4, tol=1e-10, raise_on_failure=True).u
+    stale = factor_symmetric(fe.tangent_stiffness(away))
+    u, n_res, n_tan, _ = modified_newton(fe, F, 2.0 * half, tol=1e-14, factor=stale,
+                                         work_tol=WORK_TOL, max_iter=40)
+    k = fe.dof_index(9, 3)
+    assert abs(u[k] - ref[k]) <= 1e-6 * abs(ref[k])
+    assert 1 <= n_tan < n_res

@@ -16,7 +16,14 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from experiments.pazy_static import SOL400, nonlinear_sweep, pazy_model, sweep_table
+from experiments.pazy_static import (
+    SOL400,
+    nonlinear_sweep,
+    pazy_model,
+    rom_envelope,
+    rom_sweep,
+    sweep_table,
+)
 
 #: |torchrom − SOL 400| in % of the semispan (module docstring)
 TOLERANCE_PCT = 0.5
@@ -52,3 +59,34 @@ def test_pazy_nonlinear_sweep_all_masses():
     masses = sweep_table(SOL400)[:, 0]
     diff = _check(masses)
     assert np.all(np.abs(diff) <= TOLERANCE_PCT), diff
+
+
+def test_rom_envelope_is_the_leading_run_within_2_percent():
+    """rom_envelope: the largest |FE| deflection of the leading masses whose ROM deflections
+    are all within 2 % of the FE's, by hand: 10 % and 20 % within (1 %, 1.5 %), 30 % off by
+    3 %, so 20 (a later point back within does not count); none within gives 0; all within
+    gives the largest."""
+    fe = np.array([-10.0, -20.0, -30.0, -40.0])
+    assert rom_envelope(fe, np.array([-10.1, -19.7, -29.1, -40.0])) == 20.0
+    assert rom_envelope(fe, np.array([-9.0, -20.0, -30.0, -40.0])) == 0.0
+    assert rom_envelope(fe, fe * 1.015) == 40.0
+
+
+@pytest.mark.slow
+@pytest.mark.xfail(strict=True, reason="the Pazy ROM locks: a 1 + 1 ROM gives 2.2 % of the "
+                   "semispan at 0.25 kg against the full FE's 5.5 % (docs/guide/pazy.md)")
+def test_pazy_rom_follows_the_full_fe_to_a_fifth_of_the_semispan():
+    """The issue's acceptance: the ROM's tip-mass curve within 2 % of the full FE's up to a
+    tip deflection of 20 % of the semispan (masses 0.25 … 1 kg). Measured (1 linear + 1 dual
+    mode of the (1, 1) loads, 6 loads of 1 … 25 % of the span): −2.22, −3.20, −3.84,
+    −4.31 % against −5.54, −10.92, −16.04, −20.85 %, an envelope of 0 — the basis locks
+    (docs/guide/pazy.md). Strict: a ROM that meets it turns this test red, to be unmarked."""
+    masses = sweep_table(SOL400)[1:5, 0]
+    fe = pazy_model()
+    full = nonlinear_sweep(fe, masses, progress=lambda line: None)
+    rom = rom_sweep(fe, masses, n_linear=1, n_dual=1, combinations=[(1, 1)], n_amplitudes=6,
+                    tip_range=(0.01, 0.25), progress=lambda line: None)
+    print("pazy ROM (mass, FE, ROM % semispan):",
+          [(m, round(a, 3), round(b, 3)) for m, a, b in zip(masses, full.nonlinear,
+                                                             rom.tip_pct)])
+    assert rom_envelope(full.nonlinear, rom.tip_pct) >= 20.0

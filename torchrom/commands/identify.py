@@ -69,6 +69,11 @@ def add_arguments(parser) -> None:
     parser.add_argument("--decay-tip", type=positive_float, default=0.15,
                         help="initial tip deflection of the report's free decay, fraction of "
                              "the span (default 0.15)")
+    parser.add_argument("--no-decay", action="store_true",
+                        help="leave the free decay out of the report (its FE transient runs "
+                             "10 periods of mode 1 at 200 steps a period: on a large "
+                             "co-rotational deck such as the Pazy wing, hours); the static "
+                             "curves and the damping comparison stay")
     parser.add_argument("--step-x", type=finite_float, default=None,
                         help="chordwise mid-line (basic x) of the report's step pressure "
                              "(default: the wing's mid-chord when the deck is known, e.g. 3 ft "
@@ -99,6 +104,20 @@ class _Progress:
         bar.update_to(done)
         if done >= total:
             bar.close()
+
+
+def _check_report_points(model: Path, backend) -> None:
+    """InputError before the work when the report's point A (outputs A_Tx, A_Ty, A_Tz: its
+    static curves and free decay) is not among the deck's outputs, with the options that name
+    it (the grid of ``max_mode1``, the translation that moves most in mode 1, as an example)."""
+    from ..identify.validate import OUTPUTS
+
+    missing = [k for k in OUTPUTS if k not in backend.outputs]
+    if missing:
+        raise InputError(f"{model}: --report: the validation compares the point A "
+                         f"({', '.join(OUTPUTS)}) and the deck names no {', '.join(missing)}; "
+                         f"name it, e.g. --output A_Tx=G<grid>:T1 --output A_Ty=G<grid>:T2 "
+                         f"--output A_Tz=G<grid>:T3 with a grid near the tip")
 
 
 def run(args) -> int:
@@ -140,6 +159,8 @@ def run(args) -> int:
         backend.add_output_points(extra_points)
     info(f"  {backend.n_dof} DOFs, span {backend.reference_length:g}, "
           f"outputs {sorted(backend.outputs)}")
+    if args.report is not None:
+        _check_report_points(args.model, backend)
     opt = IdentifyOptions(n_linear=args.linear, n_dual=args.dual, damping=args.damping,
                           stiffness=args.stiffness, amplitude=args.amplitude,
                           dual=DualModeOptions(combinations=combinations))
@@ -170,7 +191,7 @@ def run(args) -> int:
 
         info(f"validating against the FE -> {args.report}")
         nums = write_report(res, backend, args.report, gamma=args.gamma,
-                            decay_tip_fraction=args.decay_tip)
+                            decay_tip_fraction=args.decay_tip, dynamic=not args.no_decay)
         s.update(nums)
         for k, v in nums.items():
             if k.endswith("_error"):
