@@ -487,29 +487,6 @@ def test_free_free_dual_combination_on_a_rigid_body_mode(tmp_path, capsys):
     assert not (tmp_path / "rom.npz").exists()
 
 
-def test_identify_report_without_point_a(tmp_path):
-    """identify --report on a deck that names no point A (A_Tx, A_Ty, A_Tz: the report's
-    static curves and free decay; a public deck such as the Pazy wing): the whole
-    identification ran, then the report stopped on an InputError. Now refused before the work,
-    in one line saying which outputs to name and how; nothing written. Run as a process."""
-    import subprocess
-    import sys
-    from pathlib import Path
-
-    import torchrom
-
-    deck = tmp_path / "wing.bdf"
-    deck.write_text(DECK)
-    env = {**os.environ, "PYTHONPATH": str(Path(torchrom.__file__).parents[1])}
-    run = subprocess.run([sys.executable, "-m", "torchrom", "identify", str(deck), "--linear",
-                          "2", "--dual", "0", "--out", str(tmp_path / "rom.npz"), "--report",
-                          str(tmp_path / "report")], capture_output=True, text=True, env=env,
-                         timeout=600)
-    assert run.returncode == 2, run.stderr
-    _one_line_error(run.stderr, "wing.bdf", "--report", "A_Tz", "--output A_Tz=G<grid>:T3")
-    assert not (tmp_path / "rom.npz").exists() and not (tmp_path / "report").exists()
-
-
 @pytest.mark.parametrize("damage", ["nan density", "no enddata"])
 def test_bad_flutter_deck(damage, pt145_deck, tmp_path, capsys):
     """pt145 with a NaN in its FLFACT densities or cut before ENDDATA: exit 2, card named."""

@@ -106,20 +106,6 @@ class _Progress:
             bar.close()
 
 
-def _check_report_points(model: Path, backend) -> None:
-    """InputError before the work when the report's point A (outputs A_Tx, A_Ty, A_Tz: its
-    static curves and free decay) is not among the deck's outputs, with the options that name
-    it (the grid of ``max_mode1``, the translation that moves most in mode 1, as an example)."""
-    from ..identify.validate import OUTPUTS
-
-    missing = [k for k in OUTPUTS if k not in backend.outputs]
-    if missing:
-        raise InputError(f"{model}: --report: the validation compares the point A "
-                         f"({', '.join(OUTPUTS)}) and the deck names no {', '.join(missing)}; "
-                         f"name it, e.g. --output A_Tx=G<grid>:T1 --output A_Ty=G<grid>:T2 "
-                         f"--output A_Tz=G<grid>:T3 with a grid near the tip")
-
-
 def run(args) -> int:
     from ..identify.build import IdentifyOptions, as_backend, identify
 
@@ -159,8 +145,6 @@ def run(args) -> int:
         backend.add_output_points(extra_points)
     info(f"  {backend.n_dof} DOFs, span {backend.reference_length:g}, "
           f"outputs {sorted(backend.outputs)}")
-    if args.report is not None:
-        _check_report_points(args.model, backend)
     opt = IdentifyOptions(n_linear=args.linear, n_dual=args.dual, damping=args.damping,
                           stiffness=args.stiffness, amplitude=args.amplitude,
                           dual=DualModeOptions(combinations=combinations))
