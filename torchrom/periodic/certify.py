@@ -3,7 +3,9 @@
 A harmonic-balance row is first offered to the Fourier certificate (:func:`fourier_rows`,
 :mod:`.fourier_certificate`: a bound on its distance to the continuous-time orbit, no time
 integration; ``certificate`` "fourier"); the rows it refuses and every time-marching row
-carry the shooting certificate below (``certificate`` "shooting").
+carry the shooting certificate below (``certificate`` "shooting"). With
+``Certificate.max_harmonics`` a refused row is first re-solved at H → 2H + 1 harmonics up to
+that cap and offered again (:mod:`.raise_harmonics`).
 
 For each LCO row of a :class:`~torchrom.sim.SimulationResult` (harmonic balance orbits, or the
 final state of a time integration) the discrete periodic orbit of the Newmark map at the
