@@ -136,6 +136,36 @@ def test_a_truncated_tail_fails_or_is_bounded():
     assert out.status[0] == "lco_uncertified"
 
 
+def test_a_refused_orbit_raised_to_more_harmonics_is_fourier_certified():
+    """The orbits cut to their first harmonic, γ = 0 and 1e-4 at 6,000 ft, refused at H = 1
+    (tol 1e-4; as above), with ``max_harmonics`` = 7: re-solved at H = 3 (still refused:
+    orbit_error 2e-4 and 4e-5 by shooting), then at 7, where the Fourier certificate takes
+    both; every output's amplitude, the frequency and the stability (recomputed at H = 7)
+    within the certificate's statements of the DOP853 orbit. Measured: A_Tz errors 4.3e-9 and
+    8.5e-9 against output_error 2.2e-7 and 2.0e-7, frequency 2.6e-12 against 2.6e-12 (γ = 0),
+    critical multiplier 0.9972 against the ODE's 0.9960 (γ = 0) and 0.378 against 0.368."""
+    system, C, res = _setup((6000.0,), (0.0, 1e-4))
+    X, w = res.orbits
+    cut = resize_harmonics(resize_harmonics(torch.as_tensor(X), 1), (X.shape[1] - 1) // 2)
+    extra = {**res.extra, "harmonics": np.ones_like(res.extra["harmonics"])}
+    from torchrom.periodic.solve import orbit_amplitude
+
+    amp = orbit_amplitude(cut @ torch.as_tensor(C).T, res.status)
+    bad = dataclasses.replace(res, orbits=(cut.numpy(), w), amplitude=amp, extra=extra)
+    cert = Certificate(tol=1e-4, finish=False, richardson=False)
+    without = certify(system, bad, C, 0, cert, 1e-3)
+    assert list(without.extra["certificate"]) == ["shooting"] * 2
+    out = certify(system, bad, C, 0, dataclasses.replace(cert, max_harmonics=7), 1e-3)
+    assert list(out.extra["certificate"]) == ["fourier"] * 2
+    assert list(out.extra["harmonics"]) == [7, 7]
+    assert list(out.status) == ["lco"] * 2
+    # the references start from the raised orbits (those the rows now report)
+    refs = _check_against_truth(system, C, out, out)
+    assert len(refs) == 2
+    for i, ref in refs.items():
+        assert abs(out.extra["critical_multiplier"][i] - ref.critical) < 0.02
+
+
 @pytest.mark.slow
 def test_fourier_certificates_bound_the_ode_orbit_on_more_cases():
     """The fuller form: five altitudes from far beyond flutter to near it, γ = 0, 1e-4, 1e-3

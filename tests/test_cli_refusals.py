@@ -60,6 +60,8 @@ CONFIGS = {
     "history every > t_end": (("[run]", "[history]\nevery = 10000\n[run]"), "[history] every"),
     "certificate dt > t_end": (("[run]", "[certificate]\ndt = 9.0\n[run]"),
                                "[certificate] dt"),
+    "certificate max_harmonics < 0": (("[run]", "[certificate]\nmax_harmonics = -1\n[run]"),
+                                      "certificate.max_harmonics: expected an integer >= 0"),
 }
 
 #: a continuation line of eight blank fields and the CORD2R/CORD1R cards of the damaged decks

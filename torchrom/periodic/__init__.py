@@ -10,6 +10,7 @@ and the same ROM force and tangent kernels (:mod:`torchrom.rom.kernels`):
 - :mod:`.solve`: LCOs from scratch (amplitude-staged cold start), neighbour chains, adaptive H;
 - :mod:`.floquet`: Floquet multipliers and stability;
 - :mod:`.fourier_certificate`: a bound on a Fourier orbit's distance to the continuous-time orbit;
+- :mod:`.raise_harmonics`: rows that bound refuses re-solved at more harmonics;
 - :mod:`.continuation`: branches from the Hopf (flutter) point, folds, branch points;
 - :mod:`.sensitivity`: derivatives of an LCO's amplitude by the implicit-function theorem;
 - :mod:`.method`: HB as a sweep method (the time integrator's call and result).
