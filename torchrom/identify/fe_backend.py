@@ -107,7 +107,13 @@ class BuiltinFEBackend(FEBackend):
             res = inertia_relief_static(self.fe, load, rigid, u0=u0, tol=self.static_tol,
                                         max_cuts=12)
         else:
-            res = self.fe.static_solve(load, u0=u0, tol=self.static_tol, max_cuts=12)
+            # the continuation guess u0 gets one full-load Newton; when it fails the load is
+            # stepped from u = 0 (static_solve cuts steps around its start, and a failed guess
+            # is no solution at any load: as inertia_relief_static does)
+            res = None if u0 is None else self.fe.static_solve(load, u0=u0, tol=self.static_tol,
+                                                                max_cuts=0)
+            if res is None or not res.converged:
+                res = self.fe.static_solve(load, tol=self.static_tol, max_cuts=12)
         if not res.converged:
             raise ConvergenceError(f"{self.name}: static solve did not converge "
                                    f"({getattr(res, 'message', '')})")
