@@ -605,6 +605,33 @@ def test_nonlinear_inertia_relief_of_a_free_plate():
     lin = inertia_relief_solve(fe.stiffness_matrix(), M, G, F)
     assert np.abs(u - lin).max() > 0.01 * np.abs(lin).max()
 
+def test_inertia_relief_recovers_from_a_bad_guess_and_gives_up_in_bounded_work():
+    """inertia_relief_static given a guess ``u0`` from which Newton diverges (the linear INREL
+    response reversed and 30x too large, as a continuation's scaled previous solution can be)
+    steps the load from the unloaded state instead of cutting steps around the bad guess (the
+    BAH aircraft's dual-mode walk spent minutes there), and reaches the solution without a
+    guess to 1e-8 (both converge to 1e-9 of the load). A solve that cannot converge
+    (max_iter 1: never) gives up after max_cuts cuts, each tried once: at most
+    (max_cuts + 2) x max_iter Newton iterations, with the load factor reached and why."""
+    from torchrom.fe.rigid import rigid_body_modes
+    from torchrom.fe.solvers import inertia_relief_solve, inertia_relief_static
+
+    m = plate_strip(8, 2, 1.0, 0.2, 0.002, 7e10, 0.3, 2700.0)
+    m.spcs.clear()
+    fe = model_of(m, "free_plate")
+    G, _ = rigid_body_modes(fe, fe.modes(1))
+    F, _ = _tip_load(fe, 1.0, 3, 60.0)
+    ref = inertia_relief_static(fe, F, G, tol=1e-9)
+    bad = -30.0 * inertia_relief_solve(fe.stiffness_matrix(), fe.mass_matrix(), G, F)
+    res = inertia_relief_static(fe, F, G, u0=bad, tol=1e-9)
+    assert ref.converged and res.converged
+    assert np.abs(res.u - ref.u).max() <= 1e-8 * np.abs(ref.u).max()
+    stuck = inertia_relief_static(fe, F, G, u0=bad, tol=1e-9, max_iter=1, max_cuts=5)
+    assert not stuck.converged and stuck.load_factor == 0.0
+    assert stuck.iterations <= (5 + 2) * 1
+    assert "no convergence after 5 step cuts at load factor 0" in stuck.message
+
+
 def test_modified_newton_reaches_newtons_solution():
     """modified_newton (one reused factorisation, refactorised when the residual falls by less
     than half) reaches the full-Newton solution of a co-rotational cantilever bent to about

@@ -89,6 +89,38 @@ def test_response_amplitudes_follow_a_softening_fe():
     assert np.allclose(linear, target) and tip.max() > 1.1 * target.max()
 
 
+def test_dual_walk_past_a_limit_load_gives_up_with_the_reason():
+    """A load the FE cannot carry (a static solve that raises past a limit load, as the BAH
+    aircraft's inertia-relief solves do) is bisected at most 3 times per target, then the
+    walk's larger loads are skipped and the record says why: the work stays bounded (7 solves
+    per walk here: the 4 below the limit and 3 failed), the loads below the limit are kept."""
+    from torchrom.errors import ConvergenceError
+
+    K = np.array([[2.0, -1.0], [-1.0, 2.0]])
+    c = np.array([0.3, 0.1])
+    attempts = []
+
+    def solve(load, u0):
+        attempts.append(float(np.abs(load).max()))
+        if attempts[-1] > 0.1:
+            raise ConvergenceError("no equilibrium past the limit load 0.1")
+        return newton_static_solve(lambda u: K @ u + c * u**3, lambda u: K + np.diag(3 * c * u**2),
+                                   load, u0=u0)
+
+    be = CallableBackend(lambda u: K @ u + c * u**3, lambda u: K + np.diag(3 * c * u**2),
+                         np.eye(2), static_solve=solve, reference_length=1.0,
+                         transverse_dofs=[0, 1])
+    opts = DualModeOptions(combinations=((1, 1),), n_amplitudes=20, tip_range=(0.01, 1.0))
+    recs = dual_basis(be, linear_basis(be, 1), 1, opts).snapshots
+    for walk in (recs[:10], recs[10:]):  # the positive and the negative loads
+        assert [r["status"] for r in walk] == ["ok", "ok"] + ["skipped"] * 8
+        assert "the larger loads skipped: no equilibrium past the limit load 0.1" in \
+            walk[1]["message"]
+        assert walk[1]["solves"] <= 12  # its best load below the limit, to a 10 % target
+    assert sum(a > 0.1 for a in attempts) == 3 * 2  # 3 failures per walk, two signs
+    assert len(attempts) == sum(r.get("solves", 0) for r in recs) == 14
+
+
 def test_dual_basis_is_reproducible():
     """Same FE, same options: the same basis bit for bit (signs by orient_columns, fixed
     eigensolver start, fixed solution order)."""

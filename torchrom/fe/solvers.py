@@ -116,9 +116,15 @@ def inertia_relief_static(fe, load: np.ndarray, rigid: np.ndarray, *, u0=None,
     """Nonlinear static solution of a free structure under inertia relief: f(u) + M G a = λ F
     with Gᵀ M u = 0 for λ from 0 to 1 (G: M-orthonormal rigid-body shapes; a: the rigid-body
     accelerations, Lagrange multipliers that balance the load, = Gᵀ F in the linear case).
-    Newton on the bordered tangent [[K_T(u), M G], [Gᵀ M, 0]], load stepping and step cutting
-    as :func:`static_solve` (without prescribed DOFs). Convergence: ‖r‖ ≤ tol ·
-    max(‖λF‖, ‖f(u)‖)."""
+    Newton on the bordered tangent [[K_T(u), M G], [Gᵀ M, 0]]. ``u0`` is a guess of the
+    solution at the full load (continuation): tried first for λ = 1; when Newton fails from it,
+    the load is stepped from the unloaded state u = 0 (a guess that failed is no solution at
+    any λ, and every cut step retried from it failed too: the BAH aircraft's dual-mode walk
+    spent minutes there). Step cutting as :func:`static_solve`: a failed step is halved, up to
+    ``max_cuts`` times in all, and an easy step after a cut doubles the next one, so the work
+    is bounded by about (2 ``max_cuts`` + 1) ``max_iter`` Newton iterations and the result
+    says ``converged=False`` with the load factor reached. Convergence:
+    ‖r‖ ≤ tol · max(‖λF‖, ‖f(u)‖)."""
     n = fe.n_dof
     F = np.asarray(load, dtype=float).reshape(-1)
     if F.shape != (n,):
@@ -126,22 +132,31 @@ def inertia_relief_static(fe, load: np.ndarray, rigid: np.ndarray, *, u0=None,
                          f"{F.shape}")
     MG = np.asarray(fe.mass_matrix() @ rigid)
     r = MG.shape[1]
-    u = np.zeros(n) if u0 is None else np.array(u0, dtype=float)
-    u = u - rigid @ (MG.T @ u)  # a start M-orthogonal to the rigid-body modes
-    a = np.zeros(r)
-    lam, dlam, cuts, total, steps, res = 0.0, 1.0, 0, 0, 0, 0.0
+    u, a = np.zeros(n), np.zeros(r)
+    total, res = 0, 0.0
+    if u0 is not None:
+        guess = np.array(u0, dtype=float)
+        guess = guess - rigid @ (MG.T @ guess)  # a start M-orthogonal to the rigid-body modes
+        ok, u_new, a_new, its, res = _relief_newton(fe, guess, a, F, MG, max_iter, tol)
+        total += its
+        if ok:
+            return StaticResult(u_new, True, total, 1.0, res, 1)
+    lam, dlam, cuts, steps = 0.0, 1.0, 0, 0
     while lam < 1.0 - 1e-14:
         target = min(1.0, lam + dlam)
         ok, u_new, a_new, its, res = _relief_newton(fe, u, a, target * F, MG, max_iter, tol)
         total += its
         if ok:
             u, a, lam, steps = u_new, a_new, target, steps + 1
+            if dlam < 1.0 and its <= max_iter // 4:
+                dlam *= 2.0  # an easy step after a cut: lengthen again (as static_solve)
             continue
         cuts += 1
         if cuts > max_cuts:
             return StaticResult(u, False, total, lam, res, steps,
                                 message=f"inertia_relief_static: no convergence after "
-                                        f"{max_cuts} step cuts at load factor {lam:.4g}",
+                                        f"{max_cuts} step cuts at load factor {lam:.4g} "
+                                        f"(residual {res:.3g} of the load {np.linalg.norm(F):.3g})",
                                 failed_load_factor=target)
         dlam /= 2.0
     return StaticResult(u, True, total, 1.0, res, steps)

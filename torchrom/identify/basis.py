@@ -394,13 +394,18 @@ class _Walk:
         self.span = backend.reference_length
         self.last = _Point(0.0, 0.0, None)
         self.solves = 0
+        self.failures = 0
+        self.at_limit = False  # a target gave up on failed solves: the larger ones are skipped
+        self.why = ""  # the last static solve's reason for failing
 
     def _solve(self, alpha: float, start: _Point) -> _Point:
         u0 = None if start.u is None else start.u * (alpha / start.alpha)
         self.solves += 1
         try:
             sol = self.be.static_solve(self.sign * alpha * self.F, u0=u0)
-        except ConvergenceError:
+        except ConvergenceError as err:
+            self.failures += 1
+            self.why = str(err)
             return _Point(alpha, np.inf, None)
         return _Point(alpha, _tip(self.be, sol.u), sol.u)
 
@@ -409,17 +414,21 @@ class _Walk:
         p = self._solve(t * self.span / self.peak, self.last)
         return None if p.u is None else p
 
-    def response(self, t: float, max_solves: int = 12) -> _Point | None:
+    def response(self, t: float, max_solves: int = 12, max_failures: int = 3) -> _Point | None:
         """α ≤ the linear-prediction α whose FE tip deflection is t (± the tolerance), or that
         α itself when the response stiffens: secant steps, then the Illinois variant of regula
-        falsi once bracketed (bisection across a load the FE cannot carry)."""
+        falsi once bracketed (bisection across a load the FE cannot carry, at most
+        ``max_failures`` failed solves per target: each costs a static solve's whole step
+        cutting, and past a limit load the bisection only creeps towards it)."""
         target, tol = t * self.span, self.opts.response_tolerance
         a_lin = target / self.peak
         lo, hi = self.last, None
         f_lo, f_hi, side = lo.tip - target, np.inf, 0
         a = a_lin if lo.tip <= 0 else min(a_lin, lo.alpha * target / lo.tip)
-        solved = []
+        solved, failures = [], self.failures
         for _ in range(max_solves):
+            if self.failures - failures >= max_failures:
+                break
             p = self._solve(a, lo)
             if p.u is not None:
                 solved.append(p)
@@ -439,7 +448,9 @@ class _Walk:
                 a = 0.5 * (lo.alpha + hi.alpha)
             else:
                 a = (lo.alpha * f_hi - hi.alpha * f_lo) / (f_hi - f_lo)
-        # not within the tolerance after max_solves: the solved load closest to the target
+        # not within the tolerance after max_solves (or past the FE's limit load): the solved
+        # load closest to the target
+        self.at_limit = self.failures - failures >= max_failures
         return min(solved, key=lambda p: abs(p.tip - target)) if solved else None
 
 
@@ -486,14 +497,17 @@ def dual_basis(backend, linear: Basis, n_dual: int, options: DualModeOptions | N
                 if p is None:
                     stopped = True
                     records.append({**rec, "status": "failed", "solves": walk.solves - before,
-                                    "message": "no converged static solution"})
+                                    "message": f"no converged static solution ({walk.why})"})
                     continue
                 walk.last = p
+                stopped = walk.at_limit
                 responses.append(p.u)
                 records.append({**rec, "status": "ok", "alpha": float(sign * p.alpha),
                                 "tip_linear_pct_span": float(100 * p.alpha * peak / span),
                                 "tip_pct_span": float(100 * p.tip / span),
-                                "solves": walk.solves - before})
+                                "solves": walk.solves - before,
+                                **({"message": f"the larger loads skipped: {walk.why}"}
+                                   if stopped else {})})
     if not responses:
         raise ConvergenceError("dual modes: the FE carried none of the dual-mode loads (no "
                                "static solve converged; under inertia relief a free structure "

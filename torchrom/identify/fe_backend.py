@@ -116,7 +116,10 @@ class BuiltinFEBackend(FEBackend):
             sol = self._modified_newton(load, u0)
             if sol is not None:
                 return sol
-            res = self.fe.static_solve(load, u0=u0, tol=self.static_tol, max_cuts=12)
+            # the guess failed (modified Newton from it): the load is stepped from u = 0
+            # (static_solve cuts steps around its start, and a failed guess is no solution at
+            # any load: as inertia_relief_static does)
+            res = self.fe.static_solve(load, tol=self.static_tol, max_cuts=12)
         if not res.converged:
             raise ConvergenceError(f"{self.name}: static solve did not converge "
                                    f"({getattr(res, 'message', '')})")
