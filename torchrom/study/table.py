@@ -37,6 +37,10 @@ PARAMETER_ORDER = ("altitude_ft", "mach", "velocity", "dynamic_pressure", "densi
                    "gamma", "stiffness_nl", "damping_nl")
 
 
+#: extra columns of text with gaps (the certificate's kind: "fourier", "shooting", none)
+TEXT_COLUMNS = frozenset({"certificate"})
+
+
 def result_rows(cases: Sequence[Mapping[str, Any]], result: SimulationResult, *,
                 config_hash: str, span: float | None = None,
                 extra: Sequence[Mapping[str, Any]] | None = None,
@@ -84,6 +88,10 @@ def result_rows(cases: Sequence[Mapping[str, Any]], result: SimulationResult, *,
         if name == "stable":  # True / False / unknown (NaN or None)
             values = pd.array([None if v is None or (isinstance(v, float) and np.isnan(v))
                                else bool(v) for v in values], dtype="boolean")
+        elif name in TEXT_COLUMNS:
+            # text with gaps: pandas' string dtype, the dtype a parquet part is read back
+            # with, so resumed and fresh tables concatenate alike
+            values = pd.array([None if v is None else str(v) for v in values], dtype="str")
         cols[name] = values
     if precision is not None:
         cols["precision"] = precision
