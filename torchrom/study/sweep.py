@@ -198,12 +198,15 @@ def flight_units(model) -> dict[str, str]:
 
 
 def model_length_unit(model) -> str | None:
-    """Length unit of a model's physical outputs (ROM metadata ``units``, else the aerodynamic
-    data's, e.g. "ft, slug, s"), None when unknown."""
+    """Length unit of a model's physical outputs (ROM metadata ``units``, else the model's unit
+    system, else the aerodynamic data's, e.g. "ft, slug, s"), None when unknown."""
     rom = model_rom(model)
     units = rom.metadata.get("units")
     if isinstance(units, dict) and units.get("length"):
         return str(units["length"])
+    system = getattr(model, "units", None)
+    if system is not None:
+        return system.length
     aero = getattr(model, "aero", None)
     text = getattr(aero, "metadata", {}).get("units") if aero is not None else None
     return str(text).split(",")[0].strip() or None if text else None
