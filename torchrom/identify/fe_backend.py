@@ -113,13 +113,22 @@ class BuiltinFEBackend(FEBackend):
             res = inertia_relief_static(self.fe, load, rigid, u0=u0, tol=self.static_tol,
                                         max_cuts=12)
         else:
-            sol = self._modified_newton(load, u0)
-            if sol is not None:
-                return sol
-            # the guess failed (modified Newton from it): the load is stepped from u = 0
-            # (static_solve cuts steps around its start, and a failed guess is no solution at
-            # any load: as inertia_relief_static does)
-            res = self.fe.static_solve(load, tol=self.static_tol, max_cuts=12)
+            # modified Newton where a tangent is dear (co-rotational elements); full Newton on
+            # a small-rotation model, whose dual modes (the paper's Goland ROM) stay those of
+            # full Newton to rounding (1e-13): its damping decomposition amplifies a 1e-8 change of
+            # the static solutions to 1e-4 in D2, D3
+            if getattr(self.fe, "rotations", "small") == "large":
+                sol = self._modified_newton(load, u0)
+                if sol is not None:
+                    return sol
+                res = None  # modified Newton from the guess failed
+            else:  # the continuation guess u0 gets one full-load Newton
+                res = None if u0 is None else self.fe.static_solve(
+                    load, u0=u0, tol=self.static_tol, max_cuts=0)
+            if res is None or not res.converged:
+                # the load stepped from u = 0 (static_solve cuts steps around its start, and a
+                # failed guess is no solution at any load: as inertia_relief_static does)
+                res = self.fe.static_solve(load, tol=self.static_tol, max_cuts=12)
         if not res.converged:
             raise ConvergenceError(f"{self.name}: static solve did not converge "
                                    f"({getattr(res, 'message', '')})")
