@@ -186,6 +186,13 @@ def _cases() -> dict[str, tuple[list[str], str]]:
             cases[f"{command} deck: {damage}"] = ([command, f"bad/{damage}.bdf"], words)
     cases["aero deck without CAERO1"] = (["aero", "deck.bdf", "--mach", "0.5", "--out",
                                           "OUT/aero.npz"], "--planform goland")
+    # the condensation takes no dual modes and no material tangents (identify --stiffness)
+    cases["identify --stiffness condensed with dual modes"] = (
+        ["identify", *_with_option("identify", "--dual", ["2"]), "--stiffness", "condensed"],
+        "--dual 0")
+    cases["identify --stiffness condensed --damping exact"] = (
+        ["identify", *BASE["identify"], "--stiffness", "condensed", "--damping", "exact"],
+        "stiffness 'tangent'")
     cases["flutter ROM without its aero file"] = (["flutter", "rom.npz"],
                                                   "torchrom flutter rom.npz aero.npz")
     # decks the deck flutter cannot handle (issue 35 item 7): what is missing and what to do
@@ -338,6 +345,20 @@ def test_help_texts(fixtures):
     for command in ("plot", "cache"):
         rc, out, _ = server.run([command, "--help"], folder)
         assert rc == 0 and "--allow-large" not in out, command
+
+
+def test_condensed_stiffness_of_a_free_structure_is_refused(fixtures, tmp_path):
+    """``identify --stiffness condensed`` solves the structure under applied loads: a free
+    deck (the fixture deck without its SPC1) is refused in one line that says to restrain it
+    or to use the tangent plan with dual modes, and no ROM is written."""
+    folder, server = fixtures
+    deck = tmp_path / "free.bdf"
+    deck.write_text(DECK.replace("SPC1    1       123456  1\n", "").replace("SPC = 1\n", ""))
+    assert "SPC1" not in deck.read_text()
+    rc, out, err = server.run(["identify", deck, "--linear", "3", "--stiffness", "condensed",
+                               "--out", tmp_path / "rom.npz"], folder)
+    _check_refusal(rc, err, "restrain it (SPC) or use --stiffness tangent")
+    assert not (tmp_path / "rom.npz").exists()
 
 
 def test_dual_zero_prints_no_combinations(fixtures, tmp_path):

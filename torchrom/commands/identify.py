@@ -1,8 +1,8 @@
 """``torchrom identify MODEL.bdf``: non-intrusive identification of the nonlinear ROM.
 
     torchrom identify MODEL.bdf --linear 9 --dual 12 --damping decomposition|exact --out rom.npz
-                      [--stiffness tangent|step] [--amplitude 0.01] [--report DIR] [--json FILE]
-                      [--force]
+                      [--stiffness tangent|step|condensed] [--amplitude A] [--levels 3]
+                      [--report DIR] [--json FILE] [--force]
 
 Reads the deck with the built-in FE, computes the linear and dual modes, identifies the stiffness
 and the Kelvin–Voigt damping tensors (DIGEST Secs. 4–6), writes ``rom.npz`` and, with
@@ -41,9 +41,9 @@ def add_arguments(parser) -> None:
     parser.add_argument("model", type=Path, help="Nastran BDF of the structure")
     parser.add_argument("--linear", type=positive_int, default=9,
                         help="number of linear modes (default 9)")
-    parser.add_argument("--dual", type=nonnegative_int, default=12,
-                        help="number of dual modes (default 12; 0: a ROM of the linear "
-                             "modes only)")
+    parser.add_argument("--dual", type=nonnegative_int, default=None,
+                        help="number of dual modes (default 12, and 0 with --stiffness "
+                             "condensed; 0: a ROM of the linear modes only)")
     parser.add_argument("--combinations", default="transverse", metavar="SET",
                         help="linear-mode pairs loaded for the dual modes: 'transverse' "
                              "(default, from the modes' kinds: the first two transverse, i.e. "
@@ -56,10 +56,19 @@ def add_arguments(parser) -> None:
                         default="decomposition",
                         help="damping identification: the paper's optimum decomposition, or "
                              "exact from the FE material tangent")
-    parser.add_argument("--stiffness", choices=("tangent", "step"), default="tangent",
-                        help="stiffness identification: tangent matrices (Eqs. 37-41) or STEP")
-    parser.add_argument("--amplitude", type=positive_float, default=0.01,
-                        help="identification amplitude, fraction of the span (default 0.01)")
+    parser.add_argument("--stiffness", choices=("tangent", "step", "condensed"),
+                        default="tangent",
+                        help="stiffness identification: tangent matrices (Eqs. 37-41), STEP "
+                             "(enforced displacements), or condensed (implicit condensation: "
+                             "modal loads solved by the FE, the in-plane motion relaxed by it; "
+                             "linear modes only, for thin wings that bend to large deflections)")
+    parser.add_argument("--amplitude", type=positive_float, default=None,
+                        help="identification amplitude, fraction of the span (default 0.01; "
+                             "with --stiffness condensed the largest load level's linear tip "
+                             "deflection, default 0.3: the ROM's envelope)")
+    parser.add_argument("--levels", type=positive_int, default=3,
+                        help="load levels per direction of --stiffness condensed, in equal "
+                             "steps up to --amplitude (default 3)")
     parser.add_argument("--out", type=Path, required=True, metavar="ROM.npz",
                         help="ROM file to write, e.g. rom.npz")
     parser.add_argument("--report", type=Path, metavar="DIR",
@@ -118,6 +127,12 @@ def run(args) -> int:
     from ..identify.basis import parse_combinations
     from ..rom.points import parse_named_point
 
+    if args.dual is None:
+        args.dual = 0 if args.stiffness == "condensed" else 12
+    # bad option combinations before the deck is read and its modes computed
+    IdentifyOptions(n_linear=args.linear, n_dual=args.dual, damping=args.damping,
+                    stiffness=args.stiffness, amplitude=args.amplitude,
+                    levels=args.levels).validate()
     if args.combinations != "transverse":
         parse_combinations(args.combinations)  # bad input before the work
     extra_points = dict(parse_named_point(o) for o in args.output)
@@ -147,7 +162,7 @@ def run(args) -> int:
           f"outputs {sorted(backend.outputs)}")
     opt = IdentifyOptions(n_linear=args.linear, n_dual=args.dual, damping=args.damping,
                           stiffness=args.stiffness, amplitude=args.amplitude,
-                          dual=DualModeOptions(combinations=combinations))
+                          levels=args.levels, dual=DualModeOptions(combinations=combinations))
     info(f"identifying {args.linear}L{args.dual}D ROM: stiffness {args.stiffness}, damping "
           f"{args.damping}")
     res = identify(backend, opt, progress=_Progress())
@@ -162,7 +177,14 @@ def run(args) -> int:
           f"{s['fe_material_tangent_evaluations']} material tangents, "
           f"{s['fe_force_evaluations']} forces")
     print("  time: " + ", ".join(f"{k} {v:.1f} s" for k, v in res.timings.items()))
-    worst = max(res.stiffness.residuals.values())
+    resid = dict(res.stiffness.residuals)
+    fit = resid.pop("condensation_fit", None)
+    if fit is not None:
+        info_ = res.stiffness.plan_info
+        print(f"  condensation: {info_['static_solves']} static solves converged, "
+              f"{info_['failed_solves']} failed; least-squares misfit {fit:.1e} (the condensed "
+              "force's departure from a cubic over the load levels)")
+    worst = max(resid.values())
     print(f"  largest identification residual {worst:.1e} (rounding level for a cubic FE)")
     if "damping_min_eig_scaled_final" in s:
         print(f"  extended damping matrix, smallest scaled eigenvalue "

@@ -26,6 +26,7 @@ from ..units import METADATA_KEY as UNITS_KEY
 from ..units import recorded_units
 from .backend import FEBackend
 from .basis import PAPER_COMBINATIONS, Basis, DualModeOptions, dual_basis, linear_basis
+from .condensation import identify_stiffness_condensed
 from .damping import (
     DampingIdentification,
     DecompositionOptions,
@@ -40,7 +41,34 @@ from .stiffness import (
 )
 
 DAMPING_METHODS = ("decomposition", "exact")
-STIFFNESS_METHODS = ("tangent", "step")
+
+
+def _tangent(be, Phi, amps, opt, material, progress):
+    stiff, plan, _, Kmat = identify_stiffness_tangent(
+        be, Phi, amps, symmetric_pairs=opt.symmetric_pairs, material=material,
+        progress=progress("tangents"))
+    return stiff, plan, Kmat
+
+
+def _step(be, Phi, amps, opt, material, progress):
+    stiff, plan, _ = identify_stiffness_step(be, Phi, amps, progress=progress("forces"))
+    return stiff, plan, None
+
+
+def _condensed(be, Phi, amps, opt, material, progress):
+    stiff, data = identify_stiffness_condensed(be, Phi, amps, levels=opt.levels,
+                                               progress=progress("static solves"))
+    return stiff, data, None
+
+
+#: stiffness identification methods, each (backend, Φ, amplitudes, options, material,
+#: progress-of-stage) -> (StiffnessIdentification, plan with ``points``, material tangents)
+STIFFNESS = {"tangent": _tangent, "step": _step, "condensed": _condensed}
+STIFFNESS_METHODS = tuple(STIFFNESS)
+#: the identification amplitude of each method when none is given (fraction of the span): a
+#: Taylor point for the tangent and STEP plans, the largest load level (the envelope) for the
+#: condensation
+DEFAULT_AMPLITUDE = {"tangent": 0.01, "step": 0.01, "condensed": 0.3}
 
 
 @dataclass
@@ -49,9 +77,12 @@ class IdentifyOptions:
 
     n_linear, n_dual: basis size (DIGEST Sec. 6: 9 and 12 for Goland "9L12D");
     damping: "decomposition" (paper) or "exact" (material tangent; backend must provide it);
-    stiffness: "tangent" (Eqs. 37–41) or "step" (enforced displacements, forces only);
+    stiffness: "tangent" (Eqs. 37–41), "step" (enforced displacements, forces only) or
+    "condensed" (applied modal loads solved by the FE, :mod:`.condensation`; no dual modes);
     amplitude: identification amplitude, largest translation of each basis function as a
-    fraction of the backend's reference length (span);
+    fraction of the backend's reference length (span); for "condensed" that of the largest
+    load level's linear response; None: :data:`DEFAULT_AMPLITUDE` of the method;
+    levels: the condensation's load levels per direction (equal steps up to the amplitude);
     symmetric_pairs: impose ±(a_j e_j + a_l e_l) for Eq. 41 (cancels the quadratic term exactly);
     dual, decomposition: options of the dual modes and of the optimum decomposition.
     """
@@ -60,7 +91,8 @@ class IdentifyOptions:
     n_dual: int = 12
     damping: str = "decomposition"
     stiffness: str = "tangent"
-    amplitude: float = 0.01
+    amplitude: float | None = None
+    levels: int = 3
     symmetric_pairs: bool = True
     dual: DualModeOptions = field(default_factory=DualModeOptions)
     decomposition: DecompositionOptions = field(default_factory=DecompositionOptions)
@@ -74,12 +106,27 @@ class IdentifyOptions:
         if self.n_linear < 1 or self.n_dual < 0:
             raise InputError(f"basis: need n_linear >= 1 and n_dual >= 0, got {self.n_linear}, "
                              f"{self.n_dual}")
-        if self.damping == "exact" and self.stiffness == "step":
+        if self.damping == "exact" and self.stiffness != "tangent":
             raise InputError("damping 'exact' needs the tangent plan (stiffness 'tangent')")
-        amp = real("amplitude", self.amplitude, positive=True)
+        if self.stiffness == "condensed" and self.n_dual:
+            raise InputError(f"stiffness 'condensed': the FE's own static solves relax the "
+                             f"in-plane motion, so the ROM takes no dual modes; got n_dual = "
+                             f"{self.n_dual}: use --dual 0")
+        if isinstance(self.levels, bool) or not isinstance(self.levels, (int, np.integer)) \
+                or self.levels < 1:
+            raise InputError(f"levels: expected a positive whole number of load levels, got "
+                             f"{self.levels!r}")
+        amp = real("amplitude", self.resolved_amplitude, positive=True)
         if amp > MAX_AMPLITUDE:
             raise InputError(f"amplitude: expected a fraction of the span in (0, "
                              f"{MAX_AMPLITUDE:g}] (the paper identifies at 0.01), got {amp:g}")
+
+
+    @property
+    def resolved_amplitude(self) -> float:
+        """``amplitude``, or the method's default when it is None."""
+        return DEFAULT_AMPLITUDE.get(self.stiffness, 0.01) if self.amplitude is None \
+            else self.amplitude
 
 
 #: largest identification amplitude, a fraction of the span: a basis function displaced by more
@@ -228,17 +275,15 @@ def identify_each_damping(fe, options: IdentifyOptions, methods, progress=None
     # a free structure's rigid-body modes (the first basis.n_rigid columns) take no part in the
     # nonlinear fit: their K1 row is zero and they enter no K2/K3/D term (see _embed_rigid)
     r = basis.n_rigid
+    if r and opt.stiffness == "condensed":
+        raise InputError(f"{be.name}: stiffness 'condensed' solves the structure under applied "
+                         f"loads, but it is free ({r} rigid-body modes); restrain it (SPC) or "
+                         "use --stiffness tangent with dual modes")
     Phi = basis.Phi[:, r:]
-    amps = identification_amplitudes(Phi, opt.amplitude, be.reference_length,
+    amps = identification_amplitudes(Phi, opt.resolved_amplitude, be.reference_length,
                                      be.translational_dofs)
     t1 = time.perf_counter()
-    Kmat = None
-    if opt.stiffness == "tangent":
-        stiff, plan, _, Kmat = identify_stiffness_tangent(
-            be, Phi, amps, symmetric_pairs=opt.symmetric_pairs, material=exact,
-            progress=stage("tangents"))
-    else:
-        stiff, plan, _ = identify_stiffness_step(be, Phi, amps, progress=stage("forces"))
+    stiff, plan, Kmat = STIFFNESS[opt.stiffness](be, Phi, amps, opt, exact, stage)
     timings["stiffness"] = time.perf_counter() - t1
     out = {}
     for method in methods:
@@ -310,9 +355,11 @@ def assemble_rom(be: FEBackend, basis: Basis, stiff: StiffnessIdentification,
                   "dual_snapshots_failed": sum(r.get("status") == "failed"
                                                for r in basis.snapshots),
                   "pod_spectrum": basis.pod_values[: basis.n + 5].tolist()},
-        "identification": {"stiffness_method": stiff.method, "amplitude": opt.amplitude,
+        "identification": {"stiffness_method": stiff.method,
+                           "amplitude": opt.resolved_amplitude,
                            "modal_amplitudes": np.asarray(amplitudes).tolist(),
                            "symmetric_pairs": opt.symmetric_pairs,
+                           **stiff.plan_info,
                            "residuals": stiff.residuals},
         "damping": {"method": damp.method, "report": _jsonable(damp.report)},
         "linear_frequencies_hz": [float(f) for f in basis.frequencies_hz if np.isfinite(f)],

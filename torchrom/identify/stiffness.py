@@ -159,7 +159,8 @@ class StiffnessIdentification:
       (K2_muj vs K2_mju) and of K3 (over its last three indices) — 0 for a cubic FE;
     - ``K2_full`` / ``K3_full``: departure from symmetry in all indices (a potential force has
       fully symmetric K2, K3);
-    - ``K1_tangent_vs_linear``: projected tangent at u = 0 vs projected linear stiffness.
+    - ``K1_tangent_vs_linear``: projected tangent at u = 0 vs projected linear stiffness;
+    - ``condensation_fit``: the least-squares misfit of the condensation (:mod:`.condensation`).
     """
 
     K1: np.ndarray
@@ -169,6 +170,9 @@ class StiffnessIdentification:
     amplitudes: np.ndarray
     residuals: dict[str, float]
     n_evaluations: int
+    #: what the plan did beyond the fit, for the ROM's metadata (e.g. the condensation's load
+    #: levels and failed solves)
+    plan_info: dict = field(default_factory=dict)
 
     def combined(self) -> dict[str, np.ndarray]:
         """The paper's combined K̃2, K̃3 (Eqs. 25–26) as dense arrays."""

@@ -1,0 +1,176 @@
+"""Implicit condensation: the cubic stiffness of a ROM on the linear modes alone, whose in-plane
+(membrane) motion the FE relaxes in its own nonlinear static solves.
+
+**Method** (Hollkamp & Gordon, JSV 2008, "implicit condensation"; the applied-force variant of
+Muravyov & Rizzi's STEP). Modal loads F = K Φ p, with p on the STEP directions (±a_j e_j, the
+four sign pairs ±a_j e_j ± a_l e_l, ±(a_j e_j + a_k e_k + a_l e_l)) at the load levels
+s = 1/L, 2/L, …, 1, are solved by the full nonlinear FE, each direction continued from its last
+level. Each solution u gives the modal coordinates q = (ΦᵀMΦ)⁻¹ ΦᵀM u, and the load's modal
+force is Φᵀ F = K1 p, so
+
+    K1 (p − q) = K̃2(q, q) + K̃3(q, q, q)                                     (Eqs. 25–26)
+
+is fitted, row by row, by least squares on the distinct monomials of q over all solves.
+
+**Why.** A thin wing bends almost inextensionally: its membrane DOFs follow the bending as a
+nearly exact quadratic companion. On an explicit basis (linear + dual modes) the cubic force of a
+bending coordinate is then hundreds of times its linear part and is cancelled by the dual
+coordinates' terms (the Pazy spar, L/t = 244: 700 times at 2 % of the span), so a
+non-cubic term of the FE (co-rotational kinematics) of 4e-4 relative breaks the balance and the
+ROM locks. Here the FE does the cancellation; what is fitted is the softening that remains, over
+the range of the load levels rather than at a Taylor point — the levels' largest amplitude sets
+the ROM's validity envelope.
+
+What it gives up: the ROM's coordinates are the linear modes only (no dual modes), the in-plane
+displacements are not among the outputs (the outputs are Φ q), the in-plane inertia is left out
+(the in-plane modes lie far above the bending ones), and a static solve needs a restrained
+structure. Written by hand: no library implements the condensation over an FE backend.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+import torch
+
+from ..errors import ConvergenceError, InputError
+from ..rom import conventions as cv
+from ..rom.monomials import monomial_index
+from .stiffness import StepPlan, StiffnessIdentification, _full_sym, _rel_spread
+
+
+@dataclass(frozen=True)
+class CondensationPlan:
+    """Applied modal loads p (the linear response Φ p) of the condensation: the STEP directions
+    (:class:`~torchrom.identify.stiffness.StepPlan`) at ``levels`` equal fractions of the
+    ``amplitudes`` a_j, the largest last. ``points`` (D × levels, n), direction-major."""
+
+    amplitudes: np.ndarray
+    levels: int = 3
+    directions: np.ndarray = field(init=False, repr=False)
+    points: np.ndarray = field(init=False, repr=False)
+
+    def __post_init__(self):
+        if int(self.levels) < 1:
+            raise InputError(f"condensation levels: expected a positive count, got {self.levels}")
+        a = np.asarray(self.amplitudes, dtype=float)
+        d = StepPlan(a).points
+        s = np.arange(1, int(self.levels) + 1) / int(self.levels)
+        object.__setattr__(self, "amplitudes", a)
+        object.__setattr__(self, "levels", int(self.levels))
+        object.__setattr__(self, "directions", d)
+        object.__setattr__(self, "points", (d[:, None, :] * s[None, :, None]).reshape(-1, a.size))
+
+
+def equal_force_amplitudes(Phi: np.ndarray, K1: np.ndarray, first: float) -> np.ndarray:
+    """Modal amplitudes a_j = first · k_1 / k_j (k_j = K1_jj): every mode loaded by the modal
+    force that takes the first mode to ``first`` — not each to the same deflection, which would
+    bend a higher mode (its curvature ~ (ω_j/ω_1) times the first's at the same deflection)
+    far beyond the range the wing's loads reach, and into rotations a cubic cannot fit."""
+    k = np.diag(np.asarray(K1, dtype=float))
+    if np.any(k <= 0):
+        raise InputError("condensation: every mode needs a positive modal stiffness (a free "
+                         "structure's rigid-body modes cannot be loaded statically)")
+    return first * k[0] / k
+
+
+def monomials(q: np.ndarray) -> np.ndarray:
+    """The distinct quadratic and cubic monomials of each row of ``q`` (P, n): (P, N2 + N3), in
+    the order of the combined coefficients (:mod:`torchrom.rom.monomials`)."""
+    q = np.atleast_2d(q)
+    idx = monomial_index(q.shape[1])
+    m2 = q[:, idx.pairs[:, 0]] * q[:, idx.pairs[:, 1]]
+    m3 = m2[:, idx.triple_pair] * q[:, idx.triples[:, 2]]
+    return np.concatenate([m2, m3], axis=1)
+
+
+def stiffness_from_condensation(p: np.ndarray, q: np.ndarray, K1: np.ndarray,
+                                amplitudes: np.ndarray) -> StiffnessIdentification:
+    """K2, K3 (symmetric storage) fitted to K1 (p − q) = K̃2(q,q) + K̃3(q,q,q) over the solves.
+
+    Args:
+        p: (P, n) applied modal loads (linear responses); q: (P, n) the FE's modal coordinates;
+        K1: (n, n) linear modal stiffness; amplitudes: (n,) the plan's a_j (scales the fit).
+    ``residuals["condensation_fit"]``: ‖fit − data‖ / ‖data‖ over all rows and solves (0 when
+    the condensed force is a cubic polynomial of q)."""
+    p, q, a = np.atleast_2d(p), np.atleast_2d(q), np.asarray(amplitudes, dtype=float)
+    n = q.shape[1]
+    idx = monomial_index(n)
+    g = (p - q) @ np.asarray(K1).T
+    # scaled coordinates q/a keep the monomial columns of one size (conditioning of the fit)
+    A = monomials(q / a)
+    scale = monomials(a[None, :])[0]
+    rank = np.linalg.matrix_rank(A)
+    if rank < A.shape[1]:
+        raise InputError(f"condensation: the {len(q)} converged static solves determine only "
+                         f"{rank} of the {A.shape[1]} cubic-polynomial coefficients of {n} "
+                         "modes; use a smaller --amplitude (the largest load level) so that "
+                         "more solves converge")
+    C, *_ = np.linalg.lstsq(A, g, rcond=None)
+    fit = float(np.linalg.norm(A @ C - g) / max(np.linalg.norm(g), np.finfo(float).tiny))
+    C = (C / scale[:, None]).T                       # (n, N2 + N3) in the unscaled q
+    K2c, K3c = C[:, :idx.n_pairs], C[:, idx.n_pairs:]
+    sym = cv.symmetric_from_compact(torch.as_tensor(K2c), torch.as_tensor(K3c))
+    K2, K3 = sym["K2"].numpy(), sym["K3"].numpy()
+    res = {"condensation_fit": fit, "K2_full": _rel_spread(K2, _full_sym(K2)),
+           "K3_full": _rel_spread(K3, _full_sym(K3))}
+    K1 = np.asarray(K1, dtype=float)
+    return StiffnessIdentification(0.5 * (K1 + K1.T), K2, K3, "condensed", a, res, len(q))
+
+
+@dataclass
+class CondensationData:
+    """What the condensation's solves gave: the applied loads ``p`` and the FE's modal
+    coordinates ``q`` of the converged solves (P, n), and the loads whose solve failed."""
+
+    p: np.ndarray
+    q: np.ndarray
+    failed: list[np.ndarray]
+
+    @property
+    def points(self) -> np.ndarray:
+        return self.p
+
+
+def identify_stiffness_condensed(backend, Phi: np.ndarray, amplitudes: np.ndarray, *,
+                                 levels: int = 3, progress=None
+                                 ) -> tuple[StiffnessIdentification, CondensationData]:
+    """Run the condensation plan on a (restrained) backend; ``progress(done, total)`` after
+    each static solve. A direction whose solve fails keeps its lower levels (the failed loads
+    are in the returned data); the fit then refuses if the rest no longer determines it."""
+    from .backend import project
+
+    K = backend.stiffness_matrix()
+    K1 = project(K, Phi)
+    plan = CondensationPlan(equal_force_amplitudes(Phi, K1, float(amplitudes[0])), levels)
+    M = backend.mass_matrix()
+    MPhi = np.asarray(M @ Phi)
+    gram = Phi.T @ MPhi
+    L = plan.levels
+    total = len(plan.points)
+    P, Q, failed = [], [], []
+    done = 0
+    for d in range(len(plan.directions)):
+        u = None
+        for k in range(L):
+            p = plan.points[d * L + k]
+            try:
+                u = backend.static_solve(np.asarray(K @ (Phi @ p)).ravel(), u0=u).u
+            except ConvergenceError:
+                failed.extend(plan.points[d * L + k:(d + 1) * L])
+                done += L - k
+                break
+            P.append(p)
+            Q.append(np.linalg.solve(gram, MPhi.T @ u))
+            done += 1
+            if progress is not None:
+                progress(done, total)
+        if failed and progress is not None:
+            progress(done, total)
+    data = CondensationData(np.array(P).reshape(-1, Phi.shape[1]),
+                            np.array(Q).reshape(-1, Phi.shape[1]), failed)
+    stiff = stiffness_from_condensation(data.p, data.q, K1, plan.amplitudes)
+    stiff.plan_info = {"levels": plan.levels, "static_solves": len(data.q),
+                       "failed_solves": len(failed)}
+    return stiff, data
