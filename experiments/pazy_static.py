@@ -11,6 +11,7 @@ read; the load of mass m is F(m) = F_w + m F_1 (F_w the self-weight, F_1 = 9.81 
 mass is the start of the next (one Newton load step per mass, halved if it fails).
 
     PYTHONPATH=$PWD python experiments/pazy_static.py [--masses 0.25,1,3.5] [--rom L,D]
+        [--stiffness condensed] [--amplitude 0.3] [--levels 3]
         [--combinations 1:1] [--amplitudes 8] [--tip-range 0.01,0.25] [--fe-from JSON]
         [--out experiments/results/pazy_static.json] [--figure docs/guide/pazy_static.png]
 
@@ -153,23 +154,27 @@ class RomSweep:
     envelope_pct: float = 0.0  # rom_envelope
 
 
-def rom_sweep(fe, masses, *, n_linear: int, n_dual: int, combinations, n_amplitudes: int,
-              tip_range, progress=print) -> RomSweep:
-    """Identify the ROM of ``fe`` (:func:`torchrom.identify.build.identify`: tangent
-    stiffness; the damping by decomposition, which the static curve does not use and which
-    needs no material tangents) and solve its static tip-mass sweep: the load Φᵀ F(m), the
-    tip displacement from u = Φ q, the self-weight solution subtracted."""
+def rom_sweep(fe, masses, *, n_linear: int, n_dual: int = 0, combinations=(),
+              n_amplitudes: int = 8, tip_range=(0.01, 0.25), stiffness: str = "condensed",
+              amplitude: float | None = None, levels: int = 3, progress=print) -> RomSweep:
+    """Identify the ROM of ``fe`` (:func:`torchrom.identify.build.identify`: ``stiffness``
+    "condensed" (linear modes only) or "tangent" (with ``n_dual`` dual modes of the
+    ``combinations``); the damping by decomposition, which the static curve does not use) and
+    solve its static tip-mass sweep: the load Φᵀ F(m), the tip displacement from u = Φ q, the
+    self-weight solution subtracted."""
     from torchrom.identify.basis import DualModeOptions
     from torchrom.identify.build import IdentifyOptions, identify
     from torchrom.identify.validate import rom_static_solve
 
     opt = IdentifyOptions(n_linear=n_linear, n_dual=n_dual, damping="decomposition",
+                          stiffness=stiffness, amplitude=amplitude, levels=levels,
                           dual=DualModeOptions(combinations=combinations,
                                                n_amplitudes=n_amplitudes, tip_range=tip_range))
     t0 = time.perf_counter()
     res = identify(fe, opt)
     seconds = time.perf_counter() - t0
-    progress(f"identify: {n_linear} linear + {n_dual} dual modes in {seconds:.0f} s")
+    progress(f"identify ({stiffness}): {n_linear} linear + {n_dual} dual modes in "
+             f"{seconds:.0f} s")
     Phi = res.basis.Phi
     F_w = fe.load_vector(1)
     F_1 = fe.nodal_load({(MASS_GRID, 3): -GRAVITY})
@@ -216,7 +221,14 @@ def main(argv=None) -> int:
     p.add_argument("--out", type=Path, default=None, help="JSON of the measured sweep")
     p.add_argument("--figure", type=Path, default=None, help="PNG of the sweep")
     p.add_argument("--rom", default=None, metavar="L,D",
-                   help="also identify a ROM of L linear and D dual modes and sweep it")
+                   help="also identify a ROM of L linear and D dual modes and sweep it (D = 0 "
+                        "with --stiffness condensed, e.g. 2,0)")
+    p.add_argument("--stiffness", default="condensed", choices=("condensed", "tangent", "step"),
+                   help="the ROM's stiffness identification (default condensed)")
+    p.add_argument("--amplitude", type=float, default=None,
+                   help="identification amplitude, fraction of the span (default: the "
+                        "method's, 0.3 for condensed)")
+    p.add_argument("--levels", type=int, default=3, help="condensation load levels")
     p.add_argument("--combinations", default="1:1,1:2", help="dual-mode load pairs J:L,...")
     p.add_argument("--amplitudes", type=int, default=8, help="loads per combination")
     p.add_argument("--tip-range", default="0.01,0.25",
@@ -255,7 +267,8 @@ def main(argv=None) -> int:
         pairs = [tuple(int(x) for x in c.split(":")) for c in args.combinations.split(",")]
         lo, hi = (float(x) for x in args.tip_range.split(","))
         rom = rom_sweep(fe, masses, n_linear=n_lin, n_dual=n_dual, combinations=pairs,
-                        n_amplitudes=args.amplitudes, tip_range=(lo, hi))
+                        n_amplitudes=args.amplitudes, tip_range=(lo, hi),
+                        stiffness=args.stiffness, amplitude=args.amplitude, levels=args.levels)
         print("| mass kg | torchrom FE NL % | ROM % | ROM - FE (% of FE) |")
         for m, a, b in zip(masses, res.nonlinear, rom.tip_pct):
             rel = "" if a == 0 else f"{100 * (b - a) / abs(a):+.2f}"
@@ -275,6 +288,7 @@ def main(argv=None) -> int:
             "semispan_m": PAZY_SEMISPAN, "tip_arm_m": PAZY_TIP_ARM,
             "rom": None if rom is None else {
                 "n_linear": rom.n_linear, "n_dual": rom.n_dual, "tip_pct": rom.tip_pct.tolist(),
+                "stiffness": args.stiffness, "amplitude": args.amplitude, "levels": args.levels,
                 "identify_seconds": rom.identify_seconds, "combinations": args.combinations,
                 "amplitudes": args.amplitudes, "tip_range": args.tip_range,
                 "envelope_pct_semispan": rom.envelope_pct}}, indent=1))

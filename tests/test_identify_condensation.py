@@ -73,9 +73,26 @@ def test_condensed_stiffness_equals_the_closed_form_condensation():
         expected = Phi.T @ _condensed_force(Phi @ q)
         nonlinear = expected - st.K1 @ q
         assert np.abs(_rom_force(st, q) - expected).max() <= 1e-7 * np.abs(nonlinear).max()
-    assert st.plan_info == {"levels": 3, "static_solves": 3 * (2 * 2 + 4), "failed_solves": 0}
+    assert st.plan_info == {"levels": 3, "nonlinear_modes": 2, "static_solves": 3 * (2 * 2 + 4),
+                            "failed_solves": 0}
     assert res.rom.metadata["identification"]["stiffness_method"] == "condensed"
     assert res.rom.metadata["identification"]["amplitude"] == 0.3
+
+
+def test_nonlinear_modes_load_only_the_first_modes():
+    """``nonlinear_modes = 1``: only mode 1 is loaded (2 directions × 3 levels); the ROM's
+    nonlinear terms are those of q1 alone — the closed form's b q1² and k3 q1³ in row 1 — and
+    every term with q2 is zero."""
+    res = identify(_backend(), IdentifyOptions(n_linear=2, n_dual=0, stiffness="condensed",
+                                               amplitude=0.3, nonlinear_modes=1))
+    st = res.stiffness
+    assert st.plan_info["static_solves"] == 6
+    s = np.sign(res.basis.Phi[0, 0])              # the sign the mode shape was given
+    assert st.K2[0, 0, 0] == pytest.approx(s * B2, rel=1e-7)
+    assert st.K3[0, 0, 0, 0] == pytest.approx(K3C, rel=1e-7)
+    assert np.abs(st.K2[:, 1]).max() == np.abs(st.K2[:, :, 1]).max() == 0.0
+    assert np.abs(st.K3[:, 1]).max() == np.abs(st.K3[:, :, :, 1]).max() == 0.0
+    assert np.abs(st.K2[1]).max() < 1e-8 and np.abs(st.K3[1]).max() < 1e-8
 
 
 def test_the_tangent_plan_on_the_same_basis_locks():
@@ -135,10 +152,12 @@ def test_failed_solves_keep_the_lower_levels_and_are_counted():
     (dict(n_dual=0, damping="exact"), "tangent plan"),
     (dict(n_dual=0, levels=0), "levels"),
     (dict(n_dual=0, amplitude=0.9), "amplitude"),
+    (dict(n_dual=0, nonlinear_modes=3), "nonlinear_modes"),
+    (dict(n_dual=0, stiffness="tangent", nonlinear_modes=1), "stiffness 'condensed'"),
 ])
 def test_bad_condensation_options_are_refused(opts, match):
     with pytest.raises(InputError, match=match):
-        IdentifyOptions(n_linear=2, stiffness="condensed", **opts).validate()
+        IdentifyOptions(**{"n_linear": 2, "stiffness": "condensed", **opts}).validate()
 
 
 def test_condensed_shell_strip_follows_the_elastica_where_the_tangent_rom_locks():

@@ -2,6 +2,7 @@
 
     torchrom identify MODEL.bdf --linear 9 --dual 12 --damping decomposition|exact --out rom.npz
                       [--stiffness tangent|step|condensed] [--amplitude A] [--levels 3]
+                      [--nonlinear-modes K]
                       [--report DIR] [--json FILE] [--force]
 
 Reads the deck with the built-in FE, computes the linear and dual modes, identifies the stiffness
@@ -69,6 +70,10 @@ def add_arguments(parser) -> None:
     parser.add_argument("--levels", type=positive_int, default=3,
                         help="load levels per direction of --stiffness condensed, in equal "
                              "steps up to --amplitude (default 3)")
+    parser.add_argument("--nonlinear-modes", type=positive_int, default=None, metavar="K",
+                        help="with --stiffness condensed: load only the first K linear modes "
+                             "(default all); the ROM's nonlinear terms are those of their "
+                             "coordinates, the plan's static solves grow as K cubed")
     parser.add_argument("--out", type=Path, required=True, metavar="ROM.npz",
                         help="ROM file to write, e.g. rom.npz")
     parser.add_argument("--report", type=Path, metavar="DIR",
@@ -132,7 +137,7 @@ def run(args) -> int:
     # bad option combinations before the deck is read and its modes computed
     IdentifyOptions(n_linear=args.linear, n_dual=args.dual, damping=args.damping,
                     stiffness=args.stiffness, amplitude=args.amplitude,
-                    levels=args.levels).validate()
+                    levels=args.levels, nonlinear_modes=args.nonlinear_modes).validate()
     if args.combinations != "transverse":
         parse_combinations(args.combinations)  # bad input before the work
     extra_points = dict(parse_named_point(o) for o in args.output)
@@ -162,7 +167,8 @@ def run(args) -> int:
           f"outputs {sorted(backend.outputs)}")
     opt = IdentifyOptions(n_linear=args.linear, n_dual=args.dual, damping=args.damping,
                           stiffness=args.stiffness, amplitude=args.amplitude,
-                          levels=args.levels, dual=DualModeOptions(combinations=combinations))
+                          levels=args.levels, nonlinear_modes=args.nonlinear_modes,
+                          dual=DualModeOptions(combinations=combinations))
     info(f"identifying {args.linear}L{args.dual}D ROM: stiffness {args.stiffness}, damping "
           f"{args.damping}")
     res = identify(backend, opt, progress=_Progress())

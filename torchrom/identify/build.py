@@ -57,6 +57,7 @@ def _step(be, Phi, amps, opt, material, progress):
 
 def _condensed(be, Phi, amps, opt, material, progress):
     stiff, data = identify_stiffness_condensed(be, Phi, amps, levels=opt.levels,
+                                               n_nonlinear=opt.nonlinear_modes,
                                                progress=progress("static solves"))
     return stiff, data, None
 
@@ -83,6 +84,8 @@ class IdentifyOptions:
     fraction of the backend's reference length (span); for "condensed" that of the largest
     load level's linear response; None: :data:`DEFAULT_AMPLITUDE` of the method;
     levels: the condensation's load levels per direction (equal steps up to the amplitude);
+    nonlinear_modes: the condensation loads only the first this many elastic modes (None: all);
+    the ROM's nonlinear terms are theirs (the plan grows as its cube);
     symmetric_pairs: impose ±(a_j e_j + a_l e_l) for Eq. 41 (cancels the quadratic term exactly);
     dual, decomposition: options of the dual modes and of the optimum decomposition.
     """
@@ -93,6 +96,7 @@ class IdentifyOptions:
     stiffness: str = "tangent"
     amplitude: float | None = None
     levels: int = 3
+    nonlinear_modes: int | None = None
     symmetric_pairs: bool = True
     dual: DualModeOptions = field(default_factory=DualModeOptions)
     decomposition: DecompositionOptions = field(default_factory=DecompositionOptions)
@@ -116,6 +120,15 @@ class IdentifyOptions:
                 or self.levels < 1:
             raise InputError(f"levels: expected a positive whole number of load levels, got "
                              f"{self.levels!r}")
+        if self.nonlinear_modes is not None:
+            k = self.nonlinear_modes
+            if self.stiffness != "condensed":
+                raise InputError(f"nonlinear_modes (--nonlinear-modes) is an option of stiffness "
+                                 f"'condensed', not of {self.stiffness!r}")
+            if isinstance(k, bool) or not isinstance(k, (int, np.integer)) or not \
+                    1 <= k <= self.n_linear:
+                raise InputError(f"nonlinear_modes (--nonlinear-modes): expected a whole number "
+                                 f"from 1 to the {self.n_linear} linear modes, got {k!r}")
         amp = real("amplitude", self.resolved_amplitude, positive=True)
         if amp > MAX_AMPLITUDE:
             raise InputError(f"amplitude: expected a fraction of the span in (0, "

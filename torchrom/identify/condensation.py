@@ -85,32 +85,47 @@ def monomials(q: np.ndarray) -> np.ndarray:
     return np.concatenate([m2, m3], axis=1)
 
 
+def _embed_monomials(C: np.ndarray, k: int, n: int) -> tuple[np.ndarray, np.ndarray]:
+    """Combined coefficients (rows, N2 + N3 of the first ``k`` coordinates) as those of all
+    ``n`` coordinates (K̃2 (rows, N2(n)), K̃3 (rows, N3(n))), zero where a coordinate > k
+    enters."""
+    sub, full = monomial_index(k), monomial_index(n)
+    K2c = np.zeros((C.shape[0], full.n_pairs))
+    K2c[:, full.pair_id[sub.pairs[:, 0], sub.pairs[:, 1]]] = C[:, :sub.n_pairs]
+    where = {tuple(t): i for i, t in enumerate(full.triples.tolist())}
+    K3c = np.zeros((C.shape[0], full.n_triples))
+    K3c[:, [where[tuple(t)] for t in sub.triples.tolist()]] = C[:, sub.n_pairs:]
+    return K2c, K3c
+
+
 def stiffness_from_condensation(p: np.ndarray, q: np.ndarray, K1: np.ndarray,
-                                amplitudes: np.ndarray) -> StiffnessIdentification:
+                                amplitudes: np.ndarray, n_nonlinear: int | None = None
+                                ) -> StiffnessIdentification:
     """K2, K3 (symmetric storage) fitted to K1 (p − q) = K̃2(q,q) + K̃3(q,q,q) over the solves.
 
     Args:
         p: (P, n) applied modal loads (linear responses); q: (P, n) the FE's modal coordinates;
-        K1: (n, n) linear modal stiffness; amplitudes: (n,) the plan's a_j (scales the fit).
+        K1: (n, n) linear modal stiffness; amplitudes: (n,) the plan's a_j (scales the fit);
+        n_nonlinear: the monomials are those of the first ``n_nonlinear`` coordinates (all
+        by default); every row is fitted (the other modes' static response to them).
     ``residuals["condensation_fit"]``: ‖fit − data‖ / ‖data‖ over all rows and solves (0 when
     the condensed force is a cubic polynomial of q)."""
     p, q, a = np.atleast_2d(p), np.atleast_2d(q), np.asarray(amplitudes, dtype=float)
     n = q.shape[1]
-    idx = monomial_index(n)
+    k = n if n_nonlinear is None else int(n_nonlinear)
     g = (p - q) @ np.asarray(K1).T
     # scaled coordinates q/a keep the monomial columns of one size (conditioning of the fit)
-    A = monomials(q / a)
-    scale = monomials(a[None, :])[0]
+    A = monomials(q[:, :k] / a[:k])
+    scale = monomials(a[None, :k])[0]
     rank = np.linalg.matrix_rank(A)
     if rank < A.shape[1]:
         raise InputError(f"condensation: the {len(q)} converged static solves determine only "
-                         f"{rank} of the {A.shape[1]} cubic-polynomial coefficients of {n} "
+                         f"{rank} of the {A.shape[1]} cubic-polynomial coefficients of {k} "
                          "modes; use a smaller --amplitude (the largest load level) so that "
                          "more solves converge")
     C, *_ = np.linalg.lstsq(A, g, rcond=None)
     fit = float(np.linalg.norm(A @ C - g) / max(np.linalg.norm(g), np.finfo(float).tiny))
-    C = (C / scale[:, None]).T                       # (n, N2 + N3) in the unscaled q
-    K2c, K3c = C[:, :idx.n_pairs], C[:, idx.n_pairs:]
+    K2c, K3c = _embed_monomials((C / scale[:, None]).T, k, n)   # in the unscaled q
     sym = cv.symmetric_from_compact(torch.as_tensor(K2c), torch.as_tensor(K3c))
     K2, K3 = sym["K2"].numpy(), sym["K3"].numpy()
     res = {"condensation_fit": fit, "K2_full": _rel_spread(K2, _full_sym(K2)),
@@ -134,16 +149,22 @@ class CondensationData:
 
 
 def identify_stiffness_condensed(backend, Phi: np.ndarray, amplitudes: np.ndarray, *,
-                                 levels: int = 3, progress=None
+                                 levels: int = 3, n_nonlinear: int | None = None,
+                                 progress=None
                                  ) -> tuple[StiffnessIdentification, CondensationData]:
     """Run the condensation plan on a (restrained) backend; ``progress(done, total)`` after
     each static solve. A direction whose solve fails keeps its lower levels (the failed loads
-    are in the returned data); the fit then refuses if the rest no longer determines it."""
+    are in the returned data); the fit then refuses if the rest no longer determines it.
+    ``n_nonlinear``: load only the first modes (all by default): the ROM's nonlinear terms are
+    those of their coordinates, the others' response to them included (O(k³) solves)."""
     from .backend import project
 
     K = backend.stiffness_matrix()
     K1 = project(K, Phi)
-    plan = CondensationPlan(equal_force_amplitudes(Phi, K1, float(amplitudes[0])), levels)
+    n = Phi.shape[1]
+    k = n if n_nonlinear is None else int(n_nonlinear)
+    a = equal_force_amplitudes(Phi, K1, float(amplitudes[0]))
+    plan = CondensationPlan(a[:k], levels)
     M = backend.mass_matrix()
     MPhi = np.asarray(M @ Phi)
     gram = Phi.T @ MPhi
@@ -153,13 +174,14 @@ def identify_stiffness_condensed(backend, Phi: np.ndarray, amplitudes: np.ndarra
     done = 0
     for d in range(len(plan.directions)):
         u = None
-        for k in range(L):
-            p = plan.points[d * L + k]
+        for lev in range(L):
+            p = np.zeros(n)
+            p[:k] = plan.points[d * L + lev]
             try:
                 u = backend.static_solve(np.asarray(K @ (Phi @ p)).ravel(), u0=u).u
             except ConvergenceError:
-                failed.extend(plan.points[d * L + k:(d + 1) * L])
-                done += L - k
+                failed.extend(plan.points[d * L + lev:(d + 1) * L])
+                done += L - lev
                 break
             P.append(p)
             Q.append(np.linalg.solve(gram, MPhi.T @ u))
@@ -170,7 +192,7 @@ def identify_stiffness_condensed(backend, Phi: np.ndarray, amplitudes: np.ndarra
             progress(done, total)
     data = CondensationData(np.array(P).reshape(-1, Phi.shape[1]),
                             np.array(Q).reshape(-1, Phi.shape[1]), failed)
-    stiff = stiffness_from_condensation(data.p, data.q, K1, plan.amplitudes)
-    stiff.plan_info = {"levels": plan.levels, "static_solves": len(data.q),
-                       "failed_solves": len(failed)}
+    stiff = stiffness_from_condensation(data.p, data.q, K1, a, n_nonlinear=k)
+    stiff.plan_info = {"levels": plan.levels, "nonlinear_modes": k,
+                       "static_solves": len(data.q), "failed_solves": len(failed)}
     return stiff, data
