@@ -184,14 +184,16 @@ def run(args) -> int:
           f"{s['fe_force_evaluations']} forces")
     print("  time: " + ", ".join(f"{k} {v:.1f} s" for k, v in res.timings.items()))
     resid = dict(res.stiffness.residuals)
-    fit = resid.pop("condensation_fit", None)
-    if fit is not None:
-        info_ = res.stiffness.plan_info
-        print(f"  condensation: {info_['static_solves']} static solves converged, "
-              f"{info_['failed_solves']} failed; least-squares misfit {fit:.1e} (the condensed "
-              "force's departure from a cubic over the load levels)")
-    worst = max(resid.values())
-    print(f"  largest identification residual {worst:.1e} (rounding level for a cubic FE)")
+    if res.stiffness.method == "condensed":
+        plan = res.stiffness.plan_info
+        print(f"  condensation: {plan['static_solves']} static solves converged, "
+              f"{plan['failed_solves']} failed; misfit {resid['condensation_fit']:.1e} (the "
+              f"condensed force's departure from a cubic over the load levels), asymmetry "
+              f"{resid['condensation_asymmetry']:.1e} before the potential's symmetry was "
+              "imposed")
+    else:
+        print(f"  largest identification residual {max(resid.values()):.1e} (rounding level "
+              "for a cubic FE)")
     if "damping_min_eig_scaled_final" in s:
         print(f"  extended damping matrix, smallest scaled eigenvalue "
               f"{s['damping_min_eig_scaled_final']:.3e}"
