@@ -83,10 +83,11 @@ def _check_against_truth(system, C, res, out) -> dict:
 def test_fourier_certificates_bound_the_ode_orbit_on_every_output():
     """HB orbits (H = 5) of four post-flutter cases, γ = 0 and 1e-4: all certified by the
     Fourier certificate (no time step, dt_error 0), each output's amplitude and the frequency
-    within their bounds of the ODE orbit; measured (07:55, this session): A_Tz bounds
-    2e-8–1.6e-6 against errors 1.7e-8–1.4e-6, A_Ty 4e-7–2.3e-5 against 3.6e-7–2.0e-5,
-    frequency 2e-12–1.7e-9 against 2e-12–1.6e-9: the bounds are tight (within a factor 2.1),
-    so an error in the bound's construction would show."""
+    within their bounds of the ODE orbit; measured (amplitude bounds through the corrected
+    orbit, :meth:`~torchrom.periodic.fourier_certificate.FourierBound.amplitude_error`): A_Tz
+    bounds 2.0e-8–1.6e-6 against errors 1.7e-8–1.4e-6, A_Ty 4.2e-7–2.0e-5 against
+    3.6e-7–2.0e-5, frequency 2.3e-12–1.7e-9 against 2.3e-12–1.6e-9: the bounds are tight
+    (within a factor 2.2), so an error in the bound's construction would show."""
     system, C, res = _setup((6000.0, 8000.0), (0.0, 1e-4))
     out = certify(system, res, C, 0, Certificate(), 1e-3)
     assert list(out.extra["certificate"]) == ["fourier"] * 4
@@ -138,12 +139,14 @@ def test_a_truncated_tail_fails_or_is_bounded():
 
 def test_a_refused_orbit_raised_to_more_harmonics_is_fourier_certified():
     """The orbits cut to their first harmonic, γ = 0 and 1e-4 at 6,000 ft, refused at H = 1
-    (tol 1e-4; as above), with ``max_harmonics`` = 7: re-solved at H = 3 (still refused:
-    orbit_error 2e-4 and 4e-5 by shooting), then at 7, where the Fourier certificate takes
-    both; every output's amplitude, the frequency and the stability (recomputed at H = 7)
-    within the certificate's statements of the DOP853 orbit. Measured: A_Tz errors 4.3e-9 and
-    8.5e-9 against output_error 2.2e-7 and 2.0e-7, frequency 2.6e-12 against 2.6e-12 (γ = 0),
-    critical multiplier 0.9972 against the ODE's 0.9960 (γ = 0) and 0.378 against 0.368."""
+    (tol 1e-4; as above), with ``max_harmonics`` = 7: re-solved at H = 3, where the Fourier
+    certificate takes the γ = 1e-4 row (its amplitude bound through the corrected orbit:
+    A_Tz 5.5e-5 off the DOP853 orbit, within tol; A_Ty 1.8e-4 against output_error 1.8e-3,
+    frequency 2.5e-5 against 5.1e-5), then the γ = 0 row at 7 (A_Tz 4.3e-9 and A_Ty 9.3e-9
+    against output_error 2.2e-7, frequency 2.6e-12 against 2.6e-12); every output's amplitude,
+    the frequency and the stability (recomputed at the new H) within the certificate's
+    statements of the DOP853 orbit; critical multiplier 0.9972 against the ODE's 0.9960
+    (γ = 0) and 0.377 against 0.368."""
     system, C, res = _setup((6000.0,), (0.0, 1e-4))
     X, w = res.orbits
     cut = resize_harmonics(resize_harmonics(torch.as_tensor(X), 1), (X.shape[1] - 1) // 2)
@@ -157,7 +160,7 @@ def test_a_refused_orbit_raised_to_more_harmonics_is_fourier_certified():
     assert list(without.extra["certificate"]) == ["shooting"] * 2
     out = certify(system, bad, C, 0, dataclasses.replace(cert, max_harmonics=7), 1e-3)
     assert list(out.extra["certificate"]) == ["fourier"] * 2
-    assert list(out.extra["harmonics"]) == [7, 7]
+    assert list(out.extra["harmonics"]) == [7, 3]
     assert list(out.status) == ["lco"] * 2
     # the references start from the raised orbits (those the rows now report)
     refs = _check_against_truth(system, C, out, out)
