@@ -50,7 +50,9 @@ the amplitude the first chord step moves, not the sup of δ₀: the tail harmoni
 the sup-distance far more than the amplitude. The smaller of the two bounds is the row's
 (:meth:`FourierBound.amplitude_error`). Measured on the ``bench_lco --quick`` orbits: the
 10,000 ft, γ = 0 row (H = 7, κ = 0.07) had the sup bound 1.04e-3 on A_Tz (refused at tol
-1e-3) and now 4.2e-4 (certified) against an error of 7e-5 from the shooting reference; the
+1e-3) and now 4.2e-4, within tol, against an error of 7e-5 from the shooting reference (the
+row still takes the shooting certificate: its harmonic-balance Floquet verdict is unresolved,
+trivial multiplier 0.08 off, :mod:`.certify`); the
 γ = 1e-3 rows' bounds are 1.4–2.4 times tighter on A_Tz and 2.5–4.1 on A_Tx.
 
 Why the γ = 0 Goland rows at 4,000–8,500 ft stay refused (measured on the H = 9 and the
