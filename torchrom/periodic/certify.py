@@ -168,11 +168,12 @@ def fourier_rows(system: CaseSystem, result: SimulationResult, idx: np.ndarray,
                   C: np.ndarray, decision: int, tol: float, cols: dict) -> np.ndarray:
     """Which of the harmonic-balance rows ``idx`` the Fourier certificate certifies
     (:mod:`.fourier_certificate`; their columns filled in ``cols``): the chord steps contract
-    (κ ≤ 1/2), the decision output's amplitude and the frequency are within ``tol`` of the
-    continuous-time orbit's, and the method's Floquet verdict (the continuous-time
-    monodromy of :mod:`.floquet`) is known with its margin |1 − |μ|| above the monodromy's
-    own accuracy (its trivial multiplier's error). The row's critical multiplier and margin
-    include the dual coordinates the monodromy condensed
+    (κ ≤ 1/4), the decision output's amplitude (the smaller of the sup-distance bound and the
+    corrected orbit's, :meth:`~.fourier_certificate.FourierBound.amplitude_error`) and the
+    frequency are within ``tol`` of the continuous-time orbit's, and the method's Floquet
+    verdict (the continuous-time monodromy of :mod:`.floquet`) is known with its margin
+    |1 − |μ|| above the monodromy's own accuracy (its trivial multiplier's error). The row's
+    critical multiplier and margin include the dual coordinates the monodromy condensed
     (:func:`~.floquet.condensed_multiplier`)."""
     ok = np.zeros(idx.size, dtype=bool)
     extra = result.extra
@@ -195,7 +196,7 @@ def fourier_rows(system: CaseSystem, result: SimulationResult, idx: np.ndarray,
                               C[decision], C)
         a = np.abs(np.asarray(result.amplitude, dtype=float)[rows])
         with np.errstate(divide="ignore", invalid="ignore"):
-            rel = np.where(a > 0, bound.output_error / a, np.nan)
+            rel = np.where(a > 0, bound.amplitude_error(a) / a, np.nan)
         good = bound.converged & (rel[:, decision] <= tol) & (bound.frequency_error <= tol)
         ok[j] = good
         g = rows[good]
