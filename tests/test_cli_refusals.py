@@ -45,6 +45,14 @@ CONFIGS = {
                        '[model]\nrom = "../deck.bdf"\n'), "[model] rom"),
     "ROM is an aero file": ((CONFIG[CONFIG.index("[model]"):CONFIG.index("[initial]")],
                              '[model]\nrom = "../aero.npz"\n'), "[model] rom"),
+    "rigid-body support without aero": (
+        (CONFIG[CONFIG.index("[model]"):CONFIG.index("[initial]")],
+         '[model]\nrom = "../rom.npz"\nrigid_body_support_hz = 0.05\n'),
+        "[model] rigid_body_support_hz: needs a model with aerodynamics"),
+    "rigid-body support zero": (
+        (CONFIG[CONFIG.index("[model]"):CONFIG.index("[initial]")],
+         '[model]\nrom = "../rom.npz"\naero = "../aero.npz"\nrigid_body_support_hz = 0\n'),
+        "rigid_body_support_hz: expected a positive number"),
     "missing t_end": (("t_end = 4.0\n", ""), "t_end"),
     "not toml": (("[model]", "[model"), "TOML"),
     "dt > t_end": (("dt = 0.01", "dt = 5.0"), "dt"),

@@ -56,3 +56,54 @@ def test_flight_conditions_in_the_models_units(tmp_path):
     V_ft, rho_ft, _ = flight_conditions(ft, cases[1:])
     assert V_ft[0] * FT == pytest.approx(V[1], rel=1e-12)
     assert rho_ft[0] * ft.units.density_si == pytest.approx(rho[1], rel=1e-12)
+
+
+def _free_files(folder, kappa=2.0e-3):
+    """A free 'aircraft' of two mass-normalised modes: a rigid one (0 Hz) whose only
+    aerodynamics is a negative steady stiffness, Q = [[-kappa, 0], [0, 0]] at every k (a
+    statically unstable pitch), and an elastic 5 Hz mode without aerodynamics."""
+    from torchrom.aero.dlm import GAF
+    from torchrom.aero.rfa import RFA
+
+    folder.mkdir(parents=True, exist_ok=True)
+    w = 2 * np.pi * 5.0
+    NonlinearROM(np.eye(2), np.diag([0.0, w * w]), frequencies_hz=[0.0, 5.0],
+                 metadata={"unit_system": "si"}).save(folder / "rom.npz")
+    a0 = np.diag([-kappa, 0.0])
+    k = np.array([0.0, 0.1, 1.0])
+    gaf = GAF(0.2, 1.0, k, np.repeat(a0[None], len(k), axis=0).astype(complex))
+    z = np.zeros((2, 2))
+    rfa = RFA(a0, z, z, np.zeros((2, 1)), -np.eye(1), np.zeros((1, 2)), np.ones(1),
+              "minimum-state", 1.0, 0.2)
+    save_aero(AeroData(gaf, rfa, {"unit_system": "si"}), folder / "aero.npz")
+    return ModelSpec(folder / "c.toml", rom=folder / "rom.npz", aero=folder / "aero.npz")
+
+
+def test_rigid_body_support_and_growth_against_closed_forms(tmp_path):
+    """K1 += ω_s² M on the 0 Hz coordinate only: the supported ROM's linear frequencies are
+    (f_s, 5 Hz) exactly; the largest real root of the state space is the closed form
+    s = sqrt(q κ - ω_s²) of m s² + (ω_s² - q κ) = 0 (free: sqrt(q κ)), to round-off."""
+    from torchrom.study.models import with_rigid_body_support
+
+    spec = _free_files(tmp_path)
+    free = build_model(spec)
+    assert free.free and free.rigid_body_support_hz is None
+    q = 0.5 * 1.225 * 100.0**2
+    assert free.rigid_body_growth(100.0, 1.225, 0.0, 0.0) == pytest.approx(
+        np.sqrt(q * 2.0e-3), rel=1e-10)
+    held = build_model(ModelSpec(spec.source, rom=spec.rom, aero=spec.aero,
+                                 rigid_body_support_hz=0.5))
+    assert held.rigid_body_support_hz == 0.5
+    np.testing.assert_allclose(held.rom.linear_frequencies_hz(), [0.5, 5.0], rtol=1e-12)
+    np.testing.assert_array_equal(held.rom.frequencies_hz, [0.0, 5.0])  # the GAFs' modes
+    assert held.rom.metadata["rigid_body_support_hz"] == 0.5
+    ws = 2 * np.pi * 0.5
+    assert held.rigid_body_growth(100.0, 1.225, 0.0, 0.0) == pytest.approx(
+        np.sqrt(q * 2.0e-3 - ws**2), rel=1e-10)
+    rom = NonlinearROM.load(spec.rom)
+    with pytest.raises(InputError, match=r"rigid_body_support_hz: expected a frequency between "
+                                         r"0 and 1\.667 Hz"):
+        with_rigid_body_support(rom, 2.0, 2)
+    clamped = rom.replace(K1=np.diag([1.0, 4.0]), frequencies_hz=[0.159, 0.318])
+    with pytest.raises(InputError, match="no rigid-body"):
+        with_rigid_body_support(clamped, 0.01, 2)

@@ -26,9 +26,10 @@ from .flutter import (
     ModalStructure,
     flutter_altitude_pk,
     flutter_altitude_state_space,
+    rigid_body_modes,
 )
 from .panels import GOLAND_CHORD_FT, GOLAND_SEMISPAN_FT, AeroPanels, goland_panels, goland_reference
-from .rfa import fit_minimum_state, fit_roger
+from .rfa import fit_minimum_state, fit_roger, impose_quasi_steady_slope, quasi_steady_slope
 from .splines import PlateSpline, SectionSpline
 
 #: reduced frequencies (k = ω b / V) of the Goland GAF table; the paper's flutter point has
@@ -211,7 +212,7 @@ def build_from_modes(
     b = goland_reference().semichord if semichord is None else float(semichord)
     motion = planform_box_motion(modes, panels, spline=spline)
     gaf = compute_gaf(panels, motion, mach, k_list, b, kernel, progress=progress)
-    rfa = _fit(gaf, n_lags, rfa_kind, optimize_roots)
+    rfa = _fit(gaf, n_lags, rfa_kind, optimize_roots, modes.frequencies_hz)
     meta = {
         "frequencies_hz": modes.frequencies_hz.tolist(),
         "n_boxes": int(panels.n),
@@ -274,7 +275,7 @@ def build_from_deck(
     gaf = compute_gaf(
         deck.aero_panels, motion, mach, k_list, deck.reference.semichord, kernel, progress=progress
     )
-    rfa = _fit(gaf, n_lags, rfa_kind, False)
+    rfa = _fit(gaf, n_lags, rfa_kind, False, modes.frequencies_hz)
     meta = {
         "frequencies_hz": modes.frequencies_hz.tolist(),
         "n_boxes": int(deck.aero_panels.n),
@@ -297,19 +298,29 @@ RELATIVE_WEIGHT_FLOOR = 1e-2
 RFA_WEIGHTING = "point"
 
 
-def _fit(gaf, n_lags, rfa_kind, optimize_roots):
+def _fit(gaf, n_lags, rfa_kind, optimize_roots, frequencies_hz):
+    """The RFA of ``gaf``; a free structure's rigid-body columns (0 Hz modes) then take the
+    table's quasi-steady slope (:func:`~torchrom.aero.rfa.impose_quasi_steady_slope`: the
+    fit alone splits the free aircraft's double root s = 0 into a spurious divergence)."""
+    floor = 1.0
     if rfa_kind == "minimum-state":
         floor = RELATIVE_WEIGHT_FLOOR * float(np.abs(gaf.Q).max())
-        return fit_minimum_state(
+        rfa = fit_minimum_state(
             gaf,
             n_lags=n_lags,
             optimize_roots=optimize_roots,
             weight_floor=floor,
             weighting=RFA_WEIGHTING,
         )
-    if rfa_kind == "roger":
-        return fit_roger(gaf, n_lags=n_lags)
-    raise InputError(f"aero: rfa: expected 'minimum-state' or 'roger', got {rfa_kind!r}")
+    elif rfa_kind == "roger":
+        rfa = fit_roger(gaf, n_lags=n_lags)
+    else:
+        raise InputError(f"aero: rfa: expected 'minimum-state' or 'roger', got {rfa_kind!r}")
+    rigid = rigid_body_modes(frequencies_hz)
+    if len(rigid) == gaf.n_modes and rigid.any() and not rigid.all():
+        rfa = impose_quasi_steady_slope(rfa, gaf, rigid, floor)
+        rfa.fit_error["rigid_slope_k"] = quasi_steady_slope(gaf)[1]
+    return rfa
 
 
 def flutter_altitude(

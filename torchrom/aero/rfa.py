@@ -82,6 +82,54 @@ class RFA:
         return out
 
 
+def quasi_steady_slope(gaf: GAF) -> tuple[np.ndarray, float]:
+    """(dQ/dp at p = 0 from the table, the k it is taken at): Im Q(ik_d) / k_d at the lowest
+    positive tabulated k_d. Q(ik) = Q0 + ik Q1 - k² Q2 - ik³ Q3 ..., so the real matrix
+    Im Q(ik_d) / k_d = Q1 - k_d² Q3: its error is O(k_d²) (1e-6 relative at bah_plane's
+    MKAERO k = 0.001)."""
+    positive = np.flatnonzero(gaf.k > 0)
+    if len(positive) == 0:
+        raise InputError("RFA: the reduced-frequency list has no k > 0 (no quasi-steady slope)")
+    i = positive[np.argmin(gaf.k[positive])]
+    return gaf.Q[i].imag / gaf.k[i], float(gaf.k[i])
+
+
+def slope_at_zero(rfa: RFA) -> np.ndarray:
+    """dQ̃/dp at p = 0 of the RFA: A1 - D R⁻¹ E (the lag term D (pI - R)⁻¹ E p adds -D R⁻¹ E)."""
+    if rfa.n_states == 0:
+        return rfa.A1.copy()
+    return rfa.A1 - rfa.D @ np.linalg.solve(rfa.R, rfa.E)
+
+
+def impose_quasi_steady_slope(rfa: RFA, gaf: GAF, columns, weight_floor: float = 1.0) -> RFA:
+    """The RFA with the k -> 0 slope dQ̃/dp(0) of the given mode columns j set to the table's
+    (:func:`quasi_steady_slope`); Q̃(0) = A0 is already exact. Each column's missing slope
+    Δ_j is added as one lag state at the root γ0 = k_d, the lowest positive tabulated k:
+    Δ_j γ0 p / (p + γ0) has the slope Δ_j at p = 0 and stays below |Δ_j| γ0 at every k (a
+    correction of A1 instead, Δ_j p, grows with k: 20 % of Q at k = 1 on bah_plane). Its
+    ``fit_error`` is recomputed (entry weights with ``weight_floor``, as the fit's report).
+
+    Why: a free aircraft's rigid-body columns obey a kinematic identity at k -> 0: the plunge
+    velocity's force equals the steady pitch's (dQ_h/dp(0) = c Q_θ(0); a climb at constant
+    speed is force-free), which makes the altitude and the flight-path angle an exact double
+    root s = 0. The least-squares fit keeps it only to its fit error (bah_plane: 6e-4 relative),
+    and the double root splits into a spurious real root (+0.011 1/s at 300 m/s)."""
+    cols = np.flatnonzero(np.asarray(columns, dtype=bool))
+    if len(cols) == 0:
+        return rfa
+    target, k_d = quasi_steady_slope(gaf)
+    delta = (target - slope_at_zero(rfa))[:, cols]  # (m, r)
+    r, m = len(cols), rfa.n_modes
+    select = np.zeros((r, m))
+    select[np.arange(r), cols] = 1.0
+    roots = np.concatenate([rfa.lag_roots, np.full(r, k_d)])
+    out = RFA(rfa.A0, rfa.A1, rfa.A2, np.hstack([rfa.D, k_d * delta]),
+              scipy.linalg.block_diag(rfa.R, -k_d * np.eye(r)), np.vstack([rfa.E, select]),
+              roots, rfa.kind, rfa.semichord, rfa.mach)
+    out.fit_error = fit_error(gaf.Q, out.evaluate(gaf.k), _weights(gaf.Q, weight_floor))
+    return out
+
+
 def _weights(q: np.ndarray, floor: float) -> np.ndarray:
     return 1.0 / np.maximum(np.abs(q).max(axis=0), floor)
 

@@ -172,6 +172,9 @@ def run(args: argparse.Namespace) -> int:
         f"worst entry {err['max_entry_relative']:.3e} "
         f"at Q{tuple(i + 1 for i in err['worst_entry'])}"
     )
+    if "rigid_slope_k" in err:
+        print(f"  RFA: the rigid-body modes' columns take the DLM's quasi-steady slope "
+              f"Im Q / k at k = {err['rigid_slope_k']:g} (a free aircraft's double root s = 0)")
     data.save(args.out, force=args.force)
     print(f"wrote {args.out}")
     maybe_write_json(

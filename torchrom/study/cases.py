@@ -155,6 +155,10 @@ def flutter_speed_lines(model, cases: Sequence[Mapping[str, Any]]) -> list[str]:
         return []
     _, rho, _ = flight_conditions(model, tunnel)
     lines, u = [], model.units
+    if model.rigid_body_support_hz is not None:
+        lines.append(f"rigid-body modes on a soft support at {model.rigid_body_support_hz:g} Hz "
+                     f"([model] rigid_body_support_hz; column rigid_body_support_hz): the "
+                     f"aircraft is not free in plunge and pitch")
     for density in list(dict.fromkeys(float(r) for r in rho))[:MAX_FLUTTER_DENSITIES]:
         fs = model.flutter_speed(density)
         where = f"flutter speed at {density:.6g} {u.density} (baseline damping)"
@@ -212,6 +216,11 @@ def case_system(model, cases: list[dict[str, Any]], device=None, dtype=torch.flo
     extra = [{**cond, "alpha": a, "gamma": g, "stiffness_nl": s, "damping_nl": d,
               "alpha_matched": m}
              for cond, a, g, s, d, m in zip(ae.conditions(), alpha, gamma, s_nl, d_nl, matched)]
+    if model.free:  # a free aircraft: its rigid-body divergence rate, and any support
+        for row, v, r, a, g in zip(extra, V, rho, alpha, gamma):
+            row["rigid_body_growth"] = model.rigid_body_growth(float(v), float(r), a, g)
+            if model.rigid_body_support_hz is not None:  # the table says it was not free
+                row["rigid_body_support_hz"] = model.rigid_body_support_hz
     return ae.system, extra
 
 

@@ -220,7 +220,8 @@ def parse_model(model: dict[str, Any], source: Path,
                          cache=goland_cache_folder(model, source),
                          aeroelastic=_aeroelastic_options(aeroelastic, source))
     if "rom" in model:
-        _check_keys(model, ("rom", "aero", "span", "units"), source, where)
+        _check_keys(model, ("rom", "aero", "span", "units", "rigid_body_support_hz"), source,
+                    where)
         rom = _relative(model["rom"], source)
         expect_file_kind(rom, "rom", f"{source}: [model] rom")
         aero = None
@@ -238,8 +239,15 @@ def parse_model(model: dict[str, Any], source: Path,
                 raise _err(source, f"{where} units", f"expected one of {', '.join(SYSTEMS)}, "
                            f"got {units!r}") from None
         span = _positive(model, "span", source, where) if "span" in model else None
+        support = None
+        if "rigid_body_support_hz" in model:
+            if aero is None:
+                raise _err(source, f"{where} rigid_body_support_hz", "needs a model with "
+                           "aerodynamics ([model] aero = 'aero.npz')")
+            support = _positive(model, "rigid_body_support_hz", source, where)
         return ModelSpec(source, rom=rom, aero=aero, span=span, units=units,
-                         aeroelastic=_aeroelastic_options(aeroelastic, source) if aero else {})
+                         aeroelastic=_aeroelastic_options(aeroelastic, source) if aero else {},
+                         rigid_body_support_hz=support)
     if name not in BUILTIN:
         raise _err(source, f"{where} builtin", f"expected one of "
                    f"{sorted([*BUILTIN, *provider_names()])}, "

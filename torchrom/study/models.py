@@ -34,6 +34,8 @@ from ..aero.flutter import (
     ModalStructure,
     alpha_for_gammas,
     flutter_altitude_state_space,
+    rigid_body_modes,
+    state_space_matrix,
 )
 from ..aero.flutter_speed import FlutterSpeed, flutter_speed_at_density
 from ..errors import ConvergenceError, InputError
@@ -72,6 +74,8 @@ class AeroelasticModel:
         units: the unit system of the ROM and the aerodynamics (None: what their files record,
             which must agree, :func:`torchrom.units.file_units`). Altitudes of this class are
             in ft whatever the system (``*_ft``); speeds, densities and lengths in the system's.
+        rigid_body_support_hz: the frequency (Hz) of the soft support the ROM's rigid-body
+            coordinates were put on (:func:`with_rigid_body_support`; None: free or none).
     """
 
     rom: NonlinearROM
@@ -82,6 +86,7 @@ class AeroelasticModel:
     altitude_range_ft: tuple[float, float] = ALTITUDE_RANGE_FT
     span: float | None = None
     units: UnitSystem | None = None
+    rigid_body_support_hz: float | None = None
     _flutter: MatchedPointResult | None = field(default=None, init=False, repr=False)
     _alpha: dict = field(default_factory=dict, init=False, repr=False)
 
@@ -114,6 +119,24 @@ class AeroelasticModel:
     def structure(self, alpha: float = 0.0, gamma: float = 0.0) -> ModalStructure:
         """Linear structure (M, K1, D̄1) on the m aerodynamic modes with damping α, γ."""
         return ModalStructure.from_rom(self.rom, self.aero.n_modes, alpha, gamma)
+
+    @property
+    def free(self) -> bool:
+        """Whether the aerodynamic modes include rigid-body (0 Hz) modes: a free aircraft."""
+        f = np.nan_to_num(np.asarray(self.rom.frequencies_hz[: self.aero.n_modes], dtype=float))
+        rigid = rigid_body_modes(f)
+        return bool(rigid.any() and not rigid.all())
+
+    def rigid_body_growth(self, velocity: float, density: float, alpha: float,
+                          gamma: float) -> float:
+        """The largest real root (1/s) of the linear state space (Eqs. 49–50) at one speed,
+        density and damping: a free (or soft-supported) aircraft's rigid-body divergence where
+        positive (its elastic roots are oscillatory). A periodic orbit about that state has
+        the Floquet multiplier exp(root T) in that direction, to first order."""
+        a = state_space_matrix(self.structure(alpha, gamma), self.aero.rfa, velocity, density)
+        s = np.linalg.eigvals(a)
+        real = s[np.abs(s.imag) <= 1e-9 * max(float(np.abs(s).max()), 1.0)].real
+        return float(real.max()) if len(real) else float("nan")
 
     def baseline_flutter(self) -> MatchedPointResult:
         """Flutter point of the baseline damping (state space, Eqs. 49–50), computed once."""
@@ -236,6 +259,8 @@ class ModelSpec:
         cache: a provider's cache folder.
         aeroelastic: :class:`AeroelasticModel` keyword arguments (``[aeroelastic]``).
         units: ``[model] units``: the unit system of ROM and aero files that record none.
+        rigid_body_support_hz: ``[model] rigid_body_support_hz``: a free ROM's rigid-body
+            coordinates on a soft support of this frequency (:func:`with_rigid_body_support`).
     """
 
     source: Path
@@ -247,6 +272,7 @@ class ModelSpec:
     cache: Path | None = None
     aeroelastic: dict[str, Any] = field(default_factory=dict)
     units: str | None = None
+    rigid_body_support_hz: float | None = None
 
     @property
     def provided(self) -> bool:
@@ -281,7 +307,11 @@ def build_model(spec: ModelSpec):
         try:
             units, _ = file_units({spec.rom.name: rom.metadata, spec.aero.name: aero.metadata},
                                   spec.units)
-            return AeroelasticModel(rom, aero, units=units, **spec.aeroelastic)
+            if spec.rigid_body_support_hz is not None:
+                rom = with_rigid_body_support(rom, spec.rigid_body_support_hz, aero.n_modes)
+            return AeroelasticModel(rom, aero, units=units,
+                                    rigid_body_support_hz=spec.rigid_body_support_hz,
+                                    **spec.aeroelastic)
         except InputError as exc:
             raise InputError(f"{where}: {exc}") from None
     from ..rom.analytic import BUILTIN
@@ -292,6 +322,49 @@ def build_model(spec: ModelSpec):
         raise InputError(f"{where} ({spec.builtin}): {exc}") from None
     except (TypeError, ValueError) as exc:
         raise InputError(f"{where} ({spec.builtin}): bad value ({exc})") from None
+
+
+#: a soft support's frequency must stay below this fraction of the lowest elastic frequency
+#: (the wind-tunnel rule for a free-flying model's suspension: rigid-body frequencies well below
+#: the elastic ones, so that the elastic dynamics are those of the free aircraft)
+SUPPORT_FRACTION = 1 / 3
+
+
+def with_rigid_body_support(rom: NonlinearROM, frequency_hz: float, n_aero: int
+                            ) -> NonlinearROM:
+    """The ROM with its rigid-body coordinates (the 0 Hz modes among the first ``n_aero``,
+    :func:`~torchrom.aero.flutter.rigid_body_modes`) on a soft support: K1 += ω_s² M on
+    them, ω_s = 2π ``frequency_hz``, as a free-flying wind-tunnel model hangs on its soft
+    suspension. A mass-orthonormal rigid pair (plunge, pitch about the CG) gets the same ω_s in
+    any combination; the elastic coordinates, the nonlinear terms, the damping (D1) and
+    ``frequencies_hz`` (the free modes the GAFs were computed on) are untouched.
+
+    Why: a free aircraft's altitude is an exact double root s = 0 (a climb at constant speed
+    is force-free), which leaves a periodic orbit's mean plunge undetermined (harmonic balance
+    does not converge); a support far below the elastic frequencies fixes it and moves the
+    flutter point little (bah_plane at 0.05 Hz: 393.90 -> 393.93 m/s). It takes the free climb
+    away, though: the supported aircraft's pitch stability is its static margin, which a
+    flexible aircraft can lose before its free (manoeuvre) stability (docs/guide/bah.md).
+    InputError where the ROM has no rigid-body coordinate or the support is not below
+    :data:`SUPPORT_FRACTION` of the lowest elastic frequency."""
+    f = np.asarray(rom.frequencies_hz[:n_aero], dtype=float)
+    rigid = rigid_body_modes(np.nan_to_num(f))
+    where = "rigid_body_support_hz"
+    if not rigid.any() or rigid.all():
+        raise InputError(f"{where}: the ROM has no rigid-body (0 Hz) basis function to support "
+                         f"(frequencies {', '.join(f'{x:.4g}' for x in f)} Hz); leave it out")
+    lowest = float(f[~rigid].min())
+    if not (np.isfinite(frequency_hz) and 0 < frequency_hz < SUPPORT_FRACTION * lowest):
+        raise InputError(f"{where}: expected a frequency between 0 and "
+                         f"{SUPPORT_FRACTION * lowest:.4g} Hz ({SUPPORT_FRACTION:.2g} of the "
+                         f"lowest elastic mode, {lowest:.4g} Hz), got {frequency_hz!r}")
+    idx = np.flatnonzero(rigid)
+    K1 = rom.K1.numpy().copy()
+    w2 = (2 * np.pi * float(frequency_hz)) ** 2
+    K1[np.ix_(idx, idx)] += w2 * rom.M.numpy()[np.ix_(idx, idx)]
+    # frequencies_hz stay the free basis functions' (those the GAFs were computed on)
+    meta = {**rom.metadata, "rigid_body_support_hz": float(frequency_hz)}
+    return rom.replace(K1=K1, metadata=meta)
 
 
 def model_rom(model) -> NonlinearROM:
