@@ -153,6 +153,14 @@ class RomSweep:
     summary: dict
     envelope_pct: float = 0.0  # rom_envelope
 
+    @property
+    def label(self) -> str:
+        """The figure's legend: the basis and the stiffness identification."""
+        if self.summary.get("stiffness_method") == "condensed":
+            return (f"torchrom ROM ({self.n_linear} modes, condensed to "
+                    f"{100 * self.summary['amplitude']:g} % of the span)")
+        return f"torchrom ROM ({self.n_linear} linear + {self.n_dual} dual modes)"
+
 
 def rom_sweep(fe, masses, *, n_linear: int, n_dual: int = 0, combinations=(),
               n_amplitudes: int = 8, tip_range=(0.01, 0.25), stiffness: str = "condensed",
@@ -184,7 +192,7 @@ def rom_sweep(fe, masses, *, n_linear: int, n_dual: int = 0, combinations=(),
         q = rom_static_solve(res.rom, Phi.T @ (F_w + m * F_1), q)
         out.append(tip_percent(fe, Phi @ q, Phi @ q_w))
     return RomSweep(np.asarray(masses, float), np.array(out), n_linear, n_dual, seconds,
-                    res.summary())
+                    {**res.summary(), "amplitude": opt.resolved_amplitude})
 
 
 def figure(masses, res: SweepResult, nl_ref, lin_ref, path: Path, rom=None) -> None:
@@ -203,7 +211,7 @@ def figure(masses, res: SweepResult, nl_ref, lin_ref, path: Path, rom=None) -> N
     ax.plot(masses, -res.linear, "--", color="C1", label="torchrom FE, linear")
     if rom is not None:
         ax.plot(rom.masses, -rom.tip_pct, ":", color="C2", marker=".",
-                label=f"torchrom ROM ({rom.n_linear} linear + {rom.n_dual} dual modes)")
+                label=rom.label)
     ax.set_xlabel("tip mass (kg)")
     ax.set_ylabel("tip deflection, downward (% of semispan)")
     ax.set_title("Pazy wing (no skin, rigid tip): static bending under gravity")
@@ -288,7 +296,8 @@ def main(argv=None) -> int:
             "semispan_m": PAZY_SEMISPAN, "tip_arm_m": PAZY_TIP_ARM,
             "rom": None if rom is None else {
                 "n_linear": rom.n_linear, "n_dual": rom.n_dual, "tip_pct": rom.tip_pct.tolist(),
-                "stiffness": args.stiffness, "amplitude": args.amplitude, "levels": args.levels,
+                "stiffness": args.stiffness, "amplitude": rom.summary["amplitude"],
+                "levels": args.levels,
                 "identify_seconds": rom.identify_seconds, "combinations": args.combinations,
                 "amplitudes": args.amplitudes, "tip_range": args.tip_range,
                 "envelope_pct_semispan": rom.envelope_pct}}, indent=1))
