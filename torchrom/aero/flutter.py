@@ -762,6 +762,13 @@ def in_vacuo_modes(structure: ModalStructure) -> tuple[np.ndarray, np.ndarray]:
     return np.sqrt(np.abs(w2)) / (2 * np.pi), phi
 
 
+def modal_energy(structure: ModalStructure, phi: np.ndarray, q: np.ndarray) -> np.ndarray:
+    """|η|² with η = Φᵀ M q: the M-weighted share of each in-vacuo mode (rows, the columns of
+    ``phi`` from :func:`in_vacuo_modes`) in each root's structural shape (the columns of
+    ``q``, m × n, or a stack of them, … × m × n)."""
+    return np.abs(phi.T @ (structure.M @ q)) ** 2
+
+
 def oscillatory_roots(structure: ModalStructure, rfa: RFA, velocity: float, density: float,
                       min_frequency_hz: float = 1e-3) -> OscillatoryRoots:
     """The state-space roots with Im s > 2π ``min_frequency_hz``, the rigid-body ones apart
@@ -778,9 +785,8 @@ def oscillatory_roots(structure: ModalStructure, rfa: RFA, velocity: float, dens
     s, x = np.linalg.eig(a)
     keep = s.imag > 2 * np.pi * min_frequency_hz
     s, q = s[keep], x[: structure.n_modes, keep]
-    eta = np.abs(phi.T @ (structure.M @ q)) ** 2
-    share = eta[rigid].sum(axis=0) / eta.sum(axis=0)
-    is_rigid = share > RIGID_SHARE
+    eta = modal_energy(structure, phi, q)
+    is_rigid = eta[rigid].sum(axis=0) / eta.sum(axis=0) > RIGID_SHARE
     mode = np.flatnonzero(rigid)[np.argmax(eta[rigid][:, is_rigid], axis=0)] if is_rigid.any() \
         else none
     return OscillatoryRoots(s[~is_rigid], s[is_rigid], mode)
@@ -1018,7 +1024,12 @@ def alpha_for_gammas(
     growth rate is bracketed and refined by the Illinois rule (a regula falsi that halves the
     retained end's value when the same end is kept twice: superlinear, never leaves the
     bracket) to |Δα| ≤ ``xtol`` (1/s). A γ whose iteration does not settle falls back to
-    :func:`alpha_for_gamma`."""
+    :func:`alpha_for_gamma`.
+
+    The growth rate is that of the flexible structure's roots only, as in
+    :func:`alpha_for_gamma` (:func:`oscillatory_roots`): on a free structure the roots whose
+    shape is more than :data:`RIGID_SHARE` (M-weighted) in the 0 Hz modes are rigid-body roots
+    and never set α (a rigid root that grows would otherwise pick the α that stabilises it)."""
     g = np.asarray(gammas, dtype=float).reshape(-1)
     physical_values("gamma", g, "matched alpha:")
     if g.size == 0:
@@ -1031,10 +1042,19 @@ def alpha_for_gammas(
     a0 = matrix(0.0, 0.0)
     a_alpha, a_gamma = matrix(1.0, 0.0) - a0, matrix(0.0, 1.0) - a0
     min_imag = 2 * np.pi * 1e-3
+    f, phi = in_vacuo_modes(structure)
+    rigid = rigid_body_modes(f)
+    m = structure.n_modes
 
     def growth(alpha, gam):
-        s = np.linalg.eigvals(a0 + alpha[:, None, None] * a_alpha + gam[:, None, None] * a_gamma)
-        return np.where(s.imag > min_imag, s.real, -np.inf).max(axis=1)
+        a = a0 + alpha[:, None, None] * a_alpha + gam[:, None, None] * a_gamma
+        if not rigid.any():  # a restrained structure: no eigenvectors needed
+            s = np.linalg.eigvals(a)
+            return np.where(s.imag > min_imag, s.real, -np.inf).max(axis=1)
+        s, x = np.linalg.eig(a)
+        eta = modal_energy(structure, phi, x[:, :m, :])
+        elastic = eta[:, rigid, :].sum(axis=1) / eta.sum(axis=1) <= RIGID_SHARE
+        return np.where((s.imag > min_imag) & elastic, s.real, -np.inf).max(axis=1)
 
     lo, hi = np.full(g.size, float(bracket[0])), np.full(g.size, float(bracket[1]))
     glo, ghi = growth(lo, g), growth(hi, g)
