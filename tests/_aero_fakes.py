@@ -68,22 +68,28 @@ RIGID_ELASTIC = {"alpha": 0.1, "gamma": 0.001, "K": (0.0, 100.0), "A0": (0.05, 0
                  "A1": (-0.25, -0.35)}
 
 
-def rigid_and_elastic(mach: float):
+def rigid_and_elastic(mach: float, untouched_k: float | None = None):
     """A free aircraft in closed form: a rigid-body mode (K = 0) with an aerodynamic stiffness
     and an elastic mode (ω = 10 rad/s), uncoupled, unit masses, each with structural damping
     c and aerodynamic damping ½ ρ V b A1 < 0. Each root's damping crosses zero where
     c = ½ ρ V |A1|: the rigid root at ρV = 2·0.1/0.25 = 0.8 (lower speed, higher altitude) and
-    the elastic one at ρV = 2·0.2/0.35 = 8/7, with s = 10i exactly. Returns (ModalStructure,
-    GAF table on k = 0 and 1e-3..2, RFA with no lag states: exact for this Q)."""
+    the elastic one at ρV = 2·0.2/0.35 = 8/7, with s = 10i exactly. ``untouched_k``: a third
+    mode of that stiffness (unit mass) the aerodynamics do not touch (zero GAF row and column).
+    Returns (ModalStructure, GAF table on k = 0 and 1e-3..2, RFA with no lag states: exact for
+    this Q)."""
     from torchrom.aero.dlm import GAF
     from torchrom.aero.flutter import ModalStructure
     from torchrom.aero.rfa import RFA
 
     p = RIGID_ELASTIC
-    structure = ModalStructure(np.eye(2), np.diag(p["K"]), alpha=p["alpha"], gamma=p["gamma"])
-    a0, a1 = np.diag(p["A0"]), np.diag(p["A1"])
+    extra = () if untouched_k is None else (0.0,)
+    stiffness = p["K"] + (() if untouched_k is None else (untouched_k,))
+    n = len(stiffness)
+    structure = ModalStructure(np.eye(n), np.diag(stiffness), alpha=p["alpha"],
+                               gamma=p["gamma"])
+    a0, a1 = np.diag(p["A0"] + extra), np.diag(p["A1"] + extra)
     k = np.r_[0.0, np.geomspace(1e-3, 2.0, 40)]  # p-k's speeds reach ω b / 1e-3
     gaf = GAF(mach, 1.0, k, a0[None] + 1j * k[:, None, None] * a1[None])
-    rfa = RFA(a0, a1, np.zeros((2, 2)), np.zeros((2, 0)), np.zeros((0, 0)), np.zeros((0, 2)),
+    rfa = RFA(a0, a1, np.zeros((n, n)), np.zeros((n, 0)), np.zeros((0, 0)), np.zeros((0, n)),
               np.zeros(0), "roger", 1.0, mach)
     return structure, gaf, rfa

@@ -208,6 +208,40 @@ def test_alpha_for_gammas_equals_the_scalar_root():
     assert alpha_for_gammas(st, rfa, [], mach, 9000.0).shape == (0,)
 
 
+def test_alpha_for_gammas_of_a_free_aircraft_is_the_elastic_flutter():
+    """A free aircraft (:func:`tests._aero_fakes.rigid_and_elastic`, exact RFA) with a third
+    mode the aerodynamics do not touch (ω = 5 rad/s). With C = α M + γ K each uncoupled root's
+    growth rate is -(c - ½ ρ V b |A1|)/2, so the elastic root (ω = 10 rad/s, |A1| = 0.35) is
+    neutral at α = 0.175 ρV - 100 γ (closed form), the rigid one (K = 0, |A1| = 0.25) at
+    α = 0.125 ρV whatever γ, and the untouched one at α = -25 γ. For γ > 5e-4 ρV the rigid
+    root needs the larger α, and for γ = 2e-3 the elastic α (-0.085) lies below the untouched
+    mode's (-0.05): the α found must still be the elastic one (the rigid and the untouched
+    roots grow there, checked). Tolerance 1e-9 1/s: the root finders' xtol (1e-10) and the
+    rounding of the affine state matrix (as the test above)."""
+    from torchrom.aero.flutter import oscillatory_roots
+
+    from ._aero_fakes import rigid_and_elastic
+
+    structure, _, rfa = rigid_and_elastic(0.5, untouched_k=25.0)
+    c = flight_condition(0.5, 20000.0, "ft")
+    rho_v = float(c.density * c.velocity)
+    gammas = np.array([0.0, 1e-4, 1e-3, 2e-3])
+    elastic = 0.175 * rho_v - 100.0 * gammas
+    rigid, untouched = 0.125 * rho_v, -25.0 * gammas
+    assert np.sum(rigid > elastic + 0.01) == 2  # the rigid root would set two of the four
+    assert untouched[3] > elastic[3] + 0.03  # and the untouched one the last
+    found = alpha_for_gammas(structure, rfa, gammas, 0.5, 20000.0)
+    assert found == pytest.approx(elastic, abs=1e-9)
+    for i in (2, 3):
+        assert alpha_for_gamma(structure, rfa, gammas[i], 0.5, 20000.0) == pytest.approx(
+            elastic[i], abs=1e-9)
+    roots = oscillatory_roots(structure.with_damping(found[3], gammas[3]), rfa, c.velocity,
+                              c.density)
+    assert roots.rigid.real.max() > 0.02
+    assert np.sort(roots.elastic.real)[-2:] == pytest.approx([0.0, 0.0425 - 0.025],
+                                                            abs=1e-3)
+
+
 def test_modal_structure_from_rom_like_object():
     torch = pytest.importorskip("torch")
 

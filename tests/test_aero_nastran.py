@@ -133,6 +133,26 @@ def test_symxz_override_and_unit_labels(tmp_path, pt145_text, pt145_deck, capsys
     assert "symmetry: SYMXZ = 1: symmetric image" in out and "units: velocity in/s" in out
 
 
+def test_flfact_velocities_against_the_density_are_noted(tmp_path):
+    """bah_plane without FLUTTER 502 (FLFACT 3: 4774.3..5542.34, in/s, beside RHOREF 1.225
+    kg/m^3): the deck's flutter runs in its own numbers, as Nastran's does, labels no system
+    and says why in one note naming both cards; the deck as published (FLUTTER 502 at
+    30..450 m/s too) is labelled in m/s."""
+    from pathlib import Path
+
+    from .test_fe_deck_units import DECKS, _bah_without_flutter_502
+
+    doctored = load_deck(_bah_without_flutter_502(tmp_path))
+    assert doctored.units is None and doctored.velocity_unit == "length/s"
+    (note,) = [n for n in doctored.notes if "FLFACT" in n]
+    assert note == ("bah_plane.bdf: units: FLFACT 3 velocities 4774.3..5542.34 are in/s "
+                    "(in-lbf-s) but AERO RHOREF 1.225 says si: the results are in the deck's "
+                    "own units, labelled without a unit system")
+    published = load_deck(Path(DECKS) / "pynastran_bah_plane" / "bah_plane.bdf")
+    assert published.units == "si" and published.velocity_unit == "m/s"
+    assert not [n for n in published.notes if "FLFACT" in n]
+
+
 def test_pk_and_ke_agree_on_the_flutter_point(pt145_deck, tmp_path, pt145_text, pt145_fe):
     """KE and PK are both exact at zero damping: the same flutter point up to interpolation."""
     pk_deck = _variant(

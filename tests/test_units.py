@@ -11,6 +11,7 @@ from torchrom.units import (
     infer_units,
     recorded_units,
     resolve_units,
+    speed_system,
     unit_system,
 )
 
@@ -112,3 +113,54 @@ def test_air_density_of_a_system():
     assert is_air_density(float(atmosphere(30000.0, "si").density), si)
     assert not is_air_density(SYSTEMS["ft-slug-s"].sea_level_density, si)
     assert not is_air_density(1.225, SYSTEMS["ft-slug-s"])
+
+
+@pytest.mark.parametrize("speeds, expected", [
+    ([2000.0, 9000.0], "in-lbf-s"),  # above 1,312 ft/s and 400 m/s, below 10,000 mm/s
+    ([4774.3, -5542.34], "in-lbf-s"),  # bah_plane's FLFACT 3 (a negative V: the sign is a flag)
+    ([12.0, 25.0], "si"),  # below 32.8 ft/s
+    ([30.0, 450.0], None),  # m/s and ft/s and (450) in/s: overlaps say nothing
+    ([250.0, 4750.0], None),  # BAH Mach 0: 250 is m/s, 4750 in/s
+    ([1.0, 121.0], None),  # Pazy's tunnel sweep: 1 m/s lies in no range
+    ([147.5, 174.8], None),  # the 2-mode deck: m/s or ft/s
+    ([5000.0, 20000.0], None),  # 20,000 is no in/s of a subsonic sweep, 5,000 no mm/s
+    ([0.0], None),
+    ([], None),
+])
+def test_flutter_speeds_tell_a_system_only_outside_the_overlaps(speeds, expected):
+    """The typical sweep 10..400 m/s is ft/s 32.8..1312.3, in/s 393.7..15748, mm/s
+    10,000..400,000 (exact: 1 ft = 0.3048 m, 1 in = 0.0254 m); a list names a system only when
+    all its speeds are in that range and none in another."""
+    found = speed_system(speeds)
+    assert (found.name if found else None) == expected
+
+
+def test_flfact_velocities_break_a_tie_or_are_refused_against_the_cards():
+    """Where RHOREF tells the system, agreeing velocities join the evidence, undecided ones are
+    silent and contradicting ones are refused naming both cards; without a telling card, FLFACT
+    densities (RHOREF 1) and velocities must agree (either alone tells nothing)."""
+    found, evidence = infer_units([1.1468e-7], velocities={"FLFACT 3": [2000.0, 9000.0]})
+    assert found.name == "in-lbf-s"
+    assert evidence == ["AERO RHOREF 1.1468e-07", "FLFACT 3 velocities 2000..9000"]
+    found, evidence = infer_units([1.225], velocities={"FLFACT 3": [4774.3, 5542.34],
+                                                       "FLFACT 6": [30.0, 450.0]})
+    assert found.name == "si" and evidence == ["AERO RHOREF 1.225"]  # bah_plane: 30..5542
+    with pytest.raises(InputError, match=r"^bah.bdf: units: FLFACT 3 velocities "
+                                         r"4774.3..5542.34 are in/s \(in-lbf-s\) but AERO "
+                                         r"RHOREF 1.225 says si; correct the FLFACT or declare "
+                                         r"the deck's system with --units$"):
+        infer_units([1.225], where="bah.bdf", velocities={"FLFACT 3": [4774.3, -5542.34]})
+    with pytest.raises(InputError, match=r"FLFACT 9 velocities 12..25 are m/s \(si\) but "
+                                         r"PARAM WTMASS 0.00259 says in-lbf-s"):
+        infer_units([], [], 0.00259, velocities={"FLFACT 9": [12.0, 25.0]})
+    found, evidence = infer_units([1.0], densities={"FLFACT 1": [1.1468e-7]},
+                                  velocities={"FLFACT 3": [2000.0, 9000.0]})
+    assert found.name == "in-lbf-s"
+    assert evidence == ["FLFACT 1 densities 1.1468e-07..1.1468e-07",
+                        "FLFACT 3 velocities 2000..9000"]
+    # the 2-mode deck: densities that are SI air, velocities of m/s or ft/s: nothing told
+    assert infer_units([1.0], densities={"FLFACT 51": [0.0179, 1.5525]},
+                       velocities={"FLFACT 53": [147.5, 174.8]}) == (None, [])
+    assert infer_units(densities={"FLFACT 1": [1.225]},
+                       velocities={"FLFACT 3": [2000.0, 9000.0]}) == (None, [])
+    assert infer_units(velocities={"FLFACT 3": [2000.0, 9000.0]}) == (None, [])

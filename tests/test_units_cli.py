@@ -21,6 +21,7 @@ from torchrom.units import SYSTEMS
 from .cli_forkserver import ForkServer
 from .test_aero_flutter import _altitude_case
 from .test_bad_input import DECK
+from .test_fe_deck_units import _bah_without_flutter_502
 
 
 def _write_wing(folder, system: str, rom_units: str | None = None):
@@ -140,6 +141,16 @@ REFUSALS = {
     "deck flutter --density": (["flutter", "si.bdf", "--density", "1.2"], "--density"),
     "deck flutter --units": (["flutter", "si.bdf", "--units", "si"], "--units"),
     "goland flutter --units si": (["flutter", "goland", "--units", "si"], "--units"),
+    # bah_plane without FLUTTER 502 (tests/test_fe_deck_units.py): FLFACT 3 in in/s beside
+    # RHOREF 1.225 kg/m^3
+    "FLFACT velocities against the deck's RHOREF": (
+        ["identify", "bah_flfact/bah_plane.bdf", "--out", "OUT/rom.npz", "--linear", "2",
+         "--dual", "0"], "bah_plane.bdf: units: FLFACT 3 velocities 4774.3..5542.34 are in/s "
+                         "(in-lbf-s) but AERO RHOREF 1.225 says si"),
+    "aero: FLFACT velocities against the deck's RHOREF": (
+        ["aero", "bah_flfact/bah_plane.bdf", "--mach", "0", "--out", "OUT/aero.npz"],
+        "FLFACT 3 velocities 4774.3..5542.34 are in/s (in-lbf-s) but AERO RHOREF 1.225 says "
+        "si; correct the FLFACT or declare the deck's system with --units"),
     "sweep: ROM and aero of different systems": (
         ["sweep", "mixed.toml", "--out", "OUT"],
         "mixed.toml: [model]: rom.npz is in si but aero.npz in ft-slug-s"),
@@ -185,6 +196,8 @@ def refusal_folder(tmp_path_factory):
                                         .replace("DENSITY", density).replace("UNITS", units))
     (d / "si.bdf").write_text(SI_DECK)
     (d / "conflict.bdf").write_text(CONFLICT_DECK)
+    (d / "bah_flfact").mkdir()
+    _bah_without_flutter_502(d / "bah_flfact")
     server = ForkServer({**os.environ, "TORCHROM_CACHE": str(d / "cache")})
     yield d, server
     server.close()

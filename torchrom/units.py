@@ -26,6 +26,23 @@ How a deck's system is told (:func:`infer_units`), from the cards that carry a u
   weights in lbf): ft-slug-s or in-lbf-s.
 
 Two cards that say different systems are refused in one line (declare ``--units``).
+
+The FLUTTER cards' FLFACT lists are weaker evidence, used only to break a tie or to flag a
+clear contradiction:
+
+- velocities (PK, PKNL; |V|): a typical subsonic flutter sweep runs over
+  :data:`FLUTTER_SPEEDS` (10..400 m/s), i.e. ft/s 33..1,312, in/s 394..15,748, mm/s
+  10,000..400,000. These overlap, so the velocities (all FLUTTER cards' together) tell a
+  system only when every one lies in its range and none in another's
+  (:func:`speed_system`): 2,000..9,000 is in/s, but 30..450 (m/s or ft/s) says nothing;
+- densities: where AERO RHOREF is 1 the FLFACT densities are densities themselves; all air
+  densities of one system (:func:`is_air_density`) name it, but they may as well be a
+  nondimensional model's (pyNastran's 2-mode deck: 0.018..1.55 with V 147..175).
+
+Where a card above tells the system, velocities that tell another are refused in one line
+naming the FLFACT and that card (declare ``--units`` or correct the card); velocities that
+agree join its evidence. Where no card tells, FLFACT densities and velocities that tell the
+same system decide; either alone tells nothing.
 """
 
 from __future__ import annotations
@@ -122,11 +139,49 @@ def _close(x: float, y: float, tol: float) -> bool:
     return abs(x / y - 1.0) <= tol
 
 
+#: speeds of a typical subsonic flutter sweep (m/s: Mach 0.03..1.2 at sea level), converted
+#: to each system's length/s by :func:`speed_system`
+FLUTTER_SPEEDS = (10.0, 400.0)
+
+
+def speed_system(speeds: Sequence[float]) -> UnitSystem | None:
+    """The system whose typical flutter-sweep speeds (:data:`FLUTTER_SPEEDS` in its length/s)
+    hold every nonzero |speed| while no other system's holds any of them; None otherwise
+    (the ranges overlap: such speeds say nothing)."""
+    v = [abs(float(x)) for x in speeds if x != 0]
+
+    def held(system):
+        lo, hi = (x / system.metre for x in FLUTTER_SPEEDS)
+        return [lo <= x <= hi for x in v]
+
+    inside = [s for s in SYSTEMS.values() if v and all(held(s))]
+    touched = [s for s in SYSTEMS.values() if any(held(s))]
+    return inside[0] if inside and len(touched) == 1 else None
+
+
+def density_system(densities: Sequence[float]) -> UnitSystem | None:
+    """The system in which every density is an air density (:func:`is_air_density`; their
+    ranges are 500x apart, so at most one); None when none is or there are none."""
+    found = [s for s in SYSTEMS.values()
+             if densities and all(is_air_density(float(r), s) for r in densities)]
+    return found[0] if found else None
+
+
+def _flfact_label(lists: Mapping[str, Sequence[float]], what: str) -> str:
+    """'FLFACT 3, FLFACT 6 velocities 30..5542.34' (magnitudes)."""
+    v = [abs(float(x)) for values in lists.values() for x in values if x != 0]
+    return f"{', '.join(lists)} {what} {min(v):g}..{max(v):g}"
+
+
 def infer_units(rhoref: Sequence[float] = (), grav: Sequence[float] = (),
-                wtmass: float | None = None, where: str = "deck"
+                wtmass: float | None = None, where: str = "deck", *,
+                velocities: Mapping[str, Sequence[float]] | None = None,
+                densities: Mapping[str, Sequence[float]] | None = None,
                 ) -> tuple[UnitSystem | None, list[str]]:
     """(system, evidence) from a deck's unit-bearing numbers (module docstring's rule);
-    (None, []) when none tells; InputError when two tell different systems."""
+    (None, []) when none tells; InputError when two tell different systems, or when FLFACT
+    velocities (card label -> values) clearly contradict the cards. ``densities``: FLFACT
+    densities where they are absolute (AERO RHOREF 1), card label -> values."""
     votes: list[tuple[str, str]] = []
     for rho in rhoref:
         if rho > 0 and rho != 1.0:
@@ -147,9 +202,21 @@ def infer_units(rhoref: Sequence[float] = (), grav: Sequence[float] = (),
         b = next(e for n, e in votes if n == names[1])
         raise InputError(f"{where}: units: {a} says {names[0]} but {b} says {names[1]}; "
                          f"declare the deck's system with --units")
-    if not names:
-        return None, []
-    return SYSTEMS[names[0]], [e for _, e in votes]
+    by_speed = speed_system([x for values in (velocities or {}).values() for x in values])
+    speed_label = _flfact_label(velocities, "velocities") if by_speed else ""
+    if names:
+        told, evidence = SYSTEMS[names[0]], [e for _, e in votes]
+        if by_speed is None:
+            return told, evidence
+        if by_speed is told:
+            return told, [*evidence, speed_label]
+        raise InputError(f"{where}: units: {speed_label} are {by_speed.speed} "
+                         f"({by_speed.name}) but {evidence[0]} says {told.name}; correct the "
+                         f"FLFACT or declare the deck's system with --units")
+    by_density = density_system([x for values in (densities or {}).values() for x in values])
+    if by_speed is not None and by_density is by_speed:
+        return by_speed, [_flfact_label(densities, "densities"), speed_label]
+    return None, []
 
 
 def resolve_units(declared: str | None, inferred: UnitSystem | None, evidence: Sequence[str],

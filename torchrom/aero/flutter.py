@@ -762,6 +762,13 @@ def in_vacuo_modes(structure: ModalStructure) -> tuple[np.ndarray, np.ndarray]:
     return np.sqrt(np.abs(w2)) / (2 * np.pi), phi
 
 
+def modal_energy(structure: ModalStructure, phi: np.ndarray, q: np.ndarray) -> np.ndarray:
+    """|η|² with η = Φᵀ M q: the M-weighted share of each in-vacuo mode (rows, the columns of
+    ``phi`` from :func:`in_vacuo_modes`) in each root's structural shape (the columns of
+    ``q``, m × n, or a stack of them, … × m × n)."""
+    return np.abs(phi.T @ (structure.M @ q)) ** 2
+
+
 def oscillatory_roots(structure: ModalStructure, rfa: RFA, velocity: float, density: float,
                       min_frequency_hz: float = 1e-3) -> OscillatoryRoots:
     """The state-space roots with Im s > 2π ``min_frequency_hz``, the rigid-body ones apart
@@ -778,9 +785,8 @@ def oscillatory_roots(structure: ModalStructure, rfa: RFA, velocity: float, dens
     s, x = np.linalg.eig(a)
     keep = s.imag > 2 * np.pi * min_frequency_hz
     s, q = s[keep], x[: structure.n_modes, keep]
-    eta = np.abs(phi.T @ (structure.M @ q)) ** 2
-    share = eta[rigid].sum(axis=0) / eta.sum(axis=0)
-    is_rigid = share > RIGID_SHARE
+    eta = modal_energy(structure, phi, q)
+    is_rigid = eta[rigid].sum(axis=0) / eta.sum(axis=0) > RIGID_SHARE
     mode = np.flatnonzero(rigid)[np.argmax(eta[rigid][:, is_rigid], axis=0)] if is_rigid.any() \
         else none
     return OscillatoryRoots(s[~is_rigid], s[is_rigid], mode)
@@ -982,17 +988,76 @@ def growing_response_frequency(structure, rfa, mach, altitudes, units="ft") -> n
     return np.array(out)
 
 
+def untouched_modes(structure: ModalStructure, a: np.ndarray, phi: np.ndarray) -> np.ndarray:
+    """Which in-vacuo modes (the columns of ``phi``) the aerodynamics of the state matrix
+    ``a`` (:func:`state_space_matrix` of ``structure``) do not touch: those that carry (more
+    than :data:`RIGID_SHARE` of the shape) an oscillatory root of ``a`` equal to a root of the
+    structure alone (M s² + C s + K) to :data:`G_ROUNDOFF` relative. Such a root's damping is
+    the structure's only; at no structural damping it is the round-off that
+    :meth:`OscillatoryRoots.flutter_root` and the p-k leave out."""
+    m = structure.n_modes
+    vacuum, _ = _quadratic_eig(structure.M_inv, structure.C, structure.K)
+    s, x = np.linalg.eig(a)
+    keep = s.imag > 0
+    s, q = s[keep], x[:m, keep]
+    same = np.abs(s[:, None] - vacuum[None, :]).min(axis=1) <= G_ROUNDOFF * np.abs(s)
+    out = np.zeros(m, dtype=bool)
+    for eta in modal_energy(structure, phi, q[:, same]).T:
+        j = int(np.argmax(eta))
+        out[j] |= bool(eta[j] > RIGID_SHARE * eta.sum())
+    return out
+
+
+def _growth_of_damping(structure, rfa, velocity: float, density: float):
+    """growth(α, γ) for arrays α, γ: the largest real part (1/s) of the state-space roots
+    (:func:`state_space_matrix`) that can be flutter, at structural damping α M + γ D1 (+ C0).
+
+    Left out, as the flutter search leaves them out: rigid-body roots (more than
+    :data:`RIGID_SHARE` of their shape, M-weighted, in the 0 Hz modes; :func:`oscillatory_roots`)
+    and the roots of modes the aerodynamics do not touch (:func:`untouched_modes` at α = γ = 0,
+    whose round-off damping the p-k ignores; with α, γ their growth is −α/2 − γω²/2, the
+    structure's own, and would otherwise set α where the flutter needs α < 0). The matrix is
+    affine in (α, γ) — only C = C0 + αM + γD̄1 depends on them, through M̄⁻¹C — so a stack of
+    (α, γ) is one stacked eigenvalue solve of a₀ + α a_α + γ a_γ."""
+
+    def matrix(a, gam):
+        return state_space_matrix(structure.with_damping(a, gam), rfa, velocity, density)
+
+    a0 = matrix(0.0, 0.0)
+    a_alpha, a_gamma = matrix(1.0, 0.0) - a0, matrix(0.0, 1.0) - a0
+    min_imag = 2 * np.pi * 1e-3
+    f, phi = in_vacuo_modes(structure)
+    apart = rigid_body_modes(f) | untouched_modes(structure.with_damping(0.0, 0.0), a0, phi)
+    m = structure.n_modes
+
+    def growth(alpha, gam):
+        alpha, gam = np.atleast_1d(alpha), np.atleast_1d(gam)
+        a = a0 + alpha[:, None, None] * a_alpha + gam[:, None, None] * a_gamma
+        if not apart.any():  # no eigenvectors needed
+            s = np.linalg.eigvals(a)
+            return np.where(s.imag > min_imag, s.real, -np.inf).max(axis=1)
+        s, x = np.linalg.eig(a)
+        eta = modal_energy(structure, phi, x[:, :m, :])
+        flexible = eta[:, apart, :].sum(axis=1) / eta.sum(axis=1) <= RIGID_SHARE
+        return np.where((s.imag > min_imag) & flexible, s.real, -np.inf).max(axis=1)
+
+    return growth
+
+
 def alpha_for_gamma(
     structure, rfa, gamma, mach, altitude, units="ft", bracket=(-5.0, 5.0), xtol=1e-10
 ) -> float:
     """α such that the flutter point at ``altitude`` (fixed Mach) holds for this γ (paper Fig. 9).
 
     Solves growth_rate(α; γ, h) = 0 with Brent's method; the bracket is widened if needed.
+    The growth rate is that of the roots that can be flutter (:func:`_growth_of_damping`:
+    rigid-body roots and modes the aerodynamics do not touch left out).
     """
     c = flight_condition(mach, float(altitude), units)
+    rates = _growth_of_damping(structure, rfa, c.velocity, c.density)
 
     def growth(a):
-        return critical_root(structure.with_damping(a, gamma), rfa, c.velocity, c.density).real
+        return float(rates(a, gamma)[0])
 
     lo, hi = bracket
     for _ in range(20):
@@ -1011,31 +1076,19 @@ def alpha_for_gammas(
     structure, rfa, gammas, mach, altitude, units="ft", bracket=(-5.0, 5.0), xtol=1e-10,
     max_iterations: int = 100,
 ) -> np.ndarray:
-    """:func:`alpha_for_gamma` for many γ at once (a sampling study's cases): the same root,
-    found for all γ together. The state-space matrix is affine in (α, γ) — only the structural
-    damping C = C0 + αM + γD̄1 depends on them, and it enters through M̄⁻¹C — so every
-    iteration is one stacked eigenvalue solve of a₀ + α a_α + γ a_γ, and the root of each
-    growth rate is bracketed and refined by the Illinois rule (a regula falsi that halves the
-    retained end's value when the same end is kept twice: superlinear, never leaves the
-    bracket) to |Δα| ≤ ``xtol`` (1/s). A γ whose iteration does not settle falls back to
-    :func:`alpha_for_gamma`."""
+    """:func:`alpha_for_gamma` for many γ at once (a sampling study's cases): the same root
+    of the same growth rate (:func:`_growth_of_damping`: rigid-body roots and modes the
+    aerodynamics do not touch left out), found for all γ together, each iteration one stacked
+    eigenvalue solve; the root of each growth rate is bracketed and refined by the Illinois
+    rule (a regula falsi that halves the retained end's value when the same end is kept twice:
+    superlinear, never leaves the bracket) to |Δα| ≤ ``xtol`` (1/s). A γ whose iteration does
+    not settle falls back to :func:`alpha_for_gamma`."""
     g = np.asarray(gammas, dtype=float).reshape(-1)
     physical_values("gamma", g, "matched alpha:")
     if g.size == 0:
         return np.zeros(0)
     c = flight_condition(mach, float(altitude), units)
-
-    def matrix(a, gam):
-        return state_space_matrix(structure.with_damping(a, gam), rfa, c.velocity, c.density)
-
-    a0 = matrix(0.0, 0.0)
-    a_alpha, a_gamma = matrix(1.0, 0.0) - a0, matrix(0.0, 1.0) - a0
-    min_imag = 2 * np.pi * 1e-3
-
-    def growth(alpha, gam):
-        s = np.linalg.eigvals(a0 + alpha[:, None, None] * a_alpha + gam[:, None, None] * a_gamma)
-        return np.where(s.imag > min_imag, s.real, -np.inf).max(axis=1)
-
+    growth = _growth_of_damping(structure, rfa, c.velocity, c.density)
     lo, hi = np.full(g.size, float(bracket[0])), np.full(g.size, float(bracket[1]))
     glo, ghi = growth(lo, g), growth(hi, g)
     for _ in range(20):

@@ -325,11 +325,12 @@ def load_deck(path, require_flutter: bool = True, *, symxz: int | None = None,
                 "expected the boxes off that plane (z != 0 in ACSID)")
     units = model.dti.get("UNITS")
     deck_length = (units.fields.get("length") if units is not None else None) or None
-    system = _deck_system(model, path)
+    system, conflict = _deck_system(model, path)
     splines = _spline_defs(model, path, panels, frame)
     if not splines:
         raise InputError(f"{path}: SPLINE1/SPLINE2: no spline connects the structure to the boxes")
-    notes = []
+    notes = [] if conflict is None else [f"{conflict}: the results are in the deck's own "
+                                         f"units, labelled without a unit system"]
     n_unsplined = panels.n - len(np.unique(np.concatenate([s.box_index for s in splines])))
     if n_unsplined:
         notes.append(f"{n_unsplined} aerodynamic boxes are not splined (they do not move)")
@@ -411,13 +412,19 @@ def load_deck(path, require_flutter: bool = True, *, symxz: int | None = None,
 
 
 def _deck_system(model, path: Path):
-    """The unit system the deck's cards tell (:func:`torchrom.units.infer_units`), None when
-    they do not or disagree (the labels then say "length", as a deck without DTI,UNITS)."""
+    """(system, conflict): the unit system the deck's cards tell
+    (:func:`torchrom.units.infer_units`), None when they do not or disagree (the labels then
+    say "length", as a deck without DTI,UNITS); where they disagree (two cards, or FLFACT
+    velocities against a card) the disagreement, without the advice to declare --units (the
+    deck's flutter takes none)."""
     from ..fe.deck_units import deck_units
     from ..units import recorded_units
 
     record = deck_units(model, path.name)
-    return None if record is None else recorded_units(record)
+    if record is None:
+        return None, None
+    conflict = record.get("unit_conflict")
+    return recorded_units(record), None if conflict is None else conflict.split("; ")[0]
 
 
 def _param_number(model, path: Path, key: str, default, ok, expected: str) -> float:

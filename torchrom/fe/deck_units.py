@@ -1,7 +1,8 @@
 """The unit system of a Nastran deck: read from its unit-bearing cards, or declared.
 
-The rule is :func:`torchrom.units.infer_units` (AERO/AEROS RHOREF, GRAV, PARAM WTMASS); this
-module reads those numbers from a pyNastran deck and records the result in an FE model's
+The rule is :func:`torchrom.units.infer_units` (AERO/AEROS RHOREF, GRAV, PARAM WTMASS, and
+the FLUTTER cards' FLFACT velocities and densities as weaker evidence); this module reads those
+numbers from a pyNastran deck and records the result in an FE model's
 ``units`` (``{"unit_system": name, "length": ..., "unit_source": what told it}``), which
 identify and aero store in ``rom.npz``/``aero.npz``.
 """
@@ -28,6 +29,32 @@ def deck_unit_numbers(model) -> tuple[list[float], list[float], float | None]:
     return rhoref, grav, wtmass
 
 
+def deck_flutter_factors(model) -> tuple[dict[str, list[float]], dict[str, list[float]]]:
+    """(velocities, densities) of a pyNastran deck's FLUTTER cards, FLFACT label -> values:
+    the velocities of PK/PKNL cards (K and KE list reduced frequencies instead), and the
+    densities only where they are densities themselves (AERO RHOREF 1, Nastran's default:
+    FLFACT gives rho/RHOREF). A FLFACT the deck lacks is left to the flutter reader's
+    refusal."""
+    aero = model.aero
+    rhoref = float(aero.rho_ref) if aero is not None and aero.rho_ref is not None else 1.0
+    velocities, densities = {}, {}
+
+    def factors(ref):
+        card = model.flfacts.get(ref if isinstance(ref, int) else ref.sid)
+        return None if card is None else (f"FLFACT {card.sid}", [float(x) for x in
+                                                                  card.factors])
+
+    for flutter in model.flutters.values():
+        if str(flutter.method).upper() in ("PK", "PKNL"):
+            found = factors(flutter.reduced_freq_velocity)
+            if found:
+                velocities[found[0]] = found[1]
+        found = factors(flutter.density)
+        if found and rhoref == 1.0:
+            densities[found[0]] = found[1]
+    return velocities, densities
+
+
 def units_record(system: UnitSystem, source: str) -> dict[str, str]:
     """An FE model's ``units`` for ``system`` (labels, and what told the system)."""
     return {"unit_system": system.name, "length": system.length, "mass": system.mass,
@@ -41,7 +68,9 @@ def deck_units(model, fname: str) -> dict[str, str] | None:
     from ..errors import InputError
 
     try:
-        system, evidence = infer_units(*deck_unit_numbers(model), where=fname)
+        velocities, densities = deck_flutter_factors(model)
+        system, evidence = infer_units(*deck_unit_numbers(model), where=fname,
+                                       velocities=velocities, densities=densities)
     except InputError as exc:
         return {"unit_conflict": str(exc)}
     return None if system is None else units_record(system, ", ".join(evidence))
@@ -79,4 +108,5 @@ def describe_units(fe) -> str:
     if system is not None:  # a model that names its units (the Goland deck's ft, slug)
         return f"units: {system.name} ({units['length']}, {units['mass']}, s)"
     return ("units: not told by the deck (no AERO RHOREF, GRAV or PARAM WTMASS of a known "
-            "system); declare them with --units for flutter at altitudes")
+            "system, nor FLFACT densities and velocities that agree); declare them with "
+            "--units for flutter at altitudes")
