@@ -147,6 +147,21 @@ def test_failed_solves_keep_the_lower_levels_and_are_counted():
         expected - res.stiffness.K1 @ q).max()
 
 
+def test_every_solve_failing_is_refused_with_the_first_failure():
+    """A structure whose static solves never converge (a skin that wrinkles at once, as the
+    Pazy wing's 12 µm foil) is refused in one message that says how many loads failed, the
+    first failure and what to do, including the plan without static solves."""
+    def solve(load, u0):
+        raise ConvergenceError("membrane: static solve did not converge (test)")
+
+    with pytest.raises(InputError) as err:
+        identify(_backend(static_solve=solve),
+                 IdentifyOptions(n_linear=2, n_dual=0, stiffness="condensed"))
+    text = str(err.value)
+    assert "24 loads failed" in text and "did not converge (test)" in text
+    assert "--stiffness tangent" in text and "\n" not in text
+
+
 @pytest.mark.parametrize("opts, match", [
     (dict(n_dual=2), "--dual 0"),
     (dict(n_dual=0, damping="exact"), "tangent plan"),

@@ -99,15 +99,16 @@ def _embed_monomials(C: np.ndarray, k: int, n: int) -> tuple[np.ndarray, np.ndar
 
 
 def stiffness_from_condensation(p: np.ndarray, q: np.ndarray, K1: np.ndarray,
-                                amplitudes: np.ndarray, n_nonlinear: int | None = None
-                                ) -> StiffnessIdentification:
+                                amplitudes: np.ndarray, n_nonlinear: int | None = None,
+                                failed: str = "") -> StiffnessIdentification:
     """K2, K3 (symmetric storage) fitted to K1 (p − q) = K̃2(q,q) + K̃3(q,q,q) over the solves.
 
     Args:
         p: (P, n) applied modal loads (linear responses); q: (P, n) the FE's modal coordinates;
         K1: (n, n) linear modal stiffness; amplitudes: (n,) the plan's a_j (scales the fit);
         n_nonlinear: the monomials are those of the first ``n_nonlinear`` coordinates (all
-        by default); every row is fitted (the other modes' static response to them).
+        by default); every row is fitted (the other modes' static response to them);
+        failed: what failed on the way (said when the rest does not determine the fit).
     ``residuals``: ``condensation_fit``, ‖K̃2(q,q) + K̃3(q,q,q) − K1 (p − q)‖ / ‖K1 (p − q)‖
     over all rows and solves (0 when the condensed force is a cubic polynomial of q);
     ``condensation_asymmetry``, the least-squares fit's departure from the full symmetry of a
@@ -120,12 +121,13 @@ def stiffness_from_condensation(p: np.ndarray, q: np.ndarray, K1: np.ndarray,
     # scaled coordinates q/a keep the monomial columns of one size (conditioning of the fit)
     A = monomials(q[:, :k] / a[:k])
     scale = monomials(a[None, :k])[0]
-    rank = np.linalg.matrix_rank(A)
+    rank = int(np.linalg.matrix_rank(A)) if len(A) else 0
     if rank < A.shape[1]:
-        raise InputError(f"condensation: the {len(q)} converged static solves determine only "
-                         f"{rank} of the {A.shape[1]} cubic-polynomial coefficients of {k} "
-                         "modes; use a smaller --amplitude (the largest load level) so that "
-                         "more solves converge")
+        raise InputError(f"condensation: the {len(q)} converged static solves{failed} "
+                         f"determine only {rank} of the {A.shape[1]} cubic-polynomial "
+                         f"coefficients of {k} modes; use a smaller --amplitude (the largest "
+                         "load level) or more --levels so that more solves converge, or "
+                         "--stiffness tangent (imposed displacements, no static solves)")
     C, *_ = np.linalg.lstsq(A, g, rcond=None)
     K2c, K3c = _embed_monomials((C / scale[:, None]).T, k, n)   # in the unscaled q
     sym = cv.symmetric_from_compact(torch.as_tensor(K2c), torch.as_tensor(K3c))
@@ -180,6 +182,7 @@ def identify_stiffness_condensed(backend, Phi: np.ndarray, amplitudes: np.ndarra
     L = plan.levels
     total = len(plan.points)
     P, Q, failed = [], [], []
+    first_error = ""
     done = 0
     for d in range(len(plan.directions)):
         u = None
@@ -188,7 +191,8 @@ def identify_stiffness_condensed(backend, Phi: np.ndarray, amplitudes: np.ndarra
             p[:k] = plan.points[d * L + lev]
             try:
                 u = backend.static_solve(np.asarray(K @ (Phi @ p)).ravel(), u0=u).u
-            except ConvergenceError:
+            except ConvergenceError as err:
+                first_error = first_error or f"; the first failure: {err}"
                 failed.extend(plan.points[d * L + lev:(d + 1) * L])
                 done += L - lev
                 break
@@ -201,7 +205,8 @@ def identify_stiffness_condensed(backend, Phi: np.ndarray, amplitudes: np.ndarra
             progress(done, total)
     data = CondensationData(np.array(P).reshape(-1, Phi.shape[1]),
                             np.array(Q).reshape(-1, Phi.shape[1]), failed)
-    stiff = stiffness_from_condensation(data.p, data.q, K1, a, n_nonlinear=k)
+    why = f" ({len(failed)} loads failed{first_error})" if failed else ""
+    stiff = stiffness_from_condensation(data.p, data.q, K1, a, n_nonlinear=k, failed=why)
     stiff.plan_info = {"levels": plan.levels, "nonlinear_modes": k,
                        "static_solves": len(data.q), "failed_solves": len(failed)}
     return stiff, data
