@@ -37,15 +37,37 @@ def _torchrom(folder, *argv) -> str:
     return run.stdout
 
 
-def test_bah_rom_flutter_in_si_matches_the_deck(tmp_path):
+@pytest.fixture(scope="module")
+def free_chain(tmp_path_factory):
+    """The free aircraft's 8L0D ROM (8 linear modes, 2 of them rigid at 0 Hz) and its aero on
+    the MKAERO k <= 1 (``RFA_K``), made once for the module's tests: (folder, identify's
+    output, aero's output)."""
+    folder = tmp_path_factory.mktemp("bah_free")
+    deck = _bah_plane_both_subcases(folder)
+    out = _torchrom(folder, "identify", deck.name, "--linear", "8", "--dual", "0", "--out",
+                    "rom.npz")
+    aero = _torchrom(folder, "aero", deck.name, "--mach", "0.2", "--modes", "8", "--kernel",
+                     "parabolic", "--k", *RFA_K, "--out", "aero.npz", "--json", "aero.json")
+    return folder, out, aero
+
+
+def _take(free_chain, tmp_path, *names):
+    """The deck (with its includes) and the module's ``names`` files, copied into tmp_path."""
+    import shutil
+
+    deck = _bah_plane_both_subcases(tmp_path)
+    for name in names:
+        shutil.copy(free_chain[0] / name, tmp_path / name)
+    return deck
+
+
+def test_bah_rom_flutter_in_si_matches_the_deck(free_chain, tmp_path):
     """identify (8 linear modes, 2 of them rigid at 0 Hz; no dual modes: flutter needs the
     linear part only) -> aero (the deck's boxes, splines and MKAERO k at Mach 0.2, Nastran's
     parabolic kernel) -> flutter at the deck's density, 1.225 kg/m^3 (RHOREF x FLFACT 1.0),
     p-k. The units are read from AERO RHOREF and printed with every number. ~40 s."""
-    deck = _bah_plane_both_subcases(tmp_path)
-    out = _torchrom(tmp_path, "identify", deck.name, "--linear", "8", "--dual", "0",
-                    "--out", "rom.npz")
-    assert "units: si (AERO RHOREF 1.225)" in out
+    deck = _take(free_chain, tmp_path, "rom.npz")
+    assert "units: si (AERO RHOREF 1.225)" in free_chain[1]
     _torchrom(tmp_path, "aero", deck.name, "--mach", "0.2", "--modes", "8", "--kernel",
               "parabolic", "--out", "aero.npz", "--json", "aero.json")
     aero = json.loads((tmp_path / "aero.json").read_text())
@@ -67,7 +89,7 @@ def test_bah_rom_flutter_in_si_matches_the_deck(tmp_path):
     assert pk["mode"] == 4  # the 3.75 Hz mode, as the f06's POINT 4
 
 
-def test_bah_state_space_flutter_with_the_rfa_fitted_up_to_k_1(tmp_path):
+def test_bah_state_space_flutter_with_the_rfa_fitted_up_to_k_1(free_chain, tmp_path):
     """The state-space (RFA) flutter, which the LCO sweep's model is, against the p-k on the
     same tabulated GAFs. Fitted over the deck's whole MKAERO list (k to 10) the 13-lag
     minimum-state RFA misses the GAFs by 13.5 % rms (52 % worst entry) and the state space
@@ -77,10 +99,7 @@ def test_bah_state_space_flutter_with_the_rfa_fitted_up_to_k_1(tmp_path):
     p-k's 394.35 m/s, 3.1778 Hz (target 2 %). alpha = 1e-3 1/s (zeta 9e-6 at
     8.7 Hz; it moves the p-k by +0.02 %) keeps the in-plane mode, which the flat boxes do not
     load, off the criterion's round-off zero damping. ~60 s."""
-    deck = _bah_plane_both_subcases(tmp_path)
-    _torchrom(tmp_path, "identify", deck.name, "--linear", "8", "--dual", "0", "--out", "rom.npz")
-    _torchrom(tmp_path, "aero", deck.name, "--mach", "0.2", "--modes", "8", "--kernel",
-              "parabolic", "--k", *RFA_K, "--out", "aero.npz", "--json", "aero.json")
+    _take(free_chain, tmp_path, "rom.npz", "aero.npz", "aero.json")
     fit = json.loads((tmp_path / "aero.json").read_text())["fit_error"]
     assert fit["rms_relative"] < 0.01  # measured 7.8e-4 (13.5 % over the whole list to k = 10)
     _torchrom(tmp_path, "flutter", "rom.npz", "aero.npz", "--density", "1.225", "--method",
@@ -184,17 +203,13 @@ def _free_sweep_rows(tmp_path, speeds, extra=""):
         return out, list(csv.DictReader(f))
 
 
-def _free_rom_and_aero(tmp_path, dual: str):
-    deck = _bah_plane_both_subcases(tmp_path)
-    _torchrom(tmp_path, "identify", deck.name, "--linear", "8", "--dual", dual, "--out",
-              "rom.npz")
-    out = _torchrom(tmp_path, "aero", deck.name, "--mach", "0.2", "--modes", "8", "--kernel",
-                    "parabolic", "--k", *RFA_K, "--out", "aero.npz")
-    assert "the rigid-body modes' columns take the DLM's quasi-steady slope" in out
-    return deck
+def _free_rom_and_aero(free_chain, tmp_path):
+    assert "the rigid-body modes' columns take the DLM's quasi-steady slope" in free_chain[2]
+    return _take(free_chain, tmp_path, "rom.npz", "aero.npz")
 
 
-def test_bah_free_lco_sweep_is_certified_and_names_the_rigid_body_divergence(tmp_path):
+def test_bah_free_lco_sweep_is_certified_and_names_the_rigid_body_divergence(free_chain,
+                                                                             tmp_path):
     """The free aircraft (8L0D ROM, 2 rigid modes) -> aero (RFA on k <= 1, the rigid columns'
     k -> 0 slope from the DLM) -> the shipped free sweep at two speeds past flutter.
 
@@ -213,7 +228,7 @@ def test_bah_free_lco_sweep_is_certified_and_names_the_rigid_body_divergence(tmp
     from torchrom.aero.files import load_aero
     from torchrom.aero.flutter import ModalStructure, state_space_matrix
 
-    _free_rom_and_aero(tmp_path, "0")
+    _free_rom_and_aero(free_chain, tmp_path)
     rom = np.load(tmp_path / "rom.npz")
     rfa = load_aero(tmp_path / "aero.npz").rfa
     st = ModalStructure(M=rom["M"], K=rom["K1"], alpha=1e-3)
@@ -245,12 +260,12 @@ def test_bah_free_lco_sweep_is_certified_and_names_the_rigid_body_divergence(tmp
 
 
 @pytest.mark.slow
-def test_bah_free_lco_sweep_shipped_is_certified(tmp_path):
+def test_bah_free_lco_sweep_shipped_is_certified(free_chain, tmp_path):
     """The free chain of docs/guide/bah.md with the shipped sweep's five speeds (400-420 m/s)
     on the 8L0D ROM: every row an LCO, certified, a saddle whose rigid_body_growth grows with
     speed (measured 0.356 ... 0.714 1/s; critical multipliers 1.0967 ... 1.2033). (The 8L1D
     ROM's rows are all unconverged: not done, docs/guide/bah.md.)"""
-    _free_rom_and_aero(tmp_path, "0")
+    _free_rom_and_aero(free_chain, tmp_path)
     _, rows = _free_sweep_rows(tmp_path, (400.0, 405.0, 410.0, 415.0, 420.0))
     print("BAH free 8L0D LCO", [(r["speed"], r["amplitude"], r["frequency_hz"],
                                  r["critical_multiplier"], r["certificate"]) for r in rows])
