@@ -16,6 +16,7 @@ relative residuals, smallest eigenvalues of the extended damping matrix), plus t
 from __future__ import annotations
 
 import time
+from dataclasses import replace
 from pathlib import Path
 
 from ..progress import info
@@ -135,9 +136,10 @@ def run(args) -> int:
     if args.dual is None:
         args.dual = 0 if args.stiffness == "condensed" else 12
     # bad option combinations before the deck is read and its modes computed
-    IdentifyOptions(n_linear=args.linear, n_dual=args.dual, damping=args.damping,
-                    stiffness=args.stiffness, amplitude=args.amplitude,
-                    levels=args.levels, nonlinear_modes=args.nonlinear_modes).validate()
+    opt = IdentifyOptions(n_linear=args.linear, n_dual=args.dual, damping=args.damping,
+                          stiffness=args.stiffness, amplitude=args.amplitude,
+                          levels=args.levels, nonlinear_modes=args.nonlinear_modes)
+    opt.validate()
     if args.combinations != "transverse":
         parse_combinations(args.combinations)  # bad input before the work
     extra_points = dict(parse_named_point(o) for o in args.output)
@@ -165,10 +167,7 @@ def run(args) -> int:
         backend.add_output_points(extra_points)
     info(f"  {backend.n_dof} DOFs, span {backend.reference_length:g}, "
           f"outputs {sorted(backend.outputs)}")
-    opt = IdentifyOptions(n_linear=args.linear, n_dual=args.dual, damping=args.damping,
-                          stiffness=args.stiffness, amplitude=args.amplitude,
-                          levels=args.levels, nonlinear_modes=args.nonlinear_modes,
-                          dual=DualModeOptions(combinations=combinations))
+    opt = replace(opt, dual=DualModeOptions(combinations=combinations))
     info(f"identifying {args.linear}L{args.dual}D ROM: stiffness {args.stiffness}, damping "
           f"{args.damping}")
     res = identify(backend, opt, progress=_Progress())

@@ -17,7 +17,7 @@ from dataclasses import asdict, dataclass, field, replace
 import numpy as np
 
 from .._version import __version__
-from ..checks import real
+from ..checks import integer, real
 from ..errors import InputError
 from ..rom import NonlinearROM
 from ..rom.points import DEFAULT_OUTPUT, largest_translation
@@ -116,17 +116,13 @@ class IdentifyOptions:
             raise InputError(f"stiffness 'condensed': the FE's own static solves relax the "
                              f"in-plane motion, so the ROM takes no dual modes; got n_dual = "
                              f"{self.n_dual}: use --dual 0")
-        if isinstance(self.levels, bool) or not isinstance(self.levels, (int, np.integer)) \
-                or self.levels < 1:
-            raise InputError(f"levels: expected a positive whole number of load levels, got "
-                             f"{self.levels!r}")
+        integer("levels", self.levels, minimum=1)
         if self.nonlinear_modes is not None:
-            k = self.nonlinear_modes
             if self.stiffness != "condensed":
                 raise InputError(f"nonlinear_modes (--nonlinear-modes) is an option of stiffness "
                                  f"'condensed', not of {self.stiffness!r}")
-            if isinstance(k, bool) or not isinstance(k, (int, np.integer)) or not \
-                    1 <= k <= self.n_linear:
+            k = integer("nonlinear_modes (--nonlinear-modes)", self.nonlinear_modes, minimum=1)
+            if k > self.n_linear:
                 raise InputError(f"nonlinear_modes (--nonlinear-modes): expected a whole number "
                                  f"from 1 to the {self.n_linear} linear modes, got {k!r}")
         amp = real("amplitude", self.resolved_amplitude, positive=True)
@@ -307,10 +303,11 @@ def identify_each_damping(fe, options: IdentifyOptions, methods, progress=None
             damp = optimum_decomposition(stiff.K1, stiff.K2, stiff.K3, opt.decomposition)
         times = {**timings, "damping": time.perf_counter() - t1}
         times["total"] = sum(times.values())
-        st, dm, a = stiff, damp, amps
+        # the amplitudes the plan used (the condensation's differ from ``amps`` past mode 1)
+        st, dm, a = stiff, damp, stiff.amplitudes
         if r:
             st, dm = _embed_rigid(stiff, r), _embed_rigid(damp, r)
-            a = np.concatenate([np.zeros(r), amps])
+            a = np.concatenate([np.zeros(r), stiff.amplitudes])
         mopt = replace(opt, damping=method)
         rom = assemble_rom(be, basis, st, dm, mopt, a, times)
         out[method] = IdentificationResult(rom, basis, st, dm, be.counters.as_dict(), times,

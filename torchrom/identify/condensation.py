@@ -63,7 +63,7 @@ class CondensationPlan:
         object.__setattr__(self, "points", (d[:, None, :] * s[None, :, None]).reshape(-1, a.size))
 
 
-def equal_force_amplitudes(Phi: np.ndarray, K1: np.ndarray, first: float) -> np.ndarray:
+def equal_force_amplitudes(K1: np.ndarray, first: float) -> np.ndarray:
     """Modal amplitudes a_j = first · k_1 / k_j (k_j = K1_jj): every mode loaded by the modal
     force that takes the first mode to ``first`` — not each to the same deflection, which would
     bend a higher mode (its curvature ~ (ω_j/ω_1) times the first's at the same deflection)
@@ -174,7 +174,7 @@ def identify_stiffness_condensed(backend, Phi: np.ndarray, amplitudes: np.ndarra
     K1 = project(K, Phi)
     n = Phi.shape[1]
     k = n if n_nonlinear is None else int(n_nonlinear)
-    a = equal_force_amplitudes(Phi, K1, float(amplitudes[0]))
+    a = equal_force_amplitudes(K1, float(amplitudes[0]))
     plan = CondensationPlan(a[:k], levels)
     M = backend.mass_matrix()
     MPhi = np.asarray(M @ Phi)
@@ -195,14 +195,14 @@ def identify_stiffness_condensed(backend, Phi: np.ndarray, amplitudes: np.ndarra
                 first_error = first_error or f"; the first failure: {err}"
                 failed.extend(plan.points[d * L + lev:(d + 1) * L])
                 done += L - lev
+                if progress is not None:
+                    progress(done, total)
                 break
             P.append(p)
             Q.append(np.linalg.solve(gram, MPhi.T @ u))
             done += 1
             if progress is not None:
                 progress(done, total)
-        if failed and progress is not None:
-            progress(done, total)
     data = CondensationData(np.array(P).reshape(-1, Phi.shape[1]),
                             np.array(Q).reshape(-1, Phi.shape[1]), failed)
     why = f" ({len(failed)} loads failed{first_error})" if failed else ""
