@@ -201,6 +201,23 @@ def _cases() -> dict[str, tuple[list[str], str]]:
     cases["identify --stiffness condensed --damping exact"] = (
         ["identify", *BASE["identify"], "--stiffness", "condensed", "--damping", "exact"],
         "stiffness 'tangent'")
+    # a foil skin left out of the nonlinear terms (identify --linear-skin): condensation only,
+    # and a property of the deck's shells
+    condensed = [*BASE["identify"], "--stiffness", "condensed"]
+    cases["identify --linear-skin with the tangent plan"] = (
+        ["identify", *BASE["identify"], "--linear-skin", "1"],
+        "--linear-skin: an option of --stiffness condensed")
+    cases["identify --linear-skin of a missing property"] = (
+        ["identify", *condensed, "--linear-skin", "99"], "--linear-skin 99: no property 99")
+    cases["identify --linear-skin of a bar property"] = (
+        ["identify", *condensed, "--linear-skin", "1"],
+        "PBAR 1 is used by no CQUAD4 or CTRIA3")
+    cases["identify --higher-amplitude with the tangent plan"] = (
+        ["identify", *BASE["identify"], "--higher-amplitude", "0.1"],
+        "higher_amplitude (--higher-amplitude) is an option of stiffness 'condensed'")
+    cases["identify --higher-amplitude beyond half the span"] = (
+        ["identify", *condensed, "--higher-amplitude", "0.9"],
+        "higher_amplitude (--higher-amplitude): expected a fraction of the span in (0, 0.5]")
     cases["flutter ROM without its aero file"] = (["flutter", "rom.npz"],
                                                   "torchrom flutter rom.npz aero.npz")
     # decks the deck flutter cannot handle (issue 35 item 7): what is missing and what to do

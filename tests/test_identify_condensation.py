@@ -4,6 +4,7 @@ model whose condensed energy is known, and a co-rotational shell strip against t
 from __future__ import annotations
 
 import itertools
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -11,7 +12,11 @@ import pytest
 from torchrom.errors import ConvergenceError, InputError
 from torchrom.identify import CallableBackend
 from torchrom.identify.build import IdentifyOptions, identify
-from torchrom.identify.condensation import CondensationPlan, stiffness_from_condensation
+from torchrom.identify.condensation import (
+    CondensationPlan,
+    Skeleton,
+    stiffness_from_condensation,
+)
 from torchrom.identify.validate import rom_static_solve
 
 from .test_fe_corotational import EI_S, L_S, _strip, _tip_grids, elastica_tip
@@ -77,6 +82,60 @@ def test_condensed_stiffness_equals_the_closed_form_condensation():
                             "failed_solves": 0}
     assert res.rom.metadata["identification"]["stiffness_method"] == "condensed"
     assert res.rom.metadata["identification"]["amplitude"] == 0.3
+
+
+# a linear "skin" on the bending DOFs that couples them (so the skinned modes are not the
+# skeleton's), with no membrane part: K_skin = [[0.5, 0.2], [0.2, 0.3]] on (w1, w2)
+K_SKIN = np.array([[0.5, 0.2, 0.0], [0.2, 0.3, 0.0], [0.0, 0.0, 0.0]])
+
+
+def test_skeleton_condensation_keeps_the_skin_linear():
+    """A skin left out of the nonlinear terms (``Skeleton``): the model is the membrane model
+    plus a linear skin K_skin; the condensation solves the model without it. Closed form: on
+    the skinned modes Φ (bending rows Φ_b, no membrane part), the K-weighted projection's
+    constraint Φᵀ K0 u = K1 q fixes w = Φ_b q, so the ROM's force is the skinned linear force
+    plus the skeleton's condensed nonlinear force, Φ_bᵀ K_b Φ_b q + Φ_bᵀ (f_c(Φ_b q) − K0_b
+    Φ_b q). Tolerance 1e-7 of the nonlinear force, as the closed-form test above; the fit is a
+    potential (asymmetry ≤ 1e-8)."""
+    full = CallableBackend(lambda u: _membrane_force(u) + K_SKIN @ u,
+                           lambda u: _membrane_tangent(u) + K_SKIN, np.eye(3), name="skinned")
+    full.skeleton = Skeleton(_backend(), np.arange(3), "without the skin")
+    res = identify(full, IdentifyOptions(n_linear=2, n_dual=0, stiffness="condensed",
+                                         amplitude=0.3))
+    st = res.stiffness
+    Phi = res.basis.Phi[:2]
+    assert np.abs(res.basis.Phi[2]).max() < 1e-12           # the modes have no membrane part
+    assert abs(Phi[0, 1]) > 0.05                            # and mix w1 and w2 (the skin)
+    K0 = np.diag([K1B, K2B])
+    assert st.residuals["condensation_asymmetry"] < 1e-8
+    assert st.plan_info["skeleton"] == "without the skin"
+    np.testing.assert_allclose(st.K1, Phi.T @ (K0 + K_SKIN[:2, :2]) @ Phi, atol=1e-12)
+    rng = np.random.default_rng(1)
+    for q in rng.uniform(-0.5, 0.5, (6, 2)):
+        w = Phi @ q
+        nonlinear = Phi.T @ (_condensed_force(w) - K0 @ w)
+        expected = st.K1 @ q + nonlinear
+        assert np.abs(_rom_force(st, q) - expected).max() <= 1e-7 * np.abs(nonlinear).max()
+
+
+def test_higher_amplitude_loads_the_higher_modes_to_their_own_deflection():
+    """``higher_amplitude``: mode 2 is loaded to that deflection (its peak, 1 here: the modes
+    are ± e1, ± e2), not by mode 1's modal force (which moves it k1/k2 = 1/4 as far); the
+    closed form's cubic is found all the same (1e-7, as above)."""
+    base = dict(n_linear=2, n_dual=0, stiffness="condensed", amplitude=0.3)
+    be = _backend()
+    plain = identify(be, IdentifyOptions(**base)).rom.metadata["identification"]
+    res = identify(be, IdentifyOptions(**base, higher_amplitude=0.2))
+    a = res.rom.metadata["identification"]["modal_amplitudes"]
+    L = be.reference_length
+    assert a[0] == pytest.approx(0.3 * L, rel=1e-12)
+    assert a[1] == pytest.approx(0.2 * L, rel=1e-12)
+    assert plain["modal_amplitudes"][1] == pytest.approx(0.3 * L * K1B / K2B, rel=1e-12)
+    st, Phi = res.stiffness, res.basis.Phi[:2]
+    for q in np.random.default_rng(2).uniform(-0.5, 0.5, (4, 2)):
+        expected = Phi.T @ _condensed_force(Phi @ q)
+        nonlinear = expected - st.K1 @ q
+        assert np.abs(_rom_force(st, q) - expected).max() <= 1e-7 * np.abs(nonlinear).max()
 
 
 def test_nonlinear_modes_load_only_the_first_modes():
@@ -224,3 +283,37 @@ def test_monomial_order_is_that_of_the_combined_coefficients():
     np.testing.assert_allclose(monomials(q)[0], expected)
     assert len(expected) == len(list(itertools.combinations_with_replacement(range(3), 2))) + \
         len(list(itertools.combinations_with_replacement(range(3), 3)))
+
+
+def test_linear_skin_through_the_cli_condenses_the_deck_without_it(tmp_path):
+    """``identify --linear-skin PID`` on a public deck (the pyNastran Goland box, PSHELL 2 its
+    0.6 mm skin panels): the ROM's linear part is the whole deck's (K1 = diag ω² of the
+    deck's own modes, which the skin stiffens), its nonlinear terms the skeleton's (the ROM
+    records what was left out, and they differ from the plain condensation's), every solve
+    converged."""
+    import json
+    import subprocess
+    import sys
+
+    from torchrom.rom import NonlinearROM
+
+    deck = Path(__file__).parent / "decks/pynastran_goland_sol200/goland_final_test.bdf"
+    roms = {}
+    for name, extra in (("plain", []), ("skin", ["--linear-skin", "2"])):
+        run = subprocess.run([sys.executable, "-m", "torchrom", "identify", str(deck),
+                              "--linear", "2", "--stiffness", "condensed", "--nonlinear-modes",
+                              "1", "--out", str(tmp_path / f"{name}.npz"), "--json",
+                              str(tmp_path / f"{name}.json"), *extra],
+                             capture_output=True, text=True, timeout=300)
+        assert run.returncode == 0, run.stderr
+        roms[name] = NonlinearROM.load(tmp_path / f"{name}.npz")
+        assert json.loads((tmp_path / f"{name}.json").read_text())["fe_static_solves"] == 6
+    skin, plain = roms["skin"], roms["plain"]
+    assert "without the 20 shells of property 2" in \
+        skin.metadata["identification"]["skeleton"]
+    assert "skeleton" not in plain.metadata["identification"]
+    omega2 = (2 * np.pi * np.asarray(skin.frequencies_hz)) ** 2
+    np.testing.assert_allclose(np.diag(np.asarray(skin.K1)), omega2, rtol=1e-6)
+    np.testing.assert_allclose(np.asarray(skin.K1), np.asarray(plain.K1), rtol=1e-12)
+    k3s, k3p = float(np.asarray(skin.K3)[0, 0, 0, 0]), float(np.asarray(plain.K3)[0, 0, 0, 0])
+    assert k3s > 0 and k3p > 0 and abs(k3s - k3p) > 1e-3 * k3p

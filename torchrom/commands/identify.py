@@ -71,6 +71,11 @@ def add_arguments(parser) -> None:
     parser.add_argument("--levels", type=positive_int, default=3,
                         help="load levels per direction of --stiffness condensed, in equal "
                              "steps up to --amplitude (default 3)")
+    parser.add_argument("--higher-amplitude", type=positive_float, default=None, metavar="F",
+                        help="with --stiffness condensed: load the modes after the first to "
+                             "this linear tip deflection (fraction of the span) instead of the "
+                             "first mode's modal force, which reaches only a few mm of a higher "
+                             "mode; for an LCO whose motion lies in those modes")
     parser.add_argument("--nonlinear-modes", type=positive_int, default=None, metavar="K",
                         help="with --stiffness condensed: load only the first K linear modes "
                              "(default all); the ROM's nonlinear terms are those of their "
@@ -99,6 +104,13 @@ def add_arguments(parser) -> None:
                              "e.g. --output G1001:T3 --output tip=G1002:T3; the ROM always "
                              "has the deck's named points and max_mode1, the translation that "
                              "moves most in mode 1")
+    parser.add_argument("--linear-skin", type=positive_int, action="append", default=[],
+                        metavar="PID",
+                        help="with --stiffness condensed: a foil skin (the PSHELL/PCOMP id of "
+                             "its CQUAD4/CTRIA3, repeatable) that adds its linear stiffness and "
+                             "mass to the ROM but nothing to its nonlinear terms, which are "
+                             "condensed on the structure without it (a thin skin wrinkles: "
+                             "modelled as shells it stops every static solve)")
     add_units_option(parser, "the deck")
     add_json_option(parser)
     add_force_option(parser)
@@ -121,6 +133,24 @@ class _Progress:
             bar.close()
 
 
+def _skeleton(args, fe):
+    """The condensation's structure: the deck without its --linear-skin shells."""
+    from ..fe import read_bdf
+    from ..fe.deck_units import declare_units
+    from ..identify.build import as_backend
+    from ..identify.condensation import skeleton_of
+
+    skel = read_bdf(args.model, without_properties=args.linear_skin)
+    declare_units(skel, args.units, str(args.model))
+    n_left = len(fe.mesh.quads) + len(fe.mesh.trias) - len(skel.mesh.quads) - len(skel.mesh.trias)
+    pids = ", ".join(map(str, args.linear_skin))
+    what = (f"without the {n_left} shells of property {pids} (a linear skin: its stiffness and "
+            f"mass in the linear part only); {skel.n_dof} of {fe.n_dof} DOFs")
+    print(f"  condensation on the structure {what}")
+    backend = as_backend(skel)
+    return skeleton_of(fe, skel, backend, what)
+
+
 def run(args) -> int:
     from ..identify.build import IdentifyOptions, as_backend, identify
 
@@ -138,8 +168,15 @@ def run(args) -> int:
     # bad option combinations before the deck is read and its modes computed
     opt = IdentifyOptions(n_linear=args.linear, n_dual=args.dual, damping=args.damping,
                           stiffness=args.stiffness, amplitude=args.amplitude,
-                          levels=args.levels, nonlinear_modes=args.nonlinear_modes)
+                          levels=args.levels, nonlinear_modes=args.nonlinear_modes,
+                          higher_amplitude=args.higher_amplitude)
     opt.validate()
+    if args.linear_skin and args.stiffness != "condensed":
+        from ..errors import InputError
+
+        raise InputError(f"--linear-skin: an option of --stiffness condensed (the skin is left "
+                         f"out of the condensation's static solves), not of --stiffness "
+                         f"{args.stiffness}")
     if args.combinations != "transverse":
         parse_combinations(args.combinations)  # bad input before the work
     extra_points = dict(parse_named_point(o) for o in args.output)
@@ -165,6 +202,9 @@ def run(args) -> int:
         backend.step_x = float(args.step_x)
     if extra_points:
         backend.add_output_points(extra_points)
+    if args.linear_skin:
+        backend.skeleton = _skeleton(args, fe)
+        backend.skeleton.backend.counters = backend.counters  # its FE work is this ROM's
     info(f"  {backend.n_dof} DOFs, span {backend.reference_length:g}, "
           f"outputs {sorted(backend.outputs)}")
     opt = replace(opt, dual=DualModeOptions(combinations=combinations))

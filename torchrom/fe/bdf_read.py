@@ -196,6 +196,7 @@ def read_bdf(
     autospc: bool | None = None,
     output_points: dict[str, tuple[int, int]] | None = None,
     rotations: str | None = None,
+    without_properties=(),
 ):
     """Read a Nastran deck into an :class:`~torchrom.fe.model.FEModel`.
 
@@ -207,7 +208,8 @@ def read_bdf(
     ``torchrom goland`` get the Goland point A automatically; ``rotations`` "large"
     (co-rotational plate bending, beams and rod torsion in nonlinear analyses) or "small"
     (those linear); default "large", except "small" for a deck written by ``torchrom goland``
-    (the paper's model).
+    (the paper's model); ``without_properties``: PSHELL/PCOMP ids whose CQUAD4/CTRIA3 are left
+    out (:func:`shell_ids_of`; the structure without its foil skin).
     """
     from ..checks import expect_text_file
     from ..progress import Stages
@@ -231,7 +233,34 @@ def read_bdf(
         autospc=autospc,
         output_points=output_points,
         rotations=rotations,
+        without_properties=without_properties,
     )
+
+
+def shell_ids_of(model, pids, fname: str, option: str = "--linear-skin") -> np.ndarray:
+    """The CQUAD4/CTRIA3 ids of the shell properties ``pids`` (a foil skin). A property that
+    is missing or carries no such shell is refused in one line naming ``option``."""
+    eids: list[int] = []
+    for pid in pids:
+        prop = model.properties.get(int(pid))
+        if prop is None:
+            raise InputError(f"{fname}: {option} {pid}: no property {pid} in the deck")
+        ids = sorted(eid for eid, e in model.elements.items()
+                     if e.type in ("CQUAD4", "CTRIA3") and e.pid == int(pid))
+        if not ids:
+            raise InputError(f"{fname}: {option} {pid}: {prop.type} {pid} is used by no "
+                             "CQUAD4 or CTRIA3 (only a shell skin can be left out)")
+        eids.extend(ids)
+    return np.array(eids, dtype=int)
+
+
+def _without_shells(mesh, eids: np.ndarray):
+    """The mesh without the CQUAD4/CTRIA3 ``eids`` (their grids stay; AUTOSPC removes the DOFs
+    that nothing else holds)."""
+    from dataclasses import replace
+
+    return replace(mesh, quads=mesh.quads.select(~np.isin(mesh.quads.eids, eids)),
+                   trias=mesh.trias.select(~np.isin(mesh.trias.eids, eids)))
 
 
 def _case_value(model, key: str):
@@ -275,6 +304,7 @@ def from_pynastran(
     units: dict[str, str] | None = None,
     stages=None,
     rotations: str | None = None,
+    without_properties=(),
 ):
     """Build an FEModel from a pyNastran ``BDF`` object (read from a file or built in memory);
     ``stages`` (:class:`torchrom.progress.Stages`) reports the mesh and assembly stages."""
@@ -295,6 +325,8 @@ def from_pynastran(
     stages.start(f"building the mesh of {len(model.nodes)} grids and {len(model.elements)} "
                  f"elements")
     mesh = reader.mesh(spc_id)
+    if len(without_properties):
+        mesh = _without_shells(mesh, shell_ids_of(model, without_properties, fname))
     loads = reader.loads(mesh)
     stages.start("assembling the stiffness and mass matrices")
     title = _title(model)

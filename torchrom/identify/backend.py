@@ -149,6 +149,9 @@ class FEBackend:
         self.counters = Counters()
         self._M = None
         self._K = None
+        #: the structure the condensation solves when it is not this one (the model without
+        #: its foil skin: :class:`~torchrom.identify.condensation.Skeleton`); None: this one
+        self.skeleton = None
 
     # -- descriptive attributes with defaults ------------------------------------------------
     @property

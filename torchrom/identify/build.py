@@ -56,9 +56,13 @@ def _step(be, Phi, amps, opt, material, progress):
 
 
 def _condensed(be, Phi, amps, opt, material, progress):
+    higher = None if opt.higher_amplitude is None else \
+        amps * (opt.higher_amplitude / opt.resolved_amplitude)
     stiff, data = identify_stiffness_condensed(be, Phi, amps, levels=opt.levels,
+                                               higher=higher,
                                                n_nonlinear=opt.nonlinear_modes,
-                                               progress=progress("static solves"))
+                                               progress=progress("static solves"),
+                                               skeleton=be.skeleton)
     return stiff, data, None
 
 
@@ -86,6 +90,8 @@ class IdentifyOptions:
     levels: the condensation's load levels per direction (equal steps up to the amplitude);
     nonlinear_modes: the condensation loads only the first this many elastic modes (None: all);
     the ROM's nonlinear terms are theirs (the plan grows as its cube);
+    higher_amplitude: the condensation loads the modes after the first to this linear
+    deflection (fraction of the span) instead of the first mode's modal force (None);
     symmetric_pairs: impose ±(a_j e_j + a_l e_l) for Eq. 41 (cancels the quadratic term exactly);
     dual, decomposition: options of the dual modes and of the optimum decomposition.
     """
@@ -97,6 +103,7 @@ class IdentifyOptions:
     amplitude: float | None = None
     levels: int = 3
     nonlinear_modes: int | None = None
+    higher_amplitude: float | None = None
     symmetric_pairs: bool = True
     dual: DualModeOptions = field(default_factory=DualModeOptions)
     decomposition: DecompositionOptions = field(default_factory=DecompositionOptions)
@@ -125,6 +132,15 @@ class IdentifyOptions:
             if k > self.n_linear:
                 raise InputError(f"nonlinear_modes (--nonlinear-modes): expected a whole number "
                                  f"from 1 to the {self.n_linear} linear modes, got {k!r}")
+        if self.higher_amplitude is not None:
+            if self.stiffness != "condensed":
+                raise InputError(f"higher_amplitude (--higher-amplitude) is an option of "
+                                 f"stiffness 'condensed', not of {self.stiffness!r}")
+            high = real("higher_amplitude (--higher-amplitude)", self.higher_amplitude,
+                        positive=True)
+            if high > MAX_AMPLITUDE:
+                raise InputError(f"higher_amplitude (--higher-amplitude): expected a fraction "
+                                 f"of the span in (0, {MAX_AMPLITUDE:g}], got {high:g}")
         amp = real("amplitude", self.resolved_amplitude, positive=True)
         if amp > MAX_AMPLITUDE:
             raise InputError(f"amplitude: expected a fraction of the span in (0, "

@@ -21,6 +21,14 @@ ROM locks. Here the FE does the cancellation; what is fitted is the softening th
 the range of the load levels rather than at a Taylor point — the levels' largest amplitude sets
 the ROM's validity envelope.
 
+**A skin left out of the nonlinear terms** (:class:`Skeleton`). A foil skin (the Pazy wing's
+12 µm PSHELL) buckles in compression at strains of order 1e-7 and wrinkles: modelled as a shell
+it stops every static solve (as the AePW-3 group reports of SOL 400 on the same deck), and kept
+linear it resists the bending's foreshortening (a spurious hardening). With a skeleton (the
+model without the skin) the solves are the skeleton's, on the skinned modes restricted to its
+DOFs, and the ROM's linear part stays the whole model's: the skin adds its small-deflection
+stiffness and its mass, and nothing to the geometric nonlinearity.
+
 What it gives up: the ROM's coordinates are the linear modes only (no dual modes), the in-plane
 displacements are not among the outputs (the outputs are Φ q), the in-plane inertia is left out
 (the in-plane modes lie far above the bending ones), and a static solve needs a restrained
@@ -145,6 +153,25 @@ def stiffness_from_condensation(p: np.ndarray, q: np.ndarray, K1: np.ndarray,
     return StiffnessIdentification(0.5 * (K1 + K1.T), K2, K3, "condensed", a, res, len(q))
 
 
+@dataclass(frozen=True)
+class Skeleton:
+    """The structure whose static solves give the condensed nonlinear terms when it is not the
+    whole model (the model without its foil skin): its backend, the model's free-DOF index of
+    each of its free DOFs (``rows``), and what was left out (``what``, for the ROM's record)."""
+
+    backend: object
+    rows: np.ndarray
+    what: str
+
+
+def skeleton_of(fe, skeleton_fe, backend, what: str) -> Skeleton:
+    """The :class:`Skeleton` of the FE model ``fe`` given the same deck without the left-out
+    elements (``skeleton_fe``, its ``backend``): every skeleton DOF must be a DOF of ``fe``."""
+    rows = np.array([fe.dof_index(g, c, what="skeleton") for g, c in skeleton_fe.free_dofs()],
+                    dtype=int)
+    return Skeleton(backend, rows, what)
+
+
 @dataclass
 class CondensationData:
     """What the condensation's solves gave: the applied loads ``p`` and the FE's modal
@@ -161,23 +188,38 @@ class CondensationData:
 
 def identify_stiffness_condensed(backend, Phi: np.ndarray, amplitudes: np.ndarray, *,
                                  levels: int = 3, n_nonlinear: int | None = None,
-                                 progress=None
+                                 progress=None, skeleton: Skeleton | None = None,
+                                 higher: np.ndarray | None = None
                                  ) -> tuple[StiffnessIdentification, CondensationData]:
     """Run the condensation plan on a (restrained) backend; ``progress(done, total)`` after
     each static solve. A direction whose solve fails keeps its lower levels (the failed loads
     are in the returned data); the fit then refuses if the rest no longer determines it.
     ``n_nonlinear``: load only the first modes (all by default): the ROM's nonlinear terms are
-    those of their coordinates, the others' response to them included (O(k³) solves)."""
+    those of their coordinates, the others' response to them included (O(k³) solves).
+    ``skeleton``: solve that structure instead, on Φ's rows of its DOFs (module docstring);
+    the linear stiffness K1 stays the backend's. ``higher``: the amplitudes of the modes after
+    the first (n,) instead of the first mode's modal force (:func:`equal_force_amplitudes`),
+    for an LCO whose motion lies in a higher mode beyond what that force reaches."""
     from .backend import project
 
-    K = backend.stiffness_matrix()
-    K1 = project(K, Phi)
+    K1 = project(backend.stiffness_matrix(), Phi)
     n = Phi.shape[1]
     k = n if n_nonlinear is None else int(n_nonlinear)
     a = equal_force_amplitudes(K1, float(amplitudes[0]))
+    if higher is not None:
+        a[1:] = np.asarray(higher, dtype=float)[1:]
     plan = CondensationPlan(a[:k], levels)
-    M = backend.mass_matrix()
-    MPhi = np.asarray(M @ Phi)
+    solver = backend if skeleton is None else skeleton.backend
+    if skeleton is not None:
+        Phi = Phi[skeleton.rows]
+    K = solver.stiffness_matrix()
+    K1_solved = project(K, Phi)  # the solved structure's: its linear response to K Φ p is Φ p
+    # q = (ΦᵀWΦ)⁻¹ ΦᵀW u. W = M for the model's own modes (there W = K gives the same q: K Φ =
+    # M Φ Λ); on a skeleton Φ is no eigenbasis, and only W = K keeps the condensed force a
+    # gradient (the solve's Lagrange condition ∇U = K Φ p then matches the projection's
+    # constraint Φᵀ K u = K1 q), as the ROM's potential needs.
+    W = solver.mass_matrix() if skeleton is None else K
+    MPhi = np.asarray(W @ Phi)
     gram = Phi.T @ MPhi
     L = plan.levels
     total = len(plan.points)
@@ -190,7 +232,7 @@ def identify_stiffness_condensed(backend, Phi: np.ndarray, amplitudes: np.ndarra
             p = np.zeros(n)
             p[:k] = plan.points[d * L + lev]
             try:
-                u = backend.static_solve(np.asarray(K @ (Phi @ p)).ravel(), u0=u).u
+                u = solver.static_solve(np.asarray(K @ (Phi @ p)).ravel(), u0=u).u
             except ConvergenceError as err:
                 first_error = first_error or f"; the first failure: {err}"
                 failed.extend(plan.points[d * L + lev:(d + 1) * L])
@@ -206,7 +248,10 @@ def identify_stiffness_condensed(backend, Phi: np.ndarray, amplitudes: np.ndarra
     data = CondensationData(np.array(P).reshape(-1, Phi.shape[1]),
                             np.array(Q).reshape(-1, Phi.shape[1]), failed)
     why = f" ({len(failed)} loads failed{first_error})" if failed else ""
-    stiff = stiffness_from_condensation(data.p, data.q, K1, a, n_nonlinear=k, failed=why)
+    stiff = stiffness_from_condensation(data.p, data.q, K1_solved, a, n_nonlinear=k, failed=why)
     stiff.plan_info = {"levels": plan.levels, "nonlinear_modes": k,
                        "static_solves": len(data.q), "failed_solves": len(failed)}
+    if skeleton is not None:
+        stiff.K1 = 0.5 * (K1 + K1.T)
+        stiff.plan_info["skeleton"] = skeleton.what
     return stiff, data
