@@ -244,7 +244,7 @@ def test_pazy_skin_lco_sweep_is_certified_and_matches_time_marching(tmp_path):
     certified and stable, its tip amplitude growing with speed at the flutter mode's 34-36 Hz;
     and the same ROM marched in time (Newmark, 0.2 ms: an independent method, certified by
     shooting) at 80 m/s lands on the same orbit within 0.3 % (measured 0.08 %; the marching's
-    own orbit_error + dt_error is 0.1 %). About 8 minutes."""
+    own orbit_error + dt_error is 0.1 %). About 10 minutes (609 s on a loaded machine)."""
     import pandas as pd
 
     deck = TIPMASS1 / "sol145.dat"
