@@ -390,6 +390,25 @@ def block_perf_demo(res: dict[str, Any]) -> str:
                        + _machine(meta, _span(meta["load_average"][:1]))])
 
 
+def block_perf_uq(res: dict[str, Any]) -> str:
+    """The Goland uncertainty study through the CLI (``benchmarks/bench_uq.py``)."""
+    meta = res["meta"]
+    out = ["| samples | workers | rows | certified LCOs | stability resolved | certificates | "
+           "finished by shooting | wall s | CPU s (all processes) | CPU ms per case | "
+           "load at start → end |", "|---|---|---|---|---|---|---|---|---|---|---|"]
+    for r in res["runs"]:
+        certs = ", ".join(f"{k} {v:,}" for k, v in r["certificates"].items())
+        out.append(f"| {r['samples']:,} | {r['workers']} | {r['rows']:,} | {r['certified']:,} | "
+                   f"{r['stability_resolved']:,} | {certs} | {r['finished']:,} | "
+                   f"{r['wall_s']:.0f} | {r['cpu_s']:.0f} | {r['cpu_ms_per_case']:.1f} | "
+                   f"{_load(r['load_before'])} → {_load(r['load_after'])} |")
+    return "\n".join([*out, "", f"`{meta['command']}` on `{meta['config']}` (the same seed "
+                       "and Latin hypercube at each sample count): the whole command as a user "
+                       "runs it (start-up, model cache, Dask cluster, sweep, table and figures); "
+                       "CPU seconds of the command and its worker processes. "
+                       + _machine(meta, _span([r["load_before"][0] for r in res["runs"]]))])
+
+
 def block_config_keys() -> str:
     """The sections and keys a sweep configuration accepts, as ``torchrom.study.config`` checks
     them."""
@@ -430,6 +449,7 @@ def render_blocks(paper: dict[str, Any], bench: dict[str, Any],
               "perf-integrator": block_perf_integrator(results["bench_integrator"]),
               "perf-dask": block_perf_dask(results["bench_dask"]),
               "perf-demo": block_perf_demo(results["bench_demo"]),
+              "perf-uq": block_perf_uq(results["bench_uq"]),
               "config-keys": block_config_keys()}
     if deck is not None:
         blocks["pt145-flutter"] = block_deck(deck)

@@ -98,3 +98,23 @@ def test_linear_blocks_equal_the_state_space_transfer():
     D, E, R = (t[0].numpy() for t in (system.lag_D, system.lag_E, system.lag_R))
     expected = s**2 * M + s * C + K + D @ np.linalg.solve(s * np.eye(2) - R, E * s)
     assert np.allclose(Z.numpy(), expected, rtol=1e-12, atol=1e-12)
+
+
+def test_residual_options_give_the_same_residual():
+    """The residual with the stiffness force by Euler's theorem (the Fourier certificate's)
+    equals the monomial one to rounding (1e-13 of the largest entry: sums of a few hundred
+    terms), and with the linear blocks passed in (computed without their ω-derivative) equals
+    the plain residual exactly; the blocks' Z does not depend on that option."""
+    rom = _random_rom()
+    system = _system(rom)
+    torch.manual_seed(4)
+    hb = HarmonicBalance(system, 4)
+    X = 0.3 * torch.randn(2, hb.nh, rom.n, dtype=torch.float64)
+    w = torch.tensor([6.0, 7.0], dtype=torch.float64)
+    R = hb.residual(X, w)
+    euler = HarmonicBalance(system, 4, stiffness_by_tangent=True).residual(X, w)
+    assert (euler - R).abs().max() <= 1e-13 * R.abs().max()
+    blocks = hb.linear_blocks(w, derivative=False)
+    assert blocks.dZ_domega is None
+    assert torch.equal(blocks.Z, hb.linear_blocks(w).Z)
+    assert torch.equal(hb.residual(X, w, blocks=blocks), R)

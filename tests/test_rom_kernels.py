@@ -68,6 +68,7 @@ def test_kernels_match_dense_tensors(symmetric):
     f, T = k.stiffness_and_tangent(q)
     assert close(f, force) and close(T, tangent)
     assert close(k.stiffness_nl(q), force)
+    assert close(k.stiffness_nl_by_tangent(q), force)  # Euler's theorem, no cubic monomials
     assert close(k.tangent_nl(q), tangent)
     assert close(k.damping_nl_matrix(q), damping)
 

@@ -101,3 +101,22 @@ def test_plot_columns_cover_every_numeric_result_column(tmp_path):
                    or pd.api.types.is_bool_dtype(table[c])}
         refused = sorted(c for c in numeric if not is_result_column(c, allowed))
         assert not refused, (method, refused)
+
+
+def test_harmonic_balance_chunks_hold_neighbours_and_the_table_keeps_case_order(tmp_path):
+    """A solver that chains neighbours gets its chunks cut from the cases in chain order
+    (:func:`~torchrom.study.cases.chain_order`: by α from the largest down), and the table
+    comes back in the configuration's case order: with chunks of two cases the rows are those
+    of the one-chunk sweep (amplitudes to 1e-8: the Newton tolerance, from other starts)."""
+    from torchrom.study.cases import chain_order
+
+    path = tmp_path / "hb.toml"
+    path.write_text(CONFIG.format(tol=1e-6).replace("[model]", 'method = "hb"\n[model]')
+                    .replace("[0.1, 0.2, 0.3, 0.4]", "[0.3, 0.1, 0.4, 0.2]"))
+    cfg = load_sweep_config(path)
+    assert chain_order(cfg.cases) == [2, 0, 3, 1]
+    one = run_sweep(cfg)[0]
+    pairs = run_sweep(cfg, chunk_size=2)[0]
+    assert one["alpha"].tolist() == pairs["alpha"].tolist() == [0.3, 0.1, 0.4, 0.2]
+    assert (pairs["status"] == "lco").all() and pairs["certified"].all()
+    np.testing.assert_allclose(pairs["amplitude"], one["amplitude"], rtol=1e-8)

@@ -83,7 +83,7 @@ import numpy as np
 import torch
 
 from ..sim.system import CaseSystem
-from .balance import HarmonicBalance
+from .balance import HarmonicBalance, LinearBlocks
 from .fourier import synthesis_matrix
 from .newton import equilibrated_lu
 from .solve import fixed_parameter_condition
@@ -222,10 +222,11 @@ class _ChordStep:
         sol, ok = self.lu.solve(rhs)
         return sol[:, : self.nh * self.n].view(B, self.nh, self.n), sol[:, -2], ok
 
-    def high(self, hb: HarmonicBalance, R: Tensor) -> Tensor:
+    def high(self, blocks: LinearBlocks, R: Tensor) -> Tensor:
         """Z_k(ω)⁻¹ R_k for the harmonics above the coupled ones, k = H+1..K, of residual R
-        (B, 2K+1, n) of ``hb`` (K = hb.H): (B, 2(K−H), n) in the coefficient layout."""
-        Z = hb.linear_blocks(self.omega).Z[:, self.H:]  # (B, K − H, n, n)
+        (B, 2K+1, n) of equations at K harmonics whose linear blocks at ω are ``blocks``:
+        (B, 2(K−H), n) in the coefficient layout."""
+        Z = blocks.Z[:, self.H:]  # (B, K − H, n, n)
         # cos row Re(W), sin row −Im(W) of W = Z Q + F (:mod:`.balance`)
         W = torch.complex(R[:, self.nh::2], -R[:, self.nh + 1::2])
         dQ = torch.linalg.solve(Z, W[..., None])[..., 0]
@@ -238,16 +239,18 @@ class _ChordStep:
         K = ``extension`` ≥ H harmonics (every harmonic it has when X has at most K/3): the
         tail above the coupled harmonics first, then those from the residual with the
         corrected tail (Gauss–Seidel on the two blocks)."""
-        hb = HarmonicBalance(self.system, extension)
+        hb = HarmonicBalance(self.system, extension, stiffness_by_tangent=True)
+        # the linear blocks at ω once, for both residuals and the tail's solves
+        blocks = hb.linear_blocks(self.omega, derivative=False)
         Xe = _padded(X, extension)
-        R = hb.residual(Xe, self.omega)
+        R = hb.residual(Xe, self.omega, blocks=blocks)
         if extension == self.H:
             d_low, d_omega, ok = self.low(R, Xe)
             return d_low, d_omega, ok
-        d_high = self.high(hb, R)
+        d_high = self.high(blocks, R)
         Xg = Xe.clone()
         Xg[:, self.nh:] -= d_high
-        d_low, d_omega, ok = self.low(hb.residual(Xg, self.omega), Xg)
+        d_low, d_omega, ok = self.low(hb.residual(Xg, self.omega, blocks=blocks), Xg)
         return torch.cat([d_low, d_high], dim=1), d_omega, ok
 
 

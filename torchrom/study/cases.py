@@ -269,6 +269,17 @@ def neighbour_chains(cases: Sequence[Mapping[str, Any]], max_length: int = MAX_C
     return chains, pos
 
 
+def chain_order(cases: Sequence[Mapping[str, Any]]) -> list[int]:
+    """The case indices in the order of :func:`neighbour_chains` (each group ordered by its
+    chain parameter from its largest value down): contiguous chunks cut from this order hold
+    close neighbours. Why: sampled cases come in random order, so chunks of the case list
+    each spanned the whole distribution; 4,096 of the 10,000 Goland UQ samples (γ lognormal)
+    in chunks of 512 took 21.4 CPU ms per case of harmonic balance in case order and 13.6 ms
+    in chain order (3.9 → 3.0 Newton iterations per case)."""
+    chains, _ = neighbour_chains(cases, max_length=max(len(cases), 2))
+    return [i for chain in chains for i in chain]
+
+
 # -- time histories --------------------------------------------------------------------------------
 @dataclass
 class HistorySpec:

@@ -17,6 +17,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import pandas as pd
 import torch
 
@@ -24,7 +25,7 @@ from ..periodic.certify import certify
 from ..periodic.newton import single_thread
 from ..rom import NonlinearROM
 from ..sim import output_matrix
-from .cases import case_system, history_table, orbit_table
+from .cases import case_system, chain_order, history_table, orbit_table
 from .cases import initial_displacement as initial_displacement  # noqa: F401 - public name
 from .cases import initial_velocity as initial_velocity  # noqa: F401 - public name
 from .cases import structural_system as structural_system  # noqa: F401 - public name
@@ -165,10 +166,15 @@ def run_sweep(cfg: SweepConfig, *, device=None, dtype=torch.float64,
     ids = [case_id(c, context=run["run_key"]) for c in cases]
     task = SweepTask(cfg, model, str(torch.device(device or "cpu")), dtype)
     store = PartStore(Path(out), run) if out is not None else None
-    table, stats = run_cases(task, cases, ids, batch_size=cfg.batch_size,
+    # a solver that chains neighbours gets chunks of neighbours (the cases in chain order;
+    # the table comes back in case order)
+    order = chain_order(cases) if cfg.solver.chains_neighbours else list(range(len(cases)))
+    table, stats = run_cases(task, [cases[i] for i in order], [ids[i] for i in order],
+                             batch_size=cfg.batch_size,
                              chunk_size=chunk_size or sweep_chunk_size(cfg), executor=executor,
                              store=store, force=force, progress=progress, log=log,
                              on_history=on_history, on_orbits=on_orbits)
+    table = table.iloc[np.argsort(order)].reset_index(drop=True)
     table.attrs["units"] = sweep_units(list(table.columns), list(cfg.outputs or []),
                                        model_length_unit(model), flight_units(model))
     return table, stats.as_dict()
