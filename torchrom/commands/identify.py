@@ -2,7 +2,7 @@
 
     torchrom identify MODEL.bdf --linear 9 --dual 12 --damping decomposition|exact --out rom.npz
                       [--stiffness tangent|step|condensed] [--amplitude A] [--levels 3]
-                      [--nonlinear-modes K]
+                      [--nonlinear-modes K] [--higher-amplitude F] [--linear-skin PID]
                       [--report DIR] [--json FILE] [--force]
 
 Reads the deck with the built-in FE, computes the linear and dual modes, identifies the stiffness
