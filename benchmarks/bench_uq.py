@@ -74,7 +74,7 @@ def run_once(samples: int, workers: int, folder: Path) -> dict:
     timing = re.search(r"time: ([\d.]+) s elapsed, ([\d.]+) s solving", proc.stdout)
     lco = table["status"] == "lco"
     certified = lco & (table["certified"] == True)  # noqa: E712 - an object column
-    resolved = table["stable"].map(lambda s: isinstance(s, bool) or s in (True, False))
+    resolved = table["stable"].notna()  # true or false, not unknown
     return {"samples": samples, "workers": workers, "rows": len(table),
             "statuses": table["status"].value_counts().to_dict(),
             "certified": int(certified.sum()), "stability_resolved": int(resolved.sum()),

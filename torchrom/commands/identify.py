@@ -133,22 +133,25 @@ class _Progress:
             bar.close()
 
 
-def _skeleton(args, fe):
-    """The condensation's structure: the deck without its --linear-skin shells."""
-    from ..fe import read_bdf
+def _skeleton(args, fe, backend):
+    """The condensation's structure: the deck already read (``fe``) without its --linear-skin
+    shells; its FE work counts in ``backend``'s counters."""
+    from ..fe.bdf_read import from_pynastran
     from ..fe.deck_units import declare_units
     from ..identify.build import as_backend
     from ..identify.condensation import skeleton_of
 
-    skel = read_bdf(args.model, without_properties=args.linear_skin)
+    skel = from_pynastran(fe.bdf, source=fe.source, name=fe.name,
+                          without_properties=args.linear_skin)
     declare_units(skel, args.units, str(args.model))
     n_left = len(fe.mesh.quads) + len(fe.mesh.trias) - len(skel.mesh.quads) - len(skel.mesh.trias)
     pids = ", ".join(map(str, args.linear_skin))
     what = (f"without the {n_left} shells of property {pids} (a linear skin: its stiffness and "
             f"mass in the linear part only); {skel.n_dof} of {fe.n_dof} DOFs")
     print(f"  condensation on the structure {what}")
-    backend = as_backend(skel)
-    return skeleton_of(fe, skel, backend, what)
+    skel_backend = as_backend(skel)
+    skel_backend.counters = backend.counters
+    return skeleton_of(fe, skel, skel_backend, what)
 
 
 def run(args) -> int:
@@ -203,8 +206,7 @@ def run(args) -> int:
     if extra_points:
         backend.add_output_points(extra_points)
     if args.linear_skin:
-        backend.skeleton = _skeleton(args, fe)
-        backend.skeleton.backend.counters = backend.counters  # its FE work is this ROM's
+        backend.skeleton = _skeleton(args, fe, backend)
     info(f"  {backend.n_dof} DOFs, span {backend.reference_length:g}, "
           f"outputs {sorted(backend.outputs)}")
     opt = replace(opt, dual=DualModeOptions(combinations=combinations))

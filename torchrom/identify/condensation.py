@@ -202,25 +202,27 @@ def identify_stiffness_condensed(backend, Phi: np.ndarray, amplitudes: np.ndarra
     for an LCO whose motion lies in a higher mode beyond what that force reaches."""
     from .backend import project
 
-    K1 = project(backend.stiffness_matrix(), Phi)
+    K = backend.stiffness_matrix()
+    K1 = project(K, Phi)
     n = Phi.shape[1]
     k = n if n_nonlinear is None else int(n_nonlinear)
     a = equal_force_amplitudes(K1, float(amplitudes[0]))
     if higher is not None:
         a[1:] = np.asarray(higher, dtype=float)[1:]
     plan = CondensationPlan(a[:k], levels)
-    solver = backend if skeleton is None else skeleton.backend
-    if skeleton is not None:
-        Phi = Phi[skeleton.rows]
-    K = solver.stiffness_matrix()
-    K1_solved = project(K, Phi)  # the solved structure's: its linear response to K Φ p is Φ p
-    # q = (ΦᵀWΦ)⁻¹ ΦᵀW u. W = M for the model's own modes (there W = K gives the same q: K Φ =
-    # M Φ Λ); on a skeleton Φ is no eigenbasis, and only W = K keeps the condensed force a
-    # gradient (the solve's Lagrange condition ∇U = K Φ p then matches the projection's
-    # constraint Φᵀ K u = K1 q), as the ROM's potential needs.
-    W = solver.mass_matrix() if skeleton is None else K
-    MPhi = np.asarray(W @ Phi)
-    gram = Phi.T @ MPhi
+    # the solved structure, its K and K1_solved (its linear response to K Φ p is Φ p), and the
+    # projection's weight W in q = (ΦᵀWΦ)⁻¹ ΦᵀW u. W = M for the model's own modes (there W = K
+    # gives the same q: K Φ = M Φ Λ); on a skeleton Φ is no eigenbasis, and only W = K keeps the
+    # condensed force a gradient (the solve's Lagrange condition ∇U = K Φ p then matches the
+    # projection's constraint Φᵀ K u = K1 q), as the ROM's potential needs.
+    if skeleton is None:
+        solver, K1_solved, W = backend, K1, backend.mass_matrix()
+    else:
+        solver, Phi = skeleton.backend, Phi[skeleton.rows]
+        K = W = solver.stiffness_matrix()
+        K1_solved = project(K, Phi)
+    WPhi = np.asarray(W @ Phi)
+    gram = Phi.T @ WPhi
     L = plan.levels
     total = len(plan.points)
     P, Q, failed = [], [], []
@@ -241,7 +243,7 @@ def identify_stiffness_condensed(backend, Phi: np.ndarray, amplitudes: np.ndarra
                     progress(done, total)
                 break
             P.append(p)
-            Q.append(np.linalg.solve(gram, MPhi.T @ u))
+            Q.append(np.linalg.solve(gram, WPhi.T @ u))
             done += 1
             if progress is not None:
                 progress(done, total)
