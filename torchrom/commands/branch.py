@@ -81,7 +81,7 @@ def run(args: argparse.Namespace) -> int:
 
     with Progress(100, f"  {parameter} range covered", unit="%") as bar:
         study = run_branches(cfg, parameter, options, device=device,
-                             progress=lambda f: bar.update_to(int(100 * f)))
+                             progress=lambda f: bar.update_to(int(100 * f)), log=bar.write)
     table = study.table
     out.mkdir(parents=True, exist_ok=True)
     written = write_table(table, out, force=args.force, stem="branch")

@@ -86,10 +86,10 @@ def newmark_confirmation(cfg, model, table: pd.DataFrame, orbits: pd.DataFrame, 
     return pd.DataFrame(rows), history_table(res, ids)
 
 
-def goland_branches(cfg, model, device="cpu", progress=None) -> pd.DataFrame:
+def goland_branches(cfg, model, device="cpu", progress=None, log=None) -> pd.DataFrame:
     """The branch table of :data:`BRANCH_GAMMAS` in altitude over :data:`BRANCH_BOUNDS_FT`;
-    ``progress(fraction)``: the share of the altitude range covered so far
-    (:func:`torchrom.study.branch.run_branches`)."""
+    ``progress(fraction)``: the share of the altitude range covered so far, ``log``: a line
+    before the certificate (:func:`torchrom.study.branch.run_branches`)."""
     cases = [{"altitude_ft": BRANCH_BOUNDS_FT[1], "alpha": "matched", "gamma": g}
              for g in BRANCH_GAMMAS]
     bcfg = dataclasses.replace(cfg, cases=cases, history=None)
@@ -102,7 +102,7 @@ def goland_branches(cfg, model, device="cpu", progress=None) -> pd.DataFrame:
     study = run_branches(bcfg, "altitude_ft", BranchOptions(bounds=BRANCH_BOUNDS_FT,
                                                             amplitude_scale=1.0, step=0.05,
                                                             max_amplitude=cfg.lco.max_amplitude),
-                         model=model, device=device, progress=progress)
+                         model=model, device=device, progress=progress, log=log)
     return study.table
 
 

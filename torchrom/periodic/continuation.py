@@ -123,6 +123,9 @@ class Branches:
     hopf: list[dict]
     stable: list[np.ndarray] = field(default_factory=list)
     critical_multiplier: list[np.ndarray] = field(default_factory=list)
+    #: |μ_trivial − 1| of each point's monodromy (its accuracy; what the Fourier certificate
+    #: compares the stability margin with)
+    floquet_error: list[np.ndarray] = field(default_factory=list)
 
 
 class _ParameterEquations:
@@ -375,6 +378,7 @@ def follow_branches(builder: Builder, B: int, output_row, options: BranchOptions
             if not pts:
                 out.stable.append(np.zeros(0, dtype=bool))
                 out.critical_multiplier.append(np.zeros(0))
+                out.floquet_error.append(np.zeros(0))
                 continue
             sysb = builder(np.array([pt.parameter for pt in pts]), np.full(len(pts), b))
             Xb = torch.stack([pt.X for pt in pts])
@@ -382,6 +386,8 @@ def follow_branches(builder: Builder, B: int, output_row, options: BranchOptions
             fl = floquet(sysb, Xb, wb)
             out.stable.append(fl.stable)
             out.critical_multiplier.append(fl.critical_modulus)
+            out.floquet_error.append(fl.trivial_error if fl.trivial_error is not None
+                                     else np.full(len(pts), np.nan))
     return out
 
 

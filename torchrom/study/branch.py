@@ -99,6 +99,20 @@ def branch_options(cfg: SweepConfig, parameter: str | None = None,
         raise InputError(f"[branch]: bad value ({exc})") from None
 
 
+def _floquet_extra(br, harmonics: int) -> dict[str, np.ndarray]:
+    """The continuation's own Floquet results per orbit point (branch by branch, in order) as
+    a harmonic-balance result's ``extra`` (what the Fourier certificate reads,
+    :func:`torchrom.periodic.certify.fourier_rows`); empty without them (no stability)."""
+    if not br.stable or len(br.floquet_error) != len(br.stable):
+        return {}
+    stable = np.array([None if s is None or (isinstance(s, float) and math.isnan(s))
+                       else bool(s) for st in br.stable for s in st], dtype=object)
+    mult = np.concatenate([np.asarray(m, dtype=float) for m in br.critical_multiplier])
+    err = np.concatenate([np.asarray(e, dtype=float) for e in br.floquet_error])
+    return {"harmonics": np.full(len(mult), harmonics, dtype=np.int64), "stable": stable,
+            "floquet_multiplier": mult, "floquet_error": err}
+
+
 def certify_points(builder, br, names: list[str], C: np.ndarray, cfg: SweepConfig
                    ) -> list[dict] | None:
     """Per orbit point of ``br`` (branch by branch, in order), the certificate's columns and
@@ -118,7 +132,8 @@ def certify_points(builder, br, names: list[str], C: np.ndarray, cfg: SweepConfi
     at = start_from_fourier(system, X, torch.as_tensor(omega), C[cfg.lco.decision_outputs[0]])
     res = SimulationResult(names, status, np.zeros(len(pts), dtype=np.int64), nan, amp,
                            omega / (2 * math.pi), nan, nan, at.q.numpy(), at.v.numpy(),
-                           xi=at.xi.numpy(), orbits=(X.cpu().numpy(), omega))
+                           xi=at.xi.numpy(), orbits=(X.cpu().numpy(), omega),
+                           extra=_floquet_extra(br, len(X[0]) // 2))
     res = certify(system, res, C, cfg.lco.decision_outputs[0], cfg.certificate,
                   cfg.integrator.dt)
     res = _finish_from_neighbours(system, res, [b for b, _ in pts], C, cfg)
@@ -227,12 +242,14 @@ class _Reach:
 
 
 def run_branches(cfg: SweepConfig, parameter: str, options: BranchOptions, model=None,
-                 device=None, progress: Callable[[float], None] | None = None) -> BranchStudy:
+                 device=None, progress: Callable[[float], None] | None = None,
+                 log: Callable[[str], None] | None = None) -> BranchStudy:
     """Follow one branch per distinct case (without ``parameter``) of ``cfg``.
 
     ``progress(fraction)``: how far the branches have come, the share of the parameter range
     ``options.bounds`` between the bound the Hopf points lie nearest and the furthest point
-    corrected so far (monotone; what a bar shows — the continuation has no count of its own)."""
+    corrected so far (monotone; what a bar shows — the continuation has no count of its own);
+    ``log``: a line before the points' certificate (the part no bar counts)."""
     from .. import bounds
 
     model = model if model is not None else cfg.build_model()
@@ -257,6 +274,10 @@ def run_branches(cfg: SweepConfig, parameter: str, options: BranchOptions, model
     reach.close()
     span = getattr(model, "span", None) or rom.metadata.get("span")
     rows_t = torch.as_tensor(C, dtype=torch.float64)
+    if log is not None and cfg.certificate.enabled:
+        n = sum(pt.kind != "hopf" for pts in br.points for pt in pts)
+        log(f"  certifying the {n} orbit points (the Fourier certificate; shooting where it "
+            "refuses)")
     certificate = certify_points(builder, br, names, C, cfg)
     certified_rows = iter(certificate or ())
     records = []
