@@ -3,9 +3,10 @@
     PYTHONPATH=. python benchmarks/bench_paper.py [--quick-only] [--out benchmarks/results]
 
 Runs the whole study from nothing (fresh folders: FE model, identification, aerodynamics,
-flutter, every sweep, figures and report) once per form and records the wall and CPU time of
-every stage as ``torchrom paper`` reports it, with the machine's load average, and the sweeps'
-solver and certificate seconds (the stages apart from certification) — issue 36's limits
+flutter, every sweep, figures and report) once per form, with the command's defaults (harmonic
+balance, certified; a second process where there are two cores) and records the wall and CPU
+time of every stage as ``torchrom paper`` reports it, with the machine's load average, and the
+sweeps' solver and certificate seconds (the stages apart from certification) — issue 36's limits
 (:data:`LIMITS_S`) are 60 s for ``--quick`` and 150 s for the full study on 2 cores. A second
 call of the quick form into the same folder measures the cached rerun. Writes
 ``benchmarks/results/bench_paper.json`` and ``.csv``.
@@ -50,6 +51,7 @@ def one_run(folder: Path, quick: bool, label: str) -> dict:
             "sweep_solver_s": sum(v["wall_time_s"] for v in summary["sweeps"].values()),
             "sweep_certificate_s": sum(v.get("certificate_s", 0.0)
                                        for v in summary["sweeps"].values()),
+            "method": summary["method"], "processes": summary.get("processes", 1),
             "load_average_1min_start": load0, "load_average_1min_end": os.getloadavg()[0]}
 
 

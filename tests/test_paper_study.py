@@ -228,12 +228,12 @@ def test_quick_second_run_reuses_the_cache(quick):
 
 
 @pytest.fixture(scope="module")
-def quick_hb(quick, tmp_path_factory):
-    """``torchrom paper --quick --method hb`` from a copy of the quick study (its model cache
-    warm: the FE model, ROM and aerodynamics are reused, the LCOs come from harmonic balance)."""
-    out = tmp_path_factory.mktemp("paper_hb") / "quick"
+def quick_newmark(quick, tmp_path_factory):
+    """``torchrom paper --quick --method newmark`` (the paper's time marching) from a copy of
+    the quick study (its model cache warm: the FE model, ROM and aerodynamics are reused)."""
+    out = tmp_path_factory.mktemp("paper_newmark") / "quick"
     shutil.copytree(quick, out)
-    assert main(["paper", "--quick", "--method", "hb", "--out", str(out)]) == 0
+    assert main(["paper", "--quick", "--method", "newmark", "--out", str(out)]) == 0
     return out
 
 
@@ -241,23 +241,34 @@ def quick_hb(quick, tmp_path_factory):
 LARGEST_LCO = {"altitude_ft": 4000.0, "gamma": 0.0, "stiffness_nl": 1.0, "damping_nl": 1.0}
 
 
-def _hb_newmark(quick, quick_hb):
-    nm = pd.read_parquet(quick / "sweeps" / "lco" / "results.parquet")
-    hb = pd.read_parquet(quick_hb / "sweeps" / "lco_hb" / "results.parquet")
+def _hb_newmark(quick, quick_newmark):
+    hb = pd.read_parquet(quick / "sweeps" / "lco" / "results.parquet")
+    nm = pd.read_parquet(quick_newmark / "sweeps" / "lco_newmark" / "results.parquet")
     keys = ["altitude_ft", "gamma", "stiffness_nl", "damping_nl"]
     both = nm.merge(hb, on=keys, suffixes=("_nm", "_hb"))
     assert len(both) == len(nm) == len(hb)
     return both
 
 
-def test_quick_hb_agrees_with_newmark(quick, quick_hb):
+def test_paper_default_method_is_harmonic_balance():
+    """Issue 36 item 5: the study's default solver is the certified periodic one; the command
+    line's default (kept apart so that it parses without torch) is the same."""
+    from torchrom.commands.paper import PAPER_METHODS
+    from torchrom.paper.study import PAPER_METHOD
+    from torchrom.study.solvers import SOLVERS
+
+    assert PAPER_METHODS[0] == PAPER_METHOD == "hb"
+    assert not SOLVERS[PAPER_METHOD].marches_time and SOLVERS["newmark"].marches_time
+
+
+def test_quick_hb_agrees_with_newmark(quick, quick_newmark):
     """The Goland quick-study cases: every status as time marching decides it, LCO amplitudes
     within 0.5 % and frequencies within 0.2 % of the paper-setting Newmark sweep (issue
-    acceptance). Both sweeps certify every LCO by shooting on the same discrete map (the
-    updated wing's large, nearly undamped γ = 0 orbits, where HB at H ≤ 13 stopped 1–2 % away
-    and the Newmark transient ~1 % short, are finished to the same orbit), so their verdicts
-    agree and none is unknown."""
-    both = _hb_newmark(quick, quick_hb)
+    acceptance). Every LCO of both is certified and none has an unknown stability (the HB
+    rows by the Fourier certificate or shooting, the Newmark rows by shooting on the discrete
+    map: the updated wing's large, nearly undamped γ = 0 orbits, where HB at H ≤ 13 stops
+    1–2 % away and the Newmark transient ~1 % short, are finished to the same orbit)."""
+    both = _hb_newmark(quick, quick_newmark)
     assert (both["status_nm"] == both["status_hb"]).all()
     lco = both[both["status_nm"] == "lco"]
     assert len(lco) >= 17
@@ -266,16 +277,16 @@ def test_quick_hb_agrees_with_newmark(quick, quick_hb):
     freq = (lco["frequency_hz_hb"] / lco["frequency_hz_nm"] - 1).abs()
     assert amp.max() <= 5e-3, lco.loc[amp.idxmax(), ["altitude_ft", "gamma"]].to_dict()
     assert freq.max() <= 2e-3
-    # the stability of record is the shooting monodromy's: resolved for every LCO, the same
-    # verdict from both starts, and the paper's supercritical LCOs are stable
+    # the stability of record: resolved for every LCO, the same verdict from both methods,
+    # and the paper's supercritical LCOs are stable
     for suffix in ("_nm", "_hb"):
         assert lco["stable" + suffix].notna().all()
         assert lco["stable" + suffix].astype(bool).all()
-    text = (quick_hb / "report.md").read_text()
+    text = (quick / "report.md").read_text()
     assert "## Harmonic balance confirmed by time marching" in text
     assert "## LCO branches from the flutter point" in text
-    summary = _summary(quick_hb)
-    assert summary["method"] == "hb"
+    summary = _summary(quick)
+    assert summary["method"] == "hb" and _summary(quick_newmark)["method"] == "newmark"
     confirm = pd.DataFrame(summary["hb"]["confirmation"])
     ok = confirm[confirm["newmark_status"] == "lco"]
     big = (ok[list(LARGEST_LCO)] == pd.Series(LARGEST_LCO)).all(axis=1)
@@ -283,7 +294,20 @@ def test_quick_hb_agrees_with_newmark(quick, quick_hb):
     # the largest LCO: time marching from the HB orbit ends within 1 % (its transient attracts
     # by ~1 % per period, so a finite run stops short)
     assert (ok.loc[big, "amplitude_diff_pct"].abs() <= 1.0).all()
-    assert (quick_hb / "figures" / FIGURE_FILES["branches"]).stat().st_size > 10_000
+    assert (quick / "figures" / FIGURE_FILES["branches"]).stat().st_size > 10_000
+
+
+def test_quick_findings_by_method(quick, quick_newmark):
+    """Issue 36 item 5: the findings of both methods have the same verdicts except the Sec. IV
+    step count, which only the paper's time marching can assess (HB's ``steps`` are Newton
+    iterations); the time-marching study assesses it from its transients."""
+    hb = {f["key"]: f for f in _summary(quick)["findings"]}
+    nm = {f["key"]: f for f in _summary(quick_newmark)["findings"]}
+    assert set(hb) == set(nm)
+    assert hb["steps"]["verdict"] == "not assessable" and "--method newmark" in hb["steps"]["ours"]
+    assert nm["steps"]["verdict"] in ("agree", "differ") and nm["steps"]["numbers"]["median"]
+    changed = {k for k in hb if k != "steps" and hb[k]["verdict"] != nm[k]["verdict"]}
+    assert not changed, {k: (hb[k]["ours"], nm[k]["ours"]) for k in changed}
 
 
 def test_quick_branches_are_supercritical(quick):

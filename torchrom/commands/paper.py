@@ -12,7 +12,9 @@ simulator against the eigenvalues, runs the LCO sweep and writes into DIR (defau
 - ``paper.json``: the same numbers machine-readably (keys: version, quick, seconds, flutter,
   linear, lco, alpha_gamma, findings, figures, figures_failed (figures that could not be drawn:
   a warning and exit status 1; the tables and the report are written), identification, sweeps
-  (per sweep: cases, case_steps, wall_time_s and, of it, certificate_s));
+  (per sweep: cases, case_steps, wall_time_s and, of it, certificate_s), processes (2: the
+  stages that need only the model ran in a second process, :mod:`torchrom.paper.beside`;
+  ``TORCHROM_PAPER_PROCESSES=1`` keeps one));
 - ``model/`` (goland.bdf, rom.npz, basis.npz, aero.npz, flutter.json), ``model_exact/`` (the same
   with the exact Kelvin–Voigt damping, for the report's damping cause check and the band over
   admissible damping decompositions, ``sweeps/lco_damping_theta_*``), ``model_calibrated/``
@@ -26,10 +28,13 @@ simulator against the eigenvalues, runs the LCO sweep and writes into DIR (defau
   study resumes it where it stopped. The folder is locked for the run: a second study into it
   exits with status 2, naming the first one's PID (:mod:`torchrom.locks`).
 ``--quick``: coarser grids and shorter runs (minutes instead of a quarter of an hour).
-``--method hb``: the LCOs by harmonic balance (:mod:`torchrom.paper.hb`): Figs. 10, 12, 13
-from the periodic orbits, Fig. 11 and a side-by-side table from Newmark runs started on a subset
-of them, the LCO branches in altitude from the flutter point with their stability
-(``figures/lco_branches.png``, also in the full Newmark study); default folder ``paper-hb``.
+``--method``: ``hb`` (the default) computes the LCOs as periodic orbits by harmonic balance,
+each certified as an orbit of the continuous-time equations (the Fourier certificate, or
+shooting where it refuses; :mod:`torchrom.paper.hb`): Figs. 10, 12, 13 from the orbits, Fig. 11
+and a side-by-side table from Newmark runs started on a subset of them, the LCO branches in
+altitude from the flutter point with their stability (``figures/lco_branches.png``).
+``newmark`` runs the paper's own time marching (dt = 1 ms until the amplitude converges; its
+Sec. IV step-count finding needs it), default folder ``paper-newmark``.
 """
 
 from __future__ import annotations
@@ -39,9 +44,11 @@ from pathlib import Path
 
 from ._common import add_force_option, add_json_option, check_outputs, maybe_write_json
 
-#: the study's LCO solvers (names of torchrom.study.solvers.SOLVERS; the default first): the
-#: paper's time marching, or harmonic balance with a Newmark confirmation of a subset
-PAPER_METHODS = ("newmark", "hb")
+#: the study's LCO solvers (names of torchrom.study.solvers.SOLVERS; the default first):
+#: harmonic balance with a Newmark confirmation of a subset, or the paper's time marching
+#: (the first is torchrom.paper.study.PAPER_METHOD, which this module does not import: the
+#: command line parses without torch; tests/test_paper_study.py checks they agree)
+PAPER_METHODS = ("hb", "newmark")
 
 NAME = "paper"
 HELP = "the paper's whole post-flutter LCO study: model, flutter, sweeps, figures, report.md"
@@ -55,9 +62,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--quick", action="store_true",
                         help="reduced study: coarser grids, shorter runs (a few minutes)")
     parser.add_argument("--method", choices=PAPER_METHODS, default=PAPER_METHODS[0],
-                        help="LCOs by time marching (newmark, the paper's) or by harmonic "
-                             "balance (hb: periodic orbits, a Newmark confirmation of a subset "
-                             "and the branches from the flutter point)")
+                        help="LCOs by harmonic balance (hb, the default: certified periodic "
+                             "orbits, a Newmark confirmation of a subset and the branches from "
+                             "the flutter point) or by the paper's time marching (newmark)")
     parser.add_argument("--device", default="cpu", help="torch device of the LCO sweep")
     add_json_option(parser)
     add_force_option(parser)

@@ -13,7 +13,9 @@ from __future__ import annotations
 
 import hashlib
 import json
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
+from contextvars import ContextVar
 from functools import lru_cache
 from pathlib import Path
 from typing import Any
@@ -51,6 +53,26 @@ def _file_sha256(path: Path) -> str:
         for block in iter(lambda: fh.read(1 << 20), b""):
             h.update(block)
     return h.hexdigest()
+
+
+#: inside :func:`probing`: a cache miss raises :class:`CacheMiss` instead of returning None
+_PROBING: ContextVar[bool] = ContextVar("torchrom_cache_probing", default=False)
+
+
+class CacheMiss(Exception):
+    """A file that a :func:`probing` call would have to build (its name)."""
+
+
+@contextmanager
+def probing() -> Iterator[None]:
+    """Within the block every :class:`FileCache` (the study's, a model folder's) raises
+    :class:`CacheMiss` where it would miss or write: a call that returns was cached whole and
+    wrote nothing (:mod:`.beside` runs such a stage in place instead of starting a worker)."""
+    token = _PROBING.set(True)
+    try:
+        yield
+    finally:
+        _PROBING.reset(token)
 
 
 class FileCache:
@@ -94,14 +116,19 @@ class FileCache:
         path = self.folder / name
         entry = self.entries.get(name)
         if self.force or entry is None or not path.is_file():
-            return None
+            return self._miss(name)
         if "sha256" in entry and _file_sha256(path) != entry["sha256"]:
             raise InputError(f"{path}: changed since torchrom wrote it (its SHA-256 differs "
                              f"from the one in {self.path}); pass --force to rebuild it")
         if entry.get("key") != key:
-            return None
+            return self._miss(name)
         self.hits.append(name)
         return path
+
+    def _miss(self, name: str) -> None:
+        if _PROBING.get():
+            raise CacheMiss(name)
+        return None
 
     def get_json(self, name: str, key: str) -> Any | None:
         """The parsed JSON file ``name`` if cached under ``key`` and readable. A file changed
@@ -121,17 +148,46 @@ class FileCache:
     def put(self, name: str, key: str, write: Callable[[Path], Any]) -> Path:
         """Write the file ``name`` with ``write(path)`` (which must write atomically) and record
         its key."""
+        path = self._write(name, key, write)
+        write_json_atomic(self.path, {"format": CACHE_FORMAT, "files": self.entries})
+        return path
+
+    def _write(self, name: str, key: str, write: Callable[[Path], Any]) -> Path:
+        """Write the file ``name`` and its entry (the manifest file itself is not rewritten)."""
+        self._miss(name)  # a probe writes nothing
         path = self.folder / name
         path.parent.mkdir(parents=True, exist_ok=True)
         write(path)
         self.entries[name] = {"key": key, "version": __version__, "sha256": _file_sha256(path)}
         self.built.append(name)
-        write_json_atomic(self.path, {"format": CACHE_FORMAT, "files": self.entries})
         return path
 
     def owns(self, name: str) -> bool:
         """Whether ``name`` was written through this cache (so it may be replaced)."""
         return name in self.entries
+
+    def adopt(self, written: dict[str, dict[str, Any]], hits: list[str]) -> None:
+        """Record the files another process wrote into this folder through a
+        :class:`DeferredCache` (``written``: name -> manifest entry) and those it reused."""
+        self.entries.update(written)
+        self.built += list(written)
+        self.hits += [h for h in hits if h not in written]
+        if written:
+            write_json_atomic(self.path, {"format": CACHE_FORMAT, "files": self.entries})
+
+
+class DeferredCache(FileCache):
+    """A :class:`FileCache` of a second process on the same folder: it reads the manifest as
+    it was when opened and writes its own files, but not the manifest — the study's process
+    records them (:meth:`FileCache.adopt` with :meth:`written`), so ``cache.json`` has one
+    writer (:mod:`.beside`)."""
+
+    def put(self, name: str, key: str, write: Callable[[Path], Any]) -> Path:
+        return self._write(name, key, write)
+
+    def written(self) -> dict[str, dict[str, Any]]:
+        """The manifest entries of the files this cache wrote."""
+        return {name: self.entries[name] for name in self.built}
 
 
 def owned_files(folder) -> tuple[list[Path] | None, str]:

@@ -46,11 +46,11 @@ from ..study.config import load_sweep_config, with_method
 from ..study.grid import config_hash
 from ..study.models import alpha_gamma_table
 from ..study.plots import branch_diagram
-from ..study.solvers import DEFAULT_METHOD
 from ..study.sweep import run_sweep, sweep_chunk_size
 from ..study.table import write_histories
 from . import findings as fnd
 from .band import BAND_THETAS, decomposition_band
+from .beside import Beside, study_processes
 from .cache import MANIFEST, FileCache
 from .dissipation import dissipation_ratio, lco_cycle, scaled_min_eigenvalue
 from .hb import branch_summary, goland_branches, newmark_confirmation
@@ -84,33 +84,36 @@ FIGURE_FILES = {"table2": "table2_frequencies.png", "fig9": "fig09_alpha_gamma.p
 
 
 #: the study's stages and their wall-clock seconds in a reference run from nothing (bench_paper
-#: on a quiet 2-core machine, method newmark): only the ETA of the stage lines reads them
+#: on a quiet 2-core machine: harmonic balance, two processes, so the stages computed beside
+#: the others cost only their wait): only the ETA of the stage lines reads them
 #: (:class:`torchrom.progress.StageCounter` scales them by how the finished stages compared)
-STAGE_SECONDS = {
-    "quick": {"model (FE, ROM, aero, flutter)": 17.5, "Fig. 9: alpha(gamma)": 0.1,
-              "linear checks, Table 3": 0.7, "LCO sweep (Figs. 10-13)": 31.2,
-              "LCO branches in altitude (continuation)": 19.6,
-              "damping check (exact Kelvin-Voigt)": 48.2, "damping decomposition band": 88.2,
-              "stiffness nonlinearity at gamma = 1e-3 (cause)": 1.0,
-              "other wing variant (pipeline, LCO sweep)": 39.8, "figures": 2.0},
-    "full": {"model (FE, ROM, aero, flutter)": 21.9, "Fig. 9: alpha(gamma)": 0.1,
-             "linear checks, Table 3": 1.3, "LCO sweep (Figs. 10-13)": 128.3,
-             "LCO branches in altitude (continuation)": 16.4,
-             "damping check (exact Kelvin-Voigt)": 60.7, "damping decomposition band": 191.2,
-             "stiffness nonlinearity at gamma = 1e-3 (cause)": 3.8,
-             "other wing variant (pipeline, LCO sweep)": 129.8, "figures": 1.4},
-}
 CONFIRMATION_STAGE = "Newmark confirmation (Fig. 11)"
+STAGE_SECONDS = {
+    "quick": {"model (FE, ROM, aero, flutter)": 23.6, "Fig. 9: alpha(gamma)": 0.1,
+              "linear checks, Table 3": 1.0, "LCO sweep (Figs. 10-13)": 21.2,
+              CONFIRMATION_STAGE: 6.9, "LCO branches in altitude (continuation)": 0.1,
+              "damping check (exact Kelvin-Voigt)": 12.6, "damping decomposition band": 35.1,
+              "stiffness nonlinearity at gamma = 1e-3 (cause)": 0.1,
+              "other wing variant (pipeline, LCO sweep)": 3.5, "figures": 2.6},
+    "full": {"model (FE, ROM, aero, flutter)": 28.1, "Fig. 9: alpha(gamma)": 0.5,
+             "linear checks, Table 3": 2.6, "LCO sweep (Figs. 10-13)": 31.5,
+             CONFIRMATION_STAGE: 6.9, "LCO branches in altitude (continuation)": 0.1,
+             "damping check (exact Kelvin-Voigt)": 9.9, "damping decomposition band": 37.2,
+             "stiffness nonlinearity at gamma = 1e-3 (cause)": 0.1,
+             "other wing variant (pipeline, LCO sweep)": 0.1, "figures": 2.7},
+}
+#: the study's LCO solver unless ``method`` names another (``torchrom paper --method``):
+#: harmonic balance, each orbit certified as one of the continuous-time equations (issue 36);
+#: "newmark" is the paper's own time marching
+PAPER_METHOD = "hb"
 
 
 def study_stages(kind: str, marches_time: bool) -> list[tuple[str, float]]:
-    """(stage, reference seconds) of the ``kind`` ("quick" or "full") study, in order; with
-    the Newmark confirmation after the LCO sweep when the LCOs come from periodic orbits (not
-    ``marches_time``; no reference time: it adds nothing to the ETA)."""
-    stages = list(STAGE_SECONDS[kind].items())
-    if not marches_time:
-        stages.insert(4, (CONFIRMATION_STAGE, 0.0))
-    return stages
+    """(stage, reference seconds) of the ``kind`` ("quick" or "full") study, in order; the
+    Newmark confirmation only when the LCOs come from periodic orbits (not
+    ``marches_time``)."""
+    return [(k, v) for k, v in STAGE_SECONDS[kind].items()
+            if not (marches_time and k == CONFIRMATION_STAGE)]
 
 
 def config_path(name: str) -> Path:
@@ -134,26 +137,29 @@ def _check_folder(out: Path, force: bool) -> None:
 
 def run_paper(out, *, quick: bool = False, force: bool = False, device: str = "cpu",
               dtype: torch.dtype = torch.float64, log: Callable[[str], None] = print,
-              method: str = DEFAULT_METHOD) -> dict[str, Any]:
+              method: str = PAPER_METHOD) -> dict[str, Any]:
     """Run the study into ``out`` and return the summary written to ``paper.json``.
 
-    ``method``: a sweep solver (:mod:`torchrom.study.solvers`): "newmark" (the paper's time
-    marching) or one of periodic orbits, e.g. "hb" (the LCOs of Figs. 10, 12, 13 by
-    harmonic balance, with a Newmark confirmation of a subset started on the HB orbits, which
-    also gives Fig. 11, and the LCO branches in altitude from the flutter point,
-    :mod:`.hb`). The folder is locked for the run (:mod:`torchrom.locks`: a second study
-    into it refuses, naming this one's PID)."""
+    ``method``: a sweep solver (:mod:`torchrom.study.solvers`): "hb" (the default,
+    :data:`PAPER_METHOD`: the LCOs of Figs. 10, 12, 13 by harmonic balance, each certified,
+    with a Newmark confirmation of a subset started on the HB orbits, which also gives
+    Fig. 11; :mod:`.hb`) or "newmark" (the paper's time marching); the LCO branches in
+    altitude from the flutter point either way. The stages that need only the model run in a
+    second process where there is a second core (:mod:`.beside`). The folder is locked for
+    the run (:mod:`torchrom.locks`: a second study into it refuses, naming this one's PID)."""
     from ..locks import folder_lock
 
     out = Path(out)
+    processes = study_processes()  # the environment checked before anything is written
     _check_folder(out, force)
     with folder_lock(out, "torchrom paper", log=log):
         _check_folder(out, force)  # as it is now that no other run can write into it
-        return _run_paper(out, quick, force, device, dtype, log, method)
+        with Beside(out, force, processes) as beside:
+            return _study(out, quick, force, device, dtype, log, method, beside)
 
 
-def _run_paper(out: Path, quick: bool, force: bool, device: str, dtype: torch.dtype,
-               log: Callable[[str], None], method: str) -> dict[str, Any]:
+def _study(out: Path, quick: bool, force: bool, device: str, dtype: torch.dtype,
+           log: Callable[[str], None], method: str, beside: Beside) -> dict[str, Any]:
     cache = FileCache(out, force=force)
     variant = "quick" if quick else None
     kind = "quick" if quick else "full"
@@ -173,10 +179,20 @@ def _run_paper(out: Path, quick: bool, force: bool, device: str, dtype: torch.dt
         f"{fl['state_space']['frequency_hz']:.3f} Hz (paper {fl['paper']['altitude']:,.0f} ft, "
         f"{fl['paper']['frequency_hz']:.3f} Hz)")
     model_hash = model.content_hash()
+    cfg9 = load_sweep_config(config_path("paper_fig09.toml"), variant)
+    cfg_v = (cfg if cfg.solver.marches_time
+             else dataclasses.replace(_secondary(cfg), history=None))
+    # the stages that need only the model, to the second process (.beside), collected at
+    # their own stage below
+    jobs = {"branches": beside.submit(_branches, cfg, model, model_hash, device),
+            "sdp": beside.submit(_sdp_member, model),
+            "cause": beside.submit(_stiffness_cause, cfg, model, quick),
+            "variants": beside.submit(_variant_studies, base, out,
+                                      [c.get("gamma", 0.0) for c in cfg9.cases], cfg_v, device,
+                                      dtype, force, cfg.solver.marches_time)}
 
     # -- Fig. 9 -----------------------------------------------------------------------------------
     watch.start("Fig. 9: alpha(gamma)")
-    cfg9 = load_sweep_config(config_path("paper_fig09.toml"), variant)
     alpha_gamma = alpha_gamma_table(model, [c.get("gamma", 0.0) for c in cfg9.cases])
     _write_table(cache, "tables/alpha_gamma.csv", alpha_gamma, model_hash)
 
@@ -207,9 +223,9 @@ def _run_paper(out: Path, quick: bool, force: bool, device: str, dtype: torch.dt
         hb_info["confirmation"] = confirm.to_dict(orient="records")
     else:
         table, histories, lco_info, orbits = _lco_sweep(cache, cfg, model, model_hash, device,
-                                                        dtype, log)
+                                                        dtype, log, name=_sweep_name("lco", cfg))
     watch.start("LCO branches in altitude (continuation)")
-    branches = _branches(cache, cfg, model, model_hash, device, log)
+    branches = jobs["branches"].result(cache, log)
     hb_info["branches"] = branch_summary(branches)
 
     # -- cause check: the Fig. 10 cases with the exact Kelvin-Voigt damping ------------------
@@ -230,25 +246,17 @@ def _run_paper(out: Path, quick: bool, force: bool, device: str, dtype: torch.dt
         model, exact, BAND_THETAS[kind], (main_cases, exact_table),
         lambda m, name: _lco_sweep(cache, check_cfg, m, m.content_hash(), device, dtype, log,
                                    name=name)[0],
-        extra=(_sdp_member(cache, model, log),))
+        extra=(jobs["sdp"].result(cache, log),))
     for key, verdict in band["findings"].items():
         log(f"  {key}: {verdict}")
 
     # -- why the stiffness nonlinearity matters at gamma = 1e-3 --------------------------------
     watch.start("stiffness nonlinearity at gamma = 1e-3 (cause)")
-    cause = _stiffness_cause(cache, cfg, model, quick, log)
+    cause = jobs["cause"].result(cache, log)
 
     # -- the other wing variant(s) -------------------------------------------------------------
     watch.start("other wing variant (pipeline, LCO sweep)")
-    cfg_v = (cfg if cfg.solver.marches_time
-             else dataclasses.replace(_secondary(cfg), history=None))
-    variants = {
-        name: variant_study(
-            name, base, out / f"model_{name}", [c.get("gamma", 0.0) for c in cfg9.cases],
-            lambda m, nm: _lco_sweep(cache, cfg_v, m, m.content_hash(), device, dtype, log,
-                                     name=nm)[:3],
-            paper_q4, force=force, log=log)
-        for name in COMPARISON_VARIANTS if name != base.variant}
+    variants = jobs["variants"].result(cache, log)
 
     # -- figures ---------------------------------------------------------------------------------
     watch.start("figures")
@@ -289,7 +297,7 @@ def _run_paper(out: Path, quick: bool, force: bool, device: str, dtype: torch.dt
     table = table.copy()
     ratio4 = figures.ratio_column(table, q4["mode"])
     found = fnd.evaluate(table, histories, alpha_gamma, h_f, kinds, q4_column=ratio4,
-                         q4_note=q4["note"])
+                         q4_note=q4["note"], marches_time=cfg.solver.marches_time)
     watch.stop()
     watch.wall["total"] = time.perf_counter() - t_all
     watch.cpu["total"] = time.process_time() - c_all
@@ -303,6 +311,7 @@ def _run_paper(out: Path, quick: bool, force: bool, device: str, dtype: torch.dt
         "alpha_gamma": alpha_gamma.to_dict(orient="records"),
         "findings": [f.as_dict() for f in found],
         "damping_check": check, "decomposition_band": band, "method": method, "hb": hb_info,
+        "processes": beside.processes,
         "stiffness_cause": cause,
         "variant": (QUICK_PIPELINE if quick else FULL_PIPELINE).variant, "variants": variants,
         "figures": {k: str(v) for k, v in paths.items()},
@@ -314,6 +323,19 @@ def _run_paper(out: Path, quick: bool, force: bool, device: str, dtype: torch.dt
     write_text_atomic(out / "report.md", render(summary, found, table, alpha_gamma))
     write_json_atomic(out / "paper.json", summary)
     return summary
+
+
+def _variant_studies(cache: FileCache, base: GolandPipeline, out: Path, gammas: list[float],
+                     cfg_v, device, dtype, force: bool, marches_time: bool, *,
+                     log: Callable[[str], None]) -> dict[str, dict[str, Any]]:
+    """:func:`.variants.variant_study` of every wing variant but the study's, each swept with
+    ``cfg_v`` (cached in ``cache`` like the study's sweeps)."""
+    return {name: variant_study(
+        name, base, out / f"model_{name}", gammas,
+        lambda m, nm: _lco_sweep(cache, cfg_v, m, m.content_hash(), device, dtype, log,
+                                 name=nm)[:3],
+        paper_q4, force=force, log=log, marches_time=marches_time)
+        for name in COMPARISON_VARIANTS if name != base.variant}
 
 
 def _sweep_timings(cache: FileCache) -> dict[str, dict[str, Any]]:
@@ -498,7 +520,10 @@ def _confirmation(cache: FileCache, cfg, model, model_hash: str, table: pd.DataF
     key = FileCache.key({"config": cfg.hash, "model": model_hash,
                          "table": config_hash(table["case_id"].tolist()),
                          "history": repr(cfg.history)})
-    names = ("sweeps/lco_hb/confirmation.csv", "sweeps/lco_hb/histories.parquet")
+    # beside the sweep's own files (its histories.parquet is the sweep's: sharing the name, each
+    # replaced the other's and a rerun recomputed both)
+    folder = f"sweeps/{_sweep_name('lco', cfg)}"
+    names = (f"{folder}/confirmation.csv", f"{folder}/confirmation_histories.parquet")
     found = [cache.get(n, key) for n in names]
     if all(p is not None for p in found):
         return pd.read_csv(found[0]), pd.read_parquet(found[1])
@@ -538,7 +563,7 @@ def _branches(cache: FileCache, cfg, model, model_hash: str, device, log) -> pd.
     # batched LU with two threads is unreliable for these systems (periodic.newton)
     with single_thread(), Progress(100, "  altitude range covered", unit="%") as bar:
         table = goland_branches(cfg, model, device,
-                                progress=lambda f: bar.update_to(int(100 * f)))
+                                progress=lambda f: bar.update_to(int(100 * f)), log=bar.write)
 
     def write_csv(p):
         from ..io import atomic_path
@@ -552,8 +577,8 @@ def _branches(cache: FileCache, cfg, model, model_hash: str, device, log) -> pd.
 
 def _sweep_name(name: str, cfg) -> str:
     """A sweep's cache folder name: ``name``, suffixed with the method unless it is the
-    default (the paper's time marching)."""
-    return name if cfg.method == DEFAULT_METHOD else f"{name}_{cfg.method}"
+    study's default (:data:`PAPER_METHOD`)."""
+    return name if cfg.method == PAPER_METHOD else f"{name}_{cfg.method}"
 
 
 def _sweep_key(cfg, model_hash: str, device, dtype) -> str:

@@ -26,9 +26,11 @@ COMPARISON_VARIANTS = GOLAND_VARIANTS
 
 
 def variant_study(variant: str, base: GolandPipeline, folder: Path, gammas, sweep: Callable,
-                  q4_of: Callable, *, force: bool, log: Callable[[str], None]) -> dict[str, Any]:
+                  q4_of: Callable, *, force: bool, log: Callable[[str], None],
+                  marches_time: bool = True) -> dict[str, Any]:
     """The pipeline of ``variant`` (into ``folder``), its α(γ), the LCO sweep
-    ``sweep(model, name) -> (table, histories, info)`` and the findings (JSON-ready)."""
+    ``sweep(model, name) -> (table, histories, info)`` and the findings (JSON-ready;
+    ``marches_time``: the sweep marches in time, :func:`.findings.evaluate`)."""
     res = goland_pipeline(dataclasses.replace(base, variant=variant), folder, force=force,
                           log=log)
     model, fl = res.model, res.flutter
@@ -41,7 +43,7 @@ def variant_study(variant: str, base: GolandPipeline, folder: Path, gammas, swee
     table = table.copy()
     found = fnd.evaluate(table, histories, alpha_gamma, float(fl["state_space"]["altitude"]),
                          kinds, q4_column=figures.ratio_column(table, q4["mode"]),
-                         q4_note=q4["note"])
+                         q4_note=q4["note"], marches_time=marches_time)
     return {"variant": variant, "flutter": fl,
             "lco": {k: v for k, v in info.items() if k != "reused_files"},
             "findings": [f.as_dict() for f in found]}

@@ -1,0 +1,125 @@
+"""The study's second process (torchrom.paper.beside) and its deferred cache: a job's value,
+files and log lines come back to the study's process, which alone writes the manifest; errors
+come back as they were raised; with one process the job runs in place at its stage."""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+
+import pytest
+
+from torchrom.errors import InputError
+from torchrom.io import write_text_atomic
+from torchrom.paper.beside import ENV, Beside, study_processes
+from torchrom.paper.cache import MANIFEST, DeferredCache, FileCache
+
+KEY = FileCache.key({"stage": "beside-test"})
+
+
+def write_job(cache, text, *, log):
+    """A stage as the study writes one: reuse its file if cached, else write it."""
+    found = cache.get("tables/job.txt", KEY)
+    if found is not None:
+        log("reused")
+        return found.read_text()
+    log(f"writing {text} in process {os.getpid()}")
+    cache.put("tables/job.txt", KEY, lambda p: write_text_atomic(p, text))
+    return text
+
+
+def failing_job(cache, *, log):
+    raise InputError("job: expected something else")
+
+
+def pid_job(cache, *, log):
+    """A stage whose file is never cached (it needs the worker, where there is one)."""
+    assert cache.get("tables/never.txt", KEY) is None
+    return os.getpid()
+
+
+def test_deferred_cache_writes_files_but_not_the_manifest(tmp_path):
+    main = FileCache(tmp_path)
+    main.put("a.txt", KEY, lambda p: write_text_atomic(p, "main"))
+    other = DeferredCache(tmp_path)
+    assert other.get("a.txt", KEY).read_text() == "main"  # reads what the study wrote
+    other.put("b.txt", KEY, lambda p: write_text_atomic(p, "worker"))
+    assert (tmp_path / "b.txt").read_text() == "worker"
+    assert "b.txt" not in json.loads((tmp_path / MANIFEST).read_text())["files"]
+    main.adopt(other.written(), other.hits)
+    files = json.loads((tmp_path / MANIFEST).read_text())["files"]
+    assert set(files) == {"a.txt", "b.txt"}
+    assert FileCache(tmp_path).get("b.txt", KEY).read_text() == "worker"
+    assert "b.txt" in main.built and "a.txt" in main.hits
+
+
+@pytest.mark.parametrize("processes", [1, 2])
+def test_a_job_comes_back_with_its_files_and_lines(tmp_path, processes):
+    cache = FileCache(tmp_path)
+    lines = []
+    with Beside(tmp_path, False, processes) as beside:
+        job = beside.submit(write_job, "text")
+        pid = beside.submit(pid_job)
+        assert job.result(cache, lines.append) == "text"
+        assert job.result(cache, lines.append) == "text"  # collected once
+        assert (pid.result(cache, lines.append) == os.getpid()) == (processes == 1)
+    assert len(lines) == 1 and lines[0].startswith("writing text")
+    assert json.loads((tmp_path / MANIFEST).read_text())["files"]["tables/job.txt"]["key"] == KEY
+    # a second study reuses the job's file through the manifest the first one wrote, in its
+    # own process (a probe finds every file cached: no worker started)
+    again, lines2 = FileCache(tmp_path), []
+    with Beside(tmp_path, False, processes) as beside:
+        job = beside.submit(write_job, "other")
+        assert job.future is None
+        assert job.result(again, lines2.append) == "text"
+        assert getattr(beside.pool, "_processes", None) in (None, {})
+    assert lines2 == ["reused"] and again.hits == ["tables/job.txt"]
+
+
+def test_probing_raises_where_a_file_would_be_built(tmp_path):
+    from torchrom.paper.cache import CacheMiss, probing
+
+    cache = FileCache(tmp_path)
+    cache.put("a.txt", KEY, lambda p: write_text_atomic(p, "a"))
+    with probing():
+        assert cache.get("a.txt", KEY) is not None
+        with pytest.raises(CacheMiss, match="b.txt"):
+            cache.get("b.txt", KEY)
+        with pytest.raises(CacheMiss, match="a.txt"):  # another key: a miss
+            cache.get("a.txt", FileCache.key({"other": 1}))
+        with pytest.raises(CacheMiss):
+            cache.put("c.txt", KEY, lambda p: write_text_atomic(p, "c"))
+    assert not (tmp_path / "c.txt").exists()
+    assert cache.get("b.txt", KEY) is None  # outside the block: a plain miss
+
+
+def test_a_failing_job_raises_its_own_error_in_the_study(tmp_path):
+    with pytest.raises(InputError, match="job: expected something else"):
+        with Beside(tmp_path, False, 2) as beside:
+            beside.submit(failing_job).result(FileCache(tmp_path), print)
+
+
+def test_study_processes_from_the_environment(monkeypatch):
+    monkeypatch.setenv(ENV, "1")
+    assert study_processes() == 1
+    monkeypatch.setenv(ENV, "2")
+    assert study_processes() == 2
+    monkeypatch.delenv(ENV)
+    assert study_processes() == (2 if (os.cpu_count() or 1) >= 2 else 1)
+    monkeypatch.setenv(ENV, "four")
+    with pytest.raises(InputError, match=ENV):
+        study_processes()
+
+
+def test_paper_refuses_a_bad_process_count_before_writing(tmp_path):
+    """The real CLI: one line naming the variable, exit 2, no output folder."""
+    out = tmp_path / "p"
+    res = subprocess.run([sys.executable, "-m", "torchrom", "paper", "--quick", "--out",
+                          str(out)], capture_output=True, text=True, timeout=120,
+                         env={**os.environ, ENV: "0"})
+    assert res.returncode == 2
+    err = [ln for ln in res.stderr.splitlines() if ln.strip()]
+    assert len(err) == 1 and ENV in err[0] and "expected 1 or 2" in err[0], res.stderr
+    assert not out.exists()
