@@ -78,7 +78,7 @@ def block_commands(bench: dict[str, Any]) -> str:
         f"on a {meta.get('cpus', '?')}-core {meta.get('machine', '')} machine, torch "
         f"{meta.get('torch', '?')}, load average {full.get('load_average_1min_start', 0):.1f} at "
         f"the start: full {full['wall_s']:.0f} s, quick {quick['wall_s']:.0f} s (limits "
-        f"{full['limit_s'] / 60:.0f} and {quick['limit_s'] / 60:.0f} min)."]
+        f"{full['limit_s']:.0f} s and {quick['limit_s']:.0f} s)."]
     if cached is not None:
         lines[-1] += (f" A rerun into the same folder reuses every cached file and spends "
                       f"{cached['wall_s']:.1f} s in the study itself; the command adds the start "
@@ -248,11 +248,14 @@ def block_branches(paper: dict[str, Any]) -> str:
 
 
 def block_perf_paper(bench: dict[str, Any]) -> str:
-    rows = ["| run | wall s | limit s | µs per case-step | load at start |",
-            "|---|---|---|---|---|"]
+    rows = ["| run | method | processes | wall s | limit s | sweeps s (certificates s) | "
+            "load at start |", "|---|---|---|---|---|---|---|"]
     for r in bench["runs"]:
-        rows.append(f"| {r['form']} | {r['wall_s']:.1f} | {r['limit_s']:.0f} | "
-                    f"{r['us_per_case_step']:.1f} | {r['load_average_1min_start']:.1f} |")
+        sweeps = (f"{r['sweep_solver_s']:.1f} ({r['sweep_certificate_s']:.1f})"
+                  if "sweep_solver_s" in r else "–")
+        rows.append(f"| {r['form']} | {r.get('method', 'newmark')} | {r.get('processes', 1)} | "
+                    f"{r['wall_s']:.1f} | {r['limit_s']:.0f} | {sweeps} | "
+                    f"{r['load_average_1min_start']:.1f} |")
     loads = [r["load_average_1min_start"] for r in bench["runs"]]
     return "\n".join([*rows, "", _machine(bench["meta"], _span(loads))])
 
