@@ -7,6 +7,7 @@ Mignolet & Chen (AIAA J. 2021), Sec. IV — Figs. 9–13, Tables 2–3 and a fin
 - :mod:`.findings`  the paper's stated findings checked against our tables
 - :mod:`.report`    ``report.md``
 - :mod:`.study`     :func:`run_paper`, the orchestration
+- :mod:`.beside`    the stages that need only the model, on a second process
 """
 
 from .pipeline import GolandPipeline, PipelineResult, goland_pipeline
