@@ -9,7 +9,8 @@ time of every stage as ``torchrom paper`` reports it, with the machine's load av
 sweeps' solver and certificate seconds (the stages apart from certification) — issue 36's limits
 (:data:`LIMITS_S`) are 60 s for ``--quick`` and 150 s for the full study on 2 cores. A second
 call of the quick form into the same folder measures the cached rerun. Writes
-``benchmarks/results/bench_paper.json`` and ``.csv``.
+``benchmarks/results/bench_paper.json`` and ``.csv``. The peer, side by side: the quick study
+from nothing in one process (``TORCHROM_PAPER_PROCESSES=1``; ``--no-peer`` skips it).
 """
 
 from __future__ import annotations
@@ -21,6 +22,7 @@ import platform
 import sys
 import tempfile
 import time
+from contextlib import contextmanager
 from pathlib import Path
 
 import pandas as pd
@@ -29,6 +31,7 @@ import torch
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE.parent))
 
+from torchrom.paper.beside import ENV  # noqa: E402
 from torchrom.paper.study import run_paper  # noqa: E402
 
 #: issue 36's acceptance: --quick <= 60 s, the full study <= 150 s from nothing on a quiet
@@ -55,10 +58,26 @@ def one_run(folder: Path, quick: bool, label: str) -> dict:
             "load_average_1min_start": load0, "load_average_1min_end": os.getloadavg()[0]}
 
 
+@contextmanager
+def one_process():
+    """The study in one process (:data:`torchrom.paper.beside.ENV` = 1) for the block."""
+    before = os.environ.get(ENV)
+    os.environ[ENV] = "1"
+    try:
+        yield
+    finally:
+        if before is None:
+            os.environ.pop(ENV, None)
+        else:
+            os.environ[ENV] = before
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--quick-only", action="store_true", help="skip the full study")
     ap.add_argument("--out", type=Path, default=HERE / "results")
+    ap.add_argument("--no-peer", action="store_true",
+                    help="skip the one-process quick study (the peer of the two-process one)")
     ap.add_argument("--full-out", type=Path, default=None,
                     help="keep the full study's folder here (default: a temporary folder)")
     args = ap.parse_args(argv)
@@ -67,6 +86,10 @@ def main(argv=None) -> int:
         quick = Path(tmp) / "quick"
         rows.append(one_run(quick, True, "quick"))
         rows.append(one_run(quick, True, "quick, cached rerun"))
+        if not args.no_peer:
+            # the peer: the same quick study from nothing in one process (every stage in turn)
+            with one_process():
+                rows.append(one_run(Path(tmp) / "quick_one", True, "quick, one process"))
         if not args.quick_only:
             rows.append(one_run(args.full_out or Path(tmp) / "full", False, "full"))
     meta = {"python": platform.python_version(), "torch": torch.__version__,

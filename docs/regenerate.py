@@ -46,7 +46,7 @@ BENCH = RESULTS / "bench_paper.json"
 DECK_NAME = "tests/decks/pynastran_pt145/pt145.bdf"
 DECK = ROOT / DECK_NAME
 #: paper.json fields that describe the run, not its results
-VOLATILE = ("seconds", "cpu_seconds", "model_seconds", "reused", "out", "figures")
+VOLATILE = ("seconds", "cpu_seconds", "model_seconds", "reused", "out", "figures", "processes")
 BLOCK = re.compile(r"(<!-- generated:(?P<name>[\w-]+) -->\n)(?P<body>.*?)(<!-- /generated:"
                    r"(?P=name) -->)", re.S)
 
@@ -257,7 +257,14 @@ def block_perf_paper(bench: dict[str, Any]) -> str:
                     f"{r['wall_s']:.1f} | {r['limit_s']:.0f} | {sweeps} | "
                     f"{r['load_average_1min_start']:.1f} |")
     loads = [r["load_average_1min_start"] for r in bench["runs"]]
-    return "\n".join([*rows, "", _machine(bench["meta"], _span(loads))])
+    runs = _bench_runs(bench)
+    peer = []
+    if "quick" in runs and "quick, one process" in runs:
+        two, one = runs["quick"]["wall_s"], runs["quick, one process"]["wall_s"]
+        peer = ["", f"The same quick study from nothing in one process (the peer, same script): "
+                    f"{one:.1f} s against {two:.1f} s with the second process, "
+                    f"{one / two:.2f}× the wall time."]
+    return "\n".join([*rows, *peer, "", _machine(bench["meta"], _span(loads))])
 
 
 def block_perf_goland(res: dict[str, Any]) -> str:
