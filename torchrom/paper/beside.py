@@ -97,6 +97,8 @@ class Job:
         if self.future is None and self.cached is None:
             self.value = self.fn(cache, *self.args, log=log, **self.kwargs)
         else:
+            if self.future is not None and not self.future.done():
+                log("  computed in the second process: waiting for it to finish")
             value, written, hits, lines = (self.cached if self.cached is not None
                                            else self.future.result())
             cache.adopt(written, hits)
