@@ -296,12 +296,12 @@ def steps_to_converge(table: pd.DataFrame, marches_time: bool = True) -> Finding
     """Sec. IV: amplitudes converged after 20,000–40,000 time steps (dt = 0.001 s). Only a
     time-marching table (``marches_time``) can say: a periodic solver's ``steps`` are Newton
     iterations on the orbit, not the transient the paper counts."""
-    t = table[table["status"] == "lco"]
     if not marches_time:
         return Finding("steps", "Sec. IV", "the amplitude converged after 20,000–40,000 time "
                        "steps of 0.001 s", "needs the paper's time marching (`torchrom paper "
                        "--method newmark`): the periodic solver computes the orbit, not the "
                        "transient to it", NA)
+    t = table[table["status"] == "lco"]
     if t.empty:
         return Finding("steps", "Sec. IV", "the amplitude converged after 20,000–40,000 time "
                        "steps", "no converged LCO", NA)

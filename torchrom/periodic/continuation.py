@@ -386,8 +386,7 @@ def follow_branches(builder: Builder, B: int, output_row, options: BranchOptions
             fl = floquet(sysb, Xb, wb)
             out.stable.append(fl.stable)
             out.critical_multiplier.append(fl.critical_modulus)
-            out.floquet_error.append(fl.trivial_error if fl.trivial_error is not None
-                                     else np.full(len(pts), np.nan))
+            out.floquet_error.append(fl.trivial_error)
     return out
 
 

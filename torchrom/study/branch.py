@@ -99,14 +99,19 @@ def branch_options(cfg: SweepConfig, parameter: str | None = None,
         raise InputError(f"[branch]: bad value ({exc})") from None
 
 
+def _verdict(stable) -> bool | None:
+    """A Floquet stability verdict as True, False or None (unknown: None or NaN)."""
+    return None if stable is None or (isinstance(stable, float) and math.isnan(stable)) \
+        else bool(stable)
+
+
 def _floquet_extra(br, harmonics: int) -> dict[str, np.ndarray]:
     """The continuation's own Floquet results per orbit point (branch by branch, in order) as
     a harmonic-balance result's ``extra`` (what the Fourier certificate reads,
     :func:`torchrom.periodic.certify.fourier_rows`); empty without them (no stability)."""
-    if not br.stable or len(br.floquet_error) != len(br.stable):
+    if not br.stable:
         return {}
-    stable = np.array([None if s is None or (isinstance(s, float) and math.isnan(s))
-                       else bool(s) for st in br.stable for s in st], dtype=object)
+    stable = np.array([_verdict(s) for st in br.stable for s in st], dtype=object)
     mult = np.concatenate([np.asarray(m, dtype=float) for m in br.critical_multiplier])
     err = np.concatenate([np.asarray(e, dtype=float) for e in br.floquet_error])
     return {"harmonics": np.full(len(mult), harmonics, dtype=np.int64), "stable": stable,
@@ -303,9 +308,7 @@ def run_branches(cfg: SweepConfig, parameter: str, options: BranchOptions, model
             else:
                 row.update({"status": "lco", "amplitude": float(amp[k, 0]),
                             "frequency_hz": pt.omega / (2 * math.pi),
-                            "stable": None if stable[k] is None or (
-                                isinstance(stable[k], float) and np.isnan(stable[k]))
-                            else bool(stable[k]),
+                            "stable": _verdict(stable[k]),
                             "floquet_multiplier": float(mult[k]),
                             "harmonic_distortion": float(dist[k]),
                             **{f"amplitude_{n}": float(amp[k, j]) for j, n in enumerate(names)}})
