@@ -65,9 +65,9 @@ def test_a_job_comes_back_with_its_files_and_lines(tmp_path, processes):
         assert job.result(cache, lines.append) == "text"
         assert job.result(cache, lines.append) == "text"  # collected once
         assert (pid.result(cache, lines.append) == os.getpid()) == (processes == 1)
-    # the job's own line (after a line saying the study waits, if it had to)
-    assert [ln for ln in lines if "waiting" not in ln] == [lines[-1]]
-    assert lines[-1].startswith("writing text") and len(lines) <= 2
+    # the job's own line, and a line saying the study waits wherever it had to (for either job)
+    own = [ln for ln in lines if "waiting" not in ln]
+    assert len(own) == 1 and own[0].startswith("writing text") and len(lines) <= 3
     assert json.loads((tmp_path / MANIFEST).read_text())["files"]["tables/job.txt"]["key"] == KEY
     # a second study reuses the job's file through the manifest the first one wrote, in its
     # own process (a probe finds every file cached: no worker started)
