@@ -2,13 +2,14 @@
 
 ``torchrom paper`` runs in one process whose numerical work is single-threaded where it
 matters (torch's batched LU, the shooting certificate), so on a 2-core machine half the
-machine would idle. The stages that need only the study's model — the LCO branches, the
-damping criterion's semidefinite program, the stiffness-cause orbits and the other wing
-variant — are submitted to a second process (spawned, not forked: the study's process has
-already run torch's OpenMP thread pool, which a fork does not carry over safely) as soon as
-the model exists, and collected at their own stage, in the report's order. A job whose files
-are all cached runs in place at once (:func:`~.cache.probing`), so a cached rerun starts no
-worker.
+machine would idle. The stages that do not need the main sweeps — the other wing variant
+(its own model: submitted before the study's model stage), then, once the model exists, the
+damping criterion's semidefinite program with its member's sweep, the LCO branches and the
+stiffness-cause orbits — are submitted to a second process (spawned, not forked: the study's
+process may already have run torch's OpenMP thread pool, which a fork does not carry over
+safely), run there in that order, and are collected at their own stage, in the report's
+order. A job whose files are all cached runs in place at once (:func:`~.cache.probing`), so a
+cached rerun starts no worker.
 
 A job is a top-level function ``fn(cache, *args, log=..., **kwargs)`` of the study, called
 with a :class:`~.cache.DeferredCache` on the study's folder: it reads the study's cache and

@@ -501,10 +501,11 @@ def render(summary: dict[str, Any], findings: list[Finding], table: pd.DataFrame
             for k, v in summary["seconds"].items()]
     lines += _table(rows, ["stage", "wall time (s)", "CPU time (s)"])
     if summary.get("processes", 1) > 1:
-        lines += ["", "The LCO branches, the damping criterion's semidefinite program, the "
-                  "stiffness cause and the other wing variant ran in a second process beside "
-                  "the other stages: their rows are the time the study waited for them, and the "
-                  "CPU column is this process's only."]
+        lines += ["", "The other wing variant (from the start, beside the model stage), the "
+                  "damping criterion's semidefinite program and its member's sweep, the LCO "
+                  "branches and the stiffness cause ran in a second process beside the other "
+                  "stages: their rows are the time the study waited for them, and the CPU "
+                  "column is this process's only."]
     if not SOLVERS[summary.get("method", DEFAULT_METHOD)].marches_time:
         ms = 1e3 * summary["lco"]["wall_time_s"] / max(summary["lco"]["cases"], 1)
         sweep = (f" LCO sweep by {summary['method']}: {summary['lco']['cases']} cases, "

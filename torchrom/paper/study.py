@@ -91,14 +91,16 @@ CONFIRMATION_STAGE = "Newmark confirmation (Fig. 11)"
 STAGE_SECONDS = {
     "quick": {"model (FE, ROM, aero, flutter)": 23.6, "Fig. 9: alpha(gamma)": 0.1,
               "linear checks, Table 3": 1.0, "LCO sweep (Figs. 10-13)": 21.2,
-              CONFIRMATION_STAGE: 6.9, "LCO branches in altitude (continuation)": 0.1,
-              "damping check (exact Kelvin-Voigt)": 12.6, "damping decomposition band": 35.1,
+              CONFIRMATION_STAGE: 6.9, "damping check (exact Kelvin-Voigt)": 12.6,
+              "damping decomposition band": 35.1,
+              "LCO branches in altitude (continuation)": 0.1,
               "stiffness nonlinearity at gamma = 1e-3 (cause)": 0.1,
               "other wing variant (pipeline, LCO sweep)": 3.5, "figures": 2.6},
     "full": {"model (FE, ROM, aero, flutter)": 28.1, "Fig. 9: alpha(gamma)": 0.5,
              "linear checks, Table 3": 2.6, "LCO sweep (Figs. 10-13)": 31.5,
-             CONFIRMATION_STAGE: 6.9, "LCO branches in altitude (continuation)": 0.1,
-             "damping check (exact Kelvin-Voigt)": 9.9, "damping decomposition band": 37.2,
+             CONFIRMATION_STAGE: 6.9, "damping check (exact Kelvin-Voigt)": 9.9,
+             "damping decomposition band": 37.2,
+             "LCO branches in altitude (continuation)": 0.1,
              "stiffness nonlinearity at gamma = 1e-3 (cause)": 0.1,
              "other wing variant (pipeline, LCO sweep)": 0.1, "figures": 2.7},
 }
@@ -166,10 +168,18 @@ def _study(out: Path, quick: bool, force: bool, device: str, dtype: torch.dtype,
     t_all, c_all = time.perf_counter(), time.process_time()
     cfg = with_method(load_sweep_config(config_path("paper_lco.toml"), variant), method)
     watch = StageCounter(study_stages(kind, cfg.solver.marches_time), log=log)
+    base = QUICK_PIPELINE if quick else FULL_PIPELINE
+    cfg9 = load_sweep_config(config_path("paper_fig09.toml"), variant)
+    cfg_v = (cfg if cfg.solver.marches_time
+             else dataclasses.replace(_secondary(cfg), history=None))
+    # the other wing variant builds its own model: to the second process (.beside) before the
+    # study's model stage, which it runs beside; collected at its own stage below
+    jobs = {"variants": beside.submit(_variant_studies, base, out,
+                                      [c.get("gamma", 0.0) for c in cfg9.cases], cfg_v, device,
+                                      dtype, force, cfg.solver.marches_time)}
     watch.start("model (FE, ROM, aero, flutter)")
     # the study's ROM and the exact-damping check's from one FE identification (same basis and
     # stiffness; the aerodynamics computed once)
-    base = QUICK_PIPELINE if quick else FULL_PIPELINE
     both = goland_pipelines(base, {base.damping: out / "model", "exact": out / "model_exact"},
                             force=force, log=log)
     res = both[base.damping]
@@ -179,17 +189,14 @@ def _study(out: Path, quick: bool, force: bool, device: str, dtype: torch.dtype,
         f"{fl['state_space']['frequency_hz']:.3f} Hz (paper {fl['paper']['altitude']:,.0f} ft, "
         f"{fl['paper']['frequency_hz']:.3f} Hz)")
     model_hash = model.content_hash()
-    cfg9 = load_sweep_config(config_path("paper_fig09.toml"), variant)
-    cfg_v = (cfg if cfg.solver.marches_time
-             else dataclasses.replace(_secondary(cfg), history=None))
-    # the stages that need only the model, to the second process (.beside), collected at
-    # their own stage below
-    jobs = {"branches": beside.submit(_branches, cfg, model, model_hash, device),
-            "sdp": beside.submit(_sdp_member, model),
-            "cause": beside.submit(_stiffness_cause, cfg, model, quick),
-            "variants": beside.submit(_variant_studies, base, out,
-                                      [c.get("gamma", 0.0) for c in cfg9.cases], cfg_v, device,
-                                      dtype, force, cfg.solver.marches_time)}
+    check_cfg = dataclasses.replace(_secondary(cfg), cases=damping_check_cases(cfg),
+                                    history=None)
+    # the stages that need only the model, to the second process (.beside) after the variant,
+    # collected at their own stage below: the SDP optimum and its sweep first (the band waits
+    # for them), the branches last (collected after the band)
+    jobs["sdp"] = beside.submit(_sdp_sweep, check_cfg, model, device, dtype)
+    jobs["branches"] = beside.submit(_branches, cfg, model, model_hash, device)
+    jobs["cause"] = beside.submit(_stiffness_cause, cfg, model, quick)
 
     # -- Fig. 9 -----------------------------------------------------------------------------------
     watch.start("Fig. 9: alpha(gamma)")
@@ -224,10 +231,6 @@ def _study(out: Path, quick: bool, force: bool, device: str, dtype: torch.dtype,
     else:
         table, histories, lco_info, orbits = _lco_sweep(cache, cfg, model, model_hash, device,
                                                         dtype, log, name=_sweep_name("lco", cfg))
-    watch.start("LCO branches in altitude (continuation)")
-    branches = jobs["branches"].result(cache, log)
-    hb_info["branches"] = branch_summary(branches)
-
     # -- cause check: the Fig. 10 cases with the exact Kelvin-Voigt damping ------------------
     watch.start("damping check (exact Kelvin-Voigt)")
     check, exact, exact_table = _damping_check(cache, cfg, model, both["exact"].model, device,
@@ -235,20 +238,24 @@ def _study(out: Path, quick: bool, force: bool, device: str, dtype: torch.dtype,
 
     # -- the band over admissible damping decompositions ---------------------------------------
     watch.start("damping decomposition band")
-    check_cfg = dataclasses.replace(_secondary(cfg), cases=damping_check_cases(cfg),
-                                    history=None)
     keys = ["altitude_ft", "gamma", "stiffness_nl", "damping_nl"]
     main_cases = table.merge(exact_table[keys], on=keys)  # the check's cases of the main sweep
     log(f"damping decompositions: the Fig. 10 cases at θ = "
         f"{', '.join(f'{t:g}' for t in BAND_THETAS[kind])} between the optimum decomposition "
         "(0) and the exact tensors (1)")
+    sdp, sdp_table = jobs["sdp"].result(cache, log)
+    swept = {SDP_SWEEP: sdp_table}  # the SDP member's, from the second process
     band = decomposition_band(
         model, exact, BAND_THETAS[kind], (main_cases, exact_table),
-        lambda m, name: _lco_sweep(cache, check_cfg, m, m.content_hash(), device, dtype, log,
-                                   name=name)[0],
-        extra=(jobs["sdp"].result(cache, log),))
+        lambda m, name: swept[name] if name in swept else _lco_sweep(
+            cache, check_cfg, m, m.content_hash(), device, dtype, log, name=name)[0],
+        extra=(sdp,))
     for key, verdict in band["findings"].items():
         log(f"  {key}: {verdict}")
+
+    watch.start("LCO branches in altitude (continuation)")
+    branches = jobs["branches"].result(cache, log)
+    hb_info["branches"] = branch_summary(branches)
 
     # -- why the stiffness nonlinearity matters at gamma = 1e-3 --------------------------------
     watch.start("stiffness nonlinearity at gamma = 1e-3 (cause)")
@@ -380,6 +387,21 @@ def _secondary(cfg):
     if cfg.solver.marches_time or cfg.hb.seed == "off":  # no [hb] method to lighten
         return cfg
     return dataclasses.replace(cfg, hb=dataclasses.replace(cfg.hb, seed="unconverged"))
+
+
+#: the sweep folder of the band's SDP member (:func:`.band.decomposition_band` names it)
+SDP_SWEEP = "lco_damping_sdp"
+
+
+def _sdp_sweep(cache: FileCache, check_cfg, model, device, dtype, log
+               ) -> tuple[DampingMember, pd.DataFrame]:
+    """The band's SDP member (:func:`_sdp_member`) and its sweep of the damping check's cases
+    (``check_cfg``), one job of the second process: the band stage waits for both."""
+    member = _sdp_member(cache, model, log)
+    m = dataclasses.replace(model, rom=member.rom(model.rom))
+    table = _lco_sweep(cache, check_cfg, m, m.content_hash(), device, dtype, log,
+                       name=SDP_SWEEP)[0]
+    return member, table
 
 
 def _sdp_member(cache: FileCache, model, log) -> DampingMember:
