@@ -115,6 +115,20 @@ def test_study_processes_from_the_environment(monkeypatch):
         study_processes()
 
 
+@pytest.mark.parametrize("kind", ["quick", "full"])
+def test_stage_references_by_process_count(kind):
+    """The ETA's reference run: the same stages in the same order either way; in one process
+    the stages of the second process count their whole time (a one-process study showed
+    "ETA 8 s" before the 27 s wing variant), and no stage is cheaper there."""
+    from torchrom.paper.study import ONE_PROCESS_SECONDS, study_stages
+
+    two, one = dict(study_stages(kind, False, 2)), dict(study_stages(kind, False, 1))
+    assert list(two) == list(one)
+    assert set(ONE_PROCESS_SECONDS[kind]) < set(two)
+    assert all(one[k] >= two[k] for k in two)
+    assert sum(one.values()) > sum(two.values()) + 40.0
+
+
 def test_paper_refuses_a_bad_process_count_before_writing(tmp_path):
     """The real CLI: one line naming the variable, exit 2, no output folder."""
     out = tmp_path / "p"

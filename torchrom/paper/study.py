@@ -104,17 +104,33 @@ STAGE_SECONDS = {
              "stiffness nonlinearity at gamma = 1e-3 (cause)": 0.1,
              "other wing variant (pipeline, LCO sweep)": 0.1, "figures": 2.2},
 }
+#: the stages the second process computes (:mod:`.beside`) cost their whole time when the study
+#: runs in one process (``TORCHROM_PAPER_PROCESSES=1``): their seconds in a reference run so
+#: (bench_paper's one-process peer for the quick study; a full run the same day)
+ONE_PROCESS_SECONDS = {
+    "quick": {"damping decomposition band": 49.3,
+              "LCO branches in altitude (continuation)": 23.4,
+              "stiffness nonlinearity at gamma = 1e-3 (cause)": 1.1,
+              "other wing variant (pipeline, LCO sweep)": 27.1},
+    "full": {"damping decomposition band": 56.8,
+             "LCO branches in altitude (continuation)": 14.6,
+             "stiffness nonlinearity at gamma = 1e-3 (cause)": 4.3,
+             "other wing variant (pipeline, LCO sweep)": 35.9},
+}
 #: the study's LCO solver unless ``method`` names another (``torchrom paper --method``):
 #: harmonic balance, each orbit certified as one of the continuous-time equations (issue 36);
 #: "newmark" is the paper's own time marching
 PAPER_METHOD = "hb"
 
 
-def study_stages(kind: str, marches_time: bool) -> list[tuple[str, float]]:
+def study_stages(kind: str, marches_time: bool, processes: int = 2
+                 ) -> list[tuple[str, float]]:
     """(stage, reference seconds) of the ``kind`` ("quick" or "full") study, in order; the
     Newmark confirmation only when the LCOs come from periodic orbits (not
-    ``marches_time``)."""
-    return [(k, v) for k, v in STAGE_SECONDS[kind].items()
+    ``marches_time``); with one process, the second process's stages at their whole time
+    (:data:`ONE_PROCESS_SECONDS`)."""
+    one = ONE_PROCESS_SECONDS[kind] if processes == 1 else {}
+    return [(k, one.get(k, v)) for k, v in STAGE_SECONDS[kind].items()
             if not (marches_time and k == CONFIRMATION_STAGE)]
 
 
@@ -167,7 +183,8 @@ def _study(out: Path, quick: bool, force: bool, device: str, dtype: torch.dtype,
     kind = "quick" if quick else "full"
     t_all, c_all = time.perf_counter(), time.process_time()
     cfg = with_method(load_sweep_config(config_path("paper_lco.toml"), variant), method)
-    watch = StageCounter(study_stages(kind, cfg.solver.marches_time), log=log)
+    watch = StageCounter(study_stages(kind, cfg.solver.marches_time, beside.processes),
+                         log=log)
     base = QUICK_PIPELINE if quick else FULL_PIPELINE
     cfg9 = load_sweep_config(config_path("paper_fig09.toml"), variant)
     cfg_v = (cfg if cfg.solver.marches_time
