@@ -50,6 +50,37 @@ def test_a_newmark_lco_is_certified_with_the_distance_to_the_discrete_orbit():
     assert np.isnan(out.extra["orbit_error"][2]) and out.extra["certified"][2] is None
 
 
+def test_a_newmark_lco_is_taken_as_it_is_only_well_within_tol():
+    """A time integration's row is accepted on its one-step estimate only within
+    MARCHED_ACCEPT × tol (the estimate's error is quadratic in the distance: on the Goland
+    γ = 0, 8,500 ft row of bench_lco it fell 13 % short at 3.4e-4); between that and tol it
+    is finished to the discrete orbit, whose amplitude the row then reports."""
+    from torchrom.periodic.certify import MARCHED_ACCEPT
+
+    system = _system((0.0,))
+    dt = 5e-3
+    res = Newmark(dt=dt, iterations=3).run(system, [0.5], t_end=100.0, outputs=["sum"],
+                                          lco=LCOCriteria(rtol=1e-3, cycles=2))
+    exact = shoot(system, OrbitStart(torch.as_tensor(res.q), torch.as_tensor(res.v),
+                                     torch.zeros(1, 0), torch.as_tensor(1 / res.frequency_hz)),
+                  ROW[0], options=ShootingOptions(dt=dt))
+    distance = abs(res.amplitude[0, 0] / exact.amplitude[0, 0] - 1)
+    assert distance > 1e-6
+    # within tol but not within MARCHED_ACCEPT × tol: finished
+    tol = 2.0 * distance
+    out = certify(system, res, ROW, 0, Certificate(tol=tol, richardson=False), dt)
+    assert out.extra["finished"][0] == True  # noqa: E712
+    assert out.extra["certified"][0] == True  # noqa: E712
+    assert abs(out.amplitude[0, 0] / exact.amplitude[0, 0] - 1) < FINISH_TOL * tol
+    assert out.extra["orbit_error"][0] < FINISH_TOL * tol
+    # well within tol: taken as it is, with the estimate as its orbit_error
+    tol = 2.0 * distance / MARCHED_ACCEPT
+    out = certify(system, res, ROW, 0, Certificate(tol=tol, richardson=False), dt)
+    assert out.extra["finished"][0] == False  # noqa: E712
+    assert out.amplitude[0, 0] == res.amplitude[0, 0]
+    assert math.isclose(out.extra["orbit_error"][0], distance, rel_tol=0.1)
+
+
 def test_an_orbit_off_by_two_percent_is_finished_or_flagged():
     """HB orbits scaled by 1.02: the certificate states ≈ 2 % (to 10 % of it); with ``finish``
     the rows report the discrete orbits (the converged shooting's amplitude), else their status
