@@ -26,10 +26,13 @@ from contextlib import contextmanager
 from pathlib import Path
 
 import pandas as pd
-import torch
 
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE.parent))
+
+sys.path.insert(0, str(HERE))
+
+from results_io import machine_meta  # noqa: E402
 
 from torchrom.paper.beside import ENV  # noqa: E402
 from torchrom.paper.study import run_paper  # noqa: E402
@@ -92,8 +95,7 @@ def main(argv=None) -> int:
                 rows.append(one_run(Path(tmp) / "quick_one", True, "quick, one process"))
         if not args.quick_only:
             rows.append(one_run(args.full_out or Path(tmp) / "full", False, "full"))
-    meta = {"python": platform.python_version(), "torch": torch.__version__,
-            "cpus": os.cpu_count(), "machine": platform.machine()}
+    meta = machine_meta(python=platform.python_version())
     args.out.mkdir(parents=True, exist_ok=True)
     (args.out / "bench_paper.json").write_text(json.dumps({"meta": meta, "runs": rows},
                                                           indent=1))
