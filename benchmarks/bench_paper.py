@@ -29,7 +29,6 @@ import pandas as pd
 
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE.parent))
-
 sys.path.insert(0, str(HERE))
 
 from results_io import machine_meta  # noqa: E402

@@ -43,6 +43,13 @@ def _same(a, b) -> bool:
     return float(np.abs(a - b).max()) <= 1e-9 * max(float(np.abs(b).max()), 1e-300)
 
 
+def member_sweep(main, member: DampingMember) -> tuple[Any, str]:
+    """(model, sweep name) of a damping member: the study's model with the member's damping
+    tensors, and the folder its sweep of the check cases is cached in."""
+    label = f"theta_{member.theta:g}" if np.isfinite(member.theta) else member.name
+    return dataclasses.replace(main, rom=member.rom(main.rom)), f"lco_damping_{label}"
+
+
 def decomposition_band(main, exact, thetas, end_tables: tuple[pd.DataFrame, pd.DataFrame],
                        run: Callable[[Any, str], pd.DataFrame],
                        extra: Sequence[DampingMember] = ()) -> dict[str, Any]:
@@ -63,9 +70,7 @@ def decomposition_band(main, exact, thetas, end_tables: tuple[pd.DataFrame, pd.D
                                    for k in ("D1", "D2", "D3")):
             table = end[1].copy()
         else:
-            model = dataclasses.replace(main, rom=m.rom(main.rom))
-            label = f"theta_{m.theta:g}" if np.isfinite(m.theta) else m.name
-            table = run(model, f"lco_damping_{label}").copy()
+            table = run(*member_sweep(main, m)).copy()
         table["member"], table["theta"] = m.name, m.theta
         tables.append(table)
         found = {f.key: f for f in fnd.fig10_acceptance(table)}

@@ -149,8 +149,12 @@ class FileCache:
         """Write the file ``name`` with ``write(path)`` (which must write atomically) and record
         its key."""
         path = self._write(name, key, write)
-        write_json_atomic(self.path, {"format": CACHE_FORMAT, "files": self.entries})
+        self._save()
         return path
+
+    def _save(self) -> None:
+        """Rewrite the manifest (``cache.json``) with the entries."""
+        write_json_atomic(self.path, {"format": CACHE_FORMAT, "files": self.entries})
 
     def _write(self, name: str, key: str, write: Callable[[Path], Any]) -> Path:
         """Write the file ``name`` and its entry (the manifest file itself is not rewritten)."""
@@ -173,7 +177,7 @@ class FileCache:
         self.built += list(written)
         self.hits += [h for h in hits if h not in written]
         if written:
-            write_json_atomic(self.path, {"format": CACHE_FORMAT, "files": self.entries})
+            self._save()
 
 
 class DeferredCache(FileCache):

@@ -49,7 +49,7 @@ from ..study.plots import branch_diagram
 from ..study.sweep import run_sweep, sweep_chunk_size
 from ..study.table import write_histories
 from . import findings as fnd
-from .band import BAND_THETAS, decomposition_band
+from .band import BAND_THETAS, decomposition_band, member_sweep
 from .beside import Beside, study_processes
 from .cache import MANIFEST, FileCache
 from .dissipation import dissipation_ratio, lco_cycle, scaled_min_eigenvalue
@@ -250,8 +250,9 @@ def _study(out: Path, quick: bool, force: bool, device: str, dtype: torch.dtype,
                                                         dtype, log, name=_sweep_name("lco", cfg))
     # -- cause check: the Fig. 10 cases with the exact Kelvin-Voigt damping ------------------
     watch.start("damping check (exact Kelvin-Voigt)")
-    check, exact, exact_table = _damping_check(cache, cfg, model, both["exact"].model, device,
-                                               dtype, log, _cycle_orbit(table, orbits, model))
+    check, exact, exact_table = _damping_check(cache, cfg, check_cfg, model,
+                                               both["exact"].model, device, dtype, log,
+                                               _cycle_orbit(table, orbits, model))
 
     # -- the band over admissible damping decompositions ---------------------------------------
     watch.start("damping decomposition band")
@@ -261,7 +262,7 @@ def _study(out: Path, quick: bool, force: bool, device: str, dtype: torch.dtype,
         f"{', '.join(f'{t:g}' for t in BAND_THETAS[kind])} between the optimum decomposition "
         "(0) and the exact tensors (1)")
     sdp, sdp_table = jobs["sdp"].result(cache, log)
-    swept = {SDP_SWEEP: sdp_table}  # the SDP member's, from the second process
+    swept = {member_sweep(model, sdp)[1]: sdp_table}  # the SDP member's, from the second process
     band = decomposition_band(
         model, exact, BAND_THETAS[kind], (main_cases, exact_table),
         lambda m, name: swept[name] if name in swept else _lco_sweep(
@@ -406,19 +407,15 @@ def _secondary(cfg):
     return dataclasses.replace(cfg, hb=dataclasses.replace(cfg.hb, seed="unconverged"))
 
 
-#: the sweep folder of the band's SDP member (:func:`.band.decomposition_band` names it)
-SDP_SWEEP = "lco_damping_sdp"
-
-
 def _sdp_sweep(cache: FileCache, check_cfg, model, device, dtype, log
                ) -> tuple[DampingMember, pd.DataFrame]:
     """The band's SDP member (:func:`_sdp_member`) and its sweep of the damping check's cases
-    (``check_cfg``), one job of the second process: the band stage waits for both."""
+    (``check_cfg``; :func:`.band.member_sweep`), one job of the second process: the band stage
+    waits for both."""
     member = _sdp_member(cache, model, log)
-    m = dataclasses.replace(model, rom=member.rom(model.rom))
-    table = _lco_sweep(cache, check_cfg, m, m.content_hash(), device, dtype, log,
-                       name=SDP_SWEEP)[0]
-    return member, table
+    m, name = member_sweep(model, member)
+    return member, _lco_sweep(cache, check_cfg, m, m.content_hash(), device, dtype, log,
+                              name=name)[0]
 
 
 def _sdp_member(cache: FileCache, model, log) -> DampingMember:
@@ -466,16 +463,15 @@ def damping_check_cases(cfg) -> list[dict[str, Any]]:
             and not (float(c.get("gamma", 0.0)) == 0.0 and not c.get("stiffness_nl", True))]
 
 
-def _damping_check(cache: FileCache, cfg, main, model, device, dtype, log, orbit=None
-                   ) -> tuple[dict[str, Any], Any, pd.DataFrame]:
+def _damping_check(cache: FileCache, cfg, check_cfg, main, model, device, dtype, log,
+                   orbit=None) -> tuple[dict[str, Any], Any, pd.DataFrame]:
     """The Fig. 10 curves at :data:`DAMPING_CHECK_ALTITUDES` with ``model``, whose ROM's
     damping tensors are the exact Kelvin–Voigt ones (the pipeline with ``damping="exact"``,
     same basis and aerodynamics): tells how much of a difference from the paper the optimum
-    decomposition causes. Returns the check (JSON-ready), the exact-damping model and its table.
-    ``orbit``: the dissipation cycle's orbit from the main sweep (:func:`_cycle_orbit`), if
-    any."""
-    cfg_x = dataclasses.replace(_secondary(cfg), cases=damping_check_cases(cfg), history=None)
-    table, _, info, _ = _lco_sweep(cache, cfg_x, model, model.content_hash(), device, dtype,
+    decomposition causes (``check_cfg``: the study's secondary sweep of those cases). Returns
+    the check (JSON-ready), the exact-damping model and its table. ``orbit``: the dissipation
+    cycle's orbit from the main sweep (:func:`_cycle_orbit`), if any."""
+    table, _, info, _ = _lco_sweep(cache, check_cfg, model, model.content_hash(), device, dtype,
                                    log, name=_sweep_name("lco_exact_damping", cfg))
     found = fnd.fig10_acceptance(table)
     for f in found:
