@@ -37,12 +37,14 @@ from torch.func import jvp, vjp
 from ..errors import InputError
 from .assembly import ProjectedPattern, assemble, project
 from .constraints import COMPONENT, build_constraints, drop_free
+from .dead_load import DeadLoad
 from .elements.bar import bar_mass_blocks, bar_stiffness_blocks
 from .elements.corotational import (
     CorotElements,
     CorotKernel,
     line_elements,
     plate_elements,
+    spin_map,
 )
 from .elements.green import GreenKernel, GreenPoints
 from .elements.offset import offset_mass_blocks, offset_stiffness_blocks
@@ -600,6 +602,42 @@ class FEModel:
             raise InputError(f"{self.name}: load set {load_id} not found "
                              f"(available: {sorted(self.loads)})")
         return self.loads[load_id].copy()
+
+    def dead_load(self, load_id: int) -> DeadLoad:
+        """The deck's load set ``load_id`` as a :class:`~torchrom.fe.dead_load.DeadLoad`, whose
+        generalized force follows the large rotations (nonlinear statics)."""
+        self.load_vector(load_id)  # the one-line refusal of a missing set
+        return DeadLoad(self, self._loads_all[load_id])
+
+    def nodal_dead_load(self, loads: dict[tuple[int, int], float]) -> DeadLoad:
+        """:meth:`nodal_load` as a :class:`~torchrom.fe.dead_load.DeadLoad`."""
+        f = np.zeros(self.n_all)
+        for (gid, comp), val in loads.items():
+            self.nodal_load({(gid, comp): val})  # the one-line refusals
+            f[self._row[int(gid)] * 6 + int(comp) - 1] += float(val)
+        return DeadLoad(self, f)
+
+    def generalized_load(self, u, f_all) -> np.ndarray:
+        """Generalized free-DOF force at the state ``u`` of the dead loads ``f_all`` (all-grid
+        forces and moments, basic axes): Tᵀ f with small rotations; with large rotations the
+        moments' T(θ)ᵀ M and the forces on turned RBE2 arms (:mod:`torchrom.fe.dead_load`)."""
+        u = self._check_u(u, "generalized_load")
+        f_all = np.asarray(f_all, dtype=float)
+        if self.rotations != "large":
+            return self.T.T @ f_all
+        st = self._state()
+        with torch.no_grad():
+            u_all = self._all_torch(torch.from_numpy(u), st)
+            f = torch.from_numpy(f_all).reshape(-1, 6)
+            T = spin_map(u_all.reshape(-1, 6)[:, 3:])
+            moments = (T.transpose(-1, -2) @ f[:, 3:, None])[..., 0]
+            g_all = torch.cat((f[:, :3], moments), dim=1).reshape(-1)
+        if st.arms is not None:
+            _, pull = vjp(st.arms.lift, u_all)
+            with torch.no_grad():
+                g_all = pull(g_all)[0]
+        with torch.no_grad():
+            return self._free_torch(g_all, st).numpy()
 
     def pressure_elements(self) -> np.ndarray:
         """CQUAD4 ids loaded by :meth:`pressure_load` by default: the upper skin.

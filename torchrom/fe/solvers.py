@@ -20,6 +20,7 @@ import scipy.sparse.linalg as sla
 
 from ..eigen import arpack_start, orient_columns
 from ..errors import ConvergenceError, InputError
+from .dead_load import DeadLoad, applied, reference
 from .kinds import classify
 
 #: An eigenvalue ω² at or below this fraction of the model's stiffness-to-mass scale
@@ -243,7 +244,8 @@ def modified_newton(fe, F: np.ndarray, u0: np.ndarray, *, tol: float = 1e-6,
     norm is a poor measure of the distance to the solution, and taking back every rise cost
     the Pazy tip-mass sweep one tangent a mass (4 a mass instead of 3). Converged when
     ‖f(u) − F‖ ≤ ``tol`` ‖F‖. Returns (u, residual evaluations, tangent factorisations,
-    factor); ConvergenceError after ``max_iter``, or when more than ``max_tangents``
+    factor); ``F`` may be a :class:`~torchrom.fe.dead_load.DeadLoad` (evaluated at each
+    iterate). ConvergenceError after ``max_iter``, or when more than ``max_tangents``
     factorisations would be needed (a residual stalled at its rounding floor refactorises at
     every iteration: the caller's full Newton, which detects the floor, is then cheaper).
     With ``work_tol``, also converged when the work of a correction on the residual
@@ -252,12 +254,13 @@ def modified_newton(fe, F: np.ndarray, u0: np.ndarray, *, tol: float = 1e-6,
     ``factor_at_start``: ``factor`` is the tangent's at ``u0`` (e.g. K at rest), so its first
     step is a Newton step and is kept."""
     u = np.array(u0, dtype=float)
-    norm_F = max(float(np.linalg.norm(F)), 1e-300)
+    norm_F = max(float(np.linalg.norm(reference(F))), 1e-300)
     tangents, prev, fresh = 0, np.inf, False
     u_prev = r_prev = None
     res = np.inf
     for it in range(1, max_iter + 1):
-        r = fe.internal_force(u) - F
+        F_u = applied(F, u)
+        r = fe.internal_force(u) - F_u
         res = float(np.linalg.norm(r))
         if res <= tol * norm_F:
             return u, it, tangents, factor
@@ -278,7 +281,7 @@ def modified_newton(fe, F: np.ndarray, u0: np.ndarray, *, tol: float = 1e-6,
         prev, u_prev, r_prev = res, u, r
         du = factor.solve(r)
         u = u - du
-        if work_tol is not None and abs(float(du @ r)) <= work_tol * abs(float(u @ F)):
+        if work_tol is not None and abs(float(du @ r)) <= work_tol * abs(float(u @ F_u)):
             return u, it, tangents, factor
     raise ConvergenceError(f"modified_newton: no convergence in {max_iter} iterations "
                            f"(residual {res:.3g} of the load {norm_F:.3g})")
@@ -568,9 +571,10 @@ def static_solve(
 ) -> StaticResult:
     """Solve f(u) = λ F for λ from 0 to 1 by Newton–Raphson with load stepping.
 
-    ``load`` F (n_dof,) may be None for pure displacement control. ``prescribed`` (dict free
-    DOF index → value at λ = 1) imposes u_k = λ value (displacement control, e.g. past a limit
-    point); the reactions are returned. ``u0`` is the starting guess (continuation).
+    ``load`` F (n_dof,), or a :class:`~torchrom.fe.dead_load.DeadLoad` whose generalized force
+    follows the large rotations, may be None for pure displacement control. ``prescribed``
+    (dict free DOF index → value at λ = 1) imposes u_k = λ value (displacement control, e.g.
+    past a limit point); the reactions are returned. ``u0`` is the starting guess (continuation).
     Convergence: ‖r‖ ≤ tol · max(‖λF‖, ‖reactions‖, ‖f_int‖) on the unknown DOFs, or a Newton
     correction ‖Δu‖ ≤ 1e-10 ‖u‖ once the residual has stopped decreasing (the residual has
     reached its rounding floor, which for stiff models can exceed tol · ‖F‖), or the work of a
@@ -586,9 +590,13 @@ def static_solve(
     (or :class:`~torchrom.errors.ConvergenceError` with ``raise_on_failure``).
     """
     n = fe.n_dof
-    F = np.zeros(n) if load is None else np.asarray(load, dtype=float).reshape(-1)
-    if F.shape != (n,):
-        raise InputError(f"static_solve: load: expected {n} free-DOF entries, got {F.shape}")
+    if isinstance(load, DeadLoad):
+        F = load
+    else:
+        F = np.zeros(n) if load is None else np.asarray(load, dtype=float).reshape(-1)
+        if F.shape != (n,):
+            raise InputError(f"static_solve: load: expected {n} free-DOF entries, got "
+                             f"{F.shape}")
     p_idx, p_val = _prescribed(fe, prescribed)
     unknown = np.setdiff1d(np.arange(n), p_idx)
     u = np.zeros(n) if u0 is None else np.array(u0, dtype=float)
@@ -622,7 +630,7 @@ def static_solve(
     converged = lam >= 1.0 - 1e-14
     if not converged and raise_on_failure:
         raise ConvergenceError(message)
-    r = fe.internal_force(u) - lam * F
+    r = fe.internal_force(u) - lam * applied(F, u)
     reactions = np.zeros(n)
     reactions[p_idx] = r[p_idx]
     return StaticResult(u, converged, total_iter, lam, res_norm, steps, reactions, history,
@@ -642,10 +650,11 @@ def _newton(fe, u, F, lam, p_idx, p_val, unknown, max_iter, tol):
     du_norm = np.inf
     for it in range(1, max_iter + 1):
         f = fe.internal_force(u)
-        r = f - lam * F
+        F_u = applied(F, u)
+        r = f - lam * F_u
         ru = r[unknown]
         res = float(np.linalg.norm(ru))
-        scale = max(np.linalg.norm(lam * F[unknown]), np.linalg.norm(r[p_idx]),
+        scale = max(np.linalg.norm(lam * F_u[unknown]), np.linalg.norm(r[p_idx]),
                     np.linalg.norm(f), 1e-300)
         if not np.isfinite(res):
             return False, u, it, res
@@ -664,7 +673,7 @@ def _newton(fe, u, F, lam, p_idx, p_val, unknown, max_iter, tol):
             return False, u, it, res
         u[unknown] -= du
         du_norm = float(np.linalg.norm(du))
-        work = abs(float(u[unknown] @ (lam * F[unknown])))
+        work = abs(float(u[unknown] @ (lam * F_u[unknown])))
         if abs(float(du @ ru)) <= WORK_TOL * work:
             return True, u, it, res
     return False, u, max_iter, res

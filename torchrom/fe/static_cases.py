@@ -227,7 +227,8 @@ def run_static(job: StaticJob, *, max_cuts: int = DEFAULT_MAX_CUTS,
                 if on_step is not None:
                     on_step(k, lam)
 
-            out = fe.static_solve(fe.load_vector(sc.load), n_steps=n, max_iter=iters,
+            # dead loads: their moments and turned RBE2 arms follow the large rotations
+            out = fe.static_solve(fe.dead_load(sc.load), n_steps=n, max_iter=iters,
                                   max_cuts=max_cuts, callback=record)
             res = results[k]
             res.steps = [StaticStep(h["load_factor"], True, h["iterations"], h["residual"],

@@ -176,6 +176,28 @@ def rotate(theta: torch.Tensor, abc, v: torch.Tensor) -> torch.Tensor:
             + a * _cross(theta, v))
 
 
+#: (1 − sin φ/φ)/φ² = (φ − sin φ)/φ³ as a series in φ² (six terms, as _SIN_SERIES)
+_SPIN_SERIES = [(-1.0) ** k / float(np.prod(np.arange(1, 2 * k + 4))) for k in range(6)]
+
+
+def spin_map(theta: torch.Tensor) -> torch.Tensor:
+    """T(θ) (..., 3, 3) with δω = T(θ) δθ: the spatial spin of R = exp([θ×]) (δR Rᵀ = [δω×])
+    under a change δθ of the total rotation vector (the left Jacobian of SO(3)),
+    T = I + b [θ×] + c [θ×]², b = (1 − cos φ)/φ², c = (φ − sin φ)/φ³.
+
+    A dead moment M does the work M·δω = (Tᵀ M)·δθ: Tᵀ(θ) M is its generalized force on the
+    rotation DOFs. T = I only for δθ parallel to θ (planar problems)."""
+    s = (theta * theta).sum(-1)
+    _, b, _ = rodrigues(theta)
+    small = s < EXP_SERIES
+    s_safe = torch.where(small, torch.ones_like(s), s)
+    phi = torch.sqrt(s_safe)
+    c = torch.where(small, _horner(s, _SPIN_SERIES), (phi - torch.sin(phi)) / (phi * s_safe))
+    W = skew(theta)
+    eye = torch.eye(3, dtype=theta.dtype, device=theta.device)
+    return eye + b[..., None, None] * W + c[..., None, None] * (W @ W)
+
+
 def _cross(a: torch.Tensor, b: torch.Tensor) -> torch.Tensor:
     """a × b over the last axis, written out in elementwise products like the rest of the
     layer (no batched small-matrix kernels under the torch.func transforms)."""
