@@ -279,9 +279,13 @@ def test_flutter_bah_plane_free_free_pk_against_its_f06(tmp_path):
     # FLUTTER 501 (Mach 0, 4774 to 5542): no crossing in either, but the f06's POINT 4 is
     # unstable from the first speed (g = +0.0678 at 2.32 Hz), and so is ours (measured +0.0740
     # at 2.155 Hz: within 0.01 in g; the 7 % in frequency not isolated), reported as such
+    # (by its damping and frequency: which root index carries it depends on the eigensolver's
+    # ordering, which differs between BLAS kernels)
     osc = [(r, j) for r, j in res.unstable_at_start() if r.sweep.frequency_hz[0, j] > 0]
-    assert [(r.case.sid, j) for r, j in osc] == [(501, 2)]
-    assert osc[0][0].sweep.damping[0, 2] == pytest.approx(0.0678, abs=0.01)
+    assert [r.case.sid for r, _ in osc] == [501]
+    ((r501, j),) = osc
+    assert r501.sweep.damping[0, j] == pytest.approx(0.0678, abs=0.01)
+    assert r501.sweep.frequency_hz[0, j] == pytest.approx(2.155, rel=0.01)
     assert rec["nastran_velocity"] == pytest.approx(394.04, abs=0.01)
     assert abs(rec["velocity_diff_pct"]) <= 2.0
     assert abs(rec["frequency_diff_pct"]) <= 2.0
