@@ -53,8 +53,9 @@ def sweep_table(name: str) -> np.ndarray:
     return np.loadtxt(PAZY / name)
 
 
-def pazy_model(mass: float = 0.0, sol: int = 400, **options):
-    """The Pazy FE model (``read_bdf``) of the test's deck with a ``mass`` kg tip CONM2."""
+def pazy_model(mass: float = 0.0, sol: int = 400, extra: str = "", **options):
+    """The Pazy FE model (``read_bdf``) of the test's deck with a ``mass`` kg tip CONM2 and the
+    bulk cards ``extra`` (lines)."""
     from torchrom.fe.bdf_read import read_bdf
 
     with tempfile.TemporaryDirectory() as tmp:
@@ -62,7 +63,8 @@ def pazy_model(mass: float = 0.0, sol: int = 400, **options):
         for name in ("fem_noskin_stiftip.bdf", "tip_rbe2_noskin.bdf", "bcs_noskin.bdf"):
             shutil.copy(PAZY / name, tmp / name)
         deck = tmp / "pazy_tip.dat"
-        deck.write_text(PAZY_TIP_DECK.format(sol=sol, ninc=1, mass=mass))
+        text = PAZY_TIP_DECK.format(sol=sol, ninc=1, mass=mass)
+        deck.write_text(text.replace("BEGIN BULK\n", "BEGIN BULK\n" + extra, 1))
         return read_bdf(deck, **options)
 
 
@@ -87,25 +89,33 @@ class SweepResult:
     seconds: float
     iterations: list[int] = field(default_factory=list)
     tol: float = 0.0
+    #: free-DOF states: the self-weight's, and each mass's nonlinear and linear solution
+    u_weight: np.ndarray | None = None
+    u_linear_weight: np.ndarray | None = None
+    states: list[np.ndarray] = field(default_factory=list)
+    linear_states: list[np.ndarray] = field(default_factory=list)
 
 
-def nonlinear_sweep(fe, masses, *, tol: float = 1e-7, progress=print) -> SweepResult:
-    """Continuation over ``masses`` (kg, increasing from 0): modified Newton at each mass from
-    the last solution with the last tangent factorisation (refactorised when the residual falls
-    by less than half an iteration; a mass not reached in 30 iterations is approached through
-    the midpoint from the last one), converged to ‖f(u) − F‖ ≤ ``tol`` ‖F‖
-    (:func:`torchrom.fe.solvers.modified_newton`)."""
+def nonlinear_sweep(fe, masses, *, tol: float = 1e-7, progress=print,
+                    mass_grid: int = MASS_GRID) -> SweepResult:
+    """Continuation over ``masses`` (kg, increasing from 0) on ``mass_grid``: modified Newton at
+    each mass from the last solution with the last tangent factorisation (refactorised when the
+    residual falls by less than half an iteration; a mass not reached in 30 iterations is
+    approached through the midpoint from the last one), converged to ‖f(u) − F‖ ≤ ``tol`` ‖F‖
+    (:func:`torchrom.fe.solvers.modified_newton`). The loads are dead loads
+    (:mod:`torchrom.fe.dead_load`): the self-weight's moments and the mass's RBE2 arm follow
+    the rotations."""
     from torchrom.errors import ConvergenceError
     from torchrom.fe.solvers import factor_symmetric, modified_newton
 
-    F_w = fe.load_vector(1)
-    F_1 = fe.nodal_load({(MASS_GRID, 3): -GRAVITY})
+    F_w = fe.dead_load(1)
+    F_1 = fe.nodal_dead_load({(mass_grid, 3): -GRAVITY})
     t0 = time.perf_counter()
     lin = factor_symmetric(fe.stiffness_matrix())
     u_w, _, _, factor = modified_newton(fe, F_w, np.zeros(fe.n_dof), tol=tol, factor=lin)
-    u_lin_w = lin.solve(F_w)
+    u_lin_w = lin.solve(F_w.linear)
     u = u_w
-    out, linear, its = [], [], []
+    out, linear, its, states, linear_states = [], [], [], [], []
     last = 0.0
     for m in masses:
         n_f = n_k = 0
@@ -120,13 +130,15 @@ def nonlinear_sweep(fe, masses, *, tol: float = 1e-7, progress=print) -> SweepRe
                 continue
             u, last = u_try, steps.pop()
             n_f, n_k = n_f + a, n_k + b
+        states.append(u)
+        linear_states.append(lin.solve((F_w + m * F_1).linear))
         out.append(tip_percent(fe, u, u_w))
-        linear.append(tip_percent(fe, lin.solve(F_w + m * F_1), u_lin_w))
+        linear.append(tip_percent(fe, linear_states[-1], u_lin_w))
         its.append((n_f, n_k))
         progress(f"  {m:5.2f} kg: {out[-1]:8.3f} % (linear {linear[-1]:8.3f} %), "
                  f"{n_f} residuals, {n_k} tangents, {time.perf_counter() - t0:.0f} s")
     return SweepResult(np.asarray(masses, float), np.array(out), np.array(linear),
-                       time.perf_counter() - t0, its, tol)
+                       time.perf_counter() - t0, its, tol, u_w, u_lin_w, states, linear_states)
 
 
 #: the ROM's validity envelope: |ROM − FE| ≤ this fraction of |FE| (issue 34)
