@@ -13,6 +13,13 @@ from torchrom.errors import InputError
 
 def _horseshoe_lift_slope(panels, far=1e6):
     """Independent vortex-lattice C_Lα (Biot–Savart horseshoes, Katz & Plotkin Ch. 12)."""
+    gamma, a, b = _horseshoe_circulation(panels, far)
+    return 2 * (gamma * np.linalg.norm(b - a, axis=1)).sum() / panels.areas.sum()  # full wing
+
+
+def _horseshoe_circulation(panels, far=1e6):
+    """The horseshoes' circulations Γ (unit freestream, α = 1 rad) and their bound vortices'
+    ends a, b: each box's lift per unit q∞ is 2 Γ |b − a| (Kutta–Joukowski)."""
 
     def segment(p, a, b):
         r1, r2, r0 = p - a, p - b, b - a
@@ -33,7 +40,7 @@ def _horseshoe_lift_slope(panels, far=1e6):
         + segment(p, b[None], b_inf[None])
     )[..., 2]
     gamma = np.linalg.solve(w, -np.ones(panels.n))  # unit freestream, α = 1 rad
-    return 2 * (gamma * np.linalg.norm(b - a, axis=1)).sum() / panels.areas.sum()  # full wing
+    return gamma, a, b
 
 
 @pytest.fixture(scope="module")

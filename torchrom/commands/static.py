@@ -1,5 +1,7 @@
 """``torchrom static DECK.bdf``: the deck's own static subcases, linear (SOL 101) or
-geometrically nonlinear (SOL 106/400), with dead loads (:mod:`torchrom.fe.static_cases`).
+geometrically nonlinear (SOL 106/400), with dead loads (:mod:`torchrom.fe.static_cases`); with
+``--aoa``/``--velocity``, or a SOL 144 deck, the static aeroelastic equilibrium instead
+(:mod:`._static_aero`).
 
 JSON (``--json FILE``, refused when it exists unless ``--force``): an object with ``deck``,
 ``sol`` (the deck's SOL number, or null), ``analysis`` (``linear`` or ``nonlinear``), ``loads``
@@ -19,6 +21,7 @@ from pathlib import Path
 
 import numpy as np
 
+from . import _static_aero as static_aero
 from ._common import (
     add_force_option,
     add_json_option,
@@ -30,7 +33,8 @@ from ._common import (
 
 NAME = "static"
 HELP = ("the deck's static subcases (LOAD/SPC/NLPARM in case control): linear as SOL 101, "
-        "nonlinear as SOL 106/400; dead loads")
+        "nonlinear as SOL 106/400; dead loads; or the static aeroelastic equilibrium at a root "
+        "angle of attack (--aoa, --velocity; SOL 144 TRIM)")
 COMPONENTS = ("T1", "T2", "T3", "R1", "R2", "R3")
 
 
@@ -63,6 +67,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     add_unsupported_option(parser)
     add_json_option(parser)
     add_force_option(parser)
+    static_aero.add_arguments(parser)
 
 
 def run_records(run) -> dict:
@@ -108,6 +113,8 @@ def run(args: argparse.Namespace) -> int:
     from ..fe.static_cases import plan_static, run_static
     from ..progress import Progress
 
+    if static_aero.is_static_aeroelastic(args):
+        return static_aero.run(args)
     check_outputs(args, [])
     nonlinear = True if args.nonlinear else False if args.linear else None
     job = plan_static(args.model, nonlinear=nonlinear, steps=args.steps,

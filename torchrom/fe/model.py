@@ -561,9 +561,10 @@ class FEModel:
         JT = (st.arms.jacobian(u_lin) @ self.T).tocsr()
         K = JT.T @ K_all @ JT
         if geometric:
+            f_all = np.zeros(self.n_all)  # (a model of springs and arms has no kernels)
             with torch.no_grad():
-                f_all = sum(k.internal_force(torch.from_numpy(u_all))
-                            for k in [*st.kernels, *st.corot]).numpy()
+                for k in [*st.kernels, *st.corot]:
+                    f_all += k.internal_force(torch.from_numpy(u_all)).numpy()
             K = K + geometric * (self.T.T @ st.arms.stiffness(u_lin, f_all) @ self.T)
         return K.tocsr()
 
