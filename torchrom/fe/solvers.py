@@ -403,7 +403,8 @@ def stiffness_mass_scale(K: sp.spmatrix, M: sp.spmatrix) -> float:
     return float(np.mean(dK) / max(np.mean(dM[massive]) if massive.any() else 1.0, 1e-300))
 
 
-def _lowest(K, M, k: int, sigma: float | None, scale: float):
+def _lowest(K, M, k: int, sigma: float | None, scale: float,
+            residual_tol: float | None = None):
     """The lowest ``k`` eigenpairs, ascending, and notes (dense or shift-invert Lanczos)."""
     N = K.shape[0]
     notes: list[str] = []
@@ -416,7 +417,7 @@ def _lowest(K, M, k: int, sigma: float | None, scale: float):
                                    v0=arpack_start(N))
             problem = None
             worst = _residual(K, M, vals, vecs).max()
-            if worst > EIGEN_RESIDUAL_TOL:
+            if worst > (EIGEN_RESIDUAL_TOL if residual_tol is None else residual_tol):
                 problem = f"eigen-residual {worst:.1e}"
         except (RuntimeError, sla.ArpackNoConvergence) as exc:
             problem = f"{exc}"
@@ -469,15 +470,18 @@ def modal_analysis(fe, n: int, sigma: float | None = None) -> Modes:
 
 
 def eigenpairs(K: sp.spmatrix, M: sp.spmatrix, n: int, sigma: float | None = None,
-               notes: list[str] | None = None) -> tuple[np.ndarray, np.ndarray]:
+               notes: list[str] | None = None, residual_tol: float | None = None
+               ) -> tuple[np.ndarray, np.ndarray]:
     """Lowest ``n`` elastic eigenpairs (ω² ascending, mass-normalised oriented shapes) of
-    K φ = ω² M φ (rigid-body modes skipped; :func:`_elastic_and_rigid`)."""
-    vals, vecs, _, _ = _elastic_and_rigid(K, M, n, sigma, notes)
+    K φ = ω² M φ (rigid-body modes skipped; :func:`_elastic_and_rigid`); ``residual_tol``
+    the largest relative eigen-residual accepted from the sparse solver (default
+    :data:`EIGEN_RESIDUAL_TOL`)."""
+    vals, vecs, _, _ = _elastic_and_rigid(K, M, n, sigma, notes, residual_tol)
     return vals, vecs
 
 
 def _elastic_and_rigid(K: sp.spmatrix, M: sp.spmatrix, n: int, sigma: float | None,
-                       notes: list[str] | None):
+                       notes: list[str] | None, residual_tol: float | None = None):
     """(elastic ω², shapes, rigid-body ω², shapes).
 
     Sparse shift-invert (ARPACK via ``eigsh``) about a small negative shift ``sigma`` (default
@@ -500,7 +504,7 @@ def _elastic_and_rigid(K: sp.spmatrix, M: sp.spmatrix, n: int, sigma: float | No
     k_max = max(1, min(N, int((~_massless(M)).sum())))
     k = min(n, k_max)
     while True:
-        vals, vecs, found = _lowest(K, M, k, sigma, scale)
+        vals, vecs, found = _lowest(K, M, k, sigma, scale, residual_tol)
         rigid = vals <= tol
         r = int(rigid.sum())
         if len(vals) - r >= n or k >= k_max or len(vals) < k:

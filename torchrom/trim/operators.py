@@ -54,6 +54,16 @@ def spline_grids(deck: FlutterDeck) -> np.ndarray:
     return np.array(list(seen), dtype=int)
 
 
+def unit_spline_motion(deck: FlutterDeck, grids: np.ndarray):
+    """The box motion of a unit displacement of each of the ``grids``' six DOFs (6 n rows,
+    grid by grid, T1 … R3 in basic)."""
+    n = 6 * len(grids)
+    unit = np.zeros((n, len(grids), 6))
+    unit[np.arange(n), np.repeat(np.arange(len(grids)), 6), np.tile(np.arange(6), len(grids))] \
+        = 1.0
+    return deck.box_motion(grids, unit)
+
+
 def steady_operator(fe, deck: FlutterDeck, mach: float = 0.0,
                     kernel: str = NASTRAN_KERNEL) -> SteadyAeroOperator:
     """The :class:`SteadyAeroOperator` of FE model ``fe`` with ``deck``'s panels and splines at
@@ -69,11 +79,8 @@ def steady_operator(fe, deck: FlutterDeck, mach: float = 0.0,
         raise InputError(f"{deck.path}: steady aerodynamics: spline grid {missing[0]} is not a "
                          "grid of the structural model")
     n = 6 * len(grids)
-    unit = np.zeros((n, len(grids), 6))
-    unit[np.arange(n), np.repeat(np.arange(len(grids)), 6), np.tile(np.arange(6), len(grids))] \
-        = 1.0
     panels = deck.aero_panels
-    motion = stack_motions(deck.box_motion(grids, unit), incidence_motion(panels))
+    motion = stack_motions(unit_spline_motion(deck, grids), incidence_motion(panels))
     Q = steady_gaf(panels, motion, mach, deck.reference.semichord, kernel)
     dofs = np.array([rows[int(g)] * 6 + c for g in grids for c in range(6)])
     return SteadyAeroOperator(grids, sp.csr_matrix(fe.T)[dofs], Q[:n, :n], Q[:n, n],
