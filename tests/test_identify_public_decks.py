@@ -28,6 +28,8 @@ DECKS = Path(__file__).parent / "decks"
 #: words its one line must hold: why, and what to do)
 EXPECTED: dict[str, tuple[list[str], tuple[str, ...]] | None] = {
     "aepw3_pazy_noskin_rigidtip/sol103_noskin_stiftip.dat": None,
+    "aepw3_pazy_noskin_rigidtip/sol144_noskin.dat": None,
+    "aepw3_pazy_noskin_rigidtip/sol144_noskin_tipmass.dat": None,
     "aepw3_pazy_skin_flutter_tipmass0/sol145.dat": None,
     "aepw3_pazy_skin_flutter_tipmass1/sol145.dat": None,
     "cofe_ten_bar_truss/modes.dat": None,
@@ -67,6 +69,8 @@ EXPECTED: dict[str, tuple[list[str], tuple[str, ...]] | None] = {
 #: and refused at an output point the deck does not have (the check after reading, before the
 #: modes); their linear ROM is the slow test's
 LARGE = {"aepw3_pazy_noskin_rigidtip/sol103_noskin_stiftip.dat",
+         "aepw3_pazy_noskin_rigidtip/sol144_noskin.dat",
+         "aepw3_pazy_noskin_rigidtip/sol144_noskin_tipmass.dat",
          "aepw3_pazy_skin_flutter_tipmass0/sol145.dat",
          "aepw3_pazy_skin_flutter_tipmass1/sol145.dat"}
 #: a point no public deck has, and the refusal's words

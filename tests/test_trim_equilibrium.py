@@ -204,6 +204,8 @@ def test_static_command_solves_a_sol144_trim_as_the_aoa_options(tmp_path, capsys
      "TRIM 7: label URDD3: only ANGLEA"),
     ([], "TRIM,7,0.0,100.0,ANGLEA,0.03", "ANGLEA: no AESTAT card"),
     (["--aoa", "5", "--velocity", "30", "--tip", "99"], "", "--tip: grid 99 not found"),
+    (["--tip", "1"], "", "--tip: only for the static aeroelastic solution"),
+    (["--density", "1.2"], "", "--density: only for the static aeroelastic solution"),
 ])
 def test_static_aeroelastic_bad_input_is_one_line(tmp_path, extra, trim, message):
     """Through the real command in a subprocess: exit 2, one line naming the option or card."""

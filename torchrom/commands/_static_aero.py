@@ -33,7 +33,7 @@ LOADS = ("steady aerodynamic (k = 0 doublet lattice = vortex lattice) on the und
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    from ._common import finite_float, nonnegative_float, positive_float
+    from ._common import finite_float, nonnegative_float, positive_float, positive_int
 
     group = parser.add_argument_group(
         "static aeroelastic (a restrained wing at a root angle of attack: the deck's CAERO1 "
@@ -48,12 +48,24 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                        help="air density (default: the AERO card's RHOREF)")
     group.add_argument("--mach", type=nonnegative_float, default=None, metavar="M",
                        help="Mach number (default 0, or the TRIM card's)")
-    group.add_argument("--tip", type=int, default=None, metavar="GRID",
+    group.add_argument("--tip", type=positive_int, default=None, metavar="GRID",
                        help="the grid whose deflection and twist are reported (default: the "
                             "spline grid farthest along the aero y axis)")
     group.add_argument("--semispan", type=positive_float, default=None, metavar="L",
                        help="semispan for the % figures (default: the half model's boxes' "
                             "largest aero y)")
+
+
+#: the options that only the static aeroelastic solution reads
+AERO_ONLY = ("density", "mach", "tip", "semispan")
+
+
+def refuse_stray_options(args: argparse.Namespace) -> None:
+    """An aeroelastic option given to a deck's structural subcases is refused, not ignored."""
+    for name in AERO_ONLY:
+        if getattr(args, name) is not None:
+            raise InputError(f"--{name}: only for the static aeroelastic solution (--aoa DEG "
+                             f"--velocity V ..., or a SOL 144 deck)")
 
 
 def is_static_aeroelastic(args: argparse.Namespace) -> bool:

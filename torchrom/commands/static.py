@@ -115,6 +115,7 @@ def run(args: argparse.Namespace) -> int:
 
     if static_aero.is_static_aeroelastic(args):
         return static_aero.run(args)
+    static_aero.refuse_stray_options(args)
     check_outputs(args, [])
     nonlinear = True if args.nonlinear else False if args.linear else None
     job = plan_static(args.model, nonlinear=nonlinear, steps=args.steps,
