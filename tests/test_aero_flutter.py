@@ -417,3 +417,22 @@ def test_matched_point_state_space_reports_rigid_body_roots_apart():
     assert rigid.real > 0 and roots.rigid_mode.tolist() == [0]
     assert critical_root(structure, rfa, c.velocity, c.density).real < 0
     assert abs(critical_root(structure, rfa, c.velocity, c.density).imag - 10.0) < 0.5
+
+
+def test_refine_crossing_on_an_end_of_the_bracket():
+    """A root crossing Re s = 0 exactly at an end of the bracket, computed there as +1e-16 (the
+    wrong side, by rounding): that end is returned instead of Brent's "f(a) and f(b) must have
+    different signs" (seen on a grid altitude in CI); an ordinary bracket is refined to xtol."""
+    from types import SimpleNamespace
+
+    from torchrom.aero.flutter import refine_crossing
+
+    def roots_at(x, at=9000.0, noise=1e-16):
+        re = (x - at) * 1e-4 if x != at else noise
+        return SimpleNamespace(elastic=np.array([complex(re, 10.0), complex(-5.0, 30.0)]))
+
+    x, root = refine_crossing(roots_at, 8000.0, 9000.0, complex(0.0, 10.0), 1e-3)
+    assert x == 9000.0 and root.real == 1e-16
+    x, _ = refine_crossing(lambda h: roots_at(h, at=8500.0), 8000.0, 9000.0,
+                           complex(0.0, 10.0), 1e-3)
+    assert x == pytest.approx(8500.0, abs=1e-3)

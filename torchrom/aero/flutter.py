@@ -815,6 +815,11 @@ def refine_crossing(roots_at: Callable[[float], OscillatoryRoots], lo: float, hi
         e = roots_at(x).elastic
         return complex(e[np.argmin(np.abs(e - target))])
 
+    a, b = branch(lo), branch(hi)
+    if a.real * b.real > 0:
+        # the crossing sits on an end of the bracket to rounding (e.g. an α chosen to put the
+        # flutter altitude on a grid altitude): the root there is ±1e-15, either sign
+        return (lo, a) if abs(a.real) <= abs(b.real) else (hi, b)
     x = float(scipy.optimize.brentq(lambda x: branch(x).real, lo, hi, xtol=xtol))
     return x, branch(x)
 
