@@ -110,13 +110,14 @@ def _tip(args, fe, deck, op) -> tuple[int, float]:
     return tip, semispan
 
 
-def _tip_reading(fe, deck, u, tip: int, large: bool) -> tuple[float, float]:
-    """(deflection along the aero z, twist deg nose up about the aero y) of grid ``tip``."""
+def _tip_reading(fe, deck, full: np.ndarray, tip: int, large: bool) -> tuple[float, float]:
+    """(deflection along the aero z, twist deg nose up about the aero y) of grid ``tip`` in the
+    expanded displacements ``full`` (n_grid, 6)."""
     import torch
 
     from ..fe.elements.corotational import rotation_exp
 
-    d = fe.expand(u, large=large)[fe.mesh.grid_row()[tip]]
+    d = full[fe.mesh.grid_row()[tip]]
     t, r = deck.frame.vectors(d.reshape(2, 3))
     if not large:
         return float(t[2]), math.degrees(float(r[1]))
@@ -185,8 +186,8 @@ def run(args: argparse.Namespace) -> int:
                "tip_deflection_pct_semispan": None, "tip_twist_deg": None,
                "displacements": None}
         if e.converged:
-            w, twist = _tip_reading(fe, deck, e.u, tip, nonlinear)
             full = fe.expand(e.u, large=nonlinear)
+            w, twist = _tip_reading(fe, deck, full, tip, nonlinear)
             rec.update(tip_deflection=w, tip_deflection_pct_semispan=100.0 * w / semispan,
                        tip_twist_deg=twist,
                        displacements={g: [float(x) for x in row] for g, row in zip(ids, full)})

@@ -587,6 +587,10 @@ class FEModel:
     # -- loads -----------------------------------------------------------------------------------
     def nodal_load(self, loads: dict[tuple[int, int], float]) -> np.ndarray:
         """Free-DOF load vector from {(grid id, component 1..6 in basic axes): value}."""
+        return self.T.T @ self._nodal_all(loads)
+
+    def _nodal_all(self, loads: dict[tuple[int, int], float]) -> np.ndarray:
+        """The all-grid vector of :meth:`nodal_load`'s ``loads`` (its one-line refusals)."""
         f = np.zeros(self.n_all)
         for (gid, comp), val in loads.items():
             row = self._row.get(int(gid))
@@ -595,7 +599,7 @@ class FEModel:
             if int(comp) not in range(1, 7):
                 raise InputError(f"nodal_load: component: expected 1..6, got {comp}")
             f[row * 6 + int(comp) - 1] += float(val)
-        return self.T.T @ f
+        return f
 
     def load_vector(self, load_id: int) -> np.ndarray:
         """Free-DOF vector of a FORCE/MOMENT/PLOAD2/PLOAD4/LOAD set of the deck."""
@@ -612,11 +616,7 @@ class FEModel:
 
     def nodal_dead_load(self, loads: dict[tuple[int, int], float]) -> DeadLoad:
         """:meth:`nodal_load` as a :class:`~torchrom.fe.dead_load.DeadLoad`."""
-        f = np.zeros(self.n_all)
-        for (gid, comp), val in loads.items():
-            self.nodal_load({(gid, comp): val})  # the one-line refusals
-            f[self._row[int(gid)] * 6 + int(comp) - 1] += float(val)
-        return DeadLoad(self, f)
+        return DeadLoad(self, self._nodal_all(loads))
 
     def generalized_load(self, u, f_all) -> np.ndarray:
         """Generalized free-DOF force at the state ``u`` of the dead loads ``f_all`` (all-grid

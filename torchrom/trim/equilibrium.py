@@ -11,7 +11,7 @@ divergence makes the corrected matrix singular and is reported as diverged, not 
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -31,7 +31,6 @@ class Equilibrium:
     converged: bool
     message: str = ""
     iterations: int = 0
-    extra: dict = field(default_factory=dict)
 
 
 class LinearSolver:
@@ -83,11 +82,8 @@ def aero_load(fe, op: SteadyAeroOperator, q: float, aoa_rad: float, u: np.ndarra
     """The steady load at the state ``u`` as a dead load on the spline grids' DOFs (forces and
     moments of the undeformed boxes' pressures: their generalized force follows the rotations
     as :mod:`torchrom.fe.dead_load`'s)."""
-    f_s = -q * (op.Q_ss @ (op.T_s @ u) + op.Q_sa * aoa_rad)
-    rows = fe.mesh.grid_row()
     f_all = np.zeros(fe.n_all)
-    dofs = np.array([rows[int(g)] * 6 + c for g in op.grid_ids for c in range(6)])
-    f_all[dofs] = f_s
+    f_all[op.dofs] = -q * (op.Q_ss @ (op.T_s @ u) + op.Q_sa * aoa_rad)
     return fe.generalized_load(u, f_all)
 
 

@@ -83,10 +83,10 @@ class StabilityPoint:
 
 
 def stability_at(fe, op: SteadyAeroOperator, gaf: SplineGAF, u: np.ndarray, velocity: float,
-                 density: float, n_modes: int, large: bool = True) -> StabilityPoint:
-    """The p-k roots at ``velocity`` of the ``n_modes`` lowest modes of K_T(u) (of K when not
-    ``large``), without structural damping."""
-    modes = tangent_modes(fe, u, n_modes) if large else tangent_modes(fe, 0 * u, n_modes)
+                 density: float, n_modes: int) -> StabilityPoint:
+    """The p-k roots at ``velocity`` of the ``n_modes`` lowest modes of K_T(u) (u = 0: the
+    undeformed wing's), without structural damping."""
+    modes = tangent_modes(fe, u, n_modes)
     omega = 2 * np.pi * modes.frequencies_hz
     structure = ModalStructure(np.eye(len(omega)), np.diag(omega**2))
     sweep = pk_sweep(structure, gaf.modal_table(op.T_s, modes.shapes), [velocity], density,

@@ -23,10 +23,12 @@ from ..errors import InputError
 @dataclass
 class SteadyAeroOperator:
     """Steady aerodynamics on the FE model's free DOFs (module docstring): ``grid_ids`` the
-    spline grids, ``T_s`` (6 n_s, n_free) their DOFs from the free ones, ``Q_ss`` (6 n_s, 6 n_s)
-    and ``Q_sa`` (6 n_s,) per unit dynamic pressure, ``mach`` and the box count."""
+    spline grids, ``dofs`` (6 n_s,) their all-grid DOF indices and ``T_s`` (6 n_s, n_free) those
+    DOFs from the free ones, ``Q_ss`` (6 n_s, 6 n_s) and ``Q_sa`` (6 n_s,) per unit dynamic
+    pressure, ``mach`` and the box count."""
 
     grid_ids: np.ndarray
+    dofs: np.ndarray
     T_s: sp.csr_matrix
     Q_ss: np.ndarray
     Q_sa: np.ndarray
@@ -83,5 +85,5 @@ def steady_operator(fe, deck: FlutterDeck, mach: float = 0.0,
     motion = stack_motions(unit_spline_motion(deck, grids), incidence_motion(panels))
     Q = steady_gaf(panels, motion, mach, deck.reference.semichord, kernel)
     dofs = np.array([rows[int(g)] * 6 + c for g in grids for c in range(6)])
-    return SteadyAeroOperator(grids, sp.csr_matrix(fe.T)[dofs], Q[:n, :n], Q[:n, n],
+    return SteadyAeroOperator(grids, dofs, sp.csr_matrix(fe.T)[dofs], Q[:n, :n], Q[:n, n],
                               float(mach), int(panels.n))
