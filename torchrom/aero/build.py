@@ -31,6 +31,7 @@ from .flutter import (
 from .panels import GOLAND_CHORD_FT, GOLAND_SEMISPAN_FT, AeroPanels, goland_panels, goland_reference
 from .rfa import fit_minimum_state, fit_roger, impose_quasi_steady_slope, quasi_steady_slope
 from .splines import PlateSpline, SectionSpline
+from .steady import split_incidence, with_incidence
 
 #: reduced frequencies (k = ω b / V) of the Goland GAF table; the paper's flutter point has
 #: k ≈ 0.05 and the 9th mode (29 Hz) at 4,000 ft reaches k ≈ 0.7
@@ -210,8 +211,9 @@ def build_from_modes(
     """GAF + RFA on the given modes over the built-in Goland planform (or given panels)."""
     panels = goland_panels() if panels is None else panels
     b = goland_reference().semichord if semichord is None else float(semichord)
-    motion = planform_box_motion(modes, panels, spline=spline)
-    gaf = compute_gaf(panels, motion, mach, k_list, b, kernel, progress=progress)
+    motion = with_incidence(planform_box_motion(modes, panels, spline=spline), panels)
+    gaf, incidence = split_incidence(
+        compute_gaf(panels, motion, mach, _with_zero(k_list), b, kernel, progress=progress))
     rfa = _fit(gaf, n_lags, rfa_kind, optimize_roots, modes.frequencies_hz)
     meta = {
         "frequencies_hz": modes.frequencies_hz.tolist(),
@@ -221,7 +223,7 @@ def build_from_modes(
         "units": "ft, slug, s",
         METADATA_KEY: "ft-slug-s",  # the built-in Goland planform's (ft)
     }
-    return AeroData(gaf, rfa, meta)
+    return AeroData(gaf, rfa, meta, incidence)
 
 
 def build(
@@ -264,17 +266,17 @@ def build_from_deck(
 
     deck = load_deck(path, require_flutter=False)
     modes = modal_data(fe, n_modes)
-    motion = deck.box_motion(modes.grid_ids, modes.displacements)
+    motion = with_incidence(deck.box_motion(modes.grid_ids, modes.displacements),
+                            deck.aero_panels)
     if k_list is None:
         if deck.mkaero:
             near = min({m for m, _ in deck.mkaero}, key=lambda m: abs(m - mach))
             k_list = [k for m, k in deck.mkaero if m == near]
         else:
             k_list = GOLAND_K_LIST
-    k_list = sorted({0.0, *(float(k) for k in k_list)})
-    gaf = compute_gaf(
-        deck.aero_panels, motion, mach, k_list, deck.reference.semichord, kernel, progress=progress
-    )
+    gaf, incidence = split_incidence(compute_gaf(
+        deck.aero_panels, motion, mach, _with_zero(k_list), deck.reference.semichord, kernel,
+        progress=progress))
     rfa = _fit(gaf, n_lags, rfa_kind, False, modes.frequencies_hz)
     meta = {
         "frequencies_hz": modes.frequencies_hz.tolist(),
@@ -285,7 +287,12 @@ def build_from_deck(
     system = recorded_units(getattr(fe, "units", None) or {})
     if system is not None:  # the deck's, as the modes' and the boxes' lengths
         meta[METADATA_KEY] = system.name
-    return AeroData(gaf, rfa, meta)
+    return AeroData(gaf, rfa, meta, incidence)
+
+
+def _with_zero(k_list) -> list[float]:
+    """The reduced frequencies with k = 0 (the RFA's A0 = Q(0) and the incidence's load)."""
+    return sorted({0.0, *(float(k) for k in k_list)})
 
 
 #: entry-weight floor of the minimum-state fit relative to the largest |Q_ij|. REFERENCE's

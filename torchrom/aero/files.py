@@ -18,6 +18,9 @@ lag_roots       (n_L,)           lag roots γ (R = -diag(γ) for minimum state)
 rfa_kind        ()               "minimum-state" or "roger"
 fit_error       ()               JSON text of the fit-error report
 metadata        ()               JSON text (kernel, panels, units, source, frequencies, ...)
+incidence       (m,)             optional: Q_iα, the k = 0 generalized force of a rigid nose-up
+                                 incidence of 1 rad on each mode, F_i = −q∞ Q_iα α (the steady
+                                 load of a root angle of attack; files written before it lack it)
 ==============  ===============  ===========================================================
 """
 
@@ -45,6 +48,7 @@ class AeroData:
     gaf: GAF
     rfa: RFA
     metadata: dict = field(default_factory=dict)
+    incidence: np.ndarray | None = None
 
     @property
     def n_modes(self) -> int:
@@ -88,6 +92,7 @@ def save_aero(data: AeroData, path: str | os.PathLike, force: bool = False) -> P
             rfa_kind=np.array(r.kind),
             fit_error=np.array(json.dumps(r.fit_error)),
             metadata=np.array(json.dumps({"kernel": data.gaf.kernel, **data.metadata})),
+            **({} if data.incidence is None else {"incidence": np.asarray(data.incidence, float)}),
         )
     return path
 
@@ -134,6 +139,12 @@ def load_aero(path: str | os.PathLike) -> AeroData:
     for key in ["k", "Q", *shapes]:
         if not np.all(np.isfinite(z[key])):
             raise InputError(f"{path}: {key}: contains non-finite values")
+    incidence = None
+    if "incidence" in z.files:
+        incidence = np.asarray(z["incidence"], dtype=float)
+        if incidence.shape != (m,) or not np.all(np.isfinite(incidence)):
+            raise InputError(f"{path}: incidence: expected {m} finite values, got shape "
+                             f"{incidence.shape}")
     meta = json.loads(str(z["metadata"])) if "metadata" in z.files else {}
     kernel = meta.pop("kernel", "quartic")
     gaf = GAF(float(z["mach"]), float(z["semichord"]), k, np.transpose(q, (2, 0, 1)), kernel)
@@ -150,4 +161,4 @@ def load_aero(path: str | os.PathLike) -> AeroData:
         float(z["mach"]),
         json.loads(str(z["fit_error"])) if "fit_error" in z.files else {},
     )
-    return AeroData(gaf, rfa, meta)
+    return AeroData(gaf, rfa, meta, incidence)

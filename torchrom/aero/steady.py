@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .dlm import BoxMotion, compute_gaf
+from .dlm import GAF, BoxMotion, compute_gaf
 from .panels import AeroPanels
 
 
@@ -46,3 +46,20 @@ def steady_gaf(panels: AeroPanels, motion: BoxMotion, mach: float, semichord: fl
     """Q(k = 0) (n, n) real, for the n rows of ``motion`` (F_i = −q∞ Q_ij x_j)."""
     gaf = compute_gaf(panels, motion, mach, [0.0], semichord, kernel)
     return np.asarray(gaf.Q[0].real)
+
+
+def with_incidence(motion: BoxMotion, panels: AeroPanels) -> BoxMotion:
+    """``motion``'s rows followed by a unit incidence (:func:`incidence_motion`): one DLM
+    solve then gives the modal GAFs and the modal load of the incidence together."""
+    return stack_motions(motion, incidence_motion(panels))
+
+
+def split_incidence(gaf: GAF) -> tuple[GAF, np.ndarray]:
+    """(the GAFs of all rows but the last, Q_iα (m,) the k = 0 generalized force of the last
+    row, a unit incidence, on each of the others: F_i = −q∞ Q_iα α) of a GAF computed on
+    :func:`with_incidence`'s motion; its k must contain 0."""
+    zero = np.flatnonzero(gaf.k == 0.0)
+    if not len(zero):
+        raise ValueError("split_incidence: the GAF has no k = 0")
+    m = gaf.n_modes - 1
+    return gaf.subset(m), np.asarray(gaf.Q[zero[0], :m, m].real)

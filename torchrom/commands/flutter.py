@@ -6,6 +6,9 @@ Forms:
                                                  at Mach 0, the flutter speed per altitude;
                                                  with --density RHO, the speed at that density
   torchrom flutter goland [--aero AERO.npz]      built-in heavy Goland wing, compared with the paper
+  torchrom flutter ROM.npz AERO.npz --aoa DEG --density RHO
+                                                 about the ROM's static aeroelastic equilibrium
+                                                 at a root angle of attack (:mod:`._flutter_aoa`)
 
 JSON (--json), deck form: {"deck", "title", "modal_frequencies_hz", "flutter": [{flutter_id,
 method, mach, density_ratio, mode, kind ("sustained": unstable to the last speed; "hump": stable
@@ -36,6 +39,7 @@ from pathlib import Path
 
 import numpy as np
 
+from . import _flutter_aoa as flutter_aoa
 from ._common import (
     OrderedRange,
     add_force_option,
@@ -147,6 +151,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                         "and density (a wind tunnel), instead of the matched point")
     add_units_option(p, "ROM.npz AERO.npz when they record none (default: what they record; "
                         "files of neither: ft-slug-s, said)")
+    flutter_aoa.add_arguments(p)
     add_json_option(p)
     add_force_option(p)
 
@@ -158,6 +163,12 @@ def run(args: argparse.Namespace) -> int:
     _check_options(args)
     inputs = args.inputs
     _check_input_kinds(inputs)
+    if args.aoa is not None:
+        if len(inputs) != 2:
+            raise InputError("--aoa: for ROM.npz AERO.npz (flutter about the ROM's deformed "
+                             "state; a deck's is torchrom static DECK --aoa DEG --nonlinear)")
+        return flutter_aoa.run(args, Path(inputs[0]), Path(inputs[1]))
+    flutter_aoa.refuse_stray_options(args)
     if len(inputs) == 1 and inputs[0] != "goland":
         return _run_deck(args, Path(inputs[0]))
     if len(inputs) == 1:

@@ -113,34 +113,35 @@ NEUTRAL_DAMPING = 1e-4
 
 def _tracked(prev: StabilityPoint, cur: StabilityPoint) -> np.ndarray:
     """For each root of ``prev`` its continuation in ``cur``: a one-to-one pairing by nearest
-    frequency (the two speeds' modal bases differ, so indices do not carry over)."""
+    frequency (the two speeds' modal bases differ, so indices do not carry over; the state
+    space's count of oscillatory roots may change between speeds)."""
     from scipy.optimize import linear_sum_assignment
 
     cost = np.abs(prev.frequency_hz[:, None] - cur.frequency_hz[None, :])
     rows, cols = linear_sum_assignment(cost)
-    out = np.empty(len(prev.frequency_hz), dtype=int)
+    out = np.full(len(prev.frequency_hz), -1)  # -1: a root with no partner (it turned real)
     out[rows] = cols
     return out
 
 
 def boundaries(points: list[StabilityPoint], tol: float = NEUTRAL_DAMPING) -> list[Boundary]:
     """Onsets and offsets along ``points`` (ascending speeds): an oscillatory root, followed
-    from one speed to the next by frequency, whose damping crosses from below −``tol`` to
-    above +``tol`` (onset) or back (offset); speed and frequency interpolated linearly."""
+    from one speed to the next by frequency, whose damping changes sign from − to + (onset) or
+    back (offset), one of the two beyond ``tol`` (a root within ±``tol`` at both speeds is
+    neutral, not crossing); speed and frequency interpolated linearly."""
     out = []
     for i in range(len(points) - 1):
         a, b = points[i], points[i + 1]
         for j, jj in enumerate(_tracked(a, b)):
+            if jj < 0:
+                continue
             g0, g1 = a.damping[j], b.damping[jj]
             f0, f1 = a.frequency_hz[j], b.frequency_hz[jj]
             if min(f0, f1) <= 1e-6 or not np.isfinite(g0 + g1):
                 continue
-            if g0 < -tol and g1 > tol:
-                kind = "onset"
-            elif g0 > tol and g1 < -tol:
-                kind = "offset"
-            else:
-                continue
+            if max(abs(g0), abs(g1)) <= tol or g0 * g1 > 0 or g0 == g1:
+                continue  # no sign change, or a neutral root's rounding
+            kind = "onset" if g1 > g0 else "offset"
             t = -g0 / (g1 - g0)
             out.append(Boundary(kind, float(a.velocity + t * (b.velocity - a.velocity)),
                                 float(f0 + t * (f1 - f0)), i))

@@ -1,0 +1,256 @@
+"""The ROM about a deformed state (torchrom.trim.reduced) and ``torchrom flutter ROM AERO --aoa``.
+
+Independent references:
+- the typical section's static aeroelasticity (module docstring of test_trim_equilibrium): a
+  rigid wing pitching on a spring, θ = q S C_Lα e α / (k − q S C_Lα e), here through the aero
+  file's modal incidence load and k = 0 GAF on a one-mode ROM, and with a cubic spring
+  k θ + k₃ θ³ = q S C_Lα e (α + θ) solved by Brent's method on the scalar equation;
+- the FE route's steady operator (torchrom.trim.operators, the GAFs of unit spline-grid
+  displacements): its incidence load projected on the modes is the aero file's;
+- finite differences of the ROM's force for the tangent;
+- the undeformed flutter speed of torchrom.aero.flutter_speed (another code path) for a ROM
+  without nonlinear terms, whose tangent is K1 at every angle; p-k against the state space.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pytest
+import scipy.optimize
+import torch
+
+from torchrom.aero.build import build_from_deck
+from torchrom.aero.flutter import AeroTable, ModalStructure
+from torchrom.aero.flutter_speed import flutter_speed_at_density, flutter_speed_pk_at_density
+from torchrom.aero.nastran_flutter import load_deck
+from torchrom.cli import main
+from torchrom.fe import read_bdf
+from torchrom.rom import NonlinearROM
+from torchrom.trim.operators import steady_operator
+from torchrom.trim.reduced import (
+    SteadyModalAero,
+    deformed_flutter,
+    envelope_ratio,
+    rom_equilibria,
+    root_finder,
+    tangent_structure,
+)
+
+from .test_trim_equilibrium import (
+    CHORD,
+    K_SPRING,
+    RHO,
+    SEMISPAN,
+    _horseshoe_lift_and_centre,
+    _rigid_wing_deck,
+)
+
+#: the typical section: plunge spring, mass and pitch inertia about the spring axis, the mass
+#: centre 0.1 chord behind it (SI)
+K_PLUNGE, MASS, I_PITCH, X_CG = 1000.0, 10.0, 1.0, 0.1
+
+
+def _section_deck(path, plunge: bool):
+    """The rigid wing of test_trim_equilibrium with a CONM2 on its spring grid; with
+    ``plunge`` also free in T3 on a spring (a two-mode typical section that flutters)."""
+    _rigid_wing_deck(path)
+    text = path.read_text()
+    mass = f"CONM2,40,1,,{MASS},{X_CG},0.0,0.0\n,0.01,0.0,{I_PITCH},0.0,0.0,0.01"
+    extra = [mass] + ([f"CELAS2,31,{K_PLUNGE},1,3"] if plunge else [])
+    if plunge:
+        text = text.replace("SPC1,1,12346,1", "SPC1,1,1246,1")
+    path.write_text(text.replace("ENDDATA", "\n".join(extra) + "\nENDDATA"))
+    return path
+
+
+@pytest.fixture(scope="module")
+def pitch_section(tmp_path_factory):
+    path = _section_deck(tmp_path_factory.mktemp("pitch") / "pitch.bdf", plunge=False)
+    fe = read_bdf(path)
+    aero = build_from_deck(path, fe, 0.0, 1, n_lags=2, k_list=[0.05, 0.1, 0.2, 0.5])
+    return path, fe, aero
+
+
+def _pitch_of_mode(fe) -> float:
+    """The pitch (R5 of the spring grid) of the mass-normalised mode: θ = φ q (the pitch
+    inertia about the spring axis is I + m x_cg², φ = ±1/√ of it)."""
+    phi = fe.expand(fe.modes(1).shapes[:, 0])[fe.mesh.grid_row()[1], 4]
+    assert abs(phi) == pytest.approx(1 / math.sqrt(I_PITCH + MASS * X_CG**2), rel=1e-9)
+    return float(phi)
+
+
+def test_modal_incidence_load_is_the_fe_operators(pitch_section):
+    """The aero file's Q_iα against φᵀ Tₛᵀ Q_sα of the FE route's steady operator (the GAFs of
+    unit spline-grid displacements): the same lattice reached two ways, to 1e-9."""
+    path, fe, aero = pitch_section
+    op = steady_operator(fe, load_deck(path, require_flutter=False))
+    phi = fe.modes(1).shapes[:, 0]
+    assert aero.incidence[0] == pytest.approx(phi @ (op.T_s.T @ op.Q_sa), rel=1e-9)
+    assert aero.incidence[0] != 0
+
+
+def test_rom_equilibrium_is_the_typical_sections_twist(pitch_section):
+    """A one-mode ROM (θ = φ q, φ = 1/√I) at three speeds below the divergence: θ against the
+    closed form with the horseshoe lattice's C_Lα and x_ac (rel 1e-7: the lattice's two
+    solutions agree to ~1e-11, the Newton stops at 1e-10 of the load)."""
+    _, fe, aero = pitch_section
+    phi = _pitch_of_mode(fe)
+    rom = NonlinearROM([[1.0]], [[K_SPRING * phi**2]])
+    steady = SteadyModalAero.from_aero(aero, 1)
+    cla, x_ac = _horseshoe_lift_and_centre()
+    S, e = CHORD * SEMISPAN, 0.4 - x_ac
+    q_div = K_SPRING / (S * cla * e)
+    V = [math.sqrt(2 * f * q_div / RHO) for f in (0.2, 0.5, 0.9)]
+    alpha = 2.0
+    eq = rom_equilibria(rom, steady, [alpha], V, RHO)
+    assert eq.converged.all()
+    for i, v in enumerate(V):
+        q = 0.5 * RHO * v**2
+        want = q * S * cla * e * math.radians(alpha) / (K_SPRING - q * S * cla * e)
+        assert phi * eq.q[0, i, 0] == pytest.approx(want, rel=1e-7)
+
+
+def test_rom_equilibrium_with_a_cubic_spring_is_the_scalar_root(pitch_section):
+    """k θ + k₃ θ³ = q S C_Lα e (α + θ) past the linear divergence speed (the hardening spring
+    holds the wing), continued in speed at two angles at once: θ against Brent's root of the
+    scalar equation (rel 1e-8)."""
+    _, fe, aero = pitch_section
+    phi = _pitch_of_mode(fe)
+    k3 = 50.0 * K_SPRING  # N m per rad³
+    K3 = np.zeros((1, 1, 1, 1))
+    K3[0, 0, 0, 0] = k3 * phi**4
+    rom = NonlinearROM([[1.0]], [[K_SPRING * phi**2]], K3=K3)
+    steady = SteadyModalAero.from_aero(aero, 1)
+    cla, x_ac = _horseshoe_lift_and_centre()
+    S, e = CHORD * SEMISPAN, 0.4 - x_ac
+    q_div = K_SPRING / (S * cla * e)
+    V = np.sqrt(2 * np.array([0.5, 1.0, 1.3]) * q_div / RHO)
+    eq = rom_equilibria(rom, steady, [1.0, 3.0], V, RHO)
+    assert eq.converged.all()
+    for a, alpha in enumerate((1.0, 3.0)):
+        for i, v in enumerate(V):
+            q = 0.5 * RHO * v**2
+            c = q * S * cla * e
+
+            def residual(t, c=c, alpha=alpha):
+                return K_SPRING * t + k3 * t**3 - c * (math.radians(alpha) + t)
+            want = scipy.optimize.brentq(residual, 0.0, 2.0, xtol=1e-15)
+            assert phi * eq.q[a, i, 0] == pytest.approx(want, rel=1e-8)
+
+
+def test_tangent_structure_is_the_finite_difference_of_the_force():
+    """K_T(q0) against central differences of the stiffness force (h = 1e-6: error ~h² of
+    O(1) cubic terms), D_T(q0) the damping matrix at q0 and α, γ carried."""
+    from .rom_fixtures import random_gram_model
+
+    rom, _, _ = random_gram_model(3, seed=4)
+    q0 = np.array([0.3, -0.2, 0.1])
+    st = tangent_structure(rom, q0, alpha=0.1, gamma=0.01)
+    h = 1e-6
+    fd = np.column_stack([
+        (rom.stiffness_force(torch.as_tensor(q0 + h * e)) -
+         rom.stiffness_force(torch.as_tensor(q0 - h * e))).numpy() / (2 * h)
+        for e in np.eye(3)])
+    np.testing.assert_allclose(st.K, fd, rtol=1e-7, atol=1e-7 * np.abs(fd).max())
+    np.testing.assert_allclose(st.D1, rom.damping_matrix(torch.as_tensor(q0)).numpy())
+    assert (st.alpha, st.gamma) == (0.1, 0.01)
+
+
+@pytest.fixture(scope="module")
+def flutter_section(tmp_path_factory):
+    path = _section_deck(tmp_path_factory.mktemp("flutter") / "section.bdf", plunge=True)
+    fe = read_bdf(path)
+    aero = build_from_deck(path, fe, 0.0, 2, n_lags=8,
+                           k_list=[0.02, 0.05, 0.1, 0.15, 0.2, 0.3, 0.5, 0.8, 1.2])
+    modes = fe.modes(2)
+    w = 2 * np.pi * modes.frequencies_hz
+    return aero, NonlinearROM(np.eye(2), np.diag(w**2))
+
+
+def test_linear_rom_flutters_at_the_undeformed_speed_at_any_angle(flutter_section):
+    """Without nonlinear terms the tangent is K1 at every equilibrium: the onset at 0° and 6°
+    is torchrom.aero.flutter_speed's undeformed speed and frequency by the same method, p-k on
+    the table and the state space on the RFA (within 0.3 %: linear interpolation between
+    speeds 1 % apart)."""
+    aero, rom = flutter_section
+    table = AeroTable.from_gaf(aero.gaf)
+    st = ModalStructure(rom.M.numpy(), rom.K1.numpy())
+    refs = {"p-k": flutter_speed_pk_at_density(st, table, RHO, 0.0)[0],
+            "state-space": flutter_speed_at_density(st, aero.rfa, table, RHO, mach=0.0)}
+    assert refs["p-k"].velocity is not None
+    V = np.linspace(0.5, 1.3, 81) * refs["p-k"].velocity  # the divergence: 1.47 times it
+    eq = rom_equilibria(rom, SteadyModalAero.from_aero(aero, 2), [0.0, 6.0], V, RHO)
+    for method, ref in refs.items():
+        res = deformed_flutter(rom, eq, root_finder(method, rom, aero))
+        for found in res.boundaries:
+            onsets = [b for b in found if b.kind == "onset"]
+            assert onsets, method
+            assert onsets[0].velocity == pytest.approx(ref.velocity, rel=3e-3), method
+            assert onsets[0].frequency_hz == pytest.approx(ref.frequency_hz, rel=3e-3), method
+
+
+def test_envelope_ratio_reads_the_condensed_roms_amplitudes():
+    rom = NonlinearROM(np.eye(3), np.eye(3), metadata={"identification": {
+        "modal_amplitudes": [0.1, 0.01, 0.5], "nonlinear_modes": 2}})
+    r = envelope_ratio(rom, np.array([[0.05, 0.02, 9.0], [0.1, 0.0, 0.0]]))
+    np.testing.assert_allclose(r, [2.0, 1.0])
+    assert np.isnan(envelope_ratio(NonlinearROM(np.eye(1), np.eye(1)), np.zeros(1)))
+
+
+def test_flutter_aoa_command_reports_onsets_in_json(flutter_section, tmp_path):
+    """The CLI on files written by the library: the onset of the p-k sweep in the JSON with
+    the tip output and its units; a bad combination is one line, nothing written."""
+    aero, rom = flutter_section
+    rom = rom.replace(outputs={"tip": [0.5, -0.25]})
+    rom.save(tmp_path / "rom.npz")
+    aero.save(tmp_path / "aero.npz")
+    out = tmp_path / "f.json"
+    args = ["flutter", str(tmp_path / "rom.npz"), str(tmp_path / "aero.npz"), "--aoa", "0", "4",
+            "--density", str(RHO), "--alpha", "0", "--gamma", "0", "--method", "pk",
+            "--velocities", *map(str, np.linspace(2, 14, 49)), "--json", str(out)]
+    assert main(args) == 0
+    res = json.loads(out.read_text())
+    onsets = [b for b in res["boundaries"] if b["kind"] == "onset"]
+    assert {b["aoa_deg"] for b in onsets} == {0.0, 4.0}
+    assert res["units"]["speed"] == "m/s" and res["tip"]["output"] == "tip"
+    eq = [e for e in res["equilibria"] if e["aoa_deg"] == 4.0 and e["converged"]]
+    assert eq[-1]["tip_deflection"] != 0.0 and "p-k" in eq[-1]
+
+
+@pytest.mark.parametrize("extra, message", [
+    (["--velocities", "5", "6"], "--velocities: only with --aoa"),
+    (["--aoa", "5"], "--density: --aoa needs one air density"),
+    (["--aoa", "5", "--density", "1.2", "--velocities", "9", "6"],
+     "--velocities: expected ascending speeds"),
+    (["--aoa", "5", "--density", "1.2", "--tip-output", "nose"], "--tip-output: no output 'nose'"),
+    (["--aoa", "5", "--density", "1.2", "--at", "0"], "--at: not with --aoa"),
+])
+def test_flutter_aoa_bad_input_is_one_line(flutter_section, tmp_path, extra, message):
+    """The real CLI in a subprocess: one line naming the option, exit 2, no JSON written."""
+    import subprocess
+    import sys
+
+    aero, rom = flutter_section
+    rom.replace(outputs={"tip": [0.5, -0.25]}).save(tmp_path / "rom.npz")
+    aero.save(tmp_path / "aero.npz")
+    out = tmp_path / "f.json"
+    r = subprocess.run([sys.executable, "-m", "torchrom", "flutter", str(tmp_path / "rom.npz"),
+                        str(tmp_path / "aero.npz"), *extra, "--json", str(out)],
+                       capture_output=True, text=True)
+    assert r.returncode == 2, r.stderr
+    assert message in r.stderr and len(r.stderr.strip().splitlines()) == 1, r.stderr
+    assert not out.exists()
+
+
+def test_aero_file_without_incidence_is_refused(flutter_section, tmp_path):
+    """An aero file written before the incidence load: --aoa names the file and the remedy."""
+    from dataclasses import replace
+
+    from torchrom.errors import InputError
+
+    aero, rom = flutter_section
+    with pytest.raises(InputError, match="old.npz: no steady incidence load"):
+        SteadyModalAero.from_aero(replace(aero, incidence=None), 2, "old.npz")
