@@ -76,6 +76,12 @@ def add_arguments(parser) -> None:
                              "this linear tip deflection (fraction of the span) instead of the "
                              "first mode's modal force, which reaches only a few mm of a higher "
                              "mode; for an LCO whose motion lies in those modes")
+    parser.add_argument("--condensation-fit", choices=("forces-and-tangents", "forces"),
+                        default="forces-and-tangents",
+                        help="with --stiffness condensed: fit the cubic terms to each static "
+                             "solve's force and its condensed tangent (default; the tangent "
+                             "about a deformed state, which flutter at an angle of attack "
+                             "uses, is then the FE's), or to the forces alone")
     parser.add_argument("--nonlinear-modes", type=positive_int, default=None, metavar="K",
                         help="with --stiffness condensed: load only the first K linear modes "
                              "(default all); the ROM's nonlinear terms are those of their "
@@ -172,7 +178,8 @@ def run(args) -> int:
     opt = IdentifyOptions(n_linear=args.linear, n_dual=args.dual, damping=args.damping,
                           stiffness=args.stiffness, amplitude=args.amplitude,
                           levels=args.levels, nonlinear_modes=args.nonlinear_modes,
-                          higher_amplitude=args.higher_amplitude)
+                          higher_amplitude=args.higher_amplitude,
+                          condensation_fit=args.condensation_fit)
     opt.validate()
     if args.linear_skin and args.stiffness != "condensed":
         from ..errors import InputError
@@ -231,7 +238,8 @@ def run(args) -> int:
               f"{plan['failed_solves']} failed; misfit {resid['condensation_fit']:.1e} (the "
               f"condensed force's departure from a cubic over the load levels), asymmetry "
               f"{resid['condensation_asymmetry']:.1e} before the potential's symmetry was "
-              "imposed")
+              "imposed" + (f"; tangent misfit {resid['condensation_tangent_fit']:.1e}"
+                           if "condensation_tangent_fit" in resid else ""))
     else:
         print(f"  largest identification residual {max(resid.values()):.1e} (rounding level "
               "for a cubic FE)")

@@ -62,9 +62,13 @@ def _condensed(be, Phi, amps, opt, material, progress):
                                                higher=higher,
                                                n_nonlinear=opt.nonlinear_modes,
                                                progress=progress("static solves"),
-                                               skeleton=be.skeleton)
+                                               skeleton=be.skeleton,
+                                               tangents=opt.condensation_fit != "forces")
     return stiff, data, None
 
+
+#: what the condensation fits its cubic terms to (:class:`IdentifyOptions`)
+CONDENSATION_FITS = ("forces-and-tangents", "forces")
 
 #: stiffness identification methods, each (backend, Φ, amplitudes, options, material,
 #: progress-of-stage) -> (StiffnessIdentification, plan with ``points``, material tangents)
@@ -92,6 +96,8 @@ class IdentifyOptions:
     the ROM's nonlinear terms are theirs (the plan grows as its cube);
     higher_amplitude: the condensation loads the modes after the first to this linear
     deflection (fraction of the span) instead of the first mode's modal force (None);
+    condensation_fit: "forces-and-tangents" (the condensed tangent of each static solve fitted
+    with its force: the tangent about a deformed state is then the FE's) or "forces";
     symmetric_pairs: impose ±(a_j e_j + a_l e_l) for Eq. 41 (cancels the quadratic term exactly);
     dual, decomposition: options of the dual modes and of the optimum decomposition.
     """
@@ -104,6 +110,7 @@ class IdentifyOptions:
     levels: int = 3
     nonlinear_modes: int | None = None
     higher_amplitude: float | None = None
+    condensation_fit: str = "forces-and-tangents"
     symmetric_pairs: bool = True
     dual: DualModeOptions = field(default_factory=DualModeOptions)
     decomposition: DecompositionOptions = field(default_factory=DecompositionOptions)
@@ -124,6 +131,9 @@ class IdentifyOptions:
                              f"in-plane motion, so the ROM takes no dual modes; got n_dual = "
                              f"{self.n_dual}: use --dual 0")
         integer("levels", self.levels, minimum=1)
+        if self.condensation_fit not in CONDENSATION_FITS:
+            raise InputError(f"condensation_fit (--condensation-fit): expected one of "
+                             f"{', '.join(CONDENSATION_FITS)}, got {self.condensation_fit!r}")
         if self.nonlinear_modes is not None:
             if self.stiffness != "condensed":
                 raise InputError(f"nonlinear_modes (--nonlinear-modes) is an option of stiffness "
@@ -385,6 +395,8 @@ def assemble_rom(be: FEBackend, basis: Basis, stiff: StiffnessIdentification,
                            "amplitude": opt.resolved_amplitude,
                            "modal_amplitudes": np.asarray(amplitudes).tolist(),
                            "symmetric_pairs": opt.symmetric_pairs,
+                           **({"condensation_fit": opt.condensation_fit}
+                              if stiff.method == "condensed" else {}),
                            **stiff.plan_info,
                            "residuals": stiff.residuals},
         "damping": {"method": damp.method, "report": _jsonable(damp.report)},

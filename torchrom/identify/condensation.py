@@ -93,6 +93,29 @@ def monomials(q: np.ndarray) -> np.ndarray:
     return np.concatenate([m2, m3], axis=1)
 
 
+def monomial_gradients(q: np.ndarray) -> np.ndarray:
+    """∂(monomial)/∂q_j of :func:`monomials` at each row of ``q`` (P, k): (P, k, N2 + N3)."""
+    q = np.atleast_2d(q)
+    P, k = q.shape
+    idx = monomial_index(k)
+    eye = np.eye(k)
+    a, b = idx.pairs[:, 0], idx.pairs[:, 1]
+    d2 = eye[:, a][None] * q[:, None, b] + eye[:, b][None] * q[:, None, a]
+    x, y, z = idx.triples[:, 0], idx.triples[:, 1], idx.triples[:, 2]
+    d3 = (eye[:, x][None] * (q[:, y] * q[:, z])[:, None] + eye[:, y][None] * (q[:, x] *
+          q[:, z])[:, None] + eye[:, z][None] * (q[:, x] * q[:, y])[:, None])
+    return np.concatenate([d2, d3], axis=2)
+
+
+def condensed_tangent(S: np.ndarray, A: np.ndarray, k: int) -> np.ndarray:
+    """∂N/∂q_j (n, k), j ≤ k, of the condensed nonlinear force N = A (p − q) along the solves'
+    manifold (p_j = 0 for j > k), from S = (KΦ)ᵀ K_T⁻¹ (KΦ) at a solution (n, n) and A = ΦᵀKΦ:
+    dq = A⁻¹ S dp, so dp_k = G_kk⁻¹ dq_k with G = A⁻¹ S, and dN = (A_{:,k} − S_{:,k}) dp_k.
+    Zero at u = 0 (S = A)."""
+    G = np.linalg.solve(A, S)
+    return np.linalg.solve(G[:k, :k].T, (A[:, :k] - S[:, :k]).T).T
+
+
 def _embed_monomials(C: np.ndarray, k: int, n: int) -> tuple[np.ndarray, np.ndarray]:
     """Combined coefficients (rows, N2 + N3 of the first ``k`` coordinates) as those of all
     ``n`` coordinates (K̃2 (rows, N2(n)), K̃3 (rows, N3(n))), zero where a coordinate > k
@@ -108,7 +131,8 @@ def _embed_monomials(C: np.ndarray, k: int, n: int) -> tuple[np.ndarray, np.ndar
 
 def stiffness_from_condensation(p: np.ndarray, q: np.ndarray, K1: np.ndarray,
                                 amplitudes: np.ndarray, n_nonlinear: int | None = None,
-                                failed: str = "") -> StiffnessIdentification:
+                                failed: str = "", tangents: np.ndarray | None = None
+                                ) -> StiffnessIdentification:
     """K2, K3 (symmetric storage) fitted to K1 (p − q) = K̃2(q,q) + K̃3(q,q,q) over the solves.
 
     Args:
@@ -116,7 +140,10 @@ def stiffness_from_condensation(p: np.ndarray, q: np.ndarray, K1: np.ndarray,
         K1: (n, n) linear modal stiffness; amplitudes: (n,) the plan's a_j (scales the fit);
         n_nonlinear: the monomials are those of the first ``n_nonlinear`` coordinates (all
         by default); every row is fitted (the other modes' static response to them);
-        failed: what failed on the way (said when the rest does not determine the fit).
+        failed: what failed on the way (said when the rest does not determine the fit);
+        tangents: (P, n, k) ∂N/∂q_j of each solve (:func:`condensed_tangent`), fitted
+        together with the forces: a force fit alone leaves the cross terms' coefficients, and
+        so the tangent about a deformed state, poorly determined.
     ``residuals``: ``condensation_fit``, ‖K̃2(q,q) + K̃3(q,q,q) − K1 (p − q)‖ / ‖K1 (p − q)‖
     over all rows and solves (0 when the condensed force is a cubic polynomial of q);
     ``condensation_asymmetry``, the least-squares fit's departure from the full symmetry of a
@@ -136,7 +163,13 @@ def stiffness_from_condensation(p: np.ndarray, q: np.ndarray, K1: np.ndarray,
                          f"coefficients of {k} modes; use a smaller --amplitude (the largest "
                          "load level) or more --levels so that more solves converge, or "
                          "--stiffness tangent (imposed displacements, no static solves)")
-    C, *_ = np.linalg.lstsq(A, g, rcond=None)
+    if tangents is None:
+        C, *_ = np.linalg.lstsq(A, g, rcond=None)
+    else:  # ∂N/∂(q_j/a_j) = a_j ∂N/∂q_j beside N: one least-squares system per row
+        dA = monomial_gradients(q[:, :k] / a[:k]).reshape(-1, A.shape[1])
+        dg = (np.asarray(tangents)[:, :, :k] * a[None, None, :k]).transpose(0, 2, 1)
+        C, *_ = np.linalg.lstsq(np.vstack([A, dA]), np.vstack([g, dg.reshape(-1, n)]),
+                                rcond=None)
     K2c, K3c = _embed_monomials((C / scale[:, None]).T, k, n)   # in the unscaled q
     sym = cv.symmetric_from_compact(torch.as_tensor(K2c), torch.as_tensor(K3c))
     K2, K3 = sym["K2"].numpy(), sym["K3"].numpy()
@@ -149,6 +182,12 @@ def stiffness_from_condensation(p: np.ndarray, q: np.ndarray, K1: np.ndarray,
     nl = (np.einsum("mjl,pj,pl->pm", K2, q, q) + np.einsum("mjlr,pj,pl,pr->pm", K3, q, q, q))
     fit = float(np.linalg.norm(nl - g) / max(np.linalg.norm(g), np.finfo(float).tiny))
     res = {"condensation_fit": fit, "condensation_asymmetry": asym}
+    if tangents is not None:
+        T = np.asarray(tangents)[:, :, :k]
+        model = (2 * np.einsum("mjl,pl->pmj", K2[:, :k], q) +
+                 3 * np.einsum("mjlr,pl,pr->pmj", K3[:, :k], q, q))
+        res["condensation_tangent_fit"] = float(
+            np.linalg.norm(model - T) / max(np.linalg.norm(T), np.finfo(float).tiny))
     K1 = np.asarray(K1, dtype=float)
     return StiffnessIdentification(0.5 * (K1 + K1.T), K2, K3, "condensed", a, res, len(q))
 
@@ -180,16 +219,25 @@ class CondensationData:
     p: np.ndarray
     q: np.ndarray
     failed: list[np.ndarray]
+    tangents: np.ndarray | None = None
 
     @property
     def points(self) -> np.ndarray:
         return self.p
 
 
+def _tangent_gram(solver, u: np.ndarray, KPhi: np.ndarray) -> np.ndarray:
+    """(KΦ)ᵀ K_T(u)⁻¹ (KΦ) of a backend at ``u``."""
+    from ..fe.solvers import factor_symmetric
+
+    X = np.asarray(factor_symmetric(solver.tangent_stiffness(u)).solve(KPhi))
+    return KPhi.T @ X.reshape(KPhi.shape)
+
+
 def identify_stiffness_condensed(backend, Phi: np.ndarray, amplitudes: np.ndarray, *,
                                  levels: int = 3, n_nonlinear: int | None = None,
                                  progress=None, skeleton: Skeleton | None = None,
-                                 higher: np.ndarray | None = None
+                                 higher: np.ndarray | None = None, tangents: bool = True
                                  ) -> tuple[StiffnessIdentification, CondensationData]:
     """Run the condensation plan on a (restrained) backend; ``progress(done, total)`` after
     each static solve. A direction whose solve fails keeps its lower levels (the failed loads
@@ -199,7 +247,9 @@ def identify_stiffness_condensed(backend, Phi: np.ndarray, amplitudes: np.ndarra
     ``skeleton``: solve that structure instead, on Φ's rows of its DOFs (module docstring);
     the linear stiffness K1 stays the backend's. ``higher``: the amplitudes of the modes after
     the first (n,) instead of the first mode's modal force (:func:`equal_force_amplitudes`),
-    for an LCO whose motion lies in a higher mode beyond what that force reaches."""
+    for an LCO whose motion lies in a higher mode beyond what that force reaches.
+    ``tangents``: at each solution also the condensed tangent (one factorisation of K_T and n
+    solves, :func:`condensed_tangent`), fitted with the forces."""
     from .backend import project
 
     K = backend.stiffness_matrix()
@@ -225,7 +275,8 @@ def identify_stiffness_condensed(backend, Phi: np.ndarray, amplitudes: np.ndarra
     gram = Phi.T @ WPhi
     L = plan.levels
     total = len(plan.points)
-    P, Q, failed = [], [], []
+    P, Q, T, failed = [], [], [], []
+    KPhi = np.asarray(K @ Phi)
     first_error = ""
     done = 0
     for d in range(len(plan.directions)):
@@ -244,13 +295,17 @@ def identify_stiffness_condensed(backend, Phi: np.ndarray, amplitudes: np.ndarra
                 break
             P.append(p)
             Q.append(np.linalg.solve(gram, WPhi.T @ u))
+            if tangents:
+                T.append(condensed_tangent(_tangent_gram(solver, u, KPhi), K1_solved, k))
             done += 1
             if progress is not None:
                 progress(done, total)
     data = CondensationData(np.array(P).reshape(-1, Phi.shape[1]),
-                            np.array(Q).reshape(-1, Phi.shape[1]), failed)
+                            np.array(Q).reshape(-1, Phi.shape[1]), failed,
+                            np.array(T).reshape(-1, n, k) if tangents else None)
     why = f" ({len(failed)} loads failed{first_error})" if failed else ""
-    stiff = stiffness_from_condensation(data.p, data.q, K1_solved, a, n_nonlinear=k, failed=why)
+    stiff = stiffness_from_condensation(data.p, data.q, K1_solved, a, n_nonlinear=k, failed=why,
+                                        tangents=data.tangents)
     stiff.plan_info = {"levels": plan.levels, "nonlinear_modes": k,
                        "static_solves": len(data.q), "failed_solves": len(failed)}
     if skeleton is not None:

@@ -1,0 +1,153 @@
+"""The Pazy wing's condensed ROM about its static aeroelastic equilibrium at a root angle of
+attack (torchrom.trim.reduced: `torchrom flutter ROM AERO --aoa`), checked at every speed
+against the FE's exact condensation at the same state (torchrom.trim.condensed: the FE solve
+under the equilibrium's modal load, the tangent K_c = D + A S⁻¹ A), and beside the peers'
+onsets and offsets (UM/NAST with skin, SHARPy without; tests/decks/.../SOURCE.md).
+
+Build the ROM and its aero file first (docs/guide/pazy-aoa.md), e.g. with skin:
+
+    D=tests/decks/aepw3_pazy_skin_flutter_tipmass1
+    torchrom identify $D/sol145.dat --linear 10 --stiffness condensed --nonlinear-modes 5 \
+        --linear-skin 10011 --amplitude 0.5 --out rom.npz
+    torchrom aero $D/sol145.dat --mach 0.001 --modes 10 \
+        --k 0.01 0.05 0.1 0.15 0.2 0.3 0.5 0.75 1.0 --out aero.npz
+    PYTHONPATH=$PWD python experiments/pazy_aoa_rom.py --deck $D/sol145.dat --linear-skin 10011
+        --rom rom.npz --aero aero.npz [--aoa 3,5,7] [--speeds 30,31,...] [--fe-aoa 5]
+        [--out experiments/results/pazy_aoa_rom_skin.json]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import time
+from pathlib import Path
+
+import numpy as np
+
+DENSITY, SEMISPAN = 1.225, 0.55
+
+
+def condensed_model(deck: Path, rom, linear_skin: list[int]):
+    """The exact condensation of the deck (without its ``linear_skin`` shells) on the ROM's
+    modes, as `torchrom identify --linear-skin` solves it."""
+    from torchrom.fe import read_bdf
+    from torchrom.fe.bdf_read import from_pynastran
+    from torchrom.identify.build import as_backend
+    from torchrom.identify.condensation import skeleton_of
+    from torchrom.trim.condensed import CondensedModel
+
+    fe = read_bdf(deck)
+    Phi = fe.modes(rom.n).shapes
+    if not linear_skin:
+        return CondensedModel(as_backend(fe), Phi, rom.K1.numpy())
+    skel = from_pynastran(fe.bdf, source=fe.source, name=fe.name, without_properties=linear_skin)
+    backend = as_backend(skel)
+    rows = skeleton_of(fe, skel, backend, "skeleton").rows
+    return CondensedModel(backend, Phi[rows], rom.K1.numpy())
+
+
+def run(args, progress=print) -> dict:
+    from torchrom.aero.files import load_aero
+    from torchrom.rom import NonlinearROM
+    from torchrom.trim.flutter import StabilityPoint, boundaries
+    from torchrom.trim.reduced import (
+        SteadyModalAero,
+        deformed_flutter,
+        envelope_ratio,
+        rom_equilibria,
+        root_finder,
+        tangent_structure,
+    )
+
+    rom, aero = NonlinearROM.load(args.rom), load_aero(args.aero)
+    steady = SteadyModalAero.from_aero(aero, rom.n)
+    tip = np.asarray(rom.outputs[next(iter(rom.outputs))])
+    speeds = np.asarray(args.speeds)
+    t0 = time.perf_counter()
+    eq = rom_equilibria(rom, steady, args.aoa, speeds, DENSITY)
+    res = {m: deformed_flutter(rom, eq, root_finder(m, rom, aero)) for m in ("state-space", "p-k")}
+    out = {"rom": str(args.rom), "aoa_deg": list(args.aoa), "speeds": speeds.tolist(),
+           "rom_seconds": time.perf_counter() - t0, "cases": []}
+    pk = root_finder("p-k", rom, aero)
+    model = condensed_model(args.deck, rom, args.linear_skin) if args.fe_aoa else None
+    for a, aoa in enumerate(eq.aoa_deg):
+        ok = eq.converged[a]
+        case = {"aoa_deg": float(aoa),
+                "tip_pct": [100 * float(tip @ q) / SEMISPAN if c else None
+                            for q, c in zip(eq.q[a], ok)],
+                "envelope_ratio": [float(envelope_ratio(rom, q)) if c else None
+                                   for q, c in zip(eq.q[a], ok)]}
+        for m, r in res.items():
+            case[m] = [{"kind": b.kind, "velocity": b.velocity, "frequency_hz": b.frequency_hz,
+                        "tip_pct": 100 * float(tip @ r.state_at(a, b)) / SEMISPAN}
+                       for b in r.boundaries[a]]
+        if model is not None and float(aoa) in args.fe_aoa:
+            t = time.perf_counter()
+            pts, fe_tip, rom_nat, fe_nat, u = [], [], [], [], None
+            for i, v in enumerate(speeds):
+                if not ok[i]:
+                    break
+                q_rom = eq.q[a, i]
+                nl = (rom.stiffness_force(__import__("torch").as_tensor(q_rom)).numpy()
+                      - rom.K1.numpy() @ q_rom)
+                p0 = q_rom + np.linalg.solve(model.A, nl)
+                st = model.equilibrium(steady, 0.5 * DENSITY * v**2, math.radians(aoa), p0, u)
+                u = st.u
+                Kc = model.tangent(st)
+                structure = tangent_structure(rom, st.q)
+                structure.K = Kc
+                pts.append(pk(structure, float(v), DENSITY))
+                fe_tip.append(100 * float(tip @ st.q) / SEMISPAN)
+                fe_nat.append(pts[-1].natural_hz[:6].tolist())
+                rom_nat.append(res["p-k"].points[a][i].natural_hz[:6].tolist())
+                progress(f"  {aoa:g} deg, {v:g} m/s: tip ROM {case['tip_pct'][i]:.2f} %, FE "
+                         f"{fe_tip[-1]:.2f} %; natural Hz ROM {np.round(rom_nat[-1][:5], 2)}, "
+                         f"FE {np.round(fe_nat[-1][:5], 2)}; g ROM "
+                         f"{res['p-k'].points[a][i].critical[0]:+.4f}, FE "
+                         f"{pts[-1].critical[0]:+.4f}")
+            assert all(isinstance(p, StabilityPoint) for p in pts)
+            case["fe"] = {"seconds": time.perf_counter() - t, "tip_pct": fe_tip,
+                          "natural_hz": fe_nat, "rom_natural_hz": rom_nat,
+                          "boundaries": [{"kind": b.kind, "velocity": b.velocity,
+                                          "frequency_hz": b.frequency_hz,
+                                          "tip_pct": float(np.interp(b.velocity,
+                                                                     speeds[:len(fe_tip)],
+                                                                     fe_tip))}
+                                         for b in boundaries(pts)]}
+        out["cases"].append(case)
+    return out
+
+
+def main(argv=None) -> int:
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--deck", type=Path, required=True)
+    p.add_argument("--rom", type=Path, required=True)
+    p.add_argument("--aero", type=Path, required=True)
+    p.add_argument("--linear-skin", type=int, action="append", default=[])
+    p.add_argument("--aoa", type=lambda s: [float(x) for x in s.split(",")],
+                   default=[3.0, 5.0, 7.0])
+    p.add_argument("--speeds", type=lambda s: [float(x) for x in s.split(",")],
+                   default=[float(v) for v in np.arange(20.0, 70.01, 1.0)])
+    p.add_argument("--fe-aoa", type=lambda s: [float(x) for x in s.split(",")], default=[])
+    p.add_argument("--out", type=Path, default=None)
+    args = p.parse_args(argv)
+    res = run(args)
+    print("| AoA (°) | ROM p-k | ROM state space | FE exact condensation |")
+    print("|---:|---|---|---|")
+
+    def fmt(bs):
+        return "; ".join(f"{b['kind']} {b['velocity']:.1f} m/s ({b['frequency_hz']:.1f} Hz, "
+                         f"tip {b['tip_pct']:.1f} %)" for b in bs) or "none"
+    for c in res["cases"]:
+        fe = fmt(c["fe"]["boundaries"]) if "fe" in c else "-"
+        print(f"| {c['aoa_deg']:g} | {fmt(c['p-k'])} | {fmt(c['state-space'])} | {fe} |")
+    if args.out:
+        args.out.write_text(json.dumps(res, indent=1))
+        print(f"wrote {args.out}")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
