@@ -254,3 +254,107 @@ def test_aero_file_without_incidence_is_refused(flutter_section, tmp_path):
     aero, rom = flutter_section
     with pytest.raises(InputError, match="old.npz: no steady incidence load"):
         SteadyModalAero.from_aero(replace(aero, incidence=None), 2, "old.npz")
+
+
+def _hardening_section(aero, rom):
+    """The typical section's ROM with a cubic hardening of both modes (an LCO past flutter)."""
+    K3 = np.zeros((2, 2, 2, 2))
+    K3[0, 0, 0, 0], K3[1, 1, 1, 1] = 500.0, 500.0
+    return rom.replace(K3=K3, outputs={"q1": [1.0, 0.0], "q2": [0.0, 1.0]})
+
+
+def test_lco_about_the_equilibrium_by_harmonic_balance_and_time_marching(flutter_section):
+    """Past the flutter speed at 0° and 0.5° (at 3° the hardening about the deflected state
+    has moved the flutter past 11 m/s): the harmonic balance orbit (its mean the 0th
+    harmonic) against a time integration started at the static equilibrium plus a small
+    disturbance (the second method): amplitude within 1 % and mean within 1 % of the static
+    deflection (Newmark at 200 steps a period, measured over its converged window); the
+    static state itself is the ROM equilibrium of torchrom.trim.reduced (1e-9); the linear
+    root about it decides decay or flutter."""
+    from torchrom.periodic import HarmonicBalanceMethod
+    from torchrom.sim import LCOCriteria, Newmark
+    from torchrom.sim.aeroelastic import aeroelastic_system_at
+    from torchrom.sim.newmark import HistoryRequest
+    from torchrom.sim.system import static_equilibrium
+
+    aero, rom = flutter_section
+    rom = _hardening_section(aero, rom)
+    V = 11.0  # flutter at 10.04 m/s
+    ae = aeroelastic_system_at(rom, aero, [V, V, 8.0], RHO, aoa_deg=[0.0, 0.5, 0.5])
+    q_eq = static_equilibrium(ae.system).numpy()
+    ref = rom_equilibria(rom, SteadyModalAero.from_aero(aero, 2), [0.5], [8.0, V], RHO)
+    np.testing.assert_allclose(q_eq[1], ref.q[0, 1], rtol=1e-9)
+    np.testing.assert_allclose(q_eq[2], ref.q[0, 0], rtol=1e-9)
+    assert np.all(q_eq[0] == 0)
+    hb = HarmonicBalanceMethod(stability=False).run(ae.system, outputs=["q1", "q2"],
+                                                   lco=LCOCriteria(max_amplitude=10.0))
+    assert list(hb.status) == ["lco", "lco", "decay"]
+    assert hb.extra["mean_q1"][2] == pytest.approx(q_eq[2, 0], rel=1e-9)
+    lco = LCOCriteria(max_amplitude=10.0, rtol=1e-4)
+    nm = Newmark(dt=1.0 / (200 * hb.frequency_hz[1])).run(
+        ae.system.select([1]), q_eq[1] + np.array([0.01, 0.0]), t_end=400.0,
+        outputs=["q1", "q2"], lco=lco, history=HistoryRequest((0,), every=1))
+    assert nm.status[0] == "lco"
+    np.testing.assert_allclose(nm.amplitude[0], hb.amplitude[1], rtol=1e-2)
+    # the time history's mean over its last ten periods against the 0th harmonic
+    h = nm.histories[0]
+    last = h.t >= h.t[-1] - 10.0 / hb.frequency_hz[1]
+    for j, name in enumerate(("q1", "q2")):
+        assert hb.extra[f"mean_{name}"][1] == pytest.approx(h.y[last, j].mean(),
+                                                            abs=1e-2 * abs(q_eq[1, j]))
+    # the orbit's mean is not the static state: the quadratic response of the cubic terms
+    assert abs(hb.extra["mean_q1"][1] - q_eq[1, 0]) > 1e-3 * abs(q_eq[1, 0])
+
+
+SWEEP = """
+title = "typical section at a root angle of attack"
+method = "hb"
+[model]
+rom = "rom.npz"
+aero = "aero.npz"
+[initial]
+q0 = 0.01
+[lco]
+outputs = ["q1", "q2"]
+max_amplitude = 10.0
+[cases]
+combine = "product"
+density = 1.225
+speed = [10.5, 11.0]
+aoa_deg = [0.0, 0.5]
+alpha = 0.0
+gamma = 0.0
+"""
+
+
+def test_sweep_takes_the_root_angle_as_a_case_parameter(flutter_section, tmp_path):
+    """`torchrom sweep` with aoa_deg among the cases: every row certified, the angle, the
+    orbit's mean and amplitude of each output in the table; the mean at 0° is the orbit's
+    own (zero static state, within the quadratic response) and at 0.5° near the static
+    deflection of torchrom.trim.reduced (within the orbit's amplitude). A bad angle is one
+    line naming it, in a subprocess."""
+    import subprocess
+    import sys
+
+    import pandas as pd
+
+    aero, rom = flutter_section
+    _hardening_section(aero, rom).save(tmp_path / "rom.npz")
+    aero.save(tmp_path / "aero.npz")
+    cfg = tmp_path / "aoa.toml"
+    cfg.write_text(SWEEP)
+    assert main(["sweep", str(cfg), "--out", str(tmp_path / "out")]) == 0
+    t = pd.read_parquet(tmp_path / "out" / "results.parquet").sort_values(["aoa_deg", "speed"])
+    assert list(t["status"]) == ["lco"] * 4 and t["certified"].all()
+    assert {"mean_q1", "mean_q2", "amplitude_q1", "amplitude_q2", "aoa_deg"} <= set(t.columns)
+    eq = rom_equilibria(_hardening_section(aero, rom), SteadyModalAero.from_aero(aero, 2),
+                        [0.5], [10.5, 11.0], RHO)
+    at = t[t["aoa_deg"] == 0.5]
+    np.testing.assert_allclose(at["mean_q1"], eq.q[0, :, 0], atol=at["amplitude_q1"].max())
+    assert (at["mean_q1"] - eq.q[0, :, 0]).abs().max() > 0
+    bad = cfg.with_name("bad.toml")
+    bad.write_text(SWEEP.replace("aoa_deg = [0.0, 0.5]", "aoa_deg = [0.0, 45.0]"))
+    r = subprocess.run([sys.executable, "-m", "torchrom", "sweep", str(bad), "--out",
+                        str(tmp_path / "bad")], capture_output=True, text=True)
+    assert r.returncode == 2 and "aoa_deg" in r.stderr and "45" in r.stderr, r.stderr
+    assert len(r.stderr.strip().splitlines()) == 1 and not (tmp_path / "bad").exists()

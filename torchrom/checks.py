@@ -68,6 +68,8 @@ PHYSICAL_RANGES = {
     "damping_nl": (0.0, math.inf, "", "a scale of the nonlinear damping (0 off, 1 as "
                    "identified)"),
     "mach": (0.0, 1.0, "", "the doublet-lattice method is subsonic"),
+    "aoa_deg": (-30.0, 30.0, "deg", "the steady loads are linear in the root angle of attack: "
+                "a wing past ~15 deg has stalled"),
 }
 
 

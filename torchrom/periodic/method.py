@@ -153,6 +153,10 @@ class HarmonicBalanceMethod:
             sens = {}
         dist = orb.distortion(rows[:1])[:, 0]
         dist[orb.status != "lco"] = np.nan
+        if system.load is not None:  # a mean state (a wing at an angle of attack): its outputs
+            mean = (orb.X[:, 0] @ rows.T).cpu().numpy()
+            mean[~np.isin(orb.status, ("lco", "decay"))] = np.nan
+            sens = {**sens, **{f"mean_{name}": mean[:, j] for j, name in enumerate(names)}}
         extra = {"method": np.full(B, "hb", dtype=object), "harmonics": orb.harmonics,
                  "hb_residual": orb.residual, "truncation": orb.truncation,
                  "harmonic_distortion": dist, "stable": stable, "floquet_multiplier": mult,

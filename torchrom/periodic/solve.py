@@ -42,7 +42,7 @@ import torch
 
 from ..errors import InputError
 from ..sim.aeroelastic import linear_state_matrices
-from ..sim.system import CaseSystem
+from ..sim.system import CaseSystem, static_equilibrium
 from .balance import HarmonicBalance
 from .fourier import (
     FourierBasis,
@@ -350,8 +350,13 @@ def cold_start(system: CaseSystem, r: Tensor, options: HBOptions,
     c0 = c.abs().clamp_min(torch.finfo(dt).tiny)
     status = np.full(B, "running", dtype=object)
     status[(sigma <= 0).cpu().numpy()] = "decay"
+    # the static state under a constant load (a wing at an angle of attack): the orbits'
+    # mean starts there and only the motion about it scales with the amplitude
+    offset = torch.zeros(B, nh, n, dtype=dt, device=dev)
+    if system.load is not None:
+        offset[:, 0] = torch.nan_to_num(static_equilibrium(system)).to(dt)
     if initial is None:
-        X = orbit_from_mode(phi, r, A, nh).to(dt)
+        X = orbit_from_mode(phi, r, A, nh).to(dt) + offset
         omega = lam.imag.to(dt).clone()
     else:
         X, omega = resize_harmonics(initial[0], H).to(dt), initial[1].to(dt).clone()
@@ -380,12 +385,14 @@ def cold_start(system: CaseSystem, r: Tensor, options: HBOptions,
         # (linear coordinates ∝ A, dual ones ∝ A²: their quasi-static response); with two
         # converged stages, the scaled shape X/A^p, ω and c are extrapolated (a secant
         # predictor: far fewer Newton iterations on the large, strongly nonlinear stages)
-        shape = X / A[:, None, None] ** power
+        shape = (X - offset) / A[:, None, None] ** power
         two = torch.isfinite(A_before) & (A_before != A)
         Ab = torch.where(two, A_before, A)
         f = torch.where(two, (A_try - A) / (A - Ab), torch.zeros_like(A))
-        shape_b = torch.where(two[:, None, None], X_before / Ab[:, None, None] ** power, shape)
-        start = (shape + f[:, None, None] * (shape - shape_b)) * A_try[:, None, None] ** power
+        shape_b = torch.where(two[:, None, None], (X_before - offset) / Ab[:, None, None]
+                              ** power, shape)
+        start = ((shape + f[:, None, None] * (shape - shape_b)) * A_try[:, None, None] ** power
+                 + offset)
         om_start = omega + f * (omega - torch.where(two, om_before, omega))
         c_start = c + torch.where(two, (c - c_before) * (A_try**2 - A**2) / (A**2 - Ab**2),
                                   torch.zeros_like(c))
@@ -777,9 +784,13 @@ def solve_orbits(system: CaseSystem, output_row, options: HBOptions = HBOptions(
         need = np.flatnonzero(cold_roots_needed)
         lam, _ = critical_modes(system.select(torch.as_tensor(need)))
         roots[need] = lam.cpu().numpy()
-    # no orbit: zero coefficients; no frequency but for decay (the linear root's)
+    # no orbit: zero coefficients (the static state's mean for a decay under a load); no
+    # frequency but for decay (the linear root's)
     has = torch.as_tensor(out.status == "lco")
     out.X[~has] = 0.0
+    if system.load is not None and (out.status == "decay").any():
+        rest = torch.as_tensor(np.flatnonzero(out.status == "decay"))
+        out.X[rest, 0] = static_equilibrium(system.select(rest)).to(out.X)
     decay = np.flatnonzero(out.status == "decay")
     omega = out.omega.clone()
     omega[torch.as_tensor(decay, dtype=torch.long)] = torch.as_tensor(

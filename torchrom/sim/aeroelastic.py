@@ -163,14 +163,30 @@ def aeroelastic_system(rom: NonlinearROM, aero, altitude, *, alpha=0.0, gamma=0.
                                  device=device, dtype=dtype, check=False)
 
 
+def incidence_load(aero, dynamic_pressure, aoa_deg, n: int) -> np.ndarray:
+    """(B, n) the steady load −q∞ Q_α α of a root angle of attack ``aoa_deg`` (deg, (B,) or
+    scalar) on the aero file's m modes, zero-padded to n (InputError when the file has no
+    incidence load)."""
+    if aero.incidence is None:
+        raise InputError("aoa_deg: the aero file has no steady incidence load (written by an "
+                         "older torchrom aero; build it again with torchrom aero)")
+    q = np.asarray(dynamic_pressure, dtype=float).reshape(-1)
+    a = np.broadcast_to(np.radians(np.asarray(aoa_deg, dtype=float)), q.shape)
+    out = np.zeros((len(q), n))
+    out[:, :aero.n_modes] = -(q * a)[:, None] * np.asarray(aero.incidence)[None]
+    return out
+
+
 def aeroelastic_system_at(rom: NonlinearROM, aero, velocity, density, *, altitude=None,
-                          alpha=0.0, gamma=0.0, stiffness_nl=1.0, damping_nl=1.0, device=None,
-                          dtype=torch.float64, check: bool = True) -> AeroelasticCases:
+                          alpha=0.0, gamma=0.0, stiffness_nl=1.0, damping_nl=1.0, aoa_deg=0.0,
+                          device=None, dtype=torch.float64, check: bool = True
+                          ) -> AeroelasticCases:
     """B aeroelastic cases at given speeds V and air densities ρ (arrays (B,) or scalars, the
     units of the RFA: ft/s and slug/ft³ for Goland), q∞ = ½ρV² (Eqs. 49–50): a wind tunnel,
     where the speed is swept at one density, or the matched point of
     :func:`aeroelastic_system` (V = M a(h), ρ(h)). ``altitude`` only labels the cases (NaN
-    when a density was given directly)."""
+    when a density was given directly). ``aoa_deg``: the root angle of attack (deg, scalar or
+    (B,)), whose steady load (:func:`incidence_load`) the cases carry (none where all are 0)."""
     if check:
         check_aero_matches_rom(rom, aero)
     V, rho = np.broadcast_arrays(np.atleast_1d(np.asarray(velocity, dtype=float)),
@@ -182,6 +198,8 @@ def aeroelastic_system_at(rom: NonlinearROM, aero, velocity, density, *, altitud
     add = aero_additions(aero, V, q, rom.n)
     alt = (np.full(len(V), np.nan) if altitude is None
            else np.broadcast_to(np.asarray(altitude, dtype=float), V.shape).copy())
+    if np.any(np.asarray(aoa_deg, dtype=float) != 0.0):
+        add["load"] = incidence_load(aero, q, aoa_deg, rom.n)
     system = CaseSystem.build(rom, len(V), alpha=alpha, gamma=gamma, stiffness_nl=stiffness_nl,
                               damping_nl=damping_nl, device=device, dtype=dtype, **add)
     return AeroelasticCases(system, alt, np.full(len(V), aero.mach), V.copy(), rho.copy(), q)
@@ -189,23 +207,31 @@ def aeroelastic_system_at(rom: NonlinearROM, aero, velocity, density, *, altitud
 
 # -- the linearised system and the simulator's growth rate --------------------------------------
 def linear_state_matrices(system: CaseSystem) -> torch.Tensor:
-    """First-order matrices (B, 2n + na, 2n + na) of every case linearised about q = 0, state
-    x = [q, q̇, ξ] (torch, the system's device and dtype):
+    """First-order matrices (B, 2n + na, 2n + na) of every case linearised about its static
+    state q0 (q = 0 without a load; :func:`~torchrom.sim.system.static_equilibrium` with one),
+    state x = [q − q0, q̇, ξ] (torch, the system's device and dtype):
 
-        (M + M_add) q̈ = −(K1 + K_add) q − (α M + γ D̄1 + C_add) q̇ − lag_D ξ,
-        ξ̇ = lag_E q̇ + lag_R ξ.
-    """
+        (M + M_add) q̈ = −(K_T(q0) + K_add) q − (α M + γ D_T(q0) + C_add) q̇ − lag_D ξ,
+        ξ̇ = lag_E q̇ + lag_R ξ,
+
+    K_T = K1 + s·(2K2(q0) + 3K3(q0,q0)) and D_T = D̄1 + d·(D̄2(q0) + D̄3(q0,q0)) (K1 and D̄1
+    at q0 = 0)."""
+    from .system import static_equilibrium
+
     rom, B, n, na = system.rom, system.batch_size, system.n, system.n_lag
     kw = {"device": system.device, "dtype": system.dtype}
-    M, K1, D1 = (getattr(rom, name).to(**kw) for name in ("M", "K1", "D1"))
+    M = rom.M.to(**kw)
 
     def plus(base, extra):
         base = base.expand(B, n, n)
         return base if extra is None else base + extra
 
+    q0 = static_equilibrium(system)
+    Kt, Ct = rom.tangents(torch.nan_to_num(q0), torch.zeros_like(q0), system.alpha,
+                          system.gamma, system.stiffness_nl, system.damping_nl)
     Mt = plus(M, system.M_add)
-    C = plus(system.alpha[:, None, None] * M + system.gamma[:, None, None] * D1, system.C_add)
-    K = plus(K1, system.K_add)
+    C = plus(Ct, system.C_add)
+    K = plus(Kt, system.K_add)
     blocks = [K, C] + ([system.lag_D] if na else [])
     rows = torch.linalg.solve(Mt, torch.cat(blocks, dim=2))
     a = torch.zeros(B, 2 * n + na, 2 * n + na, **kw)

@@ -228,3 +228,39 @@ class CaseSystem:
         return dataclasses.replace(
             self, **{k: None if t is None else t.to(device=device, dtype=dtype)
                      for k, t in self.fields().items()})
+
+
+#: load steps of :func:`static_equilibrium` (a cubic ROM at a wing's static deflection: Newton
+#: from rest under the whole load can overshoot past a fold of the polynomial)
+EQUILIBRIUM_LOAD_STEPS = 8
+
+
+def static_equilibrium(system: CaseSystem, rtol: float = 1e-12, max_iter: int = 30) -> Tensor:
+    """(B, n) the static states of the cases: (K1 + K_add) q + s·[K2(q,q) + K3(q,q,q)] = load
+    (zero without a load), by Newton under the load in :data:`EQUILIBRIUM_LOAD_STEPS` equal
+    steps. A case that does not converge is NaN (its own rows only)."""
+    B, n = system.batch_size, system.n
+    q = torch.zeros(B, n, device=system.device, dtype=system.dtype)
+    if system.load is None:
+        return q
+    rom, zero = system.rom, torch.zeros_like(q)
+    scale = system.load.norm(dim=1).clamp_min(torch.finfo(system.dtype).tiny)
+    ok = torch.ones(B, dtype=torch.bool, device=system.device)
+    for step in range(1, EQUILIBRIUM_LOAD_STEPS + 1):
+        load = system.load * (step / EQUILIBRIUM_LOAD_STEPS)
+        done = torch.zeros(B, dtype=torch.bool, device=system.device)
+        for _ in range(max_iter):
+            r = rom.stiffness_force(q, system.stiffness_nl) - load
+            if system.K_add is not None:
+                r = r + (system.K_add @ q.unsqueeze(-1)).squeeze(-1)
+            done = torch.isfinite(r).all(dim=1) & (r.norm(dim=1) <= rtol * scale)
+            if bool((done | ~ok).all()):
+                break
+            Kt, _ = rom.tangents(q, zero, stiffness_nl=system.stiffness_nl)
+            if system.K_add is not None:
+                Kt = Kt + system.K_add
+            dq, info = torch.linalg.solve_ex(Kt, r.unsqueeze(-1))
+            move = (info == 0)[:, None] & ~done[:, None] & ok[:, None]
+            q = q - torch.where(move, dq.squeeze(-1), torch.zeros_like(q))
+        ok &= done
+    return torch.where(ok[:, None], q, torch.full_like(q, float("nan")))

@@ -44,7 +44,7 @@ from .models import AeroelasticModel
 STRUCTURAL_PARAMETERS = ("alpha", "gamma", "stiffness_nl", "damping_nl", "q0")
 #: case parameters of an aeroelastic sweep
 AEROELASTIC_PARAMETERS = ("altitude_ft", "speed", "density", "mach", "alpha", "gamma",
-                          "stiffness_nl", "damping_nl", "q0")
+                          "stiffness_nl", "damping_nl", "q0", "aoa_deg")
 #: the α of a case that keeps the baseline flutter altitude (paper Fig. 9)
 MATCHED = "matched"
 #: units of a wind-tunnel case's speed and density (the model's system, known once it is built)
@@ -208,14 +208,16 @@ def case_system(model, cases: list[dict[str, Any]], device=None, dtype=torch.flo
     gamma = _column(cases, "gamma", 0.0)
     s_nl = _column(cases, "stiffness_nl", 1.0)
     d_nl = _column(cases, "damping_nl", 1.0)
+    aoa = _column(cases, "aoa_deg", 0.0)
     V, rho, alt = flight_conditions(model, cases)
     ae = aeroelastic_system_at(model.rom, model.aero, V, rho, altitude=alt, alpha=alpha,
-                               gamma=gamma, stiffness_nl=s_nl, damping_nl=d_nl, device=device,
-                               dtype=dtype, check=False)
+                               gamma=gamma, stiffness_nl=s_nl, damping_nl=d_nl, aoa_deg=aoa,
+                               device=device, dtype=dtype, check=False)
     # the values used (defaults included), so that no column has gaps where a case omits one
     extra = [{**cond, "alpha": a, "gamma": g, "stiffness_nl": s, "damping_nl": d,
-              "alpha_matched": m}
-             for cond, a, g, s, d, m in zip(ae.conditions(), alpha, gamma, s_nl, d_nl, matched)]
+              "alpha_matched": m, **({"aoa_deg": x} if any(aoa) else {})}
+             for cond, a, g, s, d, m, x in zip(ae.conditions(), alpha, gamma, s_nl, d_nl,
+                                               matched, aoa)]
     if model.free:  # a free aircraft: its rigid-body divergence rate, and any support
         for row, v, r, a, g in zip(extra, V, rho, alpha, gamma):
             row["rigid_body_growth"] = model.rigid_body_growth(float(v), float(r), a, g)
