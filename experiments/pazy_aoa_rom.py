@@ -29,17 +29,14 @@ import numpy as np
 DENSITY, SEMISPAN = 1.225, 0.55
 
 
-def condensed_model(deck: Path, rom, linear_skin: list[int]):
+def condensed_model(fe, Phi, rom, linear_skin: list[int]):
     """The exact condensation of the deck (without its ``linear_skin`` shells) on the ROM's
-    modes, as `torchrom identify --linear-skin` solves it."""
-    from torchrom.fe import read_bdf
+    modes ``Phi`` (the deck's, free DOFs), as `torchrom identify --linear-skin` solves it."""
     from torchrom.fe.bdf_read import from_pynastran
     from torchrom.identify.build import as_backend
     from torchrom.identify.condensation import skeleton_of
     from torchrom.trim.condensed import CondensedModel
 
-    fe = read_bdf(deck)
-    Phi = fe.modes(rom.n).shapes
     if not linear_skin:
         return CondensedModel(as_backend(fe), Phi, rom.K1.numpy())
     skel = from_pynastran(fe.bdf, source=fe.source, name=fe.name, without_properties=linear_skin)
@@ -48,8 +45,16 @@ def condensed_model(deck: Path, rom, linear_skin: list[int]):
     return CondensedModel(backend, Phi[rows], rom.K1.numpy())
 
 
+def tip_row(fe, Phi, grid: int) -> np.ndarray:
+    """The T3 of ``grid`` (an RBE3's dependent grid, as the references' reference axis) in
+    each mode: the ROM's tip deflection is this row times q (basic frame)."""
+    row = fe.mesh.grid_row()[grid]
+    return np.array([fe.expand(Phi[:, j])[row, 2] for j in range(Phi.shape[1])])
+
+
 def run(args, progress=print) -> dict:
     from torchrom.aero.files import load_aero
+    from torchrom.fe import read_bdf
     from torchrom.rom import NonlinearROM
     from torchrom.trim.flutter import StabilityPoint, boundaries
     from torchrom.trim.reduced import (
@@ -63,7 +68,15 @@ def run(args, progress=print) -> dict:
 
     rom, aero = NonlinearROM.load(args.rom), load_aero(args.aero)
     steady = SteadyModalAero.from_aero(aero, rom.n)
-    tip = np.asarray(rom.outputs[next(iter(rom.outputs))])
+    fe = read_bdf(args.deck)
+    Phi = fe.modes(rom.n).shapes
+    # the ROM's basis must be the deck's modes, signs included: its max_mode1 point's row
+    from torchrom.rom.points import rom_points
+
+    grid, comp = rom_points(rom)["max_mode1"].lstrip("G").split(":T")
+    dof = fe.dof_index(int(grid), int(comp))
+    np.testing.assert_allclose(rom.outputs["max_mode1"], Phi[dof], rtol=1e-6, atol=1e-12)
+    tip = tip_row(fe, Phi, args.tip_grid)
     speeds = np.asarray(args.speeds)
     t0 = time.perf_counter()
     eq = rom_equilibria(rom, steady, args.aoa, speeds, DENSITY)
@@ -71,7 +84,7 @@ def run(args, progress=print) -> dict:
     out = {"rom": str(args.rom), "aoa_deg": list(args.aoa), "speeds": speeds.tolist(),
            "rom_seconds": time.perf_counter() - t0, "cases": []}
     pk = root_finder("p-k", rom, aero)
-    model = condensed_model(args.deck, rom, args.linear_skin) if args.fe_aoa else None
+    model = condensed_model(fe, Phi, rom, args.linear_skin) if args.fe_aoa else None
     for a, aoa in enumerate(eq.aoa_deg):
         ok = eq.converged[a]
         case = {"aoa_deg": float(aoa),
@@ -126,6 +139,8 @@ def main(argv=None) -> int:
     p.add_argument("--rom", type=Path, required=True)
     p.add_argument("--aero", type=Path, required=True)
     p.add_argument("--linear-skin", type=int, action="append", default=[])
+    p.add_argument("--tip-grid", type=int, default=80000016,
+                   help="the reference axis's tip grid, where the references read the tip")
     p.add_argument("--aoa", type=lambda s: [float(x) for x in s.split(",")],
                    default=[3.0, 5.0, 7.0])
     p.add_argument("--speeds", type=lambda s: [float(x) for x in s.split(",")],

@@ -176,18 +176,21 @@ class RomSweep:
 
 def rom_sweep(fe, masses, *, n_linear: int, n_dual: int = 0, combinations=(),
               n_amplitudes: int = 8, tip_range=(0.01, 0.25), stiffness: str = "condensed",
-              amplitude: float | None = None, levels: int = 3, progress=print) -> RomSweep:
+              amplitude: float | None = None, levels: int = 3, condensation_fit: str = "forces",
+              progress=print) -> RomSweep:
     """Identify the ROM of ``fe`` (:func:`torchrom.identify.build.identify`: ``stiffness``
     "condensed" (linear modes only) or "tangent" (with ``n_dual`` dual modes of the
     ``combinations``); the damping by decomposition, which the static curve does not use) and
     solve its static tip-mass sweep: the load Φᵀ F(m), the tip displacement from u = Φ q, the
-    self-weight solution subtracted."""
+    self-weight solution subtracted; ``condensation_fit`` as
+    :class:`~torchrom.identify.build.IdentifyOptions`."""
     from torchrom.identify.basis import DualModeOptions
     from torchrom.identify.build import IdentifyOptions, identify
     from torchrom.identify.validate import rom_static_solve
 
     opt = IdentifyOptions(n_linear=n_linear, n_dual=n_dual, damping="decomposition",
                           stiffness=stiffness, amplitude=amplitude, levels=levels,
+                          condensation_fit=condensation_fit,
                           dual=DualModeOptions(combinations=combinations,
                                                n_amplitudes=n_amplitudes, tip_range=tip_range))
     t0 = time.perf_counter()

@@ -356,7 +356,8 @@ def test_condensed_tangent_is_the_closed_forms_and_the_rom_carries_it():
     np.testing.assert_allclose(condensed_tangent(S, A, 2), want,
                                atol=1e-7 * np.abs(want).max())
     res = identify(_backend(), IdentifyOptions(n_linear=2, n_dual=0, stiffness="condensed",
-                                               amplitude=0.3, damping="decomposition"))
+                                               amplitude=0.3, damping="decomposition",
+                                               condensation_fit="forces-and-tangents"))
     st = res.stiffness
     assert st.residuals["condensation_tangent_fit"] < 1e-8
     Phi2 = res.basis.Phi[:2]

@@ -10,7 +10,8 @@ CONFIGS = sorted((REPO / "configs").glob("*.toml"))
 #: configurations of a deck's ROM that its guide page builds first (not shipped): they load
 #: up to the missing file, which the refusal names (the full run: tests/test_bah.py, slow)
 BUILT_BY_A_GUIDE = {"bah_lco": "docs/guide/bah.md", "bah_free_lco": "docs/guide/bah.md",
-                    "pazy_skin_lco": "docs/guide/pazy-flutter.md"}
+                    "pazy_skin_lco": "docs/guide/pazy-flutter.md",
+                    "pazy_aoa_lco": "docs/guide/pazy-aoa.md"}
 
 
 @pytest.mark.parametrize("path", CONFIGS, ids=[p.stem for p in CONFIGS])

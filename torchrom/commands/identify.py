@@ -76,12 +76,13 @@ def add_arguments(parser) -> None:
                              "this linear tip deflection (fraction of the span) instead of the "
                              "first mode's modal force, which reaches only a few mm of a higher "
                              "mode; for an LCO whose motion lies in those modes")
-    parser.add_argument("--condensation-fit", choices=("forces-and-tangents", "forces"),
-                        default="forces-and-tangents",
+    parser.add_argument("--condensation-fit", choices=("forces", "forces-and-tangents"),
+                        default="forces",
                         help="with --stiffness condensed: fit the cubic terms to each static "
-                             "solve's force and its condensed tangent (default; the tangent "
-                             "about a deformed state, which flutter at an angle of attack "
-                             "uses, is then the FE's), or to the forces alone")
+                             "solve's condensed force (default), or to its force and its "
+                             "condensed tangent (exact where the condensed force is a cubic; "
+                             "the tangent about a deformed state, which flutter at an angle of "
+                             "attack uses, is the one such a fit aims at)")
     parser.add_argument("--nonlinear-modes", type=positive_int, default=None, metavar="K",
                         help="with --stiffness condensed: load only the first K linear modes "
                              "(default all); the ROM's nonlinear terms are those of their "

@@ -68,7 +68,7 @@ def _condensed(be, Phi, amps, opt, material, progress):
 
 
 #: what the condensation fits its cubic terms to (:class:`IdentifyOptions`)
-CONDENSATION_FITS = ("forces-and-tangents", "forces")
+CONDENSATION_FITS = ("forces", "forces-and-tangents")
 
 #: stiffness identification methods, each (backend, Φ, amplitudes, options, material,
 #: progress-of-stage) -> (StiffnessIdentification, plan with ``points``, material tangents)
@@ -96,8 +96,10 @@ class IdentifyOptions:
     the ROM's nonlinear terms are theirs (the plan grows as its cube);
     higher_amplitude: the condensation loads the modes after the first to this linear
     deflection (fraction of the span) instead of the first mode's modal force (None);
-    condensation_fit: "forces-and-tangents" (the condensed tangent of each static solve fitted
-    with its force: the tangent about a deformed state is then the FE's) or "forces";
+    condensation_fit: "forces" (the condensed forces of the static solves) or
+    "forces-and-tangents" (each solve's condensed tangent fitted with its force: exact where
+    the condensed force is a cubic; on the Pazy wing no cubic fits the tangents of 20-30 %
+    tip deflection, docs/guide/pazy-aoa.md);
     symmetric_pairs: impose ±(a_j e_j + a_l e_l) for Eq. 41 (cancels the quadratic term exactly);
     dual, decomposition: options of the dual modes and of the optimum decomposition.
     """
@@ -110,7 +112,7 @@ class IdentifyOptions:
     levels: int = 3
     nonlinear_modes: int | None = None
     higher_amplitude: float | None = None
-    condensation_fit: str = "forces-and-tangents"
+    condensation_fit: str = "forces"
     symmetric_pairs: bool = True
     dual: DualModeOptions = field(default_factory=DualModeOptions)
     decomposition: DecompositionOptions = field(default_factory=DecompositionOptions)

@@ -237,7 +237,7 @@ def _tangent_gram(solver, u: np.ndarray, KPhi: np.ndarray) -> np.ndarray:
 def identify_stiffness_condensed(backend, Phi: np.ndarray, amplitudes: np.ndarray, *,
                                  levels: int = 3, n_nonlinear: int | None = None,
                                  progress=None, skeleton: Skeleton | None = None,
-                                 higher: np.ndarray | None = None, tangents: bool = True
+                                 higher: np.ndarray | None = None, tangents: bool = False
                                  ) -> tuple[StiffnessIdentification, CondensationData]:
     """Run the condensation plan on a (restrained) backend; ``progress(done, total)`` after
     each static solve. A direction whose solve fails keeps its lower levels (the failed loads
