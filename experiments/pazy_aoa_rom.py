@@ -133,11 +133,68 @@ def run(args, progress=print) -> dict:
     return out
 
 
+REFS = Path(__file__).resolve().parents[1] / "tests" / "decks" / "aepw3_pazy_flutter_deformed"
+
+
+def references() -> dict[str, np.ndarray]:
+    """The peers' onsets and offsets of the skinned wing: name -> (aoa deg, speed m/s) rows
+    (tests/decks/aepw3_pazy_flutter_deformed/SOURCE.md; the JA files are (speed, aoa))."""
+    def ja(name):
+        t = np.loadtxt(REFS / name, ndmin=2)[:, ::-1]
+        return t[(t[:, 0] >= 0) & (t[:, 0] <= 7)]
+
+    jfs = "UM_NAST_JFS2023_{}_vs_aoa_nf.txt"
+    out = {"UM/NAST onset (non-follower)": np.loadtxt(REFS / jfs.format("onset")),
+           "UM/NAST offset (non-follower)": np.loadtxt(REFS / jfs.format("offset")),
+           "UM/NAST onset (follower, tip loss)": ja("UM_NAST_JA2023_onset_vs_aoa.txt"),
+           "UM/NAST offset (follower, tip loss)": ja("UM_NAST_JA2023_offset_vs_aoa.txt")}
+    exp = np.loadtxt(REFS / "experiment_flutter.txt", ndmin=2)
+    out["tunnel onset (speed up)"] = exp[exp[:, 1] > 0][:, [0, 2]]
+    out["tunnel, LCO stops (speed down)"] = exp[exp[:, 1] < 0][:, [0, 2]]
+    sharpy = []
+    for path in sorted(REFS.glob("sharpy_skin_on_flutter_speeds_alpha*.txt")):
+        aoa = int(path.stem[-4:]) / 100
+        sharpy += [(aoa, v) for v in np.loadtxt(path, ndmin=2)[:, 0] if v < 70]
+    out["SHARPy (onset, offset)"] = np.array(sharpy)
+    return out
+
+
+def figure(cases: list[dict], path: Path) -> None:
+    """Onset and offset against the root angle: torchrom's FE exact condensation beside the
+    peers."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(7, 4.8))
+    styles = {"UM/NAST onset (non-follower)": "b-", "UM/NAST offset (non-follower)": "b--",
+              "UM/NAST onset (follower, tip loss)": "c-",
+              "UM/NAST offset (follower, tip loss)": "c--",
+              "tunnel onset (speed up)": "k^", "tunnel, LCO stops (speed down)": "kv",
+              "SHARPy (onset, offset)": "mx"}
+    for name, t in references().items():
+        ax.plot(t[:, 0], t[:, 1], styles[name], label=name, mfc="none")
+    for kind, marker in (("onset", "s"), ("offset", "o")):
+        pts = [(c["aoa_deg"], b["velocity"]) for c in cases if "fe" in c
+               for b in c["fe"]["boundaries"] if b["kind"] == kind]
+        if pts:
+            a, v = np.array(pts).T
+            ax.plot(a, v, "g" + marker, ms=8, label=f"torchrom FE exact condensation, {kind}")
+    ax.set(xlabel="root angle of attack (deg)", ylabel="speed (m/s)", ylim=(30, 80),
+           title="Pazy wing with skin: flutter about the deformed wing")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=7, ncol=2)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    p.add_argument("--deck", type=Path, required=True)
-    p.add_argument("--rom", type=Path, required=True)
-    p.add_argument("--aero", type=Path, required=True)
+    p.add_argument("--deck", type=Path)
+    p.add_argument("--rom", type=Path)
+    p.add_argument("--aero", type=Path)
     p.add_argument("--linear-skin", type=int, action="append", default=[])
     p.add_argument("--tip-grid", type=int, default=80000016,
                    help="the reference axis's tip grid, where the references read the tip")
@@ -147,8 +204,16 @@ def main(argv=None) -> int:
                    default=[float(v) for v in np.arange(20.0, 70.01, 1.0)])
     p.add_argument("--fe-aoa", type=lambda s: [float(x) for x in s.split(",")], default=[])
     p.add_argument("--out", type=Path, default=None)
+    p.add_argument("--figure", type=Path, default=None,
+                   help="onset/offset against the root angle beside the peers")
+    p.add_argument("--from-json", type=Path, nargs="+", default=None,
+                   help="tabulate and draw these results of earlier runs instead of running")
     args = p.parse_args(argv)
-    res = run(args)
+    if args.from_json:
+        res = {"cases": [c for f in args.from_json for c in json.loads(f.read_text())["cases"]]}
+        res["cases"].sort(key=lambda c: c["aoa_deg"])
+    else:
+        res = run(args)
     print("| AoA (°) | ROM p-k | ROM state space | FE exact condensation |")
     print("|---:|---|---|---|")
 
@@ -158,7 +223,10 @@ def main(argv=None) -> int:
     for c in res["cases"]:
         fe = fmt(c["fe"]["boundaries"]) if "fe" in c else "-"
         print(f"| {c['aoa_deg']:g} | {fmt(c['p-k'])} | {fmt(c['state-space'])} | {fe} |")
-    if args.out:
+    if args.figure:
+        figure(res["cases"], args.figure)
+        print(f"figure: {args.figure}")
+    if args.out and not args.from_json:
         args.out.write_text(json.dumps(res, indent=1))
         print(f"wrote {args.out}")
     return 0

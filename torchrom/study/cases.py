@@ -159,9 +159,12 @@ def flutter_speed_lines(model, cases: Sequence[Mapping[str, Any]]) -> list[str]:
         lines.append(f"rigid-body modes on a soft support at {model.rigid_body_support_hz:g} Hz "
                      f"([model] rigid_body_support_hz; column rigid_body_support_hz): the "
                      f"aircraft is not free in plunge and pitch")
+    # at a root angle of attack the undeformed wing's flutter speed is not where LCOs begin
+    straight = (" of the undeformed wing (about the deformed one: torchrom flutter ROM AERO "
+                "--aoa DEG)") if any(float(c.get("aoa_deg", 0.0)) for c in tunnel) else ""
     for density in list(dict.fromkeys(float(r) for r in rho))[:MAX_FLUTTER_DENSITIES]:
         fs = model.flutter_speed(density)
-        where = f"flutter speed at {density:.6g} {u.density} (baseline damping)"
+        where = f"flutter speed{straight} at {density:.6g} {u.density} (baseline damping)"
         lines.append(f"{where}: {fs.velocity:.2f} {u.speed}, {fs.frequency_hz:.3f} Hz"
                      if fs.velocity is not None else f"{where}: none in the speed range")
     return lines
