@@ -1,4 +1,5 @@
-"""The ROM about a deformed state (torchrom.trim.reduced) and ``torchrom flutter ROM AERO --aoa``.
+"""The ROM about a deformed state (torchrom.trim.reduced), ``torchrom flutter ROM AERO --aoa`` and
+``torchrom static --aoa ... --modes N``.
 
 Independent references:
 - the typical section's static aeroelasticity (module docstring of test_trim_equilibrium): a
@@ -358,3 +359,19 @@ def test_sweep_takes_the_root_angle_as_a_case_parameter(flutter_section, tmp_pat
                         str(tmp_path / "bad")], capture_output=True, text=True)
     assert r.returncode == 2 and "aoa_deg" in r.stderr and "45" in r.stderr, r.stderr
     assert len(r.stderr.strip().splitlines()) == 1 and not (tmp_path / "bad").exists()
+
+
+@pytest.mark.parametrize("kind", ["--linear", "--nonlinear"])
+def test_static_modes_about_each_equilibrium(tmp_path, kind):
+    """`torchrom static --aoa --velocity --modes 1` on the pitching section: the pitch mode of
+    a linear spring about any twist is √(k / (I + m x²)) / 2π (rel 1e-8; the tangent of the
+    spring is constant, the rigid arms carry no load of their own)."""
+    deck = _section_deck(tmp_path / "pitch.bdf", plunge=False)
+    out = tmp_path / "s.json"
+    assert main(["static", str(deck), "--aoa", "2", "--velocity", "3", "6", kind, "--modes",
+                 "1", "--json", str(out)]) == 0
+    want = math.sqrt(K_SPRING / (I_PITCH + MASS * X_CG**2)) / (2 * math.pi)
+    speeds = json.loads(out.read_text())["speeds"]
+    assert len(speeds) == 2
+    for s in speeds:
+        assert s["natural_hz"][0] == pytest.approx(want, rel=1e-8)

@@ -10,8 +10,9 @@ nonlinear``), ``loads`` (the steady aerodynamic loads' description), ``units``, 
 divergence ``dynamic_pressure`` and ``velocity``, null without one) and ``speeds``: one object
 per speed with ``velocity``, ``dynamic_pressure``, ``converged``, ``message``, ``iterations``,
 ``tip_deflection`` (along the aero frame's z, length unit), ``tip_deflection_pct_semispan``,
-``tip_twist_deg`` (nose up about the aero y axis) and ``displacements``: grid ID →
-[T1 .. R3] in the basic frame (null where not converged).
+``tip_twist_deg`` (nose up about the aero y axis), ``displacements``: grid ID →
+[T1 .. R3] in the basic frame (null where not converged) and, with ``--modes N``,
+``natural_hz`` (the N lowest natural frequencies about the equilibrium, Hz).
 """
 
 from __future__ import annotations
@@ -54,10 +55,14 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     group.add_argument("--semispan", type=positive_float, default=None, metavar="L",
                        help="semispan for the % figures (default: the half model's boxes' "
                             "largest aero y)")
+    group.add_argument("--modes", type=positive_int, default=None, metavar="N",
+                       help="also the N lowest natural frequencies about each equilibrium "
+                            "(--nonlinear: of the tangent stiffness there, as SOL 106 + "
+                            "eigenvalues; linear: of the undeformed structure)")
 
 
 #: the options that only the static aeroelastic solution reads
-AERO_ONLY = ("density", "mach", "tip", "semispan")
+AERO_ONLY = ("density", "mach", "tip", "semispan", "modes")
 
 
 def refuse_stray_options(args: argparse.Namespace) -> None:
@@ -177,6 +182,8 @@ def run(args: argparse.Namespace) -> int:
         results += [(aoa, e) for e in sweep]
     ids = [str(int(g)) for g in fe.grid_ids]
     records = []
+    linear_hz = (None if args.modes is None or nonlinear
+                 else fe.modes(args.modes).frequencies_hz.tolist())
     print(f"{'AoA (deg)':>9} {'V':>10} {'q':>12} {'tip defl.':>12} {'% semispan':>10} "
           f"{'twist (deg)':>11}")
     for aoa, e in results:
@@ -193,6 +200,12 @@ def run(args: argparse.Namespace) -> int:
                        displacements={g: [float(x) for x in row] for g, row in zip(ids, full)})
             print(f"{math.degrees(aoa):9.4g} {e.velocity:10.5g} {e.dynamic_pressure:12.6g} "
                   f"{w:12.6g} {100.0 * w / semispan:10.4f} {twist:11.4f}")
+            if args.modes is not None:
+                from ..trim.modes import tangent_modes
+
+                hz = linear_hz or tangent_modes(fe, e.u, args.modes).frequencies_hz.tolist()
+                rec["natural_hz"] = hz
+                print(f"{'':>9} natural frequencies (Hz): " + ", ".join(f"{f:.4g}" for f in hz))
         else:
             print(f"{math.degrees(aoa):9.4g} {e.velocity:10.5g} {e.dynamic_pressure:12.6g} "
                   f"not solved: {e.message}")
