@@ -29,22 +29,6 @@ import numpy as np
 DENSITY, SEMISPAN = 1.225, 0.55
 
 
-def condensed_model(fe, Phi, rom, linear_skin: list[int]):
-    """The exact condensation of the deck (without its ``linear_skin`` shells) on the ROM's
-    modes ``Phi`` (the deck's, free DOFs), as `torchrom identify --linear-skin` solves it."""
-    from torchrom.fe.bdf_read import from_pynastran
-    from torchrom.identify.build import as_backend
-    from torchrom.identify.condensation import skeleton_of
-    from torchrom.trim.condensed import CondensedModel
-
-    if not linear_skin:
-        return CondensedModel(as_backend(fe), Phi, rom.K1.numpy())
-    skel = from_pynastran(fe.bdf, source=fe.source, name=fe.name, without_properties=linear_skin)
-    backend = as_backend(skel)
-    rows = skeleton_of(fe, skel, backend, "skeleton").rows
-    return CondensedModel(backend, Phi[rows], rom.K1.numpy())
-
-
 def tip_row(fe, Phi, grid: int) -> np.ndarray:
     """The T3 of ``grid`` (an RBE3's dependent grid, as the references' reference axis) in
     each mode: the ROM's tip deflection is this row times q (basic frame)."""
@@ -84,7 +68,10 @@ def run(args, progress=print) -> dict:
     out = {"rom": str(args.rom), "aoa_deg": list(args.aoa), "speeds": speeds.tolist(),
            "rom_seconds": time.perf_counter() - t0, "cases": []}
     pk = root_finder("p-k", rom, aero)
-    model = condensed_model(fe, Phi, rom, args.linear_skin) if args.fe_aoa else None
+    from torchrom.trim.condensed import deck_condensation
+
+    model = (deck_condensation(fe, Phi, rom.K1.numpy(), args.linear_skin) if args.fe_aoa
+             else None)
     for a, aoa in enumerate(eq.aoa_deg):
         ok = eq.converged[a]
         case = {"aoa_deg": float(aoa),

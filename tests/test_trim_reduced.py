@@ -375,3 +375,61 @@ def test_static_modes_about_each_equilibrium(tmp_path, kind):
     assert len(speeds) == 2
     for s in speeds:
         assert s["natural_hz"][0] == pytest.approx(want, rel=1e-8)
+
+
+def test_flutter_aoa_deck_form_is_the_undeformed_flutter_of_a_linear_section(tmp_path):
+    """`torchrom flutter DECK --aoa 0 0.5 --velocities ...` (the FE route: nonlinear
+    equilibrium, p-k on its tangent's modes) on the pitch-plunge section of springs and rigid
+    arms, whose tangent does not change with the twist: the onset at both angles is
+    flutter_speed's p-k speed of its modes with the same GAF table (within 0.5 %: the speed
+    grid's interpolation; the GAFs reach the modes through the spline DOFs there, directly
+    here)."""
+    from torchrom.aero.nastran_flutter import NASTRAN_KERNEL
+    from torchrom.trim.flutter import DEFAULT_K
+
+    deck = _section_deck(tmp_path / "section.bdf", plunge=True)
+    fe = read_bdf(deck)
+    # the route's GAFs: the deck has no MKAERO, so trim.flutter's k list, Nastran's kernel
+    aero = build_from_deck(deck, fe, 0.0, 2, n_lags=8, k_list=DEFAULT_K, kernel=NASTRAN_KERNEL)
+    w = 2 * np.pi * fe.modes(2).frequencies_hz
+    ref, _ = flutter_speed_pk_at_density(ModalStructure(np.eye(2), np.diag(w**2)),
+                                         AeroTable.from_gaf(aero.gaf), RHO, 0.0)
+    out = tmp_path / "f.json"
+    speeds = np.linspace(0.8, 1.2, 21) * ref.velocity
+    assert main(["flutter", str(deck), "--aoa", "0", "0.5", "--density", str(RHO),
+                 "--velocities", *map(str, speeds), "--json", str(out)]) == 0
+    res = json.loads(out.read_text())
+    assert res["route"].startswith("FE nonlinear equilibrium")
+    for aoa in (0.0, 0.5):
+        onsets = [b for b in res["boundaries"] if b["aoa_deg"] == aoa and b["kind"] == "onset"]
+        assert onsets and onsets[0]["velocity"] == pytest.approx(ref.velocity, rel=5e-3)
+
+
+def test_flutter_aoa_deck_form_with_a_linear_skin(tmp_path):
+    """`--linear-skin PID`: the exact condensation route on the deck's modes of the model
+    without those shells (here a CQUAD4 riding the rigid wing: no strain, so the skeleton's
+    tangent is the whole model's). At 0° the condensed tangent is K1 and the onset the
+    undeformed p-k speed of the same GAF table (within 0.5 %: the speed grid); an unknown
+    PSHELL is refused in one line."""
+    from torchrom.aero.nastran_flutter import NASTRAN_KERNEL
+
+    deck = _section_deck(tmp_path / "skin.bdf", plunge=True)
+    deck.write_text(deck.read_text().replace("ENDDATA", "MAT1,51,7e10,,0.33,2700.0\n"
+                                             "PSHELL,50,51,1e-4,51,,51\n"
+                                             "CQUAD4,60,50,11,12,13,14\nENDDATA"))
+    fe = read_bdf(deck)
+    aero = build_from_deck(deck, fe, 0.0, 2, kernel=NASTRAN_KERNEL)
+    w = 2 * np.pi * fe.modes(2).frequencies_hz
+    ref, _ = flutter_speed_pk_at_density(ModalStructure(np.eye(2), np.diag(w**2)),
+                                         AeroTable.from_gaf(aero.gaf), RHO, 0.0)
+    out = tmp_path / "f.json"
+    speeds = np.linspace(0.8, 1.2, 21) * ref.velocity
+    assert main(["flutter", str(deck), "--aoa", "0", "--density", str(RHO), "--linear-skin",
+                 "50", "--velocities", *map(str, speeds), "--json", str(out)]) == 0
+    res = json.loads(out.read_text())
+    assert res["route"].startswith("FE exact condensation")
+    (onset,) = [b for b in res["boundaries"] if b["kind"] == "onset"]
+    assert onset["velocity"] == pytest.approx(ref.velocity, rel=5e-3)
+    assert main(["flutter", str(deck), "--aoa", "0", "--density", str(RHO), "--linear-skin",
+                 "77", "--velocities", "5", "6", "--json", str(tmp_path / "g.json")]) == 2
+    assert not (tmp_path / "g.json").exists()

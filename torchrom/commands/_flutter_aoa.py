@@ -3,6 +3,13 @@ aeroelastic equilibrium at each root angle of attack (:mod:`torchrom.trim.reduce
 equilibrium continued in speed, the tangent's roots at each speed, and the onsets (a root's
 damping from − to +) and offsets (back) with speed, frequency and the tip deflection there.
 
+``torchrom flutter DECK --aoa DEG ... --velocities V ...``: the same by the FE ("SOL 400, then
+SOL 145"): the nonlinear equilibrium of the deck's FE model and p-k on the modes of its
+tangent (:mod:`torchrom.trim.flutter`), or with ``--linear-skin PID`` the exact condensation
+on the deck's modes of the model without those shells, their linear stiffness kept
+(:mod:`torchrom.trim.condensed`, as ``identify --linear-skin``). JSON as below without
+``envelope_ratio`` and ``q``; ``route`` says which.
+
 JSON (``--json FILE``): ``rom``, ``aero``, ``density``, ``alpha`` (1/s), ``gamma`` (s),
 ``units`` (labels of speed, density, length), ``tip`` (``output``, the ROM output read as the tip
 deflection, and ``semispan``, null without ``--semispan``), ``methods``, ``boundaries``: one
@@ -31,7 +38,7 @@ DEFAULT_SPEEDS = 60
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
-    from ._common import finite_float, positive_float
+    from ._common import finite_float, positive_float, positive_int
 
     g = p.add_argument_group("about the deformed wing (ROM.npz AERO.npz with --aoa)")
     g.add_argument("--aoa", type=finite_float, nargs="+", default=None, metavar="DEG",
@@ -44,10 +51,14 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help="the ROM output read as the tip deflection (default: the ROM's first)")
     g.add_argument("--semispan", type=positive_float, default=None, metavar="L",
                    help="semispan (the files' length unit) for the tip deflection in %%")
+    g.add_argument("--linear-skin", type=positive_int, action="append", default=None,
+                   metavar="PID", help="deck form: the shells of this PSHELL stay linear (a "
+                   "foil skin): the exact condensation on the deck's modes of the model "
+                   "without them (repeatable)")
 
 
 #: the options only the --aoa form reads
-AOA_ONLY = ("velocities", "tip_output", "semispan")
+AOA_ONLY = ("velocities", "tip_output", "semispan", "linear_skin")
 
 
 def refuse_stray_options(args: argparse.Namespace) -> None:
@@ -174,5 +185,118 @@ def run(args, rom_path, aero_path) -> int:
         "gamma": gamma, "units": u, "tip": {"output": tip_name, "semispan": args.semispan},
         "methods": methods, "boundaries": rows, "equilibria": states, "notes": eq.notes,
         "time_s": time.perf_counter() - t0})
+    print(f"  done in {time.perf_counter() - t0:.1f} s")
+    return 0
+
+
+def run_deck(args, path) -> int:
+    """The deck form (module docstring): at each angle, the equilibria continued through
+    ``--velocities`` and the p-k roots about each; the deck's PARAM LMODES (else its EIGRL's
+    ND, else 10) modes."""
+    import math
+
+    from ..aero.flutter import AeroTable, ModalStructure
+    from ..aero.nastran_flutter import NASTRAN_KERNEL, load_deck
+    from ..errors import ConvergenceError
+    from ..fe import read_bdf
+    from ..trim.flutter import boundaries, spline_gaf, stability_at
+    from ..trim.operators import spline_grids
+    from ..trim.reduced import PkRoots, SteadyModalAero
+    from ._common import maybe_write_json
+    from ._static_aero import _tip, _tip_reading
+
+    t0 = time.perf_counter()
+    if args.velocities is None:
+        raise InputError("--velocities: the deck form of --aoa needs the speeds (the deck's "
+                         "length unit per second)")
+    if args.tip_output is not None:
+        raise InputError("--tip-output: for ROM.npz AERO.npz (a deck's tip is its spline grid "
+                         "farthest along the aero y axis)")
+    for option, given in (("--alpha-for-gamma", args.alpha_for_gamma), ("--plot", args.plot),
+                          ("--root-locus", args.root_locus), ("--at", args.at)):
+        if given:
+            raise InputError(f"{option}: not with --aoa")
+    speeds = np.asarray(args.velocities, dtype=float)
+    if np.any(np.diff(speeds) <= 0):
+        raise InputError("--velocities: expected ascending speeds")
+    deck = load_deck(path, require_flutter=False)
+    if args.density is not None and len(args.density) != 1:
+        raise InputError("--density: --aoa needs one air density")
+    density = float(args.density[0]) if args.density else float(deck.reference.rho_ref)
+    mach = float(args.mach or 0.0)
+    fe = read_bdf(path)
+    n = min(int(deck.lmodes or deck.n_modes or 10), fe.n_dof)
+    tip, semispan = _tip(argparse.Namespace(tip=None, semispan=args.semispan), fe, deck,
+                         argparse.Namespace(grid_ids=spline_grids(deck)))
+    skin = list(args.linear_skin or [])
+    route = ("FE exact condensation on the deck's modes, shells of PSHELL "
+             f"{', '.join(map(str, skin))} linear" if skin else
+             "FE nonlinear equilibrium, p-k on the modes of its tangent")
+    print(f"  flutter about the deformed wing: {route}; {n} modes, density {density:g}, "
+          f"Mach {mach:g}, tip grid {tip}")
+    rows, states, notes = [], [], []
+    if skin:
+        from ..aero.build import build_from_deck
+        from ..trim.condensed import deck_condensation
+
+        modes = fe.modes(n)
+        aero = build_from_deck(path, fe, mach, n, kernel=NASTRAN_KERNEL)
+        steady = SteadyModalAero.from_aero(aero, n, str(path))
+        model = deck_condensation(fe, modes.shapes,
+                                  np.diag((2 * np.pi * modes.frequencies_hz) ** 2), skin)
+        finder = PkRoots(AeroTable.from_gaf(aero.gaf), mach)
+
+        def sweep(aoa):
+            p, u = np.zeros(n), None
+            for v in speeds:
+                try:
+                    st = model.equilibrium(steady, 0.5 * density * v**2, math.radians(aoa),
+                                           p, u)
+                except ConvergenceError as exc:  # reported; the sweep stops there
+                    notes.append(f"aoa {aoa:g} deg, {v:g}: {exc}")
+                    return
+                p, u = st.p, st.u
+                pt = finder(ModalStructure(np.eye(n), model.tangent(st)), float(v), density)
+                yield pt, _tip_reading(fe, deck, fe.expand(modes.shapes @ st.q), tip, False)[0]
+    else:
+        from ..trim.equilibrium import nonlinear_sweep
+        from ..trim.operators import steady_operator
+
+        op = steady_operator(fe, deck, mach=mach)
+        gaf = spline_gaf(deck, op)
+
+        def sweep(aoa):
+            for e in nonlinear_sweep(fe, op, speeds, density, math.radians(aoa)):
+                if not e.converged:
+                    notes.append(f"aoa {aoa:g} deg, {e.velocity:g}: {e.message}")
+                    return
+                yield (stability_at(fe, op, gaf, e.u, e.velocity, density, n),
+                       _tip_reading(fe, deck, fe.expand(e.u, large=True), tip, True)[0])
+    for aoa in args.aoa:
+        solved = list(sweep(aoa))
+        points, tips = [x[0] for x in solved], [x[1] for x in solved]
+        for pt, w in zip(points, tips):
+            g, f = pt.critical
+            states.append({"aoa_deg": float(aoa), "velocity": pt.velocity, "converged": True,
+                           "tip_deflection": w,
+                           "tip_deflection_pct_semispan": 100.0 * w / semispan,
+                           "natural_hz": pt.natural_hz.tolist(),
+                           "p-k": {"damping": g, "frequency_hz": f}})
+        found = boundaries(points)
+        if not found:
+            print(f"  {'p-k':<12}{aoa:8.3g}  no onset or offset in the speeds")
+        for b in found:
+            w = float(np.interp(b.velocity, [q.velocity for q in points], tips))
+            print(f"  {'p-k':<12}{aoa:8.3g}  {b.kind:<7}{b.velocity:10.3f}{b.frequency_hz:9.3f}"
+                  f"{w:12.5g}{100.0 * w / semispan:11.2f}")
+            rows.append({"method": "p-k", "aoa_deg": float(aoa), "kind": b.kind,
+                         "velocity": b.velocity, "frequency_hz": b.frequency_hz,
+                         "tip_deflection": w, "tip_deflection_pct_semispan": 100 * w / semispan})
+    for note in notes:
+        print(f"  note: {note}")
+    maybe_write_json(args, {"deck": str(path), "route": route, "density": density,
+                            "mach": mach, "modes": n, "tip": {"grid": tip, "semispan": semispan},
+                            "methods": ["p-k"], "boundaries": rows, "equilibria": states,
+                            "notes": notes, "time_s": time.perf_counter() - t0})
     print(f"  done in {time.perf_counter() - t0:.1f} s")
     return 0

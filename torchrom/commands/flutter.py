@@ -9,6 +9,8 @@ Forms:
   torchrom flutter ROM.npz AERO.npz --aoa DEG --density RHO
                                                  about the ROM's static aeroelastic equilibrium
                                                  at a root angle of attack (:mod:`._flutter_aoa`)
+  torchrom flutter DECK --aoa DEG --velocities V ...
+                                                 the same by the FE (SOL 400, then SOL 145)
 
 JSON (--json), deck form: {"deck", "title", "modal_frequencies_hz", "flutter": [{flutter_id,
 method, mach, density_ratio, mode, kind ("sustained": unstable to the last speed; "hump": stable
@@ -164,10 +166,14 @@ def run(args: argparse.Namespace) -> int:
     inputs = args.inputs
     _check_input_kinds(inputs)
     if args.aoa is not None:
-        if len(inputs) != 2:
-            raise InputError("--aoa: for ROM.npz AERO.npz (flutter about the ROM's deformed "
-                             "state; a deck's is torchrom static DECK --aoa DEG --nonlinear)")
-        return flutter_aoa.run(args, Path(inputs[0]), Path(inputs[1]))
+        if len(inputs) == 2:
+            if args.linear_skin:
+                raise InputError("--linear-skin: for the deck form (torchrom flutter DECK "
+                                 "--aoa DEG --velocities V ...); a ROM keeps its own skin")
+            return flutter_aoa.run(args, Path(inputs[0]), Path(inputs[1]))
+        if inputs[0] == "goland":
+            raise InputError("--aoa: for ROM.npz AERO.npz or a deck with CAERO panels")
+        return flutter_aoa.run_deck(args, Path(inputs[0]))
     flutter_aoa.refuse_stray_options(args)
     if len(inputs) == 1 and inputs[0] != "goland":
         return _run_deck(args, Path(inputs[0]))
@@ -217,7 +223,8 @@ def _check_options(args) -> None:
             raise InputError(f"--alt-range: expected LO < HI, got {lo:g} {hi:g}")
     check_boxes("--boxes", 2 * args.boxes[0] * args.boxes[1])
     check_count("--lags", "lag states", args.lags, MAX_LAGS)
-    if len(args.inputs) == 1 and args.inputs[0] != "goland" and args.density:
+    if len(args.inputs) == 1 and args.inputs[0] != "goland" and args.density and \
+            args.aoa is None:
         raise InputError("--density: for ROM.npz AERO.npz or goland (a deck's densities are "
                          "its FLFACT density ratios times AERO RHOREF)")
     if len(args.inputs) == 1 and args.units is not None:

@@ -88,3 +88,21 @@ class CondensedModel:
         """K_c = D + A S⁻¹ A at ``state`` (module docstring)."""
         Kc = self.D + self.A @ np.linalg.solve(state.S, self.A)
         return 0.5 * (Kc + Kc.T)
+
+
+def deck_condensation(fe, Phi: np.ndarray, K1: np.ndarray, linear_skin=()) -> CondensedModel:
+    """The exact condensation of FE model ``fe`` on its modes ``Phi`` (free DOFs × n) with the
+    ROM's linear stiffness ``K1``: solved on the model itself, or with ``linear_skin`` (PSHELL
+    IDs) on the model without those shells, the skin's linear stiffness D = K1 − ΦᵀK_sΦ kept
+    on the coordinates (as ``torchrom identify --linear-skin`` builds its ROM)."""
+    from ..fe.bdf_read import from_pynastran
+    from ..identify.build import as_backend
+    from ..identify.condensation import skeleton_of
+
+    if not linear_skin:
+        return CondensedModel(as_backend(fe), Phi, K1)
+    skel = from_pynastran(fe.bdf, source=fe.source, name=fe.name,
+                          without_properties=list(linear_skin))
+    backend = as_backend(skel)
+    rows = skeleton_of(fe, skel, backend, "skeleton").rows
+    return CondensedModel(backend, np.asarray(Phi)[rows], K1)
