@@ -62,6 +62,16 @@ class AeroData:
     def semichord(self) -> float:
         return self.gaf.semichord
 
+    def padded_incidence(self, n: int, where: str = "aero file") -> np.ndarray:
+        """The incidence load Q_iα on n ≥ m coordinates (zero past the m modes: dual modes
+        carry no aerodynamic force); InputError naming ``where`` for a file without one."""
+        if self.incidence is None:
+            raise InputError(f"{where}: no steady incidence load (written by an older torchrom "
+                             "aero; build it again with torchrom aero)")
+        out = np.zeros(n)
+        out[:self.n_modes] = self.incidence
+        return out
+
     def save(self, path: str | os.PathLike, force: bool = False) -> Path:
         return save_aero(self, path, force=force)
 

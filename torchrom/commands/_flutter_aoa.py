@@ -68,12 +68,25 @@ def refuse_stray_options(args: argparse.Namespace) -> None:
                              "deformed wing, torchrom flutter ROM.npz AERO.npz --aoa DEG)")
 
 
+def _refuse_matched_point_options(args) -> None:
+    for option, given in (("--alpha-for-gamma", args.alpha_for_gamma),
+                          ("--root-locus", args.root_locus), ("--plot", args.plot),
+                          ("--at", args.at), ("--alt-range", args.alt_range)):
+        if given:
+            raise InputError(f"{option}: not with --aoa (flutter about the deformed wing at "
+                             "one density, swept in speed)")
+
+
+def _ascending(velocities) -> np.ndarray:
+    v = np.asarray(velocities, dtype=float)
+    if np.any(np.diff(v) <= 0):
+        raise InputError("--velocities: expected ascending speeds")
+    return v
+
+
 def _speeds(args, rom, steady, density: float) -> np.ndarray:
     if args.velocities is not None:
-        v = np.asarray(args.velocities, dtype=float)
-        if np.any(np.diff(v) <= 0):
-            raise InputError("--velocities: expected ascending speeds")
-        return v
+        return _ascending(args.velocities)
     # the lowest q > 0 with K1 + q Q0 singular: the eigenvalues μ of −K1⁻¹ Q0, q = 1/μ
     mu = np.linalg.eigvals(-np.linalg.solve(rom.K1.numpy(), steady.Q0))
     real = mu[(np.abs(mu.imag) <= 1e-9 * np.abs(mu).max()) & (mu.real > 0)].real
@@ -113,12 +126,7 @@ def run(args, rom_path, aero_path) -> int:
     t0 = time.perf_counter()
     if args.density is None or len(args.density) != 1:
         raise InputError("--density: --aoa needs one air density (the model's density unit)")
-    for option, given in (("--alpha-for-gamma", args.alpha_for_gamma),
-                          ("--root-locus", args.root_locus), ("--plot", args.plot),
-                          ("--at", args.at), ("--alt-range", args.alt_range)):
-        if given:
-            raise InputError(f"{option}: not with --aoa (flutter about the deformed wing at "
-                             "one density, swept in speed)")
+    _refuse_matched_point_options(args)
     rom = NonlinearROM.load(rom_path)
     aero = load_aero(aero_path)
     check_aero_matches_rom(rom, aero)
@@ -212,13 +220,8 @@ def run_deck(args, path) -> int:
     if args.tip_output is not None:
         raise InputError("--tip-output: for ROM.npz AERO.npz (a deck's tip is its spline grid "
                          "farthest along the aero y axis)")
-    for option, given in (("--alpha-for-gamma", args.alpha_for_gamma), ("--plot", args.plot),
-                          ("--root-locus", args.root_locus), ("--at", args.at)):
-        if given:
-            raise InputError(f"{option}: not with --aoa")
-    speeds = np.asarray(args.velocities, dtype=float)
-    if np.any(np.diff(speeds) <= 0):
-        raise InputError("--velocities: expected ascending speeds")
+    _refuse_matched_point_options(args)
+    speeds = _ascending(args.velocities)
     deck = load_deck(path, require_flutter=False)
     if args.density is not None and len(args.density) != 1:
         raise InputError("--density: --aoa needs one air density")

@@ -226,7 +226,7 @@ class CondensationData:
         return self.p
 
 
-def _tangent_gram(solver, u: np.ndarray, KPhi: np.ndarray) -> np.ndarray:
+def tangent_gram(solver, u: np.ndarray, KPhi: np.ndarray) -> np.ndarray:
     """(KΦ)ᵀ K_T(u)⁻¹ (KΦ) of a backend at ``u``."""
     from ..fe.solvers import factor_symmetric
 
@@ -296,7 +296,7 @@ def identify_stiffness_condensed(backend, Phi: np.ndarray, amplitudes: np.ndarra
             P.append(p)
             Q.append(np.linalg.solve(gram, WPhi.T @ u))
             if tangents:
-                T.append(condensed_tangent(_tangent_gram(solver, u, KPhi), K1_solved, k))
+                T.append(condensed_tangent(tangent_gram(solver, u, KPhi), K1_solved, k))
             done += 1
             if progress is not None:
                 progress(done, total)

@@ -211,10 +211,11 @@ def orbit_amplitude(Y: Tensor, status, n_points: int = 512) -> np.ndarray:
 
 
 # -- the linearised cases ------------------------------------------------------------------------
-def critical_modes(system: CaseSystem) -> tuple[Tensor, Tensor]:
-    """(λ (B,) complex, φ (B, n) complex): the oscillatory root of each linearised case with the
-    largest real part (1/s) and its mode shape (structural part of the eigenvector)."""
-    A = linear_state_matrices(system.to(dtype=torch.float64))
+def critical_modes(system: CaseSystem, about: Tensor | None = None) -> tuple[Tensor, Tensor]:
+    """(λ (B,) complex, φ (B, n) complex): the oscillatory root of each case linearised about
+    its static state (``about``, when the caller has it) with the largest real part (1/s) and
+    its mode shape (structural part of the eigenvector)."""
+    A = linear_state_matrices(system.to(dtype=torch.float64), about)
     lam, vec = torch.linalg.eig(A)
     osc = lam.imag > 2 * math.pi * MIN_FREQUENCY_HZ
     score = torch.where(osc, lam.real, torch.full_like(lam.real, -math.inf))
@@ -341,7 +342,14 @@ def cold_start(system: CaseSystem, r: Tensor, options: HBOptions,
     B, n, nh = system.batch_size, system.n, n_coefficients(H)
     dt, dev = system.dtype, system.device
     r = r.to(device=dev, dtype=dt)
-    lam, phi = critical_modes(system)
+    # the static state under a constant load (a wing at an angle of attack): the orbits'
+    # mean starts there and only the motion about it scales with the amplitude
+    offset = torch.zeros(B, nh, n, dtype=dt, device=dev)
+    q_eq = None
+    if system.load is not None:
+        q_eq = torch.nan_to_num(static_equilibrium(system))
+        offset[:, 0] = q_eq.to(dt)
+    lam, phi = critical_modes(system, q_eq)
     lam, phi = lam.to(dev), phi.to(dev)
     sigma = lam.real.to(dt)
     A0 = float(options.start_amplitude or 1e-2 * options.amplitude_scale)
@@ -350,11 +358,6 @@ def cold_start(system: CaseSystem, r: Tensor, options: HBOptions,
     c0 = c.abs().clamp_min(torch.finfo(dt).tiny)
     status = np.full(B, "running", dtype=object)
     status[(sigma <= 0).cpu().numpy()] = "decay"
-    # the static state under a constant load (a wing at an angle of attack): the orbits'
-    # mean starts there and only the motion about it scales with the amplitude
-    offset = torch.zeros(B, nh, n, dtype=dt, device=dev)
-    if system.load is not None:
-        offset[:, 0] = torch.nan_to_num(static_equilibrium(system)).to(dt)
     if initial is None:
         X = orbit_from_mode(phi, r, A, nh).to(dt) + offset
         omega = lam.imag.to(dt).clone()

@@ -167,14 +167,10 @@ def incidence_load(aero, dynamic_pressure, aoa_deg, n: int) -> np.ndarray:
     """(B, n) the steady load −q∞ Q_α α of a root angle of attack ``aoa_deg`` (deg, (B,) or
     scalar) on the aero file's m modes, zero-padded to n (InputError when the file has no
     incidence load)."""
-    if aero.incidence is None:
-        raise InputError("aoa_deg: the aero file has no steady incidence load (written by an "
-                         "older torchrom aero; build it again with torchrom aero)")
+    inc = aero.padded_incidence(n, "aoa_deg: the aero file")
     q = np.asarray(dynamic_pressure, dtype=float).reshape(-1)
     a = np.broadcast_to(np.radians(np.asarray(aoa_deg, dtype=float)), q.shape)
-    out = np.zeros((len(q), n))
-    out[:, :aero.n_modes] = -(q * a)[:, None] * np.asarray(aero.incidence)[None]
-    return out
+    return -(q * a)[:, None] * inc[None]
 
 
 def aeroelastic_system_at(rom: NonlinearROM, aero, velocity, density, *, altitude=None,
@@ -206,7 +202,8 @@ def aeroelastic_system_at(rom: NonlinearROM, aero, velocity, density, *, altitud
 
 
 # -- the linearised system and the simulator's growth rate --------------------------------------
-def linear_state_matrices(system: CaseSystem) -> torch.Tensor:
+def linear_state_matrices(system: CaseSystem, about: torch.Tensor | None = None
+                          ) -> torch.Tensor:
     """First-order matrices (B, 2n + na, 2n + na) of every case linearised about its static
     state q0 (q = 0 without a load; :func:`~torchrom.sim.system.static_equilibrium` with one),
     state x = [q − q0, q̇, ξ] (torch, the system's device and dtype):
@@ -215,7 +212,7 @@ def linear_state_matrices(system: CaseSystem) -> torch.Tensor:
         ξ̇ = lag_E q̇ + lag_R ξ,
 
     K_T = K1 + s·(2K2(q0) + 3K3(q0,q0)) and D_T = D̄1 + d·(D̄2(q0) + D̄3(q0,q0)) (K1 and D̄1
-    at q0 = 0)."""
+    at q0 = 0). ``about``: q0 (B, n) when the caller has it already."""
     from .system import static_equilibrium
 
     rom, B, n, na = system.rom, system.batch_size, system.n, system.n_lag
@@ -226,7 +223,7 @@ def linear_state_matrices(system: CaseSystem) -> torch.Tensor:
         base = base.expand(B, n, n)
         return base if extra is None else base + extra
 
-    q0 = static_equilibrium(system)
+    q0 = static_equilibrium(system) if about is None else about.to(**kw)
     Kt, Ct = rom.tangents(torch.nan_to_num(q0), torch.zeros_like(q0), system.alpha,
                           system.gamma, system.stiffness_nl, system.damping_nl)
     Mt = plus(M, system.M_add)

@@ -57,12 +57,11 @@ class CondensedModel:
     def solve(self, p: np.ndarray, u0: np.ndarray | None) -> tuple[np.ndarray, np.ndarray,
                                                                    np.ndarray]:
         """(u, q, S) of the load K Φ p."""
-        from ..fe.solvers import factor_symmetric
+        from ..identify.condensation import tangent_gram
 
         u = self.backend.static_solve(self.KPhi @ p, u0=u0).u
         q = np.linalg.solve(self.A, self.KPhi.T @ u)
-        X = np.asarray(factor_symmetric(self.backend.tangent_stiffness(u)).solve(self.KPhi))
-        return u, q, self.KPhi.T @ X.reshape(self.KPhi.shape)
+        return u, q, tangent_gram(self.backend, u, self.KPhi)
 
     def equilibrium(self, aero: SteadyModalAero, dynamic_pressure: float, aoa_rad: float,
                     p0: np.ndarray, u0: np.ndarray | None = None, rtol: float = 1e-9,

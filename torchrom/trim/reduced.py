@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from typing import Protocol
 
 import numpy as np
 import torch
@@ -51,17 +52,13 @@ class SteadyModalAero:
 
     @classmethod
     def from_aero(cls, aero, n: int, where: str = "aero file") -> SteadyModalAero:
-        if aero.incidence is None:
-            raise InputError(f"{where}: no steady incidence load (written by an older torchrom "
-                             "aero; build it again with torchrom aero)")
+        inc = aero.padded_incidence(n, where)
         zero = np.flatnonzero(aero.gaf.k == 0.0)
         if not len(zero):
             raise InputError(f"{where}: no GAF at k = 0 (the steady aerodynamic stiffness)")
         m = aero.n_modes
         Q0 = np.zeros((n, n))
         Q0[:m, :m] = aero.gaf.Q[zero[0]].real
-        inc = np.zeros(n)
-        inc[:m] = aero.incidence
         return cls(Q0, inc)
 
 
@@ -201,18 +198,17 @@ def padded_table(table: AeroTable, n: int, m: int) -> AeroTable:
     return padded
 
 
-class RootFinder:
+class RootFinder(Protocol):
     """The contract of a flutter method about a state: ``(structure, velocity, density) ->``
     :class:`StabilityPoint` (damping g and frequency of each root; ``name`` for reports)."""
 
-    name = ""
+    name: str
 
     def __call__(self, structure: ModalStructure, velocity: float, density: float
-                 ) -> StabilityPoint:
-        raise NotImplementedError
+                 ) -> StabilityPoint: ...
 
 
-class StateSpaceRoots(RootFinder):
+class StateSpaceRoots:
     """The oscillatory roots s of the RFA's first-order system (Eqs. 49–50): g = 2 Re s / Im s,
     f = Im s / 2π (one dense eigenproblem per speed: the method of the onset/offset maps)."""
 
@@ -227,7 +223,7 @@ class StateSpaceRoots(RootFinder):
                               in_vacuo_modes(structure)[0])
 
 
-class PkRoots(RootFinder):
+class PkRoots:
     """The p-k roots on the GAF table (Nastran's PK), entered at each speed from the tangent's
     in-vacuo modes by a density ramp."""
 
