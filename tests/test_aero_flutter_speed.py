@@ -95,3 +95,95 @@ def test_an_untouched_undamped_mode_is_no_state_space_flutter():
     assert ss.frequency_hz == pytest.approx(10 / (2 * np.pi), rel=1e-6)
     pk, _ = flutter_speed_pk(structure, table, 0.0)
     assert pk.velocity == pytest.approx(ss.velocity, rel=1e-6)
+
+
+def _uncoupled(c2: float, d2: float, a0=(0.0, 0.0), d1: float = -0.35, k_max: float = 20.0):
+    """Two uncoupled unit-mass modes, ω = 10 and 20 rad/s, b = 1, quasi-steady aerodynamics
+    Q(k) = A0 + i k A1 (exact in the table and in an RFA with no lag states), A1 =
+    diag(d1, d2), structural damping C0 = diag(0.2, c2). Mode j's root solves
+    s² + (c_j + ½ ρ V b A1_jj) s + ω_j² + q A0_jj = 0: its damping crosses zero where
+    c_j = -½ ρ V A1_jj (mode 1 with d1 = -0.35: ρV = 8/7, k = 8.75 at ρ = 1). The table runs
+    from k = 1e-3 to ``k_max``."""
+    from torchrom.aero.rfa import RFA
+
+    a0, a1 = np.diag(a0), np.diag([d1, d2])
+    structure = ModalStructure(np.eye(2), np.diag([100.0, 400.0]), C0=np.diag([0.2, c2]))
+    k = np.r_[0.0, np.geomspace(1e-3, k_max, 40)]
+    table = AeroTable.from_gaf(GAF(0.0, 1.0, k, a0[None] + 1j * k[:, None, None] * a1[None]))
+    rfa = RFA(a0, a1, np.zeros((2, 2)), np.zeros((2, 0)), np.zeros((0, 0)), np.zeros((0, 2)),
+              np.zeros(0), "roger", 1.0, 0.0)
+    return structure, table, rfa
+
+
+def test_a_root_within_the_tolerance_is_no_flutter_by_either_method():
+    """Mode 2 (ω = 20) with c2 = 0.004, A1 = -0.004: g = -(c2 - ½ ρ V 0.004)/ω crosses zero
+    at ρV = 2 and stays within ±4e-4 over V = 1..6 at ρ = 1 (closed form). At the default
+    tolerance neither method reports it: both give mode 1's crossing, V = 8/7 (1e-6; p-k by
+    Brent on its branch, the state space by Brent on the root), and p-k lists mode 2 as not
+    loaded; at a tolerance of 1e-9 it is loaded (its crossing counts)."""
+    from torchrom.aero.flutter_speed import flutter_speed_at_density, flutter_speed_pk_at_density
+
+    structure, table, rfa = _uncoupled(0.004, -0.004)
+    pk, sweep = flutter_speed_pk_at_density(structure, table, 1.0, speeds=(1.0, 6.0))
+    ss = flutter_speed_at_density(structure, rfa, table, 1.0, speeds=(1.0, 6.0))
+    assert np.abs(sweep.damping[:, 1]).max() <= 4.1e-4
+    for r in (pk, ss):
+        assert r.velocity == pytest.approx(8 / 7, rel=1e-6), r.method
+        assert r.frequency_hz == pytest.approx(10 / (2 * np.pi), rel=1e-6), r.method
+        assert r.divergence_velocity is None and r.g_tolerance == 1e-3
+    assert pk.not_loaded == [1] and pk.as_dict()["not_loaded_modes"] == [2]
+    strict, _ = flutter_speed_pk_at_density(structure, table, 1.0, speeds=(1.0, 6.0),
+                                            g_tolerance=1e-9)
+    assert strict.not_loaded == []
+
+
+def test_a_root_within_the_tolerance_does_not_mask_the_flutter_of_another():
+    """Mode 2 slightly unstable over the whole range (c2 = 0, A1 = -0.004: g = +0.1 ρ V e-3,
+    at most +6e-4 on V = 1..6): a criterion on the largest growth rate beyond round-off sees
+    an unstable root from the first speed and no upward crossing, so mode 1's flutter at
+    V = 8/7 is lost (shown at a tolerance of 1e-9); within the default tolerance the state
+    space finds it (1e-6) and p-k too."""
+    from torchrom.aero.flutter_speed import flutter_speed_at_density, flutter_speed_pk_at_density
+
+    structure, table, rfa = _uncoupled(0.0, -0.004)
+    ss = flutter_speed_at_density(structure, rfa, table, 1.0, speeds=(1.0, 6.0))
+    assert ss.velocity == pytest.approx(8 / 7, rel=1e-6)
+    pk, _ = flutter_speed_pk_at_density(structure, table, 1.0, speeds=(1.0, 6.0))
+    assert pk.velocity == pytest.approx(8 / 7, rel=1e-6)
+    masked = flutter_speed_at_density(structure, rfa, table, 1.0, speeds=(1.0, 6.0),
+                                      g_tolerance=1e-9)
+    assert masked.velocity is None
+
+
+def test_divergence_is_reported_apart_by_both_methods():
+    """Mode 2 with a negative aerodynamic stiffness, A0_22 = -100, and an aerodynamic
+    damping A1_22 = 0.5 (mode 1 stable: A1_11 = +0.35): its stiffness 400 - 100 q vanishes at
+    q = 4, V_D = √8 at ρ = 1 (closed form), where its pair has turned real and one root passes
+    through s = 0. The p-k (Nastran's real-root damping; Brent on Re s of its branch) and the
+    state space (where K + q A0 is singular, the pencil's eigenvalue) give V_D as a
+    divergence (1e-6), no flutter."""
+    from torchrom.aero.flutter_speed import flutter_speed_at_density, flutter_speed_pk_at_density
+
+    structure, table, rfa = _uncoupled(0.0, 0.5, a0=(0.0, -100.0), d1=0.35)
+    pk, _ = flutter_speed_pk_at_density(structure, table, 1.0, speeds=(2.0, 6.0))
+    ss = flutter_speed_at_density(structure, rfa, table, 1.0, speeds=(2.0, 6.0))
+    for r in (pk, ss):
+        assert r.velocity is None, r.method
+        assert r.divergence_velocity == pytest.approx(np.sqrt(8.0), rel=1e-6), r.method
+    assert pk.divergence_mode == 1 and pk.as_dict()["divergence_mode"] == 2
+    assert ss.as_dict()["divergence_velocity"] == ss.divergence_velocity
+
+
+def test_a_p_k_crossing_beyond_the_table_is_not_flutter():
+    """The same crossing as above (mode 1 at V = 8/7, k = 8.75) on a table that stops at
+    k = 2: its Q there is extrapolated, so p-k lists it apart (mode, speed, k; the speed
+    still solved, 1e-6: this Q is linear in k and its spline's extrapolation exact) and gives
+    no flutter point."""
+    from torchrom.aero.flutter_speed import flutter_speed_pk_at_density
+
+    structure, table, _ = _uncoupled(0.004, 0.1, k_max=2.0)
+    pk, _ = flutter_speed_pk_at_density(structure, table, 1.0, speeds=(0.5, 6.0))
+    assert pk.velocity is None
+    ((j, v, k),) = pk.extrapolated_crossings
+    assert j == 0 and v == pytest.approx(8 / 7, rel=1e-6) and k == pytest.approx(8.75, rel=1e-6)
+    assert pk.as_dict()["extrapolated_crossings"][0]["mode"] == 1

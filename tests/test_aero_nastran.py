@@ -384,3 +384,63 @@ def test_resvec_selection(tmp_path):
         assert not d.resvec and len(nf._modes(d, fe, [])[0]) == 8
     with pytest.raises(InputError, match=r"bad.bdf: PARAM RESVEC: expected YES or NO, got MAYBE"):
         deck("bad.bdf", text.replace("PARAM,LMODES,10", "PARAM,LMODES,10\nPARAM,RESVEC,MAYBE"))
+
+
+def _pitch_section_flutter_deck(path):
+    """tests/test_trim_reduced.py's rigid pitching wing (one mode, 3.04 Hz: a CELAS2 of 400
+    N m/rad about x = 0.4 of a 1 x 4 m wing, 4 x 8 DLM boxes, ρ = 1.225) with SOL 145 cards:
+    PK at Mach 0 from 0.3 to 1.4 times its divergence speed, MKAERO k 0.001 to 1. Its
+    divergence: q_D = K / (S C_Lα e) with the horseshoe lattice's C_Lα and aerodynamic centre
+    (e = x_ea - x_ac), V_D = √(2 q_D / ρ) = 14.81 m/s."""
+    import math
+
+    from .test_trim_equilibrium import (
+        CHORD,
+        K_SPRING,
+        RHO,
+        SEMISPAN,
+        X_EA,
+        _horseshoe_lift_and_centre,
+    )
+    from .test_trim_reduced import _section_deck
+
+    _section_deck(path, plunge=False)
+    cla, x_ac = _horseshoe_lift_and_centre()
+    v_d = math.sqrt(2 * K_SPRING / (CHORD * SEMISPAN * cla * (X_EA - x_ac)) / RHO)
+    cards = ["EIGRL,1,,,1", "FLUTTER,5,PK,1,2,3", "FLFACT,1,1.0", "FLFACT,2,0.0",
+             f"FLFACT,3,{0.3 * v_d:.6f},THRU,{1.4 * v_d:.6f},12",
+             "MKAERO1,0.0,,,,,,,,+MK", "+MK,0.001,0.01,0.05,0.1,0.2,0.5,1.0"]
+    text = path.read_text().replace("SOL 101", "SOL 145").replace(
+        "SPC = 1", "SPC = 1\nMETHOD = 1\nFMETHOD = 5")
+    path.write_text(text.replace("ENDDATA", "\n".join(cards) + "\nENDDATA"))
+    return path, v_d
+
+
+def test_a_divergence_is_reported_as_divergence_never_as_flutter(tmp_path):
+    """SOL 145-style PK on a wing that diverges (a rigid wing pitching about an axis aft of
+    its aerodynamic centre): its one root's pair turns real and a real root crosses zero at
+    the divergence speed. Reported as a divergence at V_D (closed form of the horseshoe
+    lattice, 1e-4: the p-k's real roots take Q_R at the lowest MKAERO k, 0.001, not the
+    steady k = 0: an O(k²) difference, 3.5e-5 measured), with no flutter row, in the text
+    and the JSON; before issue 46 it read "flutter speed 14.812 m/s, frequency 0 Hz"."""
+    import json
+    import subprocess
+    import sys
+
+    deck, v_d = _pitch_section_flutter_deck(tmp_path / "pitch.bdf")
+    res = run_deck(deck, log=lambda *_: None)
+    (r,) = res.results
+    assert r.points == [] and r.rigid_points == [] and r.not_loaded == []
+    (div,) = r.divergence_points
+    assert div.divergence and div.frequency_hz == 0.0 and div.refined
+    assert div.velocity == pytest.approx(v_d, rel=1e-4)
+    text = format_deck_result(res)
+    assert re.search(r"divergence speed 14\.81\d m/s \(a real root crosses zero\)", text)
+    assert "flutter speed" not in text
+    run = subprocess.run([sys.executable, "-m", "torchrom", "flutter", deck.name, "--json",
+                          "f.json"], cwd=tmp_path, capture_output=True, text=True, timeout=300)
+    assert run.returncode == 0, run.stderr
+    out = json.loads((tmp_path / "f.json").read_text())
+    assert out["flutter"] == [] and out["g_tolerance"] == 1e-3
+    (rec,) = out["divergence"]
+    assert rec["divergence"] is True and rec["velocity"] == pytest.approx(v_d, rel=1e-4)

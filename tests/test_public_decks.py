@@ -226,7 +226,11 @@ def test_state_space_flutter_of_free_bah_plane_is_its_rfa_pk(tmp_path):
     from torchrom.aero.nastran_flutter import NASTRAN_KERNEL
 
     path = _bah_plane_both_subcases(tmp_path)
-    aero = build_from_deck(path, read_bdf(path), 0.2, 8, kernel=NASTRAN_KERNEL)
+    # the deck's MKAERO list at Mach 0.2, the RFA fitted on all of it (the default before
+    # issue 46; the default now fits k <= 1, tests/test_bah.py): the 13.5 % fit whose state
+    # space is checked here against the p-k on its own Q
+    mkaero = [0.001, 0.05, 0.1, 0.2, 0.5, 1.0, 1.2, 1.5, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0, 10.0]
+    aero = build_from_deck(path, read_bdf(path), 0.2, 8, k_list=mkaero, kernel=NASTRAN_KERNEL)
     structure = ModalStructure.from_modes(aero.metadata["frequencies_hz"])
     table = AeroTable.from_gaf(aero.gaf)
     ss = flutter_speed_at_density(structure, aero.rfa, table, 1.225, speeds=(30.0, 450.0),
@@ -290,6 +294,10 @@ def test_flutter_bah_plane_free_free_pk_against_its_f06(tmp_path):
     assert abs(rec["velocity_diff_pct"]) <= 2.0
     assert abs(rec["frequency_diff_pct"]) <= 2.0
     (m02,) = [r for r in res.results if r.mach == 0.2]
+    # the in-plane mode (8.70 Hz, the 5th) and the second residual vector (56.56 Hz), which the
+    # flat boxes do not load (|g| <= 3e-16 and 2e-9, measured), are listed as such (issue 46);
+    # nothing diverges in 30..450
+    assert m02.not_loaded == [4, 9] and m02.divergence_points == []
     s = m02.sweep.eigenvalues[0, 0]  # V = 30, the short-period branch
     assert m02.sweep.velocity[0] == 30.0
     assert abs(s.real / -0.64477 - 1) <= 0.03 and abs(s.imag / 0.56398 - 1) <= 0.03

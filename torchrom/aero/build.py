@@ -11,7 +11,7 @@ infinite-plate spline over the structural grids that lie in the planform.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -85,6 +85,22 @@ class ModalData:
     displacements: np.ndarray
     element_grids: np.ndarray | None = None
 
+    def in_planform_axes(self, frame) -> ModalData:
+        """The same modes in the axes of the built-in planforms (x along the chord from the
+        structure's leading edge, y along the span from the root, z up) of the wing's
+        :class:`~torchrom.fe.wing_frame.WingFrame`: a deck in any orientation meets its planform
+        as the unrotated deck does (for the Goland planform, whose leading edge is the front of
+        the 4 ft box)."""
+        P = np.stack((frame.chord, frame.span, frame.up))
+        xyz = (self.grid_xyz - frame.origin) @ P.T
+        front = xyz[self.element_grids] if self.element_grids is not None else xyz
+        xyz[:, 0] -= front[:, 0].min()
+        u = np.array(self.displacements, dtype=float)
+        # rotation vectors are pseudo-vectors: an improper P flips them once more
+        u[..., :3] = u[..., :3] @ P.T
+        u[..., 3:] = np.linalg.det(P) * (u[..., 3:] @ P.T)
+        return replace(self, grid_xyz=xyz, displacements=u)
+
     def structure(self, alpha: float = 0.0, gamma: float = 0.0) -> ModalStructure:
         """Mass-normalised modal structure M = I, K = diag ω², D̄1 = K (Rayleigh γ K)."""
         w = 2 * np.pi * self.frequencies_hz
@@ -110,6 +126,18 @@ def modal_data(fe, n_modes: int) -> ModalData:
         displacements=np.asarray(fe.expand(shapes), dtype=float).reshape(shapes.shape[1], -1, 6),
         element_grids=_element_grid_mask(fe, grid_ids),
     )
+
+
+def planform_modes(fe, modes: ModalData) -> ModalData:
+    """``modes`` in the built-in planform's axes (:meth:`ModalData.in_planform_axes`); as they
+    are where the wing's axes cannot be told (a deck in basic x-y)."""
+    from ..fe.wing_frame import WingFrameError
+
+    try:
+        frame = fe.wing_frame()
+    except (WingFrameError, AttributeError):
+        return modes
+    return modes.in_planform_axes(frame)
 
 
 def _element_grid_mask(fe, grid_ids) -> np.ndarray | None:
@@ -152,8 +180,9 @@ def check_structure_spans_planform(xyz, panels: AeroPanels) -> None:
     span = float(half.max() - min(half.min(), 0.0)) if half.size else 0.0
     covered = float(y.max() - y.min())
     if span > 0 and covered < MIN_SPAN_COVERAGE * span:
-        raise InputError(f"aero spline: the structure's grids span y = {y.min():.4g} .. "
-                         f"{y.max():.4g} but the planform's boxes span {span:.4g} (the built-in "
+        raise InputError(f"aero spline: the structure's grids span {y.min():.4g} .. "
+                         f"{y.max():.4g} along the wing's span but the planform's boxes span "
+                         f"{span:.4g} (the built-in "
                          f"planform is the Goland wing, {GOLAND_CHORD_FT:g} x "
                          f"{GOLAND_SEMISPAN_FT:g} ft); expected the structure to cover at least "
                          f"{MIN_SPAN_COVERAGE:.0%} of it: use the deck's own CAERO planform")
@@ -239,6 +268,8 @@ def build(
 ) -> AeroData:
     """``tr.aero.build(fe, mach=0.7, n_modes=9, n_lags=13)`` (DESIGN Python API)."""
     modes = modal_data(fe, n_modes)
+    if panels is None:  # the built-in planform, in the wing's own axes
+        modes = planform_modes(fe, modes)
     data = build_from_modes(
         modes, mach, n_lags, k_list, panels, None, kernel, rfa_kind, progress=progress
     )
@@ -256,35 +287,49 @@ def build_from_deck(
     kernel: str = "quartic",
     rfa_kind: str = "minimum-state",
     progress=None,
+    speeds=None,
+    includes=(),
 ) -> AeroData:
-    """GAF + RFA with the deck's CAERO1 boxes and SPLINE1/SPLINE2 cards (AERO SYMXZ honoured).
+    """GAF + RFA with the deck's CAERO1 boxes and SPLINE1/SPLINE2 cards (AERO SYMXZ honoured);
+    ``includes``: files of cards read as if INCLUDEd (``--panels``).
 
-    Default reduced frequencies: the deck's MKAERO values at the nearest Mach number (k = 0 is
-    always added for the A0 = Q(0) constraint), else :data:`GOLAND_K_LIST`.
+    Default reduced frequencies: chosen to cover the flutter range of the modes, the deck's
+    MKAERO values at the nearest Mach number among them, and the RFA fitted on those that
+    matter (:mod:`torchrom.aero.reduced_frequencies`; ``speeds``: the speed range, deck length
+    unit per s). ``k_list`` (k = 0 is always added for the A0 = Q(0) constraint) replaces the
+    table, and the RFA is fitted on all of it. Either way the fit is checked where it matters;
+    the survey, its check and any warning are ``metadata["reduced_frequencies"]``.
     """
+    from . import reduced_frequencies as rf
     from .nastran_flutter import load_deck
 
-    deck = load_deck(path, require_flutter=False)
+    deck = load_deck(path, require_flutter=False, includes=includes)
     modes = modal_data(fe, n_modes)
     motion = with_incidence(deck.box_motion(modes.grid_ids, modes.displacements),
                             deck.aero_panels)
-    if k_list is None:
-        if deck.mkaero:
-            near = min({m for m, _ in deck.mkaero}, key=lambda m: abs(m - mach))
-            k_list = [k for m, k in deck.mkaero if m == near]
-        else:
-            k_list = GOLAND_K_LIST
+    system = recorded_units(getattr(fe, "units", None) or {})
+    listed = []
+    if deck.mkaero:
+        near = min({m for m, _ in deck.mkaero}, key=lambda m: abs(m - mach))
+        listed = [k for m, k in deck.mkaero if m == near]
+    survey = rf.plan(modes.frequencies_hz, deck.reference.semichord,
+                     *rf.deck_density(deck, system), listed_k=listed,
+                     flutter_velocities=[v for c in deck.cases if c.method.startswith("PK")
+                                         for v in c.values],
+                     speeds=speeds, k_list=k_list)
     gaf, incidence = split_incidence(compute_gaf(
-        deck.aero_panels, motion, mach, _with_zero(k_list), deck.reference.semichord, kernel,
+        deck.aero_panels, motion, mach, survey.k_table, deck.reference.semichord, kernel,
         progress=progress))
-    rfa = _fit(gaf, n_lags, rfa_kind, False, modes.frequencies_hz)
+    rfa = rf.fit_and_check(
+        survey, gaf, lambda g: _fit(g, n_lags, rfa_kind, False, modes.frequencies_hz),
+        cut=k_list is None)
     meta = {
         "frequencies_hz": modes.frequencies_hz.tolist(),
         "n_boxes": int(deck.aero_panels.n),
         "n_lags": int(n_lags),
         "source": str(path),
+        "reduced_frequencies": survey.as_dict(),
     }
-    system = recorded_units(getattr(fe, "units", None) or {})
     if system is not None:  # the deck's, as the modes' and the boxes' lengths
         meta[METADATA_KEY] = system.name
     return AeroData(gaf, rfa, meta, incidence)
@@ -340,8 +385,11 @@ def flutter_altitude(
     method: str = "state-space",
     units: str = "ft",
     n_grid: int = 41,
+    altitude_unit: str | None = None,
 ) -> MatchedPointResult:
-    """Flutter altitude at fixed Mach (DESIGN Python API): ``method`` 'state-space' or 'p-k'."""
+    """Flutter altitude at fixed Mach (DESIGN Python API): ``method`` 'state-space' or 'p-k';
+    ``alt_range`` and the result's altitude in ``altitude_unit`` ("m" or "ft"; default the
+    system's altitude unit, ft for ``units="ft"``)."""
     if isinstance(rom_or_structure, ModalStructure):
         st = rom_or_structure.with_damping(alpha, gamma)
     else:
@@ -352,9 +400,11 @@ def flutter_altitude(
             f"flutter: mach {mach:g} differs from the GAF Mach {aero.mach:g} of the aero file"
         )
     if method == "state-space":
-        return flutter_altitude_state_space(st, aero.rfa, mach, alt_range, n_grid, units)
+        return flutter_altitude_state_space(st, aero.rfa, mach, alt_range, n_grid, units,
+                                            altitude_unit=altitude_unit)
     if method == "p-k":
-        return flutter_altitude_pk(st, AeroTable.from_gaf(aero.gaf), mach, alt_range, n_grid, units)
+        return flutter_altitude_pk(st, AeroTable.from_gaf(aero.gaf), mach, alt_range, n_grid,
+                                   units, altitude_unit=altitude_unit)
     raise InputError(f"flutter: method: expected 'state-space' or 'p-k', got {method!r}")
 
 

@@ -1,5 +1,14 @@
 """Flutter crossings of a p-k sweep: labelled sustained or hump, solved between the sweep's
-speeds, with the rigid-body roots apart.
+speeds, with the rigid-body roots, the divergences and the modes the aerodynamics do not load
+apart.
+
+A crossing counts only where the damping g changes sign by more than a tolerance ``tol``
+(:data:`G_TOLERANCE`, 1e-3 by default; the commands' ``--g-tolerance``): from below -tol to
+above +tol (:func:`torchrom.aero.flutter.zero_crossings`). A branch whose |g| stays within tol
+at every speed is listed as *not loaded by the aerodynamics* (its g is noise about 0: an
+in-plane or chordwise mode that flat boxes hardly load), never as flutter. A crossing whose
+root is real (zero frequency, :func:`torchrom.aero.flutter.is_static_root`) at its onset is a
+*divergence*, reported apart with its speed, never as flutter.
 
 Each unstable excursion of a branch's damping g_j(V) (:func:`torchrom.aero.flutter.excursions`)
 is one crossing: its onset, where g_j rises through 0, and, for a *hump*, the speed where it
@@ -13,9 +22,9 @@ interpolation of the samples, as Nastran's summary, with ``refined=False``.
 
 A hump that rises above 0 and falls back between two consecutive speeds changes no sign at the
 samples. Every interior local maximum of a branch's sampled g between -:data:`HUMP_PROBE_G`
-and 0 (to round-off) is therefore probed: the maximum of g_j(V) over the two neighbouring
-intervals is found by bounded Brent minimisation of -g_j (at most :data:`HUMP_PROBE_EVALS` p-k
-solves); when it is above 0 the onset and re-stabilisation are solved on either side of it.
+and +tol is therefore probed: the maximum of g_j(V) over the two neighbouring intervals is
+found by bounded Brent minimisation of -g_j (at most :data:`HUMP_PROBE_EVALS` p-k solves); when
+it is above +tol the onset and re-stabilisation are solved on either side of it.
 
 Rigid-body roots (branches of modes below :data:`RIGID_FRACTION` of the lowest elastic
 frequency: the 0 Hz modes of a free-free aircraft) are returned apart: a rigid aircraft's root
@@ -24,13 +33,14 @@ crossing zero (a slow real or phugoid-like root) is not flutter.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 import scipy
 
 from .flutter import (  # noqa: F401 - the rigid-body rule is re-exported (public here)
     G_ROUNDOFF,
+    G_TOLERANCE,
     HUMP,
     RIGID_FRACTION,
     SUSTAINED,
@@ -40,6 +50,7 @@ from .flutter import (  # noqa: F401 - the rigid-body rule is re-exported (publi
     ModeSweep,
     _pk_mode,
     excursions,
+    is_static_root,
     pk_damping,
     rigid_body_branches,
     rigid_body_modes,
@@ -57,44 +68,56 @@ MARCH_STEPS = 16
 
 @dataclass
 class Crossings:
-    """The labelled crossings of one sweep: flutter points and rigid-body roots apart."""
+    """The labelled crossings of one sweep: flutter points, and apart the rigid-body roots'
+    crossings, the divergences (real roots) and the branches not loaded by the aerodynamics
+    (0-based; |g| <= ``g_tolerance`` at every speed)."""
 
     flutter: list[FlutterPoint]
     rigid_body: list[FlutterPoint]
+    divergence: list[FlutterPoint] = field(default_factory=list)
+    not_loaded: list[int] = field(default_factory=list)
+    g_tolerance: float = G_TOLERANCE
 
 
-def split_rigid(points: list[FlutterPoint], rigid) -> Crossings:
+def split_rigid(points: list[FlutterPoint], rigid, sweep: ModeSweep | None = None,
+                tol: float = G_TOLERANCE) -> Crossings:
     """Flutter points apart from the crossings of rigid-body branches (``rigid``: bool per
-    branch)."""
+    branch) and from the divergences (``divergence``); with ``sweep``, the elastic branches it
+    does not load (:meth:`ModeSweep.not_loaded` at ``tol``)."""
     rigid = np.asarray(rigid, dtype=bool)
     marked = [replace(p, rigid_body=bool(rigid[p.mode])) for p in points]
-    return Crossings([p for p in marked if not p.rigid_body], [p for p in marked if p.rigid_body])
+    elastic = [p for p in marked if not p.rigid_body]
+    quiet = [] if sweep is None else [j for j in sweep.not_loaded(tol) if not rigid[j]]
+    return Crossings([p for p in elastic if not p.divergence],
+                     [p for p in marked if p.rigid_body],
+                     [p for p in elastic if p.divergence], quiet, float(tol))
 
 
 def pk_crossings(structure: ModalStructure, aero: AeroTable, sweep: ModeSweep, rigid=None,
-                 eps: float = 1e-7) -> Crossings:
+                 eps: float = 1e-7, tol: float = G_TOLERANCE) -> Crossings:
     """Every crossing of a p-k sweep, labelled, refined and probed as the module docstring
-    says. ``rigid``: bool per branch (default :func:`rigid_body_branches`). A sweep along a
-    path of varying density (matched point, PKNL) keeps the linear interpolation."""
+    says, at the damping tolerance ``tol``. ``rigid``: bool per branch (default
+    :func:`rigid_body_branches`). A sweep along a path of varying density (matched point,
+    PKNL) keeps the linear interpolation."""
     rigid = rigid_body_branches(structure) if rigid is None else np.asarray(rigid, dtype=bool)
     V = np.asarray(sweep.velocity, dtype=float)
     if sweep.method != "PK" or V.ndim != 1 or np.ptp(sweep.density) != 0 or np.any(
             np.diff(V) < 0):
-        return split_rigid(sweep.crossings(), rigid)
-    linear = sweep.crossings()
-    branch = _Branch(structure, aero, sweep, eps)
+        return split_rigid(sweep.crossings(tol), rigid, sweep, tol)
+    linear = sweep.crossings(tol)
+    branch = _Branch(structure, aero, sweep, eps, tol)
     out = []
     for j in range(sweep.damping.shape[1]):
         if rigid[j]:  # not refined: round-off roots near 0 would only feed Brent noise
             out += [p for p in linear if p.mode == j]
             continue
         g = sweep.damping[:, j]
-        for i, back in excursions(g):
+        for i, back in excursions(g, tol):
             onset = branch.solve_crossing(j, i, V[i], V[i + 1])
             stable = None if back is None else branch.solve_crossing(j, back, V[back],
                                                                      V[back + 1])
             out.append(branch.point(j, onset, stable, _linear(linear, sweep.velocity, j, i)))
-        for i in _probe_indices(g):
+        for i in _probe_indices(g, tol):
             found = branch.probe_hump(j, i)
             # a speed listed twice can put the same hump beside two samples
             if found is not None and not any(
@@ -102,15 +125,15 @@ def pk_crossings(structure: ModalStructure, aero: AeroTable, sweep: ModeSweep, r
                     for p in out):
                 out.append(branch.point(j, *found, None))
     out.sort(key=lambda p: p.velocity)
-    return split_rigid(out, rigid)
+    return split_rigid(out, rigid, sweep, tol)
 
 
-def _probe_indices(g) -> list[int]:
-    """Interior samples where g has a local maximum between -HUMP_PROBE_G and +G_ROUNDOFF (a
-    sample on the hump's onset, g = 0 to round-off, is one: no sign change counts there)."""
+def _probe_indices(g, tol: float = G_TOLERANCE) -> list[int]:
+    """Interior samples where g has a local maximum between -HUMP_PROBE_G and +tol (a sample
+    on the hump's onset, g = 0 within tol, is one: no sign change counts there)."""
     g = np.asarray(g, dtype=float)
     with np.errstate(invalid="ignore"):
-        inner = ((g[1:-1] <= G_ROUNDOFF) & (g[1:-1] > -HUMP_PROBE_G)
+        inner = ((g[1:-1] <= tol) & (g[1:-1] > -HUMP_PROBE_G)
                  & (g[1:-1] >= g[:-2]) & (g[1:-1] >= g[2:]))
     return (np.flatnonzero(inner) + 1).tolist()
 
@@ -132,8 +155,9 @@ class _Solved:
 class _Branch:
     """p-k solves of one tracked branch at speeds between the sweep's samples."""
 
-    def __init__(self, structure, aero, sweep, eps):
+    def __init__(self, structure, aero, sweep, eps, tol: float = G_TOLERANCE):
         self.structure, self.aero, self.sweep, self.eps = structure, aero, sweep, eps
+        self.tol = float(tol)
         self.rho = float(sweep.density[0])
 
     def seed(self, j: int, sample: int):
@@ -191,7 +215,7 @@ class _Branch:
         res = scipy.optimize.minimize_scalar(
             lambda v: -self.damping(self.seed(j, i), v), bounds=(lo, hi), method="bounded",
             options={"maxiter": HUMP_PROBE_EVALS, "xatol": 1e-6 * hi})
-        if not -res.fun > G_ROUNDOFF:
+        if not -res.fun > self.tol:
             return None
         onset = self.solve_crossing(j, i, lo, float(res.x))
         stable = self.solve_crossing(j, i, float(res.x), hi)
@@ -217,4 +241,5 @@ class _Branch:
             stable_velocity=stable.velocity if hump else None,
             stable_frequency_hz=abs(stable.s.imag) / (2 * np.pi) if hump else None,
             refined=True,
+            divergence=is_static_root(onset.s, onset.velocity, self.aero.semichord),
         )

@@ -40,6 +40,16 @@ K_FLOOR = 1e-4
 #: from round-off, which is not flutter. A real crossing passes well beyond it (Nastran prints g
 #: to 1e-4..1e-5); a crossing whose damping stays below 1e-8 at the end of the sweep is missed.
 G_ROUNDOFF = 1e-8
+#: Default tolerance of the flutter answers (``--g-tolerance``): a crossing counts only where the
+#: damping g changes sign by more than this (from below -G_TOLERANCE to above +G_TOLERANCE),
+#: and a branch whose |g| stays within it over the whole range is "not loaded by the
+#: aerodynamics". 1e-3 is 0.05 % of critical damping (ζ = g/2): a tenth of the smallest
+#: structural damping of a built wing (g = 0.01..0.03), so any excursion inside it is removed
+#: by the structure's own damping; it is above the wobble of a mode the aerodynamics hardly load
+#: (±2.4e-4, the chordwise mode of a swept wingbox; ±3e-5, bah_plane's 14.5 Hz branch at
+#: extrapolated k) and far below a flutter crossing's g, which passes through 0 with a slope of
+#: order 1 per flutter speed (bah_plane: g = +0.05 at 5 % above its flutter speed).
+G_TOLERANCE = 1e-3
 
 
 def zero_crossings(g, tol: float = G_ROUNDOFF) -> list[int]:
@@ -66,6 +76,11 @@ def zero_crossings(g, tol: float = G_ROUNDOFF) -> list[int]:
 
 #: a crossing whose root stays unstable to the end of the range / one that re-stabilises
 SUSTAINED, HUMP = "sustained", "hump"
+def is_static_root(s: complex, velocity: float, semichord: float) -> bool:
+    """A real (non-oscillating) root: Im s = 0, or a reduced frequency |Im s| b / V at the p-k
+    floor :data:`K_FLOOR` (the iteration's k of a real root). Its crossing of zero is a
+    divergence, not flutter."""
+    return bool(s.imag == 0 or abs(s.imag) * semichord / velocity <= K_FLOOR)
 
 
 def excursions(g, tol: float = G_ROUNDOFF) -> list[tuple[int, int | None]]:
@@ -237,6 +252,7 @@ class FlutterPoint:
     :data:`HUMP` (it re-stabilises at ``stable_velocity``, ``stable_frequency_hz``).
     ``refined``: the speeds were solved between the sweep's points (False: interpolated
     linearly). ``rigid_body``: the root of a rigid-body mode (never a flutter point).
+    ``divergence``: a real root crossing zero (:func:`is_static_root`; never a flutter point).
     """
 
     velocity: float
@@ -252,6 +268,8 @@ class FlutterPoint:
     stable_frequency_hz: float | None = None
     refined: bool = False
     rigid_body: bool = False
+    #: a real root's crossing (zero frequency: static divergence), never flutter
+    divergence: bool = False
 
     @property
     def dynamic_pressure(self) -> float:
@@ -273,6 +291,7 @@ class FlutterPoint:
             "stable_frequency_hz": self.stable_frequency_hz,
             "refined": self.refined,
             "rigid_body": self.rigid_body,
+            "divergence": self.divergence,
         }
 
 
@@ -305,14 +324,16 @@ class ModeSweep:
         v = np.asarray(self.velocity, dtype=float)
         return v if v.ndim == 2 else np.repeat(v[:, None], self.eigenvalues.shape[1], axis=1)
 
-    def crossings(self) -> list[FlutterPoint]:
-        """Zero-damping crossings (negative → positive beyond ±:data:`G_ROUNDOFF`), labelled
-        sustained or hump (:func:`excursions`), interpolated linearly between points."""
+    def crossings(self, tol: float = G_TOLERANCE) -> list[FlutterPoint]:
+        """Zero-damping crossings (from below -``tol`` to above +``tol``, :func:`excursions`),
+        labelled sustained or hump, interpolated linearly between points; a crossing whose root
+        is real on its unstable side (:func:`is_static_root`) is a divergence
+        (``divergence=True``), not flutter."""
         out = []
         g = self.damping
         vel = self.velocity_by_mode
         for j in range(g.shape[1]):
-            for i, back in excursions(g[:, j]):
+            for i, back in excursions(g[:, j], tol):
 
                 def lerp(a, i, j=j):
                     t = g[i, j] / (g[i, j] - g[i + 1, j])
@@ -332,9 +353,23 @@ class ModeSweep:
                         stable_velocity=None if back is None else lerp(vel[:, j], back),
                         stable_frequency_hz=(None if back is None
                                              else lerp(self.frequency_hz[:, j], back)),
+                        divergence=is_static_root(self.eigenvalues[i + 1, j], vel[i + 1, j],
+                                                  self.semichord),
                     )
                 )
         return sorted(out, key=lambda p: (p.dynamic_pressure, p.velocity))
+
+    def not_loaded(self, tol: float = G_TOLERANCE) -> list[int]:
+        """Branches that oscillate at every point with a damping within ±``tol`` (an
+        undefined g counts as beyond it): modes the aerodynamics do not load, whose g is
+        noise around 0 and never a flutter crossing. A branch with a real root somewhere
+        (:func:`is_static_root`; Nastran's g = 2 s b / (V ln 2) of a real root near s = 0 is
+        small at any speed) is loaded: its root left the imaginary axis."""
+        vel = self.velocity_by_mode
+        with np.errstate(invalid="ignore", divide="ignore"):
+            oscillating = np.abs(self.eigenvalues.imag) * self.semichord / vel > K_FLOOR
+            inside = (np.abs(self.damping) <= tol) & oscillating
+        return np.flatnonzero(inside.all(axis=0)).tolist()
 
     def table(self) -> list[dict]:
         """V-g / V-f records (one per point and mode), for printing and --json."""
@@ -739,18 +774,19 @@ class OscillatoryRoots:
             raise ConvergenceError("state space: no oscillatory root found")
         return complex(self.elastic[np.argmax(self.elastic.real)])
 
-    def flutter_root(self) -> complex | None:
-        """:meth:`critical` among the roots whose damping g = 2 Re s / Im s is beyond
-        round-off (|g| > :data:`G_ROUNDOFF`, the p-k's rule): a mode the aerodynamics do not
-        touch, undamped, has Re s = ±1e-14 and is no flutter (bah_plane's 8.70 Hz mode at
-        α = γ = 0). None where every root is within round-off."""
+    def flutter_root(self, tol: float = G_TOLERANCE) -> complex | None:
+        """:meth:`critical` among the roots whose damping g = 2 Re s / Im s is beyond ``tol``
+        (|g| > tol, the p-k's rule, :data:`G_TOLERANCE`): a mode the aerodynamics do not
+        load, undamped, has Re s = ±1e-14 (bah_plane's 8.70 Hz mode at α = γ = 0), or a g
+        that wobbles about 0 by less than tol, and is no flutter. None where every root is
+        within tol."""
         g = 2 * self.elastic.real / self.elastic.imag
-        beyond = self.elastic[np.abs(g) > G_ROUNDOFF]
+        beyond = self.elastic[np.abs(g) > tol]
         return complex(beyond[np.argmax(beyond.real)]) if len(beyond) else None
 
-    def flutter_growth(self) -> float:
+    def flutter_growth(self, tol: float = G_TOLERANCE) -> float:
         """Re of :meth:`flutter_root` (1/s; NaN where there is none)."""
-        root = self.flutter_root()
+        root = self.flutter_root(tol)
         return float("nan") if root is None else root.real
 
 
@@ -824,6 +860,23 @@ def refine_crossing(roots_at: Callable[[float], OscillatoryRoots], lo: float, hi
     return x, branch(x)
 
 
+def stable_before(roots: list[OscillatoryRoots], i: int, target: complex
+                  ) -> tuple[int, complex]:
+    """(j, root at sample j + 1): j < i the last sample before ``i`` of a sweep of ``roots``
+    where the root that continues ``target`` (the root at sample ``i``; downwards, the elastic
+    root nearest the one at the next sample) is stable (Re s < 0). A root within the damping
+    tolerance, left out of the growth rate at sample i - 1 but already positive there, crossed
+    zero before it: the crossing is bracketed by samples j and j + 1."""
+    j, root = i - 1, target
+    while j > 0:
+        e = roots[j].elastic
+        before = complex(e[np.argmin(np.abs(e - root))])
+        if before.real < 0:
+            break
+        j, root = j - 1, before
+    return j, root
+
+
 def rigid_body_crossings_state_space(roots: list[OscillatoryRoots], x) -> list[tuple[int, float]]:
     """(mode, x sample) where the damping g = 2 Re s / Im s of the least stable rigid-body
     root first crosses zero along a sweep of ``roots`` at the samples ``x`` (altitude or speed;
@@ -865,6 +918,8 @@ class MatchedPointResult:
     mode: int | None
     sweep: ModeSweep | dict | None = None
     units: str = "ft"
+    #: the unit of ``altitude`` (and of the sweep's altitudes): "m" or "ft"
+    altitude_unit: str = "ft"
     #: the rigid-body branches (p-k) or modes (state space, :func:`oscillatory_roots`; 0-based)
     #: whose damping crosses zero in the sweep, with the altitude sample where it first does
     #: (a free aircraft's rigid roots: not flutter)
@@ -885,6 +940,7 @@ class MatchedPointResult:
             else 0.5 * self.density * self.velocity**2,
             "mode": None if self.mode is None else self.mode + 1,
             "units": self.units,
+            "altitude_unit": self.altitude_unit,
         }
 
 
@@ -896,40 +952,49 @@ def _altitude_grid(alt_range, n) -> np.ndarray:
 
 
 def flutter_altitude_state_space(
-    structure, rfa, mach, alt_range, n_grid=41, units="ft", xtol=1e-3
+    structure, rfa, mach, alt_range, n_grid=41, units="ft", xtol=1e-3, *,
+    altitude_unit: str | None = None, g_tolerance: float = G_TOLERANCE,
 ) -> MatchedPointResult:
     """Highest altitude in ``alt_range`` where the critical state-space root crosses Re s = 0
-    (a free aircraft's rigid-body roots and roots whose damping is round-off left out:
-    :meth:`OscillatoryRoots.flutter_root`; the rigid-body roots' crossings listed apart)."""
+    (a free aircraft's rigid-body roots and roots whose damping is within ``g_tolerance`` of 0
+    left out: :meth:`OscillatoryRoots.flutter_root`; the rigid-body roots' crossings listed
+    apart).
+    Altitudes in ``altitude_unit`` (default the system's; ``xtol`` in it)."""
     h = _altitude_grid(alt_range, n_grid)
-    fc = flight_condition(mach, h, units)
+    fc = flight_condition(mach, h, units, altitude_unit)
+    hu = fc.altitude_unit
 
     def roots_at(alt):
-        c = flight_condition(mach, alt, units)
+        c = flight_condition(mach, alt, units, hu)
         return oscillatory_roots(structure, rfa, c.velocity, c.density)
 
     roots = [oscillatory_roots(structure, rfa, v, r) for v, r in zip(fc.velocity, fc.density)]
-    sig = np.array([r.flutter_growth() for r in roots])
+    sig = np.array([r.flutter_growth(g_tolerance) for r in roots])
     # a free aircraft's rigid-body roots are reported apart, never as the flutter point
     apart = rigid_body_crossings_state_space(roots, h)
     sweep = state_space_sweep(structure, rfa, fc.velocity, fc.density, h, mach)
     sweep["growth_rate"] = sig
-    idx = np.flatnonzero((sig[:-1] < 0) & (sig[1:] >= 0))
+    unstable = sig >= 0  # NaN (every root within the tolerance): not unstable
+    idx = np.flatnonzero(~unstable[:-1] & unstable[1:])
     if len(idx) == 0:
         return MatchedPointResult("state-space", mach, None, None, None, None, None, sweep, units,
-                                  apart)
-    i = idx[0]
-    alt, root = refine_crossing(roots_at, h[i + 1], h[i], roots[i + 1].flutter_root(), xtol)
-    return replace(_matched("state-space", mach, alt, root, None, sweep, units),
+                                  hu, apart)
+    i, target = stable_before(roots, idx[0] + 1, roots[idx[0] + 1].flutter_root(g_tolerance))
+    alt, root = refine_crossing(roots_at, h[i + 1], h[i], target, xtol)
+    return replace(_matched("state-space", mach, alt, root, None, sweep, units, hu),
                    rigid_body_crossings=apart)
 
 
 def flutter_altitude_pk(
-    structure, aero: AeroTable, mach, alt_range, n_grid=41, units="ft", xtol=1e-3, eps=1e-7
+    structure, aero: AeroTable, mach, alt_range, n_grid=41, units="ft", xtol=1e-3, eps=1e-7,
+    *, altitude_unit: str | None = None, g_tolerance: float = G_TOLERANCE,
 ) -> MatchedPointResult:
-    """Highest altitude in ``alt_range`` where a tracked p-k mode's damping crosses zero."""
+    """Highest altitude in ``alt_range`` where a tracked p-k mode's damping crosses zero, from
+    below -``g_tolerance`` to above it (:func:`zero_crossings`; altitudes in
+    ``altitude_unit``, default the system's; ``xtol`` in it)."""
     h = _altitude_grid(alt_range, n_grid)
-    fc = flight_condition(mach, h, units)
+    fc = flight_condition(mach, h, units, altitude_unit)
+    hu = fc.altitude_unit
     sweep = pk_sweep(structure, aero, fc.velocity, fc.density, altitudes=h, mach=mach, eps=eps)
     # Non-oscillatory roots (divergence) have g = ±inf and are not flutter crossings.
     g = np.where(np.isfinite(sweep.damping), sweep.damping, np.nan)
@@ -938,18 +1003,18 @@ def flutter_altitude_pk(
     rigid = rigid_body_branches(structure)
     first, apart = None, []
     for j in range(structure.n_modes):
-        idx = zero_crossings(g[:, j])
+        idx = zero_crossings(g[:, j], g_tolerance)
         if len(idx) and rigid[j]:
             apart.append((j, float(h[idx[0]])))
         elif len(idx) and (first is None or idx[0] < first[0]):
             first = (idx[0], j)
     if first is None:
         return MatchedPointResult("p-k", mach, None, None, None, None, None, sweep, units,
-                                  apart)
+                                  hu, apart)
     i, j = first
 
     def solve(alt):
-        c = flight_condition(mach, alt, units)
+        c = flight_condition(mach, alt, units, hu)
         s, _, _, ok = _pk_mode(
             structure,
             aero,
@@ -965,12 +1030,12 @@ def flutter_altitude_pk(
         return s
 
     alt = scipy.optimize.brentq(lambda a: solve(a).real, h[i + 1], h[i], xtol=xtol)
-    return replace(_matched("p-k", mach, alt, solve(alt), j, sweep, units),
+    return replace(_matched("p-k", mach, alt, solve(alt), j, sweep, units, hu),
                    rigid_body_crossings=apart)
 
 
-def _matched(method, mach, alt, root, mode, sweep, units) -> MatchedPointResult:
-    c = flight_condition(mach, alt, units)
+def _matched(method, mach, alt, root, mode, sweep, units, altitude_unit) -> MatchedPointResult:
+    c = flight_condition(mach, alt, units, altitude_unit)
     return MatchedPointResult(
         method,
         mach,
@@ -981,14 +1046,17 @@ def _matched(method, mach, alt, root, mode, sweep, units) -> MatchedPointResult:
         mode,
         sweep,
         units,
+        c.altitude_unit,
     )
 
 
-def growing_response_frequency(structure, rfa, mach, altitudes, units="ft") -> np.ndarray:
-    """Frequency (Hz) of the fastest-growing state-space root at each altitude (paper Table 3)."""
+def growing_response_frequency(structure, rfa, mach, altitudes, units="ft", *,
+                               altitude_unit: str | None = None) -> np.ndarray:
+    """Frequency (Hz) of the fastest-growing state-space root at each altitude (paper Table 3;
+    altitudes in ``altitude_unit``, default the system's)."""
     out = []
     for alt in np.atleast_1d(altitudes):
-        c = flight_condition(mach, float(alt), units)
+        c = flight_condition(mach, float(alt), units, altitude_unit)
         out.append(critical_root(structure, rfa, c.velocity, c.density).imag / (2 * np.pi))
     return np.array(out)
 
@@ -1050,15 +1118,17 @@ def _growth_of_damping(structure, rfa, velocity: float, density: float):
 
 
 def alpha_for_gamma(
-    structure, rfa, gamma, mach, altitude, units="ft", bracket=(-5.0, 5.0), xtol=1e-10
+    structure, rfa, gamma, mach, altitude, units="ft", bracket=(-5.0, 5.0), xtol=1e-10, *,
+    altitude_unit: str | None = None,
 ) -> float:
     """α such that the flutter point at ``altitude`` (fixed Mach) holds for this γ (paper Fig. 9).
 
     Solves growth_rate(α; γ, h) = 0 with Brent's method; the bracket is widened if needed.
     The growth rate is that of the roots that can be flutter (:func:`_growth_of_damping`:
-    rigid-body roots and modes the aerodynamics do not touch left out).
+    rigid-body roots and modes the aerodynamics do not touch left out). ``altitude`` in
+    ``altitude_unit`` (default the system's).
     """
-    c = flight_condition(mach, float(altitude), units)
+    c = flight_condition(mach, float(altitude), units, altitude_unit)
     rates = _growth_of_damping(structure, rfa, c.velocity, c.density)
 
     def growth(a):
@@ -1079,7 +1149,7 @@ def alpha_for_gamma(
 
 def alpha_for_gammas(
     structure, rfa, gammas, mach, altitude, units="ft", bracket=(-5.0, 5.0), xtol=1e-10,
-    max_iterations: int = 100,
+    max_iterations: int = 100, *, altitude_unit: str | None = None,
 ) -> np.ndarray:
     """:func:`alpha_for_gamma` for many γ at once (a sampling study's cases): the same root
     of the same growth rate (:func:`_growth_of_damping`: rigid-body roots and modes the
@@ -1092,7 +1162,7 @@ def alpha_for_gammas(
     physical_values("gamma", g, "matched alpha:")
     if g.size == 0:
         return np.zeros(0)
-    c = flight_condition(mach, float(altitude), units)
+    c = flight_condition(mach, float(altitude), units, altitude_unit)
     growth = _growth_of_damping(structure, rfa, c.velocity, c.density)
     lo, hi = np.full(g.size, float(bracket[0])), np.full(g.size, float(bracket[1]))
     glo, ghi = growth(lo, g), growth(hi, g)
@@ -1132,7 +1202,8 @@ def alpha_for_gammas(
         if todo.size == 0:
             break
     for j in todo:  # not settled: the scalar root finder
-        alpha[j] = alpha_for_gamma(structure, rfa, g[j], mach, altitude, units, bracket, xtol)
+        alpha[j] = alpha_for_gamma(structure, rfa, g[j], mach, altitude, units, bracket, xtol,
+                                   altitude_unit=altitude_unit)
     return alpha
 
 
@@ -1142,16 +1213,18 @@ def damping_ratio(s: complex) -> float:
 
 
 def pk_matched_sweep(
-    structure, aero: AeroTable, mach, altitudes, units="ft", start_altitude=None, eps: float = 1e-7
+    structure, aero: AeroTable, mach, altitudes, units="ft", start_altitude=None, eps: float = 1e-7,
+    *, altitude_unit: str | None = None,
 ) -> ModeSweep:
     """p-k along a matched-point path through ``altitudes`` (sorted high to low internally).
 
     ``start_altitude`` (optional, above the others) is where tracking starts from the in-vacuo
-    modes; the returned sweep holds only the requested altitudes, high to low.
+    modes; the returned sweep holds only the requested altitudes, high to low. Altitudes in
+    ``altitude_unit`` (default the system's).
     """
     h = np.sort(np.atleast_1d(np.asarray(altitudes, dtype=float)))[::-1]
     path = h if start_altitude is None else np.r_[float(start_altitude), h]
-    fc = flight_condition(mach, path, units)
+    fc = flight_condition(mach, path, units, altitude_unit)
     sweep = pk_sweep(structure, aero, fc.velocity, fc.density, altitudes=path, mach=mach, eps=eps)
     if start_altitude is None:
         return sweep
@@ -1169,11 +1242,14 @@ def pk_matched_sweep(
 
 
 def growing_response_frequency_pk(
-    structure, aero: AeroTable, mach, altitudes, units="ft", start_altitude=None
+    structure, aero: AeroTable, mach, altitudes, units="ft", start_altitude=None, *,
+    altitude_unit: str | None = None,
 ) -> np.ndarray:
-    """Frequency (Hz) of the least-damped p-k mode at each altitude (in the given order)."""
+    """Frequency (Hz) of the least-damped p-k mode at each altitude (in the given order;
+    altitudes in ``altitude_unit``, default the system's)."""
     alts = np.atleast_1d(np.asarray(altitudes, dtype=float))
-    sweep = pk_matched_sweep(structure, aero, mach, alts, units, start_altitude)
+    sweep = pk_matched_sweep(structure, aero, mach, alts, units, start_altitude,
+                             altitude_unit=altitude_unit)
     order = np.argsort(-alts, kind="stable")  # the sweep runs high to low
     out = np.empty(len(alts))
     g = np.where(np.isfinite(sweep.damping), sweep.damping, -np.inf)  # oscillatory roots only

@@ -38,7 +38,7 @@ from ..fe.rigid import modal_basis_with_rigid
 from .crossings import RIGID_FRACTION, pk_crossings, rigid_body_modes, split_rigid
 from .dlm import BoxMotion, compute_gaf, exact_k_indices
 from .flutter import (
-    G_ROUNDOFF,
+    G_TOLERANCE,
     HUMP,
     SUSTAINED,
     AeroTable,
@@ -289,21 +289,22 @@ def _spline_defs(model, path: Path, panels: AeroPanels, frame: AeroFrame) -> lis
 
 
 def load_deck(path, require_flutter: bool = True, *, symxz: int | None = None,
-              length_unit: str | None = None, resvec: bool | None = None) -> FlutterDeck:
+              length_unit: str | None = None, resvec: bool | None = None,
+              includes=()) -> FlutterDeck:
     """Read and check the aeroelastic part of a deck (everything except the modal solution).
 
     ``require_flutter=False`` accepts a deck with aerodynamic boxes and splines but no FLUTTER
     cards (to build GAFs only). ``resvec`` overrides the deck's RESVEC (residual vectors,
     :func:`_with_residual_vectors`). ``symxz`` (-1, 0, +1) overrides the deck's AERO/AEROS SYMXZ;
-    ``length_unit`` labels the output when the deck has no DTI,UNITS card.
+    ``length_unit`` labels the output when the deck has no DTI,UNITS card; ``includes``: files of
+    cards read as if INCLUDEd (``--panels``: :func:`torchrom.fe.bdf_read.with_includes`).
     """
     path = Path(path)
-    model = read_model(path)
+    model = read_model(path, includes)
     if not model.caeros:
-        raise InputError(f"{path}: CAERO1: no aerodynamic panels in the deck: torchrom flutter "
-                         f"DECK needs its aerodynamic model (CAERO1, SPLINE1/2, AERO, MKAERO1, "
-                         f"FLUTTER); for a structure-only deck: torchrom identify, torchrom aero "
-                         f"--planform goland, then torchrom flutter rom.npz aero.npz")
+        raise InputError(f"{path}: CAERO1: no aerodynamic panels in the deck: write them from "
+                         f"its structure with torchrom panels {path.name} --out panels.bdf, "
+                         f"then give --panels panels.bdf (or INCLUDE it in the deck)")
     frame = read_aero_frame(model, str(path))
     panels = read_caero1(model, str(path), frame)
     ref = read_aero_reference(model, str(path))
@@ -497,6 +498,11 @@ class CaseResult:
     points: list[FlutterPoint]  # flutter crossings, labelled sustained or hump
     #: crossings of the rigid-body modes' roots (:mod:`torchrom.aero.crossings`): not flutter
     rigid_points: list[FlutterPoint] = field(default_factory=list)
+    #: crossings of real roots (zero frequency): divergence, not flutter
+    divergence_points: list[FlutterPoint] = field(default_factory=list)
+    #: 0-based branches whose |g| stays within the damping tolerance at every speed: not
+    #: loaded by the aerodynamics (no flutter row, whatever the sign of their noise)
+    not_loaded: list[int] = field(default_factory=list)
 
 
 @dataclass
@@ -505,14 +511,16 @@ class DeckResult:
     frequencies_hz: np.ndarray
     results: list[CaseResult]
     notes: list[str]
+    #: the damping tolerance of the crossings (:data:`torchrom.aero.flutter.G_TOLERANCE`)
+    g_tolerance: float = G_TOLERANCE
 
     def unstable_at_start(self) -> list[tuple[CaseResult, int]]:
-        """(case, branch) of the elastic roots already unstable at the first speed of a sweep:
-        no crossing in the range (bah_plane's FLUTTER 501: the 2.45 Hz root from 4,774 on, as
-        the f06's POINT 4), but not stable either."""
+        """(case, branch) of the elastic roots already unstable (g above the tolerance) at the
+        first speed of a sweep: no crossing in the range (bah_plane's FLUTTER 501: the 2.45 Hz
+        root from 4,774 on, as the f06's POINT 4), but not stable either."""
         rigid = rigid_body_modes(self.frequencies_hz)
         return [(r, j) for r in self.results for j in range(r.sweep.damping.shape[1])
-                if not rigid[j] and r.sweep.damping[0, j] > G_ROUNDOFF]
+                if not rigid[j] and r.sweep.damping[0, j] > self.g_tolerance]
 
     def _density_unit(self) -> str:
         """The label of the densities: the unit system's when the deck's cards tell it (and
@@ -548,8 +556,16 @@ class DeckResult:
             "units": {"system": self.deck.units, "velocity": self.deck.velocity_unit,
                       "frequency": "Hz", "density": self._density_unit()},
             "modal_frequencies_hz": self.frequencies_hz.tolist(),
+            "g_tolerance": self.g_tolerance,
             "flutter": points("points"),
+            "divergence": points("divergence_points"),
             "rigid_body_roots": points("rigid_points"),
+            "not_loaded": [
+                {"flutter_id": r.case.sid, "method": r.case.method, "mach": r.mach,
+                 "density_ratio": r.density_ratio, "mode": j + 1,
+                 "frequency_hz": float(self.frequencies_hz[j]),
+                 "max_abs_damping_g": float(np.max(np.abs(r.sweep.damping[:, j])))}
+                for r in self.results for j in r.not_loaded],
             "unstable_at_first_speed": [
                 {"flutter_id": r.case.sid, "method": r.case.method, "mach": r.mach,
                  "density_ratio": r.density_ratio, "mode": j + 1,
@@ -610,11 +626,13 @@ def _with_residual_vectors(deck: FlutterDeck, fe, notes: list[str]):
 
 
 def run_deck(deck_or_path, fe=None, kernel: str = NASTRAN_KERNEL, log=print,
-             k_exact: int | None = None) -> DeckResult:
+             k_exact: int | None = None, g_tolerance: float = G_TOLERANCE) -> DeckResult:
     """Run every FLUTTER case of a deck (modes from ``fe`` or :func:`torchrom.fe.read_bdf`).
 
     ``k_exact``: solve the DLM at no more than this many of each case's reduced frequencies and
-    interpolate the GAFs at the others (:func:`torchrom.aero.dlm.compute_gaf`)."""
+    interpolate the GAFs at the others (:func:`torchrom.aero.dlm.compute_gaf`).
+    ``g_tolerance``: a crossing counts only where the damping changes sign by more than it
+    (:mod:`torchrom.aero.crossings`)."""
     deck = deck_or_path if isinstance(deck_or_path, FlutterDeck) else load_deck(deck_or_path)
     if fe is None:
         from ..fe import read_bdf
@@ -681,15 +699,16 @@ def run_deck(deck_or_path, fe=None, kernel: str = NASTRAN_KERNEL, log=print,
                                  mach=mach, eps=min(case.eps, 1e-4),
                                  real_root_damping="nastran")
                 # linear in the path, as Nastran's summary
-                found = split_rigid(sweep.crossings(), rigid)
-                for p in found.flutter + found.rigid_body:
+                found = split_rigid(sweep.crossings(g_tolerance), rigid, sweep, g_tolerance)
+                for p in found.flutter + found.rigid_body + found.divergence:
                     p.mach = float(mach)
                 notes += sweep.notes
                 ratio = ratio_all[sel]
                 results.append(CaseResult(case, float(mach), float(ratio[0]) if
                                           np.ptp(ratio) == 0 else float("nan"),
                                           float(rho_all[sel][0]), sweep, found.flutter,
-                                          found.rigid_body))
+                                          found.rigid_body, found.divergence,
+                                          found.not_loaded))
             continue
         for mach in case.machs:
             if case.method.startswith("PK"):
@@ -702,16 +721,24 @@ def run_deck(deck_or_path, fe=None, kernel: str = NASTRAN_KERNEL, log=print,
                     v = np.sort(np.abs(case.values))
                     sweep = pk_sweep(structure, aero, v, rho, mach=mach,
                                      eps=min(case.eps, 1e-4), real_root_damping="nastran")
-                    found = pk_crossings(structure, aero, sweep, rigid)
+                    found = pk_crossings(structure, aero, sweep, rigid, tol=g_tolerance)
                 else:
                     sweep = ke_sweep(structure, aero, case.values, rho)
-                    found = split_rigid(sweep.crossings(), rigid)
-                for p in found.flutter + found.rigid_body:
+                    found = split_rigid(sweep.crossings(g_tolerance), rigid, sweep,
+                                        g_tolerance)
+                for p in found.flutter + found.rigid_body + found.divergence:
                     p.mach = float(mach)
                 notes += sweep.notes
                 results.append(CaseResult(case, float(mach), float(ratio), float(rho), sweep,
-                                          found.flutter, found.rigid_body))
-    return DeckResult(deck, freqs, results, notes)
+                                          found.flutter, found.rigid_body, found.divergence,
+                                          found.not_loaded))
+    return DeckResult(deck, freqs, results, notes, float(g_tolerance))
+
+
+def _case_mode(res: DeckResult, r: CaseResult, j: int) -> str:
+    """"FLUTTER 1 (PK) Mach 0 density ratio 1: mode 3 (13.74 Hz in vacuo)"."""
+    return (f"FLUTTER {r.case.sid} ({r.case.method}) Mach {r.mach:g} density ratio "
+            f"{r.density_ratio:g}: mode {j + 1} ({res.frequencies_hz[j]:.4g} Hz in vacuo)")
 
 
 def format_deck_result(res: DeckResult) -> str:
@@ -756,12 +783,25 @@ def format_deck_result(res: DeckResult) -> str:
         lines.append("  " + _crossing_line(res, r, p))
     if not flutter:
         lines.append("  none in the requested range")
+    lines.append(f"  (a crossing counts where the damping g changes sign by more than "
+                 f"{res.g_tolerance:g}: --g-tolerance)")
+    for r in res.results:
+        for j in r.not_loaded:
+            lines.append(
+                f"  {_case_mode(res, r, j)} is not loaded by the aerodynamics: |g| <= "
+                f"{np.max(np.abs(r.sweep.damping[:, j])):.2g} at every speed, within "
+                f"{res.g_tolerance:g}: no flutter row")
+    divergence = [(r, p) for r in res.results for p in r.divergence_points]
+    if divergence:
+        lines.append("divergence (a real root, zero frequency, crosses zero: static, not "
+                     "flutter):")
+        for r, p in divergence:
+            lines.append("  " + _crossing_line(res, r, p))
     for r, j in res.unstable_at_start():
         lines.append(
-            f"  FLUTTER {r.case.sid} ({r.case.method}) Mach {r.mach:g} density ratio "
-            f"{r.density_ratio:g}: mode {j + 1} ({res.frequencies_hz[j]:.4g} Hz in vacuo) is "
-            f"unstable from the first speed ({r.sweep.velocity_by_mode[0, j] / res.deck.vref:.5g}"
-            f" {res.deck.velocity_unit}: g = {r.sweep.damping[0, j]:+.4g} at "
+            f"  {_case_mode(res, r, j)} is unstable from the first speed "
+            f"({r.sweep.velocity_by_mode[0, j] / res.deck.vref:.5g} {res.deck.velocity_unit}: "
+            f"g = {r.sweep.damping[0, j]:+.4g} at "
             f"{r.sweep.frequency_hz[0, j]:.5g} Hz): no crossing in the range")
     rigid = [(r, p) for r in res.results for p in r.rigid_points]
     if rigid:
@@ -778,11 +818,14 @@ def _crossing_line(res: DeckResult, r: CaseResult, p: FlutterPoint) -> str:
     """One crossing: case, mode, kind, onset speed and frequency, re-stabilisation, units."""
     vref, vu = res.deck.vref, res.deck.velocity_unit
     last = float(np.max(r.sweep.velocity_by_mode[:, p.mode])) / vref
-    what = "damping crosses zero at" if p.rigid_body else "flutter speed"
-    text = (f"FLUTTER {r.case.sid} ({r.case.method}) Mach {r.mach:g} density ratio "
-            f"{r.density_ratio:g}: mode {p.mode + 1} ({res.frequencies_hz[p.mode]:.4g} Hz in "
-            f"vacuo), {p.kind}: {what} {p.velocity / vref:.5g} {vu}, frequency "
-            f"{p.frequency_hz:.5g} Hz, k = {p.k:.4f}; ")
+    what = ("damping crosses zero at" if p.rigid_body else
+            "divergence speed" if p.divergence else "flutter speed")
+    head = _case_mode(res, r, p.mode)
+    if p.divergence and not p.rigid_body:  # a real root: no frequency, no k
+        text = f"{head}: {what} {p.velocity / vref:.5g} {vu} (a real root crosses zero); "
+    else:
+        text = (f"{head}, {p.kind}: {what} {p.velocity / vref:.5g} {vu}, frequency "
+                f"{p.frequency_hz:.5g} Hz, k = {p.k:.4f}; ")
     if p.kind == HUMP:
         text += (f"stable again at {p.stable_velocity / vref:.5g} {vu} "
                  f"({p.stable_frequency_hz:.5g} Hz)")
@@ -921,14 +964,15 @@ def compare_f06(res: DeckResult, f06_path) -> tuple[str, list[dict]]:
     lines.append(f"{'method':>7}{'Mach':>7}{'rho ratio':>11}{'mode':>5}{'kind':>10}"
                  f"{'Nastran':>10}{'V torchrom':>13}"
                  f"{'V Nastran':>12}{'dV %':>8}{'f torchrom':>12}{'f Nastran':>11}{'df %':>8}")
-    ours = [(r, p) for r in res.results for p in r.points]
+    # a divergence of ours beside the f06's real-root crossings (Nastran prints them as points)
+    ours = [(r, p) for r in res.results for p in r.points + r.divergence_points]
     match = _pair_crossings(ours, theirs, vref)
     used = set(match.values())
     for a, (r, p) in enumerate(ours):
         v = p.velocity / vref
         rec = {"flutter_id": r.case.sid, "method": r.case.method, "mach": r.mach,
                "density_ratio": r.density_ratio, "mode": p.mode + 1, "kind": p.kind,
-               "nastran_kind": None, "velocity": v,
+               "divergence": p.divergence, "nastran_kind": None, "velocity": v,
                "frequency_hz": p.frequency_hz, "nastran_velocity": None,
                "nastran_frequency_hz": None, "velocity_diff_pct": None,
                "frequency_diff_pct": None}

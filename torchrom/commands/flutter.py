@@ -19,19 +19,33 @@ stable_frequency_hz, density, dynamic_pressure, reduced_frequency, refined (solv
 sweep's speeds)}], "rigid_body_roots": [the same, for the roots of rigid-body modes: not
 flutter], "unstable_at_first_speed": [{flutter_id, method, mach, density_ratio, mode,
 velocity, damping_g, frequency_hz}], "vg": [{..., mode, velocity, damping_g, frequency_hz,
-reduced_frequency, eigenvalue_real, eigenvalue_imag}], "notes"}.
+reduced_frequency, eigenvalue_real, eigenvalue_imag}], "notes", "g_tolerance", "divergence":
+[the flutter records of real roots crossing zero, divergence true: never flutter],
+"not_loaded": [{flutter_id, method, mach, density_ratio, mode, frequency_hz,
+max_abs_damping_g}: modes whose |g| stays within g_tolerance, never flutter]}.
+Damping tolerance (--g-tolerance G, default 1e-3, every form): a crossing counts only where g
+goes from below -G to above +G (:mod:`torchrom.aero.crossings`).
 Units: the ROM form's numbers are in the unit system the files record (torchrom.units; "units"
-holds the label of each quantity: altitude, speed, density, dynamic_pressure, ...).
+holds the label of each quantity: altitude, speed, density, dynamic_pressure, ...); altitudes
+(--alt-range, --at, every altitude printed, in the JSON and on the figures) in the run's one
+altitude unit: the system's (m for si and mm-t-s, ft for ft-slug-s and in-lbf-s) or
+--altitude-unit's; each flutter record names it ("altitude_unit").
 Matched-point form: {"mach", "alpha" (1/s), "gamma" (s), "units", "flutter": [{method, altitude,
 frequency_hz, velocity, density, dynamic_pressure, mode}], "growing_response": [{altitude,
 frequency_hz_state_space, frequency_hz_pk}], "alpha_for_gamma": [{gamma, alpha, altitude}],
 "paper": {...} (Goland only)}. With an aero file at Mach 0 (incompressible), no matched point:
 {"mach": 0, "alpha", "gamma", "units", "flutter": [{method, altitude, density, velocity,
 frequency_hz, dynamic_pressure, mode, kind, stable_velocity, rigid_body_crossings: [{mode,
-velocity}]}]}, the flutter speed at the density of each altitude; the same with --density at
-the aero file's Mach (altitude null). A free aircraft's rigid-body roots are never a flutter
+velocity}], g_tolerance, divergence_velocity, divergence_mode, not_loaded_modes, speed_range,
+agrees_with_pk (state space: within 1 % of the p-k)}], "g_tolerance", "rfa_check" (the aero
+file's record of its reduced frequencies, :mod:`torchrom.aero.reduced_frequencies`)}, the
+flutter speed at the density of each altitude; the same with --density at the aero file's Mach
+(altitude null). A free aircraft's rigid-body roots are never a flutter
 point, by p-k or the state space: they are printed apart and listed in
-``rigid_body_crossings`` (matched point: [{mode, altitude}]).
+``rigid_body_crossings`` (matched point: [{mode, altitude}]). The ROM forms and goland also
+hold "damping": {alpha, gamma, source, description, frequencies_hz, zeta_target, zeta_fit},
+the structural damping used and where it came from (:mod:`._damping`: --alpha/--gamma, else
+--damping-ratio, else what rom.npz records; goland: the paper's Eq. 46 values).
 """
 
 from __future__ import annotations
@@ -41,6 +55,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..units import ALTITUDE_UNITS
 from . import _flutter_aoa as flutter_aoa
 from ._common import (
     OrderedRange,
@@ -58,6 +73,8 @@ from ._common import (
     positive_int,
     write_figure,
 )
+from ._damping import add_damping_ratio_option, damping_ratio_of
+from ._flutter_checks import disagreement, matched_disagreement, quiet_lines, rfa_lines
 
 NAME = "flutter"
 HELP = (
@@ -80,23 +97,31 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         action=OrderedRange,
         metavar=("LO", "HI"),
         default=None,
-        help="altitude range searched for the flutter point, in the model's altitude unit (ft "
-        "for ft-slug-s and in-lbf-s, m for si and mm-t-s; default 0 to 40,000 ft = 12,192 m)",
+        help="altitude range searched for the flutter point, in the run's altitude unit "
+        "(--altitude-unit; default 0 to 40,000 ft = 12,192 m)",
     )
+    p.add_argument("--altitude-unit", choices=tuple(ALTITUDE_UNITS), default=None,
+                   help="unit of every altitude of the run: --alt-range, --at and the altitudes "
+                        "printed, written and drawn (default: the model's, m for si and "
+                        "mm-t-s, ft for ft-slug-s, in-lbf-s and goland)")
     p.add_argument("--alpha", type=finite_float,
-                   help="mass-proportional damping α (1/s; default 0.2565)")
+                   help="mass-proportional damping α (1/s; default: the structural damping "
+                        "rom.npz records, which identify took from the deck's damping cards "
+                        "or --damping-ratio, else 0; goland: the paper's 0.2565)")
     p.add_argument(
         "--gamma", type=case_parameter("gamma"),
-        help="stiffness-proportional damping γ (s; default 1.338e-4)",
+        help="stiffness-proportional damping γ (s; default: what rom.npz records, as "
+             "--alpha; goland: the paper's 1.338e-4)",
     )
+    add_damping_ratio_option(p, "ROM forms and goland, instead of --alpha/--gamma: ")
     p.add_argument("--method", choices=["both", "pk", "state-space"], default="both")
     p.add_argument(
         "--at",
         type=finite_float,
         nargs="+",
         metavar="ALT",
-        help="altitudes (the model's altitude unit, see --alt-range) at which to report the "
-        "growing-response frequency (default for goland: the paper's Table 3 altitudes, ft)",
+        help="altitudes (the run's altitude unit, see --altitude-unit) at which to report the "
+        "growing-response frequency (default for goland: the paper's Table 3 altitudes)",
     )
     p.add_argument(
         "--aero", type=Path, help="goland form: use this aero.npz instead of building one"
@@ -127,7 +152,16 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         help="for each γ (s), the α (1/s) that keeps the state-space flutter altitude of the "
         "given α, γ (paper Fig. 9)",
     )
+    p.add_argument("--g-tolerance", type=g_tolerance, default=None, metavar="G",
+                   help="damping g within ±G counts as zero: a flutter or divergence crossing "
+                        "needs g to go from below -G to above +G, and a mode whose |g| stays "
+                        "within G at every speed is listed as not loaded by the aerodynamics, "
+                        "never as flutter (default 1e-3 = 0.05 %% of critical damping, a tenth "
+                        "of a built wing's structural damping; 0 <= G <= 0.05)")
     add_unsupported_option(p, "deck form: ")
+    p.add_argument("--panels", type=Path, default=None, metavar="FILE",
+                   help="deck form: aerodynamic cards read with the deck as if INCLUDEd (e.g. "
+                        "from torchrom panels DECK --out FILE), the deck left as it is")
     p.add_argument("--compare", type=Path, metavar="RUN.f06",
                    help="deck form: print Nastran's flutter points and modes from this f06 beside "
                    "torchrom's, with the differences")
@@ -156,6 +190,27 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     flutter_aoa.add_arguments(p)
     add_json_option(p)
     add_force_option(p)
+
+
+#: the largest --g-tolerance: g = 0.05 is 2.5 % of critical damping, the crossings' hump probe
+#: window (:data:`torchrom.aero.crossings.HUMP_PROBE_G`); a larger one would hide real flutter
+MAX_G_TOLERANCE = 0.05
+
+
+def g_tolerance(value: str) -> float:
+    """argparse type of --g-tolerance: a finite damping g in [0, :data:`MAX_G_TOLERANCE`]."""
+    x = finite_float(value)
+    if not 0.0 <= x <= MAX_G_TOLERANCE:
+        raise argparse.ArgumentTypeError(
+            f"expected a damping g from 0 to {MAX_G_TOLERANCE:g} (default 1e-3), got {value!r}")
+    return x
+
+
+def _tolerance(args) -> float:
+    """--g-tolerance, else :data:`torchrom.aero.flutter.G_TOLERANCE`."""
+    from ..aero.flutter import G_TOLERANCE
+
+    return G_TOLERANCE if args.g_tolerance is None else float(args.g_tolerance)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -221,8 +276,23 @@ def _check_options(args) -> None:
         lo, hi = args.alt_range
         if not lo < hi:
             raise InputError(f"--alt-range: expected LO < HI, got {lo:g} {hi:g}")
+    if args.altitude_unit is not None and (args.aoa is not None or (
+            len(args.inputs) == 1 and args.inputs[0] != "goland")):
+        raise InputError("--altitude-unit: for the matched point of ROM.npz AERO.npz or goland "
+                         "(a deck's FLUTTER cards and --aoa give densities, not altitudes)")
     check_boxes("--boxes", 2 * args.boxes[0] * args.boxes[1])
     check_count("--lags", "lag states", args.lags, MAX_LAGS)
+    if args.panels is not None and (args.aoa is not None or len(args.inputs) != 1
+                                    or args.inputs[0] == "goland"):
+        raise InputError("--panels: for the deck form (torchrom flutter DECK --panels FILE): a "
+                         "ROM's aerodynamics are in its aero file")
+    if args.g_tolerance is not None and args.aoa is not None:
+        raise InputError("--g-tolerance: not with --aoa (its onsets and offsets are where the "
+                         "damping of the tangent's roots changes sign)")
+    if args.damping_ratio is not None and len(args.inputs) == 1 and args.inputs[0] != "goland":
+        raise InputError("--damping-ratio: for ROM.npz AERO.npz or goland (a deck's modal "
+                         "damping is its case control SDAMP's TABDMP1)")
+    damping_ratio_of(args)  # its values, and not beside --alpha/--gamma
     if len(args.inputs) == 1 and args.inputs[0] != "goland" and args.density and \
             args.aoa is None:
         raise InputError("--density: for ROM.npz AERO.npz or goland (a deck's densities are "
@@ -238,8 +308,9 @@ ALT_RANGE_FT = (0.0, 40000.0)
 
 
 def _check_altitudes(args, system) -> None:
-    """--alt-range (default :data:`ALT_RANGE_FT` in ``system``'s altitude unit) and --at in
-    the atmosphere's range, in ``system``'s altitude unit (InputError naming the option)."""
+    """--alt-range (default :data:`ALT_RANGE_FT` in ``system``'s altitude unit: the run's,
+    :meth:`torchrom.units.UnitSystem.with_altitude`) and --at in the atmosphere's range, in
+    that unit (InputError naming the option)."""
     from ..aero.atmosphere import FT, atmosphere
     from ..errors import InputError
 
@@ -249,7 +320,7 @@ def _check_altitudes(args, system) -> None:
         if not values:
             continue
         try:
-            atmosphere(values, system.name)
+            atmosphere(values, system.name, system.altitude)
         except InputError as exc:
             raise InputError(f"{option}: {exc}") from None
 
@@ -258,13 +329,16 @@ def _run_deck(args, path: Path) -> int:
     from ..aero.nastran_flutter import NASTRAN_KERNEL, format_deck_result, load_deck, run_deck
     from ..fe import read_bdf
 
+    includes = [args.panels] if args.panels is not None else []
     deck = load_deck(path, symxz=args.symxz, length_unit=args.length_unit,
-                     resvec=None if args.resvec is None else args.resvec == "yes")
+                     resvec=None if args.resvec is None else args.resvec == "yes",
+                     includes=includes)
     print(
         f"torchrom flutter: {path}: {len(deck.cases)} FLUTTER case(s), {deck.aero_panels.n} boxes"
     )
-    res = run_deck(deck, fe=read_bdf(path, unsupported=args.unsupported),
-                   kernel=args.kernel or NASTRAN_KERNEL, k_exact=args.dlm_k)
+    res = run_deck(deck, fe=read_bdf(path, unsupported=args.unsupported, includes=includes),
+                   kernel=args.kernel or NASTRAN_KERNEL, k_exact=args.dlm_k,
+                   g_tolerance=_tolerance(args))
     print(format_deck_result(res))
     out = res.as_dict()
     if args.compare is not None:
@@ -294,7 +368,7 @@ def _figure(draw, *a, **k) -> bool:
 
 
 def _run_rom(args, rom_path: Path, aero_path: Path) -> int:
-    from ..aero.build import BASELINE_ALPHA, BASELINE_GAMMA, structure_from_rom
+    from ..aero.build import structure_from_rom
     from ..aero.files import load_aero
     from ..rom import NonlinearROM
     from ..units import file_units
@@ -303,31 +377,28 @@ def _run_rom(args, rom_path: Path, aero_path: Path) -> int:
     rom = NonlinearROM.load(rom_path)
     system, note = file_units({str(rom_path): rom.metadata, str(aero_path): aero.metadata},
                               args.units)
+    system = system.with_altitude(args.altitude_unit)
     if note:
         print(f"  {note}")
     _check_altitudes(args, system)
-    alpha = BASELINE_ALPHA if args.alpha is None else args.alpha
-    gamma = BASELINE_GAMMA if args.gamma is None else args.gamma
-    st = structure_from_rom(rom, aero.n_modes, alpha, gamma, rom_path)
+    from ._damping import damping_for_rom
+
+    damping = damping_for_rom(args, rom, rom_path)
+    print(f"  {damping.description}")
+    args.damping_used = damping.as_metadata()  # for the JSON
+    st = structure_from_rom(rom, aero.n_modes, damping.alpha, damping.gamma, rom_path)
     return _matched(args, st, aero, system, compare_paper=False)
 
 
 def _run_goland(args) -> int:
-    from ..aero.build import (
-        BASELINE_ALPHA,
-        BASELINE_GAMMA,
-        GOLAND_K_LIST,
-        build_from_modes,
-        modal_data,
-    )
+    from ..aero.build import GOLAND_K_LIST, build_from_modes, modal_data
     from ..aero.files import load_aero
     from ..aero.panels import goland_panels
     from ..units import unit_system
 
-    system = unit_system("ft-slug-s")  # the built-in Goland wing's
+    # the built-in Goland wing's system, at altitudes in ft unless --altitude-unit says m
+    system = unit_system("ft-slug-s").with_altitude(args.altitude_unit)
     _check_altitudes(args, system)
-    alpha = BASELINE_ALPHA if args.alpha is None else args.alpha
-    gamma = BASELINE_GAMMA if args.gamma is None else args.gamma
     mach = 0.7 if args.mach is None else args.mach
     from ..fe import goland
 
@@ -349,9 +420,24 @@ def _run_goland(args) -> int:
             args.kernel or "quartic",
         )
     print("  modal frequencies (Hz): " + ", ".join(f"{f:.4g}" for f in modes.frequencies_hz))
-    if args.at is None:
-        args.at = [4000.0, 6000.0, 8000.0, 10000.0, 11000.0]
+    from ..rom.rayleigh import elastic_frequencies, goland_damping
+    from ._damping import damping_for_modes
+
+    damping = damping_for_modes(args, elastic_frequencies(modes.frequencies_hz),
+                                goland_damping())
+    print(f"  {damping.description}")
+    args.damping_used = damping.as_metadata()  # for the JSON
+    alpha, gamma = damping.alpha, damping.gamma
+    if args.at is None:  # the paper's Table 3 altitudes (ft) in the run's unit
+        args.at = [_from_ft(h, system) for h in (4000.0, 6000.0, 8000.0, 10000.0, 11000.0)]
     return _matched(args, modes.structure(alpha, gamma), aero, system, compare_paper=True)
+
+
+def _from_ft(h_ft: float, system) -> float:
+    """An altitude in ft (the paper's) in ``system``'s altitude unit (exact: 0.3048 m/ft)."""
+    from ..aero.atmosphere import FT
+
+    return h_ft if system.altitude == "ft" else h_ft * FT / system.altitude_metre
 
 
 def _matched(args, structure, aero, system, compare_paper: bool) -> int:
@@ -374,7 +460,7 @@ def _matched(args, structure, aero, system, compare_paper: bool) -> int:
     if mach == 0.0 or args.density:  # a speed at a density (Mach 0: no matched point)
         return _speeds_at_densities(args, structure, aero, system, mach)
     u = system.labels()
-    h_u = u["altitude"]
+    h_u, hu = u["altitude"], {"altitude_unit": system.altitude}
     table = AeroTable.from_gaf(aero.gaf)
     results = []
     print(
@@ -383,12 +469,17 @@ def _matched(args, structure, aero, system, compare_paper: bool) -> int:
         f"alpha = {structure.alpha:g} 1/s, gamma = {structure.gamma:g} s, "
         f"RFA fit error {aero.rfa.fit_error.get('rms_relative', float('nan')):.2e}"
     )
+    tol = _tolerance(args)
+    for line in rfa_lines(aero):
+        print(line)
+    print(f"  a crossing counts where the damping g changes sign by more than {tol:g} "
+          f"(--g-tolerance)")
     if args.method in ("both", "pk"):
         results.append(flutter_altitude_pk(structure, table, mach, args.alt_range,
-                                           units=system.name))
+                                           units=system.name, g_tolerance=tol, **hu))
     if args.method in ("both", "state-space"):
         results.append(flutter_altitude_state_space(structure, aero.rfa, mach, args.alt_range,
-                                                    units=system.name))
+                                                    units=system.name, g_tolerance=tol, **hu))
     print(f"  {'method':<13}{'altitude ' + h_u:>13}{'frequency Hz':>14}"
           f"{'V ' + u['speed']:>10}{'q ' + u['dynamic_pressure']:>13}")
     for r in results:
@@ -399,25 +490,31 @@ def _matched(args, structure, aero, system, compare_paper: bool) -> int:
             f"  {r.method:<13}{r.altitude:13.1f}{r.frequency_hz:14.4f}{r.velocity:10.1f}"
             f"{0.5 * r.density * r.velocity**2:13.1f}"
         )
+    if len(results) == 2:
+        warning = matched_disagreement(*results)
+        if warning:
+            print(warning)
     for r in results:
         for j, a in getattr(r, "rigid_body_crossings", []):
             print(f"  {r.method}: rigid-body root (mode {j + 1}) damping crosses zero near "
                   f"{a:.1f} {h_u}: not flutter (a free aircraft's rigid-body root)")
     if compare_paper:
-        print(f"  {'paper':<13}{PAPER_FLUTTER_ALTITUDE_FT:13.1f}{PAPER_FLUTTER_FREQUENCY_HZ:14.4f}")
+        print(f"  {'paper':<13}{_from_ft(PAPER_FLUTTER_ALTITUDE_FT, system):13.1f}"
+              f"{PAPER_FLUTTER_FREQUENCY_HZ:14.4f}")
     growing = []
     if args.at:
         alts = np.asarray(args.at, dtype=float)
-        f_ss = growing_response_frequency(structure, aero.rfa, mach, alts, system.name)
+        f_ss = growing_response_frequency(structure, aero.rfa, mach, alts, system.name, **hu)
         f_pk = growing_response_frequency_pk(
-            structure, table, mach, alts, system.name, start_altitude=args.alt_range[1]
+            structure, table, mach, alts, system.name, start_altitude=args.alt_range[1], **hu
         )
         print(
             f"  growing-response frequency (Hz){'':8}{'state space':>12}{'p-k':>9}"
             + (f"{'paper':>9}" if compare_paper else "")
         )
         for a, fs, fp in zip(alts, f_ss, f_pk):
-            paper = PAPER_TABLE3.get(float(a)) if compare_paper else None
+            paper = PAPER_TABLE3.get(next((h for h in PAPER_TABLE3 if np.isclose(
+                _from_ft(h, system), a, rtol=1e-9)), None)) if compare_paper else None
             print(f"  {a:10.0f} {h_u:<2}{'':28}{fs:12.4f}{fp:9.4f}"
                   + (f"{paper:9.3f}" if paper else ""))
             growing.append(
@@ -432,12 +529,12 @@ def _matched(args, structure, aero, system, compare_paper: bool) -> int:
         from ..aero.flutter import alpha_for_gamma
 
         ref = flutter_altitude_state_space(structure, aero.rfa, mach, args.alt_range,
-                                           units=system.name)
+                                           units=system.name, g_tolerance=tol, **hu)
         if ref.altitude is None:
             raise InputError("--alpha-for-gamma: no state-space flutter point in --alt-range")
         print(f"  alpha(gamma) keeping the flutter altitude at {ref.altitude:.1f} {h_u}:")
         for g in args.alpha_for_gamma:
-            a = alpha_for_gamma(structure, aero.rfa, g, mach, ref.altitude, system.name)
+            a = alpha_for_gamma(structure, aero.rfa, g, mach, ref.altitude, system.name, **hu)
             print(f"    gamma = {g:10.4g} s   alpha = {a:10.5g} 1/s")
             pairs.append({"gamma": g, "alpha": a, "altitude": ref.altitude})
     out = {
@@ -445,15 +542,18 @@ def _matched(args, structure, aero, system, compare_paper: bool) -> int:
         "alpha": structure.alpha,
         "gamma": structure.gamma,
         "units": u,
+        "g_tolerance": tol,
+        "rfa_check": aero.metadata.get("reduced_frequencies"),
         "flutter": [r.as_dict() for r in results],
         "growing_response": growing,
         "alpha_for_gamma": pairs,
+        "damping": getattr(args, "damping_used", None),
     }
     if compare_paper:
         out["paper"] = {
-            "altitude": PAPER_FLUTTER_ALTITUDE_FT,
+            "altitude": _from_ft(PAPER_FLUTTER_ALTITUDE_FT, system),
             "frequency_hz": PAPER_FLUTTER_FREQUENCY_HZ,
-            "table3": {str(int(k)): v for k, v in PAPER_TABLE3.items()},
+            "table3": {f"{_from_ft(k, system):g}": v for k, v in PAPER_TABLE3.items()},
         }
     maybe_write_json(args, out)  # the numbers first: a figure failure cannot lose them
     ok = True
@@ -496,10 +596,16 @@ def _speeds_at_densities(args, structure, aero, system, mach: float) -> int:
         where = "at each --density"
     else:
         altitudes = list(args.at) if args.at else list(args.alt_range)
-        conditions = [(float(h), float(atmosphere(h, system.name).density)) for h in altitudes]
+        conditions = [(float(h), float(atmosphere(h, system.name, system.altitude).density))
+                      for h in altitudes]
         where = "at the density of each altitude"
     print(f"  Mach {mach:g}{' (incompressible)' if mach == 0 else ''}: flutter speed {where}, "
           f"units {system.name}, alpha = {structure.alpha:g} 1/s, gamma = {structure.gamma:g} s")
+    tol = _tolerance(args)
+    for line in rfa_lines(aero):
+        print(line)
+    print(f"  a crossing counts where the damping g changes sign by more than {tol:g} "
+          f"(--g-tolerance)")
     print(f"  {'method':<13}{'altitude ' + u['altitude']:>13}{'density ' + u['density']:>22}"
           f"{'V ' + u['speed']:>10}{'frequency Hz':>14}{'q ' + u['dynamic_pressure']:>13}"
           f"  kind")
@@ -507,11 +613,13 @@ def _speeds_at_densities(args, structure, aero, system, mach: float) -> int:
     for alt, rho in conditions:
         found = []
         if args.method in ("both", "pk"):
-            pk, sweep = flutter_speed_pk_at_density(structure, table, rho, mach)
+            pk, sweep = flutter_speed_pk_at_density(structure, table, rho, mach,
+                                                    g_tolerance=tol)
             first_sweep = first_sweep or sweep
             found.append(pk)
         if args.method in ("both", "state-space"):
-            found.append(flutter_speed_at_density(structure, aero.rfa, table, rho, mach=mach))
+            found.append(flutter_speed_at_density(structure, aero.rfa, table, rho, mach=mach,
+                                                  g_tolerance=tol))
         head = f"{'-' if alt != alt else f'{alt:.1f}':>13}{rho:22.5g}"
         for r in found:
             r.altitude, r.units = alt, system.name
@@ -524,13 +632,28 @@ def _speeds_at_densities(args, structure, aero, system, mach: float) -> int:
             print(f"  {r.method:<13}{head}{r.velocity:10.2f}{r.frequency_hz:14.4f}"
                   f"{0.5 * r.density * r.velocity**2:13.1f}  {kind}")
         results += found
+        if len(found) == 2:
+            at = "" if alt != alt else f" at {alt:g} {u['altitude']}"
+            warning = disagreement(*found, structure, aero.rfa, u["speed"], at)
+            found[1].agrees_with_pk = warning is None
+            if warning:
+                print(warning)
+    for r in results:
+        at = "" if r.altitude != r.altitude else f" at {r.altitude:g} {u['altitude']}"
+        for line in quiet_lines(r, u["speed"], at):
+            print(line)
     for r in results:
         for j, v in r.rigid_body_crossings:
             where = "" if r.altitude != r.altitude else f" at {r.altitude:g} {u['altitude']}"
             print(f"  {r.method}: rigid-body root (mode {j + 1}) damping crosses zero near "
                   f"{v:.1f} {u['speed']}{where}: not flutter (a free aircraft's rigid-body root)")
     maybe_write_json(args, {"mach": mach, "alpha": structure.alpha, "gamma": structure.gamma,
-                            "units": u, "flutter": [r.as_dict() for r in results]})
+                            "damping": getattr(args, "damping_used", None),
+                            "units": u, "g_tolerance": tol,
+                            "rfa_check": aero.metadata.get("reduced_frequencies"),
+                            "flutter": [{**r.as_dict(), **({} if r.method == "p-k" else {
+                                "agrees_with_pk": getattr(r, "agrees_with_pk", None)})}
+                                for r in results]})
     ok = True
     if args.plot is not None and first_sweep is not None:
         from ..aero.plots import plot_vg
