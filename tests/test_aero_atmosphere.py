@@ -105,3 +105,32 @@ def test_altitude_unit_of_each_system():
         atmosphere(90000.0, "si")
     with pytest.raises(InputError, match="units: expected one of"):
         atmosphere(0.0, "furlong")
+
+
+@pytest.mark.parametrize("system", ["si", "ft-slug-s", "in-lbf-s", "mm-t-s"])
+def test_altitude_given_with_its_unit(system):
+    """The altitude travels with its unit: in every system, 10,000 ft (altitude_unit "ft")
+    and 3,048 m (altitude_unit "m", closed form 10,000 x 0.3048 m/ft) give the same density,
+    speed of sound and matched-point speed as the system's own unit does (1e-12: the
+    conversion is exact, so only rounding differs); the state and the flight condition record
+    the unit; the range error names it."""
+    ft = atmosphere(10000.0, system, altitude_unit="ft")
+    m = atmosphere(10000.0 * 0.3048, system, altitude_unit="m")
+    own = atmosphere(10000.0 if system in ("ft-slug-s", "in-lbf-s") else 3048.0, system)
+    for x in (ft, own):
+        assert x.density == pytest.approx(m.density, rel=1e-12)
+        assert x.speed_of_sound == pytest.approx(m.speed_of_sound, rel=1e-12)
+    assert (ft.altitude_unit, m.altitude_unit) == ("ft", "m")
+    fc_ft = flight_condition(0.7, [0.0, 10000.0], system, altitude_unit="ft")
+    fc_m = flight_condition(0.7, [0.0, 3048.0], system, altitude_unit="m")
+    assert fc_ft.velocity == pytest.approx(fc_m.velocity, rel=1e-12)
+    assert fc_ft.dynamic_pressure == pytest.approx(fc_m.dynamic_pressure, rel=1e-12)
+    assert fc_m.altitude_unit == "m" and list(fc_m.altitude) == [0.0, 3048.0]
+    with pytest.raises(InputError, match="altitude 300000 ft is outside"):
+        atmosphere(300000.0, system, altitude_unit="ft")
+
+
+def test_unknown_altitude_unit_is_one_line():
+    with pytest.raises(InputError, match="altitude_unit: expected one of m, ft, got 'km'") as e:
+        atmosphere(1000.0, "si", altitude_unit="km")
+    assert "\n" not in str(e.value)

@@ -253,3 +253,108 @@ def test_subcases_with_their_own_spc_sets(tmp_path, capsys):
     for sub, w in zip(subs, expected):
         assert sub["steps"][0]["displacements"]["3"][2] == pytest.approx(w, rel=1e-9)
     assert subs[1]["steps"][0]["displacements"]["4"][2] == 0.0
+
+
+#: the cantilever with its tip grid's displacement frame (CD 5) turned 90 deg about x: CD 5's
+#: z axis is basic -y and its y axis basic z (CORD2R: origin, a point on z, one in the xz plane)
+ROTATED_TIP = (CANTILEVER
+               .replace("GRID    4               3.0     0.0     0.0\n",
+                        "GRID    4               3.0     0.0     0.0     5\n")
+               .replace("ENDDATA", "CORD2R  5       0       0.0     0.0     0.0     0.0     "
+                        "-1.0    0.0\n        1.0     0.0     0.0\nENDDATA"))
+
+
+@pytest.mark.parametrize("rotated", [False, True], ids=["basic", "rotated CD"])
+def test_load_option_is_the_closed_form_and_the_force_card(tmp_path, capsys, rotated):
+    """``--load 4:T3=250`` (issue 46 item 7): one more subcase beside the deck's four,
+    numbered 5 and labelled with the load; its tip deflection is P L^3 / (3 E I) (to 1e-9:
+    exact for a nodal load with the cubic beam element) and equals SUBCASE 1's, the same load
+    as a FORCE card with CID 0 (to 1e-12: the same load vector). The load is along the basic
+    axes whatever the grid's CD frame: with the tip's CD turned 90 deg about x, T3 still
+    bends the beam about its I2 axis in basic z (a CD-frame T3 would push along basic -y,
+    about I1 = 2 I2, and leave basic z still). The JSON names the point loads and no LOAD."""
+    out = tmp_path / "load.json"
+    deck = _deck(tmp_path, text=ROTATED_TIP if rotated else CANTILEVER)
+    rc, cap = _static(capsys, deck, "--load", "4:T3=250", "--json", out)
+    assert rc == 0, cap.err
+    assert "SUBCASE 5 (--load 4:T3=250): point loads along the basic axes, SPC 1" in cap.out
+    subs = json.loads(out.read_text())["subcases"]
+    assert [s["subcase"] for s in subs] == [1, 2, 3, 4, 5]
+    extra = subs[-1]
+    assert extra["load"] is None and extra["spc"] == 1 and extra["label"] == "--load 4:T3=250"
+    assert extra["point_loads"] == [{"grid": 4, "component": "T3", "value": 250.0}]
+    assert subs[0]["point_loads"] == []
+    tip = _tip(extra)
+    assert tip[2] == pytest.approx(P * L**3 / (3 * E * I2), rel=1e-9)
+    assert tip == pytest.approx(_tip(subs[0]), rel=1e-12, abs=1e-15)
+    assert abs(tip[1]) < 1e-12 * tip[2]
+
+
+def test_load_option_nonlinear_and_on_a_modes_deck(tmp_path, capsys):
+    """--nonlinear: the --load subcase is solved as the deck's (Newton, dead load, the same
+    --steps) and its tip equals SUBCASE 1's FORCE card to 1e-10 (the same load, the same
+    path), within 1e-3 of P L^3 / (3 E I) (the deflection is 0.5 % of L: the geometric
+    change is of order (w/L)^2 ~ 3e-5). Two --load of one component add up. A SOL 103 deck
+    (no static subcase of its own) solves the --load subcase alone, linear unless
+    --nonlinear, and says so."""
+    out = tmp_path / "nl.json"
+    rc, cap = _static(capsys, _deck(tmp_path, sol=106, nlparm="NLPARM = 7"), "--load",
+                      "4:T3=150", "--load", "4:t3=100", "--steps", "4", "--json", out)
+    assert rc == 0, cap.err
+    subs = json.loads(out.read_text())["subcases"]
+    extra = subs[-1]
+    assert extra["converged"] and len(extra["steps"]) == 4
+    assert _tip(extra) == pytest.approx(_tip(subs[0]), rel=1e-10, abs=1e-14)
+    assert _tip(extra)[2] == pytest.approx(P * L**3 / (3 * E * I2), rel=1e-3)
+    modes = _deck(tmp_path, text=CANTILEVER.replace("SOL {sol}", "SOL 103"), name="m.bdf")
+    rc, cap = _static(capsys, modes, "--load", "4:T3=250", "--json", tmp_path / "m.json")
+    assert rc == 0, cap.err
+    assert "SOL 103 is not a static solution: only the --load subcase is solved" in cap.out
+    (only,) = json.loads((tmp_path / "m.json").read_text())["subcases"]
+    assert only["subcase"] == 1 and only["spc"] is None
+    assert _tip(only)[2] == pytest.approx(P * L**3 / (3 * E * I2), rel=1e-9)
+
+
+BAD_LOADS = [
+    ("unknown grid", ["--load", "99:T3=1"], "--load 99:T3=1: grid 99 not found in beam.bdf"),
+    ("unknown component", ["--load", "4:T7=1"],
+     "argument --load: 4:T7=1: COMPONENT: expected one of T1, T2, T3, R1, R2, R3, got 'T7'"),
+    ("not a number", ["--load", "4:T3=abc"],
+     "argument --load: 4:T3=abc: VALUE: expected a finite number"),
+    ("not GRID:C=V", ["--load", "4T3=1"], "expected GRID:COMPONENT=VALUE"),
+    ("constrained", ["--load", "1:T3=5"],
+     "--load 1:T3=5: grid 1 component T3 is constrained (SPC1 1)"),
+    ("constrained in its CD frame", ["--load", "4:T3=5"],
+     "--load 4:T3=5: grid 4 component T2 of its displacement frame (CD), which basic T3 "
+     "loads, is constrained (SPC1 1)"),
+    ("with --aoa", ["--load", "4:T3=5", "--aoa", "2", "--velocity", "10"],
+     "--load: for the deck's structural subcases"),
+]
+
+
+@pytest.fixture(scope="module")
+def cli_server():
+    """Real command lines in forked processes (tests/cli_forkserver.py: imports paid once)."""
+    from .cli_forkserver import ForkServer
+
+    server = ForkServer()
+    yield server
+    server.close()
+
+
+@pytest.mark.parametrize("name, argv, message", BAD_LOADS, ids=[b[0] for b in BAD_LOADS])
+def test_bad_load_option_is_one_line(tmp_path, cli_server, name, argv, message):
+    """A bad --load, through the real command in a separate process: exit 2, one line naming
+    the option and what was expected, no traceback, no JSON (the CD-frame case: the rotated
+    tip held in its CD T2, which is basic z)."""
+    text = CANTILEVER if "CD" not in name else ROTATED_TIP.replace(
+        "SPC1    1       123456  1", "SPC1    1       123456  1\nSPC1    1       2       4")
+    deck = _deck(tmp_path, text=text)
+    out = tmp_path / "out.json"
+    rc, stdout, err = cli_server.run(["static", str(deck), *argv, "--json", str(out)],
+                                     tmp_path)
+    assert rc == 2, stdout + err
+    lines = err.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("torchrom static: error: "), err
+    assert message in lines[0], lines[0]
+    assert not out.exists()

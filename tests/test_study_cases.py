@@ -347,3 +347,64 @@ def test_aeroelastic_case_errors_are_refused_before_the_run(files, tmp_path, cap
     assert ("no flutter point between 0 and 100 ft" in err if "range" in new
             else "[cases] mach: 0.1 (case 6) differs" in err), err
     assert len(err.strip().splitlines()) == 1
+
+
+def test_the_same_flight_condition_in_m_and_in_ft(model, files, tmp_path):
+    """One altitude unit per run (issue 46 item 6), none converted: the section model with
+    its altitudes in m (altitude_unit "m") is the same physics as in ft. Its baseline flutter
+    altitude is the ft one x 0.3048 (2e-3 m: each Brent search stops at 1e-3 of its unit);
+    a case at altitude_m = 8,000 x 0.3048 has the velocity and density of altitude_ft = 8,000
+    (1e-12: the atmosphere takes each with its unit; the conversion is exact) and the same
+    matched α (1e-6 relative: it is solved at the two reference altitudes, 1e-3 m apart at
+    most). Through a configuration, altitude_m alone names the run's unit: the table's column
+    is altitude_m, its units metadata says m, and its velocity and density are the ft run's."""
+    m = AeroelasticModel(model.rom, model.aero, baseline_alpha=model.baseline_alpha,
+                         baseline_gamma=model.baseline_gamma, altitude_unit="m")
+    assert m.altitude_column == "altitude_m" and m.altitude_range[1] == pytest.approx(12192.0)
+    assert m.baseline_flutter().altitude == pytest.approx(
+        model.baseline_flutter().altitude * 0.3048, abs=2e-3)
+    assert m.baseline_flutter().altitude_unit == "m"
+    _, ex_m = case_system(m, [{"altitude_m": 8000.0 * 0.3048, "alpha": "matched",
+                               "gamma": 1e-3}])
+    _, ex_ft = case_system(model, [{"altitude_ft": 8000.0, "alpha": "matched", "gamma": 1e-3}])
+    for key in ("velocity", "density", "dynamic_pressure"):
+        assert ex_m[0][key] == pytest.approx(ex_ft[0][key], rel=1e-12)
+    assert ex_m[0]["alpha"] == pytest.approx(ex_ft[0]["alpha"], rel=1e-6)
+    with pytest.raises(InputError, match="altitude_ft: the model's altitudes are in m"):
+        case_system(m, [{"altitude_ft": 8000.0}])
+
+    short = CONFIG.split("[cases]")[0].replace("t_end = 20.0", "t_end = 0.05")
+    tables = {}
+    for column, h in (("altitude_ft", 8000.0), ("altitude_m", 8000.0 * 0.3048)):
+        path = files / f"one_{column}.toml"
+        path.write_text(short + f"[cases]\n{column} = {h!r}\nalpha = 0.05\n")
+        tables[column] = run_sweep(load_sweep_config(path))[0]
+    t_m, t_ft = tables["altitude_m"], tables["altitude_ft"]
+    assert "altitude_ft" not in t_m.columns and t_m.attrs["units"]["altitude_m"] == "m"
+    assert t_ft.attrs["units"]["altitude_ft"] == "ft"
+    for key in ("velocity", "density"):
+        assert t_m[key].iloc[0] == pytest.approx(t_ft[key].iloc[0], rel=1e-12)
+
+
+@pytest.mark.parametrize("cases, aeroelastic, words", [
+    ("altitude_m = 2000.0\naltitude_ft = 3000.0", "",
+     ("[cases] altitude_ft: given together with altitude_m", "one altitude unit per run")),
+    ("altitude_ft = 3000.0", 'reference_altitude_m = 2000.0\n',
+     ("[cases] altitude_ft: altitudes in ft, but [aeroelastic] reference_altitude_m names m",
+      "one altitude unit per run")),
+    ("altitude_m = 90000.0", "", ("[cases] altitude_m", "USSA-76")),
+])
+def test_altitudes_of_two_units_are_refused_in_the_cli(files, tmp_path, cases, aeroelastic,
+                                                       words):
+    """One altitude unit per run: two units in one configuration, or an altitude outside the
+    atmosphere in its unit, is one line from the real CLI (exit 2, nothing written)."""
+    path = files / f"twounits{abs(hash(cases + aeroelastic))}.toml"
+    head = CONFIG.split("[cases]")[0].replace("[initial]", aeroelastic + "[initial]")
+    path.write_text(head + "[cases]\n" + cases + "\nalpha = 0.05\n")
+    run = _sweep_cli(path, tmp_path / "out")
+    assert run.returncode == 2, run.stderr
+    lines = [ln for ln in run.stderr.strip().splitlines() if ln.strip()]
+    assert len(lines) == 1 and "Traceback" not in run.stderr, run.stderr
+    for w in words:
+        assert w in lines[0], (w, lines[0])
+    assert not (tmp_path / "out").exists()

@@ -41,19 +41,32 @@ def test_units_recorded_declared_or_assumed(tmp_path):
 def test_flight_conditions_in_the_models_units(tmp_path):
     """An SI model's cases against USSA-76 in SI (the atmosphere's own table, REFERENCE
     Sec. 1: 1.22500 kg/m^3 at sea level, 0.90477 kg/m^3 and a = 1077.40 ft/s = 328.392 m/s
-    at 10,000 ft; 2e-5 as that table): a tunnel case at altitude_ft 0 has 1.225 kg/m^3, a
-    matched point at 10,000 ft (altitude_ft stays in ft) V = M a(h) in m/s; the ft-slug-s
-    model's are the same physical numbers in ft/s and slug/ft^3 (1e-12: exact conversions)."""
+    at 10,000 ft; 2e-5 as that table): its altitudes are in m (altitude_m: a tunnel case at
+    0 m has 1.225 kg/m^3, a matched point at 3,048 m V = M a(h) in m/s), the same model built
+    with altitude_unit ft takes altitude_ft 10,000 to the same numbers (1e-12: 0.3048 m/ft
+    exactly), an altitude in the other unit is refused (one unit per run, nothing converted),
+    and the ft-slug-s model's are the same physical numbers in ft/s and slug/ft^3 (1e-12:
+    exact conversions)."""
     files = _files(tmp_path)
     si = build_model(ModelSpec(files.source, rom=files.rom, aero=files.aero, units="si"))
+    si_ft = build_model(ModelSpec(files.source, rom=files.rom, aero=files.aero, units="si",
+                                  aeroelastic={"altitude_unit": "ft"}))
     ft = build_model(files)
-    cases = [{"speed": 100.0, "altitude_ft": 0.0}, {"altitude_ft": 10000.0}]
+    assert (si.altitude_column, si_ft.altitude_column) == ("altitude_m", "altitude_ft")
+    assert si_ft.units.labels()["altitude"] == "ft" and si.units.labels()["altitude"] == "m"
+    cases = [{"speed": 100.0, "altitude_m": 0.0}, {"altitude_m": 10000.0 * FT}]
     V, rho, alt = flight_conditions(si, cases)
     assert rho[0] == pytest.approx(1.225, rel=2e-5) and V[0] == 100.0
     assert rho[1] == pytest.approx(0.90477, rel=2e-5)
     assert V[1] == pytest.approx(si.mach * 1077.40 * FT, rel=2e-5)
-    assert np.array_equal(alt, [0.0, 10000.0])
-    V_ft, rho_ft, _ = flight_conditions(ft, cases[1:])
+    assert np.array_equal(alt, [0.0, 10000.0 * FT])
+    V2, rho2, alt2 = flight_conditions(si_ft, [{"speed": 100.0, "altitude_ft": 0.0},
+                                               {"altitude_ft": 10000.0}])
+    assert V2 == pytest.approx(V, rel=1e-12) and rho2 == pytest.approx(rho, rel=1e-12)
+    assert np.array_equal(alt2, [0.0, 10000.0])
+    with pytest.raises(InputError, match="altitude_ft: the model's altitudes are in m"):
+        flight_conditions(si, [{"altitude_ft": 10000.0}])
+    V_ft, rho_ft, _ = flight_conditions(ft, [{"altitude_ft": 10000.0}])
     assert V_ft[0] * FT == pytest.approx(V[1], rel=1e-12)
     assert rho_ft[0] * ft.units.density_si == pytest.approx(rho[1], rel=1e-12)
 

@@ -30,6 +30,10 @@ def test_units_survive_parquet_and_label_axes(tmp_path):
     csv = pd.DataFrame({"altitude_ft": [1.0], "amplitude": [1.0], "frequency_hz": [2.0],
                         "ratio_q1_q2": [3.0]})
     assert axis_label(csv, "altitude_ft") == "altitude (ft)"
+    # an altitude's column names its unit, in the metadata and on the axis (issue 46 item 6)
+    metres = pd.DataFrame({"altitude_m": [1000.0], "gamma": [0.0]})
+    assert sweep_units(list(metres.columns), [], "m")["altitude_m"] == "m"
+    assert axis_label(metres, "altitude_m") == "altitude (m)"
     assert axis_label(csv, "frequency_hz") == "LCO frequency (Hz)"
     assert axis_label(csv, "ratio_q1_q2") == "amplitude ratio q1/q2"
     assert axis_label(csv, "amplitude") == "LCO amplitude"  # its unit is the output's: unknown

@@ -164,3 +164,20 @@ def test_flfact_velocities_break_a_tie_or_are_refused_against_the_cards():
     assert infer_units(densities={"FLFACT 1": [1.225]},
                        velocities={"FLFACT 3": [2000.0, 9000.0]}) == (None, [])
     assert infer_units(velocities={"FLFACT 3": [2000.0, 9000.0]}) == (None, [])
+
+
+def test_a_system_with_another_altitude_unit():
+    """with_altitude: the labels and the altitude factor carry the run's unit (0.3048 m/ft,
+    exact), the rest of the system is unchanged; the system's own unit or None returns it as
+    it is; an unknown unit is one line naming where it was given."""
+    from torchrom.units import ALTITUDE_COLUMNS, altitude_column
+
+    si = SYSTEMS["si"]
+    si_ft = si.with_altitude("ft")
+    assert si_ft.labels()["altitude"] == "ft" and si_ft.altitude_metre == 0.3048
+    assert si_ft.name == "si" and si_ft.labels()["speed"] == "m/s"
+    assert si.with_altitude(None) is si and si.with_altitude("m") is si
+    assert SYSTEMS["ft-slug-s"].with_altitude("m").labels()["altitude"] == "m"
+    assert altitude_column("m") == "altitude_m" and ALTITUDE_COLUMNS["altitude_ft"] == "ft"
+    with pytest.raises(InputError, match="--altitude-unit: expected one of m, ft, got 'km'"):
+        si.with_altitude("km")

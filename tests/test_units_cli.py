@@ -159,6 +159,18 @@ REFUSALS = {
         "[cases] density: 0.0023769 (case 0) is no air density in si"),
     "sweep: unknown [model] units": (["sweep", "bad_units.toml", "--out", "OUT"],
                                      "[model] units: expected one of si, ft-slug-s"),
+    # one altitude unit per run (issue 46 item 6)
+    "unknown --altitude-unit": (["flutter", "si/rom.npz", "si/aero.npz", "--altitude-unit",
+                                 "km"], "--altitude-unit: invalid choice: 'km'"),
+    "deck flutter --altitude-unit": (["flutter", "si.bdf", "--altitude-unit", "m"],
+                                     "--altitude-unit: for the matched point"),
+    "sweep: altitudes in ft, altitude_unit m": (
+        ["sweep", "alt_mixed.toml", "--out", "OUT"],
+        "[cases] altitude_ft: altitudes in ft, but [aeroelastic] altitude_unit = 'm' names m: "
+        "one altitude unit per run"),
+    "sweep: unknown [aeroelastic] altitude_unit": (
+        ["sweep", "alt_unknown.toml", "--out", "OUT"],
+        "[aeroelastic] altitude_unit: expected one of m, ft, got 'km'"),
 }
 
 #: a wind-tunnel sweep of the test wing (FOLDER, DENSITY and UNITS filled in)
@@ -194,6 +206,11 @@ def refusal_folder(tmp_path_factory):
                                          ("bad_units", "si", "1.225", 'units = "imperial"')):
         (d / f"{name}.toml").write_text(TUNNEL.replace("FOLDER", folder)
                                         .replace("DENSITY", density).replace("UNITS", units))
+    for name, unit in (("alt_mixed", "m"), ("alt_unknown", "km")):
+        (d / f"{name}.toml").write_text(
+            TUNNEL.replace("FOLDER", "si").replace("UNITS", "")
+            .replace("density = DENSITY", "altitude_ft = 0.0")
+            .replace("[initial]", f'[aeroelastic]\naltitude_unit = "{unit}"\n[initial]'))
     (d / "si.bdf").write_text(SI_DECK)
     (d / "conflict.bdf").write_text(CONFLICT_DECK)
     (d / "bah_flfact").mkdir()
@@ -262,3 +279,34 @@ def test_in_lbf_s_deck_chain_matches_the_deck(tmp_path):
     assert pk["frequency_hz"] == pytest.approx(139.73, rel=0.02)
     g1, v1, g2, v2 = 0.010861521, 6112.9079, -0.017230888, 5831.7574
     assert pk["velocity"] == pytest.approx(v1 - g1 * (v1 - v2) / (g1 - g2), rel=0.02)
+
+
+def test_the_same_matched_point_in_m_and_in_ft(tmp_path, capsys):
+    """One altitude unit per run (issue 46 item 6): the SI wing's matched point with its own
+    altitudes (m) and with --altitude-unit ft (--alt-range given in ft) is one physical
+    point: altitude_ft x 0.3048 = altitude_m, and the same speed, density and frequency.
+    Tolerance 1e-5 relative, as above (the Brent search stops at 1e-3 of the altitude unit;
+    the conversion is exact). The table header, the JSON's units and every record name the
+    run's altitude unit, and --at is read in it."""
+    _write_wing(tmp_path, "si")
+    runs = {}
+    for unit, top in (("m", 20000.0 * 0.3048), ("ft", 20000.0)):
+        rc = main(["flutter", str(tmp_path / "rom.npz"), str(tmp_path / "aero.npz"), "--alpha",
+                   "0", "--gamma", "0", "--alt-range", "0", str(top), "--altitude-unit", unit,
+                   "--at", str(top / 2), "--json", str(tmp_path / f"{unit}.json")])
+        assert rc == 0
+        text = capsys.readouterr().out
+        assert f"altitude {unit}" in text and f"altitudes 0..{top:g} {unit}" in text
+        runs[unit] = json.loads((tmp_path / f"{unit}.json").read_text())
+        assert runs[unit]["units"]["altitude"] == unit
+        assert runs[unit]["units"]["speed"] == "m/s"
+        assert {r["altitude_unit"] for r in runs[unit]["flutter"]} == {unit}
+    by_method = {u: {r["method"]: r for r in res["flutter"]} for u, res in runs.items()}
+    for method, m in by_method["m"].items():
+        f = by_method["ft"][method]
+        assert m["altitude"] == pytest.approx(f["altitude"] * 0.3048, rel=1e-5)
+        for key in ("velocity", "density", "frequency_hz"):
+            assert m[key] == pytest.approx(f[key], rel=1e-5)
+    (gm,), (gf,) = runs["m"]["growing_response"], runs["ft"]["growing_response"]
+    assert gm["altitude"] == pytest.approx(gf["altitude"] * 0.3048, rel=1e-12)
+    assert gm["frequency_hz_pk"] == pytest.approx(gf["frequency_hz_pk"], rel=1e-9)

@@ -74,11 +74,14 @@ PHYSICAL_RANGES = {
 
 
 def _range(name: str) -> tuple[float, float, str, str]:
-    """The physical range of ``name``: :data:`PHYSICAL_RANGES`, or for ``altitude_ft`` the
-    atmosphere model's (:data:`ALTITUDE_RANGE_M`, which the atmosphere module uses too)."""
-    if name == "altitude_ft":
-        lo, hi = (h / 0.3048 for h in ALTITUDE_RANGE_M)
-        return lo, math.nextafter(hi, math.inf), "ft", "the USSA-76 atmosphere's range"
+    """The physical range of ``name``: :data:`PHYSICAL_RANGES`, or for ``altitude_ft`` and
+    ``altitude_m`` the atmosphere model's (:data:`ALTITUDE_RANGE_M`, which the atmosphere
+    module uses too) in the column's unit."""
+    metres = {"altitude_ft": 0.3048, "altitude_m": 1.0}.get(name)
+    if metres is not None:
+        lo, hi = (h / metres for h in ALTITUDE_RANGE_M)
+        return (lo, math.nextafter(hi, math.inf), name.split("_")[1],
+                "the USSA-76 atmosphere's range")
     return PHYSICAL_RANGES.get(name, (-math.inf, math.inf, "", ""))
 
 

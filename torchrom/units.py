@@ -12,8 +12,14 @@ name           length  mass            force  density          pressure     alti
 =============  ======  ==============  =====  ===============  ===========  ========
 
 Speeds are in length/s, frequencies in Hz, times in s. Altitude (geometric, USSA-76) is in ft
-for the two imperial systems and in m for the metric ones, as flight altitudes are quoted;
-the atmosphere itself is computed in SI and converted (:mod:`torchrom.aero.atmosphere`).
+for the two imperial systems and in m for the metric ones, as flight altitudes are quoted
+(the length unit itself for si and ft-slug-s); the atmosphere itself is computed in SI and
+converted (:mod:`torchrom.aero.atmosphere`).
+
+The altitude unit of a run: one of :data:`ALTITUDE_UNITS` (``m``, ``ft``), the system's by
+default or the one the user names (``--altitude-unit``, ``[model] altitude_unit``, or the
+``altitude_<unit>`` key of a sweep); :meth:`UnitSystem.with_altitude` gives the system whose
+labels and factors carry it, and every altitude printed, tabled or drawn in that run is in it.
 
 How a deck's system is told (:func:`infer_units`), from the cards that carry a unit:
 
@@ -48,7 +54,7 @@ same system decide; either alone tells nothing.
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 from .errors import InputError
 
@@ -104,6 +110,14 @@ class UnitSystem:
         """Standard gravity in length/s^2."""
         return G0 / self.metre
 
+    def with_altitude(self, unit: str | None, where: str = "--altitude-unit") -> UnitSystem:
+        """This system with altitudes in ``unit`` (:data:`ALTITUDE_UNITS`; None: unchanged);
+        InputError naming ``where`` for another unit."""
+        if unit is None or unit == self.altitude:
+            return self
+        unit = altitude_unit(unit, where)
+        return replace(self, altitude=unit, altitude_metre=ALTITUDE_UNITS[unit])
+
     def labels(self) -> dict[str, str]:
         """Units of the quantities a printed or JSON result carries."""
         return {"system": self.name, "length": self.length, "mass": self.mass,
@@ -125,6 +139,28 @@ SYSTEMS = {
 }
 #: older names of the atmosphere's two systems
 ALIASES = {"ft": "ft-slug-s"}
+#: the units a flight altitude may be given in: name -> metres per unit (exact, international
+#: foot)
+ALTITUDE_UNITS = {"m": 1.0, "ft": _FT}
+#: the prefix of an altitude's table column and case parameter (``altitude_ft``,
+#: ``altitude_m``): the column's name says its unit
+ALTITUDE_PREFIX = "altitude_"
+
+
+def altitude_unit(name, where: str = "--altitude-unit") -> str:
+    """``name`` checked against :data:`ALTITUDE_UNITS` (InputError naming ``where``)."""
+    if name not in ALTITUDE_UNITS:
+        raise InputError(f"{where}: expected one of {', '.join(ALTITUDE_UNITS)}, got {name!r}")
+    return str(name)
+
+
+def altitude_column(unit: str) -> str:
+    """The case parameter and table column of an altitude in ``unit``: ``altitude_<unit>``."""
+    return ALTITUDE_PREFIX + altitude_unit(unit, "altitude column")
+
+
+#: the altitude columns a table may have, column -> unit
+ALTITUDE_COLUMNS = {ALTITUDE_PREFIX + u: u for u in ALTITUDE_UNITS}
 
 
 def unit_system(name: str, where: str = "--units") -> UnitSystem:

@@ -18,6 +18,10 @@ units          altitude   density       velocity    pressure
 ``"in-lbf-s"`` ft         lbf s²/in⁴    in/s        lbf/in²
 ``"mm-t-s"``   m          t/mm³         mm/s        MPa
 =============  =========  ============  ==========  ============
+
+The altitude travels with its unit: ``altitude_unit`` (``"m"`` or ``"ft"``,
+:data:`torchrom.units.ALTITUDE_UNITS`) names it when it is not the system's (an SI model
+flown at altitudes given in ft, the Goland wing at altitudes in m); the state records it.
 """
 
 from __future__ import annotations
@@ -28,7 +32,7 @@ import numpy as np
 
 from ..checks import ALTITUDE_RANGE_M
 from ..errors import InputError
-from ..units import unit_system
+from ..units import ALTITUDE_UNITS, altitude_unit, unit_system
 
 #: metres per foot (exact, international foot)
 FT = 0.3048
@@ -48,6 +52,7 @@ class AtmosphereState:
     density: np.ndarray | float
     speed_of_sound: np.ndarray | float
     units: str
+    altitude_unit: str = "ft"
 
 
 @dataclass(frozen=True)
@@ -61,11 +66,12 @@ class FlightCondition:
     dynamic_pressure: np.ndarray | float
     speed_of_sound: np.ndarray | float
     units: str
+    altitude_unit: str = "ft"
 
 
-def _factors(units: str) -> tuple[float, float, float, float]:
+def _factors(units: str, alt_unit: str | None = None) -> tuple[float, float, float, float]:
     """(m per altitude unit, m per length unit, kg/m³ per density unit, Pa per pressure
-    unit) of ``units``."""
+    unit) of ``units``, the altitude in ``alt_unit`` when given (else the system's)."""
     try:
         s = unit_system(units, "atmosphere: units")
     except InputError:
@@ -73,11 +79,20 @@ def _factors(units: str) -> tuple[float, float, float, float]:
             f"atmosphere: units: expected one of ['ft', 'si', 'ft-slug-s', 'in-lbf-s', "
             f"'mm-t-s'], got {units!r}"
         ) from None
-    return s.altitude_metre, s.metre, s.density_si, s.pressure_si
+    alt_m = s.altitude_metre if alt_unit is None else ALTITUDE_UNITS[alt_unit]
+    return alt_m, s.metre, s.density_si, s.pressure_si
 
 
-def _altitude_m(altitude, units: str) -> tuple[np.ndarray, float]:
-    alt_m, length, _, _ = _factors(units)
+def _unit_of_altitude(units: str, alt_unit: str | None) -> str:
+    """The altitude unit: ``alt_unit`` checked, else the system's."""
+    if alt_unit is not None:
+        return altitude_unit(alt_unit, "atmosphere: altitude_unit")
+    _factors(units)  # the one-line refusal of an unknown system
+    return unit_system(units).altitude
+
+
+def _altitude_m(altitude, units: str, alt_unit: str | None = None) -> tuple[np.ndarray, float]:
+    alt_m, length, _, _ = _factors(units, alt_unit)
     h = np.asarray(altitude, dtype=float)
     if not np.all(np.isfinite(h)):
         raise InputError(f"atmosphere: altitude: expected finite values, got {altitude!r}")
@@ -85,7 +100,7 @@ def _altitude_m(altitude, units: str) -> tuple[np.ndarray, float]:
     lo, hi = ALTITUDE_RANGE_M
     if np.any(h_m < lo) or np.any(h_m > hi):
         bad = h.flat[np.argmax((h_m < lo) | (h_m > hi))]
-        name = unit_system(units).altitude
+        name = _unit_of_altitude(units, alt_unit)
         raise InputError(
             f"atmosphere: altitude {bad:g} {name} is outside the "
             f"USSA-76 range {lo / alt_m:.0f} .. {hi / alt_m:.0f} {name}"
@@ -97,11 +112,14 @@ def _scalar_or_array(x: np.ndarray, like) -> np.ndarray | float:
     return float(x) if np.ndim(like) == 0 else x
 
 
-def atmosphere(altitude, units: str = "ft") -> AtmosphereState:
-    """USSA-76 temperature, pressure, density and speed of sound at geometric ``altitude``."""
+def atmosphere(altitude, units: str = "ft", altitude_unit: str | None = None
+               ) -> AtmosphereState:
+    """USSA-76 temperature, pressure, density and speed of sound at geometric ``altitude``
+    (in ``altitude_unit``, default the system's altitude unit)."""
     from ambiance import Atmosphere
 
-    h_m, length = _altitude_m(altitude, units)
+    alt_unit = _unit_of_altitude(units, altitude_unit)
+    h_m, length = _altitude_m(altitude, units, alt_unit)
     _, _, dens_f, pres_f = _factors(units)
     atm = Atmosphere(np.atleast_1d(h_m))
     shape = np.shape(h_m)
@@ -114,25 +132,28 @@ def atmosphere(altitude, units: str = "ft") -> AtmosphereState:
     return AtmosphereState(
         altitude=_scalar_or_array(np.asarray(altitude, dtype=float), altitude),
         units=units,
+        altitude_unit=alt_unit,
         **{k: _scalar_or_array(v, altitude) for k, v in out.items()},
     )
 
 
-def density(altitude, units: str = "ft"):
+def density(altitude, units: str = "ft", altitude_unit: str | None = None):
     """Air density in ``units`` (slug/ft³ for ``"ft"``, kg/m³ for ``"si"``, ...)."""
-    return atmosphere(altitude, units).density
+    return atmosphere(altitude, units, altitude_unit).density
 
 
-def speed_of_sound(altitude, units: str = "ft"):
+def speed_of_sound(altitude, units: str = "ft", altitude_unit: str | None = None):
     """Speed of sound in ``units`` (ft/s for ``"ft"``, m/s for ``"si"``, ...)."""
-    return atmosphere(altitude, units).speed_of_sound
+    return atmosphere(altitude, units, altitude_unit).speed_of_sound
 
 
-def flight_condition(mach: float, altitude, units: str = "ft") -> FlightCondition:
-    """Matched-point condition at fixed Mach: V = M a(h), ρ(h), q = ½ ρ V²."""
+def flight_condition(mach: float, altitude, units: str = "ft",
+                     altitude_unit: str | None = None) -> FlightCondition:
+    """Matched-point condition at fixed Mach: V = M a(h), ρ(h), q = ½ ρ V² (``altitude`` in
+    ``altitude_unit``, default the system's)."""
     if not (np.isfinite(mach) and mach > 0.0):
         raise InputError(f"flight condition: mach: expected a positive number, got {mach!r}")
-    st = atmosphere(altitude, units)
+    st = atmosphere(altitude, units, altitude_unit)
     v = mach * np.asarray(st.speed_of_sound)
     q = 0.5 * np.asarray(st.density) * v**2
     return FlightCondition(
@@ -143,4 +164,5 @@ def flight_condition(mach: float, altitude, units: str = "ft") -> FlightConditio
         dynamic_pressure=_scalar_or_array(q, altitude),
         speed_of_sound=st.speed_of_sound,
         units=units,
+        altitude_unit=st.altitude_unit,
     )

@@ -38,8 +38,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("config", type=Path, help="study configuration (TOML); each distinct "
                         "case without the parameter is one branch")
     parser.add_argument("--parameter", default=None,
-                        help="the case parameter to follow (altitude_ft, gamma, alpha, ...; "
-                             "default [branch] parameter)")
+                        help="the case parameter to follow (altitude_ft or altitude_m, the run's "
+                             "altitude unit; gamma, alpha, ...; default [branch] parameter)")
     parser.add_argument("--range", type=finite_float, nargs=2, action=OrderedRange,
                         metavar=("LO", "HI"),
                         default=None,

@@ -1,5 +1,6 @@
-"""``torchrom static DECK.bdf``: the deck's own static subcases, linear (SOL 101) or
-geometrically nonlinear (SOL 106/400), with dead loads (:mod:`torchrom.fe.static_cases`); with
+"""``torchrom static DECK.bdf``: the deck's own static subcases, and one more of the
+``--load GRID:T3=VALUE`` point loads (basic axes), linear (SOL 101) or geometrically
+nonlinear (SOL 106/400), with dead loads (:mod:`torchrom.fe.static_cases`); with
 ``--aoa``/``--velocity``, or a SOL 144 deck, the static aeroelastic equilibrium instead
 (:mod:`._static_aero`).
 
@@ -8,7 +9,10 @@ JSON (``--json FILE``, refused when it exists unless ``--force``): an object wit
 (``dead``: not following the deformation), ``units`` (the model's: the deck's own consistent
 units unless it states them), ``frame`` (``basic``), ``components`` (``T1 .. R3``) and
 ``subcases``: one object per subcase with ``subcase``, ``label``, ``load``, ``spc``,
-``nlparm`` (set IDs, null when not given), ``converged``, ``message`` and ``steps``: one
+``nlparm`` (set IDs, null when not given), ``point_loads`` (``--load``: [{``grid``,
+``component`` (T1..R3), ``value``}] along the basic axes; [] for the deck's subcases, and
+``load`` null for the ``--load`` subcase, numbered after the deck's last and labelled
+``--load ...``), ``converged``, ``message`` and ``steps``: one
 object per load step with ``step``, ``load_factor``, ``converged``, ``iterations``,
 ``residual`` (norm of the out-of-balance force) and ``displacements``: grid ID (a string) →
 [T1, T2, T3, R1, R2, R3] in the basic frame (null for a step that did not converge).
@@ -18,6 +22,7 @@ from __future__ import annotations
 
 import argparse
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -32,10 +37,10 @@ from ._common import (
 )
 
 NAME = "static"
-HELP = ("the deck's static subcases (LOAD/SPC/NLPARM in case control): linear as SOL 101, "
-        "nonlinear as SOL 106/400; dead loads; or the static aeroelastic equilibrium at a root "
+HELP = ("the deck's static subcases (LOAD/SPC/NLPARM in case control) and --load point loads: "
+        "linear as SOL 101, nonlinear as SOL 106/400; dead loads; or the static aeroelastic "
+        "equilibrium at a root "
         "angle of attack (--aoa, --velocity; SOL 144 TRIM)")
-COMPONENTS = ("T1", "T2", "T3", "R1", "R2", "R3")
 
 
 def grid_list(value: str) -> list[int]:
@@ -50,6 +55,44 @@ def grid_list(value: str) -> list[int]:
     return ids
 
 
+if TYPE_CHECKING:
+    from ..fe.static_cases import PointLoad
+
+#: DOF components of a grid (torchrom.fe.static_cases.COMPONENTS; not imported here: the
+#: parser must not import the FE package and torch)
+COMPONENTS = ("T1", "T2", "T3", "R1", "R2", "R3")
+
+
+def point_load(value: str) -> PointLoad:
+    """``GRID:COMPONENT=VALUE`` (``4:T3=250``, ``12:R1=-3.5e2``) → :class:`PointLoad`."""
+    head, eq, number = value.partition("=")
+    grid, colon, comp = head.partition(":")
+    if not (eq and colon):
+        raise argparse.ArgumentTypeError(f"expected GRID:COMPONENT=VALUE (e.g. 4:T3=250), got "
+                                         f"{value!r}")
+    try:
+        gid = int(grid)
+    except ValueError:
+        gid = 0
+    if gid <= 0:
+        raise argparse.ArgumentTypeError(f"{value}: GRID: expected a grid ID (integer > 0), "
+                                         f"got {grid!r}")
+    comp = comp.strip().upper()
+    if comp not in COMPONENTS:
+        raise argparse.ArgumentTypeError(f"{value}: COMPONENT: expected one of "
+                                         f"{', '.join(COMPONENTS)}, got {comp!r}")
+    try:
+        x = float(number)
+    except ValueError:
+        x = float("nan")
+    if not np.isfinite(x):
+        raise argparse.ArgumentTypeError(f"{value}: VALUE: expected a finite number (force or "
+                                         f"moment in the deck's units), got {number!r}")
+    from ..fe.static_cases import PointLoad
+
+    return PointLoad(gid, COMPONENTS.index(comp) + 1, x)
+
+
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("model", type=Path, help="Nastran deck with static subcases")
     kind = parser.add_mutually_exclusive_group()
@@ -62,6 +105,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="load steps of the nonlinear solution (default: the subcase's "
                              "NLPARM NINC, else 10); a step that does not converge is halved, "
                              "then reported as not converged")
+    parser.add_argument("--load", type=point_load, action="append", default=None,
+                        metavar="GRID:T3=VALUE",
+                        help="a force (T1, T2, T3) or moment (R1, R2, R3) at a grid, in the "
+                             "deck's units along the basic axes (as FORCE/MOMENT with CID 0 "
+                             "and as the displacements are reported); repeatable: all of "
+                             "them make one more subcase beside the deck's own (a SOL 103 "
+                             "deck: that subcase alone)")
     parser.add_argument("--grids", type=grid_list, default=None, metavar="ID,ID,...",
                         help="print these grids' displacements (T1..R3, basic) at every step")
     add_unsupported_option(parser)
@@ -84,7 +134,9 @@ def run_records(run) -> dict:
                           "converged": bool(s.converged), "iterations": int(s.iterations),
                           "residual": float(s.residual), "displacements": disp})
         subcases.append({"subcase": sc.id, "label": sc.label, "load": sc.load, "spc": sc.spc,
-                         "nlparm": sc.nlparm, "converged": res.converged,
+                         "nlparm": sc.nlparm,
+                         "point_loads": [p.as_dict() for p in sc.point_loads],
+                         "converged": res.converged,
                          "message": res.message, "steps": steps})
     return {"deck": run.deck, "sol": run.sol,
             "analysis": "nonlinear" if run.nonlinear else "linear", "loads": "dead",
@@ -114,12 +166,15 @@ def run(args: argparse.Namespace) -> int:
     from ..progress import Progress
 
     if static_aero.is_static_aeroelastic(args):
+        if args.load:
+            raise InputError("--load: for the deck's structural subcases (not with --aoa, "
+                             "--velocity or a SOL 144 deck's static aeroelastic solution)")
         return static_aero.run(args)
     static_aero.refuse_stray_options(args)
     check_outputs(args, [])
     nonlinear = True if args.nonlinear else False if args.linear else None
     job = plan_static(args.model, nonlinear=nonlinear, steps=args.steps,
-                      unsupported=args.unsupported)
+                      unsupported=args.unsupported, point_loads=args.load or ())
     fe = next(iter(job.models.values()))
     if args.grids:
         missing = [g for g in args.grids if g not in set(fe.grid_ids.tolist())]
@@ -139,7 +194,9 @@ def run(args: argparse.Namespace) -> int:
     for res in result.results:
         sc = res.subcase
         head = f"SUBCASE {sc.id}" + (f" ({sc.label})" if sc.label else "")
-        print(f"{head}: LOAD {sc.load}, SPC {sc.spc}")
+        loads = (f"point loads along the basic axes, SPC {sc.spc}" if sc.point_loads
+                 else f"LOAD {sc.load}, SPC {sc.spc}")
+        print(f"{head}: {loads}")
         for k, s in enumerate(res.steps):
             if not s.converged:
                 failed += 1

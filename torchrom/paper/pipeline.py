@@ -289,7 +289,8 @@ def _goland_pipelines(base: GolandPipeline, folders: dict[str, Any], force: bool
     for m, cache in caches.items():
         opt = opts[m]
         model = AeroelasticModel(roms[m], aeros[m], opt.baseline_alpha, opt.baseline_gamma,
-                                 altitude_range_ft=tuple(opt.altitude_range_ft))
+                                 altitude_range=tuple(opt.altitude_range_ft),
+                                 altitude_unit="ft")
         fl_key = FileCache.key({"stage": "flutter", "rom": rom_keys[m], "aero": aero_keys[m],
                                 "kinds": kinds, "contents": contents,
                                 "alpha": opt.baseline_alpha, "gamma": opt.baseline_gamma,
@@ -385,11 +386,11 @@ def flutter_summary(model: AeroelasticModel, mode_kinds=None, contents=None) -> 
     st = model.structure(model.baseline_alpha, model.baseline_gamma)
     ss = model.baseline_flutter()
     pk = flutter_altitude_pk(st, AeroTable.from_gaf(model.aero.gaf), model.mach,
-                             model.altitude_range_ft)
+                             model.altitude_range, altitude_unit=model.altitude_unit)
     alts = sorted(PAPER_TABLE3)
     f_ss = growing_response_frequency(st, model.aero.rfa, model.mach, alts)
     f_pk = growing_response_frequency_pk(st, AeroTable.from_gaf(model.aero.gaf), model.mach,
-                                         alts, start_altitude=max(model.altitude_range_ft))
+                                         alts, start_altitude=max(model.altitude_range))
     freqs = [float(f) for f in np.asarray(model.rom.frequencies_hz)[:len(PAPER_TABLE2_HZ)]]
     return {
         "mach": model.mach,

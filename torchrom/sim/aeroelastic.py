@@ -120,7 +120,8 @@ def aero_additions(aero, velocity, dynamic_pressure, n: int) -> dict[str, np.nda
 @dataclass
 class AeroelasticCases:
     """The assembled cases and their flight conditions (arrays (B,), consistent units: ft, slug,
-    s for Goland): altitude, mach, velocity V = M a(h), density ρ(h), dynamic pressure ½ρV²."""
+    s for Goland): altitude (in the unit it was given in), mach, velocity V = M a(h), density
+    ρ(h), dynamic pressure ½ρV²."""
 
     system: CaseSystem
     altitude: np.ndarray
@@ -138,11 +139,13 @@ class AeroelasticCases:
 
 def aeroelastic_system(rom: NonlinearROM, aero, altitude, *, alpha=0.0, gamma=0.0,
                        stiffness_nl=1.0, damping_nl=1.0, mach=None, units: str = "ft",
-                       device=None, dtype=torch.float64, check: bool = True) -> AeroelasticCases:
+                       device=None, dtype=torch.float64, check: bool = True,
+                       altitude_unit: str | None = None) -> AeroelasticCases:
     """B aeroelastic cases of ``rom`` with the RFA of ``aero`` (paper Eqs. 49–50, 54).
 
     Args:
-        altitude: (B,) or scalar geometric altitudes (``units``: "ft" or "m").
+        altitude: (B,) or scalar geometric altitudes, in ``altitude_unit`` ("m" or "ft";
+            default the altitude unit of the system ``units``: ft for "ft").
         alpha, gamma: mass-proportional (1/s) and Kelvin–Voigt (s) damping, scalars or (B,).
         stiffness_nl, damping_nl: nonlinearity switches (bools or scales), scalars or (B,).
         mach: None (the GAF Mach) or a Mach number equal to it: the RFA holds at one Mach only.
@@ -157,7 +160,7 @@ def aeroelastic_system(rom: NonlinearROM, aero, altitude, *, alpha=0.0, gamma=0.
     alt = np.atleast_1d(np.asarray(altitude, dtype=float))
     if alt.ndim != 1 or not np.all(np.isfinite(alt)):
         raise InputError(f"aeroelastic: altitude: expected finite numbers, got {altitude!r}")
-    fc = flight_condition(aero.mach, alt, units)
+    fc = flight_condition(aero.mach, alt, units, altitude_unit)
     return aeroelastic_system_at(rom, aero, fc.velocity, fc.density, altitude=alt, alpha=alpha,
                                  gamma=gamma, stiffness_nl=stiffness_nl, damping_nl=damping_nl,
                                  device=device, dtype=dtype, check=False)

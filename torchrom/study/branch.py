@@ -51,8 +51,8 @@ from .grid import distinct_cases
 from .models import model_rom
 
 #: units of the parameters a branch may follow (axis labels, table metadata)
-PARAMETER_UNITS = {"altitude_ft": "ft", "gamma": "s", "alpha": "1/s", "stiffness_nl": "",
-                   "damping_nl": ""}
+PARAMETER_UNITS = {"altitude_ft": "ft", "altitude_m": "m", "gamma": "s", "alpha": "1/s",
+                   "stiffness_nl": "", "damping_nl": ""}
 #: [branch] keys (BranchOptions fields and the parameter)
 BRANCH_KEYS = ("parameter", "bounds", "harmonics", "amplitude_scale", "first_amplitude", "step",
                "min_step", "max_step", "max_points", "stability")

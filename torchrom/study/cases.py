@@ -3,19 +3,21 @@
 A *structural* case has the Eq. 54 parameters ``alpha`` (1/s), ``gamma`` (s), ``stiffness_nl``,
 ``damping_nl`` and ``q0`` (scale of the initial displacement). An *aeroelastic* case (a model
 with aerodynamics, :class:`~torchrom.study.models.AeroelasticModel`) adds the flight condition:
-``altitude_ft`` (geometric, USSA-76) and optionally ``mach`` (must be the GAF Mach number), from
-which V = M a(h), ρ(h) and q∞ = ½ρV² follow (paper Eqs. 49–50). There ``alpha = "matched"``
+the altitude (geometric, USSA-76) as ``altitude_ft`` or ``altitude_m`` — the key names its
+unit, the model's altitude unit (:attr:`AeroelasticModel.altitude_column`; one per run) — and
+optionally ``mach`` (must be the GAF Mach number), from which V = M a(h), ρ(h) and
+q∞ = ½ρV² follow (paper Eqs. 49–50). There ``alpha = "matched"``
 means the α that keeps the flutter altitude of the baseline damping for the case's γ (paper
 Fig. 9, :meth:`AeroelasticModel.matched_alpha`); the table then holds the numeric α, and
 ``alpha_matched`` says where it came from.
 
 A *wind-tunnel* case gives the airspeed instead: ``speed`` at the air density
-``density`` or at that of ``altitude_ft`` (USSA-76), q∞ = ½ρV², at the GAF Mach
+``density`` or at that of the altitude (USSA-76), q∞ = ½ρV², at the GAF Mach
 number (a tunnel test such as Pazy's: sea-level density, speed swept). A speed sweep is at
-one density: sweeping ``altitude_ft`` as well is refused (sweep the altitude without
+one density: sweeping the altitude as well is refused (sweep the altitude without
 ``speed`` for the matched point). Units: ``speed`` and ``density`` in the model's unit system
 (:attr:`AeroelasticModel.units`, e.g. m/s and kg/m³ for an SI deck, ft/s and slug/ft³ for the
-Goland wing); ``altitude_ft`` in ft in every system (converted for the atmosphere).
+Goland wing); the altitude in the unit its key names, which the atmosphere takes as it is.
 
 ``[history]`` selects cases whose output time histories are kept: ``where`` is a table of
 parameter values (a value or a list of values each; numbers compare to a relative 1e-9) and
@@ -38,13 +40,14 @@ from ..errors import InputError
 from ..rom import NonlinearROM
 from ..sim import CaseSystem, SimulationResult
 from ..sim.aeroelastic import aeroelastic_system_at
+from ..units import ALTITUDE_COLUMNS
 from .models import AeroelasticModel
 
 #: case parameters of a structural sweep (no aerodynamics)
 STRUCTURAL_PARAMETERS = ("alpha", "gamma", "stiffness_nl", "damping_nl", "q0")
 #: case parameters of an aeroelastic sweep
-AEROELASTIC_PARAMETERS = ("altitude_ft", "speed", "density", "mach", "alpha", "gamma",
-                          "stiffness_nl", "damping_nl", "q0", "aoa_deg")
+AEROELASTIC_PARAMETERS = ("altitude_ft", "altitude_m", "speed", "density", "mach", "alpha",
+                          "gamma", "stiffness_nl", "damping_nl", "q0", "aoa_deg")
 #: the α of a case that keeps the baseline flutter altitude (paper Fig. 9)
 MATCHED = "matched"
 #: units of a wind-tunnel case's speed and density (the model's system, known once it is built)
@@ -60,7 +63,7 @@ def check_case_values(cases: Sequence[Mapping[str, Any]], aeroelastic: bool,
                       where: str = "[cases]") -> None:
     """InputError naming the parameter and case unless every value is a finite number or a
     bool in the parameter's physical range (:func:`torchrom.checks.physical`; ``alpha`` may also
-    be "matched" in an aeroelastic sweep, which needs ``altitude_ft``)."""
+    be "matched" in an aeroelastic sweep, which needs the altitude)."""
     for k, case in enumerate(cases):
         for name, value in case.items():
             if aeroelastic and name == "alpha" and value == MATCHED:
@@ -83,25 +86,38 @@ def check_case_values(cases: Sequence[Mapping[str, Any]], aeroelastic: bool,
         check_speed_sweep(cases, where)
 
 
+def altitude_key(case: Mapping[str, Any]) -> str | None:
+    """The altitude parameter a case gives (``altitude_ft`` or ``altitude_m``), None for none."""
+    keys = [c for c in ALTITUDE_COLUMNS if c in case]
+    return keys[0] if keys else None
+
+
 def _check_flight_condition(case: Mapping[str, Any], k: int, where: str) -> None:
-    """A matched-point case has ``altitude_ft``; a wind-tunnel case ``speed`` > 0 and either
-    ``density`` > 0 or ``altitude_ft`` (InputError naming the key otherwise)."""
+    """A matched-point case has its altitude (``altitude_ft`` or ``altitude_m``, not both); a
+    wind-tunnel case ``speed`` > 0 and either ``density`` > 0 or the altitude (InputError
+    naming the key otherwise)."""
     for key in ("speed", "density"):
         if key in case and not float(case[key]) > 0:
             raise InputError(f"{where} {key}: expected a positive number "
                              f"({TUNNEL_UNITS[key]}), got {case[key]!r} (case {k})")
+    given = [c for c in ALTITUDE_COLUMNS if c in case]
+    if len(given) > 1:
+        raise InputError(f"{where} {given[1]}: given together with {given[0]} (case {k}); "
+                         f"one altitude unit per run: give the altitude once")
+    altitude = given[0] if given else None
     if "speed" not in case:
         if "density" in case:
             raise InputError(f"{where} density: given without speed (case {k}); a wind-tunnel "
-                             f"case needs the speed, a matched-point case altitude_ft only")
-        if "altitude_ft" not in case:
+                             f"case needs the speed, a matched-point case the altitude only")
+        if altitude is None:
             raise InputError(f"{where} altitude_ft: missing (case {k}); an aeroelastic sweep "
-                             f"needs the altitude of every case (matched point), or a speed "
-                             f"and density (wind tunnel)")
-    elif ("density" in case) == ("altitude_ft" in case):
+                             f"needs the altitude of every case (matched point: altitude_ft "
+                             f"or altitude_m), or a speed and density (wind tunnel)")
+    elif ("density" in case) == (altitude is not None):
         key = "density" if "density" in case else "speed"
         raise InputError(f"{where} {key}: a wind-tunnel case takes its air density from "
-                         f"exactly one of density or altitude_ft (case {k})")
+                         f"exactly one of density or the altitude (altitude_ft or altitude_m) "
+                         f"(case {k})")
 
 
 def check_speed_sweep(cases: Sequence[Mapping[str, Any]], where: str = "[cases]") -> None:
@@ -110,35 +126,50 @@ def check_speed_sweep(cases: Sequence[Mapping[str, Any]], where: str = "[cases]"
     tunnel = [c for c in cases if "speed" in c]
     if len({float(c["speed"]) for c in tunnel}) < 2:
         return
-    for key in ("altitude_ft", "density"):
+    for key in (*ALTITUDE_COLUMNS, "density"):
         if len({float(c[key]) for c in tunnel if key in c}) > 1:
             raise InputError(f"{where} {key}: swept together with speed; a speed sweep (wind "
                              f"tunnel) is at one air density: give one {key}, or sweep "
-                             f"altitude_ft without speed (matched point)")
+                             f"the altitude without speed (matched point)")
 
 
 def flight_conditions(model: AeroelasticModel, cases: Sequence[Mapping[str, Any]]
                       ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(V, ρ, altitude) per case (the model's speed and density units, e.g. ft/s and
-    slug/ft³; altitude in ft): the matched point V = M a(h), ρ(h) at the GAF Mach M (paper
-    Eqs. 49–50), or the wind tunnel's ``speed`` at ``density`` or at ρ(``altitude_ft``)
-    (altitude NaN when the density is given); the atmosphere in the model's units."""
+    slug/ft³; the altitude in the model's altitude unit): the matched point V = M a(h), ρ(h)
+    at the GAF Mach M (paper Eqs. 49–50), or the wind tunnel's ``speed`` at ``density`` or at
+    ρ(altitude) (altitude NaN when the density is given); the atmosphere in the model's units,
+    the altitude with its unit (:func:`check_altitude_unit`)."""
     from ..aero.atmosphere import atmosphere, flight_condition
 
-    units = model.units.name
+    check_altitude_unit(model, cases)
+    units, column, unit = model.units.name, model.altitude_column, model.altitude_unit
     V, rho, alt = (np.full(len(cases), np.nan) for _ in range(3))
     for i, c in enumerate(cases):
-        if "altitude_ft" in c:
-            alt[i] = float(c["altitude_ft"])
-        h = model.altitude_in_units(alt[i])
+        if column in c:
+            alt[i] = float(c[column])
         if "speed" not in c:
-            fc = flight_condition(model.mach, h, units)
+            fc = flight_condition(model.mach, alt[i], units, unit)
             V[i], rho[i] = float(fc.velocity), float(fc.density)
         else:
             V[i] = float(c["speed"])
             rho[i] = (float(c["density"]) if "density" in c
-                      else float(atmosphere(h, units).density))
+                      else float(atmosphere(alt[i], units, unit).density))
     return V, rho, alt
+
+
+def check_altitude_unit(model: AeroelasticModel, cases: Sequence[Mapping[str, Any]],
+                        where: str = "[cases]") -> None:
+    """InputError unless every case gives its altitude in the model's altitude unit
+    (:attr:`AeroelasticModel.altitude_column`): one altitude unit per run, none converted."""
+    for k, c in enumerate(cases):
+        key = altitude_key(c)
+        if key is not None and key != model.altitude_column:
+            raise InputError(f"{where} {key}: the model's altitudes are in "
+                             f"{model.altitude_unit} (case {k}); one altitude unit per run: "
+                             f"give {model.altitude_column}, or build the model with "
+                             f"altitude_unit = {ALTITUDE_COLUMNS[key]!r} ([aeroelastic] "
+                             f"altitude_unit)")
 
 
 #: most distinct air densities whose flutter speed a sweep reports

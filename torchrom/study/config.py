@@ -13,9 +13,12 @@ memory bounds of :mod:`torchrom.bounds`, dt ≤ t_end, at most
 :data:`torchrom.sim.newmark.MAX_STEPS` steps), the initial state and outputs against the model
 — and a bad one is a one-line :class:`~torchrom.errors.InputError` naming the file, the table
 and the key. Paths are relative to the configuration file; units: dt, t_end and γ in s, α in
-1/s, altitudes in ft; a wind tunnel's speed and density, and lengths, in the model's unit
-system (that its ROM and aero files record, or ``[model] units`` for files that record none:
-:mod:`torchrom.units`).
+1/s; a wind tunnel's speed and density, and lengths, in the model's unit system (that its ROM
+and aero files record, or ``[model] units`` for files that record none:
+:mod:`torchrom.units`). Altitudes: one unit per run (:func:`run_altitude_unit`), named by the
+keys that hold them (``altitude_ft`` or ``altitude_m`` in ``[cases]``,
+``reference_altitude_<unit>`` and ``altitude_range_<unit>`` in ``[aeroelastic]``) or by
+``[aeroelastic] altitude_unit``, else the unit system's (m for si, ft for ft-slug-s).
 
 This module parses and validates only: ``[model]`` and ``[aeroelastic]`` become a
 :class:`~torchrom.study.models.ModelSpec` (:func:`parse_model`), which
@@ -40,7 +43,14 @@ from ..rom import NonlinearROM
 from ..rom.analytic import BUILTIN
 from ..rom.points import check_point_table
 from ..sim import LCOCriteria, Newmark
-from ..units import SYSTEMS, is_air_density, unit_system
+from ..units import (
+    ALTITUDE_COLUMNS,
+    ALTITUDE_UNITS,
+    SYSTEMS,
+    altitude_unit,
+    is_air_density,
+    unit_system,
+)
 from .cases import (
     STRUCTURAL_PARAMETERS,  # noqa: F401 - re-exported (public name of this module)
     HistorySpec,
@@ -66,9 +76,10 @@ _HB_OPTION_KEYS = ("start_harmonics", "harmonics", "max_harmonics", "amplitude_r
                    "residual_tol", "start_amplitude", "amplitude_scale", "max_stages",
                    "metric_points")
 _HB_METHOD_KEYS = ("stability", "floquet_steps", "start", "sensitivity", "seed")
-#: [aeroelastic] keys (AeroelasticModel fields)
-AEROELASTIC_KEYS = ("baseline_alpha", "baseline_gamma", "reference_altitude_ft",
-                    "altitude_range_ft")
+#: [aeroelastic] keys (AeroelasticModel fields; the altitudes in the unit their name says)
+AEROELASTIC_KEYS = ("baseline_alpha", "baseline_gamma", "altitude_unit",
+                    "reference_altitude_ft", "reference_altitude_m", "altitude_range_ft",
+                    "altitude_range_m")
 _NEWMARK_KEYS = ("scheme", "rho_inf", "solver", "iterations", "startup_iterations", "tol",
                  "predictor", "check_every", "refresh_every", "sample_every", "compile", "threads",
                  "cuda_graphs", "adaptive", "step_tol", "dt_min", "dt_max", "extrapolate")
@@ -266,20 +277,75 @@ def _relative(path: str, source: Path) -> Path:
 
 
 def _aeroelastic_options(table: dict[str, Any] | None, source: Path) -> dict[str, Any]:
+    """The ``[aeroelastic]`` table as :class:`~.models.AeroelasticModel` keyword arguments:
+    ``reference_altitude_<unit>`` → ``matched_altitude``, ``altitude_range_<unit>`` →
+    ``altitude_range``, with ``altitude_unit`` the unit they (or ``altitude_unit``) name
+    (:func:`run_altitude_unit` checks that it is one)."""
     table = dict(table or {})
     _check_keys(table, AEROELASTIC_KEYS, source, "[aeroelastic]")
-    if "altitude_range_ft" in table:
-        rng = table["altitude_range_ft"]
-        if not (isinstance(rng, list) and len(rng) == 2 and _finite_numbers(rng)
-                and rng[0] < rng[1]):
-            raise _err(source, "[aeroelastic] altitude_range_ft", f"expected [LO, HI], got {rng!r}")
-        table["altitude_range_ft"] = (float(rng[0]), float(rng[1]))
-    # the baseline damping and reference altitude: the physical ranges of the case parameters
-    for key, name in (("baseline_alpha", "alpha"), ("baseline_gamma", "gamma"),
-                      ("reference_altitude_ft", "altitude_ft")):
-        if key in table and not (name == "altitude_ft" and table[key] is None):
-            table[key] = physical(name, table[key], f"{source}: [aeroelastic] {key}:")
-    return table
+    out: dict[str, Any] = {}
+    # the baseline damping: the physical ranges of the case parameters
+    for key, name in (("baseline_alpha", "alpha"), ("baseline_gamma", "gamma")):
+        if key in table:
+            out[key] = physical(name, table[key], f"{source}: [aeroelastic] {key}:")
+    for unit in ALTITUDE_UNITS:
+        key = f"altitude_range_{unit}"
+        if key in table:
+            rng = table[key]
+            if not (isinstance(rng, list) and len(rng) == 2 and _finite_numbers(rng)
+                    and rng[0] < rng[1]):
+                raise _err(source, f"[aeroelastic] {key}", f"expected [LO, HI], got {rng!r}")
+            out["altitude_range"] = tuple(physical(f"altitude_{unit}", h, f"{source}: "
+                                                   f"[aeroelastic] {key}:") for h in rng)
+        key = f"reference_altitude_{unit}"
+        if key in table and table[key] is not None:
+            out["matched_altitude"] = physical(f"altitude_{unit}", table[key],
+                                               f"{source}: [aeroelastic] {key}:")
+    try:
+        named = altitude_unit_sources(table, [])
+    except InputError as exc:
+        raise InputError(f"{source}: {exc}") from None
+    if named:
+        out["altitude_unit"] = named[0][0]
+    return out
+
+
+def altitude_unit_sources(aeroelastic: dict[str, Any], cases: list[dict[str, Any]]
+                          ) -> list[tuple[str, str]]:
+    """(unit, where) of every key of a configuration that names an altitude unit:
+    ``[aeroelastic] altitude_unit``, its ``*_altitude_<unit>`` / ``altitude_range_<unit>``
+    keys and the ``altitude_<unit>`` parameters of the cases (the first case with each)."""
+    found = []
+    if "altitude_unit" in aeroelastic:
+        found.append((altitude_unit(aeroelastic["altitude_unit"], "[aeroelastic] altitude_unit"),
+                      f"[aeroelastic] altitude_unit = {aeroelastic['altitude_unit']!r}"))
+    for unit in ALTITUDE_UNITS:
+        for key in (f"reference_altitude_{unit}", f"altitude_range_{unit}"):
+            if key in aeroelastic:
+                found.append((unit, f"[aeroelastic] {key}"))
+    for column, unit in ALTITUDE_COLUMNS.items():
+        k = next((k for k, c in enumerate(cases) if column in c), None)
+        if k is not None:
+            found.append((unit, f"[cases] {column} (case {k})"))
+    return found
+
+
+def run_altitude_unit(aeroelastic: dict[str, Any], cases: list[dict[str, Any]],
+                      source: Path) -> str | None:
+    """The one altitude unit of a run: the unit that its keys name
+    (:func:`altitude_unit_sources`), None when none names one (the model's unit system's);
+    InputError naming two keys that name different units."""
+    try:
+        found = altitude_unit_sources(aeroelastic, cases)
+    except InputError as exc:
+        raise InputError(f"{source}: {exc}") from None
+    for unit, where in found[1:]:
+        if unit != found[0][0]:
+            first_unit, first = found[0]
+            raise _err(source, where.split(" (")[0], f"altitudes in {unit}, but {first} "
+                       f"names {first_unit}: one altitude unit per run (give every altitude as "
+                       f"altitude_{first_unit}, or all in {unit})")
+    return found[0][0] if found else None
 
 
 def goland_cache_folder(model: dict[str, Any], source: Path) -> Path:
@@ -394,6 +460,11 @@ def load_sweep_config(path, variant: str | None = None) -> SweepConfig:
         history = HistorySpec.from_table(_table(raw, "history", source), parameters)
     except InputError as exc:
         raise InputError(f"{source}: {exc}") from None
+    if aeroelastic:
+        unit = run_altitude_unit(aero_t, cases, source)
+        if unit is not None:
+            spec = dataclasses.replace(spec, aeroelastic={**spec.aeroelastic,
+                                                          "altitude_unit": unit})
 
     plot_t = _checked_table(raw, "plot", source)
     swept = [k for k in parameters if len({repr(c.get(k)) for c in cases}) > 1]

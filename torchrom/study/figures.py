@@ -190,10 +190,13 @@ def fig9(table: pd.DataFrame, path, *, force: bool = False, reference_altitude=N
     t = table.drop_duplicates(["gamma", "alpha"]).sort_values("gamma")
     plt = _plt()
     fig, ax = plt.subplots(figsize=(6.0, 4.2), constrained_layout=True)
-    h = reference_altitude
-    if h is None and "reference_altitude_ft" in t:
-        h = float(t["reference_altitude_ft"].iloc[0])
-    label = "α(γ) keeping the flutter altitude" + (f" at {h:,.0f} ft" if h is not None else "")
+    # the table's reference altitude in the unit its column names (ft for the Goland study)
+    h, unit = reference_altitude, "ft"
+    column = next((c for c in ("reference_altitude_ft", "reference_altitude_m") if c in t), None)
+    if h is None and column is not None:
+        h, unit = float(t[column].iloc[0]), column.rsplit("_", 1)[1]
+    label = "α(γ) keeping the flutter altitude" + (f" at {h:,.0f} {unit}" if h is not None
+                                                    else "")
     ax.plot(t["gamma"], t["alpha"], "o-", ms=4, lw=1.4, label=label)
     for g, a in ref.fig9_points:
         ax.plot(g, a, "k*", ms=11, ls="none",

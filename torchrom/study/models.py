@@ -25,7 +25,6 @@ from typing import Any
 
 import numpy as np
 
-from ..aero.atmosphere import FT
 from ..aero.build import BASELINE_ALPHA, BASELINE_GAMMA
 from ..aero.files import AeroData
 from ..aero.flutter import (
@@ -41,9 +40,10 @@ from ..aero.flutter_speed import FlutterSpeed, flutter_speed_at_density
 from ..errors import ConvergenceError, InputError
 from ..rom import NonlinearROM
 from ..sim.aeroelastic import check_aero_matches_rom
-from ..units import LEGACY_SYSTEM, UnitSystem, file_units
+from ..units import ALTITUDE_UNITS, LEGACY_SYSTEM, UnitSystem, altitude_column, file_units
 
-#: default altitude range (ft) searched for the baseline flutter point
+#: default altitude range (ft) searched for the baseline flutter point (in a model whose
+#: altitudes are in m: the same heights in m, 0 .. 12,192)
 ALTITUDE_RANGE_FT = (0.0, 40000.0)
 
 
@@ -67,26 +67,38 @@ class AeroelasticModel:
         rom: the structural ROM (n basis functions, the first m the aerodynamic modes).
         aero: GAFs and RFA on the first m basis functions (one Mach number).
         baseline_alpha, baseline_gamma: the FE model's Rayleigh damping (1/s, s), Eq. 46.
-        reference_altitude_ft: altitude the matched α(γ) keep the flutter point at (None: the
-            baseline flutter altitude).
-        altitude_range_ft: where the baseline flutter point is searched.
+        matched_altitude: altitude the matched α(γ) keep the flutter point at (None: the
+            baseline flutter altitude, :meth:`reference_altitude`).
+        altitude_range: where the baseline flutter point is searched (None:
+            :data:`ALTITUDE_RANGE_FT` in the altitude unit).
         span: reference length of amplitudes in % of span (None: the ROM's metadata "span").
         units: the unit system of the ROM and the aerodynamics (None: what their files record,
-            which must agree, :func:`torchrom.units.file_units`). Altitudes of this class are
-            in ft whatever the system (``*_ft``); speeds, densities and lengths in the system's.
+            which must agree, :func:`torchrom.units.file_units`); after construction it
+            carries the altitude unit too (:meth:`~torchrom.units.UnitSystem.with_altitude`).
+            Speeds, densities and lengths are in the system's units.
         rigid_body_support_hz: the frequency (Hz) of the soft support the ROM's rigid-body
             coordinates were put on (:func:`with_rigid_body_support`; None: free or none).
+        altitude_unit: the unit ("m" or "ft") of every altitude of the model — its cases'
+            ``altitude_<unit>`` (:attr:`altitude_column`), ``matched_altitude``,
+            ``altitude_range`` and the flutter altitudes it reports — (None: the unit system's,
+            m for si and mm-t-s, ft for ft-slug-s and in-lbf-s). The atmosphere takes the
+            altitude in it; nothing is converted.
+        damping_note: where the baseline damping came from, one line (:func:`build_model`:
+            the ROM file's record of its structural damping, :mod:`torchrom.rom.rayleigh`,
+            when ``[aeroelastic]`` states none); None when stated.
     """
 
     rom: NonlinearROM
     aero: AeroData
     baseline_alpha: float = BASELINE_ALPHA
     baseline_gamma: float = BASELINE_GAMMA
-    reference_altitude_ft: float | None = None
-    altitude_range_ft: tuple[float, float] = ALTITUDE_RANGE_FT
+    matched_altitude: float | None = None
+    altitude_range: tuple[float, float] | None = None
     span: float | None = None
     units: UnitSystem | None = None
     rigid_body_support_hz: float | None = None
+    altitude_unit: str | None = None
+    damping_note: str | None = None
     _flutter: MatchedPointResult | None = field(default=None, init=False, repr=False)
     _alpha: dict = field(default_factory=dict, init=False, repr=False)
 
@@ -95,6 +107,12 @@ class AeroelasticModel:
         if self.units is None:
             self.units, _ = file_units({"the ROM": self.rom.metadata,
                                         "the aero file": self.aero.metadata})
+        self.units = self.units.with_altitude(self.altitude_unit, "aeroelastic model: "
+                                                                  "altitude_unit")
+        self.altitude_unit = self.units.altitude
+        if self.altitude_range is None:
+            scale = ALTITUDE_UNITS["ft"] / ALTITUDE_UNITS[self.altitude_unit]
+            self.altitude_range = tuple(h * scale for h in ALTITUDE_RANGE_FT)
         if self.span is None:
             span = self.rom.metadata.get("span")
             self.span = None if span is None else float(span)
@@ -103,18 +121,10 @@ class AeroelasticModel:
     def mach(self) -> float:
         return float(self.aero.mach)
 
-    def altitude_in_units(self, altitude_ft):
-        """An altitude in ft in the system's altitude unit (ft itself untouched, so that
-        ft-slug-s models see the very same numbers)."""
-        if self.units.altitude == "ft":
-            return altitude_ft
-        return np.asarray(altitude_ft, dtype=float) * FT / self.units.altitude_metre
-
-    def altitude_ft(self, altitude):
-        """An altitude in the system's altitude unit in ft."""
-        if self.units.altitude == "ft":
-            return altitude
-        return float(altitude) * self.units.altitude_metre / FT
+    @property
+    def altitude_column(self) -> str:
+        """The case parameter and table column of the model's altitudes: ``altitude_<unit>``."""
+        return altitude_column(self.altitude_unit)
 
     def structure(self, alpha: float = 0.0, gamma: float = 0.0) -> ModalStructure:
         """Linear structure (M, K1, D̄1) on the m aerodynamic modes with damping α, γ."""
@@ -143,13 +153,13 @@ class AeroelasticModel:
         if self._flutter is None:
             st = self.structure(self.baseline_alpha, self.baseline_gamma)
             res = flutter_altitude_state_space(
-                st, self.aero.rfa, self.mach,
-                tuple(float(self.altitude_in_units(h)) for h in self.altitude_range_ft),
-                units=self.units.name)
+                st, self.aero.rfa, self.mach, tuple(float(h) for h in self.altitude_range),
+                units=self.units.name, altitude_unit=self.altitude_unit)
             if res.altitude is None:
-                lo, hi = self.altitude_range_ft
+                lo, hi = self.altitude_range
                 raise ConvergenceError(f"aeroelastic model: no flutter point between {lo:g} and "
-                                       f"{hi:g} ft at Mach {self.mach:g} with the baseline "
+                                       f"{hi:g} {self.altitude_unit} at Mach {self.mach:g} with "
+                                       f"the baseline "
                                        f"damping (α = {self.baseline_alpha:g} 1/s, γ = "
                                        f"{self.baseline_gamma:g} s)")
             self._flutter = res
@@ -170,10 +180,10 @@ class AeroelasticModel:
         return res
 
     def reference_altitude(self) -> float:
-        """Altitude (ft) the matched α(γ) keep the flutter point at."""
-        if self.reference_altitude_ft is not None:
-            return float(self.reference_altitude_ft)
-        return float(self.altitude_ft(self.baseline_flutter().altitude))
+        """Altitude (:attr:`altitude_unit`) the matched α(γ) keep the flutter point at."""
+        if self.matched_altitude is not None:
+            return float(self.matched_altitude)
+        return float(self.baseline_flutter().altitude)
 
     def matched_alpha(self, gamma: float) -> float:
         """α (1/s) that puts the flutter point at the reference altitude for this γ (Fig. 9)."""
@@ -185,14 +195,14 @@ class AeroelasticModel:
         iteration instead of a root search per γ)."""
         keys = [float(g) for g in gammas]
         missing = sorted({k for k in keys if k not in self._alpha})
-        if self.reference_altitude_ft is None and self.baseline_gamma in missing:
+        if self.matched_altitude is None and self.baseline_gamma in missing:
             # by definition of the reference
             self._alpha[float(self.baseline_gamma)] = float(self.baseline_alpha)
             missing.remove(self.baseline_gamma)
         if missing:
             found = alpha_for_gammas(self.structure(), self.aero.rfa, missing, self.mach,
-                                     float(self.altitude_in_units(self.reference_altitude())),
-                                     self.units.name)
+                                     self.reference_altitude(), self.units.name,
+                                     altitude_unit=self.altitude_unit)
             self._alpha.update(zip(missing, (float(a) for a in found)))
         return [self._alpha[k] for k in keys]
 
@@ -200,9 +210,11 @@ class AeroelasticModel:
         """Hash of the ROM, the aerodynamics and the reference damping: the model's identity."""
         text = repr((self.rom.content_hash(), aero_content_hash(self.aero),
                      float(self.baseline_alpha), float(self.baseline_gamma),
-                     self.reference_altitude_ft, tuple(self.altitude_range_ft)))
+                     self.matched_altitude, tuple(self.altitude_range)))
         if self.units.name != LEGACY_SYSTEM:  # ft-slug-s models keep their former identity
             text += self.units.name
+        if self.altitude_unit != "ft":  # ... and models at altitudes in ft too
+            text += f" altitude {self.altitude_unit}"
         return hashlib.sha256(text.encode()).hexdigest()[:16]
 
 
@@ -284,6 +296,24 @@ class ModelSpec:
         return self.aero is not None or self.provided
 
 
+def _recorded_damping(rom: NonlinearROM, spec: ModelSpec) -> dict[str, Any]:
+    """The baseline damping a ROM file brings (its structural damping, recorded by identify:
+    :mod:`torchrom.rom.rayleigh`; none recorded: α = γ = 0), where ``[aeroelastic]`` states
+    neither baseline_alpha nor baseline_gamma; as keyword arguments with its line."""
+    from ..rom.rayleigh import RayleighDamping, no_damping
+
+    stated = {"baseline_alpha", "baseline_gamma"} & spec.aeroelastic.keys()
+    if stated == {"baseline_alpha", "baseline_gamma"}:
+        return {}
+    rec = RayleighDamping.from_metadata(rom.metadata, str(spec.rom))
+    if rec is None:
+        rec = no_damping(f"{spec.rom.name} records no structural damping")
+    missing = sorted({"baseline_alpha", "baseline_gamma"} - stated)
+    note = (f"baseline damping ([aeroelastic] {' and '.join(missing)} not given): "
+            f"{spec.rom.name}'s {rec.description}")
+    return {"baseline_alpha": rec.alpha, "baseline_gamma": rec.gamma, "damping_note": note}
+
+
 def build_model(spec: ModelSpec):
     """The model ``spec`` describes: a NonlinearROM (a ROM file or an analytic builtin) or an
     :class:`AeroelasticModel` (a ROM with its aero file, in the unit system they record, or a
@@ -291,10 +321,11 @@ def build_model(spec: ModelSpec):
     where = f"{spec.source}: [model]"
     if spec.provided:
         m = model_provider(spec.builtin).build(spec.options, spec.cache)
-        return AeroelasticModel(m.rom, m.aero, **{"baseline_alpha": m.baseline_alpha,
-                                                  "baseline_gamma": m.baseline_gamma,
-                                                  "altitude_range_ft": m.altitude_range_ft,
-                                                  **spec.aeroelastic})
+        own = {"baseline_alpha": m.baseline_alpha, "baseline_gamma": m.baseline_gamma,
+               "altitude_unit": m.altitude_unit}
+        if spec.aeroelastic.get("altitude_unit", m.altitude_unit) == m.altitude_unit:
+            own["altitude_range"] = m.altitude_range  # in its own unit: kept with it
+        return AeroelasticModel(m.rom, m.aero, **{**own, **spec.aeroelastic})
     if spec.rom is not None:
         rom = NonlinearROM.load(spec.rom)
         if spec.span is not None:
@@ -307,11 +338,12 @@ def build_model(spec: ModelSpec):
         try:
             units, _ = file_units({spec.rom.name: rom.metadata, spec.aero.name: aero.metadata},
                                   spec.units)
+            damping = _recorded_damping(rom, spec)
             if spec.rigid_body_support_hz is not None:
                 rom = with_rigid_body_support(rom, spec.rigid_body_support_hz, aero.n_modes)
             return AeroelasticModel(rom, aero, units=units,
                                     rigid_body_support_hz=spec.rigid_body_support_hz,
-                                    **spec.aeroelastic)
+                                    **{**damping, **spec.aeroelastic})
         except InputError as exc:
             raise InputError(f"{where}: {exc}") from None
     from ..rom.analytic import BUILTIN
@@ -404,20 +436,22 @@ def with_named_outputs(model, outputs, points=None, where: str = "output"):
 
 
 def alpha_gamma_table(model: AeroelasticModel, gammas):
-    """Paper Fig. 9: the matched α for each γ (s), with the reference altitude (ft), the baseline
-    damping and the flutter frequency (Hz) of each pair at the reference altitude."""
+    """Paper Fig. 9: the matched α for each γ (s), with the reference altitude (column
+    ``reference_altitude_<unit>``, the model's altitude unit: ft for the Goland wing), the
+    baseline damping and the flutter frequency (Hz) of each pair at the reference altitude."""
     import pandas as pd
 
     from ..aero.atmosphere import flight_condition
     from ..aero.flutter import critical_root
 
     h = model.reference_altitude()
-    fc = flight_condition(model.mach, model.altitude_in_units(h), model.units.name)
+    fc = flight_condition(model.mach, h, model.units.name, model.altitude_unit)
     rows = []
     for g in sorted({float(g) for g in gammas}):
         a = model.matched_alpha(g)
         root = critical_root(model.structure(a, g), model.aero.rfa, fc.velocity, fc.density)
-        rows.append({"gamma": g, "alpha": a, "reference_altitude_ft": h, "mach": model.mach,
+        rows.append({"gamma": g, "alpha": a, f"reference_{model.altitude_column}": h,
+                     "mach": model.mach,
                      "flutter_frequency_hz": root.imag / (2 * np.pi),
                      "growth_rate_at_reference": root.real,
                      "baseline_alpha": model.baseline_alpha,

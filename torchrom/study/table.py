@@ -33,8 +33,8 @@ from ..sim.metrics import amplitude_ratio
 from .grid import case_id
 
 #: DESIGN parameter columns, in this order when present
-PARAMETER_ORDER = ("altitude_ft", "mach", "velocity", "dynamic_pressure", "density", "alpha",
-                   "gamma", "stiffness_nl", "damping_nl")
+PARAMETER_ORDER = ("altitude_ft", "altitude_m", "mach", "velocity", "dynamic_pressure",
+                   "density", "alpha", "gamma", "stiffness_nl", "damping_nl")
 
 
 #: extra columns of text with gaps (the certificate's kind: "fourier", "shooting", none)

@@ -5,7 +5,8 @@ pandas stores in the parquet file's metadata) and used to label figure axes.
 columns (:data:`KNOWN`) and the amplitudes in the units of the decision output (the model's
 length unit for a physical output such as point A's ``A_Tz``, ``-`` for generalized coordinates).
 :func:`column_units` reads them back (a CSV has no metadata: the known columns are still
-labelled). :func:`axis_label` names a column for a figure axis from :data:`LABELS` (one
+labelled; an altitude's column names its unit, ``altitude_ft`` or ``altitude_m``).
+:func:`axis_label` names a column for a figure axis from :data:`LABELS` (one
 table for every plot of the package) with its unit.
 """
 
@@ -17,12 +18,14 @@ import pandas as pd
 
 #: units of the columns every table of this package may hold ("-": dimensionless)
 KNOWN = {
-    "altitude_ft": "ft", "mach": "-", "alpha": "1/s", "gamma": "s", "stiffness_nl": "-",
+    "altitude_ft": "ft", "altitude_m": "m", "mach": "-", "alpha": "1/s", "gamma": "s",
+    "stiffness_nl": "-",
     "damping_nl": "-", "amplitude_pct_span": "% of span", "frequency_hz": "Hz",
     "steps": "-", "t_end": "s", "amplitude_change": "-", "solver_error": "-",
-    "reference_altitude_ft": "ft", "flutter_frequency_hz": "Hz", "growth_rate": "1/s",
+    "reference_altitude_ft": "ft", "reference_altitude_m": "m", "flutter_frequency_hz": "Hz",
+    "growth_rate": "1/s",
     "initial_amplitude": None, "threshold_amplitude": None,
-    # flight condition of an aeroelastic sweep (ft-slug-s, as altitude_ft and the atmosphere)
+    # flight condition of an aeroelastic sweep (ft-slug-s; a sweep's metadata gives its model's)
     "speed": "ft/s", "density": "slug/ft^3", "velocity": "ft/s", "dynamic_pressure": "lbf/ft^2",
 }
 
@@ -55,12 +58,14 @@ def column_units(table: pd.DataFrame) -> dict[str, str]:
 
 #: what each known column measures, as figure axes and legends name it
 LABELS = {
-    "altitude_ft": "altitude", "mach": "Mach number", "alpha": "α", "gamma": "γ",
+    "altitude_ft": "altitude", "altitude_m": "altitude", "mach": "Mach number", "alpha": "α",
+    "gamma": "γ",
     "stiffness_nl": "stiffness nonlinearity", "damping_nl": "damping nonlinearity",
     "amplitude": "LCO amplitude", "amplitude_pct_span": "LCO amplitude",
     "frequency_hz": "LCO frequency", "steps": "time steps", "t_end": "simulated time",
     "amplitude_change": "amplitude change per cycle", "solver_error": "solver error",
-    "reference_altitude_ft": "reference altitude", "flutter_frequency_hz": "flutter frequency",
+    "reference_altitude_ft": "reference altitude", "reference_altitude_m": "reference altitude",
+    "flutter_frequency_hz": "flutter frequency",
     "growth_rate": "growth rate", "initial_amplitude": "initial amplitude",
     "threshold_amplitude": "threshold amplitude", "floquet_multiplier": "Floquet multiplier",
     "harmonic_distortion": "harmonic distortion", "q0": "initial q",
