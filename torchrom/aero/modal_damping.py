@@ -67,7 +67,7 @@ class ModalDamping:
                 "damping, B_ii = 2 ζ_i ω_i (PARAM KDAMP = +1)")
 
 
-def _sdamp_of(sub) -> int | None:
+def sdamp_of(sub) -> int | None:
     """The subcase's SDAMP (pyNastran stores it as SDAMPING), or None."""
     if sub is None:
         return None
@@ -83,11 +83,11 @@ def subcase_sdamp(model) -> dict[int, int]:
     out: dict[int, int] = {}
     if cc is None:
         return out
-    default = _sdamp_of(cc.subcases.get(0))
+    default = sdamp_of(cc.subcases.get(0))
     for sub in cc.subcases.values():
         if not sub.has_parameter("FMETHOD")[0]:
             continue
-        sdamp = _sdamp_of(sub)
+        sdamp = sdamp_of(sub)
         sdamp = default if sdamp is None else sdamp
         if sdamp is not None:
             out[int(sub.get_parameter("FMETHOD")[0])] = sdamp
@@ -103,6 +103,12 @@ def modal_damping(model, where: str, tid: int, method: str) -> ModalDamping:
     if kdamp is not None and kdamp.values and int(kdamp.values[0]) < 0:
         raise InputError(f"{where}: PARAM KDAMP = {kdamp.values[0]}: modal damping as complex "
                          "stiffness is not supported (expected KDAMP = +1, viscous)")
+    return read_tabdmp1(model, where, tid)
+
+
+def read_tabdmp1(model, where: str, tid: int) -> ModalDamping:
+    """The TABDMP1 ``tid`` that case control SDAMP selects, its fields checked (InputError
+    naming ``where``, the table and the field)."""
     table = getattr(model, "tables_sdamping", {}).get(tid)
     if table is None or table.type != "TABDMP1":
         raise InputError(f"{where}: case control SDAMP = {tid}: TABDMP1 {tid} not found")

@@ -11,6 +11,7 @@ on the deck's modes of the model without those shells, their linear stiffness ke
 ``envelope_ratio`` and ``q``; ``route`` says which.
 
 JSON (``--json FILE``): ``rom``, ``aero``, ``density``, ``alpha`` (1/s), ``gamma`` (s),
+``damping`` (where α, γ came from: :mod:`._damping`),
 ``units`` (labels of speed, density, length), ``tip`` (``output``, the ROM output read as the tip
 deflection, and ``semispan``, null without ``--semispan``), ``methods``, ``boundaries``: one
 object per crossing with ``method``, ``aoa_deg``, ``kind`` (onset/offset), ``velocity``,
@@ -109,7 +110,6 @@ def _tip(args, rom) -> tuple[str, np.ndarray]:
 
 
 def run(args, rom_path, aero_path) -> int:
-    from ..aero.build import BASELINE_ALPHA, BASELINE_GAMMA
     from ..aero.files import load_aero
     from ..rom import NonlinearROM
     from ..sim.aeroelastic import check_aero_matches_rom
@@ -139,8 +139,11 @@ def run(args, rom_path, aero_path) -> int:
     steady = SteadyModalAero.from_aero(aero, rom.n, str(aero_path))
     speeds = _speeds(args, rom, steady, density)
     tip_name, tip_row = _tip(args, rom)
-    alpha = BASELINE_ALPHA if args.alpha is None else args.alpha
-    gamma = BASELINE_GAMMA if args.gamma is None else args.gamma
+    from ._damping import damping_for_rom
+
+    damping = damping_for_rom(args, rom, rom_path)
+    print(f"  {damping.description}")
+    alpha, gamma = damping.alpha, damping.gamma
     eq = rom_equilibria(rom, steady, args.aoa, speeds, density)
     methods = {"both": ["state-space", "p-k"], "pk": ["p-k"]}.get(args.method, [args.method])
     results = [deformed_flutter(rom, eq, root_finder(m, rom, aero), alpha, gamma)
@@ -190,7 +193,8 @@ def run(args, rom_path, aero_path) -> int:
             states.append(item)
     maybe_write_json(args, {
         "rom": str(rom_path), "aero": str(aero_path), "density": density, "alpha": alpha,
-        "gamma": gamma, "units": u, "tip": {"output": tip_name, "semispan": args.semispan},
+        "gamma": gamma, "damping": damping.as_metadata(), "units": u,
+        "tip": {"output": tip_name, "semispan": args.semispan},
         "methods": methods, "boundaries": rows, "equilibria": states, "notes": eq.notes,
         "time_s": time.perf_counter() - t0})
     print(f"  done in {time.perf_counter() - t0:.1f} s")

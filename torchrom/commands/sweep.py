@@ -98,6 +98,8 @@ def run(args: argparse.Namespace) -> int:
     cfg = with_overrides(cfg, compile=True if args.compile else None, threads=args.threads)
     check_work(cfg)  # --threads is checked with the configuration's own bounds
     model = cfg.build_model()
+    if getattr(model, "damping_note", None):  # what the flutter lines and "matched" α use
+        print(f"  {model.damping_note}")
     check_initial(cfg, model)
     check_memory(cfg, model, device, dtype)
     # one run per folder: a second sweep on it refuses (exit 2, naming this one's PID)
