@@ -369,3 +369,61 @@ def test_only_springs_and_solids_warn_as_linear():
             fe.internal_force(np.zeros(fe.n_dof))
         text = str(rec[0].message)
         assert "CELAS" in text and ("CBAR" in text) == beams
+
+
+# -- batched tangents, the shells' colouring, the rotations' logarithm ----------------------------
+def test_tangents_of_several_states_equal_one_by_one(mixed):
+    """tangent_stiffnesses (the co-rotational blocks of several states in one pass) gives each
+    state's tangent_stiffness, to 1e-13 of its largest entry (measured 1e-16: the batched
+    products round differently), beams with offsets, quad and triangle together."""
+    fe = mixed
+    U = np.stack([_large_state(fe, seed=s) for s in range(3)])
+    batch = fe.tangent_stiffnesses(U)
+    assert len(batch) == 3
+    for u, K in zip(U, batch):
+        ref = fe.tangent_stiffness(u).toarray()
+        assert np.abs(K.toarray() - ref).max() <= 1e-13 * np.abs(ref).max()
+
+
+def test_shell_colouring_matches_every_direction(mixed, monkeypatch):
+    """The shells' second-order pass probes 3(nn − 1) + 3 directions (the last node's
+    translation columns from translation invariance, the rotations shared by the nodes):
+    G, B equal those of all 6nn unit directions (no colouring) at a state with rotations of
+    about a radian, to 1e-13 of their largest entries (measured 1e-16)."""
+    from torchrom.fe.elements.corotational import CorotKernel, _per_element
+
+    fe = mixed
+    u_all = torch.as_tensor(fe.T @ _large_state(fe, seed=3))
+    shells = [k for k in fe._state().corot if k.els.frame in ("quad", "tria")]
+    assert {k.els.frame for k in shells} == {"quad", "tria"}
+    for kern in shells:
+        ue = kern.gather(u_all)
+        s = _per_element(kern.K, kern.local_d(ue))
+        assert len(kern._directions(ue)) == 3 * kern.nn
+        coloured = kern._second_order(ue, s)
+        monkeypatch.setattr(CorotKernel, "_directions",
+                            lambda self, ue: torch.eye(self.k, dtype=ue.dtype))
+        full = kern._second_order(ue, s)
+        monkeypatch.undo()
+        for a, b in zip(coloured, full):
+            assert float((a - b).abs().max()) <= 1e-13 * float(b.abs().max()), kern.els.kind
+
+
+def test_local_rotations_are_the_logarithm_of_the_rotated_frame(mixed):
+    """local_d's rotations (from tr Q and axial(Q) as vectors) equal log(Eᵀ exp([θ×]) E⁰)
+    formed from the 3 × 3 matrices (rotation_exp, element_frame, rotation_log), nodal
+    rotations of about a radian and of 1e-4 rad (the logarithm's series), to 1e-12 rad."""
+    from torchrom.fe.elements.corotational import element_frame
+
+    fe = mixed
+    for scale in (1.0, 1e-4):
+        u_all = torch.as_tensor(fe.T @ _large_state(fe, scale=scale, seed=4))
+        for kern in fe._state().corot:
+            if kern.els.frame == "line":
+                continue
+            ue = kern.gather(u_all)
+            u = ue.reshape(len(kern.els), kern.nn, 6)
+            E = element_frame(kern.els.frame, kern.X + u[..., :3])
+            Q = E.transpose(-1, -2)[:, None] @ rotation_exp(u[..., 3:]) @ kern.E0[:, None]
+            rot = kern.local_d(ue).reshape(len(kern.els), kern.nn, 6)[..., 3:]
+            assert float((rot - rotation_log(Q)).abs().max()) <= 1e-12, (kern.els.kind, scale)

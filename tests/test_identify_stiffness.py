@@ -132,3 +132,56 @@ def test_residuals_flag_non_cubic_and_non_conservative_models():
     ident, _, _, _ = identify_stiffness_tangent(follower, Phi, a)
     assert ident.residuals["tangent_asymmetry"] > 1e-2
     assert ident.residuals["K2_full"] > 1e-2
+
+
+def _sextic_touze(c: float):
+    """Touzé's cubic model plus c q1³ q2³ in its potential (a quartic tangent: not cubic)."""
+    return _perturbed_touze(
+        lambda u: 3 * c * np.array([u[0] ** 2 * u[1] ** 3, u[0] ** 3 * u[1] ** 2]),
+        lambda u: c * np.array([[6 * u[0] * u[1] ** 3, 9 * u[0] ** 2 * u[1] ** 2],
+                                [9 * u[0] ** 2 * u[1] ** 2, 6 * u[0] ** 3 * u[1]]]))
+
+
+def _largest_residual(backend, amplitude: float = 0.5) -> float:
+    Phi = np.eye(2)
+    ident, _, _, _ = identify_stiffness_tangent(backend, Phi,
+                                                identification_amplitudes(Phi, amplitude))
+    return max(ident.residuals.values())
+
+
+def test_residual_worded_as_rounding_for_a_cubic_model():
+    """Touzé's model is cubic: its largest residual (measured 0, < 1e-14 asserted above) is
+    worded as rounding, as is the band's edge itself."""
+    from torchrom.identify.stiffness import ROUNDING_RESIDUAL, residual_wording
+
+    value = _largest_residual(touze_backend())
+    assert value <= ROUNDING_RESIDUAL
+    assert residual_wording(value) == "rounding level for a cubic FE"
+    assert residual_wording(ROUNDING_RESIDUAL) == "rounding level for a cubic FE"
+
+
+def test_residual_worded_as_small_for_a_slightly_non_cubic_model():
+    """With c = 1e-4 the sextic term's residual is 9.5e-6 (0.0948 c at amplitude 0.5, linear in
+    c): between the bands' edges, worded small and not as rounding; just past the rounding
+    edge and at the small edge the same."""
+    from torchrom.identify.stiffness import ROUNDING_RESIDUAL, SMALL_RESIDUAL, residual_wording
+
+    value = _largest_residual(_sextic_touze(1e-4))
+    assert ROUNDING_RESIDUAL < value <= SMALL_RESIDUAL
+    for v in (value, 1.01 * ROUNDING_RESIDUAL, SMALL_RESIDUAL):
+        assert residual_wording(v).startswith("small: the FE is not exactly cubic"), v
+
+
+def test_residual_worded_as_large_with_what_to_do():
+    """With c = 1 the residual is 0.095: large, and the advice (a smaller --amplitude) is
+    right for it: halving the amplitude divides it by 4 (the quartic tangent's departure from
+    the fitted quadratic grows as a²; 4 to 1e-9). Not finite is large too."""
+    from torchrom.identify.stiffness import SMALL_RESIDUAL, residual_wording
+
+    model = _sextic_touze(1.0)
+    value = _largest_residual(model)
+    assert value > SMALL_RESIDUAL
+    for v in (value, 1.01 * SMALL_RESIDUAL, float("nan"), float("inf")):
+        words = residual_wording(v)
+        assert words.startswith("large") and "--amplitude" in words, v
+    assert _largest_residual(model, 0.25) == pytest.approx(value / 4, rel=1e-9)

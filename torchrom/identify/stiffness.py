@@ -180,6 +180,36 @@ class StiffnessIdentification:
         return {k: v.numpy() for k, v in c.items()}
 
 
+#: The largest identification residual (:attr:`StiffnessIdentification.residuals`, relative to
+#: the largest entry of the tensor concerned) at or below which it is rounding: a cubic FE's
+#: residuals are ε‖K1‖/(a²‖K3‖) (module docstring), growing as the amplitude a falls —
+#: measured 1e-13 on the Goland deck (Green strain, a = 1 % of the span) and 6e-13 on the cubic
+#: truss of tests/test_identify_stiffness.py at a = 0.1 % of the span (8e-14 at 1 %) — while a
+#: co-rotational FE's non-cubic part measured 9e-5 (the Pazy wing's 1L1D) to 4.3e-4 (the
+#: public TACS wingbox's 6L6D), both at 1 %: 1e-8 lies four decades above the one and as far
+#: below the other.
+ROUNDING_RESIDUAL = 1e-8
+#: … and above which the cubic fit misrepresents the FE: two estimates of one tensor entry that
+#: disagree by 0.1 % of the largest entry are an error of that order in the ROM's nonlinear
+#: forces, a decade below the ROM's own static error against the FE that the Goland acceptance
+#: allows (2 % at point A, tests/test_identify_goland.py)
+SMALL_RESIDUAL = 1e-3
+
+
+def residual_wording(value: float) -> str:
+    """What the largest identification residual ``value`` says, in the words ``torchrom
+    identify`` prints after it: rounding (a cubic FE, at or below :data:`ROUNDING_RESIDUAL`),
+    small (a non-cubic FE's cubic fit, up to :data:`SMALL_RESIDUAL`), or large (beyond it, or
+    not finite)."""
+    if value <= ROUNDING_RESIDUAL:
+        return "rounding level for a cubic FE"
+    if value <= SMALL_RESIDUAL:
+        return ("small: the FE is not exactly cubic at this amplitude (e.g. co-rotational "
+                "elements), and the ROM holds its cubic fit")
+    return ("large — the cubic fit does not represent the FE's forces at these amplitudes; try "
+            "a smaller --amplitude")
+
+
 def stiffness_from_tangents(plan: TangentPlan, KT: np.ndarray, K1_linear: np.ndarray | None = None
                             ) -> StiffnessIdentification:
     """K1, K2, K3 from projected tangents at the plan's points (Eqs. 37–41)."""
@@ -217,7 +247,10 @@ def identify_stiffness_tangent(backend, Phi: np.ndarray, amplitudes: np.ndarray,
     n = Phi.shape[1]
     KT = np.empty((P, n, n))
     Km = np.empty((P, n, n)) if material else None
-    chunk = max(1, P // 50)
+    # ten calls: a backend may evaluate a call's points together (the built-in FE's
+    # co-rotational tangents share one automatic-differentiation pass), and progress is
+    # reported every 10 % anyway
+    chunk = max(1, -(-P // 10))
     for start in range(0, P, chunk):
         kt, km = backend.projected_tangents(Phi, plan.points[start:start + chunk], material)
         KT[start:start + chunk] = kt

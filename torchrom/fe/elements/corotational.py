@@ -56,6 +56,11 @@ EXP_SERIES = 1e-2
 LOG_SERIES = 1e-2
 #: The frames each family uses (module docstring).
 FRAMES = ("line", "quad", "tria")
+#: Element states (elements × states) of one batched tangent pass
+#: (:meth:`CorotKernel.element_matrices` with several states): its forward-over-reverse pass
+#: holds about 0.2 MB per element state (measured on the TACS wingbox's CQUAD4s: 18 MB a state
+#: of 91 shells), so 1,024 of them stay near 200 MB.
+BATCH_ELEMENTS = 1024
 
 
 @dataclass
@@ -215,12 +220,22 @@ def rotation_exp(theta: torch.Tensor) -> torch.Tensor:
             + a[..., None, None] * skew(theta))
 
 
+def axial(A: torch.Tensor) -> torch.Tensor:
+    """(A₃₂ − A₂₃, A₁₃ − A₃₁, A₂₁ − A₁₂) (..., 3) of matrices A (..., 3, 3): the vector w of
+    A − Aᵀ = [w×]."""
+    return torch.stack((A[..., 2, 1] - A[..., 1, 2], A[..., 0, 2] - A[..., 2, 0],
+                        A[..., 1, 0] - A[..., 0, 1]), -1)
+
+
 def rotation_log(Q: torch.Tensor) -> torch.Tensor:
     """Rotation vector ϑ (..., 3) of rotation matrices Q (..., 3, 3), |ϑ| < π:
     ϑ = (φ / sin φ) axial(Q − Qᵀ)/2 with cos φ = (tr Q − 1)/2."""
-    x = 0.5 * (3.0 - Q.diagonal(dim1=-2, dim2=-1).sum(-1))
-    v = 0.5 * torch.stack((Q[..., 2, 1] - Q[..., 1, 2], Q[..., 0, 2] - Q[..., 2, 0],
-                           Q[..., 1, 0] - Q[..., 0, 1]), -1)
+    return log_from_parts(0.5 * (3.0 - Q.diagonal(dim1=-2, dim2=-1).sum(-1)), 0.5 * axial(Q))
+
+
+def log_from_parts(x: torch.Tensor, v: torch.Tensor) -> torch.Tensor:
+    """:func:`rotation_log` from x = 1 − cos φ = (3 − tr Q)/2 (...,) and
+    v = sin φ · axis = axial(Q)/2 (..., 3): ϑ = (φ / sin φ) v."""
     small = x < LOG_SERIES
     x_safe = torch.where(small, torch.full_like(x, 0.5), x)
     exact = torch.acos(1.0 - x_safe) / torch.sqrt(x_safe * (2.0 - x_safe))
@@ -307,14 +322,20 @@ class CorotKernel:
         E = element_frame(self.els.frame, x, q)  # (..., E, 3, 3)
         dt = (x - x.mean(-2, keepdim=True)) @ E - self.loc0
         # Q = Eᵀ R E⁰ = c M + b η ζᵀ + a [η×] M with M = Eᵀ E⁰, η = Eᵀ θ, ζ = E⁰ᵀ θ
-        # (Eᵀ [θ×] = [(Eᵀθ)×] Eᵀ): no rotation matrix per node is formed
-        M = (E.transpose(-1, -2) @ self.E0)[..., None, :, :]  # (..., E, 1, 3, 3)
-        eta, zeta = theta @ E, theta @ self.E0
-        a, b, c = (t[..., None, None] for t in abc)
-        cross = _cross(eta[..., None, :].expand(*eta.shape[:-1], 3, 3),
-                                   M.transpose(-1, -2).expand(*eta.shape[:-1], 3, 3))
-        Q = c * M + b * eta[..., :, None] * zeta[..., None, :] + a * cross.transpose(-1, -2)
-        return torch.cat((dt, rotation_log(Q)), -1).reshape(ue.shape)
+        # (Eᵀ [θ×] = [(Eᵀθ)×] Eᵀ). Its logarithm needs only tr Q and axial(Q), which are
+        # vectors per node (no 3 × 3 matrix per node, the bulk of a tangent's arithmetic):
+        # tr Q = c tr M + b η·ζ − a η·m and axial(Q) = c m + b ζ × η + a (tr M η − M η),
+        # m = axial(M), from tr([η×] M) = −η·m and [η×] M + Mᵀ [η×] = [((tr M) I − M) η ×]
+        M = E.transpose(-1, -2) @ self.E0  # (..., E, 3, 3)
+        tr_M = M.diagonal(dim1=-2, dim2=-1).sum(-1)[..., None]  # (..., E, 1)
+        m = axial(M)[..., None, :]  # (..., E, 1, 3)
+        eta, zeta = theta @ E, theta @ self.E0  # (..., E, nn, 3)
+        a, b, c = abc
+        tr_Q = c * tr_M + b * (eta * zeta).sum(-1) - a * (eta * m).sum(-1)
+        ax_Q = (c[..., None] * m + b[..., None] * _cross(zeta, eta)
+                + a[..., None] * (tr_M[..., None] * eta - eta @ M.transpose(-1, -2)))
+        rot = log_from_parts(0.5 * (3.0 - tr_Q), 0.5 * ax_Q)
+        return torch.cat((dt, rot), -1).reshape(ue.shape)
 
     def element_energy(self, ue: torch.Tensor) -> torch.Tensor:
         """½ dᵀ K_e d (..., E)."""
@@ -354,12 +375,13 @@ class CorotKernel:
 
     # -- element matrices (numpy, for sparse assembly) -----------------------------------------
     def _second_order(self, ue: torch.Tensor, s: torch.Tensor, ve: torch.Tensor | None = None):
-        """Per element (E, 6nn, 6nn) each, from one batched forward-over-reverse pass over the
-        element DOFs: G = Σ_i s_i ∂²d_i/∂u² at fixed weights s (E, 6nn), B = ∂d/∂u and, with a
-        velocity ve, C = ∂(B ve)/∂u. With s = K_e d, Bᵀ K_e B + G is the Hessian of the energy;
-        with s = K_e B ve, G + Bᵀ K_e C is ∂(Bᵀ K_e B ve)/∂u. K_e stays out of the
-        differentiated functions: its (E, k, k) product under the transforms cost twice the
-        rest of the tangent."""
+        """Per element (..., E, 6nn, 6nn) each, from one batched forward-over-reverse pass over
+        the element DOFs ue (..., E, 6nn; leading axes: several states at once): G = Σ_i s_i
+        ∂²d_i/∂u² at fixed weights s (..., E, 6nn), B = ∂d/∂u and, with a velocity ve,
+        C = ∂(B ve)/∂u. With s = K_e d, Bᵀ K_e B + G is the Hessian of the energy; with
+        s = K_e B ve, G + Bᵀ K_e C is ∂(Bᵀ K_e B ve)/∂u. K_e stays out of the differentiated
+        functions: its (E, k, k) product under the transforms cost twice the rest of the
+        tangent."""
 
         def parts(z):
             def work(w):
@@ -372,27 +394,34 @@ class CorotKernel:
             return g, d, jvp(self.local_d, (z,), (ve,))[1]
 
         directions = self._directions(ue)
-        tangents = directions[:, None, :].expand(len(directions), *ue.shape)
-        cols = vmap(lambda t: jvp(parts, (ue,), (t,))[1])(tangents)  # (m, E, k) each
-        cols = [c.permute(1, 2, 0) for c in cols]  # (E, k, m)
-        if len(directions) == self.k:
+        m = len(directions)
+        tangents = directions.reshape(m, *[1] * (ue.dim() - 1), self.k).expand(m, *ue.shape)
+        cols = vmap(lambda t: jvp(parts, (ue,), (t,))[1])(tangents)  # (m, ..., E, k) each
+        cols = [c.movedim(0, -1) for c in cols]  # (..., E, k, m)
+        if m == self.k:
             return tuple(cols)
-        return (self._spread(cols[0], symmetric=True),
-                *(self._spread(c, symmetric=False) for c in cols[1:]))
+        lead = cols[0].shape[:-2]
+        flat = [c.reshape(-1, self.k, m) for c in cols]
+        return (self._spread(flat[0], symmetric=True).reshape(*lead, self.k, self.k),
+                *(self._spread(c, symmetric=False).reshape(*lead, self.k, self.k)
+                  for c in flat[1:]))
 
     def _directions(self, ue: torch.Tensor) -> torch.Tensor:
         """The unit directions of the second-order pass (m, 6nn). A shell's frame follows its
         nodes' positions alone and its node n's local rotation depends on θ_n alone, so no
         output couples the rotations of two nodes: the rotations are probed by three directions
-        shared by all nodes (a colouring; 3nn + 3 directions instead of 6nn). A beam's frame
-        takes the mean of its nodal triads: all 6nn."""
+        shared by all nodes (a colouring). Its outputs are unchanged by a translation of all
+        its nodes together (frame and local displacements are of position differences), so
+        the last node's translation columns are minus the sum of the others' (:meth:`_spread`)
+        and are not probed: 3nn entries fewer than 6nn, 3(nn − 1) + 3 directions (12 for a
+        quad instead of 24). A beam's frame takes the mean of its nodal triads: all 6nn."""
         eye = torch.eye(self.k, dtype=ue.dtype, device=ue.device)
         if self.els.frame == "line" or self.has_offsets:
             return eye
         t_idx, _ = self._node_indices(ue.device)
         shared = torch.zeros(3, self.nn, 6, dtype=ue.dtype, device=ue.device)
         shared[:, :, 3:] = eye[:3, None, :3]  # direction j: component j of every node's θ
-        return torch.cat((eye[t_idx], shared.reshape(3, self.k)))
+        return torch.cat((eye[t_idx[: 3 * (self.nn - 1)]], shared.reshape(3, self.k)))
 
     def _node_indices(self, device):
         """Element-DOF indices of the translations (3nn,), node-major, and of each node's
@@ -402,15 +431,18 @@ class CorotKernel:
                 node + 3 + torch.arange(3, device=device))
 
     def _spread(self, cols: torch.Tensor, symmetric: bool) -> torch.Tensor:
-        """(E, k, k) from the columns (E, k, 3nn + 3) of :meth:`_directions`' colouring: the
-        translation columns as they are; a shared rotation column's rows of node n's rotations
-        into node n's rotation column (the other rows of those columns are zero, or, for a
+        """(E, k, k) from the columns (E, k, 3(nn − 1) + 3) of :meth:`_directions`' colouring:
+        the translation columns as they are, the last node's minus the sum of the others'
+        (translation invariance); a shared rotation column's rows of node n's rotations into
+        node n's rotation column (the other rows of those columns are zero, or, for a
         symmetric matrix, the transposed translation columns)."""
         nn, k = self.nn, self.k
         out = torch.zeros(cols.shape[0], k, k, dtype=cols.dtype, device=cols.device)
         t_idx, r_idx = self._node_indices(cols.device)
-        out[:, :, t_idx] = cols[:, :, : 3 * nn]
-        shared = cols[:, :, 3 * nn :]  # (E, k, 3)
+        probed = cols[:, :, : 3 * (nn - 1)]
+        last = -probed.reshape(*probed.shape[:2], nn - 1, 3).sum(2)
+        out[:, :, t_idx] = torch.cat((probed, last), -1)
+        shared = cols[:, :, 3 * (nn - 1):]  # (E, k, 3)
         for n in range(nn):
             rows = r_idx[n]
             out[:, rows[:, None], rows[None, :]] = shared[:, rows, :]
@@ -422,22 +454,23 @@ class CorotKernel:
 
     def element_matrices(self, u_all: np.ndarray, material: float = 1.0, geometric: float = 1.0,
                          damping: float = 0.0, v_all: np.ndarray | None = None) -> np.ndarray:
-        """Per-element blocks (E, 6nn, 6nn) of material · Bᵀ K_e B + geometric · G
+        """Per-element blocks (..., E, 6nn, 6nn) of material · Bᵀ K_e B + geometric · G
         + damping · ∂(Bᵀ K_e B v)/∂u: Bᵀ K_e B + G is the Hessian of the element energy
-        (K_T, :meth:`_second_order`)."""
+        (K_T, :meth:`_second_order`). ``u_all`` (..., n_all): leading axes are several states,
+        evaluated in one pass (:data:`BATCH_ELEMENTS`)."""
         with _single_thread():
             return self._element_matrices(u_all, material, geometric, damping, v_all)
 
     def _element_matrices(self, u_all, material, geometric, damping, v_all) -> np.ndarray:
         opts = dict(dtype=self.K.dtype, device=self.K.device)
         ue = self.gather(torch.as_tensor(u_all, **opts))
-        out = torch.zeros(len(self.els), self.k, self.k, **opts)
+        out = torch.zeros(*ue.shape[:-2], len(self.els), self.k, self.k, **opts)
         if material or geometric:
             G, B = self._second_order(ue, _per_element(self.K, self.local_d(ue)))
-            out += material * (B.transpose(1, 2) @ self.K @ B) + geometric * G
+            out += material * (B.transpose(-1, -2) @ self.K @ B) + geometric * G
         if damping:
             ve = self.gather(torch.as_tensor(v_all, **opts))
             sv = _per_element(self.K, jvp(self.local_d, (ue,), (ve,))[1])
             Gv, B, C = self._second_order(ue, sv, ve)
-            out += damping * (Gv + B.transpose(1, 2) @ self.K @ C)
+            out += damping * (Gv + B.transpose(-1, -2) @ self.K @ C)
         return out.cpu().numpy()
