@@ -143,6 +143,8 @@ def test_cquad4_membrane_cantilever_in_plane_bending():
 def test_rod_and_shear_panel_cantilever():
     L, h, A, t, E, nu, rho = 10.0, 1.0, 0.01, 0.05, 7.0e10, 0.3, 2700.0
     fe = model_of(flange_web_beam(20, L, h, A, t, E, nu, rho))
+    # a vertical web: its thinnest direction (y) is not the up axis of its bending (z)
+    fe.set_wing_axes(up="z")
     EI = 2 * A * (h / 2) ** 2 * E
     G = E / (2 * (1 + nu))
     F = fe.nodal_load({(100 + 20, 3): 0.5, (200 + 20, 3): 0.5})
@@ -677,3 +679,65 @@ def test_modified_newton_takes_back_a_stale_factorisations_step():
     k = fe.dof_index(9, 3)
     assert abs(u[k] - ref[k]) <= 1e-6 * abs(ref[k])
     assert 1 <= n_tan < n_res
+
+
+def test_modified_newton_refactorises_wherever_the_residual_exceeds_the_load():
+    """newton_above=1 (the identification's NEWTON_ABOVE): at every iterate whose residual is
+    above ‖F‖ a tangent is taken there before the step, and the solution is the same (to 1e-6
+    of the tip deflection, as above). Without it, the same far start (the scaled half-load
+    solution, 6e4 ‖F‖ here) with a stale factorisation first takes the stale step (a NaN
+    residual here), which the take-back rule then undoes: one residual evaluation more."""
+    from torchrom.fe.solvers import (
+        NEWTON_ABOVE,
+        WORK_TOL,
+        factor_symmetric,
+        modified_newton,
+        static_solve,
+    )
+
+    from .test_fe_corotational import E_BEAM, I_BEAM, L_BEAM, _cantilever
+
+    fe = _cantilever(8)
+    F = fe.nodal_load({(9, 3): E_BEAM * I_BEAM / L_BEAM**2})
+    ref = static_solve(fe, F, n_steps=4, tol=1e-10, raise_on_failure=True).u
+    half = static_solve(fe, 0.5 * F, n_steps=2, tol=1e-10, raise_on_failure=True).u
+    away = static_solve(fe, -F, n_steps=4, tol=1e-10, raise_on_failure=True).u
+
+    class Recorder:
+        """The cantilever, logging each residual norm and each tangent's state."""
+
+        n_dof = fe.n_dof
+
+        def __init__(self):
+            self.events = []
+
+        def internal_force(self, u):
+            f = fe.internal_force(u)
+            self.events.append(("residual", float(np.linalg.norm(f - F)), u.copy()))
+            return f
+
+        def tangent_stiffness(self, u):
+            self.events.append(("tangent", None, u.copy()))
+            return fe.tangent_stiffness(u)
+
+    runs = {}
+    for rule in (None, NEWTON_ABOVE):
+        rec = Recorder()
+        u, n_res, _, _ = modified_newton(rec, F, 2.0 * half, tol=1e-14, work_tol=WORK_TOL,
+                                         factor=factor_symmetric(fe.tangent_stiffness(away)),
+                                         max_iter=40, newton_above=rule)
+        k = fe.dof_index(9, 3)
+        assert abs(u[k] - ref[k]) <= 1e-6 * abs(ref[k])
+        runs[rule] = rec.events, n_res
+    events, n_res = runs[NEWTON_ABOVE]
+    norm_F = np.linalg.norm(F)
+    assert events[0][1] > 1e4 * norm_F  # the start is far
+    far = [i for i, (kind, res, _) in enumerate(events[:-1])
+           if kind == "residual" and res > norm_F]
+    assert far
+    for i in far:
+        kind, _, u = events[i + 1]
+        assert kind == "tangent" and np.array_equal(u, events[i][2]), i
+    stale_events, stale_res = runs[None]
+    assert stale_events[1][0] == "residual"  # the stale factorisation's step first
+    assert n_res == stale_res - 1

@@ -29,6 +29,25 @@ def test_static_validation_of_an_exact_rom(exact_pair):
         assert max(c.errors.values()) < 1e-8, c.errors
 
 
+def test_static_validation_refuses_in_one_line_when_no_fe_solve_converges(exact_pair,
+                                                                           monkeypatch):
+    """A deck whose first static solve fails (the wingbox before its up axis was found: the
+    report's traceback "zero-size array to reduction operation maximum") gets a one-line
+    ConvergenceError (exit 2), the ROM already written."""
+    from torchrom.errors import ConvergenceError
+
+    be, res = exact_pair
+
+    def fail(*_a, **_k):
+        raise ConvergenceError("Newton did not converge")
+
+    monkeypatch.setattr(be, "static_solve", fail)
+    with pytest.raises(ConvergenceError, match="uniform load: the FE's static solve failed at "
+                                               "the first level") as exc:
+        v.static_validation(be, res.rom, res.basis.Phi, "uniform", be.load_shapes()["uniform"])
+    assert "\n" not in str(exc.value)
+
+
 def test_free_decay_of_an_exact_rom(exact_pair):
     be, res = exact_pair
     dec = v.free_decay_validation(be, res.rom, res.basis.Phi, be.load_shapes()["uniform"],

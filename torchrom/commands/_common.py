@@ -184,6 +184,37 @@ def add_unsupported_option(parser: argparse.ArgumentParser, what: str = "") -> N
                         help=f"{what}what to do with unsupported structural cards (default error)")
 
 
+def add_wing_axes_options(parser: argparse.ArgumentParser) -> None:
+    """--up-axis/--span-axis: the wing's directions where the deck cannot tell them (see
+    :mod:`torchrom.fe.wing_frame`)."""
+    parser.add_argument("--up-axis", default=None, metavar="AXIS",
+                        help="the wing's up direction in basic axes: x, y, z, -x, ... or a,b,c "
+                             "(default: the AERO card's system where the deck has CAERO panels, "
+                             "else the structure's thinnest direction, else the beams' weakest "
+                             "bending direction)")
+    parser.add_argument("--span-axis", default=None, metavar="AXIS",
+                        help="the wing's span direction, root to tip (default: the structure's "
+                             "longest direction, pointing away from the constraints)")
+
+
+def apply_wing_axes(args: argparse.Namespace, fe, say: bool = True) -> None:
+    """Give ``fe`` the user's --up-axis/--span-axis and, with ``say``, print the wing's axes
+    (or that they cannot be told: kinds are then "unknown")."""
+    from ..fe.wing_frame import SPAN_OPTION, UP_OPTION, WingFrameError, parse_axis
+
+    up = parse_axis(getattr(args, "up_axis", None), UP_OPTION)
+    span = parse_axis(getattr(args, "span_axis", None), SPAN_OPTION)
+    fe.set_wing_axes(up, span)
+    try:
+        frame = fe.wing_frame()
+    except WingFrameError as exc:
+        if say:
+            print(f"note: {exc}")
+        return
+    if say:
+        print(f"wing axes: {frame.describe()}")
+
+
 def unit_system_name(value: str) -> str:
     """A ``--units`` value: the name of a system of :mod:`torchrom.units`."""
     from ..units import SYSTEMS

@@ -3,6 +3,7 @@
     torchrom identify MODEL.bdf --linear 9 --dual 12 --damping decomposition|exact --out rom.npz
                       [--stiffness tangent|step|condensed] [--amplitude A] [--levels 3]
                       [--nonlinear-modes K] [--higher-amplitude F] [--linear-skin PID]
+                      [--damping-ratio ZETA | Z1@F1 Z2@F2]
                       [--report DIR] [--json FILE] [--force]
 
 Reads the deck with the built-in FE, computes the linear and dual modes, identifies the stiffness
@@ -11,6 +12,14 @@ and the Kelvin–Voigt damping tensors (DIGEST Secs. 4–6), writes ``rom.npz`` 
 :meth:`torchrom.identify.build.IdentificationResult.summary` (counts, seconds ``time_*_s``,
 relative residuals, smallest eigenvalues of the extended damping matrix), plus the report's
 ``static_*``, ``decay_*`` and ``damping_*`` numbers (relative errors, Hz) when it is written.
+
+The structural damping, α (1/s) and γ (s) of f_d = α M q̇ + γ D̄(q) q̇, is what the deck states
+(PARAM G/W3, MAT1 GE/W4, TABDMP1 selected by SDAMPING: :mod:`torchrom.fe.damping_cards`) or
+``--damping-ratio`` (:mod:`torchrom.rom.rayleigh`), the paper's Eq. 46 values for the heavy
+Goland deck, else none; it is printed in one line, recorded in ``rom.npz`` (metadata
+``structural_damping``, which ``flutter`` and ``sweep`` use) and in ``--json``
+(``structural_damping``: alpha, gamma, source, description, frequencies_hz, zeta_target,
+zeta_fit).
 """
 
 from __future__ import annotations
@@ -24,6 +33,8 @@ from ._common import (
     add_force_option,
     add_json_option,
     add_units_option,
+    add_wing_axes_options,
+    apply_wing_axes,
     check_outputs,
     finite_float,
     maybe_write_json,
@@ -32,6 +43,7 @@ from ._common import (
     positive_float,
     positive_int,
 )
+from ._damping import add_damping_ratio_option, damping_ratio_of
 
 NAME = "identify"
 HELP = "identify the nonlinear ROM (stiffness + Kelvin-Voigt damping) of an FE model"
@@ -41,6 +53,7 @@ BOUNDED = True
 
 def add_arguments(parser) -> None:
     parser.add_argument("model", type=Path, help="Nastran BDF of the structure")
+    add_wing_axes_options(parser)
     parser.add_argument("--linear", type=positive_int, default=9,
                         help="number of linear modes (default 9)")
     parser.add_argument("--dual", type=nonnegative_int, default=None,
@@ -58,6 +71,8 @@ def add_arguments(parser) -> None:
                         default="decomposition",
                         help="damping identification: the paper's optimum decomposition, or "
                              "exact from the FE material tangent")
+    add_damping_ratio_option(parser, "the ROM's structural damping instead of the deck's "
+                             "(PARAM G/W3, MAT1 GE/W4, TABDMP1 by SDAMPING; none: α = γ = 0): ")
     parser.add_argument("--stiffness", choices=("tangent", "step", "condensed"),
                         default="tangent",
                         help="stiffness identification: tangent matrices (Eqs. 37-41), STEP "
@@ -161,6 +176,24 @@ def _skeleton(args, fe, backend):
     return skeleton_of(fe, skel, skel_backend, what)
 
 
+def _structural_damping(fe, basis, cards, ratio):
+    """α, γ of the ROM (module docstring) on its elastic linear modes: ``ratio``
+    (--damping-ratio) if given, else the deck's ``cards`` (:func:`torchrom.fe.damping_cards.
+    rom_damping`: the Goland wing's values, or none, where the deck states nothing)."""
+    import numpy as np
+
+    from ..fe.damping_cards import rom_damping
+
+    cols = [i for i, k in enumerate(basis.kinds) if k == "linear"][basis.n_rigid:]
+    f = np.asarray(basis.frequencies_hz, dtype=float)[cols]
+    cols = [c for c, fi in zip(cols, f) if np.isfinite(fi) and fi > 0]
+    f = np.asarray(basis.frequencies_hz, dtype=float)[cols]
+    free = basis.n_rigid > 0
+    if ratio is not None:
+        return ratio.rayleigh(f, free)
+    return rom_damping(fe, cards, basis.Phi[:, cols], f, free)
+
+
 def run(args) -> int:
     from ..identify.build import IdentifyOptions, as_backend, identify
 
@@ -191,6 +224,7 @@ def run(args) -> int:
     if args.combinations != "transverse":
         parse_combinations(args.combinations)  # bad input before the work
     extra_points = dict(parse_named_point(o) for o in args.output)
+    ratio = damping_ratio_of(args, beside_alpha_gamma=False)  # bad values before the work
     t0 = time.perf_counter()
     info(f"reading {args.model}")
     fe = read_bdf(args.model)
@@ -198,12 +232,25 @@ def run(args) -> int:
 
     declare_units(fe, args.units, str(args.model))
     print(f"  {describe_units(fe)}")
+    from ..fe.damping_cards import read_deck_damping
+
+    # the deck's damping cards checked before the work (--damping-ratio replaces them)
+    cards = read_deck_damping(fe.bdf, args.model.name) if ratio is None else None
+    apply_wing_axes(args, fe)
     kinds = None
     if args.combinations == "transverse" and args.dual:
         # a free structure's rigid-body modes come first in the basis (0 Hz, as in SOL 145);
         # without dual modes there are no combinations to choose
         m = fe.modes(args.linear)
         kinds = (["rigid-body"] * m.n_rigid + list(m.kinds))[:args.linear]
+        if "unknown" in kinds:  # the kinds need the wing's up axis
+            from ..fe.wing_frame import WingFrameError
+
+            try:
+                fe.wing_frame()
+            except WingFrameError as exc:
+                raise WingFrameError(f"{exc}; or name the dual-mode pairs with --combinations "
+                                     f"J:L,... or use --dual 0") from None
     combinations = parse_combinations(args.combinations, kinds=kinds) if args.dual else []
     if kinds is not None:
         print(f"  dual-mode combinations from the mode kinds ({', '.join(kinds)}): "
@@ -221,9 +268,15 @@ def run(args) -> int:
     info(f"identifying {args.linear}L{args.dual}D ROM: stiffness {args.stiffness}, damping "
           f"{args.damping}")
     res = identify(backend, opt, progress=_Progress())
+    from ..rom.rayleigh import METADATA_KEY
+
+    damping = _structural_damping(fe, res.basis, cards, ratio)
+    res.rom.metadata[METADATA_KEY] = damping.as_metadata()
     res.rom.save(args.out)
     s = res.summary()
+    s[METADATA_KEY] = damping.as_metadata()
     print(f"wrote {args.out}  (n = {res.rom.n})")
+    print(f"  {damping.description}")
     from ..rom.points import describe_outputs
 
     print(f"  outputs: {describe_outputs(res.rom)}")
@@ -242,8 +295,10 @@ def run(args) -> int:
               "imposed" + (f"; tangent misfit {resid['condensation_tangent_fit']:.1e}"
                            if "condensation_tangent_fit" in resid else ""))
     else:
-        print(f"  largest identification residual {max(resid.values()):.1e} (rounding level "
-              "for a cubic FE)")
+        from ..identify.stiffness import residual_wording
+
+        largest = max(resid.values())
+        print(f"  largest identification residual {largest:.1e} ({residual_wording(largest)})")
     if "damping_min_eig_scaled_final" in s:
         print(f"  extended damping matrix, smallest scaled eigenvalue "
               f"{s['damping_min_eig_scaled_final']:.3e}"

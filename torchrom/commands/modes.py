@@ -22,6 +22,8 @@ from ._common import (
     add_force_option,
     add_json_option,
     add_unsupported_option,
+    add_wing_axes_options,
+    apply_wing_axes,
     check_outputs,
     maybe_write_json,
     positive_int,
@@ -40,6 +42,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--n", type=positive_int, default=None,
                         help="number of modes (default: EIGR/EIGRL ND of the deck, else 10)")
     add_unsupported_option(parser)
+    add_wing_axes_options(parser)
     parser.add_argument("--compare", type=Path, metavar="RUN.f06",
                         help="print Nastran's frequencies from this f06 beside torchrom's, with "
                         "the differences (default --n: as many modes as the f06 lists)")
@@ -84,6 +87,7 @@ def run(args: argparse.Namespace) -> int:
                          if k not in ("name", "grids", "free_dofs", "autospc") and v)
     print(f"{args.model}: {s['grids']} grids, {s['free_dofs']} free DOFs ({elements})"
           + (f"; {s['autospc']} DOFs without stiffness removed (AUTOSPC)" if s["autospc"] else ""))
+    apply_wing_axes(args, fe)
     nastran_hz = None
     if args.compare is not None:
         from ..f06 import read_real_eigenvalues

@@ -155,7 +155,33 @@ def _check_includes(text: str, path: Path) -> None:
                                      f"{exc.strerror or exc}") from None
 
 
-def _read_pynastran(path: Path):
+_ENDDATA = re.compile(r"^\s*ENDDATA", re.IGNORECASE | re.MULTILINE)
+
+
+def with_includes(text: str, includes=()) -> str:
+    """The deck's ``text`` with an INCLUDE of each file of ``includes`` (e.g. the cards of
+    ``torchrom panels``) before its ENDDATA (at its end without one): the deck read as if the
+    user had added the lines, the file itself untouched."""
+    if not includes:
+        return text
+    lines = "".join(f"INCLUDE '{Path(p).resolve()}'\n" for p in includes)
+    m = _ENDDATA.search(text)
+    if m is None:
+        return text.rstrip("\n") + "\n" + lines
+    return text[: m.start()] + lines + text[m.start():]
+
+
+def check_include_files(includes, option: str = "--panels") -> None:
+    """Each extra include file exists and is a text deck (InputError naming ``option``)."""
+    from ..checks import expect_text_file
+
+    for p in includes or ():
+        if not Path(p).is_file():
+            raise InputError(f"{option} {p}: no such file")
+        expect_text_file(Path(p), "a file of Nastran cards", "panels.bdf")
+
+
+def _read_pynastran(path: Path, includes=()):
     from pyNastran.bdf.bdf import read_bdf as pn_read_bdf
 
     try:
@@ -164,6 +190,8 @@ def _read_pynastran(path: Path):
         raise InputError(f"{path}: cannot read the deck: {exc.strerror or exc}") from None
     check_complete(text, path.name)
     _check_includes(text, path)
+    check_include_files(includes)
+    text = with_includes(text, includes)
     upper = [ln.split("$")[0].strip().upper() for ln in text.splitlines()]
     has_cend = any(ln == "CEND" for ln in upper)
     has_begin = any(ln.startswith("BEGIN") and "BULK" in ln for ln in upper)
@@ -197,6 +225,7 @@ def read_bdf(
     output_points: dict[str, tuple[int, int]] | None = None,
     rotations: str | None = None,
     without_properties=(),
+    includes=(),
 ):
     """Read a Nastran deck into an :class:`~torchrom.fe.model.FEModel`.
 
@@ -209,7 +238,8 @@ def read_bdf(
     (co-rotational plate bending, beams and rod torsion in nonlinear analyses) or "small"
     (those linear); default "large", except "small" for a deck written by ``torchrom goland``
     (the paper's model); ``without_properties``: PSHELL/PCOMP ids whose CQUAD4/CTRIA3 are left
-    out (:func:`shell_ids_of`; the structure without its foil skin).
+    out (:func:`shell_ids_of`; the structure without its foil skin); ``includes``: files of
+    cards read as if INCLUDEd at the deck's end (:func:`with_includes`).
     """
     from ..checks import expect_text_file
     from ..progress import Stages
@@ -221,7 +251,7 @@ def read_bdf(
     size = path.stat().st_size
     stages = Stages(f"reading {path.name}", size >= LARGE_DECK_BYTES)
     stages.start(f"parsing {size / 1e6:.0f} MB of cards")
-    model = _read_pynastran(path)
+    model = _read_pynastran(path, includes)
     return from_pynastran(
         model,
         stages=stages,
@@ -337,10 +367,10 @@ def from_pynastran(
         rotations = "small" if goland_deck else "large"
         if goland_deck:
             notes.append(GOLAND_ROTATIONS_NOTE)
+    goland_points = goland_deck and output_points is None
     if goland_deck:
         wing_chord = WING_CHORD
-        if output_points is None:
-            output_points = goland_output_points(mesh)
+        if goland_points:
             units = units or dict(GOLAND_UNITS)
     if units is None:
         from .deck_units import deck_units
@@ -360,14 +390,17 @@ def from_pynastran(
         rotations=rotations,
     )
     fe.wing_chord = wing_chord
+    if goland_points:
+        fe.set_output_points(goland_output_points(fe))
     fe.notes = notes + reader.notes + _unused_params(model) + fe.notes
     stages.done()
     return fe
 
 
-#: PARAMs that torchrom reads: the FE reader's, and the flutter solution's (torchrom.aero)
+#: PARAMs that torchrom reads: the FE reader's, the flutter solution's (torchrom.aero) and the
+#: structural damping's of a ROM (torchrom.fe.damping_cards)
 READ_PARAMS = frozenset({"AUTOSPC", "COUPMASS", "WTMASS", "LGDISP", "POST", "LMODES", "VREF",
-                         "RESVEC"})
+                         "RESVEC", "KDAMP", "G", "W3", "W4"})
 
 
 def _unused_params(model) -> list[str]:

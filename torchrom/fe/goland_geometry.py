@@ -21,9 +21,27 @@ GOLAND_ROTATIONS_NOTE = ("heavy Goland wing: plate bending is small-rotation (li
                          "its membranes are Green-strain nonlinear")
 
 
-def goland_output_points(mesh) -> dict[str, tuple[int, int]]:
-    """Point A: the grid nearest (2, 20, +0.16667) ft (upper skin, tip, mid-box)."""
-    target = np.array([2.0, SPAN, DEPTH / 2.0])
-    k = int(np.argmin(np.linalg.norm(mesh.xyz - target, axis=1)))
-    gid = int(mesh.grid_ids[k])
-    return {"A_Tx": (gid, 1), "A_Ty": (gid, 2), "A_Tz": (gid, 3)}
+def goland_output_points(fe) -> dict[str, tuple[int, int]]:
+    """Point A: the grid nearest the tip's mid-box station on the upper skin, (2, 20, +0.16667)
+    ft of the unrotated wing, found in the wing's own axes (:meth:`FEModel.wing_frame`: the
+    deck may be rotated); A_Tx, A_Ty, A_Tz are its displacement components along the chord, the
+    span and up (InputError where its CD system has no axis along one of them)."""
+    from ..errors import InputError
+
+    frame = fe.wing_frame()
+    local = frame.local(fe.grid_xyz)
+    extent = np.ptp(local, axis=0)
+    target = np.array([local[:, 0].max(), 0.0, 0.5 * extent[2]])
+    k = int(np.argmin(np.linalg.norm(local - target, axis=1)))
+    gid = int(fe.mesh.grid_ids[k])
+    cd = fe.mesh.cd_axes[k]  # columns: the grid's displacement axes in basic
+    points = {}
+    for name, axis in (("A_Tx", frame.chord), ("A_Ty", frame.span), ("A_Tz", frame.up)):
+        cos = axis @ cd
+        comp = int(np.argmax(np.abs(cos)))
+        if abs(abs(cos[comp]) - 1.0) > 1e-6:
+            raise InputError(f"{fe.name}: point {name[0]} (grid {gid}): its displacement system "
+                             f"(CD) has no axis along the wing's {name[-1]} direction; give the "
+                             f"grid a CD system along the wing's axes")
+        points[name] = (gid, comp + 1)
+    return points

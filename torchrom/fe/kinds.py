@@ -1,14 +1,13 @@
 """Classify mode shapes as bending, torsion, in-plane or axial from their displacement content.
 
-Geometric (no mass weighting). The span axis is the principal axis of the
-structural grids (those connected to elements); the normal is basic z made orthogonal to it
-(the principal axis of least extent if the span is nearly vertical); the chord completes the
-frame. At each span station the normal displacements are fitted by heave + twist × (chord
-position): heave measures bending, twist × L_c / 2 (the edge deflection it causes, L_c the chord
-extent) measures torsion. A beam-line model has no chord extent at a station: its twist is the
-rotation about the span axis and L_c is the aerodynamic reference chord of the deck (AEROS/AERO)
-or 10 % of the span. Chordwise translations measure "in-plane" (lead–lag) content, spanwise
-translations "axial" content. The kind is the largest of the four sums of squares.
+Geometric (no mass weighting), in the wing's own axes (:mod:`torchrom.fe.wing_frame`: span,
+chord and up from the panels, the structure or the user's ``--up-axis``). At each span station
+the up displacements are fitted by heave + twist × (chord position): heave measures bending,
+twist × L_c / 2 (the edge deflection it causes, L_c the chord extent) measures torsion. A
+beam-line model has no chord extent at a station: its twist is the rotation about the span
+axis and L_c is the aerodynamic reference chord of the deck (AEROS/AERO) or 10 % of the span.
+Chordwise translations measure "in-plane" (lead–lag) content, spanwise translations "axial"
+content. The kind is the largest of the four sums of squares.
 """
 
 from __future__ import annotations
@@ -17,15 +16,9 @@ from collections.abc import Mapping
 
 import numpy as np
 
+from .wing_frame import WingFrameError, structural_rows
+
 KINDS = ("bending", "torsion", "in-plane", "axial")
-
-
-def _structural_rows(fe) -> np.ndarray:
-    m = fe.mesh
-    rows = [m.rods.nodes.ravel(), m.quads.nodes.ravel(), m.trias.nodes.ravel(),
-            m.shears.nodes.ravel(), m.bars.nodes.ravel()] + [x.nodes.ravel() for x in m.solids]
-    rows = np.unique(np.concatenate([r.astype(int) for r in rows]))
-    return rows if len(rows) else np.arange(m.n_grid)
 
 
 def _reference_chord(fe, span_extent: float) -> float:
@@ -38,24 +31,18 @@ def _reference_chord(fe, span_extent: float) -> float:
     return 0.1 * span_extent
 
 
-def wing_axes(xyz: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(span, chord, normal) unit vectors of a set of grid positions."""
-    X = xyz - xyz.mean(axis=0)
-    _, _, vt = np.linalg.svd(X, full_matrices=False) if len(X) > 1 else (None, None, np.eye(3))
-    span = vt[0]
-    nz = np.array([0.0, 0.0, 1.0]) - span[2] * span
-    if np.linalg.norm(nz) < 0.3:
-        nz = vt[-1] if vt.shape[0] == 3 else np.cross(span, [1.0, 0.0, 0.0])
-    normal = nz / np.linalg.norm(nz)
-    chord = np.cross(normal, span)
-    return span, chord, normal
-
-
 def classify(fe, shapes: np.ndarray) -> tuple[list[str], list[dict[str, float]]]:
-    """Kinds and content fractions (bending/torsion/in-plane/axial, summing to 1) of modes."""
-    rows = _structural_rows(fe)
+    """Kinds and content fractions (bending/torsion/in-plane/axial, summing to 1) of modes;
+    ``["unknown"] * n`` and no fractions where the wing's axes cannot be told
+    (:class:`~torchrom.fe.wing_frame.WingFrameError`)."""
+    try:
+        frame = fe.wing_frame()
+    except WingFrameError:
+        n = 1 if np.ndim(shapes) == 1 else np.shape(shapes)[1]
+        return ["unknown"] * n, [{} for _ in range(n)]
+    rows = structural_rows(fe)
     xyz = fe.grid_xyz[rows]
-    span, chord, normal = wing_axes(xyz)
+    span, chord, normal = frame.span, frame.chord, frame.up
     s = xyz @ span
     c = xyz @ chord
     extent = max(np.ptp(s), 1e-300)

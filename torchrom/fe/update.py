@@ -436,4 +436,18 @@ def update_model(fe, spec: UpdateSpec, *, reference=None, drilling: float = 1e-4
     new = from_pynastran(fe.bdf, source=fe.source, name=fe.name, units=fe.units,
                          drilling=drilling, output_points=fe.output_points or None)
     new.wing_chord = fe.wing_chord
+    _keep_wing_axes(fe, new)
     return new, result
+
+
+def _keep_wing_axes(old, new) -> None:
+    """The updated model keeps the original's wing axes: a section stiffened past its other
+    plane (the beams' weakest bending direction flips) is the same wing, and its modes keep
+    their kinds."""
+    from .wing_frame import WingFrameError
+
+    try:
+        frame = old.wing_frame()
+    except WingFrameError:
+        return
+    new.set_wing_axes(up=frame.up, span=frame.span)

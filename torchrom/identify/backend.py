@@ -158,6 +158,12 @@ class FEBackend:
     def transverse_dofs(self) -> np.ndarray:
         return getattr(self, "_transverse_dofs", np.arange(self.n_dof))
 
+    def transverse_displacements(self, u) -> np.ndarray:
+        """The transverse deflections whose largest magnitude is "the tip transverse
+        displacement" (DIGEST Sec. 6): here ``u`` at :attr:`transverse_dofs`; an FE backend
+        projects each grid's displacement on the wing's up axis. Empty: none known."""
+        return np.asarray(u)[self.transverse_dofs]
+
     @property
     def translational_dofs(self) -> np.ndarray:
         return getattr(self, "_translational_dofs", np.arange(self.n_dof))

@@ -277,18 +277,20 @@ def _tip_fractions(opts: DualModeOptions) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _tip(backend, u: np.ndarray) -> float:
-    """Tip transverse displacement: the largest |u| over the backend's transverse DOFs (over
-    its translational DOFs when it has no free transverse one, as :func:`_transverse_peak`)."""
-    dofs = backend.transverse_dofs if len(backend.transverse_dofs) else \
-        backend.translational_dofs
-    return float(np.abs(u[dofs]).max()) if len(dofs) else 0.0
+    """Tip transverse displacement: the largest |transverse displacement| of the backend
+    (:meth:`~torchrom.identify.backend.FEBackend.transverse_displacements`), over its
+    translational DOFs when it knows none, as :func:`_transverse_peak`."""
+    values = np.abs(backend.transverse_displacements(u))
+    if not values.size:
+        values = np.abs(u[backend.translational_dofs])
+    return float(values.max()) if values.size else 0.0
 
 
 def _transverse_peak(backend, U: np.ndarray) -> float:
-    """The largest |U| over the transverse DOFs, else over the translational ones (a model
+    """The largest |transverse displacement| of U, else over the translational DOFs (a model
     whose free DOFs hold no transverse, or no translation at all, is refused)."""
-    for dofs in (backend.transverse_dofs, backend.translational_dofs):
-        values = np.abs(U[dofs])
+    for values in (backend.transverse_displacements(U), U[backend.translational_dofs]):
+        values = np.abs(values)
         if values.size and values.max() > 0:
             return float(values.max())
     raise InputError("dual modes: the linear modes move no free translational DOF (a model "

@@ -9,23 +9,28 @@ thickness direction), and the outputs are the FE's output points (e.g. "A_Tz").
 
 from __future__ import annotations
 
+import time
+
 import numpy as np
 
 from ..errors import ConvergenceError
+from ..fe.wing_frame import WingFrameError, principal_axes, structural_rows
 from ..rom.points import point_label
-from .backend import FEBackend, StaticSolution
+from .backend import FEBackend, StaticSolution, project
 
 
 def step_midline(fe) -> float:
-    """Mid-line of the "step uniform" pressure (DIGEST Sec. 6): the mid-chord of the wing, from
-    the model's ``wing_chord`` (x of the leading and trailing edges, e.g. (0, 6) ft for the
-    heavy Goland wing, whose 4 ft box spans x = 0..4: mid-chord 3 ft, so the step pressure is
-    a lift plus a nose-up torque) when it has one, else the middle of the grid's x extent."""
+    """Mid-line of the "step uniform" pressure (DIGEST Sec. 6), as a position along the wing's
+    chord axis (:meth:`FEModel.wing_frame`; basic x for a wing whose chord runs along +x): the
+    mid-chord from the model's ``wing_chord`` (x of the leading and trailing edges, e.g. (0, 6)
+    ft for the heavy Goland wing, whose 4 ft box spans x = 0..4: mid-chord 3 ft, so the step
+    pressure is a lift plus a nose-up torque) where the chord runs along basic x, else the middle
+    of the structure's chord extent."""
+    frame = fe.wing_frame()
     chord = getattr(fe, "wing_chord", None)
-    if chord is not None:
-        return 0.5 * (float(chord[0]) + float(chord[1]))
-    x = np.asarray(fe.grid_xyz, float)[:, 0]
-    return 0.5 * (float(x.min()) + float(x.max()))
+    if chord is not None and abs(frame.chord[0]) > 1 - 1e-9:
+        return 0.5 * (float(chord[0]) + float(chord[1])) * float(np.sign(frame.chord[0]))
+    return float(frame.origin @ frame.chord)
 
 
 class BuiltinFEBackend(FEBackend):
@@ -52,16 +57,23 @@ class BuiltinFEBackend(FEBackend):
     def __init__(self, fe, *, static_tol: float = 1e-8, step_x: float | None = None):
         super().__init__()
         self.fe = fe
-        self.step_x = step_midline(fe) if step_x is None else float(step_x)
+        self._step_x = None if step_x is None else float(step_x)
         self.n_dof = int(fe.n_dof)
         self.name = str(getattr(fe, "name", "fe"))
         self.static_tol = static_tol
-        xyz = np.asarray(fe.grid_xyz, dtype=float)
-        extent = xyz.max(axis=0) - xyz.min(axis=0)
-        self.reference_length = float(extent.max())
-        thickness_axis = int(np.argmin(extent)) + 1
+        self._rows = structural_rows(fe)
+        try:
+            frame = fe.wing_frame()
+            axes = frame.axes
+        except WingFrameError:  # a beam-line model nobody said the up axis of
+            frame = None
+            axes = principal_axes(np.asarray(fe.grid_xyz, float)[self._rows])
+        self._up = None if frame is None else frame.up
+        #: the wing's length: its largest extent along its own axes (rotation-invariant)
+        self.reference_length = float(np.ptp(np.asarray(fe.grid_xyz, float) @ axes.T,
+                                             axis=0).max())
         comps = np.array([c for _, c in fe.free_dofs()])
-        self._transverse_dofs = np.flatnonzero(comps == thickness_axis)
+        self._transverse_dofs = np.zeros(0, dtype=int)
         self._translational_dofs = np.flatnonzero(comps <= 3)
         self._rigid: np.ndarray | None = None
         self.n_rigid = 0
@@ -70,6 +82,25 @@ class BuiltinFEBackend(FEBackend):
         self._labels = [point_label(g, c) for g, c in fe.free_dofs()]
         self._linear_factor = None  # K's factorisation: modified Newton from rest
         self._factor = None  # the last converged static solve's tangent factorisation
+
+    @property
+    def step_x(self) -> float:
+        """The step pressure's mid-line (:func:`step_midline` unless set)."""
+        if self._step_x is None:
+            self._step_x = step_midline(self.fe)
+        return self._step_x
+
+    @step_x.setter
+    def step_x(self, value: float) -> None:
+        self._step_x = float(value)
+
+    def transverse_displacements(self, u) -> np.ndarray:
+        """Each structural grid's displacement along the wing's up axis (none where the axis
+        cannot be told): the transverse deflection whatever the deck's orientation and CD
+        systems."""
+        if self._up is None:
+            return np.zeros(0)
+        return self.fe.expand(np.asarray(u, dtype=float))[self._rows, :3] @ self._up
 
     def dof_label(self, dof: int) -> str:
         """``"G1001:T3"``: the grid and component of a free DOF."""
@@ -87,6 +118,10 @@ class BuiltinFEBackend(FEBackend):
         meta = super().metadata
         meta["source"] = str(getattr(self.fe, "source", ""))
         meta["units"] = dict(getattr(self.fe, "units", {}) or {})
+        try:
+            meta["wing_frame"] = self.fe.wing_frame().as_dict()
+        except WingFrameError:
+            pass
         return meta
 
     def _mass(self):
@@ -148,9 +183,12 @@ class BuiltinFEBackend(FEBackend):
         DOFs: 1.5 s + 0.2 s against 0.17 s of CPU), where full Newton spent most of its
         time. Where the last tangent is not close enough (the start is far from equilibrium:
         the callers scale the last solution to the new load, whose in-plane part is quadratic
-        in it), modified Newton takes the step back and refactorises.
+        in it), modified Newton takes the step back and refactorises; wherever the residual is
+        above the load's norm it refactorises before the step (full Newton far from
+        equilibrium, :data:`~torchrom.fe.solvers.NEWTON_ABOVE`: on the TACS wingbox's 100
+        dual-mode solves 287 tangents instead of 1,084).
         """
-        from ..fe.solvers import WORK_TOL, factor_symmetric, modified_newton
+        from ..fe.solvers import NEWTON_ABOVE, WORK_TOL, factor_symmetric, modified_newton
 
         if self._linear_factor is None:
             self._linear_factor = factor_symmetric(self.fe.stiffness_matrix())
@@ -161,18 +199,38 @@ class BuiltinFEBackend(FEBackend):
                 self.fe, load, start, tol=self.static_tol, factor=factor,
                 max_iter=self.MODIFIED_NEWTON_ITERATIONS,
                 max_tangents=self.MODIFIED_NEWTON_TANGENTS, work_tol=WORK_TOL,
-                factor_at_start=u0 is None)
+                factor_at_start=u0 is None, newton_above=NEWTON_ABOVE)
         except ConvergenceError:
             return None
         self._factor = factor
         return StaticSolution(u, True, int(n_res), 1.0)
 
+    def projected_tangents(self, Phi: np.ndarray, Q: np.ndarray, material: bool = False):
+        """Φᵀ K_T(Φq) Φ for each row q of Q (:meth:`FEBackend.projected_tangents`), the FE's
+        tangents of all rows from :meth:`~torchrom.fe.model.FEModel.tangent_stiffnesses`
+        (co-rotational elements: several states a pass); with ``material`` one state at a
+        time, as the protocol's default."""
+        tangents = getattr(self.fe, "tangent_stiffnesses", None)
+        if material or tangents is None:
+            return super().projected_tangents(Phi, Q, material)
+        Q = np.atleast_2d(Q)
+        t0 = time.perf_counter()
+        KT = np.stack([project(K, Phi) for K in tangents(np.stack([Phi @ q for q in Q]))])
+        self.counters.tangent_evaluations += len(Q)
+        self.counters.add_time("tangent_stiffness", time.perf_counter() - t0)
+        return KT, None
+
     def load_shapes(self) -> dict[str, np.ndarray]:
-        """Uniform pressure (1 per unit area) and the "step uniform" pressure (+1 ahead of the
-        mid-line x = ``step_x``, −1 behind) on the FE's default pressure skin."""
-        x_mid = self.step_x
+        """Uniform pressure (1 per unit area, pushing up) and the "step uniform" pressure (+1
+        where the chord coordinate is below ``step_x``, −1 beyond) on the FE's default pressure
+        skin."""
+        if not len(self.fe.pressure_elements()):
+            return {}
+        frame = self.fe.wing_frame()
+        x_mid = self.step_x - float(frame.origin @ frame.chord)  # from the frame's origin
         return {"uniform": self.fe.pressure_load(1.0),
-                "step": self.fe.pressure_load(lambda x, y: np.where(x < x_mid, 1.0, -1.0))}
+                "step": self.fe.pressure_load(lambda s, c: np.where(c < x_mid, 1.0, -1.0),
+                                              local=True)}
 
     def free_decay(self, u0, *, t_end, dt, gamma, record):
         """The FE's own nonlinear transient (Newmark + Newton, Kelvin–Voigt γ K_mat(u) u̇)."""

@@ -236,7 +236,11 @@ def _markdown(result, curves, dec, numbers, decay_tip_fraction) -> str:
         lines += [f"{len(failed)} of {len(result.basis.snapshots)} dual-mode loads were not "
                   "carried by the FE (no converged static solution) or skipped after one; the "
                   "POD used the rest.", ""]
-    lines += ["## Identification residuals (relative; rounding level for a cubic FE)", "",
+    from .stiffness import residual_wording
+
+    largest = max(result.stiffness.residuals.values(), default=float("nan"))
+    lines += ["## Identification residuals (relative)", "",
+              f"Largest {largest:.1e}: {residual_wording(largest)}.", "",
               "| residual | value |", "|---|---|"]
     lines += [f"| {k} | {_fmt(val)} |" for k, val in result.stiffness.residuals.items()]
     lines += ["", "## Damping", "", "| quantity | value |", "|---|---|"]
@@ -267,8 +271,8 @@ def _markdown(result, curves, dec, numbers, decay_tip_fraction) -> str:
                   "output over the band (e.g. A_Tx of a symmetric load), so no relative error "
                   "is defined."]
         if numbers.get("static_step_midline_x") is not None:
-            lines += ["", f"Step pressure: +1 ahead of x = {numbers['static_step_midline_x']:g}"
-                      ", −1 behind."]
+            lines += ["", "Step pressure: +1 where the position along the wing's chord axis is "
+                      f"below {numbers['static_step_midline_x']:g}, −1 beyond."]
     if dec is not None:
         m = dec.metrics
         lines += ["", f"## Free decay (γ = {dec.gamma:g} s, {dec.cycles} cycles, initial tip "

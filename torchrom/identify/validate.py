@@ -166,15 +166,17 @@ def linear_response(backend, load: np.ndarray) -> np.ndarray:
     return solve_linear(backend.stiffness_matrix(), load)
 
 
-def tip_dofs(backend, u_lin: np.ndarray) -> np.ndarray:
-    """The DOFs whose largest |u| is the tip deflection: the backend's transverse DOFs, or its
-    translations where the load moves none of those (a straight beam's "thickness direction"
-    is either of two: a bending mode may move the other)."""
-    tr = np.asarray(backend.transverse_dofs)
+def tip_measure(backend, u_lin: np.ndarray):
+    """The function u → tip deflection (largest |·|): of the backend's transverse
+    displacements, or of its translations where the load ``u_lin`` moves none of those (a
+    straight beam's "thickness direction" is either of two: a bending mode may move the
+    other)."""
     moved = np.abs(u_lin[backend.translational_dofs]).max(initial=0.0)
-    if tr.size and np.abs(u_lin[tr]).max() > 1e-6 * moved:
-        return tr
-    return np.asarray(backend.translational_dofs)
+    tr = np.abs(backend.transverse_displacements(u_lin))
+    if tr.size and tr.max() > 1e-6 * moved:
+        return lambda u: float(np.abs(backend.transverse_displacements(u)).max())
+    dofs = np.asarray(backend.translational_dofs)
+    return lambda u: float(np.abs(u[dofs]).max())
 
 
 def load_shapes(backend, Phi: np.ndarray, n_rigid: int = 0) -> dict[str, np.ndarray]:
@@ -204,8 +206,8 @@ def static_validation(backend, rom, Phi: np.ndarray, shape: str, unit_load: np.n
         outputs = {k: backend.outputs[k] for k in OUTPUTS}
     span = backend.reference_length
     u_lin = linear_response(backend, unit_load)
-    tip = tip_dofs(backend, u_lin)
-    tip_lin = np.abs(u_lin[tip]).max()
+    tip = tip_measure(backend, u_lin)
+    tip_lin = tip(u_lin)
     p_target = max_tip_fraction * span / tip_lin
     levels = list(np.linspace(p_target / n_levels, p_target, n_levels))
     dofs = dict(outputs)
@@ -223,7 +225,7 @@ def static_validation(backend, rom, Phi: np.ndarray, shape: str, unit_load: np.n
         except ConvergenceError:
             break
         q = rom_static_solve(rom, Phi.T @ (p * unit_load), q_prev, n_rigid=n_rigid)
-        tips.append(100 * np.abs(u[tip]).max() / span)
+        tips.append(100 * tip(u) / span)
         for k in dofs:
             fe_out[k].append(u[dofs[k]])
             rom_out[k].append(float(rows[k] @ q))
@@ -234,6 +236,12 @@ def static_validation(backend, rom, Phi: np.ndarray, shape: str, unit_load: np.n
         if (i == len(levels) and tips[-1] < 100 * max_tip_fraction * (1 - 5e-3)
                 and len(levels) < 3 * n_levels):
             levels.append(p * min(1.5, 100 * max_tip_fraction / tips[-1]))
+    if not done:
+        raise ConvergenceError(
+            f"static validation, {shape} load: the FE's static solve failed at the first level "
+            f"({levels[0]:.4g} x the load, {100 * max_tip_fraction / n_levels:.3g} % of the "
+            f"span at the tip by the linear response): the ROM stands, its report cannot be "
+            f"made (check the deck's constraints and the pressure skin)")
     curve = StaticCurve(shape, np.array(done), np.array(tips),
                         {k: np.array(v) for k, v in fe_out.items()},
                         {k: np.array(v) for k, v in rom_out.items()})
@@ -301,7 +309,7 @@ def free_decay_validation(backend, rom, Phi: np.ndarray, unit_load: np.ndarray, 
     inertia relief (a free structure released from it keeps zero momentum)."""
     span = backend.reference_length
     u_lin = linear_response(backend, unit_load)
-    p = tip_fraction * span / np.abs(u_lin[tip_dofs(backend, u_lin)]).max()
+    p = tip_fraction * span / tip_measure(backend, u_lin)(u_lin)
     u0 = backend.static_solve(p * unit_load).u
     q0 = rom_static_solve(rom, Phi.T @ (p * unit_load), n_rigid=n_rigid)
     f = np.asarray(rom.frequencies_hz, dtype=float)

@@ -1,0 +1,303 @@
+"""The wing's axes from a deck's geometry (torchrom.fe.wing_frame) and the metamorphic test:
+a deck rotated rigidly — 90° about x, 90° about z, an arbitrary rotation with the grids in
+basic, and the same with the grids given in a rotated CORD2R — is the same wing.
+
+Tolerances: frequencies 1e-8 relative (the rotated grids are written in 16-character fields,
+so positions differ by ~1e-15 relative; the eigen-solver's own rounding is ~1e-12); ROM
+tensors 1e-7 relative to each tensor's largest entry (the dual modes come from Newton solves
+converged to 1e-8 of the load: their rounding, not the rotation's, sets this); flutter 0.1 %
+(the issue's bound; the aerodynamic frame rotates with the deck, so the DLM sees the same
+boxes and the difference is rounding).
+"""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+from pyNastran.bdf.bdf import BDF
+
+from torchrom.errors import InputError
+from torchrom.fe import read_bdf
+from torchrom.fe.wing_frame import WingFrameError, axis_name, parse_axis, wing_frame
+
+from .conftest import REPO
+from .fe_decks import model_of, new_deck, rotation, tip_mass_beam
+from .rotated_decks import rotate_deck
+
+DECKS = Path(__file__).parent / "decks"
+WINGBOX = DECKS / "tacs_mdo_wingbox" / "wingbox.bdf"
+ROTATIONS = {
+    "90 deg about x": (rotation([1, 0, 0], np.pi / 2), "basic"),
+    "90 deg about z": (rotation([0, 0, 1], np.pi / 2), "basic"),
+    "arbitrary": (rotation([0.3, -0.5, 0.8], 1.1), "basic"),
+    "CORD2R": (rotation([0.3, -0.5, 0.8], 1.1), "rotated"),
+}
+
+
+def test_parse_axis_names_and_vectors():
+    assert np.allclose(parse_axis("y", "--up-axis"), [0, 1, 0])
+    assert np.allclose(parse_axis("-Z", "--up-axis"), [0, 0, -1])
+    assert np.allclose(parse_axis("0,3,4", "--up-axis"), [0, 0.6, 0.8])
+    assert parse_axis(None, "--up-axis") is None
+    for bad in ("w", "1,2", "0,0,0", "a,b,c", "nan,0,1"):
+        with pytest.raises(InputError, match="--up-axis"):
+            parse_axis(bad, "--up-axis")
+    assert axis_name(np.array([0.0, -1.0, 0.0])) == "-y"
+
+
+def _plate(normal_axis: int, span_axis: int, n: int = 6) -> BDF:
+    """A clamped 1 x 0.2 plate strip (CQUAD4), its thickness along ``normal_axis``."""
+    m = new_deck()
+    chord_axis = 3 - normal_axis - span_axis
+    nid = 1
+    for i in range(n + 1):
+        for j in range(3):
+            x = np.zeros(3)
+            x[span_axis], x[chord_axis] = i / n, 0.1 * j
+            m.add_grid(nid, x)
+            nid += 1
+    eid = 1
+    for i in range(n):
+        for j in range(2):
+            a = i * 3 + j + 1
+            m.add_cquad4(eid, 1, [a, a + 3, a + 4, a + 1])
+            eid += 1
+    m.add_pshell(1, mid1=1, t=0.002, mid2=1, mid3=1)
+    m.add_mat1(1, 7e10, None, 0.3, rho=2700.0)
+    m.add_spc1(1, "123456", [1, 2, 3])
+    return m
+
+
+@pytest.mark.parametrize("normal_axis,span_axis", [(2, 0), (1, 2), (0, 1)])
+def test_plate_up_is_its_thickness_and_span_points_away_from_the_clamp(normal_axis, span_axis):
+    fe = model_of(_plate(normal_axis, span_axis))
+    f = fe.wing_frame()
+    assert abs(f.up[normal_axis]) == pytest.approx(1.0)
+    assert f.span[span_axis] == pytest.approx(1.0)  # root at 0, tip at +1
+    assert np.dot(np.cross(f.span, f.up), f.chord) == pytest.approx(1.0)
+    kinds = fe.modes(3).kinds
+    assert kinds[0] == "bending"
+
+
+def test_user_axes_override_and_are_checked():
+    fe = model_of(_plate(2, 0))
+    assert np.allclose(wing_frame(fe, up="-z").up, [0, 0, -1])
+    with pytest.raises(InputError, match="--span-axis"):
+        wing_frame(fe, up="z", span="-z")
+
+
+def test_panels_give_up_and_flow():
+    """With CAERO1 panels, up is the AERO card's ACSID z and the chord its x."""
+    m = _plate(2, 0)
+    m.add_cord2r(7, [0, 0, 0], [0, 1, 0], [0, 0, 1])  # z along basic y, x along basic z
+    m.add_aero(velocity=1.0, cref=0.2, rho_ref=1.0, acsid=7)
+    m.add_paero1(1)
+    m.add_caero1(1001, 1, igroup=1, p1=[0, 0, 0], x12=0.2, p4=[1, 0, 0], x43=0.2, nspan=2,
+                 nchord=2)
+    fe = model_of(m)
+    f = fe.wing_frame()
+    assert np.allclose(f.up, [0, 1, 0]) and "panels" in f.source
+    assert np.allclose(f.chord, [0, 0, 1])
+
+
+def test_beam_line_up_is_the_weak_bending_direction():
+    """A CBAR line along x whose sections bend more easily along basic y (I1 < I2 with v along
+    y: I1 resists the displacement along the element's y)."""
+    fe = model_of(tip_mass_beam(I1=2e-6, I2=8e-6))
+    assert abs(fe.wing_frame().up @ fe.mesh.bars.v[0] / np.linalg.norm(fe.mesh.bars.v[0])) == \
+        pytest.approx(1.0)
+    round_ = model_of(tip_mass_beam(I1=4e-6, I2=4e-6))
+    with pytest.raises(WingFrameError, match="--up-axis"):
+        round_.wing_frame()
+    assert set(round_.modes(2).kinds) == {"unknown"}
+
+
+@pytest.fixture(scope="module")
+def wingbox_rotations(tmp_path_factory):
+    d = tmp_path_factory.mktemp("rotated")
+    return {name: rotate_deck(WINGBOX, d / f"{i}.bdf", R, origin=(1.0, -2.0, 0.5),
+                              coordinates=coords)
+            for i, (name, (R, coords)) in enumerate(ROTATIONS.items())}
+
+
+def test_wingbox_axes_come_from_its_structure():
+    """The MACH tutorial wingbox is y-up with its span along z: before the wing frame its first
+    bending mode was labelled in-plane."""
+    fe = read_bdf(WINGBOX)
+    f = fe.wing_frame()
+    assert axis_name(f.up) == "+y" and f.span[2] > 0.9
+    m = fe.modes(4)
+    assert m.kinds[:3] == ["bending", "bending", "in-plane"]
+
+
+@pytest.mark.parametrize("name", list(ROTATIONS))
+def test_rotated_wingbox_has_the_same_modes_kinds_and_loads(name, wingbox_rotations):
+    fe0, fe = read_bdf(WINGBOX), read_bdf(wingbox_rotations[name])
+    m0, m = fe0.modes(8), fe.modes(8)
+    assert np.allclose(m.frequencies_hz, m0.frequencies_hz, rtol=1e-8, atol=0)
+    assert m.kinds == m0.kinds
+    # the report's pressure (pushing up) and the tip deflection it causes, in the wing's axes;
+    # a structure cannot tell up from down (the module docstring): the rotated deck is told
+    R = ROTATIONS[name][0]
+    assert abs(fe.wing_frame().up @ (R @ fe0.wing_frame().up)) == pytest.approx(1.0)
+    fe.set_wing_axes(up=R @ fe0.wing_frame().up)
+    from torchrom.identify.fe_backend import BuiltinFEBackend
+
+    b0, b = BuiltinFEBackend(fe0), BuiltinFEBackend(fe)
+    # the principal axes of rotated positions agree to ~1e-11 (SVD rounding)
+    assert b.reference_length == pytest.approx(b0.reference_length, rel=1e-9)
+    for key in ("uniform", "step"):
+        u0 = fe0.linear_static(b0.load_shapes()[key])
+        u = fe.linear_static(b.load_shapes()[key])
+        t0, t = b0.transverse_displacements(u0), b.transverse_displacements(u)
+        assert np.allclose(t, t0, rtol=0, atol=1e-8 * np.abs(t0).max()), key
+
+
+def _identify(deck: Path, out: Path, *extra: str) -> None:
+    run = subprocess.run([sys.executable, "-m", "torchrom", "identify", str(deck), "--linear",
+                          "3", "--out", str(out), "-q", *extra],
+                         capture_output=True, text=True, cwd=REPO, timeout=1800)
+    assert run.returncode == 0, run.stderr
+
+
+@pytest.mark.parametrize("name,dual", [
+    ("90 deg about x", ["--dual", "1", "--combinations", "1:1"]),
+    pytest.param("CORD2R", ["--dual", "2"], marks=pytest.mark.slow),
+])
+def test_rotated_wingbox_gives_the_same_rom(name, dual, wingbox_rotations, tmp_path):
+    """The same ROM tensors (up to each basis vector's sign) from the rotated deck."""
+    from torchrom.rom import NonlinearROM
+
+    _identify(WINGBOX, tmp_path / "r0.npz", *dual)
+    _identify(wingbox_rotations[name], tmp_path / "r1.npz", *dual)
+    r0, r1 = NonlinearROM.load(tmp_path / "r0.npz"), NonlinearROM.load(tmp_path / "r1.npz")
+    assert r0.mode_kinds == r1.mode_kinds
+    assert np.allclose(r1.frequencies_hz[:3], r0.frequencies_hz[:3], rtol=1e-8)
+    assert_same_tensors(r0, r1)
+
+
+#: relative agreement of the ROMs' tensors: stiffness 1e-7 (measured 9e-11); the nonlinear
+#: damping D2, D3 of the optimum decomposition 2e-3 (measured 4.7e-4: the decomposition
+#: amplifies the ~1e-8 rounding of the dual modes' static solutions about 1e4-fold, as
+#: torchrom.identify.fe_backend says of the Goland ROM)
+RTOL = {"D2": 2e-3, "D3": 2e-3}
+
+
+def assert_same_tensors(r0, r1, rtol: float = 1e-7) -> None:
+    """Every tensor of the two ROMs equal, to ``rtol`` (:data:`RTOL` for the nonlinear damping)
+    of its largest entry, once each basis vector's sign is matched: an index's sign flips with
+    its basis vector, so T_ab... becomes s_a s_b ... T_ab...; the signs are the pattern (of
+    2^(n-1)) that fits best."""
+    import itertools
+
+    names = [k for k in r0.TENSORS if getattr(r0, k) is not None]
+    T0 = {k: getattr(r0, k).numpy() for k in names}
+    T1 = {k: getattr(r1, k).numpy() for k in names}
+    best_err = np.inf
+    for signs in itertools.product((1.0, -1.0), repeat=r0.n - 1):
+        s = np.array((1.0, *signs))
+        err = 0.0
+        for k, A in T0.items():
+            S = s
+            for _ in range(A.ndim - 1):
+                S = np.multiply.outer(S, s)
+            err = max(err, np.abs(T1[k] * S - A).max() / max(np.abs(A).max(), 1e-300)
+                      * rtol / RTOL.get(k, rtol))
+        best_err = min(best_err, err)
+    assert best_err < rtol, best_err
+
+
+def _rotated_variants(src: Path, tmp_path: Path, names) -> dict[str, Path]:
+    return {name: rotate_deck(src, tmp_path / f"rot{i}_{src.name}", *ROTATIONS[name][:1],
+                              origin=(3.0, -1.0, 2.0), coordinates=ROTATIONS[name][1])
+            for i, name in enumerate(names)}
+
+
+def test_rotated_goland_deck_keeps_point_a_and_its_planform_aerodynamics(tmp_path):
+    """The built-in Goland deck (no panels: the built-in planform is placed in the wing's
+    axes): the same modes and kinds, point A on the same grid and components (told the up
+    axis where the rotation turns the structure's conventional sign), and the same
+    generalized aerodynamic forces on the Goland planform (hence the same flutter)."""
+    from torchrom.aero.build import build
+    from torchrom.fe.goland import updated_goland_bdf
+
+    src = tmp_path / "goland.bdf"
+    updated_goland_bdf().write_bdf(str(src), enddata=True)
+    fe0 = read_bdf(src)
+    m0 = fe0.modes(6)
+    aero0 = build(fe0, n_modes=4, n_lags=2, k_list=[0.05, 0.3])
+    for name, path in _rotated_variants(src, tmp_path, ["90 deg about x", "arbitrary"]).items():
+        fe = read_bdf(path)
+        R = ROTATIONS[name][0]
+        m = fe.modes(6)
+        assert np.allclose(m.frequencies_hz, m0.frequencies_hz, rtol=1e-8), name
+        assert m.kinds == m0.kinds, name
+        if fe.wing_frame().up @ (R @ fe0.wing_frame().up) < 0:
+            fe = read_bdf(path)
+            fe.set_wing_axes(up=R @ fe0.wing_frame().up)
+            from torchrom.fe.goland_geometry import goland_output_points
+
+            fe.set_output_points(goland_output_points(fe))
+        assert fe.output_points == fe0.output_points, name
+        aero = build(fe, n_modes=4, n_lags=2, k_list=[0.05, 0.3])
+        Q0, Q = np.asarray(aero0.gaf.Q), np.asarray(aero.gaf.Q)
+        # a mode's shape may flip sign with the rotation (its first large DOF is another):
+        # Q_ij -> s_i s_j Q_ij, a similarity that leaves every flutter root as it is
+        ratio = Q[-1, 0, :] / Q0[-1, 0, :]
+        s = np.sign(ratio.real)
+        S = s[None, :, None] * s[None, None, :]  # s_j = s_0 s_j of the true signs
+        assert np.allclose(Q, S * Q0, rtol=1e-6, atol=1e-9 * np.abs(Q0).max()), name
+
+
+def _flutter_speeds(res) -> list[float]:
+    return sorted(p.velocity for r in res.results for p in r.points)
+
+
+def test_rotated_bah_aircraft_has_the_same_modes_and_flutter(tmp_path):
+    """The free-free BAH aircraft (its aerodynamic systems CORD2R 2 and 3 rotate with it):
+    the same modes and kinds, and the deck's PK flutter within 0.1 %."""
+    from torchrom.aero.nastran_flutter import run_deck
+
+    from .test_public_decks import _bah_plane_both_subcases
+
+    src = _bah_plane_both_subcases(tmp_path)
+    res0 = run_deck(src, log=lambda *_: None)
+    kinds0 = read_bdf(src).modes(8).kinds
+    for name, path in _rotated_variants(src, tmp_path, ["90 deg about z", "CORD2R"]).items():
+        res = run_deck(path, log=lambda *_: None)
+        assert np.allclose(res.frequencies_hz, res0.frequencies_hz, rtol=1e-7, atol=1e-6)
+        assert read_bdf(path).modes(8).kinds == kinds0, name
+        v0, v = _flutter_speeds(res0), _flutter_speeds(res)
+        assert len(v) == len(v0) >= 1 and np.allclose(v, v0, rtol=1e-3), (name, v, v0)
+
+
+@pytest.mark.slow
+def test_rotated_pazy_wing_has_the_same_modes_and_flutter(tmp_path):
+    """The skinned Pazy wing (about 3,000 shell grids; its CAERO1 and AERO in basic): the same
+    modes and kinds and the deck's PK flutter within 0.1 % after an arbitrary rotation."""
+    from torchrom.aero.nastran_flutter import run_deck
+
+    folder = DECKS / "aepw3_pazy_skin_flutter_tipmass1"
+    src = folder / "sol145.dat"
+    res0 = run_deck(src, log=lambda *_: None)
+    (path,) = _rotated_variants(src, tmp_path, ["arbitrary"]).values()
+    res = run_deck(path, log=lambda *_: None)
+    assert np.allclose(res.frequencies_hz, res0.frequencies_hz, rtol=1e-7)
+    v0, v = _flutter_speeds(res0), _flutter_speeds(res)
+    assert len(v) == len(v0) >= 1 and np.allclose(v, v0, rtol=1e-3), (v, v0)
+
+
+def test_rotated_pazy_wing_has_the_same_kinds(tmp_path):
+    """The skinned Pazy deck's modes and kinds, rotated arbitrarily (CI form of the slow
+    flutter test above)."""
+    src = DECKS / "aepw3_pazy_skin_flutter_tipmass1" / "sol145.dat"
+    fe0 = read_bdf(src)
+    m0 = fe0.modes(5)
+    (path,) = _rotated_variants(src, tmp_path, ["CORD2R"]).values()
+    m = read_bdf(path).modes(5)
+    assert np.allclose(m.frequencies_hz, m0.frequencies_hz, rtol=1e-7)
+    assert m.kinds == m0.kinds
