@@ -117,6 +117,8 @@ BASE = {
     "cache": ["info", "--json", "OUT/cache.json"],
     # a command of main that this branch predates: its cases run once the command exists
     "static": ["deck.bdf", "--json", "OUT/static.json"],
+    # issue 46: aerodynamic cards over a structure-only deck
+    "panels": ["deck.bdf", "--out", "OUT/panels.bdf", "--units", "si"],
 }
 
 #: values each numeric option type must refuse (the types of torchrom.commands._common)
@@ -130,8 +132,13 @@ BAD_VALUES = {
     "thread_count": ["0", "-1", "100000"],
     "mach": ["-0.1", "1.0", "nan", "inf"],
     "gamma": ["-1", "nan", "inf"],
+    "damping_ratio": ["-0.01", "1", "nan", "x", "0.02@0", "0.02@x"],
     "figure_file": ["fig.exe"],
     "int": ["5", "x"],
+    # flutter --g-tolerance: a damping g from 0 to 0.05 (issue 46)
+    "g_tolerance": ["-1e-3", "0.06", "nan", "inf", "x"],
+    # static --load GRID:COMPONENT=VALUE (issue 46)
+    "point_load": ["x", "0:T3=1", "4:T9=1", "4:T3=x", "4:T3=nan", "4:T3=inf"],
 }
 
 
@@ -169,7 +176,7 @@ def _cases() -> dict[str, tuple[list[str], str]]:
     cases = {}
     files = {k: Path(v).name for k, v in FILES.items()}
     # input files of every kind where a deck, a configuration, a table or a ROM is expected
-    for command in ("modes", "identify", "aero", "update", "static"):
+    for command in ("modes", "identify", "aero", "update", "static", "panels"):
         for kind in ("missing", "folder", "empty", "binary", "rom npz", "truncated deck",
                      "toml", "parquet"):
             cases[f"{command} deck={kind}"] = ([command, FILES[kind], *BASE[command][1:]],
@@ -221,7 +228,7 @@ def _cases() -> dict[str, tuple[list[str], str]]:
     cases["flutter ROM without its aero file"] = (["flutter", "rom.npz"],
                                                   "torchrom flutter rom.npz aero.npz")
     # decks the deck flutter cannot handle (issue 35 item 7): what is missing and what to do
-    cases["flutter deck without CAERO1"] = (["flutter", "deck.bdf"], "--planform goland")
+    cases["flutter deck without CAERO1"] = (["flutter", "deck.bdf"], "torchrom panels")
     for deck, card in (("pynastran_bah_ha146c/ha146c.bdf", "SPLINE2 100: SET1 14: grids 1 and 2"),
                        ("pynastran_fmondsp/fmondsp.dat", "SPLINE5 29: SET1 29")):
         for command, extra in (("flutter", []), ("aero", ["--mach", "0.5", "--out",
@@ -251,6 +258,14 @@ def _cases() -> dict[str, tuple[list[str], str]]:
         ["flutter", *BASE["flutter"], "--alt-range", "9000", "1000"], "--alt-range")
     cases["cache clear --cache-dir=file"] = (["cache", "clear", "--cache-dir", "deck.bdf"],
                                              "--cache-dir")
+    # the reduced frequencies' speed range and the flutter damping tolerance (issue 46)
+    cases["aero --speeds reversed"] = (
+        ["aero", *BASE["aero"], "--speeds", "500", "50"], "--speeds")
+    cases["aero --speeds with the Goland planform"] = (
+        ["aero", *BASE["aero"], "--speeds", "50", "500"], "--speeds: for a deck's own panels")
+    cases["flutter --g-tolerance with --aoa"] = (
+        ["flutter", *BASE["flutter"], "--aoa", "1", "--density", "1.2", "--g-tolerance",
+         "1e-3"], "--g-tolerance: not with --aoa")
     for command, option in (("calibrate", "--gamma"), ("branch", "--range"),
                             ("bifurcation", "--q0")):
         cases[f"{command} {option} reversed"] = (

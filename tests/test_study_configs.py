@@ -11,7 +11,8 @@ CONFIGS = sorted((REPO / "configs").glob("*.toml"))
 #: up to the missing file, which the refusal names (the full run: tests/test_bah.py, slow)
 BUILT_BY_A_GUIDE = {"bah_lco": "docs/guide/bah.md", "bah_free_lco": "docs/guide/bah.md",
                     "pazy_skin_lco": "docs/guide/pazy-flutter.md",
-                    "pazy_aoa_lco": "docs/guide/pazy-aoa.md"}
+                    "pazy_aoa_lco": "docs/guide/pazy-aoa.md",
+                    "wingbox_lco": "docs/guide/own-wing.md"}
 
 
 @pytest.mark.parametrize("path", CONFIGS, ids=[p.stem for p in CONFIGS])

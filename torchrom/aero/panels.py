@@ -501,8 +501,10 @@ def read_aero_reference(model, path: str = "deck") -> AeroReference:
     )
 
 
-def read_model(path) -> object:
-    """A pyNastran model of ``path`` with grids and coordinate systems cross-referenced.
+def read_model(path, includes=()) -> object:
+    """A pyNastran model of ``path`` with grids and coordinate systems cross-referenced;
+    ``includes``: files of cards read as if INCLUDEd at the deck's end
+    (:func:`torchrom.fe.bdf_read.with_includes`).
 
     Nothing else is cross-referenced, so that missing aero references are reported by torchrom's
     own checks as one-line errors naming the card and id.
@@ -519,10 +521,18 @@ def read_model(path) -> object:
     path = Path(path)
     expect_text_file(path, "a Nastran deck", "model.bdf")
     check_complete(path.read_text(errors="replace"), path.name)
+    from ..fe.bdf_read import check_include_files, with_includes
+
+    check_include_files(includes)
     try:
         # pyNastran prints some errors' details on stdout: the one line below says it
         with contextlib.redirect_stdout(io.StringIO()):
-            model = read_bdf(str(path), xref=False, debug=None, validate=True)
+            if includes:
+                text = with_includes(path.read_text(errors="replace"), includes)
+                with contextlib.chdir(path.resolve().parent):
+                    model = read_bdf(io.StringIO(text), xref=False, debug=None, validate=True)
+            else:
+                model = read_bdf(str(path), xref=False, debug=None, validate=True)
     except Exception as exc:  # noqa: BLE001 - pyNastran raises many types; one line to the user
         known = card_error_message(path.name, exc, _first_line(exc))
         raise InputError(known or f"{path}: cannot read the deck: {_first_line(exc)}") from None
