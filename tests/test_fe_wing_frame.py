@@ -12,6 +12,7 @@ boxes and the difference is rounding).
 
 from __future__ import annotations
 
+import json
 import subprocess
 import sys
 from pathlib import Path
@@ -301,3 +302,47 @@ def test_rotated_pazy_wing_has_the_same_kinds(tmp_path):
     m = read_bdf(path).modes(5)
     assert np.allclose(m.frequencies_hz, m0.frequencies_hz, rtol=1e-7)
     assert m.kinds == m0.kinds
+
+
+def test_rotated_goland_chain_gives_the_same_rom_flutter_and_lco_rows(tmp_path):
+    """The whole chain on the Goland deck and its copy turned 90° about z (grids in basic):
+    identify 4L2D, aero on the built-in planform (placed in the wing's axes), ROM flutter and
+    an LCO sweep. The ROM tensors agree up to basis signs (assert_same_tensors), the flutter
+    speed within 0.1 % and each LCO row's amplitude within its certificate's output bound
+    (measured: every printed digit equal)."""
+    import pandas as pd
+
+    from torchrom.fe.goland import updated_goland_bdf
+    from torchrom.rom import NonlinearROM
+
+    src = tmp_path / "goland.bdf"
+    updated_goland_bdf().write_bdf(str(src), enddata=True)
+    (rot,) = _rotated_variants(src, tmp_path, ["90 deg about z"]).values()
+    speeds, tables = [], []
+    for i, deck in enumerate((src, rot)):
+        def cli(*argv):
+            run = subprocess.run([sys.executable, "-m", "torchrom", *map(str, argv), "-q"],
+                                 capture_output=True, text=True, cwd=tmp_path, timeout=900)
+            assert run.returncode == 0, run.stderr
+        cli("identify", deck, "--linear", "4", "--dual", "2", "--out", f"r{i}.npz")
+        cli("aero", deck, "--planform", "goland", "--mach", "0", "--modes", "4", "--out",
+            f"a{i}.npz")
+        cli("flutter", f"r{i}.npz", f"a{i}.npz", "--density", "0.0023769", "--json",
+            f"f{i}.json")
+        (tmp_path / f"s{i}.toml").write_text(
+            f'title = "rotated Goland {i}"\nmethod = "hb"\n[model]\nrom = "r{i}.npz"\n'
+            f'aero = "a{i}.npz"\n[initial]\nq0 = 0.05\nmode = 1\n[lco]\noutputs = ["A_Tz"]\n'
+            'max_amplitude = 10.0\n[cases]\ndensity = 0.0023769\nspeed = [720.0, 760.0]\n'
+            'alpha = 0.2565\ngamma = 1.338e-4\n')
+        cli("sweep", f"s{i}.toml", "--out", f"o{i}")
+        speeds.append(min(r["velocity"] for r in json.loads(
+            (tmp_path / f"f{i}.json").read_text())["flutter"] if r.get("velocity")))
+        tables.append(pd.read_parquet(tmp_path / f"o{i}" / "results.parquet"))
+    r0, r1 = (NonlinearROM.load(tmp_path / f"r{i}.npz") for i in (0, 1))
+    assert_same_tensors(r0, r1)
+    assert speeds[1] == pytest.approx(speeds[0], rel=1e-3)
+    t0, t1 = tables
+    assert list(t0.status) == list(t1.status) == ["lco", "lco"]
+    assert t0.certified.all() and t1.certified.all()
+    bound = (t0.output_error + t1.output_error) * t0.amplitude
+    assert np.all(np.abs(t1.amplitude - t0.amplitude) <= bound + 1e-12)
