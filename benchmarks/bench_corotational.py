@@ -27,7 +27,7 @@ HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
 sys.path.insert(0, str(HERE.parent))
 
-from results_io import write_results  # noqa: E402
+from results_io import least_of, write_results  # noqa: E402
 
 from tests.fe_decks import grid_lattice, model_of, new_deck  # noqa: E402
 
@@ -63,16 +63,6 @@ def pazy_size_deck():
     return m, [tip + j for j in range(NY + 1)]
 
 
-def least_of(f, n=3) -> float:
-    f()
-    times = []
-    for _ in range(n):
-        t = time.perf_counter()
-        f()
-        times.append(time.perf_counter() - t)
-    return min(times)
-
-
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--steps", type=int, default=0, help="load steps of a static solve (0: none)")
@@ -86,8 +76,9 @@ def main() -> None:
     s = fe.summary()
     u = np.random.default_rng(0).normal(size=fe.n_dof) * 1e-2
     rows = [{"what": "build", "seconds": build},
-            {"what": "internal_force", "seconds": least_of(lambda: fe.internal_force(u))},
-            {"what": "tangent_stiffness", "seconds": least_of(lambda: fe.tangent_stiffness(u))}]
+            {"what": "internal_force", "seconds": least_of(lambda: fe.internal_force(u), 3)},
+            {"what": "tangent_stiffness",
+             "seconds": least_of(lambda: fe.tangent_stiffness(u), 3)}]
     runs = []
     if args.steps:
         # tip load of a few times the linear load for a tip deflection of a tenth of the span

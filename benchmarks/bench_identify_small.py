@@ -33,19 +33,9 @@ HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
 sys.path.insert(0, str(HERE.parent))
 
-from results_io import write_results  # noqa: E402
+from results_io import least_of, write_results  # noqa: E402
 
 DECK = HERE.parent / "tests" / "decks" / "tacs_mdo_wingbox" / "wingbox.bdf"
-
-
-def least_of(f, n: int = 5) -> float:
-    f()
-    times = []
-    for _ in range(n):
-        t = time.perf_counter()
-        f()
-        times.append(time.perf_counter() - t)
-    return min(times)
 
 
 class Counting:

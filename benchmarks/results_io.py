@@ -18,6 +18,17 @@ def machine_meta(**meta) -> dict:
             "load_average": os.getloadavg(), **meta}
 
 
+def least_of(f, n: int = 5) -> float:
+    """The least wall time (s) of ``n`` calls of ``f`` after one warm-up call."""
+    f()
+    times = []
+    for _ in range(n):
+        t = time.perf_counter()
+        f()
+        times.append(time.perf_counter() - t)
+    return min(times)
+
+
 def write_results(out: Path, name: str, throughput: list[dict], runs: list[dict],
                   runs_key: str, runs_kind: str, **meta) -> None:
     """JSON with the machine, torch, date and load average plus ``meta``; CSV with the

@@ -88,14 +88,10 @@ def _flow_axis(text, frame):
 def spline_grids(fe, local: np.ndarray, rows: np.ndarray) -> np.ndarray:
     """Grid ids of one structural grid per planform position (the uppermost): an infinite-plate
     spline cannot take two grids at one (span, chord) point (a box's upper and lower skins)."""
-    scale = max(float(np.ptp(local[:, :2], axis=0).max()), 1e-300)
-    keys = np.round(local[:, :2] / (1e-6 * scale)).astype(np.int64)
-    best: dict[tuple, int] = {}
-    for k in range(len(rows)):
-        key = tuple(keys[k])
-        if key not in best or local[k, 2] > local[best[key], 2]:
-            best[key] = k
-    return np.sort(np.asarray(fe.grid_ids)[rows[sorted(best.values())]])
+    from ..fe.wing_frame import uppermost_per_position
+
+    top = uppermost_per_position(local, float(np.ptp(local[:, :2], axis=0).max()))
+    return np.sort(np.asarray(fe.grid_ids)[rows[top]])
 
 
 def run(args: argparse.Namespace) -> int:

@@ -708,14 +708,10 @@ class FEModel:
         c = frame.local(X.mean(axis=1))
         facing = np.abs(quad_frames(X)[0][:, 2] @ frame.up) >= 0.5
         candidates = np.flatnonzero(facing) if facing.any() else np.arange(len(q))
-        scale = max(np.ptp(self.mesh.xyz, axis=0).max(), 1e-300)
-        keys = np.round(c[:, :2] / (1e-6 * scale)).astype(np.int64)
-        best: dict[tuple, int] = {}
-        for k in candidates:
-            key = tuple(keys[k])
-            if key not in best or c[k, 2] > c[best[key], 2]:
-                best[key] = k
-        return np.sort(q.eids[sorted(best.values())])
+        from .wing_frame import uppermost_per_position
+
+        top = uppermost_per_position(c, np.ptp(self.mesh.xyz, axis=0).max(), candidates)
+        return np.sort(q.eids[top])
 
     def pressure_load(self, p, elements=None, local: bool = False) -> np.ndarray:
         """Consistent nodal loads of a pressure on CQUAD4 skins (free DOFs, dead load).

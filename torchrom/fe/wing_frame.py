@@ -124,6 +124,21 @@ def principal_axes(xyz: np.ndarray) -> np.ndarray:
     return vt
 
 
+def uppermost_per_position(local: np.ndarray, scale: float, candidates=None) -> np.ndarray:
+    """Sorted indices of the points with the largest up coordinate among those sharing one
+    planform position: ``local`` (n, 3) span, chord, up coordinates; positions equal to 1e-6
+    of ``scale``; ``candidates`` the indices considered (default all). A box's upper skin, or
+    one grid per point of a spline plane."""
+    local = np.asarray(local, dtype=float)
+    keys = np.round(local[:, :2] / (1e-6 * max(float(scale), 1e-300))).astype(np.int64)
+    best: dict[tuple, int] = {}
+    for k in (range(len(local)) if candidates is None else candidates):
+        key = tuple(keys[k])
+        if key not in best or local[k, 2] > local[best[key], 2]:
+            best[key] = int(k)
+    return np.array(sorted(best.values()), dtype=int)
+
+
 def _unit(v) -> np.ndarray:
     v = np.asarray(v, dtype=float)
     return v / np.linalg.norm(v)
