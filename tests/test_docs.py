@@ -6,8 +6,11 @@ import contextlib
 import importlib.util
 import io
 import json
+import os
 import re
 import shlex
+import subprocess
+import sys
 
 import pytest
 
@@ -30,12 +33,58 @@ def python_blocks(text: str) -> list[str]:
     return re.findall(r"```python\n(.*?)```", text, re.S)
 
 
-EXAMPLES = [(page, i) for page in PAGES
+#: the mark of a page whose ```python blocks run in order in one namespace, as the cells of a
+#: notebook (each block's printed output is the ```text block right after it, where it has one)
+NOTEBOOK_MARK = "<!-- docs-test: notebook -->"
+NOTEBOOK_PAGES = [page for page in PAGES if NOTEBOOK_MARK in (REPO / page).read_text()]
+
+EXAMPLES = [(page, i) for page in PAGES if page not in NOTEBOOK_PAGES
             for i in range(len(python_blocks((REPO / page).read_text())))]
 
 
 def test_the_pages_hold_python_examples():
     assert len(EXAMPLES) >= 1
+    assert "docs/guide/notebook.md" in NOTEBOOK_PAGES
+
+
+def notebook_cells(text: str) -> list[tuple[str, str | None]]:
+    """(code, the output shown under it or None) of each ```python block of a page, in order."""
+    return [(m.group(1), m.group(2)) for m in
+            re.finditer(r"```python\n(.*?)```(?:\s*```text\n(.*?)```)?", text, re.S)]
+
+
+#: runs the cells (a JSON list, argv[1]) in one namespace, each one's stdout into argv[2]
+_CELLS = """
+import contextlib, io, json, sys
+namespace, printed = {"__name__": "__main__"}, []
+for k, code in enumerate(json.load(open(sys.argv[1]))):
+    out = io.StringIO()
+    with contextlib.redirect_stdout(out):
+        exec(compile(code, f"{sys.argv[3]} cell {k + 1}", "exec"), namespace)
+    printed.append(out.getvalue())
+json.dump(printed, open(sys.argv[2], "w"))
+"""
+
+
+@pytest.mark.parametrize("page", NOTEBOOK_PAGES)
+def test_notebook_page_runs_in_order_and_prints_what_it_shows(page, tmp_path):
+    """A notebook page's blocks run as a notebook runs its cells — in order, in one namespace,
+    in a fresh interpreter (a subprocess) in an empty folder, figures off screen — and each
+    prints the ```text block shown under it, line for line."""
+    cells = notebook_cells((REPO / page).read_text())
+    assert cells
+    (tmp_path / "cells.json").write_text(json.dumps([code for code, _ in cells]))
+    env = {**os.environ, "MPLBACKEND": "Agg", "TORCHROM_CACHE": str(tmp_path / "cache")}
+    run = subprocess.run([sys.executable, "-c", _CELLS, "cells.json", "printed.json", page],
+                         cwd=tmp_path, env=env, capture_output=True, text=True, timeout=600)
+    assert run.returncode == 0, run.stderr[-4000:]
+    printed = json.loads((tmp_path / "printed.json").read_text())
+    assert len(printed) == len(cells)
+    for k, ((code, shown), out) in enumerate(zip(cells, printed)):
+        if shown is not None:
+            assert out.rstrip().splitlines() == shown.rstrip().splitlines(), f"{page} cell {k + 1}"
+        elif "print(" in code:
+            assert out.strip(), f"{page} cell {k + 1} printed nothing"
 
 
 @pytest.mark.parametrize(("page", "index"), EXAMPLES)

@@ -166,3 +166,126 @@ def test_stage_counter_numbers_the_stages_and_scales_the_eta(monkeypatch):
                      "stage 3/3: c (ETA 1 min)", "stage 4/4: extra (ETA 0 s)"]
     assert stages.wall == {"a": 20.0, "b": 40.0, "c": 1.0, "extra": 0.0}
     assert set(stages.cpu) == set(stages.wall)
+
+
+# -- notebooks: the kernel is faked (no IPython or ipywidgets needed) --
+class _ZMQInteractiveShell:
+    """What ``get_ipython()`` returns in a Jupyter kernel (the class name tqdm inspects)."""
+
+
+class _QtShell:
+    pass
+
+
+def _fake_kernel(monkeypatch, shell_class=_ZMQInteractiveShell):
+    import os
+    import sys
+    import types
+
+    ipython = types.ModuleType("IPython")
+    shell = shell_class() if shell_class is not None else None
+    ipython.get_ipython = lambda: shell
+    monkeypatch.setitem(sys.modules, "IPython", ipython)
+    monkeypatch.setitem(sys.modules, "ipykernel.zmqshell", types.ModuleType("ipykernel.zmqshell"))
+    for key in [k for k in os.environ if k == "QT_API" or k.startswith("SPYDER")]:
+        monkeypatch.delenv(key)
+
+
+def test_a_notebook_is_recognised_by_its_kernel(monkeypatch):
+    """ipykernel's shell loaded and IPython's shell a kernel's: a notebook; a plain interpreter,
+    no shell, qtconsole (its shell class, or QT_API set) and Spyder are not (they draw no
+    widgets: tqdm.autonotebook's rule)."""
+    import sys
+
+    assert "ipykernel.zmqshell" not in sys.modules  # this test process is no notebook
+    assert not progress.in_notebook()
+    _fake_kernel(monkeypatch)
+    assert progress.in_notebook()
+    monkeypatch.setenv("QT_API", "pyqt5")
+    assert not progress.in_notebook()
+    monkeypatch.delenv("QT_API")
+    monkeypatch.setenv("SPYDER_ARGS", "[]")
+    assert not progress.in_notebook()
+    monkeypatch.delenv("SPYDER_ARGS")
+    for shell in (_QtShell, None):
+        _fake_kernel(monkeypatch, shell)
+        assert not progress.in_notebook()
+
+
+def test_the_notebook_bar_is_the_widget_only_where_ipywidgets_is(monkeypatch):
+    from tqdm import notebook, std
+
+    monkeypatch.setattr(notebook, "IProgress", None)
+    assert progress.notebook_bar_class() is std.tqdm
+    monkeypatch.setattr(notebook, "IProgress", object)
+    assert progress.notebook_bar_class() is notebook.tqdm
+
+
+def test_a_notebook_without_widgets_gets_the_text_bar_on_its_stderr(monkeypatch):
+    """A kernel's stderr is no TTY: outside a notebook it gets the 10 % lines, in one the text
+    bar (carriage returns, which a cell's output renders); a stream the caller names is asked
+    whether it is a terminal, as before."""
+    import sys
+
+    from tqdm import notebook
+
+    cell = io.StringIO()
+    monkeypatch.setattr(sys, "stderr", cell)
+    with Progress(10, "cases done") as bar:
+        bar.update_to(10)
+    assert "\r" not in cell.getvalue() and cell.getvalue().startswith("cases done: 10/10")
+    _fake_kernel(monkeypatch)
+    monkeypatch.setattr(notebook, "IProgress", None)
+    cell.seek(0)
+    cell.truncate()
+    with Progress(10, "cases done") as bar:
+        bar.update_to(10)
+    assert "\r" in cell.getvalue() and "10/10" in cell.getvalue()
+    named = io.StringIO()
+    with Progress(10, "cases done", stream=named) as bar:
+        bar.update_to(10)
+    assert "\r" not in named.getvalue()
+    progress.set_verbosity(progress.QUIET)
+    cell.seek(0)
+    cell.truncate()
+    with Progress(10, "cases done") as bar:
+        bar.update_to(10)
+    assert cell.getvalue() == ""
+
+
+def test_a_notebook_with_widgets_gets_tqdm_notebook_bar(monkeypatch):
+    """Where ipywidgets is installed, ``tqdm.notebook.tqdm`` draws the bar (here a stand-in
+    recording what it is given): the total, the label, each update, the messages above it
+    and its closing."""
+    from tqdm import notebook
+
+    calls = []
+
+    class Widget:
+        def __init__(self, **kwargs):
+            calls.append(("init", kwargs["total"], kwargs["desc"], kwargs["unit"]))
+            self.fp = io.StringIO()
+
+        def update(self, n):
+            calls.append(("update", n))
+
+        def clear(self):
+            calls.append(("clear",))
+
+        def refresh(self):
+            calls.append(("refresh",))
+
+        def close(self):
+            calls.append(("close",))
+
+    _fake_kernel(monkeypatch)
+    monkeypatch.setattr(notebook, "IProgress", object)
+    monkeypatch.setattr(notebook, "tqdm", Widget)
+    with Progress(4, "cases done") as bar:
+        bar.update_to(1)
+        bar.write("chunk 1 done")
+        bar.update_to(4)
+        widget = bar._bar
+    assert calls == [("init", 4, "cases done", "cases"), ("update", 1), ("clear",),
+                     ("refresh",), ("update", 3), ("close",)]
+    assert widget.fp.getvalue() == "chunk 1 done\n" and not progress._open_bars

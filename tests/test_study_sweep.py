@@ -3,8 +3,12 @@
 from __future__ import annotations
 
 import numpy as np
+import pytest
 import torch
 
+from torchrom.errors import InputError
+from torchrom.io import tomllib
+from torchrom.study import config_from_dict, sweep_table
 from torchrom.study.config import load_sweep_config
 from torchrom.study.sweep import run_sweep
 
@@ -120,3 +124,34 @@ def test_harmonic_balance_chunks_hold_neighbours_and_the_table_keeps_case_order(
     assert one["alpha"].tolist() == pairs["alpha"].tolist() == [0.3, 0.1, 0.4, 0.2]
     assert (pairs["status"] == "lco").all() and pairs["certified"].all()
     np.testing.assert_allclose(pairs["amplitude"], one["amplitude"], rtol=1e-8)
+
+
+# -- sweep_table: a configuration, dict or file in, the results table out (notebooks) --
+def test_sweep_table_of_a_dict_is_the_sweep_of_its_file(tmp_path):
+    """The four float64 cases of CONFIG as a dict through sweep_table and as a file through
+    load_sweep_config and run_sweep: the same configuration hash, hence the same case ids, and
+    the same rows to the last bit (one computation); the timing rides along in the attrs."""
+    text = CONFIG.format(tol=1e-6)
+    path = tmp_path / "study.toml"
+    path.write_text(text)
+    from_file = run_sweep(load_sweep_config(path))[0]
+    table = sweep_table(tomllib.loads(text), progress=False)
+    columns = ["case_id", "alpha", "status", "amplitude", "frequency_hz", "steps"]
+    assert table[columns].equals(from_file[columns])
+    assert list(table.status) == ["lco"] * 4
+    assert table.attrs["timing"]["computed"] == 4 and table.attrs["units"]["alpha"] == "1/s"
+    assert sweep_table(path, progress=False)[columns].equals(table[columns])
+
+
+def test_sweep_table_checks_before_any_case_runs(tmp_path):
+    """What `torchrom sweep` refuses before running (torchrom.study.sweep.checked_model), e.g. an
+    initial state of the wrong size for the model, sweep_table refuses too, naming the dict, and
+    leaves no output folder behind."""
+    raw = tomllib.loads(CONFIG.format(tol=1e-6))
+    raw["initial"]["q0"] = [1.5, 0.0, 0.0]  # the model has one mode
+    with pytest.raises(InputError, match=r"^<dict>: \[initial\] q0: expected 1 values, got 3$"):
+        sweep_table(raw, out=tmp_path / "out")
+    assert not (tmp_path / "out").exists()
+    raw["initial"]["q0"] = 1.5
+    with pytest.raises(InputError, match=r"variant 'x'.*expected a dict or a TOML file"):
+        sweep_table(config_from_dict(raw), "x")

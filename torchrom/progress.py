@@ -4,6 +4,9 @@ Every long command (``sweep``, ``paper``, ``identify``, ``aero``, ``calibrate``,
 ``bifurcation``) reports through :class:`Progress`:
 
 - on a terminal (stderr is a TTY) a tqdm bar;
+- in a Jupyter kernel (a notebook, JupyterLab, VS Code; :func:`in_notebook`) tqdm's notebook
+  bar, a widget, where ipywidgets is installed, else tqdm's text bar in the cell's output
+  (which renders its carriage returns; :func:`notebook_bar_class`);
 - otherwise (a log file, a pipe, CI) plain lines on stderr, one whenever the work crosses another
   10 % of its total (so one per chunk when there are fewer than ten chunks), each with the
   elapsed time and the estimated time left (linear in the work done), e.g.
@@ -91,6 +94,29 @@ def _terminal_columns(stream) -> int | None:
         return None
 
 
+def in_notebook() -> bool:
+    """Whether this process is a Jupyter kernel whose front end draws widgets (notebook,
+    JupyterLab, VS Code, Colab): tqdm.autonotebook's test (ipykernel's shell loaded; not
+    qtconsole or Spyder), asked at each call rather than once at import."""
+    if "ipykernel.zmqshell" not in sys.modules:
+        return False
+    if any(k == "QT_API" or k.startswith("SPYDER") for k in os.environ):
+        return False
+    get_ipython = getattr(sys.modules.get("IPython"), "get_ipython", None)
+    shell = get_ipython() if get_ipython is not None else None
+    name = type(shell).__name__.lower()
+    return shell is not None and "qt" not in name and "spyder" not in name
+
+
+def notebook_bar_class():
+    """The bar class for a notebook: ``tqdm.notebook.tqdm`` (a widget) where ipywidgets is
+    installed, else tqdm's text bar (no ipywidgets dependency; a notebook's output renders its
+    carriage returns, and tqdm's warning about the missing widgets is not raised)."""
+    from tqdm import notebook, std
+
+    return notebook.tqdm if notebook.IProgress is not None else std.tqdm
+
+
 _open_bars: list[Progress] = []  # bars now drawn, in the order they were opened
 _above_streams: weakref.WeakSet = weakref.WeakSet()  # AboveBars streams holding a partial line
 
@@ -172,9 +198,16 @@ class Progress:
         self._t0 = time.perf_counter()
         self._next_decile = 1
         is_tty = bool(getattr(self.stream, "isatty", lambda: False)())
-        use_bar = (is_tty if bar is None else bar) and self.level == NORMAL
+        # a notebook's stderr is no TTY, but its cell output draws a bar (stderr by default
+        # only: a stream the caller names is asked whether it is a terminal)
+        notebook = bar is None and stream is None and not is_tty and in_notebook()
+        use_bar = (is_tty or notebook if bar is None else bar) and self.level == NORMAL
         self._bar = None
-        if use_bar:
+        if use_bar and notebook:
+            self._bar = notebook_bar_class()(total=self.total, desc=desc, unit=unit,
+                                             file=self.stream)
+            _open_bars.append(self)
+        elif use_bar:
             from tqdm import tqdm
 
             # tqdm draws on the stream beneath AboveBars (its redraws must not wait for a

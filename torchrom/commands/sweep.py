@@ -3,7 +3,9 @@
 Writes ``DIR/results.parquet`` and ``DIR/results.csv`` (one row per case; columns in
 :mod:`torchrom.study.table`), ``DIR/<y>_vs_<x>.png`` (the ``[plot]`` figure) and, when the
 configuration asks for them (``[history]``), ``DIR/histories.parquet`` (case_id, t and one column
-per output). With
+per output) and, by harmonic balance, ``DIR/orbits.parquet`` (each LCO's Fourier coefficients of
+q: case_id, omega, k, q1..qn, :func:`torchrom.study.cases.orbit_table`; ``torchrom export`` and
+``plot`` draw the wing's motion from it). With
 ``--json FILE`` the same rows are written as a JSON list of records (same keys and units as the
 table columns; NaN as null). A configuration that samples parameters from distributions
 (:mod:`torchrom.study.sampling`) also gets ``DIR/amplitude_distribution.{parquet,csv,png}``:
@@ -92,16 +94,14 @@ def run(args: argparse.Namespace) -> int:
     # heavy imports here, not at module level: `torchrom --help` must stay fast
 
     from ..locks import folder_lock
-    from ..study.config import check_initial, check_memory, check_work, with_overrides
+    from ..study.config import with_overrides
+    from ..study.sweep import checked_model
 
     device, dtype, cfg = load_study(args)
     cfg = with_overrides(cfg, compile=True if args.compile else None, threads=args.threads)
-    check_work(cfg)  # --threads is checked with the configuration's own bounds
-    model = cfg.build_model()
-    if getattr(model, "damping_note", None):  # what the flutter lines and "matched" α use
-        print(f"  {model.damping_note}")
-    check_initial(cfg, model)
-    check_memory(cfg, model, device, dtype)
+    # the checks of torchrom.study.sweep_table too (--threads with the configuration's own
+    # bounds); the damping note is what the flutter lines and "matched" α use
+    model = checked_model(cfg, device, dtype, note=lambda text: print(f"  {text}"))
     # one run per folder: a second sweep on it refuses (exit 2, naming this one's PID)
     with folder_lock(args.out, "torchrom sweep"):
         return _run_in(Path(args.out), args, cfg, model, device, dtype)
@@ -121,10 +121,12 @@ def _run_in(out: Path, args: argparse.Namespace, cfg, model, device, dtype) -> i
     paths = table_paths(out)
     figure = out / f"{cfg.plot.y}_vs_{cfg.plot.x}.png"
     hist_path = out / "histories.parquet"
+    orbit_path = out / "orbits.parquet"
     sampled = sampled_parameters(cfg.raw.get("cases", {}))
     uq_paths = {**table_paths(out, DISTRIBUTION), "figure": out / f"{DISTRIBUTION}.png"}
     outputs = (*paths.values(), figure, *(uq_paths.values() if sampled else ()),
-               *((hist_path,) if cfg.history else ()))
+               *((hist_path,) if cfg.history else ()),
+               *((orbit_path,) if cfg.solver.writes_orbits else ()))
     if resumable and not args.force:
         _check_same_cases(paths["parquet"], cfg, store.run)
         edited = store.edited_outputs(outputs)
@@ -144,16 +146,19 @@ def _run_in(out: Path, args: argparse.Namespace, cfg, model, device, dtype) -> i
             def progress(done: int, total: int) -> None:
                 bar.update_to(done)
 
-            histories = []
+            histories, orbits = [], []
             # an interrupt or failure is reported by the runner with the cases its parts keep
             table, timing = run_sweep(cfg, model=model, device=device, dtype=dtype,
                                       progress=progress, out=out, force=args.force,
                                       executor=executor, chunk_size=args.chunk_size,
-                                      log=bar.write, on_history=histories.append)
+                                      log=bar.write, on_history=histories.append,
+                                      on_orbits=orbits.append)
 
     written = write_table(table, out, force=True)
     if histories:
         written["histories"] = write_histories(histories, hist_path)
+    if orbits:
+        written["orbits"] = write_histories(orbits, orbit_path)
     drawn = write_figure(parameter_plot, table, figure, x=cfg.plot.x, y=cfg.plot.y,
                          hue=cfg.plot.hue, title=cfg.title, force=True)
     extra = _write_distribution(table, cfg, sampled, uq_paths) if sampled else []

@@ -1,4 +1,6 @@
-"""Sweep configurations in TOML (validation written here; parsing by tomllib / tomli).
+"""Sweep configurations in TOML or in a dict of the same tables (validation written here;
+parsing by tomllib / tomli): :func:`load_sweep_config` reads a file into a dict and validates it
+with :func:`config_from_dict`, the one entry point a notebook calls too.
 
 Tables ``[model]``, ``[aeroelastic]``, ``[initial]``, ``[integrator]``, ``[hb]``, ``[lco]``,
 ``[certificate]``, ``[cases]``, ``[history]``, ``[branch]``, ``[plot]``, ``[run]``,
@@ -28,8 +30,11 @@ This module parses and validates only: ``[model]`` and ``[aeroelastic]`` become 
 from __future__ import annotations
 
 import dataclasses
+import datetime
 import inspect
 import math
+import os
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -350,8 +355,8 @@ def run_altitude_unit(aeroelastic: dict[str, Any], cases: list[dict[str, Any]],
 
 def goland_cache_folder(model: dict[str, Any], source: Path) -> Path:
     """Cache folder of a built-in model with aerodynamics (e.g. the Goland pipeline):
-    ``[model] cache``, else its name under the cache root (--cache-dir, $TORCHROM_CACHE or
-    ~/.cache/torchrom; :mod:`torchrom.cache_dir`)."""
+    ``[model] cache``, else its name under the cache root (--cache-dir, $TORCHROM_CACHE, else the
+    user cache folder; :mod:`torchrom.cache_dir`)."""
     from ..cache_dir import cache_folder
 
     if "cache" in model:
@@ -396,8 +401,66 @@ def apply_variant(raw: dict[str, Any], variant: str | None, source: Path) -> dic
 
 def load_sweep_config(path, variant: str | None = None) -> SweepConfig:
     """Read and validate a sweep configuration (InputError naming the key on any problem);
-    ``variant`` merges ``[variants.<variant>]`` over the rest."""
+    ``variant`` merges ``[variants.<variant>]`` over the rest. The file's tables are validated
+    by :func:`config_from_dict`, named by the file."""
     source, raw = read_toml(path, "configuration file")
+    return config_from_dict(raw, variant, name=source)
+
+
+#: what a value of a configuration may be: TOML's types (tomllib gives these)
+_TOML_SCALARS = (str, bool, int, float, datetime.date, datetime.time)
+
+
+def _key_path(keys: tuple[str, ...]) -> str:
+    """How an error names a key: ``title``, ``[integrator]``, ``[integrator] dt``,
+    ``[cases] gamma.median`` (as for a TOML file)."""
+    if len(keys) == 1:
+        return keys[0] if keys[0] in ("title", "method") else f"[{keys[0]}]"
+    return f"[{keys[0]}] {'.'.join(keys[1:])}"
+
+
+def toml_values(value: Any, source: Path, keys: tuple[str, ...] = ()) -> Any:
+    """A copy of ``value`` made of TOML's types only, what :func:`config_from_dict` validates:
+    tuples and arrays become lists, NumPy scalars Python numbers, paths strings; a key that
+    is not a string or a value TOML cannot hold is an InputError naming its key path. A table
+    read from a TOML file comes back equal."""
+    import numpy as np
+
+    where = _key_path(keys) if keys else "top level"
+    if isinstance(value, Mapping):
+        out = {}
+        for key, item in value.items():
+            if not isinstance(key, str):
+                raise _err(source, where, f"key {key!r} is a {type(key).__name__}: expected "
+                           f"string keys (as in a TOML table)")
+            out[key] = toml_values(item, source, (*keys, key))
+        return out
+    if isinstance(value, np.ndarray):
+        value = value.tolist()
+    if isinstance(value, (list, tuple)):
+        return [toml_values(item, source, keys) for item in value]
+    if isinstance(value, np.generic):
+        value = value.item()
+    if isinstance(value, os.PathLike):
+        return os.fspath(value)
+    if isinstance(value, _TOML_SCALARS):
+        return value
+    raise _err(source, where, f"expected a TOML value (string, number, boolean, date, list or "
+               f"table), got {type(value).__name__} {value!r}")
+
+
+def config_from_dict(raw: Mapping[str, Any], variant: str | None = None, *,
+                     name: str | os.PathLike = "<dict>") -> SweepConfig:
+    """A sweep configuration from a dict holding what a TOML file would (e.g. in a notebook:
+    ``{"model": {"builtin": "van_der_pol_duffing"}, "integrator": {"dt": 0.01, ...}}``),
+    validated as a file is — the file loader calls this — with errors naming ``name`` (default
+    ``<dict>``), the table and the key. Relative paths are relative to the folder of ``name``
+    (for ``<dict>``: the working directory). The dict is copied (:func:`toml_values`)."""
+    source = Path(name)
+    if not isinstance(raw, Mapping):
+        raise _err(source, "top level", f"expected a dict of the configuration's tables, got "
+                   f"{type(raw).__name__}")
+    raw = toml_values(raw, source)
     _check_keys(raw, SECTIONS, source, "top level")
     raw = apply_variant(raw, variant, source)
     _check_keys(raw, SECTIONS, source, f"top level (variant {variant})")

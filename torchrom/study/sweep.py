@@ -10,9 +10,10 @@ Pandas for the table.
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -21,6 +22,7 @@ import numpy as np
 import pandas as pd
 import torch
 
+from ..errors import InputError
 from ..periodic.certify import certify
 from ..periodic.newton import single_thread
 from ..rom import NonlinearROM
@@ -231,3 +233,61 @@ def case_evaluator(cfg: SweepConfig, model=None, *, device=None,
                          executor=executor, chunk_size=chunk_size)[0]
 
     return evaluate
+
+
+def checked_model(cfg: SweepConfig, device=None, dtype=torch.float64,
+                  note: Callable[[str], None] | None = None):
+    """The sweep's model, built and checked before any case runs (what ``torchrom sweep`` and
+    :func:`sweep_table` both do): the work bounds (:func:`~.config.check_work`), the initial
+    state, outputs and flight conditions against the model (:func:`~.config.check_initial`) and
+    the run's memory on ``device`` in ``dtype`` (:func:`~.config.check_memory`); InputError
+    naming the key. ``note`` receives the model's damping note (what its flutter lines use)."""
+    from .config import check_initial, check_memory, check_work
+
+    check_work(cfg)
+    model = cfg.build_model()
+    if note is not None and getattr(model, "damping_note", None):
+        note(model.damping_note)
+    check_initial(cfg, model)
+    check_memory(cfg, model, device, dtype)
+    return model
+
+
+def sweep_table(config, variant: str | None = None, *, device=None, dtype=torch.float64,
+                out=None, force: bool = False, executor=None, progress: bool = True
+                ) -> pd.DataFrame:
+    """Run a sweep and return its results table, for a notebook or a script: one row per case
+    (the columns of :mod:`.table`), ``table.attrs["units"]`` per column and
+    ``table.attrs["timing"]`` (:func:`run_sweep`'s timing). ``config``: a :class:`SweepConfig`,
+    a dict of its tables (:func:`~.config.config_from_dict`) or a TOML file
+    (:func:`~.config.load_sweep_config`), with ``variant``; checked before any case runs as
+    ``torchrom sweep`` checks it (:func:`checked_model`). ``out``: a folder for resumable part
+    files, locked for the run (:func:`torchrom.locks.folder_lock`); ``executor``: see
+    :func:`run_sweep`; ``progress``: a bar (:class:`torchrom.progress.Progress`, tqdm's notebook
+    bar in a Jupyter kernel). Writes no table or figure (:func:`~.table.write_table`,
+    :func:`~.plots.parameter_plot` do)."""
+    from ..locks import folder_lock
+    from ..progress import Progress, info
+    from .config import config_from_dict, load_sweep_config
+
+    if isinstance(config, SweepConfig):
+        if variant is not None:
+            raise InputError(f"{config.source}: variant {variant!r}: a SweepConfig is already "
+                             f"validated; expected a dict or a TOML file with the variant")
+        cfg = config
+    elif isinstance(config, Mapping):
+        cfg = config_from_dict(config, variant)
+    else:
+        cfg = load_sweep_config(config, variant)
+    device = torch.device(device or "cpu")
+    model = checked_model(cfg, device, dtype, note=info)
+    with contextlib.ExitStack() as stack:
+        if out is not None:
+            stack.enter_context(folder_lock(out, "torchrom.study.sweep_table"))
+        bar = stack.enter_context(Progress(len(cfg.cases), "cases done")) if progress else None
+        table, timing = run_sweep(
+            cfg, model=model, device=device, dtype=dtype, out=out, force=force,
+            executor=executor, log=bar.write if bar else None,
+            progress=(lambda done, total: bar.update_to(done)) if bar else None)
+    table.attrs["timing"] = timing
+    return table
