@@ -5,7 +5,6 @@ bound. All inputs are tiny models, so the module runs in seconds."""
 
 from __future__ import annotations
 
-import os
 import time
 
 import numpy as np
@@ -14,6 +13,7 @@ import pytest
 from tests.test_bad_input import CONFIG, DECK, _cli, _one_line_error
 from torchrom import bounds
 from torchrom.errors import InputError
+from torchrom.limits import usable_cpus
 
 
 def _config(tmp_path, text):
@@ -62,7 +62,7 @@ def test_hb_bytes_counts_the_3h_fourier_matrices():
 
 
 def test_threads_bound_follows_the_cores():
-    cores = os.cpu_count() or 1
+    cores = usable_cpus()  # the cores this process may use (tests/test_limits.py)
     bounds.check_threads("x", bounds.THREADS_PER_CORE * cores)
     bounds.check_threads("x", "auto")
     with pytest.raises(InputError, match="threads"):

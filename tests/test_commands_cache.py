@@ -1,7 +1,10 @@
 """``torchrom cache info|clear`` and the cache root (torchrom.cache_dir, --cache-dir,
-$TORCHROM_CACHE)."""
+$TORCHROM_CACHE, the user cache folder of platformdirs: $XDG_CACHE_HOME on Linux)."""
 
 import json
+import os
+import subprocess
+import sys
 from pathlib import Path
 
 import pytest
@@ -15,6 +18,7 @@ from torchrom.study.config import goland_cache_folder
 @pytest.fixture(autouse=True)
 def _default_root(monkeypatch):
     monkeypatch.delenv(cache_dir.ENV, raising=False)
+    monkeypatch.delenv("XDG_CACHE_HOME", raising=False)
     cache_dir.set_cache_root(None)
     yield
     cache_dir.set_cache_root(None)
@@ -27,7 +31,12 @@ def _fill(root: Path) -> None:
 
 
 def test_root_order_option_then_environment_then_home(tmp_path, monkeypatch):
-    assert cache_dir.cache_root() == Path.home() / ".cache" / "torchrom"
+    if sys.platform.startswith("linux"):  # the XDG default, as before platformdirs
+        assert cache_dir.cache_root() == Path.home() / ".cache" / "torchrom"
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "xdg"))
+    if sys.platform.startswith("linux"):
+        expected = tmp_path / "xdg" / "torchrom" / "goland"
+        assert goland_cache_folder({}, tmp_path / "c.toml") == expected
     monkeypatch.setenv(cache_dir.ENV, str(tmp_path / "env"))
     assert goland_cache_folder({}, tmp_path / "c.toml") == tmp_path / "env" / "goland"
     cache_dir.set_cache_root(tmp_path / "opt")
@@ -119,3 +128,48 @@ def test_clear_leaves_a_folder_a_running_torchrom_holds(tmp_path, capsys):
     out = capsys.readouterr().out
     assert f"goland/ (in use by another torchrom run (PID {proc.pid}" in out
     assert (root / "goland" / "rom.npz").is_file()
+
+
+def _run(env: dict[str, str], code: str, *argv: str) -> str:
+    """stdout of a Python process running ``code`` with ``env`` set (HOME, XDG_CACHE_HOME and
+    TORCHROM_CACHE removed unless given)."""
+    base = {k: v for k, v in os.environ.items()
+            if k not in ("HOME", "XDG_CACHE_HOME", cache_dir.ENV)}
+    proc = subprocess.run([sys.executable, "-c", code, *argv], env={**base, **env},
+                          capture_output=True, text=True)
+    assert proc.returncode == 0, proc.stderr
+    return proc.stdout
+
+
+ROOT = "from torchrom.cache_dir import cache_root\nprint(cache_root())"
+CLI = "import sys\nfrom torchrom.cli import main\nsys.exit(main(sys.argv[1:]))"
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="XDG folders are Linux's")
+def test_a_process_honours_torchrom_cache_then_xdg_cache_home_then_home(tmp_path):
+    home, xdg = tmp_path / "home", tmp_path / "xdg"
+    env = {"HOME": str(home), "XDG_CACHE_HOME": str(xdg), cache_dir.ENV: str(tmp_path / "mine")}
+    assert _run(env, ROOT).strip() == str(tmp_path / "mine")
+    del env[cache_dir.ENV]
+    assert _run(env, ROOT).strip() == str(xdg / "torchrom")
+    del env["XDG_CACHE_HOME"]
+    assert _run(env, ROOT).strip() == str(home / ".cache" / "torchrom")
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="XDG folders are Linux's")
+def test_the_former_default_is_named_while_it_is_no_longer_read(tmp_path, monkeypatch):
+    """A cache under ~/.cache/torchrom while XDG_CACHE_HOME points elsewhere: `cache info` (its
+    own process) reads the new root and names the old one with the command that deletes it;
+    without XDG_CACHE_HOME the old one is the root again, and not named."""
+    home, xdg = tmp_path / "home", tmp_path / "xdg"
+    old = home / ".cache" / "torchrom"
+    _fill(old)
+    _fill(xdg / "torchrom")
+    out = _run({"HOME": str(home), "XDG_CACHE_HOME": str(xdg)}, CLI, "cache", "info")
+    new = xdg / "torchrom"
+    assert out.startswith(f"cache root: {new} (--cache-dir, $TORCHROM_CACHE, else {new})\n")
+    assert (f"  {old}: the former default cache root, no longer read; `torchrom cache clear "
+            f"--cache-dir {old}` deletes the models in it") in out
+    assert "  goland/: 1.7 kB in 1 files" in out
+    monkeypatch.setenv("HOME", str(home))
+    assert cache_dir.legacy_root() is None and cache_dir.cache_root() == old

@@ -13,6 +13,7 @@ import pytest
 
 from torchrom.errors import InputError
 from torchrom.io import write_text_atomic
+from torchrom.limits import usable_cpus
 from torchrom.paper.beside import ENV, Beside, study_processes
 from torchrom.paper.cache import MANIFEST, DeferredCache, FileCache
 
@@ -109,7 +110,7 @@ def test_study_processes_from_the_environment(monkeypatch):
     monkeypatch.setenv(ENV, "2")
     assert study_processes() == 2
     monkeypatch.delenv(ENV)
-    assert study_processes() == (2 if (os.cpu_count() or 1) >= 2 else 1)
+    assert study_processes() == (2 if usable_cpus() >= 2 else 1)
     monkeypatch.setenv(ENV, "four")
     with pytest.raises(InputError, match=ENV):
         study_processes()

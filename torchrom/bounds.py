@@ -22,8 +22,6 @@ configuration. The bounds:
 
 from __future__ import annotations
 
-import os
-
 from .errors import InputError
 
 #: cases of one configuration
@@ -71,23 +69,16 @@ def format_bytes(nbytes: float) -> str:
 
 
 def available_memory(device=None) -> int:
-    """Bytes free for a new allocation: a CUDA device's free memory, else the RAM available
-    (MemAvailable of /proc/meminfo, else the physical memory)."""
+    """Bytes free for a new allocation: a CUDA device's free memory, else the RAM available to
+    this process (:func:`torchrom.limits.available_memory`: the machine's, at most what its
+    cgroup's memory limit leaves)."""
     if device is not None and getattr(device, "type", str(device)) == "cuda":
         import torch
 
         return int(torch.cuda.mem_get_info(device)[0])
-    try:
-        with open("/proc/meminfo") as f:
-            for line in f:
-                if line.startswith("MemAvailable:"):
-                    return int(line.split()[1]) * 1024
-    except OSError:
-        pass
-    try:
-        return int(os.sysconf("SC_PHYS_PAGES") * os.sysconf("SC_PAGE_SIZE"))
-    except (ValueError, OSError, AttributeError):
-        return 2**34
+    from .limits import available_memory as ram_available
+
+    return ram_available()
 
 
 def check_count(where: str, what: str, count: float, bound: float, *,
@@ -130,8 +121,11 @@ def check_threads(where: str, threads, *, override: bool = False) -> None:
     """InputError when an integer thread (or worker process) count exceeds
     :data:`THREADS_PER_CORE` × cores: more only wait on each other, and thousands exhaust the
     process's memory for stacks, so ``--allow-large`` does not lift this bound (``override``
-    is accepted for a uniform call)."""
-    cores = os.cpu_count() or 1
+    is accepted for a uniform call). Cores: those this process may use (affinity, cgroup CPU
+    quota; :func:`torchrom.limits.usable_cpus`)."""
+    from .limits import usable_cpus
+
+    cores = usable_cpus()
     bound = THREADS_PER_CORE * cores
     if isinstance(threads, int) and not isinstance(threads, bool) and threads > bound:
         raise InputError(f"{where}: {threads} threads, more than {THREADS_PER_CORE} per core "

@@ -7,7 +7,15 @@ package version (:mod:`torchrom.paper.cache`), in ``<root>/goland``. The root is
 
 1. ``--cache-dir DIR`` of the command (:func:`set_cache_root`);
 2. the environment variable ``TORCHROM_CACHE``;
-3. ``~/.cache/torchrom``.
+3. the platform's user cache folder (``platformdirs``): ``$XDG_CACHE_HOME/torchrom`` on Linux
+   and the BSDs, else ``~/.cache/torchrom``; ``~/Library/Caches/torchrom`` on macOS;
+   ``%LOCALAPPDATA%\\torchrom\\Cache`` on Windows.
+
+The default used to be ``~/.cache/torchrom`` on every platform; it still is on Linux without
+``XDG_CACHE_HOME``. Where the default now differs and that older folder holds model
+folders, it is no longer read (the models are rebuilt once in the new place); ``torchrom cache
+info`` names it (:func:`legacy_root`); ``torchrom cache clear --cache-dir ~/.cache/torchrom``
+deletes it.
 
 ``[model] cache = "DIR"`` in a configuration names the Goland folder itself and bypasses the
 root. ``torchrom cache info`` lists what is kept; ``torchrom cache clear`` deletes it (only
@@ -23,6 +31,7 @@ import os
 from pathlib import Path
 
 ENV = "TORCHROM_CACHE"
+APP = "torchrom"
 _override: dict[str, Path | None] = {"root": None}
 
 
@@ -36,7 +45,28 @@ def cache_root() -> Path:
     if _override["root"] is not None:
         return _override["root"]
     env = os.environ.get(ENV)
-    return Path(env) if env else Path.home() / ".cache" / "torchrom"
+    return Path(env) if env else default_root()
+
+
+def default_root() -> Path:
+    """The platform's user cache folder of torchrom (platformdirs; read from the environment
+    at each call, so that ``XDG_CACHE_HOME`` set in a running process counts)."""
+    import platformdirs
+
+    return Path(platformdirs.user_cache_dir(APP, appauthor=False))
+
+
+def legacy_root() -> Path | None:
+    """The former default root, ``~/.cache/torchrom``, where it differs from the root in use and
+    still holds something (None otherwise): no longer read."""
+    old = Path.home() / ".cache" / APP
+    try:
+        used = cache_root().resolve()
+        if old.resolve() == used or not old.is_dir() or not any(old.iterdir()):
+            return None
+    except OSError:
+        return None
+    return old
 
 
 def cache_folder(name: str) -> Path:

@@ -2,12 +2,16 @@
 
 A result file is written to a temporary name in the same directory and renamed into place, so a
 crash or interrupt never leaves a half-written file under the final name; it gets the permissions
-of any new file (0666 less the umask), not the temporary file's private 0600.
+of any new file (0666 less the umask), not the temporary file's private 0600. The rename is
+durable (:func:`replace_durably`): the file's data is flushed to the disk before it (else a power
+loss after the rename can leave an empty file under the final name: the rename is journaled
+before the data is written) and the folder after it (the rename itself).
 """
 
 from __future__ import annotations
 
 import contextlib
+import errno
 import glob
 import json
 import os
@@ -27,7 +31,8 @@ else:  # pragma: no cover - Python 3.10
 
 @contextlib.contextmanager
 def atomic_path(path: str | os.PathLike, suffix: str | None = None) -> Iterator[Path]:
-    """Yield a temporary path beside ``path``; rename it onto ``path`` if the block succeeds.
+    """Yield a temporary path beside ``path``; rename it onto ``path`` if the block succeeds
+    (:func:`replace_durably`: flushed to the disk before and after the rename).
 
     The temporary file keeps the final suffix (some writers, e.g. ``numpy.savez``, append one when
     it is missing).
@@ -47,7 +52,7 @@ def atomic_path(path: str | os.PathLike, suffix: str | None = None) -> Iterator[
         # (0666 less the umask, typically 0644) before it appears under its final name
         if tmp_path.is_file():
             os.chmod(tmp_path, 0o666 & ~current_umask())
-        os.replace(tmp_path, path)
+        replace_durably(tmp_path, path)
     except OSError as exc:
         # a full disk, a folder that is a file, no permission: one line, and the previous file
         # (if any) is left as it was
@@ -55,6 +60,53 @@ def atomic_path(path: str | os.PathLike, suffix: str | None = None) -> Iterator[
     finally:
         if tmp_path is not None and tmp_path.exists():
             tmp_path.unlink()
+
+
+def replace_durably(source: str | os.PathLike, target: str | os.PathLike) -> None:
+    """``os.replace(source, target)`` that survives a power loss: ``source``'s data is flushed
+    (``fsync``) before the rename and the folder's entry after it, so that after a crash at
+    any point ``target`` is either the old file or the complete new one, never empty."""
+    if Path(source).is_file():
+        _sync_file(source)
+    os.replace(source, target)
+    sync_folder(Path(target).parent)
+
+
+def _sync_file(path: str | os.PathLike) -> None:
+    # Windows flushes only a handle open for writing; POSIX any descriptor of the file
+    fd = os.open(path, os.O_RDONLY if os.name == "posix" else os.O_RDWR)
+    try:
+        _full_fsync(fd)
+    finally:
+        os.close(fd)
+
+
+def _full_fsync(fd: int) -> None:
+    """``fsync``, or on macOS ``F_FULLFSYNC`` (its ``fsync`` leaves the data in the drive's
+    cache)."""
+    if sys.platform == "darwin":
+        import fcntl
+
+        with contextlib.suppress(OSError):
+            fcntl.fcntl(fd, fcntl.F_FULLFSYNC)
+            return
+    os.fsync(fd)
+
+
+def sync_folder(folder: str | os.PathLike) -> None:
+    """Flush a folder's entries (a rename, a new or removed file) to the disk. POSIX only:
+    Windows cannot open a folder as a file, and NTFS journals its renames itself; file systems
+    that cannot sync a folder (EINVAL, ENOTSUP) are left to their own guarantees."""
+    if os.name != "posix":
+        return
+    fd = os.open(folder, os.O_RDONLY | getattr(os, "O_DIRECTORY", 0))
+    try:
+        os.fsync(fd)
+    except OSError as exc:
+        if exc.errno not in (errno.EINVAL, errno.ENOTSUP, errno.EOPNOTSUPP, errno.EBADF):
+            raise
+    finally:
+        os.close(fd)
 
 
 #: a temporary file of a writer whose process id cannot be read is stale after this (s)
@@ -81,16 +133,19 @@ def remove_stale_parts(path: Path) -> list[Path]:
 
 
 def process_alive(pid: int) -> bool:
-    """Whether a process ``pid`` exists on this machine (it may belong to another user)."""
+    """Whether a process ``pid`` exists on this machine (it may belong to another user; a
+    zombie, dead but not yet reaped, counts as dead). psutil, not ``os.kill(pid, 0)``: on
+    Windows signal 0 is CTRL_C_EVENT, sent to the process instead of testing it."""
+    import psutil
+
     if pid <= 0:
         return False
     try:
-        os.kill(pid, 0)
-    except ProcessLookupError:
+        return psutil.Process(pid).status() != psutil.STATUS_ZOMBIE
+    except psutil.NoSuchProcess:
         return False
-    except PermissionError:
+    except psutil.AccessDenied:  # another user's live process
         return True
-    return True
 
 
 def current_umask() -> int:

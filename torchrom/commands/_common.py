@@ -48,10 +48,11 @@ def torch_device(name: str):
 
 
 def cpu_workers(value: str) -> int:
-    """``--workers`` value: a positive integer or 'auto' (one worker process per core)."""
-    import os
+    """``--workers`` value: a positive integer or 'auto' (one worker process per core this
+    process may use: affinity and cgroup CPU quota, :func:`torchrom.limits.usable_cpus`)."""
+    from ..limits import usable_cpus
 
-    n = (os.cpu_count() or 1) if value == "auto" else (int(value) if value.isdigit() else 0)
+    n = usable_cpus() if value == "auto" else (int(value) if value.isdigit() else 0)
     if n < 1:
         raise argparse.ArgumentTypeError(f"expected a positive integer or 'auto', got {value!r}")
     return n
@@ -90,10 +91,11 @@ def nonnegative_int(value: str) -> int:
 
 def thread_count(value: str) -> int:
     """A number of torch threads: 1 to the machine's cores (more only multiplies threads
-    contending for the same cores; at 100000 the thread stacks exhausted the memory)."""
-    import os
+    contending for the same cores; at 100000 the thread stacks exhausted the memory). Cores:
+    those this process may use (:func:`torchrom.limits.usable_cpus`)."""
+    from ..limits import usable_cpus
 
-    cores = os.cpu_count() or 1
+    cores = usable_cpus()
     n = _integer(value, 1, f"a number of threads from 1 to {cores} (the cores of this machine)")
     if n > cores:
         raise argparse.ArgumentTypeError(f"expected a number of threads from 1 to {cores} (the "
@@ -258,7 +260,8 @@ def add_study_options(parser: argparse.ArgumentParser, outputs: str) -> None:
 def add_cache_option(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--cache-dir", type=Path, default=None, metavar="DIR",
                         help="cache root for built-in models (default: $TORCHROM_CACHE, else "
-                             "~/.cache/torchrom; see `torchrom cache info`)")
+                             "the user cache folder, $XDG_CACHE_HOME/torchrom or "
+                             "~/.cache/torchrom on Linux; see `torchrom cache info`)")
 
 
 def apply_cache_dir(args: argparse.Namespace) -> None:

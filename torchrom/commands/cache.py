@@ -1,9 +1,11 @@
 """``torchrom cache info|clear [--cache-dir DIR] [--dry-run]``: the models kept for built-in
 configurations.
 
-``info`` prints the cache root (``--cache-dir``, else ``$TORCHROM_CACHE``, else
-``~/.cache/torchrom``; :mod:`torchrom.cache_dir`), and for each model folder in it the files, their
-sizes and the package version that wrote them. ``clear`` deletes only the model folders it can
+``info`` prints the cache root (``--cache-dir``, else ``$TORCHROM_CACHE``, else the platform's user
+cache folder, ``$XDG_CACHE_HOME/torchrom`` or ``~/.cache/torchrom`` on Linux;
+:mod:`torchrom.cache_dir`), and for each model folder in it the files, their sizes and the
+package version that wrote them; and the former default ``~/.cache/torchrom`` where it is no
+longer read but still holds files. ``clear`` deletes only the model folders it can
 prove torchrom wrote (:func:`torchrom.paper.cache.owned_files`: a checked torchrom manifest that
 lists every file in the folder), file by file, never following a symbolic link; it names each
 folder before deleting it and says why it leaves anything else (``--dry-run``: only the list).
@@ -106,7 +108,7 @@ def remove_owned(folder: Path, files: list[Path]) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..cache_dir import ENV, cache_root
+    from ..cache_dir import ENV, cache_root, default_root, legacy_root
     from ..locks import FolderBusy
     from ..paper.cache import owned_files
 
@@ -116,9 +118,13 @@ def run(args: argparse.Namespace) -> int:
     folders = cache_folders(root)
     if args.action == "info":
         info = {"root": str(root), "folders": [describe(f) for f in folders]}
-        print(f"cache root: {root} (--cache-dir, ${ENV}, else ~/.cache/torchrom)")
+        print(f"cache root: {root} (--cache-dir, ${ENV}, else {default_root()})")
         if not folders:
             print("  empty: nothing cached yet")
+        old = legacy_root()
+        if old is not None:
+            print(f"  {old}: the former default cache root, no longer read; `torchrom cache "
+                  f"clear --cache-dir {old}` deletes the models in it")
         for f in info["folders"]:
             print(f"  {f['name']}/: {_size(f['bytes'])} in {len(f['files'])} files")
             for e in f["files"]:

@@ -44,7 +44,9 @@ def study_processes() -> int:
     """How many processes the study uses (:data:`ENV`, else 2 with two cores or more)."""
     raw = os.environ.get(ENV)
     if raw is None:
-        return 2 if (os.cpu_count() or 1) >= 2 else 1
+        from ..limits import usable_cpus
+
+        return 2 if usable_cpus() >= 2 else 1
     if raw.strip() not in ("1", "2"):
         raise InputError(f"environment variable {ENV}: expected 1 or 2, got {raw!r}")
     return int(raw)
