@@ -419,6 +419,29 @@ def block_perf_uq(res: dict[str, Any]) -> str:
                        + _machine(meta, _span([r["load_before"][0] for r in res["runs"]]))])
 
 
+def block_scale_cluster(res: dict[str, Any]) -> str:
+    """A sweep in-process and on a cluster of separate scheduler and worker processes
+    (``benchmarks/bench_dask_cluster.py``)."""
+    meta = res["meta"]
+    out = ["| run | chunks | command s (best) | sweep s (best) | CPU s (best) | sweep speed-up "
+           "vs in-process (best; paired median) | table identical |",
+           "|---|---|---|---|---|---|---|"]
+    loads = []
+    for r in res["throughput"]:
+        loads += r["load_average_1min_runs"]
+        speedup = ("1" if r["workers"] == 0 else f"{r['speedup_sweep_min']:.2f}×; "
+                   f"{r['speedup_sweep_paired_median']:.2f}×")
+        out.append(f"| {r['mode']} | {r['chunks']} | {r['wall_s']:.1f} | {r['sweep_s']:.1f} | "
+                   f"{r['cpu_s']:.1f} | {speedup} | "
+                   f"{'yes' if r['identical_to_in_process'] else 'no'} |")
+    return "\n".join([*out, "", f"{meta['cases']} cases (two coupled Van der Pol–Duffing modes "
+                       f"read from a ROM file), {meta['repeats']} alternating runs of whole "
+                       "`torchrom sweep` processes each; command: start-up to figure; sweep: "
+                       "its `time:` line; CPU: the command's and, on the cluster, its "
+                       f"{meta['workers']} worker processes'. `{meta['command']}`. "
+                       + _machine(meta, _span(loads))])
+
+
 def block_config_keys() -> str:
     """The sections and keys a sweep configuration accepts, as ``torchrom.study.config`` checks
     them."""
@@ -460,6 +483,7 @@ def render_blocks(paper: dict[str, Any], bench: dict[str, Any],
               "perf-dask": block_perf_dask(results["bench_dask"]),
               "perf-demo": block_perf_demo(results["bench_demo"]),
               "perf-uq": block_perf_uq(results["bench_uq"]),
+              "scale-cluster": block_scale_cluster(results["bench_dask_cluster"]),
               "config-keys": block_config_keys()}
     if deck is not None:
         blocks["pt145-flutter"] = block_deck(deck)

@@ -164,10 +164,14 @@ def add_executor_options(parser: argparse.ArgumentParser) -> None:
                             "processes ('auto': one per core)")
     group.add_argument("--scheduler", default=None, metavar="ADDR",
                        help="run chunks on the existing Dask cluster at ADDR "
-                            "(e.g. tcp://host:8786)")
+                            "(e.g. tcp://host:8786); refused when a worker runs another "
+                            "torchrom (version or files), torch, dask or Python than this "
+                            "command")
     parser.add_argument("--chunk-size", type=positive_int, default=None, metavar="N",
-                        help="cases per chunk of work (default: [run] chunk_size, else about 8 "
-                             "chunks, or one with method hb or shooting)")
+                        help="cases per chunk of work, one chunk per worker at a time "
+                             "(default: [run] chunk_size, else at most 8 chunks up to 4,096 "
+                             "cases, or chunks of [run] batch_size with method hb or shooting; "
+                             "a cluster of more workers needs it)")
 
 
 def add_json_option(parser: argparse.ArgumentParser) -> None:

@@ -20,10 +20,12 @@ imported; progress is reported within a chunk); ``workers=N`` starts a LocalClus
 single-threaded worker processes (torch intra-op threads = 1 in each: on a CPU one process per
 core beats one process with threads; without Dask's default ``MALLOC_TRIM_THRESHOLD_``, which
 made a chunk run slower in a worker than in-process); ``scheduler=ADDR`` uses an existing
-cluster. The task is submitted once as a computed future (not scattered data), so a worker
-that dies is replaced by its nanny and everything it held — the task and the chunk it was
-integrating — is recomputed elsewhere by the scheduler; a finished chunk's future is released
-as soon as its rows have been stored, so finished work is never redone.
+cluster, whose workers must run this client's torchrom, torch, dask and Python (refused
+otherwise, on connect and again by every chunk: :mod:`torchrom.study.cluster`). The task is
+submitted once as a computed future (not scattered data), so a worker that dies is replaced by
+its nanny and everything it held — the task and the chunk it was integrating — is recomputed
+elsewhere by the scheduler; a finished chunk's future is released as soon as its rows have been
+stored, so finished work is never redone.
 
 **Part files** (:class:`PartStore`). With an output folder, each finished chunk is written at
 once as ``parts/part-<hash>.parquet`` (atomically: temporary file, then rename), followed by
@@ -386,10 +388,17 @@ def _identity(x):
     return x
 
 
-def _run_chunk_on_worker(task: Task, cases, case_ids) -> ChunkResult:
-    """Dask entry point: one intra-op torch thread per concurrently running chunk."""
+def _run_chunk_on_worker(task: Task, cases, case_ids,
+                         identity: dict[str, str] | None = None) -> ChunkResult:
+    """Dask entry point: one intra-op torch thread per concurrently running chunk; with
+    ``identity`` (the client's code, :mod:`torchrom.study.cluster`), a worker running other
+    code refuses the chunk."""
     import torch
 
+    if identity is not None:
+        from .cluster import check_this_worker
+
+        check_this_worker(identity)
     if torch.get_num_threads() != 1:
         torch.set_num_threads(1)
     return task(cases, case_ids)
@@ -423,9 +432,12 @@ class InProcessExecutor:
 class DaskExecutor:
     """Run chunks as futures on a Dask cluster and yield them as they complete."""
 
-    def __init__(self, client, description: str):
+    def __init__(self, client, description: str, identity: dict[str, str] | None = None):
         self.client = client
         self.description = description
+        #: the client's code (:func:`torchrom.study.cluster.code_identity`) that every chunk
+        #: checks on its worker; None: not checked (a LocalCluster runs this installation)
+        self.identity = identity
 
     def run(self, task: Task, chunks: list[tuple[list[dict], list[str]]],
             progress: Progress | None = None, finishing: Callable[[], None] | None = None
@@ -440,8 +452,8 @@ class DaskExecutor:
         # a computed future (not scattered data): if the worker holding it dies, the scheduler
         # recomputes it from its recipe instead of losing it
         task_future = client.submit(_identity, task, pure=False)
-        futures = {client.submit(_run_chunk_on_worker, task_future, cases, ids, pure=False,
-                                 key=f"torchrom-chunk-{k}-{chunk_key(ids)}"): k
+        futures = {client.submit(_run_chunk_on_worker, task_future, cases, ids, self.identity,
+                                 pure=False, key=f"torchrom-chunk-{k}-{chunk_key(ids)}"): k
                    for k, (cases, ids) in enumerate(chunks)}
         done, total = 0, sum(len(c) for c, _ in chunks)
         failure: TorchromError | None = None
@@ -493,7 +505,11 @@ def open_executor(workers: int | None = None, scheduler: str | None = None
         except (OSError, TimeoutError) as exc:
             raise InputError(f"--scheduler: cannot connect to {scheduler!r} ({exc})") from None
         with client:
-            yield DaskExecutor(client, f"Dask cluster at {scheduler}")
+            from .cluster import check_workers
+
+            # a worker with other code would store its rows under this run's key: refused
+            identity = check_workers(client, scheduler)
+            yield DaskExecutor(client, f"Dask cluster at {scheduler}", identity)
         return
     import dask
 
