@@ -276,7 +276,10 @@ def test_flutter_bah_plane_free_free_pk_against_its_f06(tmp_path):
     assert res.frequencies_hz[9] == pytest.approx(56.55734, rel=1e-5)
     ours = [r for r in records if r["velocity"] is not None]
     (rec,) = ours  # one crossing, matched
-    assert rec["mach"] == 0.2 and rec["mode"] == 4
+    # the branch of the 3.75 Hz mode (the f06's POINT 4), told by its in-vacuo frequency, not
+    # by its index
+    assert rec["mach"] == 0.2
+    assert res.frequencies_hz[rec["mode"] - 1] == pytest.approx(3.754, rel=1e-3)
     # unstable to the last speed (450) in both; the rigid-body modes' roots cross nowhere here
     assert rec["kind"] == rec["nastran_kind"] == "sustained"
     assert not any(r.rigid_points for r in res.results)
@@ -297,8 +300,13 @@ def test_flutter_bah_plane_free_free_pk_against_its_f06(tmp_path):
     # the in-plane mode (8.70 Hz, the 5th) and the second residual vector (56.56 Hz), which the
     # flat boxes do not load (|g| <= 3e-16 and 2e-9, measured), are listed as such (issue 46);
     # nothing diverges in 30..450
-    assert m02.not_loaded == [4, 9] and m02.divergence_points == []
-    s = m02.sweep.eigenvalues[0, 0]  # V = 30, the short-period branch
+    assert [res.frequencies_hz[j] for j in m02.not_loaded] == pytest.approx([8.7026, 56.557],
+                                                                           rel=1e-4)
+    assert m02.divergence_points == []
+    # V = 30, the short-period root: the oscillatory one of the rigid-body modes' branches
+    # (which of the two 0 Hz branches carries it is the basis' order, not physics)
+    rigid = np.flatnonzero(res.frequencies_hz == 0.0)
+    (s,) = [s for s in m02.sweep.eigenvalues[0, rigid] if s.imag > 0]
     assert m02.sweep.velocity[0] == 30.0
     assert abs(s.real / -0.64477 - 1) <= 0.03 and abs(s.imag / 0.56398 - 1) <= 0.03
 
@@ -323,7 +331,8 @@ def test_flutter_bah_plane_at_mach_0_equals_mach_0_2(tmp_path):
     assert m0.mach == 0.0
     first = min(m0.points, key=lambda p: p.velocity)
     print("Mach 0:", first.velocity, first.frequency_hz, first.mode)
-    assert first.mode == 3  # the 4th root, the f06's POINT 4
+    # the branch of the 3.75 Hz mode (the f06's POINT 4), by its in-vacuo frequency
+    assert res.frequencies_hz[first.mode] == pytest.approx(3.754, rel=1e-3)
     assert first.velocity == pytest.approx(394.04, rel=5e-3)
     assert first.frequency_hz == pytest.approx(3.1784, rel=5e-3)
 
@@ -354,13 +363,16 @@ def test_flutter_bah_plane_mach_0_coarse_speeds_against_its_f06():
     deck.cases = [replace(deck.cases[0], values=np.array([250.0, 500.0, 750.0, 1000.0]))]
     res = run_deck(deck, log=lambda *_: None)
     sw = res.results[0].sweep
-    # the 2.45 and 3.75 Hz branches stay on two roots (they shared one before)
+    # the branches of the 2.45 and 3.75 Hz modes (by in-vacuo frequency, not index) stay on
+    # two roots (they shared one before)
+    a, b = (int(np.argmin(np.abs(res.frequencies_hz - f))) for f in (2.454, 3.754))
+    assert res.frequencies_hz[[a, b]] == pytest.approx([2.454, 3.754], rel=1e-3)
     for s, vec in zip(sw.eigenvalues, sw.vectors):
-        assert (abs(s[2] - s[3]) > 1e-6 * np.abs(s).max()
-                or _mac(vec[:, 2], vec[:, 3]) < 0.99)
+        assert (abs(s[a] - s[b]) > 1e-6 * np.abs(s).max()
+                or _mac(vec[:, a], vec[:, b]) < 0.99)
         assert not _shared_roots(s, vec)
-    g = sw.damping[1:, 3]
-    f = np.abs(sw.eigenvalues[1:, 3].imag) / (2 * np.pi)
+    g = sw.damping[1:, b]
+    f = np.abs(sw.eigenvalues[1:, b].imag) / (2 * np.pi)
     np.testing.assert_allclose(g, [0.052279, -0.023851, 0.40266], rtol=0, atol=0.01)
     np.testing.assert_allclose(f, [3.04824, 3.08958, 3.25317], rtol=0.01)
     crossing = 750 + 250 * -g[1] / (g[2] - g[1])
@@ -402,7 +414,9 @@ def test_flutter_bah_plane_mach_0_crossings_labelled_against_its_f06():
                  and (t.kind == "sustained" or
                       t.stable_bracket[0] <= p.stable_velocity <= t.stable_bracket[1])]
         assert match, (t.point, t.kind, t.bracket)
-    hump_7hz = [p for p in r.points if p.mode == 5]
+    # the 7.3 Hz hump is the 9.00 Hz mode's branch (by in-vacuo frequency, not index)
+    hump_7hz = [p for p in r.points if res.frequencies_hz[p.mode] == pytest.approx(9.0022,
+                                                                                   rel=1e-4)]
     assert len(hump_7hz) == 1 and hump_7hz[0].frequency_hz == pytest.approx(7.3, abs=0.05)
     assert all(p.refined for p in r.points)
     assert all(res.frequencies_hz[p.mode] > 0 for p in r.points)
@@ -412,10 +426,12 @@ def test_flutter_bah_plane_mach_0_crossings_labelled_against_its_f06():
     # --compare: each of ours beside a crossing of Nastran's of the same kind, except the hump
     # that lies between the f06's speeds; the f06's second run of speeds is not listed twice
     _, records = compare_f06(res, folder / "BAH_Plane.f06")
-    paired = [(rec["mode"], rec["kind"], rec["nastran_kind"]) for rec in records
-              if rec["velocity"] is not None]
-    assert paired == [(4, "hump", "hump"), (7, "hump", None), (6, "hump", "hump"),
-                      (4, "hump", "hump"), (10, "hump", "hump"), (8, "sustained", "sustained")]
+    # each by the in-vacuo frequency (Hz) of its branch, not the branch's index
+    paired = [(round(float(res.frequencies_hz[rec["mode"] - 1]), 2), rec["kind"],
+               rec["nastran_kind"]) for rec in records if rec["velocity"] is not None]
+    assert paired == [(3.75, "hump", "hump"), (14.51, "hump", None), (9.0, "hump", "hump"),
+                      (3.75, "hump", "hump"), (32.09, "hump", "hump"),
+                      (22.16, "sustained", "sustained")]
     theirs_only = [(rec["nastran_kind"], round(rec["nastran_velocity"]))
                    for rec in records if rec["velocity"] is None]
     assert len(theirs_only) == len(set(theirs_only))

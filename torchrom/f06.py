@@ -8,9 +8,9 @@ Manual, "Real Eigenvalue Summary" and "Flutter Summary"), so a small line parser
 - :func:`read_real_eigenvalues`: every REAL EIGENVALUES table (mode number, eigenvalue ω²,
   radians, cycles, generalised mass and stiffness), in file order; the page breaks inside a
   table are skipped.
-- :func:`read_flutter_summary`: every FLUTTER SUMMARY table (one per POINT = mode, Mach and
-  density ratio; PK/KE: 7 columns, PKNL: 9 with density and Mach per row), pages of the same
-  point merged.
+- :func:`read_flutter_summary`: every FLUTTER SUMMARY table (one per SUBCASE, POINT = mode,
+  Mach and density ratio; PK/KE: 7 columns, PKNL: 9 with density and Mach per row), pages of the
+  same point merged.
 (The flutter points of these tables are found by
 :func:`torchrom.aero.nastran_flutter.f06_flutter_points`.)
 """
@@ -59,6 +59,8 @@ class FlutterTable:
     density: np.ndarray | None = None
     machs: np.ndarray | None = None
     eigenvalue: np.ndarray = field(default_factory=lambda: np.zeros(0, complex))
+    #: the SUBCASE of the page header (1 where the page names none)
+    subcase: int = 1
 
 
 def _lines(path) -> list[str]:
@@ -104,13 +106,26 @@ def read_real_eigenvalues(path) -> list[EigenTable]:
 _POINT = re.compile(r"POINT\s*=\s*(\d+)(.*)METHOD\s*=\s*(\w+)")
 _MACH = re.compile(rf"MACH NUMBER\s*=\s*({_NUM})")
 _DENS = re.compile(rf"DENSITY RATIO\s*=\s*({_NUM})")
+_SUBCASE = re.compile(r"\bSUBCASE\s+(\d+)\s*$")
+
+
+def _subcase(lines: list[str], i: int, default: int) -> int:
+    """The SUBCASE named by the page header above line ``i`` (its LABEL line, the one or two
+    lines before FLUTTER  SUMMARY), else ``default``."""
+    for line in lines[max(i - 2, 0):i]:
+        m = _SUBCASE.search(line.rstrip())
+        if m:
+            return int(m.group(1))
+    return default
 
 
 def read_flutter_summary(path) -> list[FlutterTable]:
-    """Every FLUTTER SUMMARY point of an f06 (pages of the same point and condition merged)."""
+    """Every FLUTTER SUMMARY point of an f06 (pages of the same subcase, point and condition
+    merged)."""
     lines = _lines(path)
     groups: dict[tuple, list[list[float]]] = {}
     order: list[tuple] = []
+    subcase = 1
     i = 0
     while i < len(lines):
         if "FLUTTER  SUMMARY" not in lines[i]:
@@ -123,12 +138,13 @@ def read_flutter_summary(path) -> list[FlutterTable]:
         if m is None:
             i += 1
             continue
+        subcase = _subcase(lines, i, subcase)
         point, rest, method = int(m.group(1)), m.group(2), m.group(3).upper()
         mm, dd = _MACH.search(rest), _DENS.search(rest)
         mach = _float(mm.group(1)) if mm else None
         ratio = _float(dd.group(1)) if dd else None
         ncol = 9 if method == "PKNL" else 7
-        key = (point, method, mach, ratio)
+        key = (subcase, point, method, mach, ratio)
         if key not in groups:
             groups[key] = []
             order.append(key)
@@ -145,12 +161,13 @@ def read_flutter_summary(path) -> list[FlutterTable]:
             i += 1
     tables = []
     for key in order:
-        a = np.array(groups[key]).reshape(-1, 9 if key[1] == "PKNL" else 7)
-        point, method, mach, ratio = key
+        subcase, point, method, mach, ratio = key
+        a = np.array(groups[key]).reshape(-1, 9 if method == "PKNL" else 7)
         if method == "PKNL":
             tables.append(FlutterTable(point, method, mach, ratio, a[:, 0], a[:, 4], a[:, 5],
-                                       a[:, 6], a[:, 2], a[:, 3], a[:, 7] + 1j * a[:, 8]))
+                                       a[:, 6], a[:, 2], a[:, 3], a[:, 7] + 1j * a[:, 8],
+                                       subcase))
         else:
             tables.append(FlutterTable(point, method, mach, ratio, a[:, 0], a[:, 2], a[:, 3],
-                                       a[:, 4], None, None, a[:, 5] + 1j * a[:, 6]))
+                                       a[:, 4], None, None, a[:, 5] + 1j * a[:, 6], subcase))
     return tables
