@@ -119,6 +119,8 @@ BASE = {
     "static": ["deck.bdf", "--json", "OUT/static.json"],
     # issue 46: aerodynamic cards over a structure-only deck
     "panels": ["deck.bdf", "--out", "OUT/panels.bdf", "--units", "si"],
+    # issue 47: mode shapes, the flutter mode and LCO motion for viewers
+    "export": ["deck.bdf", "--out", "OUT/modes.vtu"],
 }
 
 #: values each numeric option type must refuse (the types of torchrom.commands._common)
@@ -134,6 +136,9 @@ BAD_VALUES = {
     "gamma": ["-1", "nan", "inf"],
     "damping_ratio": ["-0.01", "1", "nan", "x", "0.02@0", "0.02@x"],
     "figure_file": ["fig.exe"],
+    # plot --out: a figure or a GIF; export --out: .vtu, .xdmf or .op2 (issue 47)
+    "picture_file": ["fig.exe"],
+    "output_file": ["modes.txt", "modes"],
     "int": ["5", "x"],
     # flutter --g-tolerance: a damping g from 0 to 0.05 (issue 46)
     "g_tolerance": ["-1e-3", "0.06", "nan", "inf", "x"],
@@ -176,7 +181,7 @@ def _cases() -> dict[str, tuple[list[str], str]]:
     cases = {}
     files = {k: Path(v).name for k, v in FILES.items()}
     # input files of every kind where a deck, a configuration, a table or a ROM is expected
-    for command in ("modes", "identify", "aero", "update", "static", "panels"):
+    for command in ("modes", "identify", "aero", "update", "static", "panels", "export"):
         for kind in ("missing", "folder", "empty", "binary", "rom npz", "truncated deck",
                      "toml", "parquet"):
             cases[f"{command} deck={kind}"] = ([command, FILES[kind], *BASE[command][1:]],
@@ -225,6 +230,19 @@ def _cases() -> dict[str, tuple[list[str], str]]:
     cases["identify --higher-amplitude beyond half the span"] = (
         ["identify", *condensed, "--higher-amplitude", "0.9"],
         "higher_amplitude (--higher-amplitude): expected a fraction of the span in (0, 0.5]")
+    # a ROM written without its shapes on the deck's grids (issue 47): identify again
+    for command, argv in (("export", ["rom.npz", "--out", "OUT/basis.vtu"]),
+                          ("export", ["rom.npz", "aero.npz", "--flutter", "--out", "OUT/f.op2"]),
+                          ("plot", ["rom.npz", "--mode", "1", "--out", "OUT/mode.png"])):
+        cases[f"{command} {' '.join(argv[:-2])}: no shapes"] = ([command, *argv],
+                                                               "torchrom identify")
+    cases["export --row without --sweep"] = (["export", *BASE["export"], "--row", "0"],
+                                             "--row: needs --sweep")
+    cases["export --flutter of a deck"] = (["export", *BASE["export"], "--flutter"],
+                                           "--flutter: expected ROM.npz AERO.npz")
+    cases["plot --mode to a GIF"] = (["plot", "deck.bdf", "--mode", "1", "--out", "OUT/m.gif"],
+                                     "--out")
+    cases["plot --scale of a table"] = (["plot", *BASE["plot"], "--scale", "2"], "--scale")
     cases["flutter ROM without its aero file"] = (["flutter", "rom.npz"],
                                                   "torchrom flutter rom.npz aero.npz")
     # decks the deck flutter cannot handle (issue 35 item 7): what is missing and what to do

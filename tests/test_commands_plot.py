@@ -93,3 +93,51 @@ def test_a_table_without_an_lco_is_refused_in_one_line(tmp_path):
                               "to plot\n")
         assert not (tmp_path / "f.png").exists() and list(tmp_path.iterdir()) == [
             tmp_path / "decayed.csv"]
+
+
+# -- the deformed wing (issue 47) ------------------------------------------------------------------
+import pytest  # noqa: E402
+
+from .shape_fixtures import cli, goland_chain  # noqa: E402
+
+
+@pytest.fixture(scope="module")
+def chain(tmp_path_factory):
+    return goland_chain(tmp_path_factory.mktemp("shapes"))
+
+
+def test_mode_picture_and_lco_gif(chain):
+    """``plot ROM --mode 2`` writes a PNG; ``plot ROM --sweep DIR --row 0 --out X.gif`` a GIF
+    of exactly --frames frames that loops; an existing picture is kept without --force."""
+    from PIL import Image
+
+    d = chain
+    assert cli(d, "plot", "run/rom.npz", "--mode", "2", "--out", "mode2.png") == 0
+    assert Image.open(d / "mode2.png").format == "PNG"
+    assert cli(d, "plot", "run/goland.bdf", "--mode", "1", "--out", "deck1.png",
+               "--view", "30", "-120") == 0
+    assert cli(d, "plot", "run/rom.npz", "--sweep", "lco", "--row", "0", "--frames", "6",
+               "--out", "lco.gif") == 0
+    gif = Image.open(d / "lco.gif")
+    assert gif.format == "GIF" and gif.n_frames == 6 and gif.info.get("loop") == 0
+    before = (d / "mode2.png").read_bytes()
+    assert cli(d, "plot", "run/rom.npz", "--mode", "3", "--out", "mode2.png") == 2
+    assert (d / "mode2.png").read_bytes() == before
+
+
+def test_flutter_plot_draws_the_flutter_mode_beside_vg(chain):
+    """``flutter ROM AERO --plot`` puts the flutter mode beside the V-g / V-f diagrams (a
+    figure twice as wide: 14 x 7 in at 120 dpi) when the ROM keeps its shapes, and the V-g
+    diagram alone (7 x 7 in) for a ROM without them."""
+    from PIL import Image
+
+    from torchrom.rom import NonlinearROM
+
+    d = chain
+    assert cli(d, "flutter", "run/rom.npz", "run/aero.npz", "--method", "pk", "--plot",
+               "vg.png") == 0
+    assert Image.open(d / "vg.png").size == (1680, 840)
+    NonlinearROM.load(d / "run/rom.npz").replace(shapes=None).save(d / "old.npz")
+    assert cli(d, "flutter", "old.npz", "run/aero.npz", "--method", "pk", "--plot",
+               "vg_old.png") == 0
+    assert Image.open(d / "vg_old.png").size == (840, 840)

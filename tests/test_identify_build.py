@@ -124,3 +124,30 @@ def test_dual_modes_of_a_linear_element_model_are_refused(tmp_path):
         assert identify(fe, IdentifyOptions(n_linear=2, n_dual=0)).rom.n == 2
     rom = identify(read_bdf(path), IdentifyOptions(n_linear=2, n_dual=2)).rom
     assert rom.n == 4 and float(abs(rom.K3).max()) > 1e-3 * float(abs(rom.K1).max())
+
+
+def test_rom_keeps_its_basis_on_the_decks_grids(tmp_path):
+    """Issue 47: a ROM identified from a deck keeps Φ on every grid (basic frame) with the
+    grid ids and mesh; checked against the ROM's outputs, which are rows of the free-DOF basis
+    taken by ``dof_index`` (not through the constraint expansion the shapes use): point A's
+    T1..T3 rows equal the shapes at grid 1102 to rounding, an SPC'd root grid's shapes are zero,
+    and the file keeps them bit for bit. A backend without a deck keeps none."""
+    from torchrom.fe import goland
+
+    fe = goland()
+    rom = identify(fe, IdentifyOptions(n_linear=3, n_dual=0)).rom
+    s = rom.shapes
+    assert s is not None and s.n == rom.n == 3 and s.length_unit == "ft"
+    np.testing.assert_array_equal(s.grid_ids, fe.grid_ids)
+    assert (len(s.quads), len(s.lines)) == (len(fe.mesh.quads), len(fe.mesh.rods))
+    row = {int(g): i for i, g in enumerate(s.grid_ids)}
+    for c, name in enumerate(("A_Tx", "A_Ty", "A_Tz")):
+        np.testing.assert_allclose(s.phi[row[1102], c], rom.outputs[name], rtol=0,
+                                   atol=1e-14 * np.abs(rom.outputs["A_Tz"]).max())
+    assert fe.mesh.spc  # the root's SPC'd components (no CD frames: basic components)
+    for r, c in fe.mesh.spc:
+        assert np.all(s.phi[r, c] == 0), (int(fe.grid_ids[r]), c + 1)
+    rom.save(tmp_path / "rom.npz")
+    back = NonlinearROM.load(tmp_path / "rom.npz").shapes
+    np.testing.assert_array_equal(back.phi, s.phi)
+    assert identify(touze_backend(), IdentifyOptions(n_linear=2, n_dual=0)).rom.shapes is None

@@ -65,3 +65,30 @@ def test_missing_arrays_and_wrong_shapes(tmp_path):
     np.savez(tmp_path / "c.npz", **bad)
     with pytest.raises(InputError, match="format_version 99 is newer"):
         NonlinearROM.load(tmp_path / "c.npz")
+
+
+def test_shapes_round_trip_and_old_files_load(tmp_path):
+    """Issue 47: the basis on the grids (``shape_*``) is stored with the ROM and read back
+    bit for bit; a file without it (written before) loads, and asking it for shapes is an
+    InputError in one line naming the file and saying to identify again."""
+    from torchrom.rom.shapes import MeshShapes
+
+    rom, _, _ = random_gram_model(3)
+    rng = np.random.default_rng(0)
+    shapes = MeshShapes([7, 8, 9, 10], rng.normal(size=(4, 3)), rng.normal(size=(4, 6, 3)),
+                        quads=[[0, 1, 2, 3]], lines=[[0, 3]], length_unit="m", source="w.bdf")
+    rom.replace(shapes=shapes).save(tmp_path / "new.npz")
+    back = NonlinearROM.load(tmp_path / "new.npz")
+    np.testing.assert_array_equal(back.grid_shapes().phi, shapes.phi)
+    np.testing.assert_array_equal(back.shapes.grid_ids, [7, 8, 9, 10])
+    assert back.shapes.length_unit == "m"
+    assert back.content_hash() == rom.content_hash()  # caches keyed by the model stay valid
+    rom.save(tmp_path / "old.npz")
+    old = NonlinearROM.load(tmp_path / "old.npz")
+    assert old.shapes is None
+    with pytest.raises(InputError) as err:
+        old.grid_shapes(str(tmp_path / "old.npz"))
+    msg = str(err.value)
+    assert "\n" not in msg and "old.npz" in msg and "torchrom identify" in msg
+    with pytest.raises(InputError, match="2 basis functions on the grids, the ROM has 3"):
+        rom.replace(shapes=shapes.with_modes(2))

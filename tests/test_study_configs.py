@@ -12,7 +12,8 @@ CONFIGS = sorted((REPO / "configs").glob("*.toml"))
 BUILT_BY_A_GUIDE = {"bah_lco": "docs/guide/bah.md", "bah_free_lco": "docs/guide/bah.md",
                     "pazy_skin_lco": "docs/guide/pazy-flutter.md",
                     "pazy_aoa_lco": "docs/guide/pazy-aoa.md",
-                    "wingbox_lco": "docs/guide/own-wing.md"}
+                    "wingbox_lco": "docs/guide/own-wing.md",
+                    "goland_lco_motion": "docs/guide/viewers.md"}
 
 
 @pytest.mark.parametrize("path", CONFIGS, ids=[p.stem for p in CONFIGS])

@@ -30,10 +30,21 @@ def plot_vg(
     velocity_label: str = "velocity",
     title: str | None = None,
     altitude_label: str = "altitude (ft)",
+    beside=None,
 ) -> Path:
     """Damping g and frequency (Hz) of every tracked mode against velocity (or altitude);
-    the axis labels carry the model's units."""
-    plt, fig, (ax_g, ax_f) = _figure(2, 1, sharex=True, figsize=(7, 7))
+    the axis labels carry the model's units. ``beside(fig, spec)``: draws a panel to the right
+    of the two diagrams into the gridspec cell ``spec`` (the flutter mode's shape,
+    :func:`torchrom.post.pictures.flutter_panel`)."""
+    if beside is None:
+        plt, fig, (ax_g, ax_f) = _figure(2, 1, sharex=True, figsize=(7, 7))
+    else:
+        plt, fig, _ = _figure(figsize=(14, 7))
+        fig.clf()
+        grid = fig.add_gridspec(2, 2, width_ratios=(1.0, 1.1))
+        ax_g = fig.add_subplot(grid[0, 0])
+        ax_f = fig.add_subplot(grid[1, 0], sharex=ax_g)
+        beside(fig, grid[:, 1])
     xs = (
         sweep.velocity_by_mode
         if x == "velocity"

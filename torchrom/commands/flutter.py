@@ -23,6 +23,8 @@ reduced_frequency, eigenvalue_real, eigenvalue_imag}], "notes", "g_tolerance", "
 [the flutter records of real roots crossing zero, divergence true: never flutter],
 "not_loaded": [{flutter_id, method, mach, density_ratio, mode, frequency_hz,
 max_abs_damping_g}: modes whose |g| stays within g_tolerance, never flutter]}.
+F06 (--f06 FILE, every form but --aoa): every root's V-g table in the layout of Nastran's FLUTTER
+SUMMARY, read by pyNastran's flutter reader (:mod:`torchrom.aero.f06_summary`).
 Damping tolerance (--g-tolerance G, default 1e-3, every form): a crossing counts only where g
 goes from below -G to above +G (:mod:`torchrom.aero.crossings`).
 Units: the ROM form's numbers are in the unit system the files record (torchrom.units; "units"
@@ -57,6 +59,7 @@ import numpy as np
 
 from ..units import ALTITUDE_UNITS
 from . import _flutter_aoa as flutter_aoa
+from . import _flutter_shape
 from ._common import (
     OrderedRange,
     add_force_option,
@@ -166,6 +169,10 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help="deck form: print Nastran's flutter points and modes from this f06 beside "
                    "torchrom's, with the differences")
     p.add_argument("--plot", type=figure_file, help="write a V-g / V-f figure (PNG/PDF)")
+    p.add_argument("--f06", type=Path, default=None, metavar="FILE",
+                   help="write the V-g tables as Nastran's FLUTTER SUMMARY (one table per mode "
+                        "and flight condition; PK/KE/PKNL layout, velocities in the model's "
+                        "unit), readable by pyNastran's plot_flutter_f06 (not with --aoa)")
     p.add_argument("--symxz", type=int, choices=(-1, 0, 1), default=None,
                    help="deck form: override the deck's AERO/AEROS SYMXZ (1: reflection plane, "
                         "e.g. a wall-mounted model; -1: antisymmetric; 0: isolated half wing)")
@@ -216,7 +223,7 @@ def _tolerance(args) -> float:
 def run(args: argparse.Namespace) -> int:
     from ..errors import InputError
 
-    check_outputs(args, [p for p in (args.plot, args.root_locus) if p is not None])
+    check_outputs(args, [p for p in (args.plot, args.root_locus, args.f06) if p is not None])
     _check_options(args)
     inputs = args.inputs
     _check_input_kinds(inputs)
@@ -293,6 +300,9 @@ def _check_options(args) -> None:
         raise InputError("--damping-ratio: for ROM.npz AERO.npz or goland (a deck's modal "
                          "damping is its case control SDAMP's TABDMP1)")
     damping_ratio_of(args)  # its values, and not beside --alpha/--gamma
+    if args.f06 is not None and args.aoa is not None:
+        raise InputError("--f06: not with --aoa (its tables hold the critical root per speed, "
+                         "not every mode's branch); drop --aoa for the FLUTTER SUMMARY")
     if len(args.inputs) == 1 and args.inputs[0] != "goland" and args.density and \
             args.aoa is None:
         raise InputError("--density: for ROM.npz AERO.npz or goland (a deck's densities are "
@@ -349,6 +359,9 @@ def _run_deck(args, path: Path) -> int:
         print(text)
         out["compare"] = records
     maybe_write_json(args, out)  # the numbers first: a figure failure cannot lose them
+    from ..aero.f06_summary import deck_summary
+
+    _write_f06(args, lambda: deck_summary(res))
     ok = True
     if args.plot is not None and res.results:
         from ..aero.plots import plot_vg
@@ -357,6 +370,16 @@ def _run_deck(args, path: Path) -> int:
                      velocity_label=f"velocity ({deck.length_unit}/s)",
                      title=f"{path.name}: FLUTTER {res.results[0].case.sid}, {deck.symmetry}")
     return 0 if ok else 1
+
+
+def _write_f06(args, summary) -> None:
+    """--f06 FILE: the FLUTTER SUMMARY that ``summary()`` builds
+    (:mod:`torchrom.aero.f06_summary`)."""
+    if args.f06 is not None:
+        from ..aero.f06_summary import write_flutter_summary
+
+        write_flutter_summary(args.f06, summary())
+        print(f"wrote {args.f06}")
 
 
 def _figure(draw, *a, **k) -> bool:
@@ -375,6 +398,7 @@ def _run_rom(args, rom_path: Path, aero_path: Path) -> int:
 
     aero = load_aero(aero_path)
     rom = NonlinearROM.load(rom_path)
+    _flutter_shape.remember_rom(args, rom, rom_path)  # --plot: the flutter mode beside V-g
     system, note = file_units({str(rom_path): rom.metadata, str(aero_path): aero.metadata},
                               args.units)
     system = system.with_altitude(args.altitude_unit)
@@ -556,14 +580,20 @@ def _matched(args, structure, aero, system, compare_paper: bool) -> int:
             "table3": {f"{_from_ft(k, system):g}": v for k, v in PAPER_TABLE3.items()},
         }
     maybe_write_json(args, out)  # the numbers first: a figure failure cannot lose them
+    from ..aero.f06_summary import matched_summary
+
+    _write_f06(args, lambda: matched_summary(" ".join(args.inputs), u, results, structure,
+                                             aero.rfa, mach))
     ok = True
     if args.plot is not None:
         from ..aero.plots import plot_vg
 
         sweep = next((r.sweep for r in results if r.method == "p-k"), None)
         if sweep is not None:
+            pk = next(r for r in results if r.method == "p-k")
             ok &= _figure(plot_vg, sweep, args.plot, x="altitude", title=f"p-k, Mach {mach:g}",
-                          altitude_label=f"altitude ({h_u})")
+                          altitude_label=f"altitude ({h_u})",
+                          **_flutter_shape.beside(args, structure, table, pk, sweep))
     if args.root_locus is not None:
         from ..aero.plots import plot_root_locus
 
@@ -609,13 +639,14 @@ def _speeds_at_densities(args, structure, aero, system, mach: float) -> int:
     print(f"  {'method':<13}{'altitude ' + u['altitude']:>13}{'density ' + u['density']:>22}"
           f"{'V ' + u['speed']:>10}{'frequency Hz':>14}{'q ' + u['dynamic_pressure']:>13}"
           f"  kind")
-    results, first_sweep = [], None
+    results, first_sweep, pk_sweeps = [], None, []
     for alt, rho in conditions:
         found = []
         if args.method in ("both", "pk"):
             pk, sweep = flutter_speed_pk_at_density(structure, table, rho, mach,
                                                     g_tolerance=tol)
             first_sweep = first_sweep or sweep
+            pk_sweeps.append(sweep)
             found.append(pk)
         if args.method in ("both", "state-space"):
             found.append(flutter_speed_at_density(structure, aero.rfa, table, rho, mach=mach,
@@ -654,10 +685,17 @@ def _speeds_at_densities(args, structure, aero, system, mach: float) -> int:
                             "flutter": [{**r.as_dict(), **({} if r.method == "p-k" else {
                                 "agrees_with_pk": getattr(r, "agrees_with_pk", None)})}
                                 for r in results]})
+    from ..aero.f06_summary import density_summary
+
+    _write_f06(args, lambda: density_summary(
+        " ".join(args.inputs), u, pk_sweeps, [r for r in results if r.method != "p-k"],
+        structure, aero.rfa, mach))
     ok = True
     if args.plot is not None and first_sweep is not None:
         from ..aero.plots import plot_vg
 
         ok = _figure(plot_vg, first_sweep, args.plot, velocity_label=f"velocity ({u['speed']})",
-                     title=f"p-k, Mach {mach:g}, density {conditions[0][1]:.4g} {u['density']}")
+                     title=f"p-k, Mach {mach:g}, density {conditions[0][1]:.4g} {u['density']}",
+                     **_flutter_shape.beside(args, structure, table, next(
+                         r for r in results if r.method == "p-k"), first_sweep))
     return 0 if ok else 1

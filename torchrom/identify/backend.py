@@ -176,6 +176,12 @@ class FEBackend:
         """``"G1001:T3"`` of a DOF when the backend knows its grid (None otherwise)."""
         return None
 
+    def mesh_shapes(self, Phi):
+        """The columns of ``Phi`` on the model's grids, with its mesh
+        (:class:`~torchrom.rom.shapes.MeshShapes`), when the backend knows them (None
+        otherwise: the ROM then keeps no shapes)."""
+        return None
+
     @property
     def metadata(self) -> dict:
         return {"backend": type(self).__name__, "name": self.name,

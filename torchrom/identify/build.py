@@ -5,7 +5,8 @@ protocol and returns the ROM with everything needed to judge it (basis, POD spec
 residuals, eigenvalues of the extended damping matrix, FE call counts and timings);
 ``build_rom(fe, n_linear=9, n_dual=12, damping="decomposition")`` returns just the ROM (DESIGN
 "Python API"). The ROM carries outputs (rows Φ[dof, :] of the backend's output points, e.g.
-"A_Tx", "A_Ty", "A_Tz"), mode kinds "linear"/"dual" and provenance metadata.
+"A_Tx", "A_Ty", "A_Tz"), mode kinds "linear"/"dual", provenance metadata and, where the backend
+knows the deck's grids, the basis on them (:class:`~torchrom.rom.shapes.MeshShapes`).
 """
 
 from __future__ import annotations
@@ -412,7 +413,8 @@ def assemble_rom(be: FEBackend, basis: Basis, stiff: StiffnessIdentification,
         metadata[UNITS_KEY] = system.name
     return NonlinearROM(M, stiff.K1, stiff.K2, stiff.K3, damp.D1, damp.D2, damp.D3,
                         mode_kinds=basis.kinds, frequencies_hz=basis.frequencies_hz,
-                        outputs=outputs, metadata=metadata, symmetrize=True)
+                        outputs=outputs, metadata=metadata, symmetrize=True,
+                        shapes=be.mesh_shapes(Phi))
 
 
 def build_rom(fe, n_linear: int = 9, n_dual: int = 12, damping: str = "decomposition",

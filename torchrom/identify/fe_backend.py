@@ -106,6 +106,12 @@ class BuiltinFEBackend(FEBackend):
         """``"G1001:T3"``: the grid and component of a free DOF."""
         return self._labels[int(dof)]
 
+    def mesh_shapes(self, Phi):
+        """The columns of ``Phi`` on the deck's grids (:func:`torchrom.fe.shapes.mesh_shapes`)."""
+        from ..fe.shapes import mesh_shapes
+
+        return mesh_shapes(self.fe, Phi)
+
     def add_output_points(self, points) -> None:
         """Add output points (name -> (grid id, component 1..6)); InputError naming the point
         when the grid is not in the deck or the DOF is not independent (e.g. an SPC)."""

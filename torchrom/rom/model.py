@@ -63,6 +63,8 @@ class NonlinearROM:
         outputs: name -> (n,) row: a physical output that is linear in q (e.g. "A_Tz").
         metadata: JSON-serialisable provenance (source model, identification options, ...).
         symmetrize: symmetrize the tensors instead of rejecting small asymmetries.
+        shapes: the basis on the deck's grids (:class:`~torchrom.rom.shapes.MeshShapes`), or
+            None (a ROM not identified from a deck, or read from a file written before).
     """
 
     TENSORS = ("M", "K1", "K2", "K3", "D1", "D2", "D3")
@@ -82,6 +84,7 @@ class NonlinearROM:
         outputs: Mapping[str, Any] | None = None,
         metadata: Mapping[str, Any] | None = None,
         symmetrize: bool = False,
+        shapes=None,
     ):
         M = _as_tensor(M, "M")
         if M.dim() != 2 or M.shape[0] != M.shape[1] or M.shape[0] == 0:
@@ -149,6 +152,9 @@ class NonlinearROM:
                                  f"{row.shape}")
             self.outputs[str(key)] = row
         self.metadata: dict[str, Any] = dict(metadata or {})
+        if shapes is not None and shapes.n != n:
+            raise InputError(f"shapes: {shapes.n} basis functions on the grids, the ROM has {n}")
+        self.shapes = shapes
         self._kernels: dict[tuple, CompactForces] = {}
 
     # ------------------------------------------------------------------------------------------
@@ -174,7 +180,7 @@ class NonlinearROM:
         """A copy with some tensors or metadata replaced."""
         args = {name: getattr(self, name) for name in self.TENSORS}
         meta = {"mode_kinds": self.mode_kinds, "frequencies_hz": self.frequencies_hz,
-                "outputs": self.outputs, "metadata": self.metadata}
+                "outputs": self.outputs, "metadata": self.metadata, "shapes": self.shapes}
         for key, val in changes.items():
             if key in args:
                 args[key] = val
@@ -220,6 +226,15 @@ class NonlinearROM:
                              f"{sorted(self.outputs)}")
         C = np.stack([self.outputs[k] for k in names]) if names else np.zeros((0, self.n))
         return names, C
+
+    def grid_shapes(self, where: str = "ROM"):
+        """The basis on the deck's grids (:class:`~torchrom.rom.shapes.MeshShapes`); InputError
+        naming ``where`` (the ROM file) and saying to identify again when the ROM keeps none."""
+        if self.shapes is None:
+            from .shapes import missing_shapes_message
+
+            raise InputError(missing_shapes_message(where))
+        return self.shapes
 
     def content_hash(self) -> str:
         """SHA-256 (hex, first 16) of the tensors and outputs: identifies the model in caches."""

@@ -2,7 +2,9 @@
 
 Arrays: M, K1, K2, K3, D1, D2, D3 (damping at γ = 1), ``mode_kinds`` (strings),
 ``frequencies_hz``, ``output_names`` + ``output_matrix`` (rows of the basis giving physical
-outputs), ``metadata_json`` and ``format_version``. Written atomically with numpy; loading checks
+outputs), ``metadata_json`` and ``format_version``; and, for a ROM identified from a deck, its
+basis on the deck's grids (``shape_*``: :class:`~torchrom.rom.shapes.MeshShapes`; files written
+before have none and still load). Written atomically with numpy; loading checks
 the version, the keys, the shapes, symmetries and finiteness (through the constructor) and names
 the file and what is wrong.
 """
@@ -17,6 +19,7 @@ import numpy as np
 
 from ..errors import InputError
 from ..io import atomic_path
+from .shapes import MeshShapes
 
 FORMAT = "torchrom-rom"
 FORMAT_VERSION = 1
@@ -36,6 +39,8 @@ def save_rom(rom, path) -> Path:
         output_matrix=np.asarray(C, dtype=float).reshape(len(names), rom.n),
         metadata_json=np.array(json.dumps(rom.metadata, default=str)),
     )
+    if rom.shapes is not None:
+        arrays.update(rom.shapes.to_arrays())
     with atomic_path(path) as tmp:
         np.savez(tmp, **arrays)
     return path
@@ -72,6 +77,7 @@ def load_rom(path, cls):
         metadata = json.loads(str(data.get("metadata_json", "{}")))
     except json.JSONDecodeError as exc:
         raise InputError(f"{path}: metadata_json is not valid JSON ({exc})") from None
+    shapes = MeshShapes.from_arrays(data, str(path))
     try:
         return cls(
             *(data[name] for name in cls.TENSORS),
@@ -80,6 +86,7 @@ def load_rom(path, cls):
             frequencies_hz=data.get("frequencies_hz"),
             outputs=dict(zip(names, C)),
             metadata=metadata,
+            shapes=shapes,
         )
     except InputError as exc:
         raise InputError(f"{path}: {exc}") from None
