@@ -37,7 +37,6 @@ def tip_row(fe, Phi, grid: int) -> np.ndarray:
 
 
 def run(args, progress=print) -> dict:
-    import torch
 
     from torchrom.aero.files import load_aero
     from torchrom.fe import read_bdf
@@ -63,6 +62,9 @@ def run(args, progress=print) -> dict:
     dof = fe.dof_index(int(grid), int(comp))
     np.testing.assert_allclose(rom.outputs["max_mode1"], Phi[dof], rtol=1e-6, atol=1e-12)
     tip = tip_row(fe, Phi, args.tip_grid)
+    from torchrom.rom.reference import reference_q, structural_force
+
+    q_ref = reference_q(rom)   # a ROM about a deformed state: its coordinates are q − q_ref
     speeds = np.asarray(args.speeds)
     t0 = time.perf_counter()
     eq = rom_equilibria(rom, steady, args.aoa, speeds, DENSITY)
@@ -77,13 +79,13 @@ def run(args, progress=print) -> dict:
     for a, aoa in enumerate(eq.aoa_deg):
         ok = eq.converged[a]
         case = {"aoa_deg": float(aoa),
-                "tip_pct": [100 * float(tip @ q) / SEMISPAN if c else None
+                "tip_pct": [100 * float(tip @ (q + q_ref)) / SEMISPAN if c else None
                             for q, c in zip(eq.q[a], ok)],
                 "envelope_ratio": [float(envelope_ratio(rom, q)) if c else None
                                    for q, c in zip(eq.q[a], ok)]}
         for m, r in res.items():
             case[m] = [{"kind": b.kind, "velocity": b.velocity, "frequency_hz": b.frequency_hz,
-                        "tip_pct": 100 * float(tip @ r.state_at(a, b)) / SEMISPAN}
+                        "tip_pct": 100 * float(tip @ (r.state_at(a, b) + q_ref)) / SEMISPAN}
                        for b in r.boundaries[a]]
         if model is not None and float(aoa) in args.fe_aoa:
             t = time.perf_counter()
@@ -91,14 +93,16 @@ def run(args, progress=print) -> dict:
             for i, v in enumerate(speeds):
                 if not ok[i]:
                     break
-                q_rom = eq.q[a, i]
-                nl = (rom.stiffness_force(torch.as_tensor(q_rom)).numpy()
-                      - rom.K1.numpy() @ q_rom)
-                p0 = q_rom + np.linalg.solve(model.A, nl)
+                # the exact condensation's load p from the ROM's state: A p = f(q) − D q, f the
+                # ROM's whole structural force (about a deformed state f_ref + its change)
+                x = eq.q[a, i]
+                q_rom = x + q_ref
+                f = structural_force(rom, x)
+                p0 = np.linalg.solve(model.A, f - model.D @ q_rom)
                 st = model.equilibrium(steady, 0.5 * DENSITY * v**2, math.radians(aoa), p0, u)
                 u = st.u
                 Kc = model.tangent(st)
-                structure = tangent_structure(rom, st.q)
+                structure = tangent_structure(rom, st.q - q_ref)
                 structure.K = Kc
                 pts.append(pk(structure, float(v), DENSITY))
                 fe_tip.append(100 * float(tip @ st.q) / SEMISPAN)

@@ -230,6 +230,18 @@ def _cases() -> dict[str, tuple[list[str], str]]:
     cases["identify --higher-amplitude beyond half the span"] = (
         ["identify", *condensed, "--higher-amplitude", "0.9"],
         "higher_amplitude (--higher-amplitude): expected a fraction of the span in (0, 0.5]")
+    # the ROM about a deformed state (identify --about-*): all four, a condensation, an aero
+    # file of at most --linear modes
+    about = ["--about-aero", "aero.npz", "--about-aoa", "5", "--about-velocity", "45",
+             "--about-density", "1.225"]
+    cases["identify --about-aero alone"] = (
+        ["identify", *condensed, "--about-aero", "aero.npz"],
+        "--about-*: a reference state needs --about-aoa, --about-velocity, --about-density")
+    cases["identify --about-* with the tangent plan"] = (
+        ["identify", *BASE["identify"], *about], "use --stiffness condensed")
+    cases["identify --about-aero of a ROM file"] = (
+        ["identify", *condensed, *about[2:], "--about-aero", "rom.npz"],
+        "--about-aero: rom.npz is")
     # a ROM written without its shapes on the deck's grids (issue 47): identify again
     for command, argv in (("export", ["rom.npz", "--out", "OUT/basis.vtu"]),
                           ("export", ["rom.npz", "aero.npz", "--flutter", "--out", "OUT/f.op2"]),

@@ -366,3 +366,100 @@ def test_condensed_tangent_is_the_closed_forms_and_the_rom_carries_it():
         tangent = (st.K1 + 2 * np.einsum("mjl,l->mj", st.K2, q)
                    + 3 * np.einsum("mjlp,l,p->mj", st.K3, q, q))
         assert np.abs(tangent - expected).max() <= 1e-7 * np.abs(expected - st.K1).max()
+
+
+# -- the ROM about a deformed state (identify_stiffness_about) -----------------------------------
+# a steady "aerodynamic" load on the two bending coordinates: F = −q∞ (Q_α α + Q0 q)
+ABOUT_Q0 = np.array([[-0.8, 0.3], [0.1, -0.5]])
+ABOUT_INC = np.array([1.0, -0.6])
+
+
+def _about_law(dyn=0.4, aoa=0.3):
+    from torchrom.identify.condensation import ModalLoadLaw
+
+    return ModalLoadLaw(-dyn * aoa * ABOUT_INC, dyn * ABOUT_Q0,
+                        {"aoa_deg": float(np.degrees(aoa)), "velocity": float(np.sqrt(dyn / 0.5)),
+                         "density": 1.0})
+
+
+def _closed_form_equilibrium(dyn, aoa, Phi):
+    """q with Φᵀ f_c(Φ q) + q∞ Q0 q + q∞ Q_α α = 0 (scipy's fsolve to 1e-13)."""
+    import scipy.optimize
+
+    def residual(q):
+        return Phi.T @ _condensed_force(Phi @ q) + dyn * ABOUT_Q0 @ q + dyn * aoa * ABOUT_INC
+
+    q = scipy.optimize.fsolve(residual, np.zeros(2), xtol=1e-13)
+    assert np.abs(residual(q)).max() < 1e-12
+    return q
+
+
+def test_rom_about_a_deformed_state_is_the_closed_forms_expansion_there():
+    """``about``: the ROM about the equilibrium under a steady load. Its reference q_ref is the
+    closed form's equilibrium (fsolve; 1e-8: the FE solves stop at 1e-10 of their load and the
+    membrane's 1e6 stiffness multiplies the rest), f_ref the condensed force there, K1 the
+    condensed tangent there, and K1 x + K2(x,x) + K3(x,x,x) the change f_c(q_ref + x) −
+    f_c(q_ref) at points inside and outside the plan's range (1e-7 of the nonlinear part): the
+    closed form is a cubic, so its expansion about any point is exactly one."""
+    law = _about_law()
+    res = identify(_backend(), IdentifyOptions(n_linear=2, n_dual=0, stiffness="condensed",
+                                               about=law, levels=2))
+    st, Phi = res.stiffness, res.basis.Phi[:2]
+    ref = res.rom.reference
+    want = _closed_form_equilibrium(0.4, 0.3, Phi)
+    assert np.abs(want).max() > 0.05                       # a deformed state, not rest
+    np.testing.assert_allclose(ref.q, want, atol=1e-8)
+    np.testing.assert_allclose(ref.force, Phi.T @ _condensed_force(Phi @ want), atol=1e-8)
+    T = Phi.T @ _condensed_tangent_closed_form(Phi @ want) @ Phi
+    np.testing.assert_allclose(st.K1, T, atol=1e-7 * np.abs(T).max())
+    for x in np.random.default_rng(3).uniform(-0.3, 0.3, (6, 2)):
+        change = Phi.T @ (_condensed_force(Phi @ (want + x)) - _condensed_force(Phi @ want))
+        nonlinear = change - T @ x
+        assert np.abs(_rom_force(st, x) - change).max() <= 1e-7 * np.abs(nonlinear).max()
+    ident = res.rom.metadata["identification"]
+    assert ident["amplitude"] == 0.05                      # the default about a state
+    assert ident["about"] == law.condition
+
+
+def test_rom_about_a_state_keeps_its_skin_linear_and_its_file_keeps_the_reference(tmp_path):
+    """With a skeleton (a linear skin), the reference is the skinned closed form's equilibrium
+    (the skin's D on the coordinates), K1 the skinned tangent; the ROM file keeps q_ref, f_ref
+    and the condition, and reads them back exactly."""
+    from torchrom.rom import NonlinearROM
+
+    full = CallableBackend(lambda u: _membrane_force(u) + K_SKIN @ u,
+                           lambda u: _membrane_tangent(u) + K_SKIN, np.eye(3), name="skinned")
+    full.skeleton = Skeleton(_backend(), np.arange(3), "without the skin")
+    law = _about_law(0.5, 0.25)
+    res = identify(full, IdentifyOptions(n_linear=2, n_dual=0, stiffness="condensed",
+                                         about=law))
+    Phi = res.basis.Phi[:2]
+    ref = res.rom.reference
+
+    def residual(q):
+        w = Phi @ q
+        return (Phi.T @ (_condensed_force(w) + K_SKIN[:2, :2] @ w) + 0.5 * ABOUT_Q0 @ q
+                + 0.5 * 0.25 * ABOUT_INC)
+
+    import scipy.optimize
+
+    want = scipy.optimize.fsolve(residual, np.zeros(2), xtol=1e-13)
+    np.testing.assert_allclose(ref.q, want, atol=1e-8)
+    T = Phi.T @ (_condensed_tangent_closed_form(Phi @ want) + K_SKIN[:2, :2]) @ Phi
+    np.testing.assert_allclose(res.stiffness.K1, T, atol=1e-7 * np.abs(T).max())
+    res.rom.save(tmp_path / "rom.npz")
+    back = NonlinearROM.load(tmp_path / "rom.npz")
+    np.testing.assert_array_equal(back.reference.q, ref.q)
+    np.testing.assert_array_equal(back.reference.force, ref.force)
+    assert back.reference.condition == law.condition
+    assert back.content_hash() == res.rom.content_hash()
+
+
+@pytest.mark.parametrize(("opts", "match"), [
+    (dict(stiffness="tangent", n_dual=2), "use --stiffness condensed"),
+    (dict(stiffness="condensed", n_dual=0, condensation_fit="forces-and-tangents"),
+     "forces-and-tangents is for the ROM about rest"),
+])
+def test_bad_about_options_are_refused(opts, match):
+    with pytest.raises(InputError, match=match):
+        IdentifyOptions(n_linear=2, about=_about_law(), **opts).validate()

@@ -433,3 +433,87 @@ def test_flutter_aoa_deck_form_with_a_linear_skin(tmp_path):
     assert main(["flutter", str(deck), "--aoa", "0", "--density", str(RHO), "--linear-skin",
                  "77", "--velocities", "5", "6", "--json", str(tmp_path / "g.json")]) == 2
     assert not (tmp_path / "g.json").exists()
+
+
+def test_rom_about_a_deformed_state_reaches_the_closed_forms_equilibria():
+    """A ROM about a deformed state (identify ``about``, on test_identify_condensation's
+    closed-form bending-membrane model) continued from its reference to other angles and
+    speeds, up and down: q_ref + x is the closed form's equilibrium at each (fsolve; 1e-7: the
+    reference's FE solves stop at 1e-10 of their load and the membrane's 1e6 stiffness
+    multiplies the rest), and the CLI's tip reading adds the reference's deflection."""
+    from torchrom.identify.build import IdentifyOptions, identify
+
+    from .test_identify_condensation import (
+        ABOUT_INC,
+        ABOUT_Q0,
+        _about_law,
+        _backend,
+        _closed_form_equilibrium,
+    )
+
+    law = _about_law(0.4, 0.3)                      # V_ref = √(2 · 0.4 / 1) at density 1
+    res = identify(_backend(), IdentifyOptions(n_linear=2, n_dual=0, stiffness="condensed",
+                                               about=law, levels=2))
+    rom, Phi = res.rom, res.basis.Phi[:2]
+    aero = SteadyModalAero(ABOUT_Q0, ABOUT_INC)
+    angles = np.array([10.0, 17.19, 25.0])        # deg; the reference's is 0.3 rad = 17.19°
+    speeds = np.array([0.5, 0.7, 0.8944, 1.0, 1.1])
+    eq = rom_equilibria(rom, aero, angles, speeds, 1.0)
+    assert eq.converged.all(), eq.notes
+    for a, aoa in enumerate(angles):
+        for i, v in enumerate(speeds):
+            want = _closed_form_equilibrium(0.5 * v**2, math.radians(aoa), Phi)
+            np.testing.assert_allclose(eq.q[a, i] + rom.reference.q, want, atol=1e-7)
+
+
+def _about(rom, q_ref):
+    """The exact expansion of a ROM whose force is K1 q + K3(q,q,q) (no K2) about q_ref: a
+    cubic about any point, so the ROM about a deformed state is exactly it there."""
+    from torchrom.rom.reference import ReferenceState
+
+    K1, K3 = rom.K1.numpy(), rom.K3.numpy()
+    K1r = K1 + 3 * np.einsum("mjlp,l,p->mj", K3, q_ref, q_ref)
+    K2r = 3 * np.einsum("mjlp,p->mjl", K3, q_ref)
+    f_ref = K1 @ q_ref + np.einsum("mjlp,j,l,p->m", K3, q_ref, q_ref, q_ref)
+    # its basis functions stay the deck's modes (their frequencies, which the aero file checks)
+    ref = ReferenceState(q_ref, f_ref, {"aoa_deg": 0.5, "velocity": 8.0, "density": RHO})
+    return NonlinearROM(rom.M, K1r, K2r, K3, rom.D1, outputs=rom.outputs, symmetrize=True,
+                        frequencies_hz=rom.frequencies_hz, reference=ref)
+
+
+def test_a_rom_about_a_deformed_state_gives_the_same_lco_and_mean(flutter_section, tmp_path):
+    """The hardening section and its exact expansion about its 8 m/s, 0.5° equilibrium (a ROM
+    about a deformed state, kept in and read back from rom.npz): the same static states
+    (q_ref + x), and by harmonic balance past flutter the same LCO amplitude and the same
+    mean (the HB table adds C q_ref to the 0th harmonic), within the orbits' own 1e-8; and
+    its equilibria continued from the reference equal the original ROM's (1e-9)."""
+    from torchrom.periodic import HarmonicBalanceMethod
+    from torchrom.sim import LCOCriteria
+    from torchrom.sim.aeroelastic import aeroelastic_system_at
+    from torchrom.sim.system import static_equilibrium
+
+    aero, rom = flutter_section
+    rom = _hardening_section(aero, rom)
+    steady = SteadyModalAero.from_aero(aero, 2)
+    q_ref = rom_equilibria(rom, steady, [0.5], [8.0], RHO).q[0, 0]
+    about = _about(rom, q_ref)
+    about.save(tmp_path / "about.npz")
+    about = NonlinearROM.load(tmp_path / "about.npz")
+    speeds = [6.0, 8.0, 9.5, 11.0]
+    plain, ref = (rom_equilibria(r, steady, [0.0, 0.5, 1.0], speeds, RHO) for r in (rom, about))
+    assert ref.converged.all()
+    np.testing.assert_allclose(ref.q + q_ref, plain.q, atol=1e-9 * np.abs(plain.q).max())
+    runs = []
+    for r in (rom, about):
+        ae = aeroelastic_system_at(r, aero, [11.0, 11.0], RHO, aoa_deg=[0.5, 1.0])
+        x = static_equilibrium(ae.system).numpy()
+        hb = HarmonicBalanceMethod(stability=False).run(ae.system, outputs=["q1", "q2"],
+                                                       lco=LCOCriteria(max_amplitude=10.0))
+        runs.append((x, hb))
+    (x0, hb0), (x1, hb1) = runs
+    np.testing.assert_allclose(x1 + q_ref, x0, atol=1e-9 * np.abs(x0).max())
+    assert list(hb0.status) == list(hb1.status) == ["lco", "lco"]
+    np.testing.assert_allclose(hb1.amplitude, hb0.amplitude, rtol=1e-8)
+    for name in ("mean_q1", "mean_q2"):
+        np.testing.assert_allclose(hb1.extra[name], hb0.extra[name],
+                                   atol=1e-8 * np.abs(hb0.extra[name]).max())

@@ -72,6 +72,17 @@ class AeroData:
         out[:self.n_modes] = self.incidence
         return out
 
+    def padded_steady_stiffness(self, n: int, where: str = "aero file") -> np.ndarray:
+        """Q(0) (n, n), the steady aerodynamic stiffness per unit dynamic pressure (the GAF at
+        k = 0, real; zero past the m modes); InputError naming ``where`` without a k = 0 GAF."""
+        zero = np.flatnonzero(self.gaf.k == 0.0)
+        if not len(zero):
+            raise InputError(f"{where}: no GAF at k = 0 (the steady aerodynamic stiffness)")
+        out = np.zeros((n, n))
+        m = self.n_modes
+        out[:m, :m] = self.gaf.Q[zero[0]].real
+        return out
+
     def save(self, path: str | os.PathLike, force: bool = False) -> Path:
         return save_aero(self, path, force=force)
 

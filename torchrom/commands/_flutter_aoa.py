@@ -149,8 +149,10 @@ def run(args, rom_path, aero_path) -> int:
     results = [deformed_flutter(rom, eq, root_finder(m, rom, aero), alpha, gamma)
                for m in methods]
 
-    def tip(q):
-        d = float(tip_row @ q)
+    from ..rom.reference import reference_q
+
+    def tip(q):  # q: the ROM's coordinates (x = q − q_ref about a deformed state)
+        d = float(tip_row @ (q + reference_q(rom)))
         return d, (100.0 * d / args.semispan if args.semispan else None)
 
     print(f"  flutter about the ROM's static aeroelastic equilibrium: density {density:g} "

@@ -3,6 +3,7 @@
     torchrom identify MODEL.bdf --linear 9 --dual 12 --damping decomposition|exact --out rom.npz
                       [--stiffness tangent|step|condensed] [--amplitude A] [--levels 3]
                       [--nonlinear-modes K] [--higher-amplitude F] [--linear-skin PID]
+                      [--about-aero AERO --about-aoa DEG --about-velocity V --about-density RHO]
                       [--damping-ratio ZETA | Z1@F1 Z2@F2]
                       [--report DIR] [--json FILE] [--force]
 
@@ -133,6 +134,20 @@ def add_arguments(parser) -> None:
                              "mass to the ROM but nothing to its nonlinear terms, which are "
                              "condensed on the structure without it (a thin skin wrinkles: "
                              "modelled as shells it stops every static solve)")
+    g = parser.add_argument_group(
+        "about a deformed state (with --stiffness condensed)",
+        "the ROM about the static aeroelastic equilibrium of a root angle of attack at one "
+        "speed: its coordinates are x = q - q_ref, its linear stiffness the exact condensed "
+        "tangent there, its cubic terms fitted to solves about it (--amplitude default 0.05)")
+    g.add_argument("--about-aero", type=Path, default=None, metavar="AERO.npz",
+                   help="the deck's aerodynamics (torchrom aero DECK --modes N, N <= --linear): "
+                        "its steady loads hold the reference state")
+    g.add_argument("--about-aoa", type=finite_float, default=None, metavar="DEG",
+                   help="the reference state's root angle of attack (deg)")
+    g.add_argument("--about-velocity", type=positive_float, default=None, metavar="V",
+                   help="the reference state's speed (the aero file's unit)")
+    g.add_argument("--about-density", type=positive_float, default=None, metavar="RHO",
+                   help="the reference state's air density (the aero file's unit)")
     add_units_option(parser, "the deck")
     add_json_option(parser)
     add_force_option(parser)
@@ -194,6 +209,43 @@ def _structural_damping(fe, basis, cards, ratio):
     return rom_damping(fe, cards, basis.Phi[:, cols], f, free)
 
 
+ABOUT = ("about_aero", "about_aoa", "about_velocity", "about_density")
+
+
+def _about(args):
+    """The modal load law of ``--about-*`` (the steady aerodynamic load −q∞ (Q_α α + Q(0) q)
+    on the first --linear modes), or None without those options."""
+    given = [name for name in ABOUT if getattr(args, name) is not None]
+    if not given:
+        return None
+    from ..errors import InputError
+
+    missing = [f"--{name.replace('_', '-')}" for name in ABOUT if name not in given]
+    if missing:
+        raise InputError(f"--about-*: a reference state needs {', '.join(missing)} as well")
+    if args.stiffness != "condensed":  # before the aero file is read
+        raise InputError(f"--about-aero: the ROM about a deformed state is a condensation; "
+                         f"use --stiffness condensed, not {args.stiffness!r}")
+    import math
+
+    from ..aero.files import load_aero
+    from ..checks import expect_file_kind
+    from ..identify.condensation import ModalLoadLaw
+
+    expect_file_kind(args.about_aero, "aero", "--about-aero")
+    aero = load_aero(args.about_aero)
+    where = f"--about-aero {args.about_aero}"
+    if aero.n_modes > args.linear:
+        raise InputError(f"{where}: {aero.n_modes} modes, more than the ROM's --linear "
+                         f"{args.linear}; build it with --modes {args.linear} or fewer")
+    n = args.linear
+    dyn = 0.5 * args.about_density * args.about_velocity**2
+    return ModalLoadLaw(-dyn * math.radians(args.about_aoa) * aero.padded_incidence(n, where),
+                        dyn * aero.padded_steady_stiffness(n, where),
+                        {"aoa_deg": args.about_aoa, "velocity": args.about_velocity,
+                         "density": args.about_density, "aero": str(args.about_aero)})
+
+
 def run(args) -> int:
     from ..identify.build import IdentifyOptions, as_backend, identify
 
@@ -213,7 +265,7 @@ def run(args) -> int:
                           stiffness=args.stiffness, amplitude=args.amplitude,
                           levels=args.levels, nonlinear_modes=args.nonlinear_modes,
                           higher_amplitude=args.higher_amplitude,
-                          condensation_fit=args.condensation_fit)
+                          condensation_fit=args.condensation_fit, about=_about(args))
     opt.validate()
     if args.linear_skin and args.stiffness != "condensed":
         from ..errors import InputError

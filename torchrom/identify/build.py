@@ -27,7 +27,7 @@ from ..units import METADATA_KEY as UNITS_KEY
 from ..units import recorded_units
 from .backend import FEBackend
 from .basis import PAPER_COMBINATIONS, Basis, DualModeOptions, dual_basis, linear_basis
-from .condensation import identify_stiffness_condensed
+from .condensation import ModalLoadLaw, identify_stiffness_about, identify_stiffness_condensed
 from .damping import (
     DampingIdentification,
     DecompositionOptions,
@@ -59,12 +59,31 @@ def _step(be, Phi, amps, opt, material, progress):
 def _condensed(be, Phi, amps, opt, material, progress):
     higher = None if opt.higher_amplitude is None else \
         amps * (opt.higher_amplitude / opt.resolved_amplitude)
+    if opt.about is not None:
+        return _condensed_about(be, Phi, amps, opt, higher, progress)
     stiff, data = identify_stiffness_condensed(be, Phi, amps, levels=opt.levels,
                                                higher=higher,
                                                n_nonlinear=opt.nonlinear_modes,
                                                progress=progress("static solves"),
                                                skeleton=be.skeleton,
                                                tangents=opt.condensation_fit != "forces")
+    return stiff, data, None
+
+
+def _condensed_about(be, Phi, amps, opt, higher, progress):
+    """The condensation about the deformed state that ``opt.about`` holds: mode 1 loaded to
+    the amplitude's linear deflection, each higher mode j to a_1 f_1/f_j (between the first
+    mode's force, which barely moves a stiff mode, and its deflection, which twists it far
+    beyond a flutter motion's), or to ``higher``."""
+    K1 = Phi.T @ np.asarray(be.stiffness_matrix() @ Phi)
+    f = np.sqrt(np.clip(np.diag(K1) / np.diag(Phi.T @ np.asarray(be.mass_matrix() @ Phi)),
+                        0.0, None))
+    a = amps[0] * f[0] / f if higher is None else np.array(higher, dtype=float)
+    a[0] = amps[0]
+    stiff, data = identify_stiffness_about(be, Phi, opt.about, a, levels=opt.levels,
+                                           n_nonlinear=opt.nonlinear_modes,
+                                           progress=progress("static solves"),
+                                           skeleton=be.skeleton)
     return stiff, data, None
 
 
@@ -102,7 +121,10 @@ class IdentifyOptions:
     the condensed force is a cubic; on the Pazy wing no cubic fits the tangents of 20-30 %
     tip deflection, docs/guide/pazy-aoa.md);
     symmetric_pairs: impose ±(a_j e_j + a_l e_l) for Eq. 41 (cancels the quadratic term exactly);
-    dual, decomposition: options of the dual modes and of the optimum decomposition.
+    dual, decomposition: options of the dual modes and of the optimum decomposition;
+    about: with "condensed", the ROM about the deformed state this modal load holds
+    (:func:`.condensation.identify_stiffness_about`; default amplitude
+    :data:`ABOUT_AMPLITUDE`), None about rest.
     """
 
     n_linear: int = 9
@@ -117,6 +139,7 @@ class IdentifyOptions:
     symmetric_pairs: bool = True
     dual: DualModeOptions = field(default_factory=DualModeOptions)
     decomposition: DecompositionOptions = field(default_factory=DecompositionOptions)
+    about: ModalLoadLaw | None = None
 
     def validate(self) -> None:
         if self.damping not in DAMPING_METHODS:
@@ -154,6 +177,13 @@ class IdentifyOptions:
             if high > MAX_AMPLITUDE:
                 raise InputError(f"higher_amplitude (--higher-amplitude): expected a fraction "
                                  f"of the span in (0, {MAX_AMPLITUDE:g}], got {high:g}")
+        if self.about is not None and self.stiffness != "condensed":
+            raise InputError(f"about (--about-aero): the ROM about a deformed state is a "
+                             f"condensation; use --stiffness condensed, not {self.stiffness!r}")
+        if self.about is not None and self.condensation_fit != "forces":
+            raise InputError("about (--about-aero): its ROM's linear part is the exact tangent "
+                             "there; --condensation-fit forces-and-tangents is for the ROM "
+                             "about rest")
         amp = real("amplitude", self.resolved_amplitude, positive=True)
         if amp > MAX_AMPLITUDE:
             raise InputError(f"amplitude: expected a fraction of the span in (0, "
@@ -163,9 +193,16 @@ class IdentifyOptions:
     @property
     def resolved_amplitude(self) -> float:
         """``amplitude``, or the method's default when it is None."""
-        return DEFAULT_AMPLITUDE.get(self.stiffness, 0.01) if self.amplitude is None \
-            else self.amplitude
+        if self.amplitude is not None:
+            return self.amplitude
+        return ABOUT_AMPLITUDE if self.about is not None else \
+            DEFAULT_AMPLITUDE.get(self.stiffness, 0.01)
 
+
+#: the default amplitude of the condensation about a deformed state (fraction of the span):
+#: the first mode's linear deflection about it, the range of a flutter motion and of the
+#: mean's drift over a few speeds
+ABOUT_AMPLITUDE = 0.05
 
 #: largest identification amplitude, a fraction of the span: a basis function displaced by more
 #: than half the span is far beyond the cubic ROM's range (and any wing's)
@@ -414,7 +451,7 @@ def assemble_rom(be: FEBackend, basis: Basis, stiff: StiffnessIdentification,
     return NonlinearROM(M, stiff.K1, stiff.K2, stiff.K3, damp.D1, damp.D2, damp.D3,
                         mode_kinds=basis.kinds, frequencies_hz=basis.frequencies_hz,
                         outputs=outputs, metadata=metadata, symmetrize=True,
-                        shapes=be.mesh_shapes(Phi))
+                        shapes=be.mesh_shapes(Phi), reference=stiff.reference)
 
 
 def build_rom(fe, n_linear: int = 9, n_dual: int = 12, damping: str = "decomposition",

@@ -312,3 +312,175 @@ def identify_stiffness_condensed(backend, Phi: np.ndarray, amplitudes: np.ndarra
         stiff.K1 = 0.5 * (K1 + K1.T)
         stiff.plan_info["skeleton"] = skeleton.what
     return stiff, data
+
+
+# -- the exact condensation at a deformed state, and the ROM about it ----------------------------
+@dataclass(frozen=True)
+class ModalLoadLaw:
+    """The load that holds a reference state, as a generalized force on the modal coordinates:
+    F(q) = ``constant`` − ``stiffness`` q (e.g. a steady aerodynamic load −q∞ (Q_α α + Q(0) q)).
+    ``condition`` (JSON) describes it for the ROM's record."""
+
+    constant: np.ndarray
+    stiffness: np.ndarray
+    condition: dict = field(default_factory=dict)
+
+    def scaled(self, factor: float) -> ModalLoadLaw:
+        return ModalLoadLaw(factor * np.asarray(self.constant),
+                            factor * np.asarray(self.stiffness), self.condition)
+
+
+@dataclass
+class CondensedState:
+    """One condensed equilibrium: ``q`` the ROM coordinates, ``p`` the solved structure's modal
+    load, ``u`` its displacements, ``S`` = (KΦ)ᵀ K_T⁻¹ (KΦ), ``iterations`` (FE solves)."""
+
+    q: np.ndarray
+    p: np.ndarray
+    u: np.ndarray
+    S: np.ndarray
+    iterations: int
+
+
+class ExactCondensation:
+    """The exact implicit condensation of a (restrained) backend ``solver`` on ``Phi`` (its
+    DOFs × n) with the ROM's linear stiffness ``K1`` (n, n).
+
+    The solved structure carries the load K Φ p; its solution u(p) has the coordinates
+    q = A⁻¹ Φᵀ K u, A = Φᵀ K Φ. The ROM's structural force at q is exactly D q + A p(q), with
+    D = K1 − A the part of K1 the solved structure lacks (a linear skin's; zero without one),
+    and its tangent there is K_c = D + A S⁻¹ A with S = (KΦ)ᵀ K_T(u)⁻¹ (KΦ) (dq/dp = A⁻¹ S).
+    Written here: no library condenses an FE tangent onto a ROM basis."""
+
+    def __init__(self, solver, Phi: np.ndarray, K1: np.ndarray):
+        from .backend import project
+
+        self.backend, self.Phi = solver, np.asarray(Phi)
+        K = solver.stiffness_matrix()
+        self.KPhi = np.asarray(K @ self.Phi)
+        self.A = project(K, self.Phi)
+        self.D = np.asarray(K1, dtype=float) - self.A
+
+    def solve(self, p: np.ndarray, u0: np.ndarray | None) -> tuple[np.ndarray, np.ndarray,
+                                                                   np.ndarray]:
+        """(u, q, S) of the load K Φ p."""
+        u = self.backend.static_solve(self.KPhi @ p, u0=u0).u
+        q = np.linalg.solve(self.A, self.KPhi.T @ u)
+        return u, q, tangent_gram(self.backend, u, self.KPhi)
+
+    def coordinates(self, u: np.ndarray) -> np.ndarray:
+        return np.linalg.solve(self.A, self.KPhi.T @ u)
+
+    def equilibrium_under(self, law: ModalLoadLaw, p0: np.ndarray, u0: np.ndarray | None = None,
+                          rtol: float = 1e-9, max_iter: int = 12) -> CondensedState:
+        """Newton on p from ``p0`` until D q(p) + A p + G q(p) = c (``law``: c − G q) within
+        ``rtol`` of ‖c‖ (ConvergenceError otherwise); each step one nonlinear FE solve."""
+        G, c = np.asarray(law.stiffness), np.asarray(law.constant)
+        scale = max(np.linalg.norm(c), np.finfo(float).tiny)
+        p, u = np.asarray(p0, dtype=float).copy(), u0
+        for it in range(1, max_iter + 1):
+            u, q, S = self.solve(p, u)
+            R = (self.D + G) @ q + self.A @ p - c
+            if np.linalg.norm(R) <= rtol * scale:
+                return CondensedState(q, p, u, S, it)
+            J = (self.D + G) @ np.linalg.solve(self.A, S) + self.A
+            p = p - np.linalg.solve(J, R)
+        raise ConvergenceError(f"condensed equilibrium: not converged in {max_iter} FE solves "
+                               f"(residual {np.linalg.norm(R) / scale:.1e} of the load)")
+
+    def tangent(self, state: CondensedState) -> np.ndarray:
+        """K_c = D + A S⁻¹ A at ``state`` (symmetrized: S is, to rounding)."""
+        Kc = self.D + self.A @ np.linalg.solve(state.S, self.A)
+        return 0.5 * (Kc + Kc.T)
+
+    def force(self, state: CondensedState) -> np.ndarray:
+        """The structural force D q + A p at ``state``."""
+        return self.D @ state.q + self.A @ state.p
+
+
+#: the load fractions by which the reference equilibrium is approached from rest (a step that
+#: fails is halved, at most :data:`REFERENCE_HALVINGS` times)
+REFERENCE_STEPS = (0.25, 0.5, 0.75, 1.0)
+REFERENCE_HALVINGS = 4
+
+
+def reference_equilibrium(condensation: ExactCondensation, law: ModalLoadLaw
+                          ) -> CondensedState:
+    """The condensed equilibrium under ``law``, its load continued from rest in
+    :data:`REFERENCE_STEPS` (a failed step halved)."""
+    n = condensation.A.shape[0]
+    p, u, lam, state = np.zeros(n), None, 0.0, None
+    targets = list(REFERENCE_STEPS)
+    halvings = 0
+    while targets:
+        target = targets[0]
+        try:
+            state = condensation.equilibrium_under(law.scaled(target), p, u)
+        except ConvergenceError:
+            if halvings >= REFERENCE_HALVINGS:
+                raise
+            halvings += 1
+            targets.insert(0, 0.5 * (lam + target))
+            continue
+        p, u, lam = state.p, state.u, target
+        targets.pop(0)
+    return state
+
+
+def identify_stiffness_about(backend, Phi: np.ndarray, law: ModalLoadLaw,
+                             amplitudes: np.ndarray, *, levels: int = 1,
+                             n_nonlinear: int | None = None, progress=None,
+                             skeleton: Skeleton | None = None
+                             ) -> tuple[StiffnessIdentification, CondensationData]:
+    """The condensed ROM about the deformed state that ``law`` holds (:mod:`torchrom.rom.
+    reference`): the exact condensation's equilibrium q_ref (:func:`reference_equilibrium`),
+    its tangent K_c as the ROM's K1 (exact there), and K2, K3 fitted, as
+    :func:`stiffness_from_condensation` does about rest, to the solves of the modal loads
+    p_ref + δp, δp on the STEP directions of ``amplitudes`` (n,) over the first
+    ``n_nonlinear`` modes, each solved from the reference: with x = q − q_ref the change of
+    the structural force is f(q_ref + x) − f_ref = A δp + D x = K_c x + K̃2(x,x) + K̃3(x,x,x).
+    The ROM's coordinates are x; ``reference`` on the result keeps q_ref and f_ref.
+    ``progress(done, total)`` after each FE solve (the reference's first)."""
+    from ..rom.reference import ReferenceState
+    from .backend import project
+
+    K1 = project(backend.stiffness_matrix(), Phi)
+    n = Phi.shape[1]
+    k = n if n_nonlinear is None else int(n_nonlinear)
+    solver, Phi_s = (backend, Phi) if skeleton is None else (skeleton.backend, Phi[skeleton.rows])
+    cond = ExactCondensation(solver, Phi_s, K1)
+    ref = reference_equilibrium(cond, law)
+    Kc, f_ref = cond.tangent(ref), cond.force(ref)
+    plan = CondensationPlan(np.asarray(amplitudes, dtype=float)[:k], levels)
+    L, total = plan.levels, len(plan.points)
+    dP, X, failed, first_error, done = [], [], [], "", 0
+    for d in range(len(plan.directions)):
+        u = ref.u
+        for lev in range(L):
+            dp = np.zeros(n)
+            dp[:k] = plan.points[d * L + lev]
+            try:
+                u = solver.static_solve(cond.KPhi @ (ref.p + dp), u0=u).u
+            except ConvergenceError as err:
+                first_error = first_error or f"; the first failure: {err}"
+                failed.extend(plan.points[d * L + lev:(d + 1) * L])
+                done += L - lev
+                break
+            dP.append(dp)
+            X.append(cond.coordinates(u) - ref.q)
+            done += 1
+            if progress is not None:
+                progress(done, total)
+    dP, X = np.array(dP).reshape(-1, n), np.array(X).reshape(-1, n)
+    # K_c (p_eff − x) = A δp + (D − K_c) x: the fit about rest, with K_c as the linear part
+    p_eff = np.linalg.solve(Kc, (cond.A @ dP.T + cond.D @ X.T)).T
+    why = f" ({len(failed)} loads failed{first_error})" if failed else ""
+    stiff = stiffness_from_condensation(p_eff, X, Kc, plan.amplitudes, n_nonlinear=k,
+                                        failed=why)
+    stiff.plan_info = {"levels": plan.levels, "nonlinear_modes": k,
+                       "static_solves": len(X) + ref.iterations, "failed_solves": len(failed),
+                       "about": law.condition}
+    if skeleton is not None:
+        stiff.plan_info["skeleton"] = skeleton.what
+    stiff.reference = ReferenceState(ref.q, f_ref, law.condition)
+    return stiff, CondensationData(dP, X, failed)

@@ -173,6 +173,9 @@ class StiffnessIdentification:
     #: what the plan did beyond the fit, for the ROM's metadata (e.g. the condensation's load
     #: levels and failed solves)
     plan_info: dict = field(default_factory=dict)
+    #: the deformed state the tensors are expanded about
+    #: (:class:`~torchrom.rom.reference.ReferenceState`), None about the undeformed state
+    reference: object | None = None
 
     def combined(self) -> dict[str, np.ndarray]:
         """The paper's combined K̃2, K̃3 (Eqs. 25–26) as dense arrays."""

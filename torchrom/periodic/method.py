@@ -31,6 +31,7 @@ import numpy as np
 import torch
 
 from ..errors import InputError
+from ..rom.reference import output_offsets
 from ..sim.lco import LCOCriteria
 from ..sim.newmark import output_matrix
 from ..sim.result import SimulationResult
@@ -154,7 +155,8 @@ class HarmonicBalanceMethod:
         dist = orb.distortion(rows[:1])[:, 0]
         dist[orb.status != "lco"] = np.nan
         if system.load is not None:  # a mean state (a wing at an angle of attack): its outputs
-            mean = (orb.X[:, 0] @ rows.T).cpu().numpy()
+            # + C q_ref: a ROM about a deformed state moves about its reference (rom.reference)
+            mean = (orb.X[:, 0] @ rows.T).cpu().numpy() + output_offsets(system.rom, C)
             mean[~np.isin(orb.status, ("lco", "decay"))] = np.nan
             sens = {**sens, **{f"mean_{name}": mean[:, j] for j, name in enumerate(names)}}
         extra = {"method": np.full(B, "hb", dtype=object), "harmonics": orb.harmonics,

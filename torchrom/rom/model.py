@@ -65,6 +65,9 @@ class NonlinearROM:
         symmetrize: symmetrize the tensors instead of rejecting small asymmetries.
         shapes: the basis on the deck's grids (:class:`~torchrom.rom.shapes.MeshShapes`), or
             None (a ROM not identified from a deck, or read from a file written before).
+        reference: the deformed state the ROM is expanded about
+            (:class:`~torchrom.rom.reference.ReferenceState`; its coordinates are then
+            x = q − q_ref), or None (about the undeformed state).
     """
 
     TENSORS = ("M", "K1", "K2", "K3", "D1", "D2", "D3")
@@ -85,6 +88,7 @@ class NonlinearROM:
         metadata: Mapping[str, Any] | None = None,
         symmetrize: bool = False,
         shapes=None,
+        reference=None,
     ):
         M = _as_tensor(M, "M")
         if M.dim() != 2 or M.shape[0] != M.shape[1] or M.shape[0] == 0:
@@ -155,6 +159,9 @@ class NonlinearROM:
         if shapes is not None and shapes.n != n:
             raise InputError(f"shapes: {shapes.n} basis functions on the grids, the ROM has {n}")
         self.shapes = shapes
+        if reference is not None and reference.q.shape != (n,):
+            raise InputError(f"reference: {reference.q.size} coordinates, the ROM has {n}")
+        self.reference = reference
         self._kernels: dict[tuple, CompactForces] = {}
 
     # ------------------------------------------------------------------------------------------
@@ -180,7 +187,8 @@ class NonlinearROM:
         """A copy with some tensors or metadata replaced."""
         args = {name: getattr(self, name) for name in self.TENSORS}
         meta = {"mode_kinds": self.mode_kinds, "frequencies_hz": self.frequencies_hz,
-                "outputs": self.outputs, "metadata": self.metadata, "shapes": self.shapes}
+                "outputs": self.outputs, "metadata": self.metadata, "shapes": self.shapes,
+                "reference": self.reference}
         for key, val in changes.items():
             if key in args:
                 args[key] = val
@@ -245,6 +253,10 @@ class NonlinearROM:
         for key in sorted(self.outputs):
             h.update(key.encode())
             h.update(self.outputs[key].tobytes())
+        if self.reference is not None:  # (absent: the hash of every earlier ROM is unchanged)
+            h.update(b"reference")
+            h.update(self.reference.q.tobytes())
+            h.update(self.reference.force.tobytes())
         return h.hexdigest()[:16]
 
     # ------------------------------------------------------------------------------------------

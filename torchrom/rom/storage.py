@@ -4,9 +4,10 @@ Arrays: M, K1, K2, K3, D1, D2, D3 (damping at γ = 1), ``mode_kinds`` (strings),
 ``frequencies_hz``, ``output_names`` + ``output_matrix`` (rows of the basis giving physical
 outputs), ``metadata_json`` and ``format_version``; and, for a ROM identified from a deck, its
 basis on the deck's grids (``shape_*``: :class:`~torchrom.rom.shapes.MeshShapes`; files written
-before have none and still load). Written atomically with numpy; loading checks
-the version, the keys, the shapes, symmetries and finiteness (through the constructor) and names
-the file and what is wrong.
+before have none and still load); for a ROM about a deformed state, ``reference_q``,
+``reference_force`` and ``reference_condition_json`` (:mod:`.reference`). Written
+atomically with numpy; loading checks the version, the keys, the shapes, symmetries and
+finiteness (through the constructor) and names the file and what is wrong.
 """
 
 from __future__ import annotations
@@ -19,6 +20,7 @@ import numpy as np
 
 from ..errors import InputError
 from ..io import atomic_path
+from . import reference
 from .shapes import MeshShapes
 
 FORMAT = "torchrom-rom"
@@ -41,6 +43,7 @@ def save_rom(rom, path) -> Path:
     )
     if rom.shapes is not None:
         arrays.update(rom.shapes.to_arrays())
+    arrays.update(reference.to_arrays(getattr(rom, "reference", None)))
     with atomic_path(path) as tmp:
         np.savez(tmp, **arrays)
     return path
@@ -87,6 +90,7 @@ def load_rom(path, cls):
             outputs=dict(zip(names, C)),
             metadata=metadata,
             shapes=shapes,
+            reference=reference.from_arrays(data, str(path)),
         )
     except InputError as exc:
         raise InputError(f"{path}: {exc}") from None

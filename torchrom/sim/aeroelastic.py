@@ -37,6 +37,7 @@ import torch
 from ..aero.atmosphere import flight_condition
 from ..errors import InputError
 from ..rom import NonlinearROM
+from ..rom.reference import reference_load
 from .system import CaseSystem
 
 #: relative tolerance of the ROM/aero frequency and mode-value consistency checks
@@ -114,6 +115,15 @@ def aero_additions(aero, velocity, dynamic_pressure, n: int) -> dict[str, np.nda
     out["lag_D"][:, :m, :] = q[:, None, None] * rfa.D
     out["lag_E"][:, :, :m] = rfa.E
     out["lag_R"] = (V / b)[:, None, None] * np.asarray(rfa.R, dtype=float)
+    return out
+
+
+def rfa_steady_stiffness(aero, n: int) -> np.ndarray:
+    """The RFA's A0 (n, n) zero-padded: the steady stiffness per unit dynamic pressure that the
+    cases' K_add carries (at rest the lag states vanish)."""
+    out = np.zeros((n, n))
+    m = aero.rfa.n_modes
+    out[:m, :m] = aero.rfa.A0
     return out
 
 
@@ -199,6 +209,12 @@ def aeroelastic_system_at(rom: NonlinearROM, aero, velocity, density, *, altitud
            else np.broadcast_to(np.asarray(altitude, dtype=float), V.shape).copy())
     if np.any(np.asarray(aoa_deg, dtype=float) != 0.0):
         add["load"] = incidence_load(aero, q, aoa_deg, rom.n)
+    # a ROM about a deformed state: its coordinates are x = q − q_ref, and the steady load of
+    # q_ref with the structural force there is a constant load (torchrom.rom.reference); the
+    # steady stiffness is the system's own, q∞ A0 (K_add), so that its statics are consistent
+    ref = reference_load(rom, rfa_steady_stiffness(aero, rom.n), q)
+    if ref is not None:
+        add["load"] = ref if add.get("load") is None else add["load"] + ref
     system = CaseSystem.build(rom, len(V), alpha=alpha, gamma=gamma, stiffness_nl=stiffness_nl,
                               damping_nl=damping_nl, device=device, dtype=dtype, **add)
     return AeroelasticCases(system, alt, np.full(len(V), aero.mach), V.copy(), rho.copy(), q)

@@ -21,72 +21,34 @@ no library condenses an FE tangent onto a ROM basis.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import numpy as np
 
-from ..errors import ConvergenceError
+from ..identify.condensation import CondensedState, ExactCondensation, ModalLoadLaw
 from .reduced import SteadyModalAero
 
-
-@dataclass
-class CondensedState:
-    """One condensed equilibrium: ``q`` the ROM coordinates, ``p`` the solved structure's modal
-    load, ``u`` its displacements, ``S`` = (KΦ)ᵀ K_T⁻¹ (KΦ), ``iterations`` (FE solves)."""
-
-    q: np.ndarray
-    p: np.ndarray
-    u: np.ndarray
-    S: np.ndarray
-    iterations: int
+__all__ = ["CondensedModel", "CondensedState", "deck_condensation", "steady_load_law"]
 
 
-class CondensedModel:
-    """The exact condensation of ``backend`` (an :class:`~torchrom.identify.FEBackend` that
-    solves statics) on ``Phi`` (its DOFs × n), with the ROM's linear stiffness ``K1`` (n, n)."""
-
-    def __init__(self, backend, Phi: np.ndarray, K1: np.ndarray):
-        from ..identify.backend import project
-
-        self.backend, self.Phi = backend, np.asarray(Phi)
-        K = backend.stiffness_matrix()
-        self.KPhi = np.asarray(K @ self.Phi)
-        self.A = project(K, self.Phi)
-        self.D = np.asarray(K1, dtype=float) - self.A
-
-    def solve(self, p: np.ndarray, u0: np.ndarray | None) -> tuple[np.ndarray, np.ndarray,
-                                                                   np.ndarray]:
-        """(u, q, S) of the load K Φ p."""
-        from ..identify.condensation import tangent_gram
-
-        u = self.backend.static_solve(self.KPhi @ p, u0=u0).u
-        q = np.linalg.solve(self.A, self.KPhi.T @ u)
-        return u, q, tangent_gram(self.backend, u, self.KPhi)
+class CondensedModel(ExactCondensation):
+    """The exact condensation (:class:`~torchrom.identify.condensation.ExactCondensation`) of
+    ``backend`` on ``Phi`` with the ROM's linear stiffness ``K1``, in its steady aerodynamic
+    equilibrium."""
 
     def equilibrium(self, aero: SteadyModalAero, dynamic_pressure: float, aoa_rad: float,
                     p0: np.ndarray, u0: np.ndarray | None = None, rtol: float = 1e-9,
                     max_iter: int = 12) -> CondensedState:
         """Newton on p from ``p0`` (e.g. the ROM's own equilibrium's p = q + A⁻¹ N(q)) until
         ‖R‖ ≤ ``rtol`` of the incidence load (ConvergenceError otherwise)."""
-        n = len(self.A)
-        Q0, inc = aero.Q0[:n, :n], aero.incidence[:n]
-        load = dynamic_pressure * aoa_rad * inc
-        scale = max(np.linalg.norm(load), np.finfo(float).tiny)
-        p, u = np.asarray(p0, dtype=float).copy(), u0
-        for it in range(1, max_iter + 1):
-            u, q, S = self.solve(p, u)
-            R = (self.D + dynamic_pressure * Q0) @ q + self.A @ p + load
-            if np.linalg.norm(R) <= rtol * scale:
-                return CondensedState(q, p, u, S, it)
-            J = (self.D + dynamic_pressure * Q0) @ np.linalg.solve(self.A, S) + self.A
-            p = p - np.linalg.solve(J, R)
-        raise ConvergenceError(f"condensed equilibrium: not converged in {max_iter} FE solves "
-                               f"(residual {np.linalg.norm(R) / scale:.1e} of the load)")
+        return self.equilibrium_under(steady_load_law(aero, dynamic_pressure, aoa_rad,
+                                                      len(self.A)), p0, u0, rtol, max_iter)
 
-    def tangent(self, state: CondensedState) -> np.ndarray:
-        """K_c = D + A S⁻¹ A at ``state`` (module docstring)."""
-        Kc = self.D + self.A @ np.linalg.solve(state.S, self.A)
-        return 0.5 * (Kc + Kc.T)
+
+def steady_load_law(aero: SteadyModalAero, dynamic_pressure: float, aoa_rad: float, n: int,
+                    condition: dict | None = None) -> ModalLoadLaw:
+    """The steady aerodynamic load −q∞ (Q_α α + Q(0) q) on the first n coordinates as a
+    :class:`~torchrom.identify.condensation.ModalLoadLaw`."""
+    return ModalLoadLaw(-dynamic_pressure * aoa_rad * aero.incidence[:n],
+                        dynamic_pressure * aero.Q0[:n, :n], dict(condition or {}))
 
 
 def deck_condensation(fe, Phi: np.ndarray, K1: np.ndarray, linear_skin=()) -> CondensedModel:

@@ -38,6 +38,7 @@ from ..aero.flutter import (
 )
 from ..aero.rfa import RFA
 from ..errors import InputError
+from ..rom.reference import reference_load, reference_of
 from .flutter import Boundary, StabilityPoint, boundaries
 
 
@@ -52,14 +53,7 @@ class SteadyModalAero:
 
     @classmethod
     def from_aero(cls, aero, n: int, where: str = "aero file") -> SteadyModalAero:
-        inc = aero.padded_incidence(n, where)
-        zero = np.flatnonzero(aero.gaf.k == 0.0)
-        if not len(zero):
-            raise InputError(f"{where}: no GAF at k = 0 (the steady aerodynamic stiffness)")
-        m = aero.n_modes
-        Q0 = np.zeros((n, n))
-        Q0[:m, :m] = aero.gaf.Q[zero[0]].real
-        return cls(Q0, inc)
+        return cls(aero.padded_steady_stiffness(n, where), aero.padded_incidence(n, where))
 
 
 @dataclass
@@ -83,10 +77,18 @@ MAX_HALVINGS = 8
 
 
 def _newton(rom, aero: SteadyModalAero, q: torch.Tensor, dyn: float, aoa: torch.Tensor):
-    """Newton on every angle from ``q`` (A, n) at dynamic pressure ``dyn``: (q, converged (A,))."""
+    """Newton on every angle from ``q`` (A, n) at dynamic pressure ``dyn``: (q, converged (A,)).
+    A ROM about a deformed state (:mod:`torchrom.rom.reference`) solves for x = q − q_ref:
+    its reference adds −q∞ Q(0) q_ref − f_ref to the load."""
     Q0 = torch.as_tensor(aero.Q0)
-    load = -dyn * aoa[:, None] * torch.as_tensor(aero.incidence)[None]
-    scale = load.norm(dim=1).clamp_min(1e-300)
+    inc = -dyn * aoa[:, None] * torch.as_tensor(aero.incidence)[None]
+    ref = reference_load(rom, aero.Q0, dyn)
+    load = inc if ref is None else inc + torch.as_tensor(ref)
+    # the reference's load cancels near its own condition: the scale is that of its parts
+    scale = inc.norm(dim=1)
+    if ref is not None:
+        scale = torch.maximum(scale, torch.as_tensor(float(np.linalg.norm(rom.reference.force))))
+    scale = scale.clamp_min(1e-300)
     zero = torch.zeros_like(q)
     done = torch.zeros(len(q), dtype=torch.bool)
     for _ in range(NEWTON_MAX_ITER):
@@ -102,6 +104,27 @@ def _newton(rom, aero: SteadyModalAero, q: torch.Tensor, dyn: float, aoa: torch.
     return q, done
 
 
+def _continued(rom, aero, q, alive, density, start, end):
+    """From the equilibria ``q`` (A, n) at ``start`` = (speed, aoa (A,) rad) to ``end`` (at
+    ``density``), both
+    moved linearly along the way, the step halved where any live angle fails: (q at ``end``,
+    the angles that got there). An angle that fails :data:`MAX_HALVINGS` times stops."""
+    (v0, a0), (v1, a1) = start, end
+    s, step, halvings = 0.0, 1.0, 0
+    while s < 1.0 and bool(alive.any()):
+        nxt = min(s + step, 1.0)
+        v, a = v0 + nxt * (v1 - v0), a0 + nxt * (a1 - a0)
+        q_new, conv = _newton(rom, aero, q, 0.5 * density * v**2, a)
+        if bool(conv[alive].all()):
+            q, s = torch.where(alive[:, None], q_new, q), nxt
+        elif halvings < MAX_HALVINGS:
+            step, halvings = 0.5 * step, halvings + 1
+        else:
+            alive = alive & conv
+            halvings = 0
+    return q, alive
+
+
 def rom_equilibria(rom, aero: SteadyModalAero, aoa_deg, velocities, density: float
                    ) -> RomEquilibria:
     """The ROM's equilibria at each of ``aoa_deg`` (deg) and ascending ``velocities`` at
@@ -112,6 +135,8 @@ def rom_equilibria(rom, aero: SteadyModalAero, aoa_deg, velocities, density: flo
     V = np.asarray(velocities, dtype=float).reshape(-1)
     if np.any(np.diff(V) <= 0) or np.any(V <= 0):
         raise InputError("velocities: expected positive, ascending speeds")
+    if reference_of(rom) is not None:
+        return _equilibria_from_reference(rom, aero, A, V, float(density))
     aoa = torch.as_tensor(np.radians(A))
     q = torch.zeros(len(A), rom.n, dtype=torch.float64)
     alive = torch.ones(len(A), dtype=torch.bool)
@@ -137,6 +162,40 @@ def rom_equilibria(rom, aero: SteadyModalAero, aoa_deg, velocities, density: flo
         cur = target
         out[alive.numpy(), i] = q[alive].numpy()
         ok[:, i] = alive.numpy()
+    return RomEquilibria(A, V, float(density), out, ok, notes)
+
+
+def _equilibria_from_reference(rom, aero, A, V, density) -> RomEquilibria:
+    """:func:`rom_equilibria` of a ROM about a deformed state: x = 0 is the equilibrium of its
+    reference condition (``rom.reference.condition``: aoa_deg, velocity, density), so every
+    angle is continued from there, first to its own angle at the reference speed and density,
+    then up in speed through the speeds above it and down through those below."""
+    cond = rom.reference.condition
+    try:
+        v_ref, a_ref = float(cond["velocity"]), math.radians(float(cond["aoa_deg"]))
+        rho_ref = float(cond["density"])
+    except (KeyError, TypeError, ValueError):
+        raise InputError("the ROM's reference state names no condition (aoa_deg, velocity, "
+                         "density) to continue its equilibria from") from None
+    n, nA = rom.n, len(A)
+    aoa = torch.as_tensor(np.radians(A))
+    out = np.full((nA, len(V), n), np.nan)
+    ok = np.zeros((nA, len(V)), dtype=bool)
+    alive = torch.ones(nA, dtype=torch.bool)
+    q = torch.zeros(nA, n, dtype=torch.float64)
+    # the reference condition at this density: its speed with the same dynamic pressure
+    v_same = v_ref * math.sqrt(rho_ref / density)
+    q, alive = _continued(rom, aero, q, alive, density, (v_same, torch.full_like(aoa, a_ref)),
+                          (v_same, aoa))
+    notes = [f"aoa {A[j]:g} deg: not reached from the ROM's reference state"
+             for j in torch.nonzero(~alive).flatten().tolist()]
+    for order in (np.flatnonzero(V >= v_same), np.flatnonzero(V < v_same)[::-1]):
+        qq, live, cur = q.clone(), alive.clone(), v_same
+        for i in order:
+            qq, live = _continued(rom, aero, qq, live, density, (cur, aoa), (float(V[i]), aoa))
+            cur = float(V[i])
+            out[live.numpy(), i] = qq[live].numpy()
+            ok[:, i] = live.numpy()
     return RomEquilibria(A, V, float(density), out, ok, notes)
 
 
