@@ -34,12 +34,13 @@ ADMISSIBLE_FLOOR = -1e-9
 #: relative error to which a *strictly* admissible member's G, H reproduce the identified K2, K3
 #: (identification accuracy; rounding gives ~1e-15)
 STRICT_REPRODUCTION = 1e-6
-#: SCS iterations and tolerance of :func:`sdp_member`. The optimum t* is of order 1e-3 on the
-#: Goland bases (every admissible decomposition is within it), SCS's first-order iteration
-#: reaches it to ~1e-4 in 2,000 iterations (~25 s for 9L14D) and 8,000 (~90 s) change the
-#: member's smallest eigenvalue only at the rounding level after the final projection
-SDP_ITERATIONS = 2000
-SDP_EPS = 1e-5
+#: SCS iteration limit and tolerance of :func:`sdp_member`. The optimum t* is ~1.5e-5 on the
+#: quick Goland 9L12D ROM (before issue 48 SCS stopped at 2,000 iterations, "inaccurate", with
+#: t* = 3.6e-3). Over the null-space coordinates (:func:`_sdp_entries`) SCS reports "solved" at
+#: 1e-6 in ~2,900 iterations (~28 s on one thread) with t* within ~4e-6 of the member's
+#: own λ_min; at 1e-5 t* is only within ~1e-4 (benchmarks/bench_damping_decomposition.py)
+SDP_ITERATIONS = 10000
+SDP_EPS = 1e-6
 
 
 @dataclass
@@ -172,7 +173,16 @@ def damping_family(rom: NonlinearROM, first: NonlinearROM, second: NonlinearROM,
 def _sdp_entries(p: dmp.DecompositionProblem, iterations: int, eps: float
                  ) -> tuple[torch.Tensor, dict]:
     """Class entries maximising the smallest eigenvalue of the scaled extended matrix over the
-    affine set of the identified coefficients (SCS), and the solver's report."""
+    affine set of the identified coefficients (SCS), and the solver's report.
+
+    The affine set is parametrised by its null-space coordinates x (m = m_p + Σ x_a d_a, m_p
+    the minimum-norm point, d_a the decomposition's null directions: orthonormal in the
+    Frobenius metric), so every iterate reproduces the identified coefficients exactly and the
+    map x -> svec(X) is an isometry: max t s.t. X(x) − t I ⪰ 0, one PSD cone, no zero cone.
+    (As a zero cone of the coefficients in scaled units, whose rows span 1e-2..1e6, SCS stalled
+    at its iteration limit; benchmarks/bench_damping_decomposition.py.) A warm start from the
+    study's decomposition saved 3–18 % of the iterations there: not worth its code.
+    """
     import scipy.sparse as sp
 
     try:
@@ -180,40 +190,47 @@ def _sdp_entries(p: dmp.DecompositionProblem, iterations: int, eps: float
     except ImportError as exc:  # a dependency of torchrom; only a broken install lacks it
         raise ImportError("damping decomposition SDP: the package 'scs' is missing; "
                           "pip install -c constraints.txt -e .") from exc
-    st, alpha_hat, b, K1hat = p.st, p.alpha_hat, p.b, p.K1hat
+    st, K1hat = p.st, torch.as_tensor(p.K1hat)
     n = st.n
     N = n + n * (n + 1) // 2
-    ncls = len(st.rows)
-    nx = ncls + 1  # the class entries m, then t
+    project = dmp._affine_projector(st, p.alpha_hat, p.b)
+    m_p = project(torch.zeros(len(st.rows), dtype=torch.float64))
+    null = dmp.whole_null(dmp._null_spaces(st, p.alpha_hat), n)
+    P = len(null.subset)
 
     def vidx(i, j):  # SCS's PSD cone: the lower triangle, column by column
         return j * N - j * (j - 1) // 2 + (i - j)
 
-    # zero cone: Σ_c∈group α̂_c m_c = b_group (the identified coefficients, Eqs. 16, 25–27)
-    Az = sp.csr_matrix((alpha_hat, (st.group, np.arange(ncls))), shape=(st.n_groups, nx))
-    # PSD cone: vec(K̂1 ⊕ 0 + Σ m_c (E_rc + E_cr) − t I) = b_p − A_p x (off-diagonal entries
-    # scaled by √2, SCS's convention for the vectorised symmetric matrix)
+    # PSD cone: svec(X(m_p) + Σ x_a D_a − t I) = b_p − A_p [x; t] (off-diagonal entries scaled
+    # by √2, SCS's convention for the vectorised symmetric matrix)
     lo, hi = np.maximum(st.rows, st.cols), np.minimum(st.rows, st.cols)
     scale = np.where(lo == hi, 1.0, np.sqrt(2.0))
-    diag = np.array([vidx(i, i) for i in range(N)])
-    Ap = sp.csr_matrix((np.concatenate([-scale, np.ones(N)]),
-                        (np.concatenate([vidx(lo, hi), diag]),
-                         np.concatenate([np.arange(ncls), np.full(N, ncls)]))),
-                       shape=(N * (N + 1) // 2, nx))
+    diag = vidx(np.arange(N), np.arange(N))
+    Ap = sp.csc_matrix((np.concatenate([-scale[null.cls] * null.val, np.ones(N)]),
+                        (np.concatenate([vidx(lo, hi)[null.cls], diag]),
+                         np.concatenate([null.par, np.full(N, P)]))),
+                       shape=(N * (N + 1) // 2, P + 1))
+    X0 = dmp._assemble(st, K1hat, m_p).numpy()
+    il, jl = np.tril_indices(N)
     bp = np.zeros(N * (N + 1) // 2)
-    for i in range(n):
-        for j in range(i + 1):
-            bp[vidx(i, j)] = K1hat[i, j] * (1.0 if i == j else np.sqrt(2.0))
-    c = np.zeros(nx)
+    bp[vidx(il, jl)] = X0[il, jl] * np.where(il == jl, 1.0, np.sqrt(2.0))
+    c = np.zeros(P + 1)
     c[-1] = -1.0  # maximise t
-    data = {"A": sp.vstack([Az, Ap]).tocsc(), "b": np.concatenate([b, bp]), "c": c}
+    solver = scs.SCS({"A": Ap, "b": bp, "c": c}, {"s": [N]}, eps_abs=eps, eps_rel=eps,
+                     max_iters=iterations, verbose=False)
     t0 = time.perf_counter()
-    sol = scs.SCS(data, {"z": st.n_groups, "s": [N]}, eps_abs=eps, eps_rel=eps,
-                  max_iters=iterations, verbose=False).solve()
-    m = torch.as_tensor(sol["x"][:ncls])
-    return m, {"solver": "SCS", "status": sol["info"]["status"],
-               "iterations": int(sol["info"]["iter"]), "seconds": time.perf_counter() - t0,
-               "optimum_t": float(sol["x"][-1])}
+    sol = solver.solve()
+    x = np.asarray(sol["x"])
+    m = m_p + torch.as_tensor(np.bincount(null.cls, null.val * x[null.par],
+                                          minlength=len(st.rows)))
+    info = sol["info"]
+    return m, {"solver": "SCS", "status": info["status"], "iterations": int(info["iter"]),
+               "seconds": time.perf_counter() - t0, "optimum_t": float(x[-1]), "eps": eps,
+               "parameters": P,
+               "primal_residual": float(info["res_pri"]),
+               "dual_residual": float(info["res_dual"]), "gap": float(info["gap"]),
+               # λ_min of the solver's own matrix: an admissible point, so at most t* (checked)
+               "min_eigenvalue_scaled_solver": _min_eigenvalue(p, m)}
 
 
 def sdp_member(rom: NonlinearROM, first: NonlinearROM, iterations: int = SDP_ITERATIONS,
@@ -224,7 +241,7 @@ def sdp_member(rom: NonlinearROM, first: NonlinearROM, iterations: int = SDP_ITE
     with dmp._one_thread():
         p = dmp.decomposition_problem(rom.K1.numpy(), rom.K2.numpy(), rom.K3.numpy())
         m, report = _sdp_entries(p, iterations, eps)
-        # the solver's iterate meets the coefficients only to its tolerance: re-imposed exactly
+        # the solver's iterate is on the affine set by construction: re-imposed to rounding
         m = dmp._affine_projector(p.st, p.alpha_hat, p.b)(m)
         report["min_eigenvalue_scaled_projected"] = _min_eigenvalue(p, m)
         if report["min_eigenvalue_scaled_projected"] < floor:

@@ -422,7 +422,7 @@ def _sdp_member(cache: FileCache, model, log) -> DampingMember:
     """The decomposition criterion's SDP optimum for the study's ROM (the band's member
     ``sdp``), cached per ROM (the SCS solve is the costly part)."""
     key = FileCache.key({"rom": model.rom.content_hash(), "iterations": SDP_ITERATIONS,
-                         "eps": SDP_EPS})
+                         "eps": SDP_EPS, "formulation": "null-space"})
     name = "tables/damping_sdp.npz"
     path = cache.get(name, key)
     fields = ("D1", "D2", "D3")
@@ -430,8 +430,8 @@ def _sdp_member(cache: FileCache, model, log) -> DampingMember:
         with np.load(path) as z:
             info = json.loads(str(z["member"]))
             return DampingMember(**info, **{k: z[k] for k in fields})
-    log(f"damping decompositions: the criterion's optimum (semidefinite program, SCS, "
-        f"{SDP_ITERATIONS} iterations)")
+    log(f"damping decompositions: the criterion's optimum (semidefinite program, SCS to "
+        f"{SDP_EPS:g}, at most {SDP_ITERATIONS:,} iterations)")
     member = sdp_member(model.rom, model.rom)
     info = {k: v for k, v in dataclasses.asdict(member).items() if k not in fields}
     log(f"  SDP optimum t* = {member.report['optimum_t']:.3g} ({member.report['status']}, "
