@@ -72,7 +72,8 @@ def run(args, progress=print) -> dict:
     out = {"rom": str(args.rom), "aoa_deg": list(args.aoa), "speeds": speeds.tolist(),
            "rom_seconds": time.perf_counter() - t0, "cases": []}
     pk = root_finder("p-k", rom, aero)
-    from torchrom.trim.condensed import deck_condensation
+    from torchrom.identify.condensation import reference_equilibrium
+    from torchrom.trim.condensed import deck_condensation, steady_load_law
 
     model = (deck_condensation(fe, Phi, rom.K1.numpy(), args.linear_skin) if args.fe_aoa
              else None)
@@ -89,7 +90,7 @@ def run(args, progress=print) -> dict:
                        for b in r.boundaries[a]]
         if model is not None and float(aoa) in args.fe_aoa:
             t = time.perf_counter()
-            pts, fe_tip, rom_nat, fe_nat, u = [], [], [], [], None
+            pts, fe_tip, rom_nat, fe_nat, u, p_fe = [], [], [], [], None, None
             for i, v in enumerate(speeds):
                 if not ok[i]:
                     break
@@ -98,9 +99,16 @@ def run(args, progress=print) -> dict:
                 x = eq.q[a, i]
                 q_rom = x + q_ref
                 f = structural_force(rom, x)
-                p0 = np.linalg.solve(model.A, f - model.D @ q_rom)
-                st = model.equilibrium(steady, 0.5 * DENSITY * v**2, math.radians(aoa), p0, u)
-                u = st.u
+                # the FE continues from its own last state; the ROM's guess starts it
+                p0 = np.linalg.solve(model.A, f - model.D @ q_rom) if p_fe is None else p_fe
+                dyn = 0.5 * DENSITY * v**2
+                if u is None:  # the first: its load continued from rest (one step from rest
+                    # under the whole load can land the skeleton on another branch)
+                    st = reference_equilibrium(model, steady_load_law(
+                        steady, dyn, math.radians(aoa), rom.n))
+                else:
+                    st = model.equilibrium(steady, dyn, math.radians(aoa), p0, u)
+                u, p_fe = st.u, st.p
                 Kc = model.tangent(st)
                 structure = tangent_structure(rom, st.q - q_ref)
                 structure.K = Kc
