@@ -16,7 +16,7 @@ unit per second over PARAM VREF, frequencies in Hz), labelled from DTI,UNITS or 
 The DLM kernel is Nastran's parabolic approximation (:data:`NASTRAN_KERNEL`, Rodden, Giesing &
 Kalman 1971/72); ``kernel="quartic"`` the later refinement. Differences from Nastran: GAFs are
 computed at each FLFACT Mach number instead of interpolated; modal damping (SDAMP, TABDMP1)
-is the PK equation's viscous term (:mod:`torchrom.aero.modal_damping`; refused with K/KE and
+is the PK equation's viscous term (:mod:`torchrom.fe.modal_damping`; refused with K/KE and
 KDAMP = −1); residual vectors are the inertia-relief kind (:mod:`torchrom.fe.resvec`);
 branches are tracked by mode shape. Rigid-body modes of a free-free deck stay in the basis at
 0 Hz, with quasi-steady aerodynamics below the lowest positive k and a real root's damping
@@ -34,6 +34,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import InputError
+from ..fe.modal_damping import ModalDamping, modal_damping, subcase_sdamp
 from ..fe.rigid import modal_basis_with_rigid
 from .crossings import RIGID_FRACTION, pk_crossings, rigid_body_modes, split_rigid
 from .dlm import BoxMotion, compute_gaf, exact_k_indices
@@ -49,7 +50,6 @@ from .flutter import (
     ke_sweep,
     pk_sweep,
 )
-from .modal_damping import ModalDamping, modal_damping, subcase_sdamp
 from .panels import (
     AeroFrame,
     AeroPanels,

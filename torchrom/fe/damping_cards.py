@@ -15,7 +15,7 @@ mass-normalised modes φ_i of circular frequency ω_i = 2π f_i:
   model rebuilt with each damped material's moduli scaled, exact because K is linear in them.
   GE without W4 is refused as G without W3.
 - TABDMP1 selected by SDAMPING: ζ_i from the table at f_i (TYPE G: g/2, CRIT: ζ, Q: 1/(2Q);
-  :class:`torchrom.aero.modal_damping.ModalDamping`), Nastran's modal damping.
+  :class:`torchrom.fe.modal_damping.ModalDamping`), Nastran's modal damping.
 
 The sources add, as in Nastran's transient. A ROM's α, γ are then fitted to the ratios
 (:mod:`torchrom.rom.rayleigh`): γ alone where only G and GE are given (they are stiffness-
@@ -30,9 +30,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..aero.modal_damping import ModalDamping, read_tabdmp1, sdamp_of
 from ..errors import InputError
 from ..rom.rayleigh import RayleighDamping, fit_modal_ratios, goland_damping, no_damping
+from .modal_damping import ModalDamping, read_tabdmp1, sdamp_of
 
 #: the moduli each damped material's GE scales (pyNastran attribute names)
 MODULI = {"MAT1": ("e", "g"), "MAT8": ("e11", "e22", "g12", "g1z", "g2z")}

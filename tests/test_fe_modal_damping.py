@@ -14,9 +14,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from torchrom.aero.modal_damping import ModalDamping
 from torchrom.aero.nastran_flutter import load_deck, run_deck
 from torchrom.errors import InputError
+from torchrom.fe.modal_damping import ModalDamping
 
 TWO_MODE = Path(__file__).parent / "decks" / "pynastran_2_mode_flutter"
 
