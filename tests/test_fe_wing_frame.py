@@ -294,13 +294,15 @@ def test_rotated_pazy_wing_has_the_same_modes_and_flutter(tmp_path):
 
 def test_rotated_pazy_wing_has_the_same_kinds(tmp_path):
     """The skinned Pazy deck's modes and kinds, rotated arbitrarily (CI form of the slow
-    flutter test above)."""
+    flutter test above). Frequencies within 1e-6: the rotated deck's stiffness differs from
+    the original's by rounding only, which the ill-conditioned skinned wing (its 12 µm foil)
+    and the eigensolver turn into 1e-7 (measured with OpenBLAS's Sandybridge kernel)."""
     src = DECKS / "aepw3_pazy_skin_flutter_tipmass1" / "sol145.dat"
     fe0 = read_bdf(src)
     m0 = fe0.modes(5)
     (path,) = _rotated_variants(src, tmp_path, ["CORD2R"]).values()
     m = read_bdf(path).modes(5)
-    assert np.allclose(m.frequencies_hz, m0.frequencies_hz, rtol=1e-7)
+    assert np.allclose(m.frequencies_hz, m0.frequencies_hz, rtol=1e-6)
     assert m.kinds == m0.kinds
 
 

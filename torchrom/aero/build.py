@@ -180,8 +180,11 @@ def check_structure_spans_planform(xyz, panels: AeroPanels) -> None:
     span = float(half.max() - min(half.min(), 0.0)) if half.size else 0.0
     covered = float(y.max() - y.min())
     if span > 0 and covered < MIN_SPAN_COVERAGE * span:
-        raise InputError(f"aero spline: the structure's grids span {y.min():.4g} .. "
-                         f"{y.max():.4g} along the wing's span but the planform's boxes span "
+        # the rotation into the planform's axes leaves rounding (-1.5e-17) where a grid is on 0
+        lo, hi = (0.0 if abs(v) <= 1e-12 * max(abs(y).max(), 1e-300) else float(v)
+                  for v in (y.min(), y.max()))
+        raise InputError(f"aero spline: the structure's grids span {lo:.4g} .. "
+                         f"{hi:.4g} along the wing's span but the planform's boxes span "
                          f"{span:.4g} (the built-in "
                          f"planform is the Goland wing, {GOLAND_CHORD_FT:g} x "
                          f"{GOLAND_SEMISPAN_FT:g} ft); expected the structure to cover at least "
