@@ -57,7 +57,7 @@ def output_file(value: str) -> Path:
 
 
 def add_motion_options(parser: argparse.ArgumentParser) -> None:
-    """The options that choose a motion (shared with ``torchrom plot``'s shape form)."""
+    """The options that choose a motion: the modes, the flutter mode or a sweep row."""
     parser.add_argument("--mode", type=positive_int, nargs="+", default=None, metavar="K",
                         help="modes (1-based) of a deck or a ROM's basis (default: all)")
     parser.add_argument("--n", type=positive_int, default=None,

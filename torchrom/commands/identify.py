@@ -230,7 +230,8 @@ def _about(args):
 
     from ..aero.files import load_aero
     from ..checks import expect_file_kind
-    from ..identify.condensation import ModalLoadLaw
+    from ..trim.condensed import steady_load_law
+    from ..trim.reduced import SteadyModalAero
 
     expect_file_kind(args.about_aero, "aero", "--about-aero")
     aero = load_aero(args.about_aero)
@@ -238,12 +239,11 @@ def _about(args):
     if aero.n_modes > args.linear:
         raise InputError(f"{where}: {aero.n_modes} modes, more than the ROM's --linear "
                          f"{args.linear}; build it with --modes {args.linear} or fewer")
-    n = args.linear
-    dyn = 0.5 * args.about_density * args.about_velocity**2
-    return ModalLoadLaw(-dyn * math.radians(args.about_aoa) * aero.padded_incidence(n, where),
-                        dyn * aero.padded_steady_stiffness(n, where),
-                        {"aoa_deg": args.about_aoa, "velocity": args.about_velocity,
-                         "density": args.about_density, "aero": str(args.about_aero)})
+    steady = SteadyModalAero.from_aero(aero, args.linear, where)
+    return steady_load_law(steady, 0.5 * args.about_density * args.about_velocity**2,
+                           math.radians(args.about_aoa), args.linear,
+                           {"aoa_deg": args.about_aoa, "velocity": args.about_velocity,
+                            "density": args.about_density, "aero": str(args.about_aero)})
 
 
 def run(args) -> int:

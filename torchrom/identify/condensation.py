@@ -226,6 +226,36 @@ class CondensationData:
         return self.p
 
 
+def solve_plan(plan: CondensationPlan, n: int, k: int, solve, record, u_start=None,
+               progress=None) -> tuple[list, str]:
+    """Each direction's load levels of ``plan`` (on the first ``k`` of ``n`` coordinates)
+    solved in turn, a level continued from the one below, the first from ``u_start``:
+    ``solve(p, u0)`` gives u, ``record(p, u)`` takes each converged one, ``progress(done,
+    total)`` follows. A direction whose solve fails keeps its lower levels. Returns the
+    failed loads and the first failure's words (for the fit's refusal)."""
+    L, total = plan.levels, len(plan.points)
+    failed, first_error, done = [], "", 0
+    for d in range(len(plan.directions)):
+        u = u_start
+        for lev in range(L):
+            p = np.zeros(n)
+            p[:k] = plan.points[d * L + lev]
+            try:
+                u = solve(p, u)
+            except ConvergenceError as err:
+                first_error = first_error or f"; the first failure: {err}"
+                failed.extend(plan.points[d * L + lev:(d + 1) * L])
+                done += L - lev
+                if progress is not None:
+                    progress(done, total)
+                break
+            record(p, u)
+            done += 1
+            if progress is not None:
+                progress(done, total)
+    return failed, first_error
+
+
 def tangent_gram(solver, u: np.ndarray, KPhi: np.ndarray) -> np.ndarray:
     """(KΦ)ᵀ K_T(u)⁻¹ (KΦ) of a backend at ``u``."""
     from ..fe.solvers import factor_symmetric
@@ -273,33 +303,18 @@ def identify_stiffness_condensed(backend, Phi: np.ndarray, amplitudes: np.ndarra
         K1_solved = project(K, Phi)
     WPhi = np.asarray(W @ Phi)
     gram = Phi.T @ WPhi
-    L = plan.levels
-    total = len(plan.points)
-    P, Q, T, failed = [], [], [], []
+    P, Q, T = [], [], []
     KPhi = np.asarray(K @ Phi)
-    first_error = ""
-    done = 0
-    for d in range(len(plan.directions)):
-        u = None
-        for lev in range(L):
-            p = np.zeros(n)
-            p[:k] = plan.points[d * L + lev]
-            try:
-                u = solver.static_solve(np.asarray(K @ (Phi @ p)).ravel(), u0=u).u
-            except ConvergenceError as err:
-                first_error = first_error or f"; the first failure: {err}"
-                failed.extend(plan.points[d * L + lev:(d + 1) * L])
-                done += L - lev
-                if progress is not None:
-                    progress(done, total)
-                break
-            P.append(p)
-            Q.append(np.linalg.solve(gram, WPhi.T @ u))
-            if tangents:
-                T.append(condensed_tangent(tangent_gram(solver, u, KPhi), K1_solved, k))
-            done += 1
-            if progress is not None:
-                progress(done, total)
+
+    def record(p, u):
+        P.append(p)
+        Q.append(np.linalg.solve(gram, WPhi.T @ u))
+        if tangents:
+            T.append(condensed_tangent(tangent_gram(solver, u, KPhi), K1_solved, k))
+
+    failed, first_error = solve_plan(
+        plan, n, k, lambda p, u0: solver.static_solve(np.asarray(K @ (Phi @ p)).ravel(),
+                                                      u0=u0).u, record, progress=progress)
     data = CondensationData(np.array(P).reshape(-1, Phi.shape[1]),
                             np.array(Q).reshape(-1, Phi.shape[1]), failed,
                             np.array(T).reshape(-1, n, k) if tangents else None)
@@ -452,25 +467,15 @@ def identify_stiffness_about(backend, Phi: np.ndarray, law: ModalLoadLaw,
     ref = reference_equilibrium(cond, law)
     Kc, f_ref = cond.tangent(ref), cond.force(ref)
     plan = CondensationPlan(np.asarray(amplitudes, dtype=float)[:k], levels)
-    L, total = plan.levels, len(plan.points)
-    dP, X, failed, first_error, done = [], [], [], "", 0
-    for d in range(len(plan.directions)):
-        u = ref.u
-        for lev in range(L):
-            dp = np.zeros(n)
-            dp[:k] = plan.points[d * L + lev]
-            try:
-                u = solver.static_solve(cond.KPhi @ (ref.p + dp), u0=u).u
-            except ConvergenceError as err:
-                first_error = first_error or f"; the first failure: {err}"
-                failed.extend(plan.points[d * L + lev:(d + 1) * L])
-                done += L - lev
-                break
-            dP.append(dp)
-            X.append(cond.coordinates(u) - ref.q)
-            done += 1
-            if progress is not None:
-                progress(done, total)
+    dP, X = [], []
+
+    def record(dp, u):
+        dP.append(dp)
+        X.append(cond.coordinates(u) - ref.q)
+
+    failed, first_error = solve_plan(
+        plan, n, k, lambda dp, u0: solver.static_solve(cond.KPhi @ (ref.p + dp), u0=u0).u,
+        record, u_start=ref.u, progress=progress)
     dP, X = np.array(dP).reshape(-1, n), np.array(X).reshape(-1, n)
     # K_c (p_eff − x) = A δp + (D − K_c) x: the fit about rest, with K_c as the linear part
     p_eff = np.linalg.solve(Kc, (cond.A @ dP.T + cond.D @ X.T)).T

@@ -106,23 +106,25 @@ def _newton(rom, aero: SteadyModalAero, q: torch.Tensor, dyn: float, aoa: torch.
 
 def _continued(rom, aero, q, alive, density, start, end):
     """From the equilibria ``q`` (A, n) at ``start`` = (speed, aoa (A,) rad) to ``end`` (at
-    ``density``), both
-    moved linearly along the way, the step halved where any live angle fails: (q at ``end``,
-    the angles that got there). An angle that fails :data:`MAX_HALVINGS` times stops."""
+    ``density``), both moved linearly along the way, the step halved where any live angle
+    fails: (q at ``end``, the angles that got there, (angle index, speed reached) of each angle
+    that failed :data:`MAX_HALVINGS` times and stopped)."""
     (v0, a0), (v1, a1) = start, end
-    s, step, halvings = 0.0, 1.0, 0
+    s, step, halvings, lost = 0.0, 1.0, 0, []
     while s < 1.0 and bool(alive.any()):
         nxt = min(s + step, 1.0)
-        v, a = v0 + nxt * (v1 - v0), a0 + nxt * (a1 - a0)
+        v, a = (v1, a1) if nxt == 1.0 else (v0 + nxt * (v1 - v0), a0 + nxt * (a1 - a0))
         q_new, conv = _newton(rom, aero, q, 0.5 * density * v**2, a)
         if bool(conv[alive].all()):
             q, s = torch.where(alive[:, None], q_new, q), nxt
         elif halvings < MAX_HALVINGS:
             step, halvings = 0.5 * step, halvings + 1
-        else:
+        else:  # the angles that fail are lost from here on; the others go on
+            reached = v0 + s * (v1 - v0)
+            lost += [(j, reached) for j in torch.nonzero(alive & ~conv).flatten().tolist()]
             alive = alive & conv
             halvings = 0
-    return q, alive
+    return q, alive, lost
 
 
 def rom_equilibria(rom, aero: SteadyModalAero, aoa_deg, velocities, density: float
@@ -145,20 +147,9 @@ def rom_equilibria(rom, aero: SteadyModalAero, aoa_deg, velocities, density: flo
     notes = []
     cur = 0.0
     for i, target in enumerate(map(float, V)):
-        step, halvings = target - cur, 0
-        while cur < target and bool(alive.any()):
-            nxt = min(cur + step, target)
-            q_new, conv = _newton(rom, aero, q, 0.5 * density * nxt**2, aoa)
-            if bool(conv[alive].all()):
-                q, cur = torch.where(alive[:, None], q_new, q), nxt
-            elif halvings < MAX_HALVINGS:
-                step, halvings = 0.5 * step, halvings + 1
-            else:  # the angles that fail are lost from here on; the others go on
-                for j in torch.nonzero(alive & ~conv).flatten().tolist():
-                    notes.append(f"aoa {A[j]:g} deg: no equilibrium past {cur:g} (the ROM's "
-                                 "branch ends: a fold or the static divergence)")
-                alive &= conv
-                halvings = 0
+        q, alive, lost = _continued(rom, aero, q, alive, density, (cur, aoa), (target, aoa))
+        notes += [f"aoa {A[j]:g} deg: no equilibrium past {v:g} (the ROM's branch ends: a "
+                  "fold or the static divergence)" for j, v in lost]
         cur = target
         out[alive.numpy(), i] = q[alive].numpy()
         ok[:, i] = alive.numpy()
@@ -185,14 +176,15 @@ def _equilibria_from_reference(rom, aero, A, V, density) -> RomEquilibria:
     q = torch.zeros(nA, n, dtype=torch.float64)
     # the reference condition at this density: its speed with the same dynamic pressure
     v_same = v_ref * math.sqrt(rho_ref / density)
-    q, alive = _continued(rom, aero, q, alive, density, (v_same, torch.full_like(aoa, a_ref)),
-                          (v_same, aoa))
+    q, alive, _ = _continued(rom, aero, q, alive, density,
+                             (v_same, torch.full_like(aoa, a_ref)), (v_same, aoa))
     notes = [f"aoa {A[j]:g} deg: not reached from the ROM's reference state"
              for j in torch.nonzero(~alive).flatten().tolist()]
     for order in (np.flatnonzero(V >= v_same), np.flatnonzero(V < v_same)[::-1]):
         qq, live, cur = q.clone(), alive.clone(), v_same
         for i in order:
-            qq, live = _continued(rom, aero, qq, live, density, (cur, aoa), (float(V[i]), aoa))
+            qq, live, _ = _continued(rom, aero, qq, live, density, (cur, aoa),
+                                     (float(V[i]), aoa))
             cur = float(V[i])
             out[live.numpy(), i] = qq[live].numpy()
             ok[:, i] = live.numpy()
