@@ -1,5 +1,5 @@
 """Where ``torchrom identify`` spends its time on a small co-rotational deck, and the
-identification with and without the two changes that made it proportional to its work (not run
+identification with and without the changes that made it proportional to its work (not run
 by the tests).
 
     PYTHONPATH=. python benchmarks/bench_identify_small.py [--deck DECK] [--linear 6] [--dual 6]
@@ -8,8 +8,12 @@ by the tests).
 The deck (default tests/decks/tacs_mdo_wingbox/wingbox.bdf): the public TACS/MACH coarse
 wingbox (76 grids, 432 free DOFs, 91 co-rotational CQUAD4s). Rows: one co-rotational tangent
 alone, the same states' tangents in one pass (``FEModel.tangent_stiffnesses``), one internal
-force (the least of five each). Runs, side by side in this process: the identification as it
-is ("new"), and its peer ("old path"), in which modified Newton reuses its factorisation
+force (the least of five each), each with the shells' closed-form kernel
+(:mod:`torchrom.fe.elements.corot_shell`) and with the automatic differentiation it replaced.
+Runs, side by side in this process: the identification as it is ("new"); with the shells'
+automatic differentiation instead of the closed form ("autodiff kernel": the identification
+before the closed form, its ROM the reference of the closed form's); and its peer
+("old path"), in which modified Newton reuses its factorisation
 wherever the residual falls by half or more, however far from equilibrium (``NEWTON_ABOVE``
 off, as before), and the stiffness plan takes its tangents one point at a time (the protocol's
 ``FEBackend.projected_tangents``, as before). The element kernel is the same in both (its own
@@ -72,8 +76,10 @@ class Counting:
         del self.fe.internal_force, self.fe.tangent_stiffness, self.be.static_solve
 
 
-def identify_run(path: Path, n_linear: int, n_dual: int, old_path: bool) -> tuple[dict, object]:
-    """One identification of the deck (a fresh read: no state shared with the other run)."""
+def identify_run(path: Path, n_linear: int, n_dual: int, old_path: bool,
+                 autodiff: bool = False) -> tuple[dict, object]:
+    """One identification of the deck (a fresh read: no state shared with the other runs);
+    ``autodiff``: the shells' force and tangent by automatic differentiation."""
     import torchrom.fe.solvers as solvers
     from torchrom.fe import read_bdf
     from torchrom.identify import DualModeOptions
@@ -83,6 +89,9 @@ def identify_run(path: Path, n_linear: int, n_dual: int, old_path: bool) -> tupl
     from torchrom.identify.fe_backend import BuiltinFEBackend
 
     fe = read_bdf(path)
+    if autodiff:
+        for kern in fe._state().corot:
+            kern.shell = None
     m = fe.modes(n_linear)
     kinds = (["rigid-body"] * m.n_rigid + list(m.kinds))[:n_linear]
     combinations = parse_combinations("transverse", kinds=kinds)
@@ -101,7 +110,8 @@ def identify_run(path: Path, n_linear: int, n_dual: int, old_path: bool) -> tupl
     finally:
         solvers.NEWTON_ABOVE = saved
     c = be.counters.as_dict()
-    row = {"run": "old path" if old_path else "new", "seconds": seconds,
+    name = "old path" if old_path else "autodiff kernel" if autodiff else "new"
+    row = {"run": name, "seconds": seconds,
            **{f"{k}_s": v for k, v in res.timings.items()},
            "static_solves": c["static_solves"], "dual_solve_tangents": count.tangents,
            "dual_solve_residuals": count.residuals,
@@ -130,19 +140,31 @@ def main(argv=None) -> int:
             {"what": "tangents of 11 states in one pass, a state",
              "seconds": least_of(lambda: fe.tangent_stiffnesses(U)) / len(U)},
             {"what": "internal force", "seconds": least_of(lambda: fe.internal_force(U[0]))}]
+    shells = [k.shell for k in fe._state().corot]
+    for kern in fe._state().corot:
+        kern.shell = None
+    rows += [{"what": "tangent, one state, automatic differentiation",
+              "seconds": least_of(lambda: fe.tangent_stiffness(U[0]))},
+             {"what": "internal force, automatic differentiation",
+              "seconds": least_of(lambda: fe.internal_force(U[0]))}]
+    for kern, shell in zip(fe._state().corot, shells):
+        kern.shell = shell
     for r in rows:
         print(r)
     runs, results = [], []
-    for old in (False, True):
-        row, res = identify_run(args.deck, args.linear, args.dual, old)
+    for old, autodiff in ((False, False), (False, True), (True, False)):
+        row, res = identify_run(args.deck, args.linear, args.dual, old, autodiff)
         runs.append(row)
         results.append(res)
         print(row)
-    new, old = results
+    new, ad, old = results
     for name in ("K1", "K2", "K3", "D1", "D2", "D3"):
-        a, b = (np.asarray(getattr(r.rom, name)) for r in (new, old))
-        runs[0][f"{name}_rel_diff_to_old_path"] = float(np.abs(a - b).max() / np.abs(b).max())
-    runs[0]["speedup_vs_old_path"] = runs[1]["seconds"] / runs[0]["seconds"]
+        a, b, c = (np.asarray(getattr(r.rom, name)) for r in (new, ad, old))
+        runs[0][f"{name}_rel_diff_to_autodiff_kernel"] = float(np.abs(a - b).max()
+                                                               / np.abs(b).max())
+        runs[0][f"{name}_rel_diff_to_old_path"] = float(np.abs(a - c).max() / np.abs(c).max())
+    runs[0]["speedup_vs_autodiff_kernel"] = runs[1]["seconds"] / runs[0]["seconds"]
+    runs[0]["speedup_vs_old_path"] = runs[2]["seconds"] / runs[0]["seconds"]
     print({k: v for k, v in runs[0].items() if "diff" in k or "speedup" in k})
     write_results(args.out, "bench_identify_small", rows, runs, "identify_runs", "identify",
                   deck=str(args.deck.name), free_dofs=int(fe.n_dof), corot_elements=n_el,

@@ -488,6 +488,11 @@ class FEModel:
         energies (large rotations) and linear terms; autograd (reverse or forward mode, e.g.
         ``torch.func.jvp``/``jacfwd``) gives the exact tangent and Taylor coefficients.
         """
+        return self._internal_force_torch(u, differentiable=True)
+
+    def _internal_force_torch(self, u: torch.Tensor, differentiable: bool) -> torch.Tensor:
+        """:meth:`internal_force_torch`; not ``differentiable``: the values alone (the shells'
+        closed-form force, :meth:`CorotKernel.force_values`)."""
         self._refuse_offsets("the internal force f(u)")
         st = self._state(u.dtype, u.device)
         u_all = self._all_torch(u, st)
@@ -495,8 +500,10 @@ class FEModel:
         if st.arms is not None:
             u_all, pull = vjp(st.arms.lift, u_all)
         f_all = torch.zeros_like(u_all)
-        for k in [*st.kernels, *st.corot]:
+        for k in st.kernels:
             f_all = f_all + k.internal_force(u_all)
+        for k in st.corot:
+            f_all = f_all + (k.internal_force(u_all) if differentiable else k.force_values(u_all))
         if pull is not None:
             f_all = pull(f_all)[0]  # Jᵀ f_all: the arms' forces on the independent rotations
         return self._free_torch(f_all, st) + self._const_torch(u, st)
@@ -534,7 +541,7 @@ class FEModel:
         u = self._check_u(u, "internal_force")
         self._warn_linear()
         with torch.no_grad():
-            return self.internal_force_torch(torch.from_numpy(u)).numpy()
+            return self._internal_force_torch(torch.from_numpy(u), differentiable=False).numpy()
 
     def material_force(self, u, v) -> np.ndarray:
         u = self._check_u(u, "material_force")
