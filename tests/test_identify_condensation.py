@@ -417,7 +417,7 @@ def test_rom_about_a_deformed_state_is_the_closed_forms_expansion_there():
         nonlinear = change - T @ x
         assert np.abs(_rom_force(st, x) - change).max() <= 1e-7 * np.abs(nonlinear).max()
     ident = res.rom.metadata["identification"]
-    assert ident["amplitude"] == 0.05                      # the default about a state
+    assert ident["amplitude"] == 0.015                     # the default about a state
     assert ident["about"] == law.condition
 
 
@@ -453,6 +453,51 @@ def test_rom_about_a_state_keeps_its_skin_linear_and_its_file_keeps_the_referenc
     np.testing.assert_array_equal(back.reference.force, ref.force)
     assert back.reference.condition == law.condition
     assert back.content_hash() == res.rom.content_hash()
+
+
+def test_rom_about_a_state_on_a_skeleton_loading_one_mode_is_the_potentials_expansion():
+    """The skinned closed form (A = ΦᵀK_sΦ not diagonal, D ≠ 0), only the first mode loaded
+    (``nonlinear_modes=1``): along that coordinate the solves determine V3[0] and V4[0, 0]
+    (:mod:`torchrom.identify.potential_fit`), so the ROM's force at x = t e_0 is the closed
+    form's (a quartic potential, its expansion exact: measured 4e-7 of the nonlinear part,
+    allowed 1e-6, the FE solves' 1e-10 of their load times the membrane's 1e6 stiffness), and
+    its whole tangent there within 1e-3 of the tangent's change (measured 2.3e-4): the
+    unloaded coordinate's own cubic V3[1, 1, 1], left at zero, enters the solves through its
+    slaved response x_1 = O(t²) and leans on V4[0, 0, 1, 1]. K2 and K3 are fully symmetric:
+    the force is a gradient by construction."""
+    full = CallableBackend(lambda u: _membrane_force(u) + K_SKIN @ u,
+                           lambda u: _membrane_tangent(u) + K_SKIN, np.eye(3), name="skinned")
+    full.skeleton = Skeleton(_backend(), np.arange(3), "without the skin")
+    res = identify(full, IdentifyOptions(n_linear=2, n_dual=0, stiffness="condensed",
+                                         about=_about_law(0.5, 0.25), nonlinear_modes=1,
+                                         levels=2, amplitude=0.2))
+    st, Phi, ref = res.stiffness, res.basis.Phi[:2], res.rom.reference
+
+    def skinned_force(q):
+        w = Phi @ q
+        return Phi.T @ (_condensed_force(w) + K_SKIN[:2, :2] @ w)
+
+    def skinned_tangent(q):
+        w = Phi @ q
+        return Phi.T @ (_condensed_tangent_closed_form(w) + K_SKIN[:2, :2]) @ Phi
+
+    worst_force = worst_tangent = 0.0
+    for t in np.linspace(-0.3, 0.3, 7):
+        x = np.array([t, 0.0])
+        change = skinned_force(ref.q + x) - skinned_force(ref.q)
+        nonlinear = change - st.K1 @ x
+        rom_tangent = (st.K1 + 2 * np.einsum("mjl,l->mj", st.K2, x)
+                       + 3 * np.einsum("mjlp,l,p->mj", st.K3, x, x))
+        tangent = skinned_tangent(ref.q + x)
+        if t != 0:
+            worst_force = max(worst_force, np.abs(_rom_force(st, x) - change).max()
+                              / np.abs(nonlinear).max())
+            worst_tangent = max(worst_tangent, np.abs(rom_tangent - tangent).max()
+                                / np.abs(tangent - st.K1).max())
+    assert worst_force < 1e-6 and worst_tangent < 1e-3
+    np.testing.assert_allclose(st.K2, st.K2.transpose(1, 0, 2), atol=1e-12)
+    np.testing.assert_allclose(st.K3, st.K3.transpose(2, 1, 0, 3), atol=1e-12)
+    assert res.rom.metadata["identification"]["residuals"]["condensation_tangent_fit"] < 1e-3
 
 
 @pytest.mark.parametrize(("opts", "match"), [

@@ -138,7 +138,8 @@ def add_arguments(parser) -> None:
         "about a deformed state (with --stiffness condensed)",
         "the ROM about the static aeroelastic equilibrium of a root angle of attack at one "
         "speed: its coordinates are x = q - q_ref, its linear stiffness the exact condensed "
-        "tangent there, its cubic terms fitted to solves about it (--amplitude default 0.05)")
+        "tangent there, its cubic terms the condensed potential's Taylor terms, fitted to the "
+        "forces and exact tangents of solves about it (--amplitude default 0.015)")
     g.add_argument("--about-aero", type=Path, default=None, metavar="AERO.npz",
                    help="the deck's aerodynamics (torchrom aero DECK --modes N, N <= --linear): "
                         "its steady loads hold the reference state")

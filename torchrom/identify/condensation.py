@@ -449,15 +449,17 @@ def identify_stiffness_about(backend, Phi: np.ndarray, law: ModalLoadLaw,
                              ) -> tuple[StiffnessIdentification, CondensationData]:
     """The condensed ROM about the deformed state that ``law`` holds (:mod:`torchrom.rom.
     reference`): the exact condensation's equilibrium q_ref (:func:`reference_equilibrium`),
-    its tangent K_c as the ROM's K1 (exact there), and K2, K3 fitted, as
-    :func:`stiffness_from_condensation` does about rest, to the solves of the modal loads
-    p_ref + δp, δp on the STEP directions of ``amplitudes`` (n,) over the first
-    ``n_nonlinear`` modes, each solved from the reference: with x = q − q_ref the change of
-    the structural force is f(q_ref + x) − f_ref = A δp + D x = K_c x + K̃2(x,x) + K̃3(x,x,x).
+    its tangent K_c as the ROM's K1 (exact there), and K2, K3 the Taylor terms of the
+    condensed potential about it (:func:`.potential_fit.fit_potential`), fitted to the solves
+    of the modal loads p_ref + δp, δp on the STEP directions of ``amplitudes`` (n,) over the
+    first ``n_nonlinear`` modes, each solved from the reference: with x = q − q_ref, each
+    solve's force change f(q_ref + x) − f_ref = A δp + D x = K_c x + K2(x,x) + K3(x,x,x) and
+    its exact condensed tangent D + A S⁻¹ A = K_c + 2 K2(x) + 3 K3(x,x).
     The ROM's coordinates are x; ``reference`` on the result keeps q_ref and f_ref.
     ``progress(done, total)`` after each FE solve (the reference's first)."""
     from ..rom.reference import ReferenceState
     from .backend import project
+    from .potential_fit import fit_potential
 
     K1 = project(backend.stiffness_matrix(), Phi)
     n = Phi.shape[1]
@@ -467,25 +469,32 @@ def identify_stiffness_about(backend, Phi: np.ndarray, law: ModalLoadLaw,
     ref = reference_equilibrium(cond, law)
     Kc, f_ref = cond.tangent(ref), cond.force(ref)
     plan = CondensationPlan(np.asarray(amplitudes, dtype=float)[:k], levels)
-    dP, X = [], []
+    dP, X, T = [], [], []
 
     def record(dp, u):
         dP.append(dp)
         X.append(cond.coordinates(u) - ref.q)
+        S = tangent_gram(solver, u, cond.KPhi)
+        T.append(cond.D + cond.A @ np.linalg.solve(S, cond.A))
 
     failed, first_error = solve_plan(
         plan, n, k, lambda dp, u0: solver.static_solve(cond.KPhi @ (ref.p + dp), u0=u0).u,
         record, u_start=ref.u, progress=progress)
     dP, X = np.array(dP).reshape(-1, n), np.array(X).reshape(-1, n)
-    # K_c (p_eff − x) = A δp + (D − K_c) x: the fit about rest, with K_c as the linear part
-    p_eff = np.linalg.solve(Kc, (cond.A @ dP.T + cond.D @ X.T)).T
+    T = np.array(T).reshape(-1, n, n)
+    N = dP @ cond.A.T + X @ (cond.D - Kc).T
     why = f" ({len(failed)} loads failed{first_error})" if failed else ""
-    stiff = stiffness_from_condensation(p_eff, X, Kc, plan.amplitudes, n_nonlinear=k,
-                                        failed=why)
+    try:
+        fit = fit_potential(X, 0.5 * (T + T.transpose(0, 2, 1)), N, Kc, k)
+    except InputError as err:
+        raise InputError(f"condensation about the state: {err}{why}") from None
+    stiff = StiffnessIdentification(Kc, fit.K2, fit.K3, "condensed", plan.amplitudes,
+                                    {"condensation_fit": fit.force_fit,
+                                     "condensation_tangent_fit": fit.tangent_fit}, len(X))
     stiff.plan_info = {"levels": plan.levels, "nonlinear_modes": k,
                        "static_solves": len(X) + ref.iterations, "failed_solves": len(failed),
-                       "about": law.condition}
+                       "about": law.condition, "fit": "potential (forces and exact tangents)"}
     if skeleton is not None:
         stiff.plan_info["skeleton"] = skeleton.what
     stiff.reference = ReferenceState(ref.q, f_ref, law.condition)
-    return stiff, CondensationData(dP, X, failed)
+    return stiff, CondensationData(dP, X, failed, T)
