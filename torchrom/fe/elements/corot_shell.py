@@ -7,8 +7,8 @@ The local displacements d (see :mod:`.corotational`) are a short chain of maps, 
 derivatives, composed here by the chain rule:
 
 - the frame E(x) of the element's nodal positions (3nn coordinates): differences, cross
-  products and unit vectors, carried with their gradients and Hessians (:class:`_Jet`; a unit
-  vector is v · r(s), s = v·v, r = s^(-1/2));
+  products, a projection and unit vectors, each carried with its gradient and Hessian and
+  chained by hand (:func:`frame_derivatives`);
 - the local translations dt_n = Eᵀ (x_n − x̄) − E⁰ᵀ (X_n − X̄), bilinear in E and x;
 - the local rotations ϑ_n = log Q_n with Q_n = Eᵀ exp([θ_n×]) E⁰ = M R̃_n, M = Eᵀ E⁰ (of x)
   and R̃_n = exp([ζ_n×]), ζ_n = E⁰ᵀ θ_n (E⁰ orthogonal; Rodrigues' a(s), b(s), s = ζ·ζ, with
@@ -23,6 +23,7 @@ and ∂²Q splits into ∂²M R̃ (position-position), ∂M ∂R̃ (position-rot
 from __future__ import annotations
 
 import math
+from functools import cache
 
 import torch
 
@@ -46,12 +47,21 @@ def _series(x: torch.Tensor, *c: list[float]):
     coefficient lists c evaluated together, as products of the powers of x with the
     coefficients (three products instead of a Horner loop of small operations)."""
     K = len(c[0])
-    k = torch.arange(K, dtype=x.dtype, device=x.device)
-    coef = torch.tensor(c, dtype=x.dtype, device=x.device).T  # (K, q)
-    powers = x[..., None] ** k  # (..., K)
-    out = (powers @ coef, powers[..., :-1] @ (k[1:, None] * coef[1:]),
-           powers[..., :-2] @ ((k[2:] * k[1:-1])[:, None] * coef[2:]))
+    coef, coef1, coef2 = _series_coefficients(tuple(map(tuple, c)), x.dtype, x.device)
+    # x^0 .. x^(K−1) by a running product (one operation; a power with a tensor exponent is
+    # ten times dearer)
+    powers = torch.cat((torch.ones_like(x)[..., None],
+                        x[..., None].expand(*x.shape, K - 1).cumprod(-1)), -1)
+    out = (powers @ coef, powers[..., :-1] @ coef1, powers[..., :-2] @ coef2)
     return tuple(t.movedim(-1, 0) for t in out)
+
+
+@cache
+def _series_coefficients(c: tuple, dtype, device):
+    """The coefficients (K, q) of :func:`_series`' values and of its first two derivatives."""
+    k = torch.arange(len(c[0]), dtype=dtype, device=device)
+    coef = torch.tensor(c, dtype=dtype, device=device).T
+    return coef, k[1:, None] * coef[1:], (k[2:] * k[1:-1])[:, None] * coef[2:]
 
 
 def rodrigues_factors(s: torch.Tensor):
@@ -91,129 +101,123 @@ def log_factor(x: torch.Tensor):
     return tuple(torch.where(small, a[0], b) for a, b in zip(_series(x, _F), closed))
 
 
-def _plus(a, b):
-    if a is None:
-        return b
-    if b is None:
-        return a
-    return a + b
-
-
-class _Jet:
-    """A quantity with its derivatives with respect to m variables: value v (..., *c), gradient
-    g (..., *c, m) and Hessian h (..., *c, m, m), or h None (zero, or first order only)."""
-
-    __slots__ = ("v", "g", "h", "second")
-
-    def __init__(self, v, g, h, second: bool):
-        self.v, self.g, self.h, self.second = v, g, h, second
-
-    @staticmethod
-    def variables(x: torch.Tensor, n_axes: int, second: bool) -> _Jet:
-        """The entries of the last ``n_axes`` axes of x as the variables (row-major)."""
-        shape = x.shape[x.dim() - n_axes:]
-        m = math.prod(shape)
-        eye = torch.eye(m, dtype=x.dtype, device=x.device).reshape(*shape, m)
-        return _Jet(x, eye.expand(*x.shape, m).contiguous(), None, second)
-
-    def _like(self, v, g, h) -> _Jet:
-        return _Jet(v, g, h if self.second else None, self.second)
-
-    def __add__(self, o: _Jet) -> _Jet:
-        return self._like(self.v + o.v, self.g + o.g, _plus(self.h, o.h))
-
-    def __sub__(self, o: _Jet) -> _Jet:
-        return self._like(self.v - o.v, self.g - o.g,
-                          _plus(self.h, None if o.h is None else -o.h))
-
-    def __mul__(self, o) -> _Jet:
-        if not isinstance(o, _Jet):  # a constant tensor (broadcast over the components)
-            return self._like(self.v * o, self.g * o[..., None],
-                              None if self.h is None else self.h * o[..., None, None])
-        g = self.g * o.v[..., None] + o.g * self.v[..., None]
-        h = None
-        if self.second:
-            cross = self.g[..., :, None] * o.g[..., None, :]
-            h = _plus(_plus(None if self.h is None else self.h * o.v[..., None, None],
-                            None if o.h is None else o.h * self.v[..., None, None]),
-                      cross + cross.transpose(-1, -2))
-        return self._like(self.v * o.v, g, h)
-
-    def take(self, index, axis: int = -1) -> _Jet:
-        """Select along a component axis (negative, counted among the components)."""
-        def at(t, k):
-            return t[(slice(None),) * (t.dim() + axis - k) + (index,)]
-
-        return self._like(at(self.v, 0), at(self.g, 1),
-                          None if self.h is None else at(self.h, 2))
-
-    def unsqueeze(self, axis: int = -1) -> _Jet:
-        """A new component axis at ``axis`` (negative, counted among the components)."""
-        return self._like(self.v.unsqueeze(axis), self.g.unsqueeze(axis - 1),
-                          None if self.h is None else self.h.unsqueeze(axis - 2))
-
-    def sum(self) -> _Jet:
-        """Sum over the last component axis."""
-        return self._like(self.v.sum(-1), self.g.sum(-2),
-                          None if self.h is None else self.h.sum(-3))
-
-    def apply(self, f, f1, f2) -> _Jet:
-        """φ(self) elementwise from φ, φ', φ'' at self.v."""
-        g = self.g * f1[..., None]
-        h = None
-        if self.second:
-            h = _plus(None if self.h is None else self.h * f1[..., None, None],
-                      f2[..., None, None] * self.g[..., :, None] * self.g[..., None, :])
-        return self._like(f, g, h)
-
-    @staticmethod
-    def stack(jets: list[_Jet]) -> _Jet:
-        """Along a new last component axis."""
-        j0 = jets[0]
-        h = None
-        if j0.second:
-            h = torch.stack([j.h if j.h is not None else torch.zeros_like(j.g[..., None]
-                                                                          * j.g[..., None, :])
-                             for j in jets], -3)
-        return j0._like(torch.stack([j.v for j in jets], -1),
-                        torch.stack([j.g for j in jets], -2), h)
-
-
-_I1, _I2 = [1, 2, 0], [2, 0, 1]
-
-
-def _cross(a: _Jet, b: _Jet) -> _Jet:
-    return a.take(_I1) * b.take(_I2) - a.take(_I2) * b.take(_I1)
-
-
-def _unit(a: _Jet) -> _Jet:
-    s = (a * a).sum()
-    r = torch.rsqrt(s.v)
-    return a * s.apply(r, -0.5 * r**3, 0.75 * r**5).unsqueeze()
-
-
 #: The frames' differences of nodal positions w = Λ x (rows: node weights), of which the frame
-#: is a function (:func:`frame_jet`): the quad's diagonals G1→G3, G2→G4 and its edge sum
+#: is a function (:func:`frame_derivatives`): the quad's diagonals G1→G3, G2→G4 and its edge sum
 #: (G2 + G3) − (G1 + G4); the triangle's edges G1→G2, G1→G3.
 FRAME_DIFFERENCES = {"quad": [[-1, 0, 1, 0], [0, -1, 0, 1], [-1, 1, 1, -1]],
                      "tria": [[-1, 1, 0], [-1, 0, 1]]}
 
+# A vector with its derivatives with respect to the m variables: (v (..., 3), g (..., 3, m),
+# h (..., 3, m, m) or None: zero, or first order only). The frame is a chain of four maps of
+# such vectors, each differentiated by hand (a cross product, a unit vector, a projection).
 
-def frame_jet(frame: str, w: _Jet) -> _Jet:
+
+def _cross3(a: torch.Tensor, b: torch.Tensor, dim: int) -> torch.Tensor:
+    """a × b along the axis ``dim`` (negative), broadcast, written out in products of the
+    components (twice as fast as ``torch.linalg.cross`` along an inner axis)."""
+    a1, a2, a3 = a.unbind(dim)
+    b1, b2, b3 = b.unbind(dim)
+    return torch.stack((a2 * b3 - a3 * b2, a3 * b1 - a1 * b3, a1 * b2 - a2 * b1), dim)
+
+
+def _cross_jet(a, b, second: bool):
+    """a × b: ∂ = ∂a × b + a × ∂b, ∂² = ∂²a × b + a × ∂²b + ∂_p a × ∂_q b + ∂_q a × ∂_p b."""
+    av, ag, ah = a
+    bv, bg, bh = b
+    v = _cross3(av, bv, -1)
+    g = _cross3(ag, bv[..., None], -2) + _cross3(av[..., None], bg, -2)
+    h = None
+    if second:
+        C = _cross3(ag[..., :, None], bg[..., None, :], -3)
+        h = C + C.transpose(-1, -2)
+        if ah is not None:
+            h = h + _cross3(ah, bv[..., None, None], -3)
+        if bh is not None:
+            h = h + _cross3(av[..., None, None], bh, -3)
+    return v, g, h
+
+
+def _unit_jet(c, second: bool):
+    """e = c/|c|: ∂e = P ∂c / |c| with P = I − e eᵀ, and
+    ∂²e_i/∂c_j∂c_k = −(P_ij e_k + P_ik e_j + e_i P_jk)/|c|², chained with ∂c and ∂²c."""
+    cv, cg, ch = c
+    n = torch.linalg.vector_norm(cv, dim=-1)
+    e = cv / n[..., None]
+    P = -e[..., :, None] * e[..., None, :]
+    P.diagonal(dim1=-2, dim2=-1).add_(1.0)
+    Pg = P @ cg  # (..., 3, m)
+    inv = (1.0 / n)[..., None, None]
+    g = Pg * inv
+    h = None
+    if second:
+        t = (e[..., :, None] * cg).sum(-2)  # eᵀ ∂c (..., m)
+        Q = cg.transpose(-1, -2) @ Pg  # ∂cᵀ P ∂c (..., m, m)
+        first = Pg[..., :, :, None] * t[..., None, None, :]
+        h = -(first + first.transpose(-1, -2) + e[..., :, None, None] * Q[..., None, :, :]) \
+            * (inv * inv)[..., None]
+        if ch is not None:
+            m = cg.shape[-1]
+            Ph = P @ ch.reshape(*ch.shape[:-2], m * m)
+            h = h + Ph.reshape(*Ph.shape[:-1], m, m) * inv[..., None]
+    return e, g, h
+
+
+def _reject_jet(a, e, second: bool):
+    """b = a − e (a·e) (a's part normal to the unit vector e; a linear in the variables, ∂²a
+    = 0): with s = a·e, ∂b = ∂a − ∂e s − e ∂s and ∂²b = −(∂²e s + ∂e ∂sᵀ + ∂s ∂eᵀ + e ∂²s),
+    ∂s = aᵀ ∂e + eᵀ ∂a, ∂²s = Σ a_i ∂²e_i + ∂aᵀ ∂e + ∂eᵀ ∂a."""
+    av, ag, _ = a
+    ev, eg, eh = e
+    s = (av * ev).sum(-1)
+    sg = (av[..., :, None] * eg).sum(-2) + (ev[..., :, None] * ag).sum(-2)
+    v = av - ev * s[..., None]
+    g = ag - eg * s[..., None, None] - ev[..., :, None] * sg[..., None, :]
+    h = None
+    if second:
+        agt_eg = ag.transpose(-1, -2) @ eg
+        sh = (av[..., :, None, None] * eh).sum(-3) + agt_eg + agt_eg.transpose(-1, -2)
+        cross = eg[..., :, :, None] * sg[..., None, None, :]
+        h = -(eh * s[..., None, None, None] + cross + cross.transpose(-1, -2)
+              + ev[..., :, None, None] * sh[..., None, :, :])
+    return v, g, h
+
+
+@cache
+def _selections(q: int, dtype, device) -> torch.Tensor:
+    """∂w_i/∂w (q, 3, 3q): the difference w_i's derivative, the variables row-major (i, xyz)."""
+    return torch.eye(3 * q, dtype=dtype, device=device).reshape(q, 3, 3 * q)
+
+
+def frame_derivatives(frame: str, w: torch.Tensor, second: bool):
     """E (..., 3, 3), columns e1, e2, e3, of the differences w (..., q, 3)
-    (:data:`FRAME_DIFFERENCES`): the "quad" and "tria" frames of
-    :func:`~.corotational.element_frame`."""
+    (:data:`FRAME_DIFFERENCES`; the "quad" and "tria" frames of
+    :func:`~.corotational.element_frame`), its gradient (..., 3, 3, 3q) and, with ``second``,
+    its Hessian (..., 3, 3, 3q, 3q) (else None) in the entries of w, row-major."""
+    sel = _selections(w.shape[-2], w.dtype, w.device)
+    d = [(w[..., i, :], sel[i], None) for i in range(w.shape[-2])]
     if frame == "quad":
-        e3 = _unit(_cross(w.take(0, -2), w.take(1, -2)))
-        a = w.take(2, -2)
-        e1 = _unit(a - e3 * (a * e3).sum().unsqueeze())
+        e3 = _unit_jet(_cross_jet(d[0], d[1], second), second)
+        e1 = _unit_jet(_reject_jet(d[2], e3, second), second)
     elif frame == "tria":
-        d1 = w.take(0, -2)
-        e3 = _unit(_cross(d1, w.take(1, -2)))
-        e1 = _unit(d1)
+        e3 = _unit_jet(_cross_jet(d[0], d[1], second), second)
+        e1 = _unit_jet(d[0], second)
     else:
         raise ValueError(f"frame: expected 'quad' or 'tria', got {frame!r}")
-    return _Jet.stack([e1, _cross(e3, e1), e3])
+    e2 = _cross_jet(e3, e1, second)
+    cols = (e1, e2, e3)
+    E = torch.stack([c[0] for c in cols], -1)
+    shape = w.shape[:-2] + (3, w.shape[-2] * 3)
+    JE = torch.stack([c[1].expand(shape) for c in cols], -2)
+    HE = torch.stack([c[2] for c in cols], -3) if second else None
+    return E, JE, HE
+
+
+@cache
+def _rotation_constants(dtype, device):
+    """I, S_kjq = −ε_kjq and δ_kq δ_jr + δ_kr δ_jq of :func:`rotation_derivatives`."""
+    eye = torch.eye(3, dtype=dtype, device=device)
+    pair = eye[:, None, :, None] * eye[None, :, None, :]  # δ_kq δ_jr
+    return eye, -_levi_civita(dtype, device), pair + pair.transpose(-1, -2)
 
 
 def _levi_civita(dtype, device) -> torch.Tensor:
@@ -231,9 +235,7 @@ def rotation_derivatives(z: torch.Tensor, second: bool):
     ∂²R_kj/∂z_q∂z_r = 2 δ_qr A_kj + 4 z_q z_r A''_kj + 2 (z_q U_kjr + z_r U_kjq)
     + b (δ_kq δ_jr + δ_kr δ_jq) with A'' = c'' I + b'' z zᵀ + a'' [z×], U = b' T + a' S
     (' = d/ds; c' = −b − s b', c'' = −2b' − s b'')."""
-    opts = dict(dtype=z.dtype, device=z.device)
-    eye = torch.eye(3, **opts)
-    S = -_levi_civita(**opts)
+    eye, S, pairs = _rotation_constants(z.dtype, z.device)
     s = (z * z).sum(-1)
     a, a1, a2, b, b1, b2 = (t[..., None, None] for t in rodrigues_factors(s))
     s = s[..., None, None]
@@ -250,10 +252,9 @@ def rotation_derivatives(z: torch.Tensor, second: bool):
     U = b1[..., None] * T + a1[..., None] * S
     zq = z[..., None, None, :, None]
     zr = z[..., None, None, None, :]
-    pair = eye[:, None, :, None] * eye[None, :, None, :]  # δ_kq δ_jr
     d2R = (2.0 * A[..., None, None] * eye + 4.0 * A2[..., None, None] * zq * zr
            + 2.0 * (zq * U[..., None, :] + zr * U[..., :, None])
-           + b[..., None, None] * (pair + pair.transpose(-1, -2)))
+           + b[..., None, None] * pairs)
     return R, dR, d2R
 
 
@@ -300,18 +301,20 @@ class ShellMap:
         nn, m = self.nn, 3 * self.nn
         u = ue.reshape(P, E, nn, 6)
         x = self.X + u[..., :3]
-        w = torch.einsum("qn,penl->peql", self.Lam[::3, ::3], x)
-        Ej = frame_jet(self.frame, _Jet.variables(w, 2, second))
-        Ev, JE = Ej.v, Ej.g @ self.Lam  # (P, E, 3, 3), (P, E, 3, 3, m)
+        w = self.Lam[::3, ::3] @ x  # (P, E, q, 3)
+        Ev, JEw, HE = frame_derivatives(self.frame, w, second)
+        JE = JEw @ self.Lam  # (P, E, 3, 3, m)
         y = x - x.mean(-2, keepdim=True)
         dt = y @ Ev - self.loc0
         # ∂dt_nj/∂x_n'l' = Σ_l y_nl ∂E_lj/∂x_n'l' + (δ_nn' − 1/nn) E_l'j
         Jdt = ((y @ JE.reshape(P, E, 3, 3 * m)).reshape(P, E, nn, 3, m)
-               + torch.einsum("nq,pelj->penjql", self.centre, Ev).reshape(P, E, nn, 3, m))
-        zeta = torch.einsum("penl,elk->penk", u[..., 3:], self.E0)  # ζ = E⁰ᵀ θ
+               + (self.centre[:, None, :, None] * Ev.transpose(-1, -2)[:, :, None, :, None, :]
+                  ).reshape(P, E, nn, 3, m))
+        zeta = u[..., 3:] @ self.E0  # ζ = E⁰ᵀ θ (P, E, nn, 3)
         R, JR, HR = rotation_derivatives(zeta, second)  # (P, E, nn, 3, 3, [3, [3]])
         M = Ev.transpose(-1, -2) @ self.E0  # M_ik = E_li E⁰_lk
-        JM = torch.einsum("pelia,elk->peika", JE, self.E0).reshape(P, E, 9, m)
+        JM = (self.E0T @ JE.reshape(P, E, 3, 3 * m)).reshape(P, E, 3, 3, m).transpose(2, 3)
+        JM = JM.reshape(P, E, 9, m)  # ∂M_ik = E⁰_lk ∂E_li
         N = (R.reshape(P, E, nn, 9) @ self.to_N).reshape(P, E, nn, 4, 9)
         O = (M.reshape(P, E, 9) @ self.to_O).reshape(P, E, 1, 4, 9)
         p = (N @ M.reshape(P, E, 1, 9, 1))[..., 0] + self.p0  # (P, E, nn, 4)
@@ -325,7 +328,7 @@ class ShellMap:
                 + f[..., None, None] * Jp[..., 1:, :])
         out = dict(d=torch.cat((dt, rot), -1).reshape(P, E, 6 * nn), Jdt=Jdt, Jrot=Jrot)
         if second:
-            out.update(HE=Ej.h, JE=JE, y=y, JR=JR, HR=HR, M=M, JM=JM, N=N, Jp=Jp, v=v,
+            out.update(HE=HE, JE=JE, y=y, JR=JR, HR=HR, M=M, JM=JM, N=N, Jp=Jp, v=v,
                        f=(f, f1, f2))
         return out
 
@@ -333,9 +336,13 @@ class ShellMap:
         """(P, E, 6nn, 6nn) from its translation/rotation blocks (P, E, nn, 3, nn, 3) (row
         node, component, column node, component); rr block-diagonal, (P, E, nn, 3, 3)."""
         P, E, nn = tt.shape[:3]
-        rr = rr[:, :, :, :, None, :] * self.eye_nn[:, None, :, None]
-        rows = (torch.cat((tt, tr), -1), torch.cat((rt, rr), -1))
-        return torch.cat(rows, 3).reshape(P, E, 6 * nn, 6 * nn)
+        out = tt.new_empty(P, E, nn, 2, 3, nn, 2, 3)
+        out[:, :, :, 0, :, :, 0] = tt
+        out[:, :, :, 0, :, :, 1] = tr
+        out[:, :, :, 1, :, :, 0] = rt
+        out[:, :, :, 1, :, :, 1] = 0.0
+        out[:, :, :, 1, :, :, 1].diagonal(dim1=2, dim2=4).copy_(rr.permute(0, 1, 3, 4, 2))
+        return out.reshape(P, E, 6 * nn, 6 * nn)
 
     def jacobian(self, parts: dict) -> torch.Tensor:
         """B = ∂d/∂u (P, E, 6nn, 6nn)."""
@@ -385,7 +392,8 @@ class ShellMap:
         Gxx = (D.reshape(P, E, 1, 9) @ parts["HE"].reshape(P, E, 9, q * q)).reshape(P, E, q, q)
         Gxx = self.Lam.T @ Gxx @ self.Lam  # the frame's Hessian in w, then in x
         tc = tau - tau.mean(2, keepdim=True)
-        S = torch.einsum("pelja,penj->peanl", parts["JE"], tc).reshape(P, E, m, m)
+        # S_(a, nl) = Σ_j ∂E_lj/∂x_a tc_nj
+        S = (tc[:, :, None] @ parts["JE"]).permute(0, 1, 4, 3, 2).reshape(P, E, m, m)
         Gxx = Gxx + S + S.transpose(-1, -2) + first_xx
         # position-rotation Σ W_ij ∂M_ik ∂R̃_kj; rotation-rotation (MᵀW)_kj ∂²R̃_kj
         V = (W @ parts["JR"].permute(0, 1, 2, 4, 3, 5).reshape(P, E, nn, 3, 9))

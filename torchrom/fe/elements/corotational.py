@@ -503,11 +503,15 @@ class CorotKernel:
         (:mod:`.corot_shell`)."""
         flat = ue.reshape(-1, *ue.shape[-2:])
         parts = self.shell.parts(flat, second=bool(geometric))
-        out = torch.zeros(*flat.shape, self.k, dtype=flat.dtype, device=flat.device)
+        out = None
         if material:
             B = self.shell.jacobian(parts)
-            out = out + material * (B.transpose(-1, -2) @ self.K @ B)
+            out = B.transpose(-1, -2) @ self.K @ B
+            out = out if material == 1.0 else material * out
         if geometric:
-            s = _per_element(self.K, parts["d"])
-            out = out + geometric * self.shell.weighted_hessian(parts, s)
+            G = self.shell.weighted_hessian(parts, _per_element(self.K, parts["d"]))
+            G = G if geometric == 1.0 else geometric * G
+            out = G if out is None else out + G
+        if out is None:
+            out = torch.zeros(*flat.shape, self.k, dtype=flat.dtype, device=flat.device)
         return out.reshape(*ue.shape, self.k)
