@@ -2,8 +2,10 @@
 a deck rotated rigidly — 90° about x, 90° about z, an arbitrary rotation with the grids in
 basic, and the same with the grids given in a rotated CORD2R — is the same wing.
 
-Tolerances: frequencies 1e-8 relative (the rotated grids are written in 16-character fields,
-so positions differ by ~1e-15 relative; the eigen-solver's own rounding is ~1e-12); ROM
+Tolerances: frequencies 1e-8 relative (the rotated grids are written in 16-character double
+fields, 11 digits, so positions in basic differ by ~1e-11 relative: on the Pazy wing's
+millimetre elements, 3.7 m from the rotation's origin, its stiffness matrix by 6e-9, against
+5e-14 with the grids in the CORD2R; the eigen-solver's own rounding is ~1e-12); ROM
 tensors 1e-7 relative to each tensor's largest entry (the dual modes come from Newton solves
 converged to 1e-8 of the load: their rounding, not the rotation's, sets this); flutter 0.1 %
 (the issue's bound; the aerodynamic frame rotates with the deck, so the DLM sees the same
@@ -188,28 +190,32 @@ def test_rotated_wingbox_gives_the_same_rom(name, dual, wingbox_rotations, tmp_p
 RTOL = {"D2": 2e-3, "D3": 2e-3}
 
 
-def assert_same_tensors(r0, r1, rtol: float = 1e-7) -> None:
-    """Every tensor of the two ROMs equal, to ``rtol`` (:data:`RTOL` for the nonlinear damping)
-    of its largest entry, once each basis vector's sign is matched: an index's sign flips with
-    its basis vector, so T_ab... becomes s_a s_b ... T_ab...; the signs are the pattern (of
-    2^(n-1)) that fits best."""
+def assert_same_tensors(r0, r1, rtol: float = 1e-7, rtols: dict | None = None):
+    """Every tensor of the two ROMs equal, to ``rtol`` (:data:`RTOL`, updated by ``rtols``, for
+    the tensors named there) of its largest entry, once each basis vector's sign is matched: an
+    index's sign flips with its basis vector, so T_ab... becomes s_a s_b ... T_ab...; the signs
+    are the pattern (of 2^(n-1)) that fits best. Returns those signs and each tensor's relative
+    difference at them."""
     import itertools
 
+    rtols = {**RTOL, **(rtols or {})}
     names = [k for k in r0.TENSORS if getattr(r0, k) is not None]
     T0 = {k: getattr(r0, k).numpy() for k in names}
     T1 = {k: getattr(r1, k).numpy() for k in names}
-    best_err = np.inf
+    best_err, best_signs, best_errs = np.inf, None, None
     for signs in itertools.product((1.0, -1.0), repeat=r0.n - 1):
         s = np.array((1.0, *signs))
-        err = 0.0
+        errs = {}
         for k, A in T0.items():
             S = s
             for _ in range(A.ndim - 1):
                 S = np.multiply.outer(S, s)
-            err = max(err, np.abs(T1[k] * S - A).max() / max(np.abs(A).max(), 1e-300)
-                      * rtol / RTOL.get(k, rtol))
-        best_err = min(best_err, err)
-    assert best_err < rtol, best_err
+            errs[k] = np.abs(T1[k] * S - A).max() / max(np.abs(A).max(), 1e-300)
+        err = max(e * rtol / rtols.get(k, rtol) for k, e in errs.items())
+        if err < best_err:
+            best_err, best_signs, best_errs = err, s, errs
+    assert best_err < rtol, best_errs
+    return best_signs, best_errs
 
 
 def _rotated_variants(src: Path, tmp_path: Path, names) -> dict[str, Path]:
@@ -407,4 +413,129 @@ def test_rotated_bah_aircraft_gives_the_same_lco_rows(tmp_path):
     assert list(t0.status) == list(t1.status) and set(t0.status) == {"lco"}
     assert t0.certified.all() and t1.certified.all()
     bound = (t0.orbit_error + t0.dt_error + t1.orbit_error + t1.dt_error) * t0.amplitude
+    assert np.all(np.abs(t1.amplitude - t0.amplitude) <= bound)
+
+
+PAZY_NOSKIN = DECKS / "aepw3_pazy_noskin_rigidtip" / "sol144_noskin.dat"
+#: the condensed Pazy ROMs' tensors, relative to each one's largest entry (assert_same_tensors):
+#: stiffness K2, K3 2e-5 (measured 3.6e-6 and 4.6e-7 at one nonlinear mode, 1.5e-6 and 2.2e-6
+#: at three): each comes from static solves converged to 1e-8 of their load (fe_backend's
+#: static_tol), whose solutions the thin wing's contrast of in-plane and bending stiffness
+#: moves by ~1e-6 between two runs whose stiffness matrices differ by rounding; D2 1e-2, D3
+#: 1e-3 (measured 2.3e-3 and 7.1e-5 at one nonlinear mode, 8.7e-5 and 2.2e-6 at three): the
+#: damping decomposition's amplification of that difference (RTOL; at one nonlinear mode its
+#: optimum sits on the extended matrix's semidefinite boundary, smallest scaled eigenvalue
+#: 9e-10, where the free parameters follow K2's relative rounding ~600-fold)
+PAZY_RTOL = {"K2": 2e-5, "K3": 2e-5, "D2": 1e-2, "D3": 1e-3}
+
+
+def _assert_same_shapes(r0, r1, signs, R: np.ndarray, origin) -> None:
+    """The ROMs' mesh shapes (basic frame) are the original's turned by R about ``origin``:
+    positions to 1e-9 m (measured 5e-11: the rotated deck's 11-digit fields), translations to
+    1e-7 of their largest (measured 1e-9), rotations to 1e-5 of theirs (measured 4.7e-7: the
+    shells' drilling rotations, held by a small artificial stiffness, carry the eigen-solver's
+    rounding of the massless DOFs)."""
+    a, b = r0.shapes, r1.shapes
+    assert np.array_equal(a.grid_ids, b.grid_ids)
+    assert np.allclose(b.xyz, a.xyz @ R.T + np.asarray(origin), rtol=0, atol=1e-9)
+    for part, tol in ((slice(0, 3), 1e-7), (slice(3, 6), 1e-5)):
+        turned = np.einsum("ij,gjm->gim", R, a.phi[:, part, :]) * signs
+        assert np.abs(b.phi[:, part, :] - turned).max() <= tol * np.abs(turned).max()
+
+
+def test_rotated_pazy_wing_gives_the_same_condensed_rom(tmp_path):
+    """The Pazy wing without skin (sol144_noskin.dat: 16,764 DOFs of co-rotational shells)
+    turned arbitrarily, its grids in basic: the same modes and kinds, and the same condensed ROM
+    (3 modes, the first one's cubic terms from its two static solves at a linear tip deflection
+    of 10 % of the span): its tensors up to basis signs (PAZY_RTOL), its output (the tip's T3,
+    in the grid's rotated CD frame) and its mesh shapes turned with the deck. Frequencies within
+    1e-7 (measured 9e-10; 8e-9 with the grids in a CORD2R: the eigen-solver's rounding). The CI
+    form of the chain below; 49 s on two shared cores."""
+    from torchrom.identify.build import IdentifyOptions, identify
+
+    name = "arbitrary"
+    (rot,) = _rotated_variants(PAZY_NOSKIN, tmp_path, [name]).values()
+    opt = IdentifyOptions(n_linear=3, n_dual=0, stiffness="condensed", amplitude=0.1, levels=1,
+                          nonlinear_modes=1)
+    kinds, roms = [], []
+    for deck in (PAZY_NOSKIN, rot):
+        fe = read_bdf(deck)
+        kinds.append(fe.modes(3).kinds)
+        roms.append(identify(fe, opt).rom)
+    r0, r1 = roms
+    assert kinds[0] == kinds[1] == ["bending", "bending", "torsion"]
+    assert np.allclose(r1.frequencies_hz, r0.frequencies_hz, rtol=1e-7, atol=0)
+    signs, _ = assert_same_tensors(r0, r1, rtols=PAZY_RTOL)
+    assert sorted(r0.outputs) == sorted(r1.outputs) == ["max_mode1"]
+    assert r0.metadata["output_points"] == r1.metadata["output_points"]
+    c0, c1 = (np.asarray(r.outputs["max_mode1"], dtype=float) for r in roms)
+    assert np.allclose(c1 * signs, c0, rtol=0, atol=1e-7 * np.abs(c0).max())  # measured 2e-9
+    _assert_same_shapes(r0, r1, signs, ROTATIONS[name][0], (3.0, -1.0, 2.0))
+
+
+@pytest.mark.slow
+def test_rotated_pazy_chain_gives_the_same_rom_flutter_and_lco_rows(tmp_path):
+    """The whole chain on the Pazy wing without skin and its arbitrary rotation with the grids in
+    a CORD2R (its DLM panels, AERO system and beam spline turned with it), through the real CLI:
+    identify a condensed 3-mode ROM (cubic terms of all three: two bendings and the torsion,
+    loaded to 10 % of the span), aero on the deck's own panels, ROM flutter and an LCO sweep at
+    72 and 76 m/s past the flutter speed (68.80 m/s, p-k). Measured: tensors as PAZY_RTOL says,
+    Q(k) 1.1e-9 apart, flutter 6e-10, amplitudes 3.4e-7 (measured on two shared cores:
+    identify 100 s, aero 18 s, flutter 9 s, sweep 8 s per deck; 257 s in all).
+
+    The LCO rows cannot agree to their certificates' accuracy alone (output_error ~1e-9): the
+    two ROMs themselves differ by rounding (K3 2e-6). A supercritical orbit's amplitude scales as
+    the nonlinear stiffness to the power -1/2 (a cubic's closed form; the stiffness_nl = 1.01
+    rows check it), so tensors apart by δ move it by about δ/2; allowed: δ (K2's and K3's
+    measured difference), a factor 2 for a difference that is not a uniform scaling. γ = 0, so
+    the damping tensors (the decomposition's amplified rounding) do not enter."""
+    import pandas as pd
+
+    from torchrom.rom import NonlinearROM
+
+    (rot,) = _rotated_variants(PAZY_NOSKIN, tmp_path, ["CORD2R"]).values()
+    speeds, tables, gafs = [], [], []
+    for i, deck in enumerate((PAZY_NOSKIN, rot)):
+        def cli(*argv):
+            run = subprocess.run([sys.executable, "-m", "torchrom", *map(str, argv), "-q"],
+                                 capture_output=True, text=True, cwd=tmp_path, timeout=1200)
+            assert run.returncode == 0, run.stderr
+        cli("identify", deck, "--linear", "3", "--stiffness", "condensed", "--nonlinear-modes",
+            "3", "--levels", "1", "--amplitude", "0.1", "--out", f"r{i}.npz")
+        cli("aero", deck, "--mach", "0.001", "--modes", "3", "--lags", "4", "--k", "0.01",
+            "0.05", "0.1", "0.2", "0.3", "0.5", "1.0", "--out", f"a{i}.npz")
+        cli("flutter", f"r{i}.npz", f"a{i}.npz", "--density", "1.225", "--alpha", "0",
+            "--gamma", "0", "--json", f"f{i}.json")
+        (tmp_path / f"s{i}.toml").write_text(
+            f'title = "rotated Pazy {i}"\nmethod = "hb"\n[model]\nrom = "r{i}.npz"\n'
+            f'aero = "a{i}.npz"\n[aeroelastic]\nbaseline_alpha = 0.0\nbaseline_gamma = 0.0\n'
+            '[initial]\nq0 = 0.01\nmode = 3\n[hb]\namplitude_scale = 0.1\n[lco]\n'
+            'outputs = ["max_mode1"]\nmax_amplitude = 0.3\n[cases]\ndensity = 1.225\n'
+            'speed = [72.0, 76.0]\nstiffness_nl = [1.0, 1.01]\nalpha = 0.0\ngamma = 0.0\n')
+        cli("sweep", f"s{i}.toml", "--out", f"o{i}")
+        speeds.append({r["method"]: r["velocity"] for r in json.loads(
+            (tmp_path / f"f{i}.json").read_text())["flutter"] if r.get("velocity")})
+        tables.append(pd.read_parquet(tmp_path / f"o{i}" / "results.parquet"))
+        gafs.append(np.asarray(np.load(tmp_path / f"a{i}.npz")["Q"]))
+    r0, r1 = (NonlinearROM.load(tmp_path / f"r{i}.npz") for i in (0, 1))
+    assert np.allclose(r1.frequencies_hz, r0.frequencies_hz, rtol=1e-7, atol=0)
+    signs, errs = assert_same_tensors(r0, r1, rtols=PAZY_RTOL)
+    # Q_ij(k) -> s_i s_j Q_ij(k) (the aero's modes are identify's); measured 1.1e-9
+    Q0, Q1 = gafs
+    S = np.multiply.outer(signs, signs)[:, :, None]
+    assert np.abs(Q1 * S - Q0).max() <= 1e-6 * np.abs(Q0).max()
+    # the issue's bound is 0.1 %; the inputs agree to 1e-9, so 1e-6 (measured 6e-10)
+    assert set(speeds[0]) == set(speeds[1]) == {"p-k", "state-space"}
+    for method, v in speeds[0].items():
+        assert speeds[1][method] == pytest.approx(v, rel=1e-6), method
+    t0, t1 = tables
+    assert list(t0.status) == list(t1.status) == ["lco"] * 4
+    assert t0.certified.all() and t1.certified.all()
+    # the amplitude's scaling with the nonlinear stiffness (measured exponent -0.4998)
+    for t in tables:
+        a = t.set_index(["speed", "stiffness_nl"]).amplitude
+        for v in (72.0, 76.0):
+            assert np.log(a[v, 1.01] / a[v, 1.0]) / np.log(1.01) == pytest.approx(-0.5, abs=0.01)
+    delta = max(errs["K2"], errs["K3"])
+    bound = (t0.output_error + t1.output_error + delta) * t0.amplitude
     assert np.all(np.abs(t1.amplitude - t0.amplitude) <= bound)
