@@ -617,6 +617,11 @@ def static_solve(
                              f"{F.shape}")
     p_idx, p_val = _prescribed(fe, prescribed)
     unknown = np.setdiff1d(np.arange(n), p_idx)
+    if (not isinstance(F, DeadLoad) and not F.any() and not p_val.any()
+            and (u0 is None or not np.any(u0))):
+        # nothing applied to a structure at rest: u = 0 exactly. Newton cannot tell it: the
+        # element forces at rest are rounding (not exactly 0), with no load to measure it by
+        return StaticResult(np.zeros(n), True, 0, 1.0, 0.0, 0, np.zeros(n), [], "", None)
     u = np.zeros(n) if u0 is None else np.array(u0, dtype=float)
     lam, total_iter, steps, history = 0.0, 0, 0, []
     dlam = dlam0 = 1.0 / max(int(n_steps), 1)
@@ -666,14 +671,19 @@ def _newton(fe, u, F, lam, p_idx, p_val, unknown, max_iter, tol):
     res = np.inf
     prev = np.inf
     du_norm = np.inf
+    f_start = 0.0
     for it in range(1, max_iter + 1):
         f = fe.internal_force(u)
         F_u = applied(F, u)
         r = f - lam * F_u
         ru = r[unknown]
         res = float(np.linalg.norm(ru))
+        # the step's first internal force is a scale too: unloading to rest (λF = 0) drives
+        # f itself to 0, which no fraction of the current f would ever measure
+        if it == 1:
+            f_start = float(np.linalg.norm(f))
         scale = max(np.linalg.norm(lam * F_u[unknown]), np.linalg.norm(r[p_idx]),
-                    np.linalg.norm(f), 1e-300)
+                    np.linalg.norm(f), f_start, 1e-300)
         if not np.isfinite(res):
             return False, u, it, res
         if res <= tol * scale:
