@@ -79,3 +79,17 @@ def test_window_metrics_amplitude_is_the_last_period_of_a_slow_approach():
     a_end = 1.0 + 0.5 * math.exp(-lam * newest)
     per_cycle = 0.5 * math.exp(-lam * newest) * (math.exp(lam / f) - 1)  # over one cycle
     assert abs(m["amplitude"][0] - a_end) <= per_cycle
+
+
+def test_window_metrics_centre_is_the_middle_of_the_band():
+    """y = 0.3 + cos ωt + 0.2 cos 2ωt runs from −0.5 (ωt = π) to 1.5 (ωt = 0): the centre is
+    the middle of that band, 0.5 (to rounding: the extrema fall on samples), not the time
+    average 0.3 — the marching's mean of an orbit (study TimeMarching) is this centre."""
+    w, dt, T = 2 * math.pi, 1e-3, 8.0
+    t = np.arange(0, T + dt / 2, dt)
+    y = (0.3 + np.cos(w * t) + 0.2 * np.cos(2 * w * t))[:, None]
+    yd = (-w * np.sin(w * t) - 0.4 * w * np.sin(2 * w * t))[:, None]
+    tr = PeakTracker(torch.tensor(y[:1]), torch.tensor(yd[:1]), ring=16)
+    tr.update(torch.tensor(y[1:, None, :]), torch.tensor(yd[1:, None, :]), 0, dt)
+    m = window_metrics(tr.values[0].numpy(), tr.times[0].numpy(), tr.count[0].numpy(), cycles=4)
+    assert abs(m["centre"][0] - 0.5) < 1e-9 and abs(m["amplitude"][0] - 1.0) < 1e-9

@@ -517,3 +517,42 @@ def test_a_rom_about_a_deformed_state_gives_the_same_lco_and_mean(flutter_sectio
     for name in ("mean_q1", "mean_q2"):
         np.testing.assert_allclose(hb1.extra[name], hb0.extra[name],
                                    atol=1e-8 * np.abs(hb0.extra[name]).max())
+
+
+def test_identify_about_a_state_through_the_cli(tmp_path):
+    """`torchrom identify DECK --stiffness condensed --about-*` through the real CLI (a
+    subprocess) on the pitch-plunge section of linear springs: the reference is the linear
+    static aeroelastic solution (K + q∞ Q(0)) q = −q∞ α Q_α of the aero file's operators (to
+    1e-8 relative: the FE solves stop at 1e-9 of their load), K1 the modal stiffness (the
+    springs' tangent does not change), K2 and K3 zero to rounding (1e-8 of K1 over the
+    solves' reach), and the command prints the potential fit's misfits (the line once raised
+    KeyError after writing the ROM)."""
+    import subprocess
+    import sys
+
+    deck = _section_deck(tmp_path / "section.bdf", plunge=True)
+
+    def cli(*argv):
+        run = subprocess.run([sys.executable, "-m", "torchrom", *map(str, argv)],
+                             capture_output=True, text=True, cwd=tmp_path)
+        assert run.returncode == 0, run.stderr
+        return run.stdout
+
+    cli("aero", deck, "--mach", "0", "--modes", "2", "--k", "0.05", "0.1", "0.2", "0.5",
+        "--out", "aero.npz")
+    speed = 5.0  # m/s: q∞ a ninth of the section's divergence pressure (14.8 m/s)
+    out = cli("identify", deck, "--linear", "2", "--dual", "0", "--stiffness", "condensed",
+              "--levels", "1", "--about-aero", "aero.npz", "--about-aoa", "2",
+              "--about-velocity", speed, "--about-density", RHO, "--out", "rom.npz")
+    assert "the quartic potential's misfit" in out and "tangent misfit" in out
+    rom = NonlinearROM.load(tmp_path / "rom.npz")
+    from torchrom.aero.files import load_aero
+
+    steady = SteadyModalAero.from_aero(load_aero(tmp_path / "aero.npz"), 2)
+    dyn = 0.5 * RHO * speed**2
+    K = rom.K1.numpy()
+    want = np.linalg.solve(K + dyn * steady.Q0, -dyn * math.radians(2) * steady.incidence)
+    np.testing.assert_allclose(rom.reference.q, want, rtol=1e-8, atol=1e-12)
+    scale = np.abs(K).max() / np.abs(want).max()
+    assert np.abs(rom.K2.numpy()).max() < 1e-8 * scale
+    assert np.abs(rom.K3.numpy()).max() < 1e-8 * scale / np.abs(want).max()

@@ -341,12 +341,18 @@ def run(args) -> int:
     resid = dict(res.stiffness.residuals)
     if res.stiffness.method == "condensed":
         plan = res.stiffness.plan_info
+        if "condensation_asymmetry" in resid:
+            fit = (f"misfit {resid['condensation_fit']:.1e} (the condensed force's departure "
+                   f"from a cubic over the load levels), asymmetry "
+                   f"{resid['condensation_asymmetry']:.1e} before the potential's symmetry "
+                   "was imposed")
+        else:  # about a state: the potential's Taylor terms (identify.potential_fit)
+            fit = (f"the quartic potential's misfit {resid['condensation_fit']:.1e} of the "
+                   "forces")
+        if "condensation_tangent_fit" in resid:
+            fit += f"; tangent misfit {resid['condensation_tangent_fit']:.1e}"
         print(f"  condensation: {plan['static_solves']} static solves converged, "
-              f"{plan['failed_solves']} failed; misfit {resid['condensation_fit']:.1e} (the "
-              f"condensed force's departure from a cubic over the load levels), asymmetry "
-              f"{resid['condensation_asymmetry']:.1e} before the potential's symmetry was "
-              "imposed" + (f"; tangent misfit {resid['condensation_tangent_fit']:.1e}"
-                           if "condensation_tangent_fit" in resid else ""))
+              f"{plan['failed_solves']} failed; {fit}")
     else:
         from ..identify.stiffness import residual_wording
 

@@ -50,7 +50,8 @@ def window_metrics(values: np.ndarray, times: np.ndarray, count: np.ndarray, cyc
                    primary: int = 0) -> dict[str, np.ndarray | float]:
     """Metrics of one case from its extrema: values/times (O, 2, ring), count (O, 2).
 
-    Returns amplitude (O,), frequency_hz (of output ``primary``), amplitude_change (relative
+    Returns amplitude (O,), centre (O,) (the middle of each band, (largest + smallest) / 2 over
+    the same window), frequency_hz (of output ``primary``), amplitude_change (relative
     change of the primary amplitude over its last cycle) and window_start (s).
     """
     O, _, ring = values.shape
@@ -69,22 +70,25 @@ def window_metrics(values: np.ndarray, times: np.ndarray, count: np.ndarray, cyc
     t_amp = t_start
     if len(tmax) and len(tmin) and period > 0:
         t_amp = max(t_start, max(tmax[-1], tmin[-1]) - LAST_PERIOD * period)
-    amplitude = np.zeros(O)
+    amplitude, centre = np.zeros(O), np.full(O, np.nan)
     for o in range(O):
         (vmax, tx), (vmin, tn) = seq[o]
         sel_max = vmax[tx >= t_amp]
         sel_min = vmin[tn >= t_amp]
         if len(sel_max) and len(sel_min):
             amplitude[o] = 0.5 * (sel_max.max() - sel_min.min())
+            centre[o] = 0.5 * (sel_max.max() + sel_min.min())
         elif len(vmax) and len(vmin):
             amplitude[o] = 0.5 * (vmax[-1] - vmin[-1])
+            centre[o] = 0.5 * (vmax[-1] + vmin[-1])
     change = float("nan")
     n = min(len(pmax), len(pmin))
     if n >= 2:
         a0 = 0.5 * (pmax[-1] - pmin[-1])
         a1 = 0.5 * (pmax[-2] - pmin[-2])
         change = abs(a0 - a1) / abs(a0) if a0 != 0 else float("nan")
-    return {"amplitude": amplitude, "frequency_hz": frequency, "amplitude_change": change,
+    return {"amplitude": amplitude, "centre": centre, "frequency_hz": frequency,
+            "amplitude_change": change,
             "window_start": float(t_start)}
 
 

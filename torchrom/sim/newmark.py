@@ -542,6 +542,7 @@ class _Run:
             "last_amplitude": np.full((B, O), np.nan), "last_frequency_hz": np.full(B, np.nan),
             "solver_error": np.full(B, np.nan), "q": np.full((B, n), np.nan),
             "v": np.full((B, n), np.nan), "xi": np.full((B, na), np.nan),
+            "centre": np.full((B, O), np.nan),
         }
         self.hist: dict[int, list] = {}
         if history is not None:
@@ -920,7 +921,8 @@ class _Run:
             q=res["q"], v=res["v"],
             histories={c: History(np.array([s[0] for s in h]), np.stack([s[1] for s in h]),
                                   self.names) for c, h in self.hist.items()},
-            wall_time_s=time.perf_counter() - t0, case_steps=case_steps, xi=res["xi"])
+            wall_time_s=time.perf_counter() - t0, case_steps=case_steps, xi=res["xi"],
+            centre=res["centre"])
 
     def _check_interval(self, tol: float) -> int:
         """One check interval: advance the batch, track its extrema, decide, compact; returns
@@ -1024,6 +1026,7 @@ class _Run:
         rel = self.solver_rel.index_select(0, di).cpu().numpy()
         times_end = self.t.index_select(0, di).cpu().numpy()
         primary = self.crit.decision_outputs[0]
+        C_out = self.C.double().cpu().numpy()
         for k, c in enumerate(cases):
             met = window_metrics(vals[k], times[k], count[k], self.crit.cycles, primary)
             r = self.res
@@ -1040,6 +1043,10 @@ class _Run:
                                                                       else np.nan)
             r["frequency_hz"][c] = met["frequency_hz"] if code == LCO else np.nan
             r["amplitude_change"][c] = met["amplitude_change"]
+            if code == LCO:
+                r["centre"][c] = met["centre"]
+            elif code == DECAY:  # the equilibrium it settled on
+                r["centre"][c] = q[k] @ C_out.T
             r["solver_error"][c] = rel[k]
             r["q"][c], r["v"][c], r["xi"][c] = q[k], v[k], xi[k]
         keep = np.setdiff1d(np.arange(len(self.active)), done)

@@ -32,6 +32,9 @@ class SimulationResult:
         frequency_hz: (B,) LCO frequency of the first decision output (NaN unless 'lco').
         last_amplitude, last_frequency_hz: the same measured on the last cycles whatever the
             status (the value when a case stopped; NaN where no cycle was seen).
+        centre: (B, O) the middle of each output's band, (largest + smallest) / 2 over the
+            window of ``amplitude``, for an LCO; the output at the final state for a decay;
+            NaN otherwise (None where the run did not measure it).
         amplitude_change: (B,) relative change of that amplitude over its last cycle.
         solver_error: (B,) largest relative acceleration correction of the last nonlinear
             iteration (relative to the largest acceleration), over the check intervals.
@@ -64,6 +67,7 @@ class SimulationResult:
     case_steps: int = 0
     xi: np.ndarray | None = None
     extra: dict[str, np.ndarray] = field(default_factory=dict)
+    centre: np.ndarray | None = None
     orbits: tuple[np.ndarray, np.ndarray] | None = None
 
     @property
@@ -101,7 +105,7 @@ def gather_results(parts: list[tuple[np.ndarray, SimulationResult]], batch: int
         return np.zeros(shape, dtype=a.dtype)
 
     arrays = ("status", "steps", "time", "amplitude", "frequency_hz", "amplitude_change",
-              "solver_error", "q", "v", "xi")
+              "solver_error", "q", "v", "xi", "centre")
     out = {k: empty(getattr(first, k)) for k in arrays if getattr(first, k) is not None}
     histories: dict[int, History] = {}
     wall, steps = 0.0, 0

@@ -112,7 +112,18 @@ class TimeMarching:
             done[0] += len(index)
             return res
 
-        return march(chunk.system, chunk.rom, chunk.cases, cfg.initial, run)
+        res = march(chunk.system, chunk.rom, chunk.cases, cfg.initial, run)
+        if chunk.system.load is not None and res.centre is not None:
+            # a mean state (a wing at an angle of attack): the middle of each output's band,
+            # + C q_ref about a ROM's reference, as harmonic balance's 0th harmonic is reported
+            from ..rom.reference import output_offsets
+            from ..sim.newmark import output_matrix
+
+            _, C = output_matrix(chunk.rom, res.output_names)
+            mean = res.centre + output_offsets(chunk.rom, C)
+            res.extra.update({f"mean_{name}": mean[:, j]
+                              for j, name in enumerate(res.output_names)})
+        return res
 
     def certificate(self, cfg) -> Certificate:
         return cfg.certificate
