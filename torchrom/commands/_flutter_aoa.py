@@ -19,7 +19,9 @@ object per crossing with ``method``, ``aoa_deg``, ``kind`` (onset/offset), ``vel
 ``envelope_ratio``;
 ``equilibria``: one object per angle and speed with ``aoa_deg``, ``velocity``, ``converged``,
 ``tip_deflection``, ``tip_deflection_pct_semispan``, ``envelope_ratio`` (above 1: beyond the
-loads the ROM's cubic terms were fitted to, :func:`torchrom.trim.reduced.envelope_ratio`), ``q``
+loads the ROM's nonlinear terms were fitted to, :func:`torchrom.trim.reduced.envelope_ratio`;
+for a ROM about rest, fitted over that range, an extrapolation; for one about a state, whose
+terms are the potential's Taylor terms there, a distance to check against the FE), ``q``
 (the ROM coordinates),
 ``natural_hz`` (the tangent's), and per method its critical root's ``damping`` and
 ``frequency_hz``; ``notes``; ``time_s``.
@@ -171,7 +173,7 @@ def run(args, rom_path, aero_path) -> int:
                 env = float(envelope_ratio(rom, q0))
                 print(f"  {res.method:<12}{eq.aoa_deg[a]:8.3g}  {b.kind:<7}{b.velocity:10.3f}"
                       f"{b.frequency_hz:9.3f}{d:12.5g}{'-' if pct is None else f'{pct:.2f}':>11}"
-                      f"{env:10.2f}" + ("  beyond the ROM's envelope" if env > 1 else ""))
+                      f"{env:10.2f}" + ("  beyond the identification's solves" if env > 1 else ""))
                 rows.append({"method": res.method, "aoa_deg": float(eq.aoa_deg[a]),
                              "kind": b.kind, "velocity": b.velocity,
                              "frequency_hz": b.frequency_hz, "tip_deflection": d,
