@@ -159,9 +159,15 @@ def references() -> dict[str, np.ndarray]:
     return out
 
 
-def figure(cases: list[dict], path: Path) -> None:
+#: the ROM's boundaries drawn: those whose equilibrium lies within this multiple of the
+#: identification solves' reach (``envelope_ratio`` of ``flutter --aoa``)
+ROM_ENVELOPE_SHOWN = 5.0
+
+
+def figure(cases: list[dict], path: Path, rom_flutter: dict | None = None) -> None:
     """Onset and offset against the root angle: torchrom's FE exact condensation beside the
-    peers."""
+    peers, and the ROM's (``rom_flutter``: the JSON of ``torchrom flutter ROM AERO --aoa``,
+    its p-k boundaries; those past ``ROM_ENVELOPE_SHOWN`` times its solves' reach left out)."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -181,6 +187,13 @@ def figure(cases: list[dict], path: Path) -> None:
         if pts:
             a, v = np.array(pts).T
             ax.plot(a, v, "g" + marker, ms=8, label=f"torchrom FE exact condensation, {kind}")
+        if rom_flutter is not None:
+            pts = [(b["aoa_deg"], b["velocity"]) for b in rom_flutter["boundaries"]
+                   if b["kind"] == kind and b["method"] == "p-k"
+                   and not b.get("envelope_ratio", 0) > ROM_ENVELOPE_SHOWN]
+            if pts:
+                a, v = np.array(pts).T
+                ax.plot(a, v, "r" + marker, ms=5, label=f"torchrom ROM about 5°, {kind}")
     ax.set(xlabel="root angle of attack (deg)", ylabel="speed (m/s)", ylim=(30, 80),
            title="Pazy wing with skin: flutter about the deformed wing")
     ax.grid(alpha=0.3)
@@ -206,6 +219,9 @@ def main(argv=None) -> int:
     p.add_argument("--out", type=Path, default=None)
     p.add_argument("--figure", type=Path, default=None,
                    help="onset/offset against the root angle beside the peers")
+    p.add_argument("--rom-flutter", type=Path, default=None,
+                   help="also draw the ROM's p-k boundaries from this JSON of torchrom "
+                        "flutter ROM AERO --aoa")
     p.add_argument("--from-json", type=Path, nargs="+", default=None,
                    help="tabulate and draw these results of earlier runs instead of running")
     args = p.parse_args(argv)
@@ -224,7 +240,8 @@ def main(argv=None) -> int:
         fe = fmt(c["fe"]["boundaries"]) if "fe" in c else "-"
         print(f"| {c['aoa_deg']:g} | {fmt(c['p-k'])} | {fmt(c['state-space'])} | {fe} |")
     if args.figure:
-        figure(res["cases"], args.figure)
+        figure(res["cases"], args.figure,
+               json.loads(args.rom_flutter.read_text()) if args.rom_flutter else None)
         print(f"figure: {args.figure}")
     if args.out and not args.from_json:
         args.out.write_text(json.dumps(res, indent=1))

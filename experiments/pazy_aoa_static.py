@@ -131,7 +131,27 @@ def run(aoas, speeds, progress=print, modes_at: tuple[int, ...] = (7,)) -> dict:
     return out
 
 
-def figure(res: dict, path: Path) -> None:
+def rom_tips(rom_path: Path, flutter_json: Path, grid: int = TIP,
+             envelope: float = 5.0) -> dict[float, np.ndarray]:
+    """The ROM's static tip deflection (% of the semispan at ``grid``, T3, from the mode
+    shapes rom.npz keeps) at each angle's converged equilibria of ``torchrom flutter ROM AERO
+    --aoa``'s JSON, those within ``envelope`` times the identification solves' reach:
+    {aoa: (speed, tip %) rows}."""
+    from torchrom.rom import NonlinearROM
+
+    rom = NonlinearROM.load(rom_path)
+    row = int(np.flatnonzero(rom.shapes.grid_ids == grid)[0])
+    tip = rom.shapes.phi[row, 2, :]
+    q_ref = rom.reference.q if rom.reference is not None else np.zeros(rom.n)
+    out: dict[float, list] = {}
+    for e in json.loads(flutter_json.read_text())["equilibria"]:
+        if e["converged"] and not e["envelope_ratio"] > envelope:
+            pct = 100 * float(tip @ (q_ref + np.asarray(e["q"]))) / SEMISPAN
+            out.setdefault(float(e["aoa_deg"]), []).append((e["velocity"], pct))
+    return {a: np.array(v) for a, v in out.items()}
+
+
+def figure(res: dict, path: Path, rom: dict[float, np.ndarray] | None = None) -> None:
     import matplotlib
 
     matplotlib.use("Agg")
@@ -159,6 +179,10 @@ def figure(res: dict, path: Path) -> None:
             if y is not None:
                 y = np.array([np.nan if v is None else v for v in y])
                 ax.plot(V, y, marker, mfc="none" if "linear," in key else None, label=key)
+        if rom and float(aoa) in rom:
+            t = rom[float(aoa)]
+            ax.plot(t[:, 0], t[:, 1], "r-", lw=2, alpha=0.7,
+                    label="torchrom ROM about 5°, 45 m/s, skin")
         ax.set(xlabel="speed (m/s)", ylabel="tip deflection (% of the semispan)",
                title=f"root angle of attack {aoa}°", xlim=(0, V.max() + 5), ylim=(0, 60))
         ax.grid(alpha=0.3)
@@ -169,9 +193,23 @@ def figure(res: dict, path: Path) -> None:
     plt.close(fig)
 
 
-def modes_figure(res: dict, path: Path, aoa: int = 7) -> None:
+def rom_modes(rom_path: Path, flutter_json: Path, aoa: float, grid: int = TIP,
+              envelope: float = 5.0) -> tuple[np.ndarray, np.ndarray]:
+    """The ROM's tangent frequencies (Hz) against its tip deflection (% of the semispan) at
+    ``aoa``'s converged equilibria of ``torchrom flutter ROM AERO --aoa``'s JSON (those within
+    ``envelope`` times the identification solves' reach): (tip (P,), frequencies (P, n))."""
+    tips = rom_tips(rom_path, flutter_json, grid, envelope).get(float(aoa), np.zeros((0, 2)))
+    eqs = [e for e in json.loads(flutter_json.read_text())["equilibria"]
+           if e["converged"] and float(e["aoa_deg"]) == float(aoa)
+           and not e["envelope_ratio"] > envelope]
+    return tips[:, 1], np.array([e["natural_hz"] for e in eqs]).reshape(len(eqs), -1)
+
+
+def modes_figure(res: dict, path: Path, aoa: int = 7, skinned: dict | None = None) -> None:
     """The first five frequencies against the tip deflection at ``aoa``: torchrom's FE tangent
-    beside the GFEM's SOL 400 + modes and UM/NAST (non-follower)."""
+    beside the GFEM's SOL 400 + modes and UM/NAST (non-follower); with ``skinned`` (``fe``:
+    the FE exact condensation's (tip, frequencies) of the skinned wing, ``rom``: the ROM's)
+    a second panel for the wing with skin, which no peer gives."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -182,7 +220,9 @@ def modes_figure(res: dict, path: Path, aoa: int = 7) -> None:
     f = np.array([r["frequencies_hz"] for r in rows])
     gfem = np.loadtxt(REFS / f"modal_deformed_aoa{aoa}_GFEM_sweep.txt")
     um = np.loadtxt(REFS / f"modal_deformed_aoa{aoa}_UM_NAST_sweep_nf.txt")
-    fig, ax = plt.subplots(figsize=(6.5, 4.5))
+    fig, axes = plt.subplots(1, 2 if skinned else 1, figsize=(12 if skinned else 6.5, 4.5),
+                             squeeze=False)
+    ax = axes[0][0]
     names = ("1st bending", "1st in-plane", "1st torsion", "2nd bending", "5th")
     for j, name in enumerate(names[:4]):
         c = f"C{j}"
@@ -192,12 +232,39 @@ def modes_figure(res: dict, path: Path, aoa: int = 7) -> None:
     ax.plot([], [], "k:", label="UM/NAST (non-follower)")
     ax.plot([], [], "ks", mfc="none", label="torchrom FE tangent")
     ax.set(xlabel="tip deflection (% of the semispan)", ylabel="frequency (Hz)",
-           title=f"Pazy wing without skin at {aoa}°: modes of the deformed wing")
+           title=f"without skin at {aoa}°: modes of the deformed wing")
     ax.grid(alpha=0.3)
     ax.legend(fontsize=7)
+    if skinned:
+        ax = axes[0][1]
+        t_fe, f_fe = skinned["fe"]
+        t_rom, f_rom = skinned["rom"]
+        for j in range(min(4, f_fe.shape[1], f_rom.shape[1] if f_rom.size else 4)):
+            c = f"C{j}"
+            ax.plot(t_fe, f_fe[:, j], "o", color=c, mfc="none")
+            if f_rom.size:
+                ax.plot(t_rom, f_rom[:, j], "-", color=c)
+        ax.plot([], [], "ko", mfc="none", label="torchrom FE exact condensation (10 modes)")
+        ax.plot([], [], "k-", label="torchrom ROM about 5°, 45 m/s")
+        ax.set(xlabel="tip deflection (% of the semispan)", ylabel="frequency (Hz)",
+               title=f"with skin at {aoa}°: the tangent's first four frequencies",
+               xlim=(10, 40), ylim=(0, 100))
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=7)
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)
+
+
+def skinned_modes(fe_json: Path, rom_path: Path | None, flutter_json: Path | None,
+                  aoa: float = 7.0) -> dict:
+    """The skinned wing's tangent frequencies at ``aoa`` against its tip: the FE exact
+    condensation's from experiments/pazy_aoa_rom.py's JSON, the ROM's from its flutter JSON."""
+    case = next(c for c in json.loads(fe_json.read_text())["cases"]
+                if float(c["aoa_deg"]) == float(aoa) and "fe" in c)
+    fe = (np.asarray(case["fe"]["tip_pct"], float), np.asarray(case["fe"]["natural_hz"], float))
+    rom = rom_modes(rom_path, flutter_json, aoa) if rom_path else (np.zeros(0), np.zeros((0, 0)))
+    return {"fe": fe, "rom": rom}
 
 
 def main(argv=None) -> int:
@@ -208,6 +275,12 @@ def main(argv=None) -> int:
     p.add_argument("--figure", type=Path, default=None)
     p.add_argument("--modes-figure", type=Path, default=None,
                    help="PNG of the 7° modes against the tip deflection")
+    p.add_argument("--rom-flutter", type=Path, nargs=2, default=None,
+                   metavar=("ROM.npz", "FLUTTER.json"),
+                   help="also draw this ROM's equilibria from its flutter --aoa JSON")
+    p.add_argument("--skinned-fe", type=Path, default=None, metavar="JSON",
+                   help="experiments/pazy_aoa_rom.py's JSON with the FE exact condensation at "
+                        "7°: the modes figure's second panel (with skin), beside --rom-flutter")
     p.add_argument("--from", dest="source", type=Path, default=None, metavar="JSON",
                    help="take the results from an earlier run's --out instead of solving")
     args = p.parse_args(argv)
@@ -249,10 +322,14 @@ def main(argv=None) -> int:
             print(f"| | {r['velocity']:g} | {r['tip_pct']:.2f} | {f3:.2f} | {ref:.2f} | "
                   f"{100 * (f3 / ref - 1):+.2f} % |")
     if args.figure:
-        figure(res, args.figure)
+        figure(res, args.figure, rom_tips(*args.rom_flutter) if args.rom_flutter else None)
         print(f"figure: {args.figure}")
     if args.modes_figure and res["modes"]:
-        modes_figure(res, args.modes_figure)
+        skinned = None
+        if args.skinned_fe:
+            rom_path, fl = args.rom_flutter if args.rom_flutter else (None, None)
+            skinned = skinned_modes(args.skinned_fe, rom_path, fl)
+        modes_figure(res, args.modes_figure, skinned=skinned)
         print(f"figure: {args.modes_figure}")
     if args.out and args.source is None:
         args.out.write_text(json.dumps(res, indent=1))
