@@ -107,23 +107,30 @@ def _newton(rom, aero: SteadyModalAero, q: torch.Tensor, dyn: float, aoa: torch.
 def _continued(rom, aero, q, alive, density, start, end):
     """From the equilibria ``q`` (A, n) at ``start`` = (speed, aoa (A,) rad) to ``end`` (at
     ``density``), both moved linearly along the way, the step halved where any live angle
-    fails: (q at ``end``, the angles that got there, (angle index, speed reached) of each angle
-    that failed :data:`MAX_HALVINGS` times and stopped)."""
+    fails and doubled again after a step that converges (as Nastran's NLPARM increments grow
+    back): (q at ``end``, the angles that got there, (angle index, speed reached) of each
+    angle that still fails at a step of 2^-:data:`MAX_HALVINGS` of the way and stops there,
+    e.g. at a fold)."""
     (v0, a0), (v1, a1) = start, end
-    s, step, halvings, lost = 0.0, 1.0, 0, []
+    s, step, lost = 0.0, 1.0, []
+    smallest = 2.0 ** -MAX_HALVINGS
     while s < 1.0 and bool(alive.any()):
         nxt = min(s + step, 1.0)
         v, a = (v1, a1) if nxt == 1.0 else (v0 + nxt * (v1 - v0), a0 + nxt * (a1 - a0))
         q_new, conv = _newton(rom, aero, q, 0.5 * density * v**2, a)
         if bool(conv[alive].all()):
             q, s = torch.where(alive[:, None], q_new, q), nxt
-        elif halvings < MAX_HALVINGS:
-            step, halvings = 0.5 * step, halvings + 1
+            # grown again: the angles left after one is lost would otherwise crawl on in steps
+            # of 2^-MAX_HALVINGS (hundreds of Newton solves a speed)
+            step = min(1.0, 2.0 * step)
+        elif step > smallest:
+            # a floor on the step, not a count of failures in a row: with the growth, a
+            # count is never reached while the step closes in on a fold
+            step *= 0.5
         else:  # the angles that fail are lost from here on; the others go on
             reached = v0 + s * (v1 - v0)
             lost += [(j, reached) for j in torch.nonzero(alive & ~conv).flatten().tolist()]
             alive = alive & conv
-            halvings = 0
     return q, alive, lost
 
 
