@@ -678,12 +678,14 @@ def _newton(fe, u, F, lam, p_idx, p_val, unknown, max_iter, tol):
         r = f - lam * F_u
         ru = r[unknown]
         res = float(np.linalg.norm(ru))
-        # the step's first internal force is a scale too: unloading to rest (λF = 0) drives
-        # f itself to 0, which no fraction of the current f would ever measure
+        # unloading to rest (nothing applied) drives f itself to 0, which no fraction of the
+        # current f would ever measure: there the step's first internal force is the scale.
+        # Only there: a loaded step keeps its criterion (identified tensors are pinned by it)
         if it == 1:
             f_start = float(np.linalg.norm(f))
-        scale = max(np.linalg.norm(lam * F_u[unknown]), np.linalg.norm(r[p_idx]),
-                    np.linalg.norm(f), f_start, 1e-300)
+        applied_norm = float(np.linalg.norm(lam * F_u[unknown]))
+        scale = max(applied_norm, np.linalg.norm(r[p_idx]), np.linalg.norm(f),
+                    f_start if applied_norm == 0.0 and not p_val.any() else 0.0, 1e-300)
         if not np.isfinite(res):
             return False, u, it, res
         if res <= tol * scale:
