@@ -9,9 +9,9 @@ alignment with ẋ(0)); the orbit is stable when every other |μ| < 1, and the l
 pair (torus). Φ is the product of the exponentials of A at the step midpoints (a second-order
 Magnus integrator, exact for the stiff constant part), Richardson-extrapolated over two step
 sizes (:func:`floquet`); the tangents are interpolated exactly from the 4H + 1 AFT samples. On a
-wing ROM the stiff dual coordinates are first condensed onto the slow state (first order in their
-damping, :func:`condensable`, :func:`_condensed_matrices`), which then takes implicit-midpoint
-steps.
+wing ROM the stiff dual coordinates are first condensed onto the slow state (their quasi-static
+response with its first corrections for their damping and their inertia, :func:`condensable`,
+:func:`_condensed_matrices`), which then takes implicit-midpoint steps.
 
 Written here (no library computes batched monodromy matrices of this model).
 """
@@ -211,19 +211,29 @@ def _condensed_matrices(hb: HarmonicBalance, X: Tensor, omega: Tensor, tau: Tens
                         ) -> tuple[Tensor, Tensor]:
     """A(τ_j) (B, S, ns, ns) on the slow state y = [δl, δl̇, δξ] and ẏ(0) (lag part zero, as
     :func:`_full_matrices`), the dual coordinates condensed (module docstring, *Stiff dual
-    coordinates*). Their rows, K_dd δd + C_dd δḋ + C_dl δl̇ + K_dl δl = 0 without their
-    inertia, to first order in the damping (δḋ ≈ d/dt(S δl) inside the damping term):
+    coordinates*). Their rows, K_dd δd + M_dd δd̈ + C_dd δḋ + C_dl δl̇ + K_dl δl = 0, to first
+    order in the damping (δḋ ≈ d/dt(S δl) inside the damping term) and in their inertia
+    (δd̈ ≈ d²/dt²(S δl), the singular-perturbation correction of the quasi-static response):
 
-        δd = S₁ δl + P δl̇,   S = −K_dd⁻¹ K_dl,   S₁ = S − ω K_dd⁻¹ C_dd S',
-                             P = −K_dd⁻¹ (C_dl + C_dd S),
+        δd = S₁ δl + P δl̇ + Q (S δl̈ + 2ω S' δl̇ + ω² S'' δl),
+        S = −K_dd⁻¹ K_dl,   S₁ = S − ω K_dd⁻¹ C_dd S',   P = −K_dd⁻¹ (C_dl + C_dd S),
+        Q = −K_dd⁻¹ M_dd,
 
-    (S' = dS/dτ from K_dd S' = −(K'_dd S + K'_dl), exact: the tangents are trigonometric
-    polynomials), so the slow rows read
+    (S' = dS/dτ from K_dd S' = −(K'_dd S + K'_dl), S'' from K_dd S'' = −(K''_dd S + 2K'_dd S'
+    + K''_dl), exact: the tangents are trigonometric polynomials), so the slow rows read
 
-        M_ll δl̈ + (C_ll + C_ld S + K_ld P) δl̇ + (K_ll + K_ld S₁ + ω C_ld S') δl + D_l δξ = 0.
+        (M_ll + K_ld Q S) δl̈ + (C_ll + C_ld S + K_ld P + 2ω K_ld Q S') δl̇
+            + (K_ll + K_ld S₁ + ω C_ld S' + ω² K_ld Q S'') δl + D_l δξ = 0.
 
-    K_ld P is how the dual coordinates' (Kelvin–Voigt) damping reaches the slow motion; the
-    neglected terms are of order (ω/ω_d)² and (ω C_dd K_dd⁻¹)²."""
+    K_ld P is how the dual coordinates' (Kelvin–Voigt) damping reaches the slow motion, K_ld Q S
+    their inertia carried by the slow motion; the neglected terms are of order (ω/ω_d)⁴ and
+    (ω C_dd K_dd⁻¹)². Measured (issue 48) against the RK4 ODE monodromy of
+    tests/ode_reference.py on the Goland 9L12D orbits: without the inertia terms the trivial
+    multiplier was 0.08 off at 10,000 ft, γ = 0 (0.55–0.71 at 7,000–8,500 ft), whatever the
+    steps (0.079 at 512), and the γ = 1e-3, 4,000 ft critical multiplier 0.369 against the
+    ODE's 0.386; with them 1.3e-3 (H = 7; 1.9e-4 on the orbit at H = 27), 0.05 and 0.006,
+    and 0.387. At 4,000 ft, γ = 0 the expansion does not hold (trivial multiplier 0.75 off:
+    the orbit's tangents reach the slow modes' harmonics), and the verdict stays unknown."""
     system = hb.system
     B, n, na, H = X.shape[0], hb.n, system.n_lag, hb.H
     S_ = tau.shape[0]
@@ -234,7 +244,8 @@ def _condensed_matrices(hb: HarmonicBalance, X: Tensor, omega: Tensor, tau: Tens
     Kc, Cc = tangents  # _tangent_coefficients
     D2 = FourierBasis.build(2 * H, device=X.device, dtype=X.dtype).D  # d/dτ on 4H+1 rows
     fine = basis_at(tau, 2 * H)
-    Kn, dKn, Cn = ((fine @ c).view(B, S_, n, n) for c in (Kc, D2 @ Kc, Cc))
+    Kn, dKn, ddKn, Cn = ((fine @ c).view(B, S_, n, n) for c in (Kc, D2 @ Kc, D2 @ (D2 @ Kc),
+                                                                  Cc))
     K = hb.Kl[:, None] + Kn
     C = hb.C0[:, None] + Cn
 
@@ -250,13 +261,15 @@ def _condensed_matrices(hb: HarmonicBalance, X: Tensor, omega: Tensor, tau: Tens
 
     S = -solve_dd(part(K, d, lin))
     dS = -solve_dd(part(dKn, d, d) @ S + part(dKn, d, lin))
+    ddS = -solve_dd(part(ddKn, d, d) @ S + 2 * part(dKn, d, d) @ dS + part(ddKn, d, lin))
     C_dd = part(C, d, d)
     S1 = S - w * solve_dd(C_dd @ dS)
     P = -solve_dd(part(C, d, lin) + C_dd @ S)
     K_ld, C_ld = part(K, lin, d), part(C, lin, d)
-    Ct = part(C, lin, lin) + C_ld @ S + K_ld @ P
-    Kt = part(K, lin, lin) + K_ld @ S1 + w * (C_ld @ dS)
-    Minv = torch.linalg.inv(part(hb.Mt, lin, lin))[:, None]
+    KQ = -K_ld @ solve_dd(part(hb.Mt, d, d)[:, None].expand(-1, S_, -1, -1))  # K_ld Q
+    Ct = part(C, lin, lin) + C_ld @ S + K_ld @ P + 2 * w * (KQ @ dS)
+    Kt = part(K, lin, lin) + K_ld @ S1 + w * (C_ld @ dS) + w ** 2 * (KQ @ ddS)
+    Minv = torch.linalg.inv(part(hb.Mt, lin, lin)[:, None] + KQ @ S)
     ns = 2 * nl + na
     A = X.new_zeros(B, S_, ns, ns)
     A[..., :nl, nl:2 * nl] = torch.eye(nl, device=X.device, dtype=X.dtype)

@@ -50,9 +50,10 @@ the amplitude the first chord step moves, not the sup of δ₀: the tail harmoni
 the sup-distance far more than the amplitude. The smaller of the two bounds is the row's
 (:meth:`FourierBound.amplitude_error`). Measured on the ``bench_lco --quick`` orbits: the
 10,000 ft, γ = 0 row (H = 7, κ = 0.07) had the sup bound 1.04e-3 on A_Tz (refused at tol
-1e-3) and now 4.2e-4, within tol, against an error of 7e-5 from the shooting reference (the
-row still takes the shooting certificate: its harmonic-balance Floquet verdict is unresolved,
-trivial multiplier 0.08 off, :mod:`.certify`); the
+1e-3) and now 4.2e-4, within tol, against an error of 7e-5 from the shooting reference and
+8.1e-5 from the RK4 ODE orbit (tests/test_certificate_truth_goland.py; the row is
+Fourier-certified since the condensed monodromy of :mod:`.floquet` carries the dual
+coordinates' inertia: its trivial multiplier was 0.08 off, now 1.3e-3); the
 γ = 1e-3 rows' bounds are 1.4–2.4 times tighter on A_Tz and 2.5–4.1 on A_Tx.
 
 Why the γ = 0 Goland rows at 4,000–8,500 ft stay refused (measured on the H = 9 and the
@@ -70,6 +71,24 @@ and 261 harmonics (matrix-free; GMRES preconditioned by this module's approximat
 on 3 (first step) and 4 (second) of the 5: the periodic problem itself is ill-conditioned
 there (Kantorovich's h > 1/2), not only its preconditioner. Those rows keep the shooting
 certificate.
+
+Where κ > 1/4 comes from (issue 48, measured on the ``bench_lco --quick`` γ = 0 orbits against
+the RK4 ODE orbit of tests/ode_reference.py): two distinct causes. (1) At the method's H = 9
+the orbit is outside Kantorovich's ball: the first step moves it by 1–8 % of its size at
+4,000–7,000 ft (the amplitude is 1.8 % off the ODE's at 4,000 ft), the second step is larger (κ
+= 98, 6.4, 9.3), and it lies in harmonic 1 of the slow coordinates, not in the tail; 16, 18 or
+30 coupled harmonics above H leave κ at 35–46 (4,000 ft) and 8.0–8.5 (7,000 ft). (2) Re-solved
+at K = 15, 21, 27 harmonics (the 4,000 ft amplitude then 1.1e-3 and 3e-4 off the ODE's) the
+residual reaches harmonics 3K–9K, where the approximate inverse is wrong twice over: the slow
+modes at 22.8–28.7 Hz sit at harmonics 12–15, and in raw coordinates the orbit's tangent on
+them is 800–5,700 times their linear stiffness (‖K_ll^{-1/2} K_n(τ) K_ll^{-1/2}‖₂; the dual
+coordinates' quadratic coupling, which only their Schur complement cancels), and the dual modes
+from 63 Hz (harmonic 32) up are frequency-modulated by the orbit (their diagonal stiffness by
+up to 14–35 %, ‖K_dd^{-1/2} ΔK_dd K_dd^{-1/2}‖₂ = 0.33–0.72), so across harmonics their Hill
+operator couples about εΩ_d/(2ω) neighbours (an estimate: 5 to 40 from 63 to 782 Hz) — no
+per-harmonic block, linear or with the mean tangent, inverts it. κ at K = 15/21/27 is then
+0.3–8 without a trend in K (the 10,000 ft row: 0.07 at H = 7, 5.0 at K = 15, 0.32 at 27); the
+mean tangent added to the tail blocks raises it on 6 of those 9 orbits (up to 180).
 
 Written here: the certificate composes this project's harmonic balance.
 """
