@@ -26,6 +26,8 @@ from pathlib import Path
 
 import numpy as np
 
+from experiments.pazy_aoa_static import ROM_ENVELOPE_SHOWN
+
 DENSITY, SEMISPAN = 1.225, 0.55
 
 
@@ -157,11 +159,6 @@ def references() -> dict[str, np.ndarray]:
         sharpy += [(aoa, v) for v in np.loadtxt(path, ndmin=2)[:, 0] if v < 70]
     out["SHARPy (onset, offset)"] = np.array(sharpy)
     return out
-
-
-#: the ROM's boundaries drawn: those whose equilibrium lies within this multiple of the
-#: identification solves' reach (``envelope_ratio`` of ``flutter --aoa``)
-ROM_ENVELOPE_SHOWN = 5.0
 
 
 def figure(cases: list[dict], path: Path, rom_flutter: dict | None = None) -> None:

@@ -131,12 +131,17 @@ def run(aoas, speeds, progress=print, modes_at: tuple[int, ...] = (7,)) -> dict:
     return out
 
 
+#: the ROM's equilibria and boundaries drawn: those within this multiple of the identification
+#: solves' reach (``envelope_ratio`` of ``flutter --aoa``)
+ROM_ENVELOPE_SHOWN = 5.0
+
+
 def rom_tips(rom_path: Path, flutter_json: Path, grid: int = TIP,
-             envelope: float = 5.0) -> dict[float, np.ndarray]:
+             envelope: float = ROM_ENVELOPE_SHOWN) -> dict[float, np.ndarray]:
     """The ROM's static tip deflection (% of the semispan at ``grid``, T3, from the mode
     shapes rom.npz keeps) at each angle's converged equilibria of ``torchrom flutter ROM AERO
     --aoa``'s JSON, those within ``envelope`` times the identification solves' reach:
-    {aoa: (speed, tip %) rows}."""
+    {aoa: rows of (speed, tip %, the tangent's natural frequencies (Hz)...)}."""
     from torchrom.rom import NonlinearROM
 
     rom = NonlinearROM.load(rom_path)
@@ -147,7 +152,8 @@ def rom_tips(rom_path: Path, flutter_json: Path, grid: int = TIP,
     for e in json.loads(flutter_json.read_text())["equilibria"]:
         if e["converged"] and not e["envelope_ratio"] > envelope:
             pct = 100 * float(tip @ (q_ref + np.asarray(e["q"]))) / SEMISPAN
-            out.setdefault(float(e["aoa_deg"]), []).append((e["velocity"], pct))
+            out.setdefault(float(e["aoa_deg"]), []).append((e["velocity"], pct,
+                                                            *e["natural_hz"]))
     return {a: np.array(v) for a, v in out.items()}
 
 
@@ -194,15 +200,11 @@ def figure(res: dict, path: Path, rom: dict[float, np.ndarray] | None = None) ->
 
 
 def rom_modes(rom_path: Path, flutter_json: Path, aoa: float, grid: int = TIP,
-              envelope: float = 5.0) -> tuple[np.ndarray, np.ndarray]:
+              envelope: float = ROM_ENVELOPE_SHOWN) -> tuple[np.ndarray, np.ndarray]:
     """The ROM's tangent frequencies (Hz) against its tip deflection (% of the semispan) at
-    ``aoa``'s converged equilibria of ``torchrom flutter ROM AERO --aoa``'s JSON (those within
-    ``envelope`` times the identification solves' reach): (tip (P,), frequencies (P, n))."""
-    tips = rom_tips(rom_path, flutter_json, grid, envelope).get(float(aoa), np.zeros((0, 2)))
-    eqs = [e for e in json.loads(flutter_json.read_text())["equilibria"]
-           if e["converged"] and float(e["aoa_deg"]) == float(aoa)
-           and not e["envelope_ratio"] > envelope]
-    return tips[:, 1], np.array([e["natural_hz"] for e in eqs]).reshape(len(eqs), -1)
+    ``aoa`` (:func:`rom_tips`): (tip (P,), frequencies (P, n))."""
+    rows = rom_tips(rom_path, flutter_json, grid, envelope).get(float(aoa), np.zeros((0, 2)))
+    return rows[:, 1], rows[:, 2:]
 
 
 def modes_figure(res: dict, path: Path, aoa: int = 7, skinned: dict | None = None) -> None:

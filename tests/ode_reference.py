@@ -134,13 +134,19 @@ def shoot_ode(ode: CaseODE, x0, period: float, decision_row, rows, iterations: i
     """The periodic orbit of ``ode`` near (x0, period) by Newton on (x0, T) (module
     docstring); amplitudes of ``rows`` (O, n) from 2048 samples of the converged period,
     refined by a parabola at each extreme."""
+    return _shoot(ode, ode.flow, x0, period, decision_row, rows, iterations, tol)
+
+
+def _shoot(ode, flow, x0, period: float, decision_row, rows, iterations: int,
+           tol: float) -> ODEOrbit:
+    """Newton on (x0, T) with ``flow(x, T, rows=None)`` -> (x(T), monodromy, samples)."""
     n, m = ode.n, ode.size
     c = np.asarray(decision_row, dtype=float)
     x, T = np.asarray(x0, dtype=float).copy(), float(period)
     scale = np.maximum(np.abs(x), 1e-12 * np.abs(x).max())
     step = np.inf
     for _ in range(iterations):
-        xT, Phi, _ = ode.flow(x, T)
+        xT, Phi, _ = flow(x, T)
         G = np.concatenate([xT - x, [c @ x[n:2 * n]]])
         J = np.zeros((m + 1, m + 1))
         J[:m, :m] = Phi - np.eye(m)
@@ -151,7 +157,7 @@ def shoot_ode(ode: CaseODE, x0, period: float, decision_row, rows, iterations: i
         step = max(np.max(np.abs(d[:m]) / scale.max()), abs(d[m]) / T)
         if step < tol:
             break
-    _, Phi, y = ode.flow(x, T, rows=np.atleast_2d(rows))
+    _, Phi, y = flow(x, T, rows=np.atleast_2d(rows))
     mu = np.linalg.eigvals(Phi)
     trivial = np.argmin(np.abs(mu - 1.0))
     critical = float(np.max(np.abs(np.delete(mu, trivial))))
@@ -260,25 +266,30 @@ def shoot_ode_rk4(ode: StiffCaseODE, x0, period: float, decision_row, rows, step
     (``steps`` per period; the step scales with the period during Newton, so the discrete
     map is smooth in T). Its own accuracy: run it at two step counts (RK4 is fourth order:
     the error at the finer is ~1/15 of their difference)."""
-    n, m = ode.n, ode.size
-    c = np.asarray(decision_row, dtype=float)
-    x, T = np.asarray(x0, dtype=float).copy(), float(period)
-    scale = np.maximum(np.abs(x), 1e-12 * np.abs(x).max())
-    step = np.inf
-    for _ in range(iterations):
-        xT, Phi, _ = ode.flow_rk4(x, T, steps)
-        G = np.concatenate([xT - x, [c @ x[n:2 * n]]])
-        J = np.zeros((m + 1, m + 1))
-        J[:m, :m] = Phi - np.eye(m)
-        J[:m, m] = ode.rhs(xT)
-        J[m, n:2 * n] = c
-        d = np.linalg.lstsq(J, -G, rcond=None)[0]
-        x, T = x + d[:m], T + d[m]
-        step = max(np.max(np.abs(d[:m]) / scale.max()), abs(d[m]) / T)
-        if step < tol:
-            break
-    _, Phi, y = ode.flow_rk4(x, T, steps, rows=np.atleast_2d(rows))
-    mu = np.linalg.eigvals(Phi)
-    trivial = np.argmin(np.abs(mu - 1.0))
-    critical = float(np.max(np.abs(np.delete(mu, trivial))))
-    return ODEOrbit(x, T, _half_range(y), 1.0 / T, mu, critical, float(step))
+    return _shoot(ode, lambda x, T, rows=None: ode.flow_rk4(x, T, steps, rows=rows), x0, period,
+                  decision_row, rows, iterations, tol)
+
+
+#: the Goland ROM outputs the certificate-truth tests compare
+GOLAND_OUTPUTS = ["A_Tz", "A_Tx", "A_Ty", "max_mode1"]
+
+
+def goland_hb_rows(tmp_path, altitudes_gammas):
+    """The paper's full Goland model (built in ``tmp_path``), its batched system at each
+    (altitude ft, γ s) with matched α, and harmonic balance's LCOs there:
+    (model, system, C of :data:`GOLAND_OUTPUTS`, result)."""
+    import torch
+
+    from torchrom.paper.pipeline import goland_pipeline
+    from torchrom.paper.study import FULL_PIPELINE
+    from torchrom.periodic import HarmonicBalanceMethod
+    from torchrom.sim import LCOCriteria
+    from torchrom.study.cases import case_system
+
+    model = goland_pipeline(FULL_PIPELINE, tmp_path, log=lambda _m: None).model
+    cases = [{"altitude_ft": a, "gamma": g, "alpha": "matched"} for a, g in altitudes_gammas]
+    system = case_system(model, cases, dtype=torch.float64)[0]
+    C = np.stack([model.rom.outputs[o] for o in GOLAND_OUTPUTS])
+    res = HarmonicBalanceMethod().run(system, outputs=GOLAND_OUTPUTS,
+                                      lco=LCOCriteria(rtol=1e-3, cycles=4, max_amplitude=10.0))
+    return model, system, C, res

@@ -31,7 +31,7 @@ from torchrom.sim import LCOCriteria
 from torchrom.study.cases import case_system
 
 from .aeroelastic_fixtures import section_model
-from .ode_reference import CaseODE, shoot_ode
+from .ode_reference import CaseODE, goland_hb_rows, shoot_ode
 
 OUTPUTS = ["A_Tz", "A_Ty"]
 #: the reference's resolution (module docstring)
@@ -196,19 +196,10 @@ def test_goland_fourier_bounds_hold_against_harmonic_balance_at_39_harmonics(tmp
     1.04e-3, refused it), A_Tx 2.4e-3 against 1.3e-2, frequency 1.6e-5 against 2.2e-4; γ =
     1e-3 errors 8e-6–2.9e-3 of the outputs against bounds 2.6e-5–4.8e-3 (A_Tz to A_Tx); the
     pipeline build is most of its 110 s."""
-    from torchrom.paper.pipeline import goland_pipeline
-    from torchrom.paper.study import FULL_PIPELINE
     from torchrom.periodic.fourier_certificate import fourier_bound
     from torchrom.periodic.solve import HBOptions, orbit_amplitude, refine_harmonics
 
-    model = goland_pipeline(FULL_PIPELINE, tmp_path, log=lambda _m: None).model
-    cases = [{"altitude_ft": a, "gamma": g, "alpha": "matched"}
-             for a, g in ((10000.0, 0.0), (8500.0, 1e-3), (10000.0, 1e-3))]
-    system = case_system(model, cases, dtype=torch.float64)[0]
-    names = ["A_Tz", "A_Tx", "A_Ty", "max_mode1"]
-    C = np.stack([model.rom.outputs[o] for o in names])
-    res = HarmonicBalanceMethod().run(system, outputs=names,
-                                      lco=LCOCriteria(rtol=1e-3, cycles=4, max_amplitude=10.0))
+    _, system, C, res = goland_hb_rows(tmp_path, ((10000.0, 0.0), (8500.0, 1e-3), (10000.0, 1e-3)))
     assert (res.status == "lco").all()
     X, w = res.orbits
     H = int(res.extra["harmonics"][0])

@@ -28,7 +28,7 @@ from torchrom.sim import LCOCriteria
 from torchrom.study.cases import case_system
 
 from .aeroelastic_fixtures import section_model
-from .ode_reference import CaseODE, StiffCaseODE, shoot_ode, shoot_ode_rk4
+from .ode_reference import CaseODE, StiffCaseODE, goland_hb_rows, shoot_ode, shoot_ode_rk4
 
 OUTPUTS = ["A_Tz", "A_Ty"]
 
@@ -108,18 +108,9 @@ def test_goland_certificates_against_the_ode(tmp_path):
     reference's own resolution: the change from 12,500 to 25,000 steps over 15 (RK4), below
     3e-10 on the amplitudes of the undamped rows, added to each bound. ~11 minutes on the
     shared 2-core machine (each RK4 period with its monodromy is 8–16 CPU s)."""
-    from torchrom.paper.pipeline import goland_pipeline
-    from torchrom.paper.study import FULL_PIPELINE
     from torchrom.periodic.certify import FINISH_TOL, Certificate, certify
 
-    model = goland_pipeline(FULL_PIPELINE, tmp_path, log=lambda _m: None).model
-    cases = [{"altitude_ft": a, "gamma": g, "alpha": "matched"}
-             for a, g in ((10000.0, 0.0), (4000.0, 1e-3), (4000.0, 0.0))]
-    system = case_system(model, cases, dtype=torch.float64)[0]
-    names = ["A_Tz", "A_Tx", "A_Ty", "max_mode1"]
-    C = np.stack([model.rom.outputs[o] for o in names])
-    res = HarmonicBalanceMethod().run(system, outputs=names,
-                                      lco=LCOCriteria(rtol=1e-3, cycles=4, max_amplitude=10.0))
+    _, system, C, res = goland_hb_rows(tmp_path, ((10000.0, 0.0), (4000.0, 1e-3), (4000.0, 0.0)))
     assert (res.status == "lco").all()
     cert = Certificate()
     out = certify(system, res, C, 0, cert, 1e-3)
@@ -127,7 +118,7 @@ def test_goland_certificates_against_the_ode(tmp_path):
     assert all(out.extra["certified"])
     X, w = res.orbits
     resolution = FINISH_TOL * cert.tol
-    for i in range(len(cases)):
+    for i in range(len(res.status)):
         truth, fine = _goland_truth(system, C, X, w, i)
         assert truth.correction < 1e-9 and fine.correction < 1e-9
         own = np.abs(fine.amplitude / truth.amplitude - 1).max() / 15
