@@ -92,3 +92,19 @@ def test_lco_about_the_5_degree_equilibrium_from_the_deck(tmp_path):
          "--about-aero", "aero.npz", "--about-aoa", "5", "--about-velocity", "45",
          "--about-density", "1.225", "--out", "rom_about.npz")
     _sweep_against_marching(tmp_path, tmp_path / "rom_about.npz", tmp_path / "aero.npz")
+
+
+def test_sweep_names_the_reference_state_whose_flutter_speed_it_reports(tmp_path):
+    """A sweep at a root angle of attack on a ROM expanded about a state reports the flutter
+    speed of that state's tangent and must say so (it named the undeformed wing before); the
+    ROM here is about 5 deg at 45 m/s, 1.225 kg/m^3 (SOURCE.md)."""
+    from torchrom.study.cases import flutter_speed_lines
+    from torchrom.study.config import load_sweep_config
+
+    (tmp_path / "c.toml").write_text(_config(ABOUT / "rom_about.npz", ABOUT / "aero.npz",
+                                             "[45.1]"))
+    cfg = load_sweep_config(tmp_path / "c.toml")
+    lines = flutter_speed_lines(cfg.build_model(), cfg.cases)
+    assert len(lines) == 1
+    assert "the ROM's reference state (aoa_deg 5, velocity 45, density 1.225)" in lines[0]
+    assert "undeformed" not in lines[0]

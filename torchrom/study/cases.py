@@ -172,6 +172,8 @@ def check_altitude_unit(model: AeroelasticModel, cases: Sequence[Mapping[str, An
                              f"altitude_unit)")
 
 
+#: the load-case keys of a ROM's reference state that a sweep's flutter line names
+REFERENCE_KEYS = ("aoa_deg", "velocity", "density")
 #: most distinct air densities whose flutter speed a sweep reports
 MAX_FLUTTER_DENSITIES = 4
 
@@ -190,9 +192,16 @@ def flutter_speed_lines(model, cases: Sequence[Mapping[str, Any]]) -> list[str]:
         lines.append(f"rigid-body modes on a soft support at {model.rigid_body_support_hz:g} Hz "
                      f"([model] rigid_body_support_hz; column rigid_body_support_hz): the "
                      f"aircraft is not free in plunge and pitch")
-    # at a root angle of attack the undeformed wing's flutter speed is not where LCOs begin
-    straight = (" of the undeformed wing (about the deformed one: torchrom flutter ROM AERO "
-                "--aoa DEG)") if any(float(c.get("aoa_deg", 0.0)) for c in tunnel) else ""
+    # at a root angle of attack the reference tangent's flutter speed is not where LCOs begin:
+    # the undeformed wing's, or for a ROM expanded about a state that state's
+    reference = getattr(model.rom, "reference", None)
+    tangent = "the undeformed wing"
+    if reference is not None:
+        held = ", ".join(f"{k} {reference.condition[k]:g}" for k in REFERENCE_KEYS
+                         if isinstance(reference.condition.get(k), (int, float)))
+        tangent = f"the ROM's reference state ({held})" if held else "the ROM's reference state"
+    straight = (f" of {tangent} (about the deformed wing at each angle: torchrom flutter ROM "
+                f"AERO --aoa DEG)") if any(float(c.get("aoa_deg", 0.0)) for c in tunnel) else ""
     for density in list(dict.fromkeys(float(r) for r in rho))[:MAX_FLUTTER_DENSITIES]:
         fs = model.flutter_speed(density)
         where = f"flutter speed{straight} at {density:.6g} {u.density} (baseline damping)"
