@@ -70,6 +70,8 @@ CONFIGS = {
                                "[certificate] dt"),
     "certificate max_harmonics < 0": (("[run]", "[certificate]\nmax_harmonics = -1\n[run]"),
                                       "certificate.max_harmonics: expected an integer >= 0"),
+    "certificate slow not a boolean": (("[run]", '[certificate]\nslow = "yes"\n[run]'),
+                                       "certificate.slow: expected true or false"),
 }
 
 #: a continuation line of eight blank fields and the CORD2R/CORD1R cards of the damaged decks

@@ -5,7 +5,9 @@ A harmonic-balance row is first offered to the Fourier certificate (:func:`fouri
 integration; ``certificate`` "fourier"); the rows it refuses and every time-marching row
 carry the shooting certificate below (``certificate`` "shooting"). With
 ``Certificate.max_harmonics`` a refused row is first re-solved at H → 2H + 1 harmonics up to
-that cap and offered again (:mod:`.raise_harmonics`).
+that cap and offered again (:mod:`.raise_harmonics`); with ``Certificate.slow`` it is then
+offered to the slow certificate (:func:`slow_rows`, :mod:`.slow_certificate`: ``certificate``
+"slow", the row reporting that certificate's corrected orbit).
 
 For each LCO row of a :class:`~torchrom.sim.SimulationResult` (harmonic balance orbits, or the
 final state of a time integration) the discrete periodic orbit of the Newmark map at the
@@ -62,6 +64,7 @@ from .floquet import condensed_multiplier
 from .fourier_certificate import fourier_bound
 from .raise_harmonics import raise_rows
 from .shooting import OrbitStart, ShootingOptions, shoot, start_from_fourier
+from .slow_certificate import applies, slow_certificate
 
 #: status of an LCO whose certificate failed and that shooting could not finish
 UNCERTIFIED = "lco_uncertified"
@@ -111,6 +114,14 @@ class Certificate:
             (:mod:`.raise_harmonics`); 0: never. Off by default: on the Goland γ = 0 rows the
             re-solve at H = 29 was 0.7 CPU s per orbit and its certificate 0.43 s, more than
             the shooting finish (~0.5–1 s), and the certificate still refused every one.
+        slow: offer the harmonic-balance rows the Fourier certificate refuses to the slow
+            certificate (:mod:`.slow_certificate`: the slow motion certified with the stiff
+            dual coordinates eliminated, the neglected fast dynamics bounded; certificate
+            "slow"; the row then reports the certificate's corrected orbit) before shooting.
+            Off by default: on ``bench_lco --quick`` it certifies the γ = 1e-3 rows (which the
+            Fourier certificate takes first) and the 10,000 ft, γ = 0 one (also Fourier's),
+            and refuses the 4,000–8,500 ft, γ = 0 rows (κ = 0.19–0.80, or A_Tz's bound
+            3.1e-3 above ``tol``), at ~0.1 CPU s per row: no row moves off shooting.
     """
 
     enabled: bool = True
@@ -123,9 +134,10 @@ class Certificate:
     dt_tol: float = 0.1
     fourier: bool = True
     max_harmonics: int = 0
+    slow: bool = False
 
     def __post_init__(self):
-        for name in ("enabled", "finish", "richardson", "always_finish", "fourier"):
+        for name in ("enabled", "finish", "richardson", "always_finish", "fourier", "slow"):
             if not isinstance(getattr(self, name), bool):
                 raise InputError(f"certificate.{name}: expected true or false, got "
                                  f"{getattr(self, name)!r}")
@@ -254,6 +266,54 @@ def _raised_fourier_rows(system: CaseSystem, result: SimulationResult, refused: 
     return result, refused
 
 
+def slow_rows(system: CaseSystem, result: SimulationResult, idx: np.ndarray, C: np.ndarray,
+              decision: int, tol: float, cols: dict) -> tuple[SimulationResult, np.ndarray]:
+    """(result, refused): the harmonic-balance rows ``idx`` offered to the slow certificate
+    (:mod:`.slow_certificate`); a certified row (κ ≤ 1/4, the duals' fast series contracting,
+    the decision output's amplitude and the frequency within ``tol`` of the continuous-time
+    orbit's, its Floquet verdict known with a margin above the monodromy's accuracy) reports
+    the certificate's corrected orbit: every output's amplitude, the frequency and the state
+    at τ = 0 (``finished`` False: not a discrete orbit), its columns filled in ``cols``. The
+    rows it refuses are returned for shooting."""
+    if idx.size == 0 or result.orbits is None:
+        return result, idx
+    X, w = result.orbits
+    sub = system.select(torch.as_tensor(idx)).to(dtype=torch.float64)
+    w_t = torch.as_tensor(w[idx], dtype=torch.float64)
+    if not applies(sub, w_t):
+        return result, idx
+    out = slow_certificate(sub, torch.as_tensor(X[idx]), w_t, C[decision], C)
+    b = out
+    with np.errstate(divide="ignore", invalid="ignore"):
+        rel = np.where(b.amplitude > 0, b.amplitude_error / b.amplitude, np.nan)
+        margin = np.abs(1.0 - out.critical) > out.trivial_error
+    good = out.certified & (rel[:, decision] <= tol) & (b.frequency_error <= tol) & margin
+    g = idx[good]
+    if g.size == 0:
+        return result, idx
+    amp = np.array(result.amplitude, dtype=float, copy=True)
+    freq = np.array(result.frequency_hz, dtype=float, copy=True)
+    amp[g], freq[g] = b.amplitude[good], b.frequency_hz[good]
+    q, v = np.array(result.q, dtype=float, copy=True), np.array(result.v, dtype=float, copy=True)
+    xi = None if result.xi is None else np.array(result.xi, dtype=float, copy=True)
+    q[g], v[g] = out.state[0][good], out.state[1][good]
+    if xi is not None:
+        xi[g] = out.state[2][good]
+    cols["certified"][g] = True
+    cols["certificate"][g] = "slow"
+    cols["orbit_error"][g] = rel[good, decision]
+    cols["dt_error"][g] = 0.0  # a distance to the continuous-time orbit itself
+    cols["output_error"][g] = np.nanmax(rel[good], axis=1)
+    cols["frequency_error"][g] = b.frequency_error[good]
+    cols["stable"][g] = out.stable[good]
+    cols["critical_multiplier"][g] = out.critical[good]
+    cols["stability_margin"][g] = 1.0 - out.critical[good]
+    cols["trivial_multiplier_error"][g] = out.trivial_error[good]
+    cols["finished"][g] = False
+    result = dataclasses.replace(result, amplitude=amp, frequency_hz=freq, q=q, v=v, xi=xi)
+    return result, idx[~good]
+
+
 def richardson_error(a_h: np.ndarray, a_2h: np.ndarray, a_4h: np.ndarray,
                      resolution: float) -> np.ndarray:
     """The relative discretisation error of the discrete orbits' amplitudes A(h) from those at
@@ -301,11 +361,18 @@ def certify(system: CaseSystem, result: SimulationResult, rows, decision: int,
     if not (h > 0 and math.isfinite(h)):
         raise InputError(f"certificate.dt: expected a positive step, got {h}")
     continuous = result.orbits is not None
-    if continuous and certificate.fourier and not certificate.always_finish:
-        # a Fourier orbit's own certificate first; the shooting one takes the rest
-        idx = idx[~fourier_rows(system, result, idx, C, int(decision), certificate.tol, cols)]
-        result, idx = _raised_fourier_rows(system, result, idx, C, int(decision), certificate,
-                                           cols)
+    if continuous and not certificate.always_finish and (certificate.fourier
+                                                         or certificate.slow):
+        # a Fourier orbit's own certificates first (Fourier, then the slow one); the shooting
+        # one takes the rest
+        if certificate.fourier:
+            idx = idx[~fourier_rows(system, result, idx, C, int(decision), certificate.tol,
+                                    cols)]
+            result, idx = _raised_fourier_rows(system, result, idx, C, int(decision),
+                                               certificate, cols)
+        if certificate.slow and idx.size:
+            result, idx = slow_rows(system, result, idx, C, int(decision), certificate.tol,
+                                    cols)
         if idx.size == 0:
             return dataclasses.replace(result, extra={**result.extra, **cols})
     amp = np.array(result.amplitude, dtype=float, copy=True)
