@@ -10,9 +10,10 @@ function each): ``newmark-reference`` (the paper's setting: dt = 1 ms, small sta
 iterations), ``newmark`` (a 10 %-of-span start on the static manifold, error-controlled steps),
 ``newmark-fast``, ``hb`` and ``hb-unresolved`` (harmonic balance, with seeding of the LCOs not
 accepted in H), ``shooting`` (the ``hb`` orbits finished to the discrete orbit, every one),
-``newmark-neighbour``, ``newmark-hb`` and ``hb-raised`` (``hb`` with the Fourier
+``newmark-neighbour``, ``newmark-hb``, ``hb-raised`` (``hb`` with the Fourier
 certificate's refused rows re-solved at H → 2H + 1 up to :data:`RAISED_HARMONICS` first,
-``[certificate] max_harmonics``; ``--methods``). Every method's LCOs
+``[certificate] max_harmonics``) and ``hb-slow`` (``hb`` with ``[certificate] slow``, the
+slow certificate before shooting; ``--methods``). Every method's LCOs
 are certified as a sweep certifies them (:mod:`torchrom.periodic.certify`: harmonic-balance
 rows first by the Fourier certificate, :mod:`torchrom.periodic.fourier_certificate`, a bound on
 the distance to the continuous-time orbit without time integration; the others by one shooting
@@ -128,6 +129,8 @@ class MethodRun:
     amplitudes: np.ndarray | None = None
     #: the certificate's ``max_harmonics`` (0: refused Fourier rows go to shooting directly)
     max_harmonics: int = 0
+    #: the certificate's ``slow`` (the slow certificate between the Fourier one and shooting)
+    slow: bool = False
 
 
 def _timed(fn: Callable[[], object]) -> tuple[object, float]:
@@ -245,6 +248,13 @@ def hb_raised(bench: Bench) -> MethodRun:
     return dataclasses.replace(harmonic_balance(bench), max_harmonics=RAISED_HARMONICS)
 
 
+def hb_slow(bench: Bench) -> MethodRun:
+    """The ``hb`` method certified with ``[certificate] slow = true``: the rows the Fourier
+    certificate refuses offered to the slow certificate (:mod:`torchrom.periodic.
+    slow_certificate`) before shooting."""
+    return dataclasses.replace(harmonic_balance(bench), slow=True)
+
+
 #: the reference's harmonic ladder: adaptive up to H = 13 (amplitude change 1e-4), then every
 #: LCO seeded by time integration and raised up to H = 25 (torchrom.periodic.seed: the updated
 #: wing's γ = 0 LCOs need H ≈ 17–25), the highest converged H kept (:func:`_raised_to_top`)
@@ -314,6 +324,7 @@ METHODS: dict[str, Callable[[Bench], MethodRun]] = {
     "hb-unresolved": lambda bench: harmonic_balance(bench, seed="unresolved"),
     "shooting": shooting,
     "hb-raised": hb_raised,
+    "hb-slow": hb_slow,
 }
 #: run by default (``--methods`` adds others)
 DEFAULT_METHODS = ("newmark-reference", "newmark", "hb", "hb-unresolved", "shooting")
@@ -330,7 +341,7 @@ def certified(bench: Bench, run: MethodRun) -> MethodRun:
     ``lco_uncertified`` where that fails too), the CPU time of the certificate added."""
     rows = bench.rows
     cert = dataclasses.replace(CERTIFICATE, always_finish=run.always_finish,
-                               max_harmonics=run.max_harmonics)
+                               max_harmonics=run.max_harmonics, slow=run.slow)
     res, cpu = _timed(lambda: certify(bench.system(), run.result, rows, 0, cert,
                                       CERTIFICATE_DT))
     return dataclasses.replace(run, amplitude=res.amplitude[:, 0], amplitudes=res.amplitude,
