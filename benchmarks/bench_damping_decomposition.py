@@ -6,16 +6,19 @@
 
 The ROMs are the quick study's model stage (``QUICK_PIPELINE`` of torchrom.paper.study, each
 wing variant), built once into ``--work`` (cached there). Runs, side by side in this process on
-one intra-op thread: the decomposition with its subset stages solved by the batched barrier
-method ("barrier", torchrom.identify.eigmax) and by the soft-minimum Adam ascent ("adam", the
-path before issue 48), each with seconds per stage, the smallest scaled eigenvalue after the
-subsets, after the whole-basis stage and at the end, the enforcement and the K3 reproduction
-error; and the SDP optimum (torchrom.identify.damping_family.sdp_member's program) over the
-null-space coordinates ("now", as the study runs it), beside the formulation before issue 48
-("before": an unnormalised zero cone of the identified coefficients, 2,000 iterations,
-eps 1e-5): status, iterations, seconds, t*, and
-λ_min of the solver's matrix and of the member after the exact projection onto the identified
-coefficients (≤ t*: a feasible point). Writes ``bench_damping_decomposition.json`` and ``.csv``.
+one intra-op thread: the decomposition with (subset stages, whole-basis stage) solved by
+(barrier, L-BFGS) — issue 48's: the batched barrier method of torchrom.identify.eigmax and the
+soft minimum's L-BFGS with its analytic gradient —, by (barrier, Adam) and by (Adam, Adam), the
+soft-minimum Adam ascents of the path before issue 48; each with seconds per stage, the
+eigen-decompositions of the whole-basis stage, the smallest scaled eigenvalue after the
+subsets, after the whole-basis stage and at the end, the enforcement, the K3 reproduction
+error and the damping tensors' change from (Adam, Adam); and the SDP optimum
+(torchrom.identify.damping_family.sdp_member's program) over the null-space coordinates ("now",
+as the study runs it), beside the formulation before issue 48 ("before": an unnormalised zero
+cone of the identified coefficients, 2,000 iterations, eps 1e-5): status, iterations, seconds,
+t*, and λ_min of the solver's matrix and of the member after the exact projection onto the
+identified coefficients (≤ t*: a feasible point). Writes ``bench_damping_decomposition.json``
+and ``.csv``.
 """
 
 from __future__ import annotations
@@ -41,11 +44,17 @@ def _rom(variant: str, work: Path):
     return goland_pipeline(base, work / f"model_{variant}", log=lambda s: None).model.rom
 
 
-def _decomposition(rom, solver: str) -> dict:
+#: (subset solver, whole-basis solver): issue 48's, the subsets' barrier with the whole-basis Adam
+#: ascent (the study's until the whole-basis L-BFGS), and the method before issue 48 (last)
+SOLVERS = (("barrier", "lbfgs"), ("barrier", "adam"), ("adam", "adam"))
+
+
+def _decomposition(rom, solver: str, whole: str) -> dict:
     from torchrom.identify import damping as dmp
 
     stage_s: dict[str, float] = {}
-    originals = (dmp._optimise_stage, dmp._optimise_stage_barrier, dmp._enforce_psd)
+    originals = (dmp._optimise_stage, dmp._optimise_stage_barrier, dmp._enforce_psd,
+                 dmp._optimise_whole_lbfgs)
 
     def timed(fn, key):
         def wrapper(*a, **k):
@@ -64,18 +73,23 @@ def _decomposition(rom, solver: str) -> dict:
     dmp._optimise_stage = timed(originals[0], stage_name)
     dmp._optimise_stage_barrier = timed(originals[1], stage_name)
     dmp._enforce_psd = timed(originals[2], lambda a: "enforcement")
+    dmp._optimise_whole_lbfgs = timed(originals[3], stage_name)
     try:
         t = time.perf_counter()
         d = dmp.optimum_decomposition(rom.K1.numpy(), rom.K2.numpy(), rom.K3.numpy(),
-                                      dmp.DecompositionOptions(subset_solver=solver))
+                                      dmp.DecompositionOptions(subset_solver=solver,
+                                                               whole_solver=whole))
         total = time.perf_counter() - t
     finally:
-        dmp._optimise_stage, dmp._optimise_stage_barrier, dmp._enforce_psd = originals
+        (dmp._optimise_stage, dmp._optimise_stage_barrier, dmp._enforce_psd,
+         dmp._optimise_whole_lbfgs) = originals
     r = d.report
     return {"seconds": total, "stage_s": stage_s,
             "after_subsets": r["after_subsets"]["min_eigenvalue_scaled"],
             "after_whole": r["after_whole"]["min_eigenvalue_scaled"],
             "final": r["final"]["min_eigenvalue_scaled"],
+            "whole_evaluations": r["stages"]["whole"].get("evaluations",
+                                                          r["options"]["whole_iterations"]),
             "enforcement": r["enforcement"]["method"],
             "reproduction_error_K3": r["reproduction_error_K3"], "_D": (d.D2, d.D3)}
 
@@ -151,15 +165,16 @@ def main(argv=None) -> int:
     rows, runs = [], []
     for variant in args.variants:
         rom = _rom(variant, args.work)
-        res = {s: _decomposition(rom, s) for s in ("barrier", "adam")}
-        D_new, D_old = res["barrier"].pop("_D"), res["adam"].pop("_D")
-        change = [float(np.abs(a - b).max() / np.abs(b).max()) for a, b in zip(D_new, D_old)]
-        for s, r in res.items():
+        res = {sw: _decomposition(rom, *sw) for sw in SOLVERS}
+        D = {sw: r.pop("_D") for sw, r in res.items()}
+        for (s, w), r in res.items():
             row = {"kind": "decomposition", "variant": variant, "subset_solver": s,
-                   **{k: v for k, v in r.items() if k != "stage_s"},
+                   "whole_solver": w, **{k: v for k, v in r.items() if k != "stage_s"},
                    **{f"{k} s": v for k, v in r["stage_s"].items()}}
-            if s == "barrier":
-                row["D2 change vs adam"], row["D3 change vs adam"] = change
+            if (s, w) != SOLVERS[-1]:  # the tensors' change from the method before issue 48
+                row["D2 change vs adam"], row["D3 change vs adam"] = (
+                    float(np.abs(a - b).max() / np.abs(b).max())
+                    for a, b in zip(D[(s, w)], D[SOLVERS[-1]]))
             rows.append(row)
             print(row, flush=True)
         if not args.no_sdp and variant == args.variants[0]:

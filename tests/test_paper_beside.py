@@ -98,6 +98,45 @@ def test_probing_raises_where_a_file_would_be_built(tmp_path):
     assert cache.get("b.txt", KEY) is None  # outside the block: a plain miss
 
 
+def blas_threads_job(cache, *, log):
+    """The worker's BLAS threads: NumPy's and SciPy's OpenBLAS (both loaded here); never
+    cached, so it runs in the worker."""
+    import scipy.linalg  # noqa: F401 - loads SciPy's own OpenBLAS
+
+    assert cache.get("tables/never.txt", KEY) is None
+    from threadpoolctl import threadpool_info
+
+    return [i["num_threads"] for i in threadpool_info() if i["user_api"] == "blas"]
+
+
+def _blas_threads():
+    from threadpoolctl import threadpool_info
+
+    return [i["num_threads"] for i in threadpool_info() if i["user_api"] == "blas"]
+
+
+def test_two_processes_keep_to_one_blas_thread_each(tmp_path, monkeypatch):
+    """Two processes on two cores: a BLAS call on two threads waits for the core the other
+    process holds (measured 57 s instead of 1.5 s for the model stage's RFA fit on a loaded
+    machine), so from the first job on the study's process and the worker each use one BLAS
+    thread; the study's own limits and environment are restored afterwards."""
+    import scipy.linalg  # noqa: F401 - SciPy's OpenBLAS loaded in the study's process too
+    from threadpoolctl import threadpool_limits
+
+    from torchrom.paper.beside import BLAS_ENV
+
+    monkeypatch.delenv(BLAS_ENV, raising=False)
+    with threadpool_limits(limits=2, user_api="blas"):  # as on a 2-core machine, any machine
+        before = _blas_threads()
+        assert before and max(before) == 2
+        with Beside(tmp_path, False, 2) as beside:
+            job = beside.submit(blas_threads_job)
+            assert max(_blas_threads()) == 1
+            worker = job.result(FileCache(tmp_path), print)
+            assert job.future is not None and worker and max(worker) == 1
+        assert _blas_threads() == before and BLAS_ENV not in os.environ
+
+
 def test_a_failing_job_raises_its_own_error_in_the_study(tmp_path):
     with pytest.raises(InputError, match="job: expected something else"):
         with Beside(tmp_path, False, 2) as beside:

@@ -52,16 +52,20 @@ def member_sweep(main, member: DampingMember) -> tuple[Any, str]:
 
 def decomposition_band(main, exact, thetas, end_tables: tuple[pd.DataFrame, pd.DataFrame],
                        run: Callable[[Any, str], pd.DataFrame],
-                       extra: Sequence[DampingMember] = ()) -> dict[str, Any]:
+                       extra: Sequence[DampingMember] = (),
+                       family: Sequence[DampingMember] | None = None) -> dict[str, Any]:
     """The band (JSON-ready).
 
     ``main``, ``exact``: the study's model and the exact-damping model (same basis and
     stiffness); ``end_tables``: the damping check's cases simulated with each (reused when the
     family's end equals that model's tensors); ``run(model, name)``: simulates those cases with
     a model (the study's cached sweep); ``extra``: members off the family's segment (the SDP
-    optimum), named uniquely.
+    optimum), named uniquely; ``family``: the family's members at ``thetas`` where the caller
+    has them already (:func:`~torchrom.identify.damping_family.damping_family` of the two
+    models).
     """
-    members = damping_family(main.rom, main.rom, exact.rom, thetas) + list(extra)
+    members = [*(family if family is not None
+                 else damping_family(main.rom, main.rom, exact.rom, thetas)), *extra]
     ends = {0.0: (main.rom, end_tables[0]), 1.0: (exact.rom, end_tables[1])}
     tables, rows = [], []
     for m in members:

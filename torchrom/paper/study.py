@@ -36,7 +36,13 @@ import torch
 
 from .._version import __version__
 from ..errors import InputError
-from ..identify.damping_family import SDP_EPS, SDP_ITERATIONS, DampingMember, sdp_member
+from ..identify.damping_family import (
+    SDP_EPS,
+    SDP_ITERATIONS,
+    DampingMember,
+    damping_family,
+    sdp_member,
+)
 from ..io import atomic_path, check_folder, write_figure, write_json_atomic, write_text_atomic
 from ..progress import Progress, StageCounter
 from ..reference import paper_reference
@@ -89,20 +95,20 @@ FIGURE_FILES = {"table2": "table2_frequencies.png", "fig9": "fig09_alpha_gamma.p
 #: (:class:`torchrom.progress.StageCounter` scales them by how the finished stages compared)
 CONFIRMATION_STAGE = "Newmark confirmation (Fig. 11)"
 STAGE_SECONDS = {
-    "quick": {"model (FE, ROM, aero, flutter)": 24.6, "Fig. 9: alpha(gamma)": 0.1,
-              "linear checks, Table 3": 1.0, "LCO sweep (Figs. 10-13)": 21.1,
-              CONFIRMATION_STAGE: 7.2, "damping check (exact Kelvin-Voigt)": 12.3,
-              "damping decomposition band": 16.5,
-              "LCO branches in altitude (continuation)": 6.0,
-              "stiffness nonlinearity at gamma = 1e-3 (cause)": 1.1,
-              "other wing variant (pipeline, LCO sweep)": 0.1, "figures": 2.5},
-    "full": {"model (FE, ROM, aero, flutter)": 27.6, "Fig. 9: alpha(gamma)": 0.4,
-             "linear checks, Table 3": 1.7, "LCO sweep (Figs. 10-13)": 29.9,
-             CONFIRMATION_STAGE: 7.2, "damping check (exact Kelvin-Voigt)": 9.3,
-             "damping decomposition band": 27.4,
+    "quick": {"model (FE, ROM, aero, flutter)": 12.7, "Fig. 9: alpha(gamma)": 0.1,
+              "linear checks, Table 3": 0.8, "LCO sweep (Figs. 10-13)": 16.5,
+              CONFIRMATION_STAGE: 5.8, "damping check (exact Kelvin-Voigt)": 10.3,
+              "damping decomposition band": 22.7,
+              "LCO branches in altitude (continuation)": 0.1,
+              "stiffness nonlinearity at gamma = 1e-3 (cause)": 0.1,
+              "other wing variant (pipeline, LCO sweep)": 0.1, "figures": 2.1},
+    "full": {"model (FE, ROM, aero, flutter)": 15.3, "Fig. 9: alpha(gamma)": 0.1,
+             "linear checks, Table 3": 1.3, "LCO sweep (Figs. 10-13)": 25.9,
+             CONFIRMATION_STAGE: 5.6, "damping check (exact Kelvin-Voigt)": 7.9,
+             "damping decomposition band": 29.2,
              "LCO branches in altitude (continuation)": 0.1,
              "stiffness nonlinearity at gamma = 1e-3 (cause)": 0.1,
-             "other wing variant (pipeline, LCO sweep)": 0.1, "figures": 2.2},
+             "other wing variant (pipeline, LCO sweep)": 0.1, "figures": 1.7},
 }
 #: the stages the second process computes (:mod:`.beside`) cost their whole time when the study
 #: runs in one process (``TORCHROM_PAPER_PROCESSES=1``): their seconds in a reference run so
@@ -209,9 +215,10 @@ def _study(out: Path, quick: bool, force: bool, device: str, dtype: torch.dtype,
     check_cfg = dataclasses.replace(_secondary(cfg), cases=damping_check_cases(cfg),
                                     history=None)
     # the stages that need only the model, to the second process (.beside) after the variant,
-    # collected at their own stage below: the SDP optimum and its sweep first (the band waits
-    # for them), the branches last (collected after the band)
-    jobs["sdp"] = beside.submit(_sdp_sweep, check_cfg, model, device, dtype)
+    # collected at their own stage below: the SDP optimum first (the band waits for it; its
+    # member's sweep runs here, at the band: the second process, with the other wing and the
+    # SDP, was the longer one), the branches last (collected after the band)
+    jobs["sdp"] = beside.submit(_sdp_member, model)
     jobs["branches"] = beside.submit(_branches, cfg, model, model_hash, device)
     jobs["cause"] = beside.submit(_stiffness_cause, cfg, model, quick)
 
@@ -261,13 +268,21 @@ def _study(out: Path, quick: bool, force: bool, device: str, dtype: torch.dtype,
     log(f"damping decompositions: the Fig. 10 cases at θ = "
         f"{', '.join(f'{t:g}' for t in BAND_THETAS[kind])} between the optimum decomposition "
         "(0) and the exact tensors (1)")
-    sdp, sdp_table = jobs["sdp"].result(cache, log)
-    swept = {member_sweep(model, sdp)[1]: sdp_table}  # the SDP member's, from the second process
-    band = decomposition_band(
-        model, exact, BAND_THETAS[kind], (main_cases, exact_table),
-        lambda m, name: swept[name] if name in swept else _lco_sweep(
-            cache, check_cfg, m, m.content_hash(), device, dtype, log, name=name)[0],
-        extra=(sdp,))
+    swept: dict[str, pd.DataFrame] = {}
+
+    def sweep(m, name: str) -> pd.DataFrame:
+        if name not in swept:
+            swept[name] = _lco_sweep(cache, check_cfg, m, m.content_hash(), device, dtype, log,
+                                     name=name)[0]
+        return swept[name]
+
+    # the members between the ends first, while the second process may still solve the SDP
+    family = damping_family(model.rom, model.rom, exact.rom, BAND_THETAS[kind])
+    for member in family:
+        if 0.0 < member.theta < 1.0:
+            sweep(*member_sweep(model, member))
+    band = decomposition_band(model, exact, BAND_THETAS[kind], (main_cases, exact_table), sweep,
+                              extra=(jobs["sdp"].result(cache, log),), family=family)
     for key, verdict in band["findings"].items():
         log(f"  {key}: {verdict}")
 
@@ -407,20 +422,10 @@ def _secondary(cfg):
     return dataclasses.replace(cfg, hb=dataclasses.replace(cfg.hb, seed="unconverged"))
 
 
-def _sdp_sweep(cache: FileCache, check_cfg, model, device, dtype, log
-               ) -> tuple[DampingMember, pd.DataFrame]:
-    """The band's SDP member (:func:`_sdp_member`) and its sweep of the damping check's cases
-    (``check_cfg``; :func:`.band.member_sweep`), one job of the second process: the band stage
-    waits for both."""
-    member = _sdp_member(cache, model, log)
-    m, name = member_sweep(model, member)
-    return member, _lco_sweep(cache, check_cfg, m, m.content_hash(), device, dtype, log,
-                              name=name)[0]
-
-
 def _sdp_member(cache: FileCache, model, log) -> DampingMember:
     """The decomposition criterion's SDP optimum for the study's ROM (the band's member
-    ``sdp``), cached per ROM (the SCS solve is the costly part)."""
+    ``sdp``), cached per ROM (the SCS solve is the costly part); a job of the second process
+    (:mod:`.beside`), whose member the band stage sweeps."""
     key = FileCache.key({"rom": model.rom.content_hash(), "iterations": SDP_ITERATIONS,
                          "eps": SDP_EPS, "formulation": "null-space"})
     name = "tables/damping_sdp.npz"
