@@ -188,6 +188,25 @@ def _coarse_amplitude(system: CaseSystem, state: tuple, c, h: float) -> np.ndarr
     return r.start_amplitude * (1 + r.first_amplitude_correction)
 
 
+def _continuous_columns(cols: dict, g: np.ndarray, kind: str, rel: np.ndarray, decision: int,
+                        frequency_error: np.ndarray, stable: np.ndarray,
+                        critical: np.ndarray, trivial_error: np.ndarray) -> None:
+    """Fill the columns of rows ``g`` certified by a bound on their distance to the
+    continuous-time orbit (certificate ``kind``): ``rel`` (len(g), O) each output's relative
+    amplitude bound, then the frequency bound and the Floquet verdict."""
+    cols["certified"][g] = True
+    cols["certificate"][g] = kind
+    cols["orbit_error"][g] = rel[:, decision]
+    cols["dt_error"][g] = 0.0  # a distance to the continuous-time orbit itself
+    cols["output_error"][g] = np.nanmax(rel, axis=1)
+    cols["frequency_error"][g] = frequency_error
+    cols["stable"][g] = stable
+    cols["critical_multiplier"][g] = critical
+    cols["stability_margin"][g] = 1.0 - critical
+    cols["trivial_multiplier_error"][g] = trivial_error
+    cols["finished"][g] = False
+
+
 def fourier_rows(system: CaseSystem, result: SimulationResult, idx: np.ndarray,
                   C: np.ndarray, decision: int, tol: float, cols: dict) -> np.ndarray:
     """Which of the harmonic-balance rows ``idx`` the Fourier certificate certifies
@@ -231,17 +250,8 @@ def fourier_rows(system: CaseSystem, result: SimulationResult, idx: np.ndarray,
         crit = np.maximum(mult[j][good], condensed_multiplier(
             system.select(torch.as_tensor(g)).to(dtype=torch.float64),
             torch.as_tensor(X[g, : 2 * h + 1]), torch.as_tensor(w[g])))
-        cols["certified"][g] = True
-        cols["certificate"][g] = "fourier"
-        cols["orbit_error"][g] = rel[good, decision]
-        cols["dt_error"][g] = 0.0  # a distance to the continuous-time orbit itself
-        cols["output_error"][g] = np.nanmax(rel[good], axis=1)
-        cols["frequency_error"][g] = bound.frequency_error[good]
-        cols["stable"][g] = stable[j][good]
-        cols["critical_multiplier"][g] = crit
-        cols["stability_margin"][g] = 1.0 - crit
-        cols["trivial_multiplier_error"][g] = ferr[j][good]
-        cols["finished"][g] = False
+        _continuous_columns(cols, g, "fourier", rel[good], decision,
+                            bound.frequency_error[good], stable[j][good], crit, ferr[j][good])
     return ok
 
 
@@ -283,33 +293,23 @@ def slow_rows(system: CaseSystem, result: SimulationResult, idx: np.ndarray, C: 
     if not applies(sub, w_t):
         return result, idx
     out = slow_certificate(sub, torch.as_tensor(X[idx]), w_t, C[decision], C)
-    b = out
     with np.errstate(divide="ignore", invalid="ignore"):
-        rel = np.where(b.amplitude > 0, b.amplitude_error / b.amplitude, np.nan)
+        rel = np.where(out.amplitude > 0, out.amplitude_error / out.amplitude, np.nan)
         margin = np.abs(1.0 - out.critical) > out.trivial_error
-    good = out.certified & (rel[:, decision] <= tol) & (b.frequency_error <= tol) & margin
+    good = out.certified & (rel[:, decision] <= tol) & (out.frequency_error <= tol) & margin
     g = idx[good]
     if g.size == 0:
         return result, idx
     amp = np.array(result.amplitude, dtype=float, copy=True)
     freq = np.array(result.frequency_hz, dtype=float, copy=True)
-    amp[g], freq[g] = b.amplitude[good], b.frequency_hz[good]
+    amp[g], freq[g] = out.amplitude[good], out.frequency_hz[good]
     q, v = np.array(result.q, dtype=float, copy=True), np.array(result.v, dtype=float, copy=True)
     xi = None if result.xi is None else np.array(result.xi, dtype=float, copy=True)
     q[g], v[g] = out.state[0][good], out.state[1][good]
     if xi is not None:
         xi[g] = out.state[2][good]
-    cols["certified"][g] = True
-    cols["certificate"][g] = "slow"
-    cols["orbit_error"][g] = rel[good, decision]
-    cols["dt_error"][g] = 0.0  # a distance to the continuous-time orbit itself
-    cols["output_error"][g] = np.nanmax(rel[good], axis=1)
-    cols["frequency_error"][g] = b.frequency_error[good]
-    cols["stable"][g] = out.stable[good]
-    cols["critical_multiplier"][g] = out.critical[good]
-    cols["stability_margin"][g] = 1.0 - out.critical[good]
-    cols["trivial_multiplier_error"][g] = out.trivial_error[good]
-    cols["finished"][g] = False
+    _continuous_columns(cols, g, "slow", rel[good], decision, out.frequency_error[good],
+                        out.stable[good], out.critical[good], out.trivial_error[good])
     result = dataclasses.replace(result, amplitude=amp, frequency_hz=freq, q=q, v=v, xi=xi)
     return result, idx[~good]
 
