@@ -449,7 +449,8 @@ def summarize(name: str, run: MethodRun, cases: list[dict], ref_amp: np.ndarray,
     certified = np.array([c is True for c in cert.get("certified", [None] * len(cases))])
     stable = list(cert.get("stable", [None] * len(cases)))
     kind = list(cert.get("certificate", [None] * len(cases)))
-    fourier = np.array([k == "fourier" for k in kind])
+    # certified by a bound on the distance to the continuous-time orbit (no time step)
+    fourier = np.array([k in ("fourier", "slow") for k in kind])
     # the certificate must bound the measured error: its estimates are first order (one Newton
     # evaluation at h and one at 2h; 5 % slack) and it resolves nothing below a finish's own
     # stopping point, FINISH_TOL × tol in relative amplitude (1e-5: a finished orbit is placed
@@ -460,13 +461,15 @@ def summarize(name: str, run: MethodRun, cases: list[dict], ref_amp: np.ndarray,
     # slack, no finish): the reference's own error (Richardson on the discrete orbits, below
     # 1e-5 relative on the damped orbits it certifies) is the only allowance
     output_bound = 100 * np.asarray(cert.get("output_error", nan), dtype=float)
+    freq_bound = 100 * np.asarray(cert.get("frequency_error", nan), dtype=float)
     fourier_ok = (amp_err <= orbit_err + resolution) & (
         out_err <= output_bound[:, None] + resolution).all(axis=1) & (
-        freq_err <= 100 * np.asarray(cert.get("frequency_error", nan), dtype=float)
-        + resolution)
-    bounded = np.where(certified, np.where(fourier, fourier_ok,
-                                           amp_err <= 1.05 * (orbit_err + dt_err) + resolution),
-                       True)
+        freq_err <= freq_bound + resolution)
+    # a shooting row's every output and its frequency by the same first-order estimates
+    shooting_ok = (amp_err <= 1.05 * (orbit_err + dt_err) + resolution) & (
+        out_err <= 1.05 * output_bound[:, None] + resolution).all(axis=1) & (
+        freq_err <= 1.05 * freq_bound + resolution)
+    bounded = np.where(certified, np.where(fourier, fourier_ok, shooting_ok), True)
     rows = [{**{k: v for k, v in c.items() if k != "alpha"}, "status": str(run.status[i]),
              "amplitude": float(run.amplitude[i]), "frequency_hz": float(run.frequency_hz[i]),
              "reference_amplitude": float(ref_amp[i, 0]), "reference_frequency_hz":
@@ -583,11 +586,13 @@ def main(argv=None) -> int:
                         | {"dt": CERTIFICATE_DT},
                         hb_reference_check=check, wall_s=time.perf_counter() - t0,
                         certificate_floor=floor,
-                        bound_check="error <= 1.05 (orbit_error + dt_error) + "
+                        bound_check="for a shooting-certified row the decision output's "
+                        "error <= 1.05 (orbit_error + dt_error), every output's <= 1.05 "
+                        "output_error and the frequency's <= 1.05 frequency_error, each + "
                         f"{100 * FINISH_TOL * CERTIFICATE.tol:g} % (the certificate's "
-                        "resolution, FINISH_TOL x tol) for a shooting-certified row; for a "
-                        "Fourier-certified row every output's amplitude error <= output_error "
-                        "and the frequency error <= frequency_error, each + "
+                        "resolution, FINISH_TOL x tol); for a Fourier- or slow-certified row "
+                        "every output's amplitude error <= output_error and the frequency "
+                        "error <= frequency_error, each + "
                         f"{100 * FINISH_TOL * CERTIFICATE.tol:g} % (the reference's own "
                         "resolution)")
     args.out.mkdir(parents=True, exist_ok=True)

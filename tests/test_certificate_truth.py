@@ -24,7 +24,7 @@ import pytest
 import torch
 
 from torchrom.periodic import HarmonicBalanceMethod
-from torchrom.periodic.certify import Certificate, certify
+from torchrom.periodic.certify import FINISH_TOL, Certificate, certify
 from torchrom.periodic.fourier import resize_harmonics
 from torchrom.periodic.solve import orbit_state
 from torchrom.sim import LCOCriteria
@@ -36,6 +36,8 @@ from .ode_reference import CaseODE, goland_hb_rows, shoot_ode
 OUTPUTS = ["A_Tz", "A_Ty"]
 #: the reference's resolution (module docstring)
 REFERENCE_RESOLUTION = 1e-8
+#: the certificates' tolerance in these tests (the default)
+CERTIFICATE_TOL = Certificate().tol
 
 
 def _setup(altitudes, gammas, all_lco: bool = True):
@@ -74,7 +76,16 @@ def _check_against_truth(system, C, res, out) -> dict:
             assert amp_err[0] <= out.extra["orbit_error"][i] + REFERENCE_RESOLUTION
             assert freq_err <= out.extra["frequency_error"][i] + REFERENCE_RESOLUTION
         else:
-            assert amp_err[0] <= 1.05 * (out.extra["orbit_error"][i] + out.extra["dt_error"][i])
+            # shooting: estimates exact to first order (one Newton step and Richardson's
+            # extrapolation): within 1.05 of them, the decision output's orbit_error +
+            # dt_error, every output's output_error and the frequency's frequency_error, and
+            # nothing below the finish's own resolution (a finished orbit stops within
+            # FINISH_TOL x tol of the discrete one; as bench_lco)
+            floor = FINISH_TOL * CERTIFICATE_TOL + REFERENCE_RESOLUTION
+            dt = np.nan_to_num(out.extra["dt_error"][i])
+            assert amp_err[0] <= 1.05 * (out.extra["orbit_error"][i] + dt) + floor
+            assert (amp_err <= 1.05 * out.extra["output_error"][i] + floor).all()
+            assert freq_err <= 1.05 * out.extra["frequency_error"][i] + floor
         # the stability of record is the continuous-time system's
         assert out.extra["stable"][i] == (ref.critical < 1.0)
     return refs
@@ -106,6 +117,43 @@ def test_fourier_certificates_bound_the_ode_orbit_on_every_output():
     for i, ref in refs.items():
         error = abs(out.amplitude[i, 0] / ref.amplitude[0] - 1)
         assert error >= 0.25 * out.extra["orbit_error"][i] - REFERENCE_RESOLUTION
+
+
+def test_shooting_certificates_bound_every_output_and_the_frequency():
+    """The same four orbits certified by shooting alone (``fourier = false``) at h = 1 ms:
+    accepted against the Richardson extrapolation of the discrete orbits, and finished to the
+    discrete orbits (``always_finish``): every output's amplitude within ``output_error`` and
+    the frequency within ``frequency_error`` of the DOP853 orbit, as the decision output within
+    orbit_error + dt_error (first-order estimates: within 1.05 of them, above the finish's
+    resolution). At 8,000 ft the discrete orbits at 1, 2 and 4 ms are in Newmark's asymptotic
+    range and the estimates are Richardson's; at 6,000 ft the 4 ms orbit's h⁴ term shows (the
+    converged orbits' A_Tz errors +1.14e-5, +4.53e-5, +2.28e-4: a ratio of differences of
+    5.4) and the bounds are the spread of the three. Measured, finished: A_Tz 2.6e-6–2.2e-5
+    off against 3.7e-6–2.8e-4, A_Ty 8.9e-6–4.1e-5 against output_error 6.7e-6–5.1e-4 (the
+    8,000 ft γ = 0 row's 8.9e-6 against 6.7e-6: its finish stopped 6e-6 short, inside the
+    finish's resolution 1e-5), frequency 2.49e-4–2.64e-4 against 2.44e-4–2.55e-4 at 8,000 ft
+    (Richardson's estimate of Newmark's period error, exact to ~2 %) and 3.95e-3–3.98e-3 at
+    6,000 ft (the spread, 15× the error); accepted: frequency 2e-12–1.6e-9 against
+    2.5e-4–4.0e-3 (the row reports harmonic balance's frequency; the bound includes the
+    discrete orbits' own error)."""
+    system, C, res = _setup((6000.0, 8000.0), (0.0, 1e-4))
+    for cert in (Certificate(fourier=False), Certificate(fourier=False, always_finish=True)):
+        out = certify(system, res, C, 0, cert, 1e-3)
+        assert list(out.extra["certificate"]) == ["shooting"] * 4
+        assert all(out.extra["certified"])
+        assert list(out.extra["finished"]) == [cert.always_finish] * 4
+        # every output's bound covers the decision output's
+        dec = out.extra["orbit_error"] + out.extra["dt_error"]
+        assert (out.extra["output_error"] >= dec * (1 - 1e-12)).all()
+        refs = _check_against_truth(system, C, res, out)
+        assert len(refs) == 4
+        if cert.always_finish:
+            # the discrete orbits' frequencies are off by Newmark's period error, and the
+            # bound states it: within 10 % where Richardson applies (8,000 ft: rows 1 and 3),
+            # within 20× as the spread (6,000 ft)
+            for i, ref in refs.items():
+                err = abs(out.frequency_hz[i] / ref.frequency_hz - 1)
+                assert out.extra["frequency_error"][i] < (1.1 if i % 2 else 20.0) * err
 
 
 def test_an_orbit_two_percent_off_fails_the_fourier_certificate():

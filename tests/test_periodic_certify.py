@@ -213,3 +213,31 @@ def test_richardson_error_is_trusted_only_in_the_asymptotic_range():
     assert np.isclose(erratic[0], 0.003)
     tiny = richardson_error(np.array([1.0]), np.array([1.0 + 3e-9]), np.array([1.0]), 1e-5)
     assert np.isclose(tiny[0], 1e-9)
+
+
+def test_richardson_error_judges_a_row_as_a_whole():
+    """A row's quantities (its outputs' amplitudes and its frequency, columns) are in Newmark's
+    asymptotic range together or not at all, and outside it the error is the spread of the
+    three discrete orbits. The numbers: the Goland 7,000 ft, γ = 0 orbit's relative errors
+    against the RK4 ODE orbit at h, 2h, 4h = 1, 2, 4 ms (A_Tz +9.8e-4, +2.0e-3, +6.7e-3: a
+    ratio of differences of 4.59, outside 4 ± 10 %; its frequency −3.6) — Richardson's A_Tz
+    estimate, 3.4e-4, fell short of the error 9.8e-4; the spread, 5.7e-3, does not — and a
+    second row whose two quantities are both second order (ratio 4)."""
+    from torchrom.periodic.certify import richardson_error
+
+    true = 3.6746708  # the RK4 orbit's A_Tz (ft)
+    goland = {1: (9.8e-4, 6.3e-5), 2: (2.0e-3, 2.18e-4), 4: (6.7e-3, -3.44e-4)}
+    c, h = 0.3, 0.01
+    second = {k: (c * (k * h) ** 2, 0.1 * c * (k * h) ** 2) for k in (1, 2, 4)}
+    a = {k: np.array([[true * (1 + goland[k][0]), 1 + goland[k][1]],
+                      [1 + second[k][0], 1 + second[k][1]]]) for k in (1, 2, 4)}
+    err = richardson_error(a[1], a[2], a[4], 1e-12)
+    assert err.shape == (2, 2)
+    spread = np.maximum(np.abs(a[2] - a[1]), np.abs(a[4] - a[1]))[0] / a[1][0]
+    assert np.allclose(err[0], spread)
+    assert err[0, 0] >= 9.8e-4 / (1 + 9.8e-4)  # the error it states covers the RK4 one
+    assert np.allclose(err[1], [c * h**2 / a[1][1, 0], 0.1 * c * h**2 / a[1][1, 1]],
+                       rtol=1e-8)
+    # A_Tz alone (these rounded errors: a ratio of 4.62) is outside 4 ± 10 % too
+    alone = richardson_error(a[1][:1, :1], a[2][:1, :1], a[4][:1, :1], 1e-12)
+    assert np.isclose(alone[0, 0], spread[0])

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
 import torch
 
 from torchrom.periodic.fourier import (
@@ -54,3 +55,24 @@ def test_resize_and_magnitudes():
     assert padded.shape == (1, 11, 1) and padded[0, 7:].abs().max() == 0
     mags = harmonic_magnitudes(torch.tensor([2.0, 3.0, 4.0]))
     assert torch.allclose(mags, torch.tensor([2.0, 5.0])) and math.isclose(float(mags[1]), 5.0)
+
+
+def test_band_limited_extreme_reads_a_sampled_orbit_exactly():
+    """y(t) = cos t + 0.3 sin 2t + 0.05 cos 5t sampled at 16 and 64 points per period (the
+    phase off the samples): the extremes of its trigonometric interpolant are the signal's
+    own to 1.6e-12 (a grid of 2·10⁶ points, itself good to ~5e-12), where the parabola through
+    the best sample is off by 7.9e-3–1.5e-2 at 16 samples and 7.2e-5–1.3e-4 at 64."""
+    from torchrom.periodic.fourier import band_limited_extreme, parabolic_extreme
+
+    def signal(t):
+        return np.cos(t + 0.3) + 0.3 * np.sin(2 * t) + 0.05 * np.cos(5 * t - 1.0)
+
+    dense = signal(np.linspace(0, 2 * np.pi, 2_000_001))
+    true = {1.0: dense.max(), -1.0: dense.min()}
+    for P, parabola_off in ((16, 1e-3), (64, 5e-6)):
+        y = torch.as_tensor(signal(2 * np.pi * np.arange(P) / P))[None, :, None]
+        for sign in (1.0, -1.0):
+            _, v = band_limited_extreme(y, sign)
+            assert abs(float(v) - true[sign]) < 1e-9
+            _, p = parabolic_extreme(y, sign)
+            assert abs(float(p) - true[sign]) > parabola_off

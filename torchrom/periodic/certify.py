@@ -44,13 +44,20 @@ so that the pass can judge it against the extrapolation); a finished orbit's dt_
 from one more evaluation at 2h from the discrete orbit.
 
 The true amplitude lies within (orbit_error + dt_error) × amplitude of the reported one, to
-first order. Written here: the certificate composes this project's own solvers.
+first order. Every other output and the frequency are estimated alike, from the same passes
+(the outputs' sensitivities to the start ride along the monodromy): ``output_error`` is the
+largest over the outputs of each one's distance to the discrete orbit (the first Newton
+correction's, or the finish's last) plus its Richardson term, ``frequency_error`` the same for
+the frequency (for a finished row mostly Newmark's own period error at h).
+
+Written here: the certificate composes this project's own solvers.
 """
 
 from __future__ import annotations
 
 import dataclasses
 import math
+import warnings
 from dataclasses import dataclass
 
 import numpy as np
@@ -180,12 +187,46 @@ def _state(start: OrbitStart) -> tuple:
     return start.q, start.v, start.xi, start.period
 
 
-def _coarse_amplitude(system: CaseSystem, state: tuple, c, h: float) -> np.ndarray:
-    """The amplitude of the discrete orbit at 2h near ``state``, to second order in the
-    distance (one evaluation: half the steps of one at h; called with 2h for 4h)."""
-    r = shoot(system, OrbitStart(*state), c, options=ShootingOptions(dt=2 * h,
-                                                                       max_iterations=0))
-    return r.start_amplitude * (1 + r.first_amplitude_correction)
+@dataclass(frozen=True)
+class _Discrete:
+    """The discrete orbit at some step near a start, to second order in the start's distance
+    (one shooting evaluation): the decision output's amplitude (b,), every output's (b, O)
+    and the frequency (b,) Hz."""
+
+    amplitude: np.ndarray
+    amplitudes: np.ndarray
+    frequency_hz: np.ndarray
+
+    @classmethod
+    def of(cls, r, start_period) -> _Discrete:
+        """From the first pass of shooting result ``r`` (starts of period ``start_period``)."""
+        period = r.first_order_period(np.asarray(start_period.cpu(), dtype=float))
+        return cls(r.start_amplitude * (1 + r.first_amplitude_correction),
+                   r.first_order_amplitudes(), 1.0 / period)
+
+    def select(self, rows: np.ndarray) -> _Discrete:
+        return _Discrete(self.amplitude[rows], self.amplitudes[rows], self.frequency_hz[rows])
+
+
+#: Newton iterations of a coarse discrete orbit solved to convergence (:func:`_coarse`)
+COARSE_ITERATIONS = 2
+
+
+def _coarse(system: CaseSystem, state: tuple, c, C: np.ndarray, h: float,
+            converge: tuple[int, float] | None = None) -> _Discrete:
+    """The discrete orbit at 2h near ``state`` (called with 2h for 4h): one evaluation (half
+    the steps of one at h), or with ``converge`` = (decision output's index in C, tolerance)
+    solved by Newton (:data:`COARSE_ITERATIONS`) where it converges."""
+    iterations, tol = (0, 1e-9) if converge is None else (COARSE_ITERATIONS, converge[1])
+    r = shoot(system, OrbitStart(*state), c, rows=C,
+              options=ShootingOptions(dt=2 * h, max_iterations=iterations, tol=tol))
+    d = _Discrete.of(r, state[3])
+    if converge is None:
+        return d
+    on = r.converged
+    return _Discrete(np.where(on, r.amplitude[:, converge[0]], d.amplitude),
+                     np.where(on[:, None], r.amplitude, d.amplitudes),
+                     np.where(on, r.frequency_hz, d.frequency_hz))
 
 
 def _continuous_columns(cols: dict, g: np.ndarray, kind: str, rel: np.ndarray, decision: int,
@@ -314,22 +355,46 @@ def slow_rows(system: CaseSystem, result: SimulationResult, idx: np.ndarray, C: 
     return result, idx[~good]
 
 
+#: the ratio of successive differences (A(4h) − A(2h)) / (A(2h) − A(h)) inside which discrete
+#: orbits are in Newmark's asymptotic range: 4 (second order) within 10 %, where the h⁴ term is
+#: below ~0.7 % of the h² one and Richardson's estimate within ~3 % of the step's error. The
+#: Goland γ = 0 rows show why no wider window: their errors against an RK4 ODE orbit at h =
+#: 0.25, 0.5, 1, 2, 4 ms are not monotone in h (7,000 ft, A_Tz: +2.3e-4, −2.2e-3, +9.8e-4,
+#: +2.0e-3, +6.7e-3; the stiff dual modes' discrete frequencies move through harmonics of the
+#: LCO as h changes), with ratios 2.2–5.9 (3.30 and 4.59 among them), and Richardson fell
+#: short by up to 3.4×; the damped rows' ratios are 4.04–4.32
+ASYMPTOTIC_RATIO = (3.6, 4.4)
+
+
+def asymptotic(a_h: np.ndarray, a_2h: np.ndarray, a_4h: np.ndarray,
+               resolution: float) -> np.ndarray:
+    """Whether discrete orbits' quantities A(h), A(2h), A(4h) are in Newmark's asymptotic
+    range (:func:`richardson_error`): (b,) for arrays (b,) or (b, K), a row's K together."""
+    d1 = a_2h - a_h
+    lo, hi = ASYMPTOTIC_RATIO
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ratio = (a_4h - a_2h) / d1
+        ok = (np.abs(d1) <= resolution * np.abs(a_h)) | ((ratio >= lo) & (ratio <= hi))
+    return ok.all(axis=1) if ok.ndim > 1 else ok
+
+
 def richardson_error(a_h: np.ndarray, a_2h: np.ndarray, a_4h: np.ndarray,
                      resolution: float) -> np.ndarray:
-    """The relative discretisation error of the discrete orbits' amplitudes A(h) from those at
-    2h and 4h: Richardson's |A(2h) − A(h)| / (3 A(h)) (second order) where the observed ratio
-    (A(4h) − A(2h)) / (A(2h) − A(h)) is within [2, 8] (order 1 to 3 around Newmark's 2: the
-    asymptotic range) or the difference is below ``resolution`` (relative); else the whole
-    difference |A(2h) − A(h)| / A(h), three times Richardson's. Why three: checked against an
-    independent continuous-time reference (issue 36), Richardson's estimate fell short by
-    1.1–2.6× on near-resonant Goland γ = 0 orbits, outside the asymptotic range."""
+    """The relative discretisation error of the discrete orbits' quantities A(h) (amplitudes,
+    frequencies) from those at 2h and 4h: Richardson's |A(2h) − A(h)| / (3 A(h)) (second order)
+    where the discrete orbits are in Newmark's asymptotic range — the observed ratio
+    (A(4h) − A(2h)) / (A(2h) − A(h)) within :data:`ASYMPTOTIC_RATIO`, or the difference below
+    ``resolution`` (relative) — else the spread of the three, max(|A(2h) − A(h)|,
+    |A(4h) − A(h)|) / A(h). With arrays (b, K), the K quantities of a row (its outputs'
+    amplitudes and its frequency) are in that range together or not at all: one erratic
+    quantity says the step does not resolve the orbit."""
     d1 = a_2h - a_h
-    d2 = a_4h - a_2h
+    ok = asymptotic(a_h, a_2h, a_4h, resolution)
+    if d1.ndim > 1:
+        ok = ok[:, None]
     with np.errstate(divide="ignore", invalid="ignore"):
-        ratio = d2 / d1
-        small = np.abs(d1) <= resolution * np.abs(a_h)
-        asymptotic = small | ((ratio >= 2.0) & (ratio <= 8.0))
-        return np.abs(d1 / a_h) * np.where(asymptotic, 1.0 / 3.0, 1.0)
+        spread = np.maximum(np.abs(d1), np.abs(a_4h - a_h)) / np.abs(a_h)
+        return np.where(ok, np.abs(d1 / a_h) / 3.0, spread)
 
 
 def certify(system: CaseSystem, result: SimulationResult, rows, decision: int,
@@ -381,29 +446,60 @@ def certify(system: CaseSystem, result: SimulationResult, rows, decision: int,
     sub = system.select(torch.as_tensor(idx)).to(dtype=torch.float64)
     start = _starts(sub, result, idx, c)
     start.amplitude = torch.as_tensor(amp[idx, decision])
+    resolution = FINISH_TOL * certificate.tol
     # a time integration's orbit is one of the discrete map at h; a Fourier orbit is the
     # continuous one, compared with the Richardson extrapolation of the discrete orbits at h
     # and 2h (otherwise an exact continuous orbit would "fail" by the step's own error): the
-    # coarse amplitude first, so that the pass at h can accept against it
+    # coarse amplitude first, so that the pass at h can accept against it. Every output's
+    # amplitude and the frequency are extrapolated alike (the row's output_error and
+    # frequency_error)
+    O = C.shape[0]
     dt_error = np.full(idx.size, np.nan)
+    dt_outputs = np.full((idx.size, O), np.nan)
+    dt_frequency = np.full(idx.size, np.nan)
+
+    def discretisation(ref: _Discrete, c2: _Discrete, c4: _Discrete, rows: np.ndarray,
+                       state: tuple) -> tuple:
+        """(decision output, every output (b, O), frequency): each one's discretisation
+        error from the discrete orbits at h, 2h, 4h (:func:`richardson_error`, a row's
+        quantities together); ``rows``: the rows of ``sub`` they are, from ``state``. The
+        coarse orbits of one evaluation each are exact to first order in the start's
+        distance, and the square of it (its period mostly) can hide the h² law: a row they
+        put outside the asymptotic range is judged again on coarse orbits solved by Newton."""
+        Q = [np.column_stack([d.amplitudes, d.frequency_hz]) for d in (ref, c2, c4)]
+        off = np.flatnonzero(~asymptotic(*Q, resolution))
+        if off.size:
+            t, to = torch.as_tensor(rows[off]), torch.as_tensor(off)
+            for k, step in ((1, h), (2, 2 * h)):
+                d = _coarse(sub.select(t), tuple(x[to] for x in state), c, C, step,
+                            converge=(decision, FINISH_TOL * certificate.tol))
+                Q[k][off] = np.column_stack([d.amplitudes, d.frequency_hz])
+        e = richardson_error(*Q, resolution)
+        return e[:, decision], e[:, :O], e[:, O]
     if continuous and certificate.richardson:
-        a_2h = _coarse_amplitude(sub, _state(start), c, h)
-        a_4h = _coarse_amplitude(sub, _state(start), c, 2 * h)
-        start.coarse_amplitude = torch.as_tensor(a_2h)
+        d2 = _coarse(sub, _state(start), c, C, h)
+        d4 = _coarse(sub, _state(start), c, C, 2 * h)
+        start.coarse_amplitude = torch.as_tensor(d2.amplitude)
     # one evaluation for every orbit (its certificate); with ``finish``, in the same pass,
     # those that fail it or whose stability the start's monodromy leaves unknown (a start off
     # a weakly attracting orbit moves the trivial multiplier) are iterated on to the discrete
     # orbit (the finish: its first iteration is the certificate's evaluation)
     r = shoot(sub, start, c, rows=C, options=certificate.options(
         h, certificate.max_iterations if certificate.finish else 0, marched=not continuous))
-    # the discrete orbit's amplitude to second order in the start's distance, against the
-    # amplitude the method reported (a transient's last cycle is not the cycle that follows)
-    a_h = r.start_amplitude * (1 + r.first_amplitude_correction)
-    target = a_h
+    # the discrete orbit's amplitudes and frequency to second order in the start's distance,
+    # against those the method reported (a transient's last cycle is not the cycle that
+    # follows)
+    d1 = _Discrete.of(r, start.period)
+    a_h = d1.amplitude
+    target, targets, f_target = a_h, d1.amplitudes, d1.frequency_hz
     if start.coarse_amplitude is not None:
-        target = a_h + (a_h - a_2h) / 3.0
-        dt_error = richardson_error(a_h, a_2h, a_4h, FINISH_TOL * certificate.tol)
-    orbit_error = np.abs(amp[idx, decision] / target - 1.0)
+        target = a_h + (a_h - d2.amplitude) / 3.0
+        targets = d1.amplitudes + (d1.amplitudes - d2.amplitudes) / 3.0
+        f_target = d1.frequency_hz + (d1.frequency_hz - d2.frequency_hz) / 3.0
+    with np.errstate(divide="ignore", invalid="ignore"):
+        orbit_error = np.abs(amp[idx, decision] / target - 1.0)
+        orbit_outputs = np.abs(amp[idx] / targets - 1.0)
+        orbit_frequency = np.abs(freq[idx] / f_target - 1.0)
     stable, critical, trivial = r.stable.copy(), r.critical_multiplier.copy(), \
         r.trivial_error.copy()
     state = _state(start)
@@ -414,35 +510,53 @@ def certify(system: CaseSystem, result: SimulationResult, rows, decision: int,
     # a finish only for the stability that failed leaves the start's verdict unknown
     stable[~finished & (r.iterations > 0)] = None
     direct = (orbit_error <= certificate.tol) & ~finished
+    if start.coarse_amplitude is not None:
+        # the rows that keep the start's orbit: its discretisation error from this pass and
+        # the coarse ones (a finished row's from its discrete orbit, below)
+        k = np.flatnonzero(~finished)
+        tk = torch.as_tensor(k)
+        dt_error[k], dt_outputs[k], dt_frequency[k] = discretisation(
+            d1.select(k), d2.select(k), d4.select(k), k, tuple(x[tk] for x in _state(start)))
     g = np.flatnonzero(finished)
     if g.size:
         tg = torch.as_tensor(g)
         orbit_error[g] = np.abs(r.amplitude_correction[g])
+        orbit_outputs[g] = np.abs(r.amplitude_corrections[g])
+        orbit_frequency[g] = np.abs(r.period_correction[g])
         amp[idx[g]] = r.amplitude[g]
         freq[idx[g]] = r.frequency_hz[g]
         state = tuple(x.clone() for x in state)
         for dst, src in zip(state, (r.q, r.v, r.xi, r.period)):
             dst[tg] = src[tg]
-        # Richardson for the discrete orbits finished to
-        dt_error[g] = np.nan
     certified = direct | finished
     # Richardson: the certified discrete orbits (a time integration's, or those finished to)
     # evaluated once at 2h (half the steps of one evaluation at h)
     coarse = np.flatnonzero(certified & np.isnan(dt_error))
     if certificate.richardson and coarse.size:
         tc = torch.as_tensor(coarse)
-        # the discrete orbit's amplitude at h: the finished one's, else the start's estimate
-        a_ref = np.where(finished[coarse], amp[idx[coarse], decision], a_h[coarse])
+        # the discrete orbit at h: the finished one's, else the start's estimate
+        on = finished[coarse]
+        ref = _Discrete(np.where(on, amp[idx[coarse], decision], a_h[coarse]),
+                        np.where(on[:, None], amp[idx[coarse]], d1.amplitudes[coarse]),
+                        np.where(on, freq[idx[coarse]], d1.frequency_hz[coarse]))
         coarse_state = tuple(x[tc] for x in state)
-        a_2h = _coarse_amplitude(sub.select(tc), coarse_state, c, h)
-        a_4h = _coarse_amplitude(sub.select(tc), coarse_state, c, 2 * h)
-        dt_error[coarse] = richardson_error(a_ref, a_2h, a_4h, FINISH_TOL * certificate.tol)
+        c2 = _coarse(sub.select(tc), coarse_state, c, C, h)
+        c4 = _coarse(sub.select(tc), coarse_state, c, C, 2 * h)
+        dt_error[coarse], dt_outputs[coarse], dt_frequency[coarse] = discretisation(
+            ref, c2, c4, coarse, coarse_state)
     # a discretisation error beyond dt_tol: the step does not resolve the orbit
     with np.errstate(invalid="ignore"):
         certified &= ~(dt_error > certificate.dt_tol)
     cols["certified"][idx] = certified
     cols["orbit_error"][idx] = orbit_error
     cols["dt_error"][idx] = dt_error
+    # every output's and the frequency's distance to the discrete orbit plus, where estimated,
+    # its discretisation error (the decision output's is orbit_error + dt_error)
+    with np.errstate(invalid="ignore"), warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)  # a row whose outputs are all NaN
+        cols["output_error"][idx] = np.nanmax(orbit_outputs + np.nan_to_num(dt_outputs),
+                                              axis=1)
+    cols["frequency_error"][idx] = orbit_frequency + np.nan_to_num(dt_frequency)
     cols["stable"][idx] = stable
     cols["critical_multiplier"][idx] = critical
     cols["stability_margin"][idx] = 1.0 - np.abs(critical)

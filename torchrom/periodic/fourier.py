@@ -160,3 +160,37 @@ def parabolic_extreme(y: Tensor, sign: float = 1.0) -> tuple[Tensor, Tensor]:
     shift = torch.where(den != 0, 0.5 * (a - c) / safe, torch.zeros_like(b))
     peak = torch.where(den != 0, b - 0.125 * (a - c) ** 2 / safe, b)
     return (i.to(y.dtype) + shift)[:, 0], sign * peak[:, 0]
+
+
+def band_limited_extreme(y: Tensor, sign: float = 1.0, iterations: int = 3
+                         ) -> tuple[Tensor, Tensor]:
+    """(position, value) of the largest (``sign`` = 1) or smallest (−1) value of the
+    trigonometric interpolant of periodic samples y (B, P, ...) along P: from the parabola's
+    (:func:`parabolic_extreme`), Newton on the interpolant's derivative, each step held within
+    one sample. Spectrally accurate on a smooth periodic signal, where the parabola's value is
+    off by ~(2π/P)⁴/8 of the amplitude — at 64 samples per period (a discrete orbit's
+    Richardson evaluation at 4h) 1e-5, enough to hide the h² law the evaluations test."""
+    P = y.shape[1]
+    pos, _ = parabolic_extreme(y, sign)
+    c = torch.fft.rfft(y, dim=1) / P  # (B, K, ...)
+    K = c.shape[1]
+    shape = (1, K) + (1,) * (y.dim() - 2)
+    k = torch.arange(K, dtype=y.dtype, device=y.device).view(shape)
+    w = torch.full((K,), 2.0, dtype=y.dtype, device=y.device)
+    w[0] = 1.0
+    if P % 2 == 0:
+        w[-1] = 1.0  # the Nyquist term (cosine only)
+    wc = c * w.view(shape)
+    theta = 2 * math.pi * pos / P
+    step_max = 2 * math.pi / P
+    for _ in range(iterations):
+        e = torch.exp(1j * k * theta.unsqueeze(1))
+        d1 = (wc * (1j * k) * e).sum(1).real
+        d2 = (wc * (-k * k) * e).sum(1).real
+        # toward the extreme only where the interpolant curves the right way there
+        ok = sign * d2 < 0
+        step = torch.where(ok, -d1 / torch.where(ok, d2, torch.ones_like(d2)),
+                           torch.zeros_like(d1))
+        theta = theta + step.clamp(-step_max, step_max)
+    value = (wc * torch.exp(1j * k * theta.unsqueeze(1))).sum(1).real
+    return theta * P / (2 * math.pi), value

@@ -27,7 +27,7 @@ Written here: no library integrates this model's discrete map with its monodromy
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 
 import numpy as np
 import torch
@@ -37,7 +37,7 @@ from ..errors import InputError
 from ..sim.schemes import SchemeParameters
 from ..sim.system import CaseSystem
 from .balance import DampedRows, HarmonicBalance, damping_force, force_tangents
-from .fourier import parabolic_extreme
+from .fourier import band_limited_extreme, parabolic_extreme
 
 Tensor = torch.Tensor
 
@@ -151,6 +151,11 @@ class ShootingResult:
         correction: (B,) the last scaled correction; ``amplitude_correction``: (B,) the last
             relative amplitude correction (signed).
         amplitude: (B, O) half peak-to-peak of each output over the orbit's N samples.
+        start_amplitudes, first_amplitude_corrections, amplitude_corrections: (B, O) the same
+            for every output of ``rows``: the start's amplitudes, the first and the last
+            Newton corrections' relative changes of them (signed).
+        first_period_correction, period_correction: (B,) the first and the last Newton
+            corrections of the period, relative (ΔT/T, signed).
         multipliers: (B, 2n + na) complex Floquet multipliers of the discrete map.
         trivial_error: |μ_trivial − 1|; ``critical_multiplier``: the largest other |μ|;
         stable: True / False, None where the trivial multiplier is not resolved.
@@ -175,6 +180,22 @@ class ShootingResult:
     stable: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=object))
     accepted: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=bool))
     relaxed: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=bool))
+    start_amplitudes: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))
+    first_amplitude_corrections: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))
+    amplitude_corrections: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))
+    first_period_correction: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    period_correction: np.ndarray = field(default_factory=lambda: np.zeros(0))
+
+    def first_order_amplitudes(self) -> np.ndarray:
+        """(B, O) every output's amplitude on the discrete orbit near the start, to second
+        order in the start's distance (the start's amplitudes moved by the first Newton
+        correction)."""
+        return self.start_amplitudes * (1.0 + self.first_amplitude_corrections)
+
+    def first_order_period(self, start_period) -> np.ndarray:
+        """(B,) the discrete orbit's period near the start (s), to second order in the start's
+        distance (``start_period`` (B,): the start's)."""
+        return np.asarray(start_period, dtype=float) * (1.0 + self.first_period_correction)
 
     @property
     def frequency_hz(self) -> np.ndarray:
@@ -290,9 +311,10 @@ class _Map:
     def propagate(self, x0: tuple[Tensor, Tensor, Tensor], period: Tensor, N: Tensor,
                   rows: Tensor, tangent: bool) -> dict:
         """Integrate N (B,) steps of h = T/N from x0 = (q, v, ξ); with ``tangent``, also the
-        monodromy (B, m, m) and ∂x_N/∂T (B, m), m = 2n + na. Returns the final state, the
-        output samples y (B, max N, O), the orbit scales (B, m) and the step residual (the
-        largest last correction of a step's iterations relative to the largest |a|).
+        monodromy (B, m, m), ∂x_N/∂T (B, m), m = 2n + na, and the outputs' sensitivities
+        ∂y_k/∂(x0, T) (B, max N, O, m + 1). Returns the final state, the output samples y
+        (B, max N, O), the orbit scales (B, m) and the step residual (the largest last
+        correction of a step's iterations relative to the largest |a|).
 
         Each step solves G(a1) = M_t a1 + C_eff q̇1 + K_l q1 + f_nl(q1, q̇1) + D P⁻¹ ξ̂ − load = 0
         with q1 = q̂ + βh² a1, q̇1 = v̂ + γh a1 (the Newmark predictors q̂, v̂, ξ̂): its linear
@@ -343,7 +365,7 @@ class _Map:
         O = rows.shape[0]
         y = torch.empty(B, Nmax, O, dtype=dtype, device=dev)
         if tangent:
-            yt = torch.empty(B, Nmax, cols, dtype=dtype, device=dev)  # ∂y_k/∂(x0, T), row 0
+            yt = torch.empty(B, Nmax, O, cols, dtype=dtype, device=dev)  # ∂y_k/∂(x0, T)
         scale = torch.cat([q.abs(), v.abs(), xi.abs()], dim=1)
         # the last iteration's correction and the acceleration, largest |·| per component
         last_corr, a_max = torch.zeros_like(q), a.abs()
@@ -352,7 +374,7 @@ class _Map:
         for k in range(Nmax):
             y[:, k] = q @ rows.T
             if tangent:
-                yt[:, k] = rows[0] @ dq
+                yt[:, k] = rows @ dq
             qh = torch.addcmul(torch.addcmul(q, h, v), ca, a)
             vh = torch.addcmul(v, cb, a)
             a1 = 2.0 * a - a_prev  # linear extrapolation
@@ -451,13 +473,15 @@ class _Map:
 
 # ---------------------------------------------------------------------------------------------
 def amplitude_of_samples(y: Tensor, N: np.ndarray) -> np.ndarray:
-    """(B, O) half peak-to-peak of periodic samples y (B, ≥N, O), the first N[b] of case b,
-    extremes refined by a parabola through the best sample and its neighbours."""
+    """(B, O) half peak-to-peak of periodic samples y (B, ≥N, O), the first N[b] of case b:
+    the extremes of their trigonometric interpolant (:func:`~.fourier.band_limited_extreme`;
+    a parabola's reading error, ~(2π/N)⁴/8, would enter the Richardson evaluations at 2h and
+    4h as an h⁴ term of its own)."""
     out = np.full((y.shape[0], y.shape[2]), np.nan)
     for steps in np.unique(N):
         idx = np.flatnonzero(N == steps)
         ys = y[torch.as_tensor(idx), : int(steps)]
-        amp = 0.5 * (parabolic_extreme(ys, 1.0)[1] - parabolic_extreme(ys, -1.0)[1])
+        amp = 0.5 * (band_limited_extreme(ys, 1.0)[1] - band_limited_extreme(ys, -1.0)[1])
         out[idx] = amp.cpu().numpy()
     return out
 
@@ -507,6 +531,12 @@ def flow(system: CaseSystem, q: Tensor, v: Tensor, xi: Tensor) -> Tensor:
     return torch.cat([v, a, xid], 1)
 
 
+#: bytes of the outputs' sensitivities ∂y_k/∂(x0, T) a pass may hold (B × N × O × (m + 1)
+#: doubles): a larger batch is shot in groups of cases (at the batch widths where the group
+#: is this large the integrator's cost per case no longer falls with B)
+SENSITIVITY_BYTES = 256 * 2 ** 20
+
+
 def shoot(system: CaseSystem, start: OrbitStart, decision_row, rows=None,
           options: ShootingOptions | None = None) -> ShootingResult:
     """The discrete periodic orbits near ``start`` of the B cases of ``system`` (module
@@ -516,6 +546,31 @@ def shoot(system: CaseSystem, start: OrbitStart, decision_row, rows=None,
     Phase condition: x0 stays on a section through the start transversal to the flow (see
     the code), so any point of an orbit is a valid start."""
     o = options or ShootingOptions()
+    B = system.batch_size
+    outputs = 1 + (1 if rows is None else np.asarray(rows).reshape(-1, system.n).shape[0])
+    steps = float(torch.nan_to_num(start.period.detach().double(), nan=0.0,
+                                   posinf=0.0).max()) / o.dt + 1
+    per_case = 8.0 * steps * outputs * (2 * system.n + system.n_lag + 1)
+    group = max(1, int(SENSITIVITY_BYTES // max(per_case, 1.0)))
+    if B <= group:
+        return _shoot(system, start, decision_row, rows, o)
+    parts = [_shoot(system.select(torch.arange(i, min(i + group, B))),
+                    _start_rows(start, slice(i, i + group)), decision_row, rows, o)
+             for i in range(0, B, group)]
+    return ShootingResult(**{f.name: (torch.cat if isinstance(getattr(parts[0], f.name),
+                                                              Tensor) else np.concatenate)(
+        [getattr(p, f.name) for p in parts]) for f in fields(ShootingResult)})
+
+
+def _start_rows(start: OrbitStart, rows: slice) -> OrbitStart:
+    """The starts ``rows`` of ``start``."""
+    return OrbitStart(*(None if t is None else t[rows] for t in (
+        start.q, start.v, start.xi, start.period, start.amplitude, start.coarse_amplitude)))
+
+
+def _shoot(system: CaseSystem, start: OrbitStart, decision_row, rows,
+           o: ShootingOptions) -> ShootingResult:
+    """:func:`shoot` on one group of cases."""
     sys64 = system.to(dtype=torch.float64)
     dev = sys64.device
     f64 = {"dtype": torch.float64, "device": dev}
@@ -550,7 +605,9 @@ def shoot(system: CaseSystem, start: OrbitStart, decision_row, rows=None,
     nan = np.full(B, np.nan)
     first, first_amp, last = nan.copy(), nan.copy(), nan.copy()
     start_amp, last_amp = nan.copy(), nan.copy()
+    first_period, last_period = nan.copy(), nan.copy()
     amp = np.full((B, R.shape[0]), np.nan)
+    start_amps, first_amps, last_amps = amp.copy(), amp.copy(), amp.copy()
     mu = np.full((B, m), np.nan + 0j)
     triv, crit = nan.copy(), nan.copy()
     stable = np.full(B, None, dtype=object)
@@ -596,18 +653,26 @@ def shoot(system: CaseSystem, start: OrbitStart, decision_row, rows=None,
         size = dz.abs().amax(1)
         size_np = size.cpu().numpy()
         steps_np = Ns.cpu().numpy()
-        y_dec = out["y"][:, :, :1]
-        a_now = amplitude_of_samples(y_dec, steps_np)[:, 0]
-        # first-order samples of the corrected orbit: y_k + ∂y_k/∂(x0, T) Δz
-        dy = out["yt"] @ (dz * colscale)[..., None]
-        a_new = amplitude_of_samples(y_dec + dy, steps_np)[:, 0]
+        # every output's amplitude (the decision output first) and that of the first-order
+        # samples of the corrected orbit, y_k + ∂y_k/∂(x0, T) Δz; the relative change of each
+        # and of the period (ΔT/T: the scaled unknown) is how far the pass's orbit is from
+        # the discrete one
+        a_now_all = amplitude_of_samples(out["y"], steps_np)
+        dy = torch.einsum("bkoc,bc->bko", out["yt"], dz * colscale)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            change = amplitude_of_samples(out["y"] + dy, steps_np) / a_now_all - 1.0
+        a_now = a_now_all[:, 0]
+        a_new = a_now * (1.0 + change[:, 0])
+        dT = dz[:, m].cpu().numpy()
         if it == 0:
             first[active] = size_np
-            first_amp[active] = a_new / a_now - 1.0
-            start_amp[active] = a_now
+            first_amp[active], first_amps[active] = change[:, 0], change[:, 1:]
+            start_amp[active], start_amps[active] = a_now, a_now_all[:, 1:]
+            first_period[active] = dT
         last[active] = size_np
-        last_amp[active] = a_new / a_now - 1.0
-        amp[active] = amplitude_of_samples(out["y"][:, :, 1:], steps_np)
+        last_amp[active], last_amps[active] = change[:, 0], change[:, 1:]
+        last_period[active] = dT
+        amp[active] = a_now_all[:, 1:]
         done = (size_np <= o.tol) & good
         candidate = np.zeros_like(done)
         if it == 0 and reported is not None:
@@ -661,6 +726,10 @@ def shoot(system: CaseSystem, start: OrbitStart, decision_row, rows=None,
                           first_correction=first, first_amplitude_correction=first_amp,
                           start_amplitude=start_amp, correction=last,
                           amplitude_correction=last_amp, amplitude=amp, multipliers=mu,
+                          start_amplitudes=start_amps, first_amplitude_corrections=first_amps,
+                          amplitude_corrections=last_amps,
+                          first_period_correction=first_period,
+                          period_correction=last_period,
                           trivial_error=triv,
                           critical_multiplier=crit, stable=stable, accepted=accepted,
                           relaxed=relaxed)
