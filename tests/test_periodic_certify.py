@@ -245,3 +245,34 @@ def test_richardson_error_judges_a_row_as_a_whole():
     # A_Tz alone (these rounded errors: a ratio of 4.62) is outside 4 ± 10 % too
     alone = richardson_error(a[1][:1, :1], a[2][:1, :1], a[4][:1, :1], 1e-12)
     assert np.isclose(alone[0, 0], spread[0])
+
+
+def test_a_row_whose_coarse_evaluation_fails_is_uncertified(monkeypatch):
+    """With ``richardson`` the discretisation error is part of the certificate: where the
+    evaluation at 4h fails (NaN: on the Goland γ = 0 orbits at h = 2 ms the 8 ms one does,
+    and those rows' amplitudes were 2–3e-3 off the RK4 ODE orbit while the distance to the
+    2 ms orbit said 3e-10) the row is lco_uncertified with dt_error, output_error and
+    frequency_error NaN; without ``richardson`` the same row is certified on its distance
+    to the discrete orbit."""
+    import torchrom.periodic.certify as cert_module
+
+    system = _system((0.0,))
+    dt = 5e-3
+    res = Newmark(dt=dt, iterations=3).run(system, [0.5], t_end=100.0, outputs=["sum"],
+                                          lco=LCOCriteria(rtol=1e-3, cycles=2))
+    real_coarse = cert_module._coarse
+
+    def failing_at_4h(sub, state, c, C, h):
+        d = real_coarse(sub, state, c, C, h)
+        if h > dt:  # the evaluation at 4h
+            return cert_module._Discrete(d.amplitude * np.nan, d.amplitudes * np.nan,
+                                         d.frequency_hz * np.nan)
+        return d
+
+    monkeypatch.setattr(cert_module, "_coarse", failing_at_4h)
+    out = certify(system, res, ROW, 0, Certificate(tol=1e-2), dt)
+    assert list(out.status) == [UNCERTIFIED]
+    for k in ("dt_error", "output_error", "frequency_error"):
+        assert math.isnan(out.extra[k][0])
+    plain = certify(system, res, ROW, 0, Certificate(tol=1e-2, richardson=False), dt)
+    assert list(plain.status) == ["lco"] and plain.extra["output_error"][0] >= 0
