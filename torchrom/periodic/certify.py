@@ -19,9 +19,9 @@ certificate's step h (:mod:`.shooting`) is evaluated once from the method's orbi
   orbits at h and 2h, the continuous orbit to third order in h;
 - ``dt_error``: the discretisation error of the discrete orbit's amplitude by Richardson on
   three steps (:func:`richardson_error`): |A(2h) − A(h)| / (3 A(h)) (Newmark is second order)
-  where the observed order from h, 2h and 4h is in Newmark's asymptotic range, else the whole
-  difference |A(2h) − A(h)| / A(h); A(2h), A(4h) from one shooting evaluation each (half and
-  a quarter of the steps of one at h);
+  where every output and the frequency of the row show Newmark's h² law from h, 2h and 4h
+  (:data:`ASYMPTOTIC_RATIO`), else the spread of the three discrete orbits; A(2h), A(4h) from
+  one shooting evaluation each (half and a quarter of the steps of one at h);
 - ``stable``, ``critical_multiplier``, ``trivial_multiplier_error``: from the monodromy
   (the stability of record);
 - ``certified``: ``orbit_error`` ≤ ``tol`` (a time integration's row is taken as it is only
