@@ -265,8 +265,7 @@ def test_a_row_whose_coarse_evaluation_fails_is_uncertified(monkeypatch):
     def failing_at_4h(sub, state, c, C, h):
         d = real_coarse(sub, state, c, C, h)
         if h > dt:  # the evaluation at 4h
-            return cert_module._Discrete(d.amplitude * np.nan, d.amplitudes * np.nan,
-                                         d.frequency_hz * np.nan)
+            return cert_module._Discrete(d.amplitudes * np.nan, d.frequency_hz * np.nan)
         return d
 
     monkeypatch.setattr(cert_module, "_coarse", failing_at_4h)

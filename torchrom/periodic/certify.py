@@ -189,10 +189,8 @@ def _state(start: OrbitStart) -> tuple:
 @dataclass(frozen=True)
 class _Discrete:
     """The discrete orbit at some step near a start, to second order in the start's distance
-    (one shooting evaluation): the decision output's amplitude (b,), every output's (b, O)
-    and the frequency (b,) Hz."""
+    (one shooting evaluation): every output's amplitude (b, O) and the frequency (b,) Hz."""
 
-    amplitude: np.ndarray
     amplitudes: np.ndarray
     frequency_hz: np.ndarray
 
@@ -200,11 +198,10 @@ class _Discrete:
     def of(cls, r, start_period) -> _Discrete:
         """From the first pass of shooting result ``r`` (starts of period ``start_period``)."""
         period = r.first_order_period(np.asarray(start_period.cpu(), dtype=float))
-        return cls(r.start_amplitude * (1 + r.first_amplitude_correction),
-                   r.first_order_amplitudes(), 1.0 / period)
+        return cls(r.first_order_amplitudes(), 1.0 / period)
 
     def select(self, rows: np.ndarray) -> _Discrete:
-        return _Discrete(self.amplitude[rows], self.amplitudes[rows], self.frequency_hz[rows])
+        return _Discrete(self.amplitudes[rows], self.frequency_hz[rows])
 
 
 def _coarse(system: CaseSystem, state: tuple, c, C: np.ndarray, h: float) -> _Discrete:
@@ -445,21 +442,19 @@ def certify(system: CaseSystem, result: SimulationResult, rows, decision: int,
     # amplitude and the frequency are extrapolated alike (the row's output_error and
     # frequency_error)
     O = C.shape[0]
-    dt_error = np.full(idx.size, np.nan)
     dt_outputs = np.full((idx.size, O), np.nan)
     dt_frequency = np.full(idx.size, np.nan)
 
     def discretisation(ref: _Discrete, c2: _Discrete, c4: _Discrete) -> tuple:
-        """(decision output, every output (b, O), frequency): each one's discretisation
-        error from the discrete orbits at h, 2h, 4h (:func:`richardson_error`, a row's
-        quantities together)."""
+        """(every output (b, O), frequency): each one's discretisation error from the discrete
+        orbits at h, 2h, 4h (:func:`richardson_error`, a row's quantities together)."""
         e = richardson_error(*(np.column_stack([d.amplitudes, d.frequency_hz])
                                for d in (ref, c2, c4)), resolution)
-        return e[:, decision], e[:, :O], e[:, O]
+        return e[:, :O], e[:, O]
     if continuous and certificate.richardson:
         d2 = _coarse(sub, _state(start), c, C, h)
         d4 = _coarse(sub, _state(start), c, C, 2 * h)
-        start.coarse_amplitude = torch.as_tensor(d2.amplitude)
+        start.coarse_amplitude = torch.as_tensor(d2.amplitudes[:, decision])
     # one evaluation for every orbit (its certificate); with ``finish``, in the same pass,
     # those that fail it or whose stability the start's monodromy leaves unknown (a start off
     # a weakly attracting orbit moves the trivial multiplier) are iterated on to the discrete
@@ -470,16 +465,14 @@ def certify(system: CaseSystem, result: SimulationResult, rows, decision: int,
     # against those the method reported (a transient's last cycle is not the cycle that
     # follows)
     d1 = _Discrete.of(r, start.period)
-    a_h = d1.amplitude
-    target, targets, f_target = a_h, d1.amplitudes, d1.frequency_hz
+    targets, f_target = d1.amplitudes, d1.frequency_hz
     if start.coarse_amplitude is not None:
-        target = a_h + (a_h - d2.amplitude) / 3.0
         targets = d1.amplitudes + (d1.amplitudes - d2.amplitudes) / 3.0
         f_target = d1.frequency_hz + (d1.frequency_hz - d2.frequency_hz) / 3.0
     with np.errstate(divide="ignore", invalid="ignore"):
-        orbit_error = np.abs(amp[idx, decision] / target - 1.0)
         orbit_outputs = np.abs(amp[idx] / targets - 1.0)
         orbit_frequency = np.abs(freq[idx] / f_target - 1.0)
+    orbit_error = orbit_outputs[:, decision]  # a view: the decision output's
     stable, critical, trivial = r.stable.copy(), r.critical_multiplier.copy(), \
         r.trivial_error.copy()
     state = _state(start)
@@ -494,12 +487,11 @@ def certify(system: CaseSystem, result: SimulationResult, rows, decision: int,
         # the rows that keep the start's orbit: its discretisation error from this pass and
         # the coarse ones (a finished row's from its discrete orbit, below)
         k = np.flatnonzero(~finished)
-        dt_error[k], dt_outputs[k], dt_frequency[k] = discretisation(
-            d1.select(k), d2.select(k), d4.select(k))
+        dt_outputs[k], dt_frequency[k] = discretisation(d1.select(k), d2.select(k),
+                                                        d4.select(k))
     g = np.flatnonzero(finished)
     if g.size:
         tg = torch.as_tensor(g)
-        orbit_error[g] = np.abs(r.amplitude_correction[g])
         orbit_outputs[g] = np.abs(r.amplitude_corrections[g])
         orbit_frequency[g] = np.abs(r.period_correction[g])
         amp[idx[g]] = r.amplitude[g]
@@ -510,19 +502,18 @@ def certify(system: CaseSystem, result: SimulationResult, rows, decision: int,
     certified = direct | finished
     # Richardson: the certified discrete orbits (a time integration's, or those finished to)
     # evaluated once at 2h (half the steps of one evaluation at h)
-    coarse = np.flatnonzero(certified & np.isnan(dt_error))
+    coarse = np.flatnonzero(certified & np.isnan(dt_outputs[:, decision]))
     if certificate.richardson and coarse.size:
         tc = torch.as_tensor(coarse)
         # the discrete orbit at h: the finished one's, else the start's estimate
         on = finished[coarse]
-        ref = _Discrete(np.where(on, amp[idx[coarse], decision], a_h[coarse]),
-                        np.where(on[:, None], amp[idx[coarse]], d1.amplitudes[coarse]),
+        ref = _Discrete(np.where(on[:, None], amp[idx[coarse]], d1.amplitudes[coarse]),
                         np.where(on, freq[idx[coarse]], d1.frequency_hz[coarse]))
         coarse_state = tuple(x[tc] for x in state)
         c2 = _coarse(sub.select(tc), coarse_state, c, C, h)
         c4 = _coarse(sub.select(tc), coarse_state, c, C, 2 * h)
-        dt_error[coarse], dt_outputs[coarse], dt_frequency[coarse] = discretisation(
-            ref, c2, c4)
+        dt_outputs[coarse], dt_frequency[coarse] = discretisation(ref, c2, c4)
+    dt_error = dt_outputs[:, decision].copy()
     # a discretisation error beyond dt_tol, or none where one was asked for (the coarse
     # evaluations failed): the step does not resolve the orbit
     with np.errstate(invalid="ignore"):
@@ -539,8 +530,7 @@ def certify(system: CaseSystem, result: SimulationResult, rows, decision: int,
     if not certificate.richardson:
         dt_outputs, dt_frequency = np.zeros_like(dt_outputs), np.zeros_like(dt_frequency)
     # (an output without an amplitude, e.g. one that stays at zero, does not count)
-    total = np.where(np.isnan(orbit_outputs), -np.inf, orbit_outputs + dt_outputs)
-    largest = total.max(axis=1) if total.size else np.zeros(idx.size)
+    largest = np.where(np.isnan(orbit_outputs), -np.inf, orbit_outputs + dt_outputs).max(axis=1)
     cols["output_error"][idx] = np.where(largest == -np.inf, np.nan, largest)
     cols["frequency_error"][idx] = orbit_frequency + dt_frequency
     cols["stable"][idx] = stable
